@@ -1,0 +1,10 @@
+//! The holocave master's geometry: the CAVE configuration (walls, user, tracking,
+//! navigation), its validation, and the off-axis stereo frusta of every wall and eye.
+
+pub mod config;
+pub mod frustum;
+pub mod validate;
+
+pub use config::CaveFile;
+pub use frustum::{CaveFrusta, Frustum, FrustumFault};
+pub use validate::{load_cave, parse_cave, Cave, ConfigError, Wall};

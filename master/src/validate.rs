@@ -1,0 +1,289 @@
+//! Checking a CAVE file and turning it into the geometry the master uses. Every problem is
+//! reported (not just the first), each naming its field (`wall[1].pc`, `user.ipd`, ...)
+//! and, for geometry, by how much it is off.
+
+use std::path::Path;
+
+use glam::{DMat4, DQuat, DVec3};
+use holocave_tracking::params::TrackingParams;
+use holocave_tracking::source::SourceSpec;
+
+use crate::config::{CaveFile, RigidTransform, StereoMode};
+use crate::frustum::MIN_EYE_DISTANCE;
+
+/// How far (m) `pc` may sit off the perpendicular to `pa→pb` at `pa` for the corners to
+/// count as a rectangle.
+pub const RECTANGLE_TOLERANCE: f64 = 1e-3;
+
+/// A CAVE file could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("cannot read CAVE config {path}: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("CAVE config {path} is not valid TOML for a CAVE: {message}")]
+    Parse { path: String, message: String },
+    #[error("CAVE config {path} is invalid:\n  {}", problems.join("\n  "))]
+    Invalid { path: String, problems: Vec<String> },
+}
+
+/// A checked wall with its screen basis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Wall {
+    pub name: String,
+    pub pa: DVec3,
+    pub pb: DVec3,
+    pub pc: DVec3,
+    /// Unit vectors right (pa→pb), up (pa→pc) and normal (toward the viewer).
+    pub right: DVec3,
+    pub up: DVec3,
+    pub normal: DVec3,
+    pub width: f64,
+    pub height: f64,
+    pub pixels: [u32; 2],
+    pub stereo: StereoMode,
+    pub node: String,
+}
+
+impl Wall {
+    /// Signed distance of `p` from the wall's plane, positive in front (the room side).
+    pub fn distance(&self, p: DVec3) -> f64 {
+        (p - self.pa).dot(self.normal)
+    }
+
+    /// The upper-right corner.
+    pub fn pd(&self) -> DVec3 {
+        self.pb + self.pc - self.pa
+    }
+}
+
+/// A checked CAVE.
+#[derive(Clone, Debug)]
+pub struct Cave {
+    pub walls: Vec<Wall>,
+    pub inside: DVec3,
+    pub near: f64,
+    pub ipd: f64,
+    pub head_to_eyes: DVec3,
+    pub source: SourceSpec,
+    pub tracker_to_room: DMat4,
+    pub room_to_scene: DMat4,
+    pub tracking: TrackingParams,
+}
+
+/// Reads and checks a CAVE file.
+pub fn load_cave(path: &Path) -> Result<Cave, ConfigError> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: name.clone(), source })?;
+    parse_cave(&text, &name)
+}
+
+/// Parses and checks CAVE TOML; `name` names the input in messages.
+pub fn parse_cave(text: &str, name: &str) -> Result<Cave, ConfigError> {
+    let file: CaveFile =
+        toml::from_str(text).map_err(|e| ConfigError::Parse { path: name.to_owned(), message: e.to_string() })?;
+    validate(&file).map_err(|problems| ConfigError::Invalid { path: name.to_owned(), problems })
+}
+
+fn vec(a: [f64; 3]) -> DVec3 {
+    DVec3::from_array(a)
+}
+
+fn transform(t: &RigidTransform, field: &str, problems: &mut Vec<String>) -> DMat4 {
+    let q = DQuat::from_array(t.rotation);
+    let norm = q.length();
+    if !(norm - 1.0).abs().le(&1e-3) {
+        problems.push(format!("{field}.rotation: quaternion norm is {norm}, not 1"));
+        return DMat4::IDENTITY;
+    }
+    if !t.translation.iter().all(|v| v.is_finite()) {
+        problems.push(format!("{field}.translation: not finite"));
+        return DMat4::IDENTITY;
+    }
+    DMat4::from_rotation_translation(q / norm, vec(t.translation))
+}
+
+/// Checks a parsed file; the problems found, each naming its field.
+pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
+    let mut problems = Vec::new();
+    let inside = vec(file.room.inside);
+    if !inside.is_finite() {
+        problems.push("room.inside: not finite".to_owned());
+    }
+    if !(file.room.near > 0.0 && file.room.near.is_finite()) {
+        problems.push(format!("room.near: {} must be a positive distance", file.room.near));
+    }
+    if !(file.user.ipd >= 0.0 && file.user.ipd < 0.5) {
+        problems.push(format!("user.ipd: {} m is not an interpupillary distance (0 to 0.5 m)", file.user.ipd));
+    }
+    if !vec(file.user.head_to_eyes).is_finite() {
+        problems.push("user.head_to_eyes: not finite".to_owned());
+    }
+    if file.walls.is_empty() {
+        problems.push("wall: no walls given".to_owned());
+    }
+    let mut walls = Vec::new();
+    for (i, w) in file.walls.iter().enumerate() {
+        let at = format!("wall[{i}] ({:?})", w.name);
+        if file.walls[..i].iter().any(|o| o.name == w.name) {
+            problems.push(format!("{at}.name: duplicate wall name {:?}", w.name));
+        }
+        let (pa, pb, pc) = (vec(w.pa), vec(w.pb), vec(w.pc));
+        if !(pa.is_finite() && pb.is_finite() && pc.is_finite()) {
+            problems.push(format!("{at}: corners must be finite"));
+            continue;
+        }
+        let (width, height) = ((pb - pa).length(), (pc - pa).length());
+        if width < 1e-6 {
+            problems.push(format!("{at}.pb: wall has zero width (pb equals pa)"));
+        }
+        if height < 1e-6 {
+            problems.push(format!("{at}.pc: wall has zero height (pc equals pa)"));
+        }
+        for (k, (px, what)) in w.pixels.iter().zip(["width", "height"]).enumerate() {
+            if *px <= 0 || *px > u32::MAX as i64 {
+                problems.push(format!("{at}.pixels[{k}]: pixel {what} {px} must be positive"));
+            }
+        }
+        if width < 1e-6 || height < 1e-6 {
+            continue;
+        }
+        let right = (pb - pa) / width;
+        let off_square = (pc - pa).dot(right);
+        if off_square.abs() > RECTANGLE_TOLERANCE {
+            problems.push(format!(
+                "{at}.pc: corners are not a rectangle: pc is {:.1} mm off the perpendicular to pa→pb at pa (tolerance {:.1} mm)",
+                off_square * 1e3,
+                RECTANGLE_TOLERANCE * 1e3
+            ));
+            continue;
+        }
+        let up = (pc - pa - right * off_square).normalize();
+        let normal = right.cross(up);
+        let wall = Wall {
+            name: w.name.clone(),
+            pa,
+            pb,
+            pc,
+            right,
+            up,
+            normal,
+            width,
+            height,
+            pixels: [w.pixels[0].max(0) as u32, w.pixels[1].max(0) as u32],
+            stereo: w.stereo,
+            node: w.node.clone(),
+        };
+        let d = wall.distance(inside);
+        if d <= 0.0 {
+            problems.push(format!(
+                "{at}: its normal (pb−pa)×(pc−pa) = ({:.3}, {:.3}, {:.3}) points away from the room's inside point room.inside; are pa, pb, pc (lower-left, lower-right, upper-left as seen from inside) in the right order?",
+                normal.x, normal.y, normal.z
+            ));
+        } else if d < MIN_EYE_DISTANCE * 10.0 {
+            problems.push(format!("room.inside: only {:.1} mm in front of wall {:?}", d * 1e3, w.name));
+        }
+        walls.push(wall);
+    }
+    let source = file.tracking.source.parse::<SourceSpec>().unwrap_or_else(|e| {
+        problems.push(format!("tracking.source: {e}"));
+        SourceSpec::Synthetic(holocave_tracking::synthetic::Motion::Still)
+    });
+    if let SourceSpec::Vrpn(t) = &source
+        && file.tracking.source.contains('#')
+        && t.sensor != file.tracking.sensor
+    {
+        problems.push(format!(
+            "tracking.sensor: {} disagrees with sensor #{} in tracking.source",
+            file.tracking.sensor, t.sensor
+        ));
+    }
+    let tracker_to_room = transform(&file.tracking.tracker_to_room, "tracking.tracker_to_room", &mut problems);
+    let room_to_scene = transform(&file.navigation, "navigation", &mut problems);
+    if !problems.is_empty() {
+        return Err(problems);
+    }
+    let source = match source {
+        SourceSpec::Vrpn(mut t) => {
+            t.sensor = file.tracking.sensor;
+            SourceSpec::Vrpn(t)
+        }
+        other => other,
+    };
+    Ok(Cave {
+        walls,
+        inside,
+        near: file.room.near,
+        ipd: file.user.ipd,
+        head_to_eyes: vec(file.user.head_to_eyes),
+        source,
+        tracker_to_room,
+        room_to_scene,
+        tracking: TrackingParams {
+            guard: file.tracking.guard,
+            filter: file.tracking.filter,
+            prediction: file.tracking.prediction,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(name: &str) -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs").join(name)
+    }
+
+    #[test]
+    fn shipped_configs_are_valid() {
+        let cave = load_cave(&config("cave4.toml")).unwrap();
+        let names: Vec<&str> = cave.walls.iter().map(|w| w.name.as_str()).collect();
+        assert_eq!(names, ["front", "left", "right", "floor"]);
+        for w in &cave.walls {
+            assert!((w.width - 3.0).abs() < 1e-12 && (w.height - 3.0).abs() < 1e-12, "{}", w.name);
+            assert!(w.distance(DVec3::new(0.0, 1.5, 0.0)) > 1.4);
+        }
+        assert_eq!(cave.walls[0].pixels, [1024, 768]);
+        assert_eq!(cave.walls[3].pixels, [1024, 1024]);
+        assert_eq!(cave.walls[0].normal, DVec3::Z);
+        assert_eq!(cave.walls[3].normal, DVec3::Y);
+        assert_eq!(cave.ipd, 0.064);
+        assert_eq!(cave.tracking, TrackingParams::default(), "the config carries the tuned defaults");
+        let desk = load_cave(&config("desk.toml")).unwrap();
+        assert_eq!(desk.walls.len(), 1);
+    }
+
+    #[test]
+    fn problems_name_their_fields() {
+        let text = std::fs::read_to_string(config("cave4.toml")).unwrap();
+        let broken = text
+            .replacen("pc = [-1.5, 3.0, -1.5]", "pc = [-1.49, 3.0, -1.5]", 1) // front: 10 mm off square
+            .replacen("name = \"left\"", "name = \"front\"", 1)
+            .replacen("pixels = [1024, 1024]", "pixels = [0, -5]", 1)
+            .replacen("ipd = 0.064", "ipd = -0.064", 1)
+            .replace("source = \"vrpn://Tracker0@localhost:3883\"", "source = \"ftp://x\"");
+        let err = parse_cave(&broken, "broken.toml").unwrap_err().to_string();
+        for expected in [
+            "broken.toml",
+            "wall[0] (\"front\").pc: corners are not a rectangle: pc is 10.0 mm off",
+            "wall[1] (\"front\").name: duplicate wall name",
+            "wall[3] (\"floor\").pixels[0]: pixel width 0 must be positive",
+            "wall[3] (\"floor\").pixels[1]: pixel height -5 must be positive",
+            "user.ipd",
+            "tracking.source",
+        ] {
+            assert!(err.contains(expected), "missing {expected:?} in:\n{err}");
+        }
+        // A wall seen from behind: the right wall with pa and pb swapped.
+        let flipped = text.replacen(
+            "pa = [1.5, 0.0, -1.5]\npb = [1.5, 0.0, 1.5]\npc = [1.5, 3.0, -1.5]",
+            "pa = [1.5, 0.0, 1.5]\npb = [1.5, 0.0, -1.5]\npc = [1.5, 3.0, 1.5]",
+            1,
+        );
+        assert_ne!(flipped, text);
+        let err = parse_cave(&flipped, "f.toml").unwrap_err().to_string();
+        assert!(err.contains("wall[2] (\"right\"): its normal") && err.contains("points away"), "{err}");
+        let err = parse_cave("[room]\nnear = 1\n", "t.toml").unwrap_err().to_string();
+        assert!(err.contains("t.toml") && err.contains("tracking"), "{err}");
+    }
+}
