@@ -1,0 +1,205 @@
+//! `holodeck check`: verifies every structure and every beam's checksum, reports what is
+//! damaged and where, and salvages every intact beam into a new file.
+
+use std::path::Path;
+
+use super::format::{DATA_START, Extent};
+use super::{Damage, FileError, HoloFile};
+
+/// What `check` found.
+#[derive(Debug, Default)]
+pub struct CheckReport {
+    /// The commit that was checked.
+    pub seq: u64,
+    pub beams_ok: u64,
+    pub samples_ok: u64,
+    pub damage: Vec<Damage>,
+}
+
+impl CheckReport {
+    pub fn is_clean(&self) -> bool {
+        self.damage.is_empty()
+    }
+}
+
+/// Checks a file. Fails only if no commit of it can be read at all.
+pub fn check(path: &Path) -> Result<CheckReport, FileError> {
+    let (h, damage) = HoloFile::open_tolerant(path)?;
+    let mut report = CheckReport { seq: h.seq(), damage, ..Default::default() };
+    let mut buf = Vec::new();
+    // Every referenced extent, to find overlaps.
+    let mut used: Vec<(Extent, String)> = vec![(h.root, "the root block".into())];
+    for (si, section) in h.sections().iter().enumerate() {
+        for (ci, c) in h.chunks[si].iter().enumerate() {
+            if c.extent.len > 0 {
+                used.push((c.extent, format!("directory chunk {ci} of section {si}")));
+            }
+        }
+        for beam in 0..section.beam_count() {
+            let e = h.directory(si)[beam as usize];
+            if e.count == 0 {
+                continue;
+            }
+            used.push((e.extent(), format!("beam {beam} of section {si}")));
+            match h.read_beam_bytes(si, beam, &mut buf) {
+                Ok(()) => {
+                    report.beams_ok += 1;
+                    report.samples_ok += u64::from(e.count);
+                }
+                Err(err) => report.damage.push(Damage {
+                    what: format!("beam {beam} of section {si}"),
+                    offset: e.offset,
+                    detail: err.to_string(),
+                }),
+            }
+        }
+    }
+    for f in h.free_extents() {
+        used.push((f, "free space".into()));
+    }
+    used.sort_by_key(|(e, _)| e.offset);
+    for w in used.windows(2) {
+        let ((a, an), (b, bn)) = (&w[0], &w[1]);
+        if b.offset < a.end() {
+            report.damage.push(Damage {
+                what: format!("{bn} (bytes {}..{})", b.offset, b.end()),
+                offset: b.offset,
+                detail: format!("overlaps {an} (bytes {}..{})", a.offset, a.end()),
+            });
+        }
+    }
+    if let Some((first, name)) = used.first()
+        && first.offset < DATA_START
+    {
+        report.damage.push(Damage { what: name.clone(), offset: first.offset, detail: "lies in the superblock area".into() });
+    }
+    Ok(report)
+}
+
+/// What salvage copied.
+#[derive(Debug, Default, PartialEq)]
+pub struct SalvageReport {
+    pub beams: u64,
+    pub samples: u64,
+    pub beams_lost: u64,
+}
+
+/// Copies every beam whose checksum verifies into a new file at `out` (which must not
+/// exist), with the same sections and settings.
+pub fn salvage(path: &Path, out: &Path) -> Result<SalvageReport, FileError> {
+    let (h, _) = HoloFile::open_tolerant(path)?;
+    let mut dst = HoloFile::create(out, h.sections().to_vec(), h.settings().clone())?;
+    let mut report = SalvageReport::default();
+    let mut samples = Vec::new();
+    for (si, section) in h.sections().iter().enumerate() {
+        for beam in 0..section.beam_count() {
+            if h.count(si, beam) == 0 {
+                continue;
+            }
+            samples.clear();
+            match h.read_beam(si, beam, &mut samples) {
+                Ok(()) => {
+                    dst.write_beam(si, beam, &samples)?;
+                    report.beams += 1;
+                    report.samples += samples.len() as u64;
+                }
+                Err(_) => report.beams_lost += 1,
+            }
+        }
+    }
+    dst.commit()?;
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::file::format::SLOT_BYTES;
+    use crate::sample::Sample;
+    use crate::section::{Section, ViewClass};
+    use glam::DVec3;
+    use std::os::unix::fs::FileExt;
+
+    fn make(path: &Path) -> HoloFile {
+        let s = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [2, 2, 2], ViewClass::Interior).unwrap();
+        let mut h = HoloFile::create(path, vec![s], Default::default()).unwrap();
+        for b in 0..20 {
+            let v: Vec<Sample> = (0..(b + 1)).map(|i| Sample { dist: i as u16, ..Default::default() }).collect();
+            h.write_beam(0, b, &v).unwrap();
+        }
+        h.commit().unwrap();
+        h
+    }
+
+    fn poke(path: &Path, at: u64) {
+        let f = std::fs::OpenOptions::new().read(true).write(true).open(path).unwrap();
+        let mut b = [0u8];
+        f.read_exact_at(&mut b, at).unwrap();
+        f.write_all_at(&[b[0] ^ 0x55], at).unwrap();
+    }
+
+    #[test]
+    fn clean_file_checks_clean() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.hdk");
+        make(&p);
+        let r = check(&p).unwrap();
+        assert!(r.is_clean(), "{:?}", r.damage);
+        assert_eq!((r.beams_ok, r.samples_ok), (20, 210));
+    }
+
+    #[test]
+    fn corrupt_beam_is_named_and_salvage_keeps_the_rest() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.hdk");
+        let h = make(&p);
+        let off = h.entry(0, 7).unwrap().offset;
+        drop(h);
+        poke(&p, off + 3);
+        let r = check(&p).unwrap();
+        assert_eq!(r.damage.len(), 1);
+        assert_eq!(r.damage[0].what, "beam 7 of section 0");
+        assert!(r.damage[0].detail.contains("checksum"), "{}", r.damage[0].detail);
+        let h = HoloFile::open(&p).unwrap();
+        let err = h.read_beam(0, 7, &mut Vec::new()).unwrap_err().to_string();
+        assert!(err.contains("beam 7 of section 0") && err.contains(&format!("byte {off}")), "{err}");
+        let out = dir.path().join("b.hdk");
+        let s = salvage(&p, &out).unwrap();
+        assert_eq!(s, SalvageReport { beams: 19, samples: 202, beams_lost: 1 });
+        assert!(check(&out).unwrap().is_clean());
+    }
+
+    #[test]
+    fn truncation_and_damaged_structures_are_reported() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.hdk");
+        let h = make(&p);
+        let len = std::fs::metadata(&p).unwrap().len();
+        let chunk = h.chunks[0][0].extent.offset;
+        drop(h);
+        // Truncated: strict open names the problem.
+        let t = dir.path().join("t.hdk");
+        std::fs::copy(&p, &t).unwrap();
+        std::fs::OpenOptions::new().write(true).open(&t).unwrap().set_len(len - 100).unwrap();
+        let err = HoloFile::open(&t).err().unwrap().to_string();
+        assert!(err.contains("truncated"), "{err}");
+        // Damaged directory chunk.
+        let c = dir.path().join("c.hdk");
+        std::fs::copy(&p, &c).unwrap();
+        poke(&c, chunk + 5);
+        let err = HoloFile::open(&c).err().unwrap().to_string();
+        assert!(err.contains("directory chunk 0 of section 0") && err.contains("checksum"), "{err}");
+        let r = check(&c).unwrap();
+        assert!(r.damage.iter().any(|d| d.what.starts_with("directory chunk 0")), "{:?}", r.damage);
+        // Damaged newest superblock: the previous commit is used.
+        let s = dir.path().join("s.hdk");
+        std::fs::copy(&p, &s).unwrap();
+        let seq = HoloFile::open(&s).unwrap().seq();
+        poke(&s, (seq % 2) * SLOT_BYTES + 20);
+        assert_eq!(HoloFile::open(&s).unwrap().seq(), seq - 1);
+        // Not a holodeck file at all.
+        let n = dir.path().join("n.hdk");
+        std::fs::write(&n, b"hello").unwrap();
+        assert!(matches!(HoloFile::open(&n), Err(FileError::NotHolodeck { .. })));
+    }
+}

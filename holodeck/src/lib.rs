@@ -1,0 +1,20 @@
+//! The holodeck of holocave (`papers/holodeck-ray-cache.md`, §2.1–2.3 and Appendix A): a
+//! persistent, crash-safe 4-D ray cache. Rays are stored by the *beam* (pair of wall cells
+//! of a *section*) they cross, ten bytes per sample, in a portable file that survives being
+//! killed at any instant; a server keeps recently used beams in memory, serves requests and
+//! feeds ray packets to worker threads and TCP worker processes.
+
+pub mod beam_index;
+pub mod cache;
+pub mod distance_code;
+pub mod file;
+pub mod proximity;
+pub mod requests;
+pub mod rgbe;
+pub mod sample;
+pub mod section;
+pub mod server;
+
+pub use file::{FileError, HoloFile};
+pub use sample::Sample;
+pub use section::{Section, ViewClass};

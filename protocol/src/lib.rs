@@ -1,0 +1,11 @@
+//! Wire messages of holocave (DESIGN.md, "Wire format"): serde + bincode 2.0.1 inside
+//! length-prefixed frames whose size is checked against a hard maximum before any
+//! allocation. Bulk data travels as packed fixed-size little-endian records.
+//!
+//! - [`frame`]: framing, sync and async, with its errors.
+//! - [`holodeck`]: holodeck server ↔ worker messages (hello, ray packets, sample packets).
+
+pub mod frame;
+pub mod holodeck;
+
+pub use frame::{FrameError, MAX_FRAME_BYTES};
