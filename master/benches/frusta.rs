@@ -3,13 +3,14 @@
 use std::hint::black_box;
 use std::path::Path;
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
-use holocave_master::{load_cave, CaveFrusta};
+use holocave_master::{CaveFrusta, load_cave};
 use holocave_tracking::Pose;
 
 fn frusta(c: &mut Criterion) {
-    let cave = load_cave(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/cave4.toml")).expect("cave4.toml");
+    let cave = load_cave(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/cave4.toml"))
+        .expect("cave4.toml");
     let mut frusta = CaveFrusta::new(&cave);
     let mut i = 0u32;
     c.bench_function("cave4 frusta (4 walls x 2 eyes)", |b| {

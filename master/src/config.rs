@@ -34,7 +34,10 @@ pub struct RoomConfig {
 
 impl Default for RoomConfig {
     fn default() -> Self {
-        RoomConfig { inside: [0.0, 1.5, 0.0], near: 0.05 }
+        RoomConfig {
+            inside: [0.0, 1.5, 0.0],
+            near: 0.05,
+        }
     }
 }
 
@@ -51,7 +54,10 @@ pub struct UserConfig {
 
 impl Default for UserConfig {
     fn default() -> Self {
-        UserConfig { ipd: 0.064, head_to_eyes: [0.0, 0.0, 0.0] }
+        UserConfig {
+            ipd: 0.064,
+            head_to_eyes: [0.0, 0.0, 0.0],
+        }
     }
 }
 
@@ -85,7 +91,10 @@ pub struct RigidTransform {
 
 impl Default for RigidTransform {
     fn default() -> Self {
-        RigidTransform { translation: [0.0; 3], rotation: [0.0, 0.0, 0.0, 1.0] }
+        RigidTransform {
+            translation: [0.0; 3],
+            rotation: [0.0, 0.0, 0.0, 1.0],
+        }
     }
 }
 

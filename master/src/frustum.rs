@@ -79,7 +79,10 @@ impl Frustum {
 
     /// Every matrix entry is finite.
     pub fn is_finite(&self) -> bool {
-        self.view.is_finite() && self.proj.is_finite() && self.near.is_finite() && self.eye.is_finite()
+        self.view.is_finite()
+            && self.proj.is_finite()
+            && self.near.is_finite()
+            && self.eye.is_finite()
     }
 }
 
@@ -88,24 +91,39 @@ impl Frustum {
 pub enum FrustumFault {
     NonFiniteEye,
     /// Within [`MIN_EYE_DISTANCE`] of the wall's plane, or on it (distance in m).
-    OnWall { distance: f64 },
+    OnWall {
+        distance: f64,
+    },
     /// Behind the wall (distance in m, negative).
-    Behind { distance: f64 },
+    Behind {
+        distance: f64,
+    },
 }
 
 impl fmt::Display for FrustumFault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             FrustumFault::NonFiniteEye => write!(f, "eye position is NaN or infinite"),
-            FrustumFault::OnWall { distance } => write!(f, "eye is {:.3e} m from the wall's plane (minimum {MIN_EYE_DISTANCE} m)", distance),
-            FrustumFault::Behind { distance } => write!(f, "eye is {:.3e} m behind the wall", -distance),
+            FrustumFault::OnWall { distance } => write!(
+                f,
+                "eye is {:.3e} m from the wall's plane (minimum {MIN_EYE_DISTANCE} m)",
+                distance
+            ),
+            FrustumFault::Behind { distance } => {
+                write!(f, "eye is {:.3e} m behind the wall", -distance)
+            }
         }
     }
 }
 
 /// The off-axis frustum of `wall` seen from `eye` (room coordinates), with scene
 /// coordinates mapped to the room by the inverse of `room_to_scene`.
-pub fn off_axis(wall: &Wall, eye: DVec3, max_near: f64, room_to_scene: &DMat4) -> Result<Frustum, FrustumFault> {
+pub fn off_axis(
+    wall: &Wall,
+    eye: DVec3,
+    max_near: f64,
+    room_to_scene: &DMat4,
+) -> Result<Frustum, FrustumFault> {
     if !eye.is_finite() {
         return Err(FrustumFault::NonFiniteEye);
     }
@@ -138,10 +156,19 @@ pub fn off_axis(wall: &Wall, eye: DVec3, max_near: f64, room_to_scene: &DMat4) -
     )
     .transpose();
     let view = basis * DMat4::from_translation(-eye) * room_to_scene.inverse();
-    let f = Frustum { view, proj, near, eye };
+    let f = Frustum {
+        view,
+        proj,
+        near,
+        eye,
+    };
     // Unreachable for finite eyes ≥ MIN_EYE_DISTANCE in front of a validated wall; kept as
     // the guarantee that nothing non-finite leaves.
-    if f.is_finite() { Ok(f) } else { Err(FrustumFault::NonFiniteEye) }
+    if f.is_finite() {
+        Ok(f)
+    } else {
+        Err(FrustumFault::NonFiniteEye)
+    }
 }
 
 /// Fault counts of one wall.
@@ -189,12 +216,14 @@ impl CaveFrusta {
             .walls
             .iter()
             .map(|wall| {
-                let f = off_axis(wall, cave.inside, cave.near, &cave.room_to_scene).unwrap_or(Frustum {
-                    view: DMat4::IDENTITY,
-                    proj: DMat4::IDENTITY,
-                    near: cave.near,
-                    eye: cave.inside,
-                });
+                let f = off_axis(wall, cave.inside, cave.near, &cave.room_to_scene).unwrap_or(
+                    Frustum {
+                        view: DMat4::IDENTITY,
+                        proj: DMat4::IDENTITY,
+                        near: cave.near,
+                        eye: cave.inside,
+                    },
+                );
                 WallViews {
                     eyes: Eye::for_mode(wall.stereo).iter().map(|&e| (e, f)).collect(),
                     faults: FaultCounts::default(),
@@ -213,7 +242,12 @@ impl CaveFrusta {
             let mut fresh = Vec::with_capacity(views.eyes.len());
             let mut fault = None;
             for &(eye, _) in &views.eyes {
-                match off_axis(wall, eye_position(cave, head, eye), cave.near, &cave.room_to_scene) {
+                match off_axis(
+                    wall,
+                    eye_position(cave, head, eye),
+                    cave.near,
+                    &cave.room_to_scene,
+                ) {
                     Ok(f) => fresh.push((eye, f)),
                     Err(e) => {
                         fault = Some(e);
@@ -293,7 +327,11 @@ mod tests {
                 wall.name,
                 f.eye
             );
-            assert!(n.z > 0.0 && n.z <= NEAR_FRACTION * (1.0 + 1e-9), "depth {} not inside 0..1 beyond the near plane", n.z);
+            assert!(
+                n.z > 0.0 && n.z <= NEAR_FRACTION * (1.0 + 1e-9),
+                "depth {} not inside 0..1 beyond the near plane",
+                n.z
+            );
         }
     }
 
@@ -309,7 +347,11 @@ mod tests {
         };
         let m = 1e-3 + 1e-9;
         for _ in 0..2000 {
-            out.push(DVec3::new(-1.5 + m + (3.0 - 2.0 * m) * u(), m + (3.0 - 2.0 * m) * u(), -1.5 + m + (3.0 - 2.0 * m) * u()));
+            out.push(DVec3::new(
+                -1.5 + m + (3.0 - 2.0 * m) * u(),
+                m + (3.0 - 2.0 * m) * u(),
+                -1.5 + m + (3.0 - 2.0 * m) * u(),
+            ));
         }
         for c in [-1.5 + m, 1.5 - m] {
             out.push(DVec3::new(c, 1.5, 0.0));
@@ -322,7 +364,13 @@ mod tests {
     #[test]
     fn wall_corners_map_to_ndc_corners_for_eyes_anywhere_inside() {
         let mut cave = cave4();
-        for nav in [DMat4::IDENTITY, DMat4::from_rotation_translation(DQuat::from_rotation_y(0.7), DVec3::new(5.0, -2.0, 30.0))] {
+        for nav in [
+            DMat4::IDENTITY,
+            DMat4::from_rotation_translation(
+                DQuat::from_rotation_y(0.7),
+                DVec3::new(5.0, -2.0, 30.0),
+            ),
+        ] {
             cave.room_to_scene = nav;
             for eye in eyes_inside() {
                 for wall in &cave.walls {
@@ -337,14 +385,21 @@ mod tests {
     #[test]
     fn f32_matrices_map_corners_for_eyes_away_from_the_walls() {
         let cave = cave4();
-        for eye in eyes_inside().into_iter().filter(|e| cave.walls.iter().all(|w| w.distance(*e) > 0.05)) {
+        for eye in eyes_inside()
+            .into_iter()
+            .filter(|e| cave.walls.iter().all(|w| w.distance(*e) > 0.05))
+        {
             for wall in &cave.walls {
                 let f = off_axis(wall, eye, cave.near, &cave.room_to_scene).unwrap();
                 let vp = f.proj_f32() * f.view_f32();
                 for (p, want) in [(wall.pa, (-1.0, -1.0)), (wall.pd(), (1.0, 1.0))] {
                     let c = vp * p.as_vec3().extend(1.0);
                     let n = c.truncate() / c.w;
-                    assert!((n.x - want.0).abs() < 1e-4 && (n.y - want.1).abs() < 1e-4, "{} {eye}: {n}", wall.name);
+                    assert!(
+                        (n.x - want.0).abs() < 1e-4 && (n.y - want.1).abs() < 1e-4,
+                        "{} {eye}: {n}",
+                        wall.name
+                    );
                 }
             }
         }
@@ -369,14 +424,19 @@ mod tests {
             let mut last_good = frusta.walls[wi].eyes.clone();
             for &d in &distances {
                 let eye_centre = centre + wall.normal * d;
-                let head_pos = eye_centre - (DQuat::from_array(rot.to_array().map(f64::from)) * cave.head_to_eyes);
+                let head_pos = eye_centre
+                    - (DQuat::from_array(rot.to_array().map(f64::from)) * cave.head_to_eyes);
                 let head = Pose::new(head_pos.as_vec3(), rot);
                 let actual = eye_position(&cave, &head, Eye::Left);
                 let dist = wall.distance(actual);
                 frusta.update(&cave, &head);
                 let v = &frusta.walls[wi];
                 for (_, f) in &v.eyes {
-                    assert!(f.is_finite(), "wall {} at {d} m: non-finite frustum", wall.name);
+                    assert!(
+                        f.is_finite(),
+                        "wall {} at {d} m: non-finite frustum",
+                        wall.name
+                    );
                     assert!(f.view_f32().is_finite() && f.proj_f32().is_finite());
                 }
                 if dist >= MIN_EYE_DISTANCE {
@@ -387,13 +447,23 @@ mod tests {
                     last_good = v.eyes.clone();
                 } else {
                     expected_faults += 1;
-                    assert!(v.holding, "wall {} at {d} m (eye at {dist} m) should fault", wall.name);
+                    assert!(
+                        v.holding,
+                        "wall {} at {d} m (eye at {dist} m) should fault",
+                        wall.name
+                    );
                     assert_eq!(v.eyes, last_good, "the last good frustum is kept");
                     let fault = v.last_fault.unwrap();
                     if dist < 0.0 {
-                        assert!(matches!(fault, FrustumFault::Behind { .. }), "{fault:?} at {dist}");
+                        assert!(
+                            matches!(fault, FrustumFault::Behind { .. }),
+                            "{fault:?} at {dist}"
+                        );
                     } else {
-                        assert!(matches!(fault, FrustumFault::OnWall { .. }), "{fault:?} at {dist}");
+                        assert!(
+                            matches!(fault, FrustumFault::OnWall { .. }),
+                            "{fault:?} at {dist}"
+                        );
                     }
                 }
                 // Other walls stay valid: the eye is still inside the cube.
@@ -406,9 +476,19 @@ mod tests {
             let v = &frusta.walls[wi];
             assert_eq!(v.faults.total(), expected_faults, "wall {}", wall.name);
             // The head pose is f32, so the smallest offsets round onto the plane.
-            assert!(v.faults.on_wall >= 7 && v.faults.behind >= 10, "{:?}", v.faults);
+            assert!(
+                v.faults.on_wall >= 7 && v.faults.behind >= 10,
+                "{:?}",
+                v.faults
+            );
             let report = frusta.fault_report(&cave);
-            assert!(report.contains(&format!("wall {:?}: {expected_faults} frustum faults", wall.name)), "{report}");
+            assert!(
+                report.contains(&format!(
+                    "wall {:?}: {expected_faults} frustum faults",
+                    wall.name
+                )),
+                "{report}"
+            );
         }
     }
 
@@ -416,7 +496,12 @@ mod tests {
     fn exact_sweep_in_f64_from_one_metre_to_a_nanometre_and_behind() {
         let cave = cave4();
         for wall in &cave.walls {
-            for anchor in [(wall.pa + wall.pd()) / 2.0, wall.pa, wall.pd(), wall.pa + wall.right * 0.3 + wall.up * 2.9] {
+            for anchor in [
+                (wall.pa + wall.pd()) / 2.0,
+                wall.pa,
+                wall.pd(),
+                wall.pa + wall.right * 0.3 + wall.up * 2.9,
+            ] {
                 for k in 0..=18 {
                     for sign in [1.0, -1.0] {
                         let eye = anchor + wall.normal * (sign * 10f64.powf(-k as f64 / 2.0));
@@ -430,13 +515,20 @@ mod tests {
                                     assert_corners_map(&cave, wall, &f, 1e-5);
                                 }
                             }
-                            Err(FrustumFault::OnWall { distance }) => assert!(d > 0.0 && d < MIN_EYE_DISTANCE && distance.is_finite()),
-                            Err(FrustumFault::Behind { distance }) => assert!(d < 0.0 && distance < 0.0),
+                            Err(FrustumFault::OnWall { distance }) => {
+                                assert!(d > 0.0 && d < MIN_EYE_DISTANCE && distance.is_finite())
+                            }
+                            Err(FrustumFault::Behind { distance }) => {
+                                assert!(d < 0.0 && distance < 0.0)
+                            }
                             Err(e) => panic!("{e}"),
                         }
                     }
                 }
-                assert!(matches!(off_axis(wall, anchor, cave.near, &cave.room_to_scene), Err(FrustumFault::OnWall { .. })));
+                assert!(matches!(
+                    off_axis(wall, anchor, cave.near, &cave.room_to_scene),
+                    Err(FrustumFault::OnWall { .. })
+                ));
             }
         }
     }
@@ -446,12 +538,23 @@ mod tests {
         let cave = cave4();
         let mut frusta = CaveFrusta::new(&cave);
         let before = frusta.walls[0].eyes.clone();
-        frusta.update(&cave, &Pose::new(Vec3::new(f32::NAN, 1.5, 0.0), Quat::IDENTITY));
-        assert!(frusta.walls.iter().all(|w| w.faults.non_finite == 1 && w.holding));
+        frusta.update(
+            &cave,
+            &Pose::new(Vec3::new(f32::NAN, 1.5, 0.0), Quat::IDENTITY),
+        );
+        assert!(
+            frusta
+                .walls
+                .iter()
+                .all(|w| w.faults.non_finite == 1 && w.holding)
+        );
         assert_eq!(frusta.walls[0].eyes, before);
         frusta.update(&cave, &Pose::new(Vec3::new(0.0, 1.7, 0.0), Quat::IDENTITY));
         let eyes = &frusta.walls[0].eyes;
-        assert_eq!(eyes.iter().map(|e| e.0).collect::<Vec<_>>(), [Eye::Left, Eye::Right]);
+        assert_eq!(
+            eyes.iter().map(|e| e.0).collect::<Vec<_>>(),
+            [Eye::Left, Eye::Right]
+        );
         assert!(((eyes[1].1.eye - eyes[0].1.eye).length() - 0.064).abs() < 1e-6);
         assert!((eyes[0].1.eye - DVec3::new(-0.032, 1.65, -0.08)).length() < 1e-6);
         assert_eq!(Eye::for_mode(StereoMode::Mono), [Eye::Centre]);

@@ -7,4 +7,4 @@ pub mod validate;
 
 pub use config::CaveFile;
 pub use frustum::{CaveFrusta, Frustum, FrustumFault};
-pub use validate::{load_cave, parse_cave, Cave, ConfigError, Wall};
+pub use validate::{Cave, ConfigError, Wall, load_cave, parse_cave};

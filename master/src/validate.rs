@@ -19,7 +19,10 @@ pub const RECTANGLE_TOLERANCE: f64 = 1e-3;
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     #[error("cannot read CAVE config {path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("CAVE config {path} is not valid TOML for a CAVE: {message}")]
     Parse { path: String, message: String },
     #[error("CAVE config {path} is invalid:\n  {}", problems.join("\n  "))]
@@ -73,15 +76,23 @@ pub struct Cave {
 /// Reads and checks a CAVE file.
 pub fn load_cave(path: &Path) -> Result<Cave, ConfigError> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: name.clone(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+        path: name.clone(),
+        source,
+    })?;
     parse_cave(&text, &name)
 }
 
 /// Parses and checks CAVE TOML; `name` names the input in messages.
 pub fn parse_cave(text: &str, name: &str) -> Result<Cave, ConfigError> {
-    let file: CaveFile =
-        toml::from_str(text).map_err(|e| ConfigError::Parse { path: name.to_owned(), message: e.to_string() })?;
-    validate(&file).map_err(|problems| ConfigError::Invalid { path: name.to_owned(), problems })
+    let file: CaveFile = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        path: name.to_owned(),
+        message: e.to_string(),
+    })?;
+    validate(&file).map_err(|problems| ConfigError::Invalid {
+        path: name.to_owned(),
+        problems,
+    })
 }
 
 fn vec(a: [f64; 3]) -> DVec3 {
@@ -92,7 +103,9 @@ fn transform(t: &RigidTransform, field: &str, problems: &mut Vec<String>) -> DMa
     let q = DQuat::from_array(t.rotation);
     let norm = q.length();
     if !(norm - 1.0).abs().le(&1e-3) {
-        problems.push(format!("{field}.rotation: quaternion norm is {norm}, not 1"));
+        problems.push(format!(
+            "{field}.rotation: quaternion norm is {norm}, not 1"
+        ));
         return DMat4::IDENTITY;
     }
     if !t.translation.iter().all(|v| v.is_finite()) {
@@ -110,10 +123,16 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
         problems.push("room.inside: not finite".to_owned());
     }
     if !(file.room.near > 0.0 && file.room.near.is_finite()) {
-        problems.push(format!("room.near: {} must be a positive distance", file.room.near));
+        problems.push(format!(
+            "room.near: {} must be a positive distance",
+            file.room.near
+        ));
     }
     if !(file.user.ipd >= 0.0 && file.user.ipd < 0.5) {
-        problems.push(format!("user.ipd: {} m is not an interpupillary distance (0 to 0.5 m)", file.user.ipd));
+        problems.push(format!(
+            "user.ipd: {} m is not an interpupillary distance (0 to 0.5 m)",
+            file.user.ipd
+        ));
     }
     if !vec(file.user.head_to_eyes).is_finite() {
         problems.push("user.head_to_eyes: not finite".to_owned());
@@ -141,7 +160,9 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
         }
         for (k, (px, what)) in w.pixels.iter().zip(["width", "height"]).enumerate() {
             if *px <= 0 || *px > u32::MAX as i64 {
-                problems.push(format!("{at}.pixels[{k}]: pixel {what} {px} must be positive"));
+                problems.push(format!(
+                    "{at}.pixels[{k}]: pixel {what} {px} must be positive"
+                ));
             }
         }
         if width < 1e-6 || height < 1e-6 {
@@ -180,14 +201,22 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
                 normal.x, normal.y, normal.z
             ));
         } else if d < MIN_EYE_DISTANCE * 10.0 {
-            problems.push(format!("room.inside: only {:.1} mm in front of wall {:?}", d * 1e3, w.name));
+            problems.push(format!(
+                "room.inside: only {:.1} mm in front of wall {:?}",
+                d * 1e3,
+                w.name
+            ));
         }
         walls.push(wall);
     }
-    let source = file.tracking.source.parse::<SourceSpec>().unwrap_or_else(|e| {
-        problems.push(format!("tracking.source: {e}"));
-        SourceSpec::Synthetic(holocave_tracking::synthetic::Motion::Still)
-    });
+    let source = file
+        .tracking
+        .source
+        .parse::<SourceSpec>()
+        .unwrap_or_else(|e| {
+            problems.push(format!("tracking.source: {e}"));
+            SourceSpec::Synthetic(holocave_tracking::synthetic::Motion::Still)
+        });
     if let SourceSpec::Vrpn(t) = &source
         && file.tracking.source.contains('#')
         && t.sensor != file.tracking.sensor
@@ -197,7 +226,11 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
             file.tracking.sensor, t.sensor
         ));
     }
-    let tracker_to_room = transform(&file.tracking.tracker_to_room, "tracking.tracker_to_room", &mut problems);
+    let tracker_to_room = transform(
+        &file.tracking.tracker_to_room,
+        "tracking.tracker_to_room",
+        &mut problems,
+    );
     let room_to_scene = transform(&file.navigation, "navigation", &mut problems);
     if !problems.is_empty() {
         return Err(problems);
@@ -231,7 +264,9 @@ mod tests {
     use super::*;
 
     fn config(name: &str) -> std::path::PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs").join(name)
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../configs")
+            .join(name)
     }
 
     #[test]
@@ -240,7 +275,11 @@ mod tests {
         let names: Vec<&str> = cave.walls.iter().map(|w| w.name.as_str()).collect();
         assert_eq!(names, ["front", "left", "right", "floor"]);
         for w in &cave.walls {
-            assert!((w.width - 3.0).abs() < 1e-12 && (w.height - 3.0).abs() < 1e-12, "{}", w.name);
+            assert!(
+                (w.width - 3.0).abs() < 1e-12 && (w.height - 3.0).abs() < 1e-12,
+                "{}",
+                w.name
+            );
             assert!(w.distance(DVec3::new(0.0, 1.5, 0.0)) > 1.4);
         }
         assert_eq!(cave.walls[0].pixels, [1024, 768]);
@@ -248,7 +287,11 @@ mod tests {
         assert_eq!(cave.walls[0].normal, DVec3::Z);
         assert_eq!(cave.walls[3].normal, DVec3::Y);
         assert_eq!(cave.ipd, 0.064);
-        assert_eq!(cave.tracking, TrackingParams::default(), "the config carries the tuned defaults");
+        assert_eq!(
+            cave.tracking,
+            TrackingParams::default(),
+            "the config carries the tuned defaults"
+        );
         let desk = load_cave(&config("desk.toml")).unwrap();
         assert_eq!(desk.walls.len(), 1);
     }
@@ -261,7 +304,10 @@ mod tests {
             .replacen("name = \"left\"", "name = \"front\"", 1)
             .replacen("pixels = [1024, 1024]", "pixels = [0, -5]", 1)
             .replacen("ipd = 0.064", "ipd = -0.064", 1)
-            .replace("source = \"vrpn://Tracker0@localhost:3883\"", "source = \"ftp://x\"");
+            .replace(
+                "source = \"vrpn://Tracker0@localhost:3883\"",
+                "source = \"ftp://x\"",
+            );
         let err = parse_cave(&broken, "broken.toml").unwrap_err().to_string();
         for expected in [
             "broken.toml",
@@ -282,8 +328,13 @@ mod tests {
         );
         assert_ne!(flipped, text);
         let err = parse_cave(&flipped, "f.toml").unwrap_err().to_string();
-        assert!(err.contains("wall[2] (\"right\"): its normal") && err.contains("points away"), "{err}");
-        let err = parse_cave("[room]\nnear = 1\n", "t.toml").unwrap_err().to_string();
+        assert!(
+            err.contains("wall[2] (\"right\"): its normal") && err.contains("points away"),
+            "{err}"
+        );
+        let err = parse_cave("[room]\nnear = 1\n", "t.toml")
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("t.toml") && err.contains("tracking"), "{err}");
     }
 }

@@ -3,7 +3,7 @@
 
 use std::hint::black_box;
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{Criterion, criterion_group, criterion_main};
 use holocave_tracking::predict::PredictorKind;
 use holocave_tracking::synthetic::Motion;
 use holocave_tracking::{HeadTracker, TrackingParams};

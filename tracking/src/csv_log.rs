@@ -53,7 +53,9 @@ impl FromStr for TimeUnit {
             "ms" => Ok(TimeUnit::Milliseconds),
             "s" => Ok(TimeUnit::Seconds),
             "ticks" | "dotnet" => Ok(TimeUnit::DotNetTicks),
-            other => Err(format!("unknown time unit `{other}` (expected ns, us, ms, s or ticks)")),
+            other => Err(format!(
+                "unknown time unit `{other}` (expected ns, us, ms, s or ticks)"
+            )),
         }
     }
 }
@@ -74,7 +76,10 @@ impl fmt::Display for TimeUnit {
 #[derive(Debug, thiserror::Error)]
 pub enum CsvError {
     #[error("cannot read tracker log {path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("tracker log {path} has no valid sample line ({malformed} malformed)")]
     Empty { path: PathBuf, malformed: usize },
 }
@@ -117,10 +122,20 @@ impl RawTime {
 
 /// Reads a log file; `unit` `None` detects it.
 pub fn read_csv(path: &Path, unit: Option<TimeUnit>) -> Result<CsvLog, CsvError> {
-    let text = std::fs::read_to_string(path).map_err(|source| CsvError::Io { path: path.to_owned(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| CsvError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
     parse_csv(&text, unit).ok_or_else(|| {
-        let malformed = text.lines().filter(|l| !l.trim().is_empty()).count().saturating_sub(1);
-        CsvError::Empty { path: path.to_owned(), malformed }
+        let malformed = text
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .count()
+            .saturating_sub(1);
+        CsvError::Empty {
+            path: path.to_owned(),
+            malformed,
+        }
     })
 }
 
@@ -135,7 +150,10 @@ pub fn parse_csv(text: &str, unit: Option<TimeUnit>) -> Option<CsvLog> {
         if let Some(u) = line.strip_prefix("# unit:") {
             stated = u.trim().parse().ok();
         }
-        if line.is_empty() || line.starts_with('#') || (i == 0 && line.starts_with(|c: char| c.is_alphabetic())) {
+        let header = rows.is_empty()
+            && malformed_count == 0
+            && line.starts_with(|c: char| c.is_alphabetic());
+        if line.is_empty() || line.starts_with('#') || header {
             continue;
         }
         match parse_line(line) {
@@ -143,7 +161,10 @@ pub fn parse_csv(text: &str, unit: Option<TimeUnit>) -> Option<CsvLog> {
             Err(problem) => {
                 malformed_count += 1;
                 if malformed.len() < KEPT_LINE_ERRORS {
-                    malformed.push(LineError { line: i + 1, problem });
+                    malformed.push(LineError {
+                        line: i + 1,
+                        problem,
+                    });
                 }
             }
         }
@@ -151,11 +172,25 @@ pub fn parse_csv(text: &str, unit: Option<TimeUnit>) -> Option<CsvLog> {
     if rows.is_empty() {
         return None;
     }
-    let unit = unit.or(stated).unwrap_or_else(|| detect_unit(&rows.iter().map(|r| r.0).collect::<Vec<_>>()));
+    let unit = unit
+        .or(stated)
+        .unwrap_or_else(|| detect_unit(&rows.iter().map(|r| r.0).collect::<Vec<_>>()));
     // Integers are rebased exactly (19-digit ticks do not fit an f64); mixed files in f64.
     let all_int = rows.iter().all(|r| matches!(r.0, RawTime::Int(_)));
-    let origin_int = rows.iter().filter_map(|r| if let RawTime::Int(i) = r.0 { Some(i) } else { None }).min();
-    let origin = rows.iter().map(|r| r.0.as_f64()).fold(f64::INFINITY, f64::min);
+    let origin_int = rows
+        .iter()
+        .filter_map(|r| {
+            if let RawTime::Int(i) = r.0 {
+                Some(i)
+            } else {
+                None
+            }
+        })
+        .min();
+    let origin = rows
+        .iter()
+        .map(|r| r.0.as_f64())
+        .fold(f64::INFINITY, f64::min);
     let samples = rows
         .into_iter()
         .map(|(t, pose)| {
@@ -166,13 +201,21 @@ pub fn parse_csv(text: &str, unit: Option<TimeUnit>) -> Option<CsvLog> {
             Sample::new((rel * unit.ns()).round() as u64, pose)
         })
         .collect();
-    Some(CsvLog { samples, unit, malformed_count, malformed })
+    Some(CsvLog {
+        samples,
+        unit,
+        malformed_count,
+        malformed,
+    })
 }
 
 fn parse_line(line: &str) -> Result<(RawTime, Pose), String> {
     let fields: Vec<&str> = line.split(',').map(str::trim).collect();
     if fields.len() != 8 {
-        return Err(format!("expected 8 fields (timestamp,x,y,z,qx,qy,qz,qw), found {}", fields.len()));
+        return Err(format!(
+            "expected 8 fields (timestamp,x,y,z,qx,qy,qz,qw), found {}",
+            fields.len()
+        ));
     }
     let t = if let Ok(i) = fields[0].parse::<i128>() {
         RawTime::Int(i)
@@ -189,7 +232,13 @@ fn parse_line(line: &str) -> Result<(RawTime, Pose), String> {
             .parse::<f32>()
             .map_err(|_| format!("field {} `{}` is not a number", NAMES[k + 1], fields[k + 1]))?;
     }
-    Ok((t, Pose::new(Vec3::new(v[0], v[1], v[2]), Quat::from_xyzw(v[3], v[4], v[5], v[6]))))
+    Ok((
+        t,
+        Pose::new(
+            Vec3::new(v[0], v[1], v[2]),
+            Quat::from_xyzw(v[3], v[4], v[5], v[6]),
+        ),
+    ))
 }
 
 fn detect_unit(times: &[RawTime]) -> TimeUnit {
@@ -209,8 +258,11 @@ fn detect_unit(times: &[RawTime]) -> TimeUnit {
     if first >= 1e9 {
         return TimeUnit::Seconds;
     }
-    let mut steps: Vec<f64> =
-        times.windows(2).map(|w| w[1].as_f64() - w[0].as_f64()).filter(|d| *d > 0.0).collect();
+    let mut steps: Vec<f64> = times
+        .windows(2)
+        .map(|w| w[1].as_f64() - w[0].as_f64())
+        .filter(|d| *d > 0.0)
+        .collect();
     if steps.is_empty() {
         return TimeUnit::Nanoseconds;
     }
@@ -232,7 +284,9 @@ mod tests {
     use super::*;
 
     fn trace(n: &str) -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/tracking/pred6dof").join(n)
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../shared/tracking/pred6dof")
+            .join(n)
     }
 
     #[test]
@@ -245,7 +299,10 @@ mod tests {
         // 637231069485903882 - 637231069485244909 ticks = 658973 ticks = 65.8973 ms.
         assert_eq!(log.samples[1].t_ns, 65_897_300);
         let span = log.samples.last().unwrap().t_ns as f64 * 1e-9;
-        assert!((60.0..120.0).contains(&span), "a little over a minute, got {span} s");
+        assert!(
+            (60.0..120.0).contains(&span),
+            "a little over a minute, got {span} s"
+        );
         assert!((log.samples[0].pose.position.y - 0.0841746).abs() < 1e-7);
     }
 
@@ -253,8 +310,14 @@ mod tests {
     fn units_are_detected_from_magnitude_and_step() {
         let line = |t: &str| format!("{t},0,0,0,0,0,0,1\n");
         let cases = [
-            (["1700000000000000000", "1700000000016666666"], TimeUnit::Nanoseconds),
-            (["1700000000000000", "1700000000016666"], TimeUnit::Microseconds),
+            (
+                ["1700000000000000000", "1700000000016666666"],
+                TimeUnit::Nanoseconds,
+            ),
+            (
+                ["1700000000000000", "1700000000016666"],
+                TimeUnit::Microseconds,
+            ),
             (["1700000000000", "1700000000016"], TimeUnit::Milliseconds),
             (["1700000000.0", "1700000000.016"], TimeUnit::Seconds),
             (["0.0", "0.0166"], TimeUnit::Seconds),
@@ -263,14 +326,30 @@ mod tests {
             (["0", "16666666"], TimeUnit::Nanoseconds),
         ];
         for (times, unit) in cases {
-            let text = format!("timestamp,x,y,z,qx,qy,qz,qw\n{}{}", line(times[0]), line(times[1]));
+            let text = format!(
+                "timestamp,x,y,z,qx,qy,qz,qw\n{}{}",
+                line(times[0]),
+                line(times[1])
+            );
             let log = parse_csv(&text, None).unwrap();
             assert_eq!(log.unit, unit, "{times:?}");
-            assert!((log.samples[1].t_ns as f64 - 16.6e6).abs() < 1e6, "{times:?}: {}", log.samples[1].t_ns);
+            assert!(
+                (log.samples[1].t_ns as f64 - 16.6e6).abs() < 1e6,
+                "{times:?}: {}",
+                log.samples[1].t_ns
+            );
         }
-        let stated = parse_csv(&format!("# unit: us\n{}{}", line("0"), line("16666")), None).unwrap();
-        assert_eq!((stated.unit, stated.samples[1].t_ns), (TimeUnit::Microseconds, 16_666_000));
-        let forced = parse_csv(&format!("{}{}", line("0"), line("166666")), Some(TimeUnit::DotNetTicks)).unwrap();
+        let stated =
+            parse_csv(&format!("# unit: us\n{}{}", line("0"), line("16666")), None).unwrap();
+        assert_eq!(
+            (stated.unit, stated.samples[1].t_ns),
+            (TimeUnit::Microseconds, 16_666_000)
+        );
+        let forced = parse_csv(
+            &format!("{}{}", line("0"), line("166666")),
+            Some(TimeUnit::DotNetTicks),
+        )
+        .unwrap();
         assert_eq!(forced.samples[1].t_ns, 16_666_600);
     }
 
@@ -278,7 +357,11 @@ mod tests {
     fn malformed_lines_are_counted_with_line_numbers() {
         let text = "timestamp,x,y,z,qx,qy,qz,qw\n0,0,0,0,0,0,0,1\n1,2,3\n\n2,a,0,0,0,0,0,1\n3,0,0,0,0,0,0,NaN\n";
         let log = parse_csv(text, Some(TimeUnit::Milliseconds)).unwrap();
-        assert_eq!(log.samples.len(), 2, "NaN parses; the guard rejects it later");
+        assert_eq!(
+            log.samples.len(),
+            2,
+            "NaN parses; the guard rejects it later"
+        );
         assert_eq!(log.malformed_count, 2);
         assert_eq!(log.malformed[0].line, 3);
         assert!(log.malformed[0].problem.contains("expected 8 fields"));
@@ -292,8 +375,13 @@ mod tests {
         let path = dir.path().join("empty.csv");
         std::fs::write(&path, "timestamp,x,y,z,qx,qy,qz,qw\ngarbage\n").unwrap();
         let err = read_csv(&path, None).unwrap_err().to_string();
-        assert!(err.contains("empty.csv") && err.contains("no valid sample"), "{err}");
-        let err = read_csv(&dir.path().join("missing.csv"), None).unwrap_err().to_string();
+        assert!(
+            err.contains("empty.csv") && err.contains("no valid sample"),
+            "{err}"
+        );
+        let err = read_csv(&dir.path().join("missing.csv"), None)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("missing.csv"), "{err}");
     }
 }

@@ -37,7 +37,9 @@ pub fn clean(raw: &[Sample]) -> (Vec<Sample>, GuardReport) {
 
 /// Resamples strictly increasing samples at [`EVAL_RATE_HZ`] from the first sample's time.
 pub fn resample(samples: &[Sample]) -> Vec<Sample> {
-    let Some((first, last)) = samples.first().zip(samples.last()) else { return Vec::new() };
+    let Some((first, last)) = samples.first().zip(samples.last()) else {
+        return Vec::new();
+    };
     let mut out = Vec::with_capacity(((last.t_ns - first.t_ns) / STEP_NS + 1) as usize);
     let mut j = 0;
     let mut t = first.t_ns;
@@ -46,11 +48,18 @@ pub fn resample(samples: &[Sample]) -> Vec<Sample> {
             j += 1;
         }
         let (a, b) = (samples[j], samples[(j + 1).min(samples.len() - 1)]);
-        let u = if b.t_ns > a.t_ns { (t - a.t_ns) as f64 / (b.t_ns - a.t_ns) as f64 } else { 0.0 } as f32;
+        let u = if b.t_ns > a.t_ns {
+            (t - a.t_ns) as f64 / (b.t_ns - a.t_ns) as f64
+        } else {
+            0.0
+        } as f32;
         let u = u.clamp(0.0, 1.0);
         out.push(Sample::new(
             t,
-            Pose::new(a.pose.position.lerp(b.pose.position, u), slerp(a.pose.orientation, b.pose.orientation, u)),
+            Pose::new(
+                a.pose.position.lerp(b.pose.position, u),
+                slerp(a.pose.orientation, b.pose.orientation, u),
+            ),
         ));
         t += STEP_NS;
     }
@@ -70,7 +79,11 @@ pub struct EvalRow {
 }
 
 /// Scores every predictor at every look-ahead (ms, multiples of 5) on 200 Hz samples.
-pub fn evaluate(resampled: &[Sample], lookaheads_ms: &[u32], params: &TrackingParams) -> Vec<EvalRow> {
+pub fn evaluate(
+    resampled: &[Sample],
+    lookaheads_ms: &[u32],
+    params: &TrackingParams,
+) -> Vec<EvalRow> {
     let mut rows = Vec::new();
     for &la in lookaheads_ms {
         let k = (la as u64 * 1_000_000 / STEP_NS) as usize;
@@ -81,7 +94,13 @@ pub fn evaluate(resampled: &[Sample], lookaheads_ms: &[u32], params: &TrackingPa
     rows
 }
 
-fn score(s: &[Sample], lookahead_ms: u32, k: usize, kind: PredictorKind, params: &TrackingParams) -> EvalRow {
+fn score(
+    s: &[Sample],
+    lookahead_ms: u32,
+    k: usize,
+    kind: PredictorKind,
+    params: &TrackingParams,
+) -> EvalRow {
     let mut tracker = HeadTracker::with_predictor(params, kind);
     let (mut n, mut pa, mut p2, mut aa, mut a2) = (0usize, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for i in 0..s.len() {
@@ -132,7 +151,8 @@ pub fn table(rows: &[EvalRow]) -> String {
 }
 
 /// The CSV header matching [`csv_line`].
-pub const CSV_HEADER: &str = "log,lookahead_ms,predictor,pos_mae_cm,pos_rms_cm,ang_mae_deg,ang_rms_deg,count";
+pub const CSV_HEADER: &str =
+    "log,lookahead_ms,predictor,pos_mae_cm,pos_rms_cm,ang_mae_deg,ang_rms_deg,count";
 
 /// One row as CSV, tagged with the log's name.
 pub fn csv_line(log: &str, r: &EvalRow) -> String {
@@ -153,17 +173,36 @@ pub fn csv_line(log: &str, r: &EvalRow) -> String {
 pub fn failures(rows: &[EvalRow]) -> Vec<String> {
     let mut out = Vec::new();
     for none in rows.iter().filter(|r| r.predictor == PredictorKind::None) {
-        for r in rows.iter().filter(|r| r.lookahead_ms == none.lookahead_ms && r.predictor != PredictorKind::None) {
-            if r.pos_mae_cm >= none.pos_mae_cm {
-                out.push(format!("{} ms: {} position {:.3} cm ≥ {:.3}", r.lookahead_ms, r.predictor.name(), r.pos_mae_cm, none.pos_mae_cm));
+        for r in rows
+            .iter()
+            .filter(|r| r.lookahead_ms == none.lookahead_ms && r.predictor != PredictorKind::None)
+        {
+            // A trace without any motion of a kind has nothing to beat there.
+            if r.pos_mae_cm >= none.pos_mae_cm && none.pos_mae_cm > 1e-6 {
+                out.push(format!(
+                    "{} ms: {} position {:.3} cm ≥ {:.3}",
+                    r.lookahead_ms,
+                    r.predictor.name(),
+                    r.pos_mae_cm,
+                    none.pos_mae_cm
+                ));
             }
-            if r.ang_mae_deg >= none.ang_mae_deg {
-                out.push(format!("{} ms: {} angle {:.3}° ≥ {:.3}", r.lookahead_ms, r.predictor.name(), r.ang_mae_deg, none.ang_mae_deg));
+            if r.ang_mae_deg >= none.ang_mae_deg && none.ang_mae_deg > 1e-6 {
+                out.push(format!(
+                    "{} ms: {} angle {:.3}° ≥ {:.3}",
+                    r.lookahead_ms,
+                    r.predictor.name(),
+                    r.ang_mae_deg,
+                    none.ang_mae_deg
+                ));
             }
         }
     }
     out
 }
+
+/// One grid value of [`tune`] and the relative errors it gave (see [`relative_error`]).
+pub type GridRow = (f32, [(f64, f64); 3]);
 
 /// Time constants (ms) tried by [`tune`]. The grid starts at 5 ms (α ≈ 0.63 at 200 Hz)
 /// so that both predictors still smooth: without any, velocity estimates amplify the
@@ -172,7 +211,11 @@ pub const TUNE_GRID_MS: [f32; 10] = [5.0, 10.0, 15.0, 20.0, 30.0, 40.0, 60.0, 80
 
 /// Mean over traces and look-aheads of each predictor's error relative to no prediction
 /// (position, angle); lower is better, 1 is no better than not predicting.
-pub fn relative_error(traces: &[Vec<Sample>], lookaheads_ms: &[u32], params: &TrackingParams) -> [(f64, f64); 3] {
+pub fn relative_error(
+    traces: &[Vec<Sample>],
+    lookaheads_ms: &[u32],
+    params: &TrackingParams,
+) -> [(f64, f64); 3] {
     let mut sum = [(0.0, 0.0); 3];
     let mut n = 0.0;
     for t in traces {
@@ -193,7 +236,11 @@ pub fn relative_error(traces: &[Vec<Sample>], lookaheads_ms: &[u32], params: &Tr
 /// minimising the mean relative mean-absolute error. Position and orientation parameters
 /// act independently, so each is chosen by its own error. Returns the tuned parameters
 /// and, per grid value, the relative errors of constant velocity and DESP.
-pub fn tune(traces: &[Vec<Sample>], lookaheads_ms: &[u32], base: &TrackingParams) -> (TrackingParams, Vec<(f32, [(f64, f64); 3])>) {
+pub fn tune(
+    traces: &[Vec<Sample>],
+    lookaheads_ms: &[u32],
+    base: &TrackingParams,
+) -> (TrackingParams, Vec<GridRow>) {
     let mut table = Vec::new();
     let mut best = *base;
     let mut scores = [f64::INFINITY; 4];
@@ -208,7 +255,10 @@ pub fn tune(traces: &[Vec<Sample>], lookaheads_ms: &[u32], base: &TrackingParams
         for (slot, value) in candidates.into_iter().enumerate() {
             if value < scores[slot] {
                 scores[slot] = value;
-                let (cv, desp) = (&mut best.prediction.constant_velocity, &mut best.prediction.desp);
+                let (cv, desp) = (
+                    &mut best.prediction.constant_velocity,
+                    &mut best.prediction.desp,
+                );
                 match slot {
                     0 => cv.position_time_constant_ms = g,
                     1 => cv.orientation_time_constant_ms = g,
@@ -252,11 +302,21 @@ mod tests {
 
     #[test]
     fn predictors_beat_no_prediction_on_the_first_hololens_trace() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/tracking/pred6dof/1.csv");
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/tracking/pred6dof/1.csv");
         let (clean, report) = clean(&read_csv(&path, None).unwrap().samples);
         assert_eq!(report.rejected(), 0);
-        let rows = evaluate(&resample(&clean), &[20, 40, 60, 80, 100], &TrackingParams::default());
-        assert!(failures(&rows).is_empty(), "{:?}\n{}", failures(&rows), table(&rows));
+        let rows = evaluate(
+            &resample(&clean),
+            &[20, 40, 60, 80, 100],
+            &TrackingParams::default(),
+        );
+        assert!(
+            failures(&rows).is_empty(),
+            "{:?}\n{}",
+            failures(&rows),
+            table(&rows)
+        );
         let csv = csv_line("1.csv", &rows[0]);
         assert_eq!(csv.split(',').count(), CSV_HEADER.split(',').count());
     }

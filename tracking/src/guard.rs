@@ -23,7 +23,10 @@ pub struct GuardConfig {
 
 impl Default for GuardConfig {
     fn default() -> Self {
-        GuardConfig { unit_tolerance: 0.01, gap_ms: 100.0 }
+        GuardConfig {
+            unit_tolerance: 0.01,
+            gap_ms: 100.0,
+        }
     }
 }
 
@@ -106,7 +109,11 @@ pub struct SampleGuard {
 
 impl SampleGuard {
     pub fn new(config: GuardConfig) -> Self {
-        SampleGuard { config, last_t: None, report: GuardReport::default() }
+        SampleGuard {
+            config,
+            last_t: None,
+            report: GuardReport::default(),
+        }
     }
 
     /// Checks one sample and counts the outcome.
@@ -123,8 +130,9 @@ impl SampleGuard {
         }
         let mut sample = sample;
         let norm = sample.pose.orientation.length();
-        if norm != 1.0 {
-            sample.pose.orientation /= norm;
+        sample.pose.orientation /= norm;
+        // Counted only beyond f32 rounding of values written with ~7 digits.
+        if (norm - 1.0).abs() > 1e-5 {
             self.report.renormalised += 1;
         }
         let gap_ns = (self.config.gap_ms.max(0.0) as f64 * 1e6) as u64;
@@ -142,11 +150,14 @@ impl SampleGuard {
             return Some(Rejection::NonFinite);
         }
         let norm = s.pose.orientation.length();
-        if !((norm - 1.0).abs() <= self.config.unit_tolerance) {
+        let within = (norm - 1.0).abs() <= self.config.unit_tolerance; // false for NaN
+        if !within {
             return Some(Rejection::NotUnit { norm });
         }
         match self.last_t {
-            Some(last) if s.t_ns < last => Some(Rejection::Backwards { by_ns: last - s.t_ns }),
+            Some(last) if s.t_ns < last => Some(Rejection::Backwards {
+                by_ns: last - s.t_ns,
+            }),
             Some(last) if s.t_ns == last => Some(Rejection::Duplicate),
             _ => None,
         }
@@ -189,20 +200,46 @@ mod tests {
             at(500, ok),
         ];
         let results: Vec<Checked> = inputs.iter().map(|&s| g.check(s)).collect();
-        assert!(matches!(results[0], Checked::Accepted { after_gap: false, .. }));
+        assert!(matches!(
+            results[0],
+            Checked::Accepted {
+                after_gap: false,
+                ..
+            }
+        ));
         assert_eq!(results[1], Checked::Rejected(Rejection::NonFinite));
-        assert!(matches!(results[2], Checked::Rejected(Rejection::NotUnit { .. })));
-        assert!(matches!(results[3], Checked::Rejected(Rejection::NotUnit { .. })));
+        assert!(matches!(
+            results[2],
+            Checked::Rejected(Rejection::NotUnit { .. })
+        ));
+        assert!(matches!(
+            results[3],
+            Checked::Rejected(Rejection::NotUnit { .. })
+        ));
         match results[4] {
-            Checked::Accepted { sample, .. } => assert!((sample.pose.orientation.length() - 1.0).abs() < 1e-6),
+            Checked::Accepted { sample, .. } => {
+                assert!((sample.pose.orientation.length() - 1.0).abs() < 1e-6)
+            }
             other => panic!("{other:?}"),
         }
-        assert_eq!(results[5], Checked::Rejected(Rejection::Backwards { by_ns: 5_000_000 }));
+        assert_eq!(
+            results[5],
+            Checked::Rejected(Rejection::Backwards { by_ns: 5_000_000 })
+        );
         assert_eq!(results[6], Checked::Rejected(Rejection::Duplicate));
-        assert!(matches!(results[7], Checked::Accepted { after_gap: true, .. }));
+        assert!(matches!(
+            results[7],
+            Checked::Accepted {
+                after_gap: true,
+                ..
+            }
+        ));
         let r = g.report();
         assert_eq!((r.accepted, r.renormalised, r.gaps), (3, 1, 1));
-        assert_eq!((r.non_finite, r.not_unit, r.backwards, r.duplicates), (1, 2, 1, 1));
+        assert_eq!(
+            (r.non_finite, r.not_unit, r.backwards, r.duplicates),
+            (1, 2, 1, 1)
+        );
         assert!(r.to_string().contains("5 rejected"));
     }
 }

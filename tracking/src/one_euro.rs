@@ -6,7 +6,7 @@
 use glam::{Quat, Vec3, Vec4};
 use serde::{Deserialize, Serialize};
 
-use crate::pose::{seconds_between, Pose, Sample};
+use crate::pose::{Pose, Sample, seconds_between};
 
 /// Filter parameters (one set for position, one for orientation).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -35,7 +35,10 @@ struct OneEuro<V> {
 
 impl<V> OneEuro<V>
 where
-    V: Copy + std::ops::Sub<Output = V> + std::ops::Add<Output = V> + std::ops::Mul<f32, Output = V>,
+    V: Copy
+        + std::ops::Sub<Output = V>
+        + std::ops::Add<Output = V>
+        + std::ops::Mul<f32, Output = V>,
 {
     fn step(&mut self, x: V, dt: f32, norm: impl Fn(V) -> f32) -> V {
         let raw_dx = (x - self.x) * (1.0 / dt);
@@ -58,7 +61,11 @@ pub struct OneEuroPose {
 
 impl OneEuroPose {
     pub fn new(position: OneEuroParams, orientation: OneEuroParams) -> Self {
-        OneEuroPose { position, orientation, state: None }
+        OneEuroPose {
+            position,
+            orientation,
+            state: None,
+        }
     }
 
     /// Filters one sample; its quaternion must be in the hemisphere of the previous one.
@@ -67,8 +74,16 @@ impl OneEuroPose {
         let Some((t, p, o)) = &mut self.state else {
             self.state = Some((
                 s.t_ns,
-                OneEuro { params: self.position, x: s.pose.position, dx: Vec3::ZERO },
-                OneEuro { params: self.orientation, x: q, dx: Vec4::ZERO },
+                OneEuro {
+                    params: self.position,
+                    x: s.pose.position,
+                    dx: Vec3::ZERO,
+                },
+                OneEuro {
+                    params: self.orientation,
+                    x: q,
+                    dx: Vec4::ZERO,
+                },
             ));
             return s;
         };
@@ -94,7 +109,11 @@ mod tests {
     use super::*;
     use crate::synthetic::Motion;
 
-    const P: OneEuroParams = OneEuroParams { min_cutoff: 1.0, beta: 1.0, d_cutoff: 1.0 };
+    const P: OneEuroParams = OneEuroParams {
+        min_cutoff: 1.0,
+        beta: 1.0,
+        d_cutoff: 1.0,
+    };
 
     #[test]
     fn jitter_is_reduced_when_still() {
@@ -121,11 +140,18 @@ mod tests {
             let mut f = OneEuroPose::new(P, OneEuroParams { beta, ..P });
             let errs: Vec<f32> = samples
                 .iter()
-                .map(|&s| crate::rotation::angle_between(f.filter(s).pose.orientation, s.pose.orientation))
+                .map(|&s| {
+                    crate::rotation::angle_between(f.filter(s).pose.orientation, s.pose.orientation)
+                })
                 .collect();
             errs[100..].iter().sum::<f32>() / (errs.len() - 100) as f32
         };
         let (plain, adaptive) = (mean_lag(0.0), mean_lag(5.0));
-        assert!(adaptive < 0.25 * plain, "{} vs {} degrees", adaptive.to_degrees(), plain.to_degrees());
+        assert!(
+            adaptive < 0.25 * plain,
+            "{} vs {} degrees",
+            adaptive.to_degrees(),
+            plain.to_degrees()
+        );
     }
 }

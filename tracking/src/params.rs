@@ -21,8 +21,16 @@ impl Default for FilterConfig {
     fn default() -> Self {
         FilterConfig {
             enabled: false,
-            position: OneEuroParams { min_cutoff: 1.0, beta: 1.0, d_cutoff: 1.0 },
-            orientation: OneEuroParams { min_cutoff: 1.0, beta: 1.0, d_cutoff: 1.0 },
+            position: OneEuroParams {
+                min_cutoff: 1.0,
+                beta: 1.0,
+                d_cutoff: 1.0,
+            },
+            orientation: OneEuroParams {
+                min_cutoff: 1.0,
+                beta: 1.0,
+                d_cutoff: 1.0,
+            },
         }
     }
 }
@@ -44,7 +52,10 @@ impl Default for PredictionConfig {
                 position_time_constant_ms: 5.0,
                 orientation_time_constant_ms: 5.0,
             },
-            desp: DespParams { position_time_constant_ms: 5.0, orientation_time_constant_ms: 5.0 },
+            desp: DespParams {
+                position_time_constant_ms: 5.0,
+                orientation_time_constant_ms: 5.0,
+            },
         }
     }
 }

@@ -31,7 +31,9 @@ impl HeadTracker {
         HeadTracker {
             guard: SampleGuard::new(params.guard),
             hemisphere: Hemisphere::new(),
-            filter: f.enabled.then(|| OneEuroPose::new(f.position, f.orientation)),
+            filter: f
+                .enabled
+                .then(|| OneEuroPose::new(f.position, f.orientation)),
             predictor: Predictor::new(kind, p.constant_velocity, p.desp),
         }
     }
@@ -39,7 +41,11 @@ impl HeadTracker {
     /// Feeds one raw sample; says what the guard made of it.
     pub fn push(&mut self, sample: Sample) -> Checked {
         let checked = self.guard.check(sample);
-        if let Checked::Accepted { mut sample, after_gap } = checked {
+        if let Checked::Accepted {
+            mut sample,
+            after_gap,
+        } = checked
+        {
             if after_gap {
                 self.hemisphere.reset();
                 self.predictor.reset();

@@ -11,10 +11,16 @@ pub struct Pose {
 
 impl Pose {
     /// The origin, unrotated.
-    pub const IDENTITY: Pose = Pose { position: Vec3::ZERO, orientation: Quat::IDENTITY };
+    pub const IDENTITY: Pose = Pose {
+        position: Vec3::ZERO,
+        orientation: Quat::IDENTITY,
+    };
 
     pub fn new(position: Vec3, orientation: Quat) -> Self {
-        Pose { position, orientation }
+        Pose {
+            position,
+            orientation,
+        }
     }
 
     /// True when no component is NaN or infinite.
@@ -55,7 +61,10 @@ mod tests {
 
     #[test]
     fn compose_applies_rotation_to_offset() {
-        let head = Pose::new(Vec3::new(1.0, 2.0, 3.0), Quat::from_rotation_y(std::f32::consts::FRAC_PI_2));
+        let head = Pose::new(
+            Vec3::new(1.0, 2.0, 3.0),
+            Quat::from_rotation_y(std::f32::consts::FRAC_PI_2),
+        );
         let eyes = Pose::new(Vec3::new(1.0, 0.0, 0.0), Quat::IDENTITY);
         let p = head.compose(&eyes);
         assert!((p.position - Vec3::new(1.0, 2.0, 2.0)).length() < 1e-6);

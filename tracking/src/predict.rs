@@ -12,7 +12,7 @@
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 
-use crate::pose::{seconds_between, Pose, Sample};
+use crate::pose::{Pose, Sample, seconds_between};
 use crate::rotation::{exp, log, slerp};
 
 /// Which predictor a pipeline uses.
@@ -26,7 +26,11 @@ pub enum PredictorKind {
 }
 
 impl PredictorKind {
-    pub const ALL: [PredictorKind; 3] = [PredictorKind::None, PredictorKind::ConstantVelocity, PredictorKind::Desp];
+    pub const ALL: [PredictorKind; 3] = [
+        PredictorKind::None,
+        PredictorKind::ConstantVelocity,
+        PredictorKind::Desp,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -59,7 +63,11 @@ pub struct DespParams {
 
 /// `α = 1 − e^(−dt/T)`; `T = 0` means no smoothing (α = 1).
 fn alpha(dt: f32, time_constant_ms: f32) -> f32 {
-    if time_constant_ms <= 0.0 { 1.0 } else { 1.0 - (-dt * 1000.0 / time_constant_ms).exp() }
+    if time_constant_ms <= 0.0 {
+        1.0
+    } else {
+        1.0 - (-dt * 1000.0 / time_constant_ms).exp()
+    }
 }
 
 /// Constant-velocity predictor state.
@@ -73,7 +81,11 @@ pub struct ConstantVelocity {
 
 impl ConstantVelocity {
     pub fn new(params: ConstantVelocityParams) -> Self {
-        ConstantVelocity { params, last: None, velocity: None }
+        ConstantVelocity {
+            params,
+            last: None,
+            velocity: None,
+        }
     }
 
     pub fn update(&mut self, s: Sample) {
@@ -97,9 +109,14 @@ impl ConstantVelocity {
 
     pub fn predict(&self, t_ns: u64) -> Option<Pose> {
         let last = self.last?;
-        let Some((v, w)) = self.velocity else { return Some(last.pose) };
+        let Some((v, w)) = self.velocity else {
+            return Some(last.pose);
+        };
         let ahead = seconds_between(last.t_ns, t_ns);
-        Some(Pose::new(last.pose.position + v * ahead, (last.pose.orientation * exp(w * ahead)).normalize()))
+        Some(Pose::new(
+            last.pose.position + v * ahead,
+            (last.pose.orientation * exp(w * ahead)).normalize(),
+        ))
     }
 }
 
@@ -123,20 +140,34 @@ struct DespState {
 
 impl Desp {
     pub fn new(params: DespParams) -> Self {
-        Desp { params, state: None }
+        Desp {
+            params,
+            state: None,
+        }
     }
 
     pub fn update(&mut self, s: Sample) {
         let (p, q) = (s.pose.position, s.pose.orientation);
         let Some(st) = &mut self.state else {
-            self.state = Some(DespState { t_ns: s.t_ns, dt: 0.0, s_p: p, s2_p: p, s_q: q, s2_q: q });
+            self.state = Some(DespState {
+                t_ns: s.t_ns,
+                dt: 0.0,
+                s_p: p,
+                s2_p: p,
+                s_q: q,
+                s2_q: q,
+            });
             return;
         };
         let dt = seconds_between(st.t_ns, s.t_ns);
         if dt <= 0.0 {
             return;
         }
-        st.dt = if st.dt == 0.0 { dt } else { st.dt + 0.1 * (dt - st.dt) };
+        st.dt = if st.dt == 0.0 {
+            dt
+        } else {
+            st.dt + 0.1 * (dt - st.dt)
+        };
         st.t_ns = s.t_ns;
         let a_p = alpha(dt, self.params.position_time_constant_ms);
         let a_q = alpha(dt, self.params.orientation_time_constant_ms);
@@ -176,7 +207,9 @@ impl Predictor {
     pub fn new(kind: PredictorKind, cv: ConstantVelocityParams, desp: DespParams) -> Self {
         match kind {
             PredictorKind::None => Predictor::None(None),
-            PredictorKind::ConstantVelocity => Predictor::ConstantVelocity(ConstantVelocity::new(cv)),
+            PredictorKind::ConstantVelocity => {
+                Predictor::ConstantVelocity(ConstantVelocity::new(cv))
+            }
             PredictorKind::Desp => Predictor::Desp(Desp::new(desp)),
         }
     }
@@ -214,14 +247,22 @@ mod tests {
     use super::*;
     use crate::rotation::angle_between;
 
-    const CV: ConstantVelocityParams =
-        ConstantVelocityParams { position_time_constant_ms: 0.0, orientation_time_constant_ms: 0.0 };
-    const DESP: DespParams = DespParams { position_time_constant_ms: 30.0, orientation_time_constant_ms: 30.0 };
+    const CV: ConstantVelocityParams = ConstantVelocityParams {
+        position_time_constant_ms: 0.0,
+        orientation_time_constant_ms: 0.0,
+    };
+    const DESP: DespParams = DespParams {
+        position_time_constant_ms: 30.0,
+        orientation_time_constant_ms: 30.0,
+    };
 
     /// Uniform motion: 0.5 m/s along x, 1 rad/s about y.
     fn uniform(i: u64) -> Sample {
         let t = i as f32 * 0.005;
-        Sample::new(i * 5_000_000, Pose::new(Vec3::new(0.5 * t, 1.7, 0.0), Quat::from_rotation_y(t)))
+        Sample::new(
+            i * 5_000_000,
+            Pose::new(Vec3::new(0.5 * t, 1.7, 0.0), Quat::from_rotation_y(t)),
+        )
     }
 
     #[test]
@@ -233,8 +274,14 @@ mod tests {
             }
             let truth = uniform(399 + 20); // 100 ms ahead
             let got = p.predict(truth.t_ns).unwrap();
-            assert!((got.position - truth.pose.position).length() < 1e-4, "{kind:?}: {got:?}");
-            assert!(angle_between(got.orientation, truth.pose.orientation) < 1e-4, "{kind:?}");
+            assert!(
+                (got.position - truth.pose.position).length() < 1e-4,
+                "{kind:?}: {got:?}"
+            );
+            assert!(
+                angle_between(got.orientation, truth.pose.orientation) < 1e-4,
+                "{kind:?}"
+            );
         }
     }
 

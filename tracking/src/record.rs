@@ -14,7 +14,10 @@ use crate::source::{Next, TrackerSource};
 #[derive(Debug, thiserror::Error)]
 pub enum RecordError {
     #[error("cannot write recording {path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("an endless source (VRPN, synthetic) needs a duration")]
     Endless,
 }
@@ -29,16 +32,27 @@ pub struct RecordReport {
 /// Writes one sample as a CSV line.
 pub fn write_sample(out: &mut impl Write, s: &Sample) -> std::io::Result<()> {
     let (p, q) = (s.pose.position, s.pose.orientation);
-    writeln!(out, "{},{},{},{},{},{},{},{}", s.t_ns, p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+    writeln!(
+        out,
+        "{},{},{},{},{},{},{},{}",
+        s.t_ns, p.x, p.y, p.z, q.x, q.y, q.z, q.w
+    )
 }
 
 /// Records `source` to `path` for `seconds` of sample time (and at most that long on the
 /// wall clock when the source is live), or until the source ends.
-pub fn record(source: &mut dyn TrackerSource, path: &Path, seconds: Option<f64>) -> Result<RecordReport, RecordError> {
+pub fn record(
+    source: &mut dyn TrackerSource,
+    path: &Path,
+    seconds: Option<f64>,
+) -> Result<RecordReport, RecordError> {
     if seconds.is_none() && source.endless() {
         return Err(RecordError::Endless);
     }
-    let io = |source| RecordError::Io { path: path.to_owned(), source };
+    let io = |source| RecordError::Io {
+        path: path.to_owned(),
+        source,
+    };
     let mut out = BufWriter::new(std::fs::File::create(path).map_err(io)?);
     writeln!(out, "# unit: ns\ntimestamp,x,y,z,qx,qy,qz,qw").map_err(io)?;
     let limit_ns = seconds.map(|s| (s.max(0.0) * 1e9) as u64);
@@ -64,21 +78,32 @@ pub fn record(source: &mut dyn TrackerSource, path: &Path, seconds: Option<f64>)
         }
     }
     out.flush().map_err(io)?;
-    Ok(RecordReport { written, guard: guard.report() })
+    Ok(RecordReport {
+        written,
+        guard: guard.report(),
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::csv_log::{read_csv, TimeUnit};
-    use crate::source::{open, Pacing, SourceSpec};
+    use crate::csv_log::{TimeUnit, read_csv};
+    use crate::source::{Pacing, SourceSpec, open};
 
     #[test]
     fn synthetic_recording_reads_back_exactly_enough() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("nod.csv");
-        let mut src = open(&"synthetic:nod".parse().unwrap(), Pacing::AsFastAsPossible, None).unwrap();
-        assert!(matches!(record(src.as_mut(), &path, None), Err(RecordError::Endless)));
+        let mut src = open(
+            &"synthetic:nod".parse().unwrap(),
+            Pacing::AsFastAsPossible,
+            None,
+        )
+        .unwrap();
+        assert!(matches!(
+            record(src.as_mut(), &path, None),
+            Err(RecordError::Endless)
+        ));
         let report = record(src.as_mut(), &path, Some(2.0)).unwrap();
         assert_eq!(report.written, 241);
         let log = read_csv(&path, None).unwrap();
@@ -102,8 +127,16 @@ mod tests {
         .unwrap();
         let out = dir.path().join("out.csv");
         let spec: SourceSpec = format!("file:{}", input.display()).parse().unwrap();
-        let mut src = open(&spec, Pacing::AsFastAsPossible, Some(TimeUnit::Milliseconds)).unwrap();
+        let mut src = open(
+            &spec,
+            Pacing::AsFastAsPossible,
+            Some(TimeUnit::Milliseconds),
+        )
+        .unwrap();
         let r = record(src.as_mut(), &out, None).unwrap();
-        assert_eq!((r.written, r.guard.non_finite, r.guard.backwards), (3, 1, 1));
+        assert_eq!(
+            (r.written, r.guard.non_finite, r.guard.backwards),
+            (3, 1, 1)
+        );
     }
 }

@@ -48,7 +48,10 @@ mod tests {
         for angle in [1e-9_f32, 1e-4, 0.01, 1.0, 3.0] {
             let v = Vec3::new(0.3, -0.8, 0.52).normalize() * angle;
             let back = log(exp(v));
-            assert!((back - v).length() <= 1e-6 * angle.max(1.0), "{angle}: {back} vs {v}");
+            assert!(
+                (back - v).length() <= 1e-6 * angle.max(1.0),
+                "{angle}: {back} vs {v}"
+            );
         }
     }
 

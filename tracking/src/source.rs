@@ -7,11 +7,11 @@ use std::path::PathBuf;
 use std::str::FromStr;
 use std::time::{Duration, Instant};
 
-use crate::csv_log::{read_csv, CsvError, TimeUnit};
+use crate::csv_log::{CsvError, TimeUnit, read_csv};
 use crate::pose::Sample;
 use crate::synthetic::Motion;
 use crate::vrpn::{ClientOptions, VrpnClient, VrpnEvent, VrpnTarget};
-use crate::vrpn_log::{read_vrpn_log, VrpnLogError};
+use crate::vrpn_log::{VrpnLogError, read_vrpn_log};
 use crate::vrpn_wire::TrackerSelector;
 
 /// Rate of synthetic sources.
@@ -44,12 +44,24 @@ impl FromStr for SourceSpec {
                 return Ok(SourceSpec::Csv(path.into()));
             }
             let (device, sensor) = match select.map(|s| s.split_once(':').unwrap_or((s, "0"))) {
-                Some((d, n)) => (d, n.parse().map_err(|_| format!("sensor `{n}` in `{s}` is not an integer"))?),
+                Some((d, n)) => (
+                    d,
+                    n.parse()
+                        .map_err(|_| format!("sensor `{n}` in `{s}` is not an integer"))?,
+                ),
                 None => ("Tracker0", 0),
             };
-            return Ok(SourceSpec::VrpnLog(path.into(), TrackerSelector { device: device.to_owned(), sensor }));
+            return Ok(SourceSpec::VrpnLog(
+                path.into(),
+                TrackerSelector {
+                    device: device.to_owned(),
+                    sensor,
+                },
+            ));
         }
-        Err(format!("source `{s}` is not vrpn://DEVICE@HOST[:PORT][#SENSOR], file:PATH or synthetic:NAME"))
+        Err(format!(
+            "source `{s}` is not vrpn://DEVICE@HOST[:PORT][#SENSOR], file:PATH or synthetic:NAME"
+        ))
     }
 }
 
@@ -88,24 +100,44 @@ pub trait TrackerSource {
 }
 
 /// Opens a source. `unit` forces the time unit of CSV logs.
-pub fn open(spec: &SourceSpec, pacing: Pacing, unit: Option<TimeUnit>) -> Result<Box<dyn TrackerSource>, SourceError> {
+pub fn open(
+    spec: &SourceSpec,
+    pacing: Pacing,
+    unit: Option<TimeUnit>,
+) -> Result<Box<dyn TrackerSource>, SourceError> {
     Ok(match spec {
-        SourceSpec::Vrpn(target) => Box::new(VrpnSource(VrpnClient::spawn(target.clone(), ClientOptions::default()))),
+        SourceSpec::Vrpn(target) => Box::new(VrpnSource(VrpnClient::spawn(
+            target.clone(),
+            ClientOptions::default(),
+        ))),
         SourceSpec::Csv(path) => {
             let log = read_csv(path, unit)?;
             if log.malformed_count > 0 {
-                tracing::warn!("{}: skipped {} malformed lines, first: {:?}", path.display(), log.malformed_count, log.malformed);
+                tracing::warn!(
+                    "{}: skipped {} malformed lines, first: {:?}",
+                    path.display(),
+                    log.malformed_count,
+                    log.malformed
+                );
             }
             Box::new(Replay::new(log.samples, pacing))
         }
         SourceSpec::VrpnLog(path, selector) => {
             let log = read_vrpn_log(path, selector)?;
             if let Some(at) = log.truncated_at {
-                tracing::warn!("{}: truncated at byte {at}; replaying what came before", path.display());
+                tracing::warn!(
+                    "{}: truncated at byte {at}; replaying what came before",
+                    path.display()
+                );
             }
             Box::new(Replay::new(log.samples, pacing))
         }
-        SourceSpec::Synthetic(m) => Box::new(Synthetic { motion: *m, i: 0, pacing, start: None }),
+        SourceSpec::Synthetic(m) => Box::new(Synthetic {
+            motion: *m,
+            i: 0,
+            pacing,
+            start: None,
+        }),
     })
 }
 
@@ -119,7 +151,12 @@ pub struct Replay {
 
 impl Replay {
     pub fn new(samples: Vec<Sample>, pacing: Pacing) -> Self {
-        Replay { samples: samples.into_iter(), pacing, start: None, pending: None }
+        Replay {
+            samples: samples.into_iter(),
+            pacing,
+            start: None,
+            pending: None,
+        }
     }
 }
 
@@ -139,7 +176,9 @@ fn pace(start: &mut Option<(Instant, u64)>, sample: Sample, deadline: Instant) -
 
 impl TrackerSource for Replay {
     fn next(&mut self, deadline: Instant) -> Next {
-        let Some(sample) = self.pending.take().or_else(|| self.samples.next()) else { return Next::End };
+        let Some(sample) = self.pending.take().or_else(|| self.samples.next()) else {
+            return Next::End;
+        };
         if self.pacing == Pacing::AsFastAsPossible {
             return Next::Sample(sample);
         }
@@ -189,7 +228,9 @@ impl TrackerSource for VrpnSource {
             let wait = deadline.saturating_duration_since(Instant::now());
             match self.0.recv_timeout(wait) {
                 Ok(VrpnEvent::Sample(s)) => return Next::Sample(s),
-                Ok(VrpnEvent::Connected { addr }) => tracing::info!("connected to VRPN server {addr}"),
+                Ok(VrpnEvent::Connected { addr }) => {
+                    tracing::info!("connected to VRPN server {addr}")
+                }
                 Ok(VrpnEvent::Disconnected(e)) => tracing::warn!("{e}"),
                 Err(_) => return Next::Idle,
             }
@@ -209,17 +250,40 @@ mod tests {
     fn source_strings_parse() {
         let v: SourceSpec = "vrpn://Tracker0@localhost:3883#1".parse().unwrap();
         assert!(matches!(v, SourceSpec::Vrpn(t) if t.sensor == 1 && t.port == 3883));
-        assert_eq!("file:a/b.csv".parse(), Ok(SourceSpec::Csv("a/b.csv".into())));
+        assert_eq!(
+            "file:a/b.csv".parse(),
+            Ok(SourceSpec::Csv("a/b.csv".into()))
+        );
         assert_eq!(
             "file:x.vrpn#Head:2".parse(),
-            Ok(SourceSpec::VrpnLog("x.vrpn".into(), TrackerSelector { device: "Head".into(), sensor: 2 }))
+            Ok(SourceSpec::VrpnLog(
+                "x.vrpn".into(),
+                TrackerSelector {
+                    device: "Head".into(),
+                    sensor: 2
+                }
+            ))
         );
         assert_eq!(
             "file:x.vrpn".parse(),
-            Ok(SourceSpec::VrpnLog("x.vrpn".into(), TrackerSelector { device: "Tracker0".into(), sensor: 0 }))
+            Ok(SourceSpec::VrpnLog(
+                "x.vrpn".into(),
+                TrackerSelector {
+                    device: "Tracker0".into(),
+                    sensor: 0
+                }
+            ))
         );
-        assert_eq!("synthetic:nod".parse(), Ok(SourceSpec::Synthetic(Motion::Nod)));
-        assert!("http://x".parse::<SourceSpec>().unwrap_err().contains("synthetic:NAME"));
+        assert_eq!(
+            "synthetic:nod".parse(),
+            Ok(SourceSpec::Synthetic(Motion::Nod))
+        );
+        assert!(
+            "http://x"
+                .parse::<SourceSpec>()
+                .unwrap_err()
+                .contains("synthetic:NAME")
+        );
     }
 
     #[test]
@@ -235,7 +299,10 @@ mod tests {
 
     #[test]
     fn real_time_replay_holds_a_sample_that_is_not_due() {
-        let samples = vec![Motion::Still.sample(0, 1.0), Motion::Still.sample(3600, 1.0)];
+        let samples = vec![
+            Motion::Still.sample(0, 1.0),
+            Motion::Still.sample(3600, 1.0),
+        ];
         let mut r = Replay::new(samples.clone(), Pacing::RealTime);
         assert_eq!(r.next(Instant::now()), Next::Sample(samples[0]));
         assert_eq!(r.next(Instant::now()), Next::Idle, "an hour early");

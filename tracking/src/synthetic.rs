@@ -29,7 +29,13 @@ pub enum Motion {
 }
 
 impl Motion {
-    pub const ALL: [Motion; 5] = [Motion::Still, Motion::Walk, Motion::Turn, Motion::Nod, Motion::Shake];
+    pub const ALL: [Motion; 5] = [
+        Motion::Still,
+        Motion::Walk,
+        Motion::Turn,
+        Motion::Nod,
+        Motion::Shake,
+    ];
 
     /// The true pose `t` seconds after the start.
     pub fn pose_at(self, t: f64) -> Pose {
@@ -44,9 +50,18 @@ impl Motion {
                 let yaw = -0.3 * phase(8.0).cos();
                 Pose::new(base + Vec3::new(x, bob, 0.0), Quat::from_rotation_y(yaw))
             }
-            Motion::Turn => Pose::new(base, Quat::from_rotation_y(90f32.to_radians() * phase(4.0).sin())),
-            Motion::Nod => Pose::new(base, Quat::from_rotation_x(20f32.to_radians() * phase(1.0).sin())),
-            Motion::Shake => Pose::new(base, Quat::from_rotation_y(30f32.to_radians() * phase(1.0 / 3.0).sin())),
+            Motion::Turn => Pose::new(
+                base,
+                Quat::from_rotation_y(90f32.to_radians() * phase(4.0).sin()),
+            ),
+            Motion::Nod => Pose::new(
+                base,
+                Quat::from_rotation_x(20f32.to_radians() * phase(1.0).sin()),
+            ),
+            Motion::Shake => Pose::new(
+                base,
+                Quat::from_rotation_y(30f32.to_radians() * phase(1.0 / 3.0).sin()),
+            ),
         }
     }
 
@@ -69,7 +84,9 @@ impl FromStr for Motion {
         Motion::ALL
             .into_iter()
             .find(|m| m.to_string() == s)
-            .ok_or_else(|| format!("unknown synthetic motion `{s}` (expected still, walk, turn, nod or shake)"))
+            .ok_or_else(|| {
+                format!("unknown synthetic motion `{s}` (expected still, walk, turn, nod or shake)")
+            })
     }
 }
 
@@ -96,9 +113,18 @@ mod tests {
             assert_eq!(m.to_string().parse::<Motion>(), Ok(m));
             let s = m.samples(120.0, 8.0);
             assert_eq!(s.len(), 961);
-            assert!(s.iter().all(|s| (s.pose.orientation.length() - 1.0).abs() < 1e-6));
-            let max_angle = s.iter().map(|s| angle_between(Quat::IDENTITY, s.pose.orientation)).fold(0.0, f32::max);
-            let max_x = s.iter().map(|s| s.pose.position.x.abs()).fold(0.0, f32::max);
+            assert!(
+                s.iter()
+                    .all(|s| (s.pose.orientation.length() - 1.0).abs() < 1e-6)
+            );
+            let max_angle = s
+                .iter()
+                .map(|s| angle_between(Quat::IDENTITY, s.pose.orientation))
+                .fold(0.0, f32::max);
+            let max_x = s
+                .iter()
+                .map(|s| s.pose.position.x.abs())
+                .fold(0.0, f32::max);
             let expected_angle = match m {
                 Motion::Still => 0.0,
                 Motion::Walk => 0.3,
@@ -106,8 +132,14 @@ mod tests {
                 Motion::Nod => 20f32.to_radians(),
                 Motion::Shake => 30f32.to_radians(),
             };
-            assert!((max_angle - expected_angle).abs() < 0.01, "{m}: {max_angle}");
-            assert!((max_x - if m == Motion::Walk { 1.0 } else { 0.0 }).abs() < 1e-3, "{m}: {max_x}");
+            assert!(
+                (max_angle - expected_angle).abs() < 0.01,
+                "{m}: {max_angle}"
+            );
+            assert!(
+                (max_x - if m == Motion::Walk { 1.0 } else { 0.0 }).abs() < 1e-3,
+                "{m}: {max_x}"
+            );
         }
         assert!("jog".parse::<Motion>().unwrap_err().contains("shake"));
     }

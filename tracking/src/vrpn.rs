@@ -17,8 +17,8 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use crate::pose::Sample;
 use crate::vrpn_wire::{
-    cookie, Message, RemoteNames, StreamDecoder, TrackerSelector, WireError, POS_QUAT, SENDER_DESCRIPTION,
-    TYPE_DESCRIPTION,
+    Message, POS_QUAT, RemoteNames, SENDER_DESCRIPTION, StreamDecoder, TYPE_DESCRIPTION,
+    TrackerSelector, WireError, cookie,
 };
 
 /// VRPN's well-known server port.
@@ -37,25 +37,43 @@ impl FromStr for VrpnTarget {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         let (rest, sensor) = match s.split_once('#') {
-            Some((r, n)) => (r, n.parse().map_err(|_| format!("sensor `{n}` in `{s}` is not an integer"))?),
+            Some((r, n)) => (
+                r,
+                n.parse()
+                    .map_err(|_| format!("sensor `{n}` in `{s}` is not an integer"))?,
+            ),
             None => (s, 0),
         };
-        let (device, addr) =
-            rest.split_once('@').ok_or_else(|| format!("`{s}` is not DEVICE@HOST[:PORT][#SENSOR]"))?;
+        let (device, addr) = rest
+            .split_once('@')
+            .ok_or_else(|| format!("`{s}` is not DEVICE@HOST[:PORT][#SENSOR]"))?;
         let (host, port) = match addr.rsplit_once(':') {
-            Some((h, p)) => (h, p.parse().map_err(|_| format!("port `{p}` in `{s}` is not a number"))?),
+            Some((h, p)) => (
+                h,
+                p.parse()
+                    .map_err(|_| format!("port `{p}` in `{s}` is not a number"))?,
+            ),
             None => (addr, DEFAULT_PORT),
         };
         if device.is_empty() || host.is_empty() {
             return Err(format!("`{s}` needs both a device name and a host"));
         }
-        Ok(VrpnTarget { device: device.to_owned(), host: host.to_owned(), port, sensor })
+        Ok(VrpnTarget {
+            device: device.to_owned(),
+            host: host.to_owned(),
+            port,
+            sensor,
+        })
     }
 }
 
 impl fmt::Display for VrpnTarget {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}@{}:{}#{}", self.device, self.host, self.port, self.sensor)
+        write!(
+            f,
+            "{}@{}:{}#{}",
+            self.device, self.host, self.port, self.sensor
+        )
     }
 }
 
@@ -119,7 +137,11 @@ impl VrpnClient {
             .name(format!("vrpn {target}"))
             .spawn(move || run(target, options, tx, stop_rx))
             .expect("spawning the VRPN client thread");
-        VrpnClient { events, stop: Some(stop), thread: Some(thread) }
+        VrpnClient {
+            events,
+            stop: Some(stop),
+            thread: Some(thread),
+        }
     }
 
     /// The next event, waiting at most `timeout`.
@@ -182,18 +204,30 @@ fn session(
     stop: &Receiver<()>,
 ) -> Result<Stop, (VrpnError, bool)> {
     let addr = format!("{}:{}", target.host, target.port);
-    let io = |source| (VrpnError::Io { addr: addr.clone(), source }, false);
-    let sock = addr
-        .to_socket_addrs()
-        .map_err(io)?
-        .next()
-        .ok_or_else(|| io(io::Error::new(io::ErrorKind::NotFound, "host has no address")))?;
+    let io = |source| {
+        (
+            VrpnError::Io {
+                addr: addr.clone(),
+                source,
+            },
+            false,
+        )
+    };
+    let sock = addr.to_socket_addrs().map_err(io)?.next().ok_or_else(|| {
+        io(io::Error::new(
+            io::ErrorKind::NotFound,
+            "host has no address",
+        ))
+    })?;
     let mut stream = TcpStream::connect_timeout(&sock, options.connect_timeout).map_err(io)?;
     stream.set_nodelay(true).map_err(io)?;
     stream.set_read_timeout(Some(options.poll)).map_err(io)?;
     stream.write_all(&hello(&target.device)).map_err(io)?;
 
-    let selector = TrackerSelector { device: target.device.clone(), sensor: target.sensor };
+    let selector = TrackerSelector {
+        device: target.device.clone(),
+        sensor: target.sensor,
+    };
     let mut decoder = StreamDecoder::new();
     let mut names = RemoteNames::default();
     let mut connected = false;
@@ -202,7 +236,12 @@ fn session(
         let n = match stream.read(&mut buf) {
             Ok(0) => return Err((VrpnError::Closed { addr }, connected)),
             Ok(n) => n,
-            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                ) =>
+            {
                 if stop_requested(stop) {
                     return Ok(Stop::Requested);
                 }
@@ -213,16 +252,33 @@ fn session(
         };
         decoder.feed(&buf[..n]);
         loop {
-            let protocol = |source| (VrpnError::Protocol { addr: addr.clone(), source }, true);
-            let Some(msg) = decoder
-                .next_message()
-                .map_err(|source| (VrpnError::Protocol { addr: addr.clone(), source }, connected))?
+            let protocol = |source| {
+                (
+                    VrpnError::Protocol {
+                        addr: addr.clone(),
+                        source,
+                    },
+                    true,
+                )
+            };
+            let Some(msg) = decoder.next_message().map_err(|source| {
+                (
+                    VrpnError::Protocol {
+                        addr: addr.clone(),
+                        source,
+                    },
+                    connected,
+                )
+            })?
             else {
                 break;
             };
             if !connected {
                 connected = true;
-                if tx.send(VrpnEvent::Connected { addr: addr.clone() }).is_err() {
+                if tx
+                    .send(VrpnEvent::Connected { addr: addr.clone() })
+                    .is_err()
+                {
                     return Ok(Stop::Requested);
                 }
             }
@@ -244,7 +300,9 @@ fn session(
 /// What the client sends first: its cookie, a sender description of the device it wants,
 /// and the type description of the reports it understands (as VRPN's clients do).
 fn hello(device: &str) -> Vec<u8> {
-    let now = SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default();
+    let now = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
     let time = (now.as_secs() as u32, now.subsec_micros());
     let mut out = cookie(0).to_vec();
     out.extend(Message::description(SENDER_DESCRIPTION, 0, device, 0, time).encode());
@@ -257,7 +315,7 @@ pub(crate) mod tests {
     use super::*;
     use crate::pose::Pose;
     use crate::rotation::angle_between;
-    use crate::vrpn_wire::{check_cookie, PosQuat, COOKIE_LEN};
+    use crate::vrpn_wire::{COOKIE_LEN, PosQuat, check_cookie};
     use glam::Vec3;
     use std::net::{SocketAddr, TcpListener};
 
@@ -284,7 +342,10 @@ pub(crate) mod tests {
         }
         let secs = (last.t_ns - first.t_ns) as f64 * 1e-9;
         let rate = turned / secs;
-        assert!((rate - std::f64::consts::PI).abs() < 0.02 * std::f64::consts::PI, "rate {rate} rad/s");
+        assert!(
+            (rate - std::f64::consts::PI).abs() < 0.02 * std::f64::consts::PI,
+            "rate {rate} rad/s"
+        );
     }
 
     /// A server that follows VRPN's protocol: checks the client's cookie and reads its
@@ -300,7 +361,9 @@ pub(crate) mod tests {
 
     impl FakeServer {
         fn bind(addr: &str) -> FakeServer {
-            FakeServer { listener: TcpListener::bind(addr).unwrap() }
+            FakeServer {
+                listener: TcpListener::bind(addr).unwrap(),
+            }
         }
 
         fn addr(&self) -> SocketAddr {
@@ -314,7 +377,10 @@ pub(crate) mod tests {
             std::thread::spawn(move || {
                 let _ = tx.send(listener.accept().map(|(s, _)| s));
             });
-            let mut stream = rx.recv_timeout(GUARD).expect("client never connected").unwrap();
+            let mut stream = rx
+                .recv_timeout(GUARD)
+                .expect("client never connected")
+                .unwrap();
             stream.set_read_timeout(Some(GUARD)).unwrap();
             let mut c = [0u8; COOKIE_LEN];
             stream.read_exact(&mut c).unwrap();
@@ -328,7 +394,10 @@ pub(crate) mod tests {
                 assert!(n > 0, "client closed during its descriptions");
                 dec.feed(&b[..n]);
                 while let Some(m) = dec.next_message().unwrap() {
-                    assert!(names.absorb(&m).unwrap(), "client sent a non-description first");
+                    assert!(
+                        names.absorb(&m).unwrap(),
+                        "client sent a non-description first"
+                    );
                 }
             }
             assert_eq!(names.sender(0), Some(device));
@@ -338,7 +407,14 @@ pub(crate) mod tests {
 
     impl Conn {
         fn send(&mut self, sender: i32, kind: i32, payload: Vec<u8>, t_ms: u32) {
-            let m = Message { sec: t_ms / 1000, usec: (t_ms % 1000) * 1000, sender, kind, seq: self.seq, payload };
+            let m = Message {
+                sec: t_ms / 1000,
+                usec: (t_ms % 1000) * 1000,
+                sender,
+                kind,
+                seq: self.seq,
+                payload,
+            };
             self.seq += 1;
             self.stream.write_all(&m.encode()).unwrap();
         }
@@ -348,23 +424,39 @@ pub(crate) mod tests {
             self.stream.write_all(&cookie(0)).unwrap();
             let d = |kind, id, name: &str| Message::description(kind, id, name, 0, (0, 0)).payload;
             self.send(5, SENDER_DESCRIPTION, d(SENDER_DESCRIPTION, 5, "other"), 0);
-            self.send(7, SENDER_DESCRIPTION, d(SENDER_DESCRIPTION, 7, "Tracker0"), 0);
+            self.send(
+                7,
+                SENDER_DESCRIPTION,
+                d(SENDER_DESCRIPTION, 7, "Tracker0"),
+                0,
+            );
             self.send(3, TYPE_DESCRIPTION, d(TYPE_DESCRIPTION, 3, POS_QUAT), 0);
         }
 
         fn report(&mut self, sender: i32, sensor: i32, x: f64, t_ms: u32) {
-            let pq = PosQuat { sensor, position: [x, 1.5, 0.0], quat: [0.0, 0.0, 0.0, 1.0] };
+            let pq = PosQuat {
+                sensor,
+                position: [x, 1.5, 0.0],
+                quat: [0.0, 0.0, 0.0, 1.0],
+            };
             self.send(sender, 3, pq.encode(), t_ms);
         }
     }
 
     fn client_for(addr: SocketAddr, sensor: i32) -> VrpnClient {
-        let target = VrpnTarget { device: "Tracker0".into(), host: "127.0.0.1".into(), port: addr.port(), sensor };
+        let target = VrpnTarget {
+            device: "Tracker0".into(),
+            host: "127.0.0.1".into(),
+            port: addr.port(),
+            sensor,
+        };
         VrpnClient::spawn(target, ClientOptions::default())
     }
 
     fn next(client: &VrpnClient) -> VrpnEvent {
-        client.recv_timeout(GUARD).expect("no event from the client")
+        client
+            .recv_timeout(GUARD)
+            .expect("no event from the client")
     }
 
     fn next_sample(client: &VrpnClient) -> Sample {
@@ -379,9 +471,22 @@ pub(crate) mod tests {
         let t: VrpnTarget = "Tracker0@cave-master".parse().unwrap();
         assert_eq!((t.port, t.sensor), (DEFAULT_PORT, 0));
         let t: VrpnTarget = "Head@10.0.0.2:3884#2".parse().unwrap();
-        assert_eq!((t.device.as_str(), t.host.as_str(), t.port, t.sensor), ("Head", "10.0.0.2", 3884, 2));
-        assert!("nohost".parse::<VrpnTarget>().unwrap_err().contains("DEVICE@HOST"));
-        assert!("a@b:x".parse::<VrpnTarget>().unwrap_err().contains("port `x`"));
+        assert_eq!(
+            (t.device.as_str(), t.host.as_str(), t.port, t.sensor),
+            ("Head", "10.0.0.2", 3884, 2)
+        );
+        assert!(
+            "nohost"
+                .parse::<VrpnTarget>()
+                .unwrap_err()
+                .contains("DEVICE@HOST")
+        );
+        assert!(
+            "a@b:x"
+                .parse::<VrpnTarget>()
+                .unwrap_err()
+                .contains("port `x`")
+        );
     }
 
     #[test]
@@ -397,12 +502,18 @@ pub(crate) mod tests {
         assert!(matches!(next(&client), VrpnEvent::Connected { .. }));
         let s = next_sample(&client);
         assert_eq!(s.t_ns, 12_000_000);
-        assert_eq!(s.pose, Pose::new(Vec3::new(0.25, 1.5, 0.0), glam::Quat::IDENTITY));
+        assert_eq!(
+            s.pose,
+            Pose::new(Vec3::new(0.25, 1.5, 0.0), glam::Quat::IDENTITY)
+        );
 
         // The server goes away entirely and comes back on the same port.
         drop(conn);
         drop(server);
-        assert!(matches!(next(&client), VrpnEvent::Disconnected(VrpnError::Closed { .. })));
+        assert!(matches!(
+            next(&client),
+            VrpnEvent::Disconnected(VrpnError::Closed { .. })
+        ));
         let server = FakeServer::bind(&addr.to_string());
         let mut conn = server.accept("Tracker0");
         conn.greet();
@@ -429,7 +540,10 @@ pub(crate) mod tests {
         match next(&client) {
             VrpnEvent::Disconnected(e @ VrpnError::Protocol { .. }) => {
                 let text = e.to_string();
-                assert!(text.contains("127.0.0.1") && text.contains("payload is 56 bytes, expected 64"), "{text}");
+                assert!(
+                    text.contains("127.0.0.1") && text.contains("payload is 56 bytes, expected 64"),
+                    "{text}"
+                );
             }
             other => panic!("expected a protocol error, got {other:?}"),
         }
@@ -440,10 +554,16 @@ pub(crate) mod tests {
         let mut conn = server.accept("Tracker0");
         // This time the header itself is broken: a length below the header's size.
         conn.greet();
-        conn.stream.write_all(&[0, 0, 0, 4, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7, 0, 0, 0, 3, 0, 0, 0, 9]).unwrap();
+        conn.stream
+            .write_all(&[
+                0, 0, 0, 4, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7, 0, 0, 0, 3, 0, 0, 0, 9,
+            ])
+            .unwrap();
         assert!(matches!(next(&client), VrpnEvent::Connected { .. }));
         match next(&client) {
-            VrpnEvent::Disconnected(e) => assert!(e.to_string().contains("announces 4 bytes"), "{e}"),
+            VrpnEvent::Disconnected(e) => {
+                assert!(e.to_string().contains("announces 4 bytes"), "{e}")
+            }
             other => panic!("{other:?}"),
         }
         let mut conn = server.accept("Tracker0");
@@ -458,7 +578,12 @@ pub(crate) mod tests {
         let records = crate::vrpn_wire::tests::session_records();
         for (device, spins) in [("Tracker0", true), ("Head", false)] {
             let server = FakeServer::bind("127.0.0.1:0");
-            let target = VrpnTarget { device: device.into(), host: "127.0.0.1".into(), port: server.addr().port(), sensor: 0 };
+            let target = VrpnTarget {
+                device: device.into(),
+                host: "127.0.0.1".into(),
+                port: server.addr().port(),
+                sensor: 0,
+            };
             let client = VrpnClient::spawn(target, ClientOptions::default());
             let mut conn = server.accept(device);
             for (_, _, bytes) in records.iter().filter(|r| r.0 == 1) {

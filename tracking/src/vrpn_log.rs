@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 
 use crate::pose::Sample;
-use crate::vrpn_wire::{check_cookie, Message, RemoteNames, TrackerSelector, WireError, COOKIE_LEN, MAX_MESSAGE_LEN};
+use crate::vrpn_wire::{
+    COOKIE_LEN, MAX_MESSAGE_LEN, Message, RemoteNames, TrackerSelector, WireError, check_cookie,
+};
 
 const ENTRY_HEADER_LEN: usize = 24;
 
@@ -14,11 +16,24 @@ const ENTRY_HEADER_LEN: usize = 24;
 #[derive(Debug, thiserror::Error)]
 pub enum VrpnLogError {
     #[error("cannot read VRPN log {path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("VRPN log {path} at byte {offset}: {source}")]
-    Wire { path: PathBuf, offset: usize, source: WireError },
-    #[error("VRPN log {path} at byte {offset}: entry announces a {len}-byte payload (limit {MAX_MESSAGE_LEN})")]
-    BadLength { path: PathBuf, offset: usize, len: i64 },
+    Wire {
+        path: PathBuf,
+        offset: usize,
+        source: WireError,
+    },
+    #[error(
+        "VRPN log {path} at byte {offset}: entry announces a {len}-byte payload (limit {MAX_MESSAGE_LEN})"
+    )]
+    BadLength {
+        path: PathBuf,
+        offset: usize,
+        len: i64,
+    },
 }
 
 /// The samples of one device and sensor in a log.
@@ -35,10 +50,21 @@ pub struct VrpnLog {
 
 /// Reads `path` and picks the reports of `selector`.
 pub fn read_vrpn_log(path: &Path, selector: &TrackerSelector) -> Result<VrpnLog, VrpnLogError> {
-    let bytes = std::fs::read(path).map_err(|source| VrpnLogError::Io { path: path.to_owned(), source })?;
+    let bytes = std::fs::read(path).map_err(|source| VrpnLogError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
     parse_vrpn_log(&bytes, selector).map_err(|e| match e {
-        ParseError::Wire { offset, source } => VrpnLogError::Wire { path: path.to_owned(), offset, source },
-        ParseError::Length { offset, len } => VrpnLogError::BadLength { path: path.to_owned(), offset, len },
+        ParseError::Wire { offset, source } => VrpnLogError::Wire {
+            path: path.to_owned(),
+            offset,
+            source,
+        },
+        ParseError::Length { offset, len } => VrpnLogError::BadLength {
+            path: path.to_owned(),
+            offset,
+            len,
+        },
     })
 }
 
@@ -49,18 +75,33 @@ enum ParseError {
 
 fn parse_vrpn_log(bytes: &[u8], selector: &TrackerSelector) -> Result<VrpnLog, ParseError> {
     if bytes.len() < COOKIE_LEN {
-        return Err(ParseError::Wire { offset: 0, source: WireError::BadCookie { got: format!("{} bytes", bytes.len()) } });
+        return Err(ParseError::Wire {
+            offset: 0,
+            source: WireError::BadCookie {
+                got: format!("{} bytes", bytes.len()),
+            },
+        });
     }
     check_cookie(&bytes[..COOKIE_LEN]).map_err(|source| ParseError::Wire { offset: 0, source })?;
     let mut names = RemoteNames::default();
-    let mut log = VrpnLog { samples: Vec::new(), entries: 0, truncated_at: None };
+    let mut log = VrpnLog {
+        samples: Vec::new(),
+        entries: 0,
+        truncated_at: None,
+    };
     let mut at = COOKIE_LEN;
     while at < bytes.len() {
         if bytes.len() - at < ENTRY_HEADER_LEN {
             log.truncated_at = Some(at);
             break;
         }
-        let word = |i: usize| i32::from_be_bytes(bytes[at + 4 * i..at + 4 * i + 4].try_into().expect("4 bytes"));
+        let word = |i: usize| {
+            i32::from_be_bytes(
+                bytes[at + 4 * i..at + 4 * i + 4]
+                    .try_into()
+                    .expect("4 bytes"),
+            )
+        };
         let len = word(4) as i64;
         if !(0..=MAX_MESSAGE_LEN as i64).contains(&len) {
             return Err(ParseError::Length { offset: at, len });
@@ -80,7 +121,8 @@ fn parse_vrpn_log(bytes: &[u8], selector: &TrackerSelector) -> Result<VrpnLog, P
         };
         let wire = |source| ParseError::Wire { offset: at, source };
         if !names.absorb(&msg).map_err(wire)? {
-            log.samples.extend(selector.sample(&names, &msg).map_err(wire)?);
+            log.samples
+                .extend(selector.sample(&names, &msg).map_err(wire)?);
         }
         log.entries += 1;
         at = end;
@@ -98,7 +140,10 @@ mod tests {
     }
 
     fn sel(device: &str, sensor: i32) -> TrackerSelector {
-        TrackerSelector { device: device.into(), sensor }
+        TrackerSelector {
+            device: device.into(),
+            sensor,
+        }
     }
 
     #[test]
@@ -107,12 +152,23 @@ mod tests {
         assert_eq!(log.entries, 2018);
         assert_eq!(log.truncated_at, None);
         assert_eq!(log.samples.len(), 264, "528 reports, half of them sensor 1");
-        assert_eq!(read_vrpn_log(&server_log(), &sel("Tracker0", 1)).unwrap().samples.len(), 264);
+        assert_eq!(
+            read_vrpn_log(&server_log(), &sel("Tracker0", 1))
+                .unwrap()
+                .samples
+                .len(),
+            264
+        );
         crate::vrpn::tests::assert_spins_about_y_at_half_rev_per_second(&log.samples);
         let head = read_vrpn_log(&server_log(), &sel("Head", 0)).unwrap();
         assert_eq!(head.samples.len(), 133);
         assert!(head.samples.iter().all(|s| s.pose == Pose::IDENTITY));
-        assert!(read_vrpn_log(&server_log(), &sel("Tracker0", 5)).unwrap().samples.is_empty());
+        assert!(
+            read_vrpn_log(&server_log(), &sel("Tracker0", 5))
+                .unwrap()
+                .samples
+                .is_empty()
+        );
     }
 
     #[test]
@@ -128,10 +184,20 @@ mod tests {
         bad[24 + 16..24 + 20].copy_from_slice(&(-3i32).to_be_bytes());
         let path = dir.path().join("bad.vrpn");
         std::fs::write(&path, &bad).unwrap();
-        let err = read_vrpn_log(&path, &sel("Tracker0", 0)).unwrap_err().to_string();
-        assert!(err.contains("bad.vrpn at byte 24") && err.contains("-3-byte payload"), "{err}");
+        let err = read_vrpn_log(&path, &sel("Tracker0", 0))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("bad.vrpn at byte 24") && err.contains("-3-byte payload"),
+            "{err}"
+        );
         std::fs::write(&path, b"not a vrpn log at all, no").unwrap();
-        let err = read_vrpn_log(&path, &sel("Tracker0", 0)).unwrap_err().to_string();
-        assert!(err.contains("bad.vrpn at byte 0") && err.contains("not a VRPN peer"), "{err}");
+        let err = read_vrpn_log(&path, &sel("Tracker0", 0))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("bad.vrpn at byte 0") && err.contains("not a VRPN peer"),
+            "{err}"
+        );
     }
 }

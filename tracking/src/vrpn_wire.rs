@@ -52,7 +52,11 @@ pub enum WireError {
     #[error("message header announces {len} bytes, more than the limit of {MAX_MESSAGE_LEN}")]
     TooLong { len: u32 },
     #[error("{what} description of id {id} is malformed: {problem}")]
-    BadDescription { what: &'static str, id: i32, problem: String },
+    BadDescription {
+        what: &'static str,
+        id: i32,
+        problem: String,
+    },
     #[error("`{POS_QUAT}` payload is {len} bytes, expected {POS_QUAT_LEN}")]
     BadPosQuat { len: usize },
 }
@@ -69,13 +73,19 @@ pub fn cookie(log_mode: u8) -> [u8; COOKIE_LEN] {
 
 /// Checks a peer's cookie: the magic text and the major version (minor versions interoperate).
 pub fn check_cookie(bytes: &[u8]) -> Result<(), WireError> {
-    let text: String = bytes.iter().take_while(|&&b| b != 0).map(|&b| b as char).collect();
+    let text: String = bytes
+        .iter()
+        .take_while(|&&b| b != 0)
+        .map(|&b| b as char)
+        .collect();
     let Some(version) = text.strip_prefix("vrpn: ver. ") else {
         return Err(WireError::BadCookie { got: text });
     };
     let major = version.split('.').next().unwrap_or("");
     if major != "07" {
-        return Err(WireError::Version { theirs: version.trim().to_owned() });
+        return Err(WireError::Version {
+            theirs: version.trim().to_owned(),
+        });
     }
     Ok(())
 }
@@ -114,12 +124,25 @@ impl Message {
 
     /// A sender (`kind` = [`SENDER_DESCRIPTION`]) or type ([`TYPE_DESCRIPTION`])
     /// description announcing that `id` means `name`.
-    pub fn description(kind: i32, id: i32, name: &str, seq: u32, (sec, usec): (u32, u32)) -> Message {
+    pub fn description(
+        kind: i32,
+        id: i32,
+        name: &str,
+        seq: u32,
+        (sec, usec): (u32, u32),
+    ) -> Message {
         let mut payload = Vec::with_capacity(name.len() + 5);
         payload.extend_from_slice(&(name.len() as u32 + 1).to_be_bytes());
         payload.extend_from_slice(name.as_bytes());
         payload.push(0);
-        Message { sec, usec, sender: id, kind, seq, payload }
+        Message {
+            sec,
+            usec,
+            sender: id,
+            kind,
+            seq,
+            payload,
+        }
     }
 }
 
@@ -167,7 +190,8 @@ impl StreamDecoder {
         if avail.len() < HEADER_LEN {
             return Ok(None);
         }
-        let word = |i: usize| u32::from_be_bytes(avail[i * 4..i * 4 + 4].try_into().expect("4 bytes"));
+        let word =
+            |i: usize| u32::from_be_bytes(avail[i * 4..i * 4 + 4].try_into().expect("4 bytes"));
         let len = word(0);
         if (len as usize) < HEADER_LEN {
             return Err(WireError::TooShort { len });
@@ -207,8 +231,12 @@ impl RemoteNames {
             TYPE_DESCRIPTION => ("type", &mut self.types),
             _ => return Ok(false),
         };
-        let name = parse_description(&msg.payload)
-            .map_err(|problem| WireError::BadDescription { what, id: msg.sender, problem })?;
+        let name =
+            parse_description(&msg.payload).map_err(|problem| WireError::BadDescription {
+                what,
+                id: msg.sender,
+                problem,
+            })?;
         map.insert(msg.sender, name);
         Ok(true)
     }
@@ -228,7 +256,10 @@ fn parse_description(p: &[u8]) -> Result<String, String> {
     }
     let n = u32::from_be_bytes(p[..4].try_into().expect("4 bytes")) as usize;
     if n == 0 || 4 + n > p.len() {
-        return Err(format!("name length {n} does not fit the {}-byte payload", p.len()));
+        return Err(format!(
+            "name length {n} does not fit the {}-byte payload",
+            p.len()
+        ));
     }
     let name = &p[4..4 + n];
     if name[n - 1] != 0 {
@@ -251,7 +282,8 @@ impl PosQuat {
         if p.len() != POS_QUAT_LEN {
             return Err(WireError::BadPosQuat { len: p.len() });
         }
-        let f = |i: usize| f64::from_be_bytes(p[8 + i * 8..16 + i * 8].try_into().expect("8 bytes"));
+        let f =
+            |i: usize| f64::from_be_bytes(p[8 + i * 8..16 + i * 8].try_into().expect("8 bytes"));
         Ok(PosQuat {
             sensor: i32::from_be_bytes(p[..4].try_into().expect("4 bytes")),
             position: [f(0), f(1), f(2)],
@@ -287,7 +319,10 @@ pub struct TrackerSelector {
 impl TrackerSelector {
     /// The sample in `msg` when it is a `Pos_Quat` report of the selected device and sensor.
     pub fn sample(&self, names: &RemoteNames, msg: &Message) -> Result<Option<Sample>, WireError> {
-        if msg.kind < 0 || names.kind(msg.kind) != Some(POS_QUAT) || names.sender(msg.sender) != Some(&self.device) {
+        if msg.kind < 0
+            || names.kind(msg.kind) != Some(POS_QUAT)
+            || names.sender(msg.sender) != Some(&self.device)
+        {
             return Ok(None);
         }
         let report = PosQuat::decode(&msg.payload)?;
@@ -302,7 +337,8 @@ pub(crate) mod tests {
 
     /// The captured session's records: (direction, ns since start, bytes).
     pub(crate) fn session_records() -> Vec<(u8, u64, Vec<u8>)> {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/tracking/vrpn/session.bin");
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/tracking/vrpn/session.bin");
         let d = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let mut out = Vec::new();
         let mut i = 0;
@@ -338,21 +374,34 @@ pub(crate) mod tests {
             assert_eq!(first.2, cookie(0), "direction {dir}");
         }
         assert!(check_cookie(b"vrpn: ver. 07.35  0\0\0\0\0\0").is_ok());
-        assert!(matches!(check_cookie(b"vrpn: ver. 08.00  0\0\0\0\0\0"), Err(WireError::Version { .. })));
-        assert!(matches!(check_cookie(b"HTTP/1.1 200 OK\r\n\0\0\0\0\0\0\0"), Err(WireError::BadCookie { .. })));
+        assert!(matches!(
+            check_cookie(b"vrpn: ver. 08.00  0\0\0\0\0\0"),
+            Err(WireError::Version { .. })
+        ));
+        assert!(matches!(
+            check_cookie(b"HTTP/1.1 200 OK\r\n\0\0\0\0\0\0\0"),
+            Err(WireError::BadCookie { .. })
+        ));
     }
 
     #[test]
     fn captured_messages_reencode_byte_for_byte() {
         // VRPN leaves its padding bytes uninitialised, so those are the only ones that differ.
         for dir in [0, 1] {
-            let stream: Vec<u8> =
-                session_records().into_iter().filter(|r| r.0 == dir).flat_map(|r| r.2).collect();
+            let stream: Vec<u8> = session_records()
+                .into_iter()
+                .filter(|r| r.0 == dir)
+                .flat_map(|r| r.2)
+                .collect();
             let mut at = COOKIE_LEN;
             for m in decode_direction(dir) {
                 let encoded = m.encode();
                 let len = HEADER_LEN + m.payload.len();
-                assert_eq!(encoded[..len], stream[at..at + len], "direction {dir}, message at byte {at}");
+                assert_eq!(
+                    encoded[..len],
+                    stream[at..at + len],
+                    "direction {dir}, message at byte {at}"
+                );
                 assert!(encoded[len..].iter().all(|&b| b == 0));
                 at += encoded.len();
             }
@@ -364,9 +413,18 @@ pub(crate) mod tests {
     fn captured_server_stream_yields_spinning_tracker0_and_still_head() {
         let msgs = decode_direction(1);
         let mut names = RemoteNames::default();
-        let spin = TrackerSelector { device: "Tracker0".into(), sensor: 0 };
-        let spin1 = TrackerSelector { device: "Tracker0".into(), sensor: 1 };
-        let head = TrackerSelector { device: "Head".into(), sensor: 0 };
+        let spin = TrackerSelector {
+            device: "Tracker0".into(),
+            sensor: 0,
+        };
+        let spin1 = TrackerSelector {
+            device: "Tracker0".into(),
+            sensor: 1,
+        };
+        let head = TrackerSelector {
+            device: "Head".into(),
+            sensor: 0,
+        };
         let (mut s0, mut s1, mut h) = (Vec::new(), Vec::new(), Vec::new());
         for m in &msgs {
             if names.absorb(m).unwrap() {
@@ -378,7 +436,13 @@ pub(crate) mod tests {
         }
         assert_eq!(names.sender(1), Some("Tracker0"));
         assert_eq!(names.kind(4), Some(POS_QUAT));
-        assert!(s0.len() > 100 && s1.len() == s0.len() && h.len() > 50, "{} {} {}", s0.len(), s1.len(), h.len());
+        assert!(
+            s0.len() > 100 && s1.len() == s0.len() && h.len() > 50,
+            "{} {} {}",
+            s0.len(),
+            s1.len(),
+            h.len()
+        );
         crate::vrpn::tests::assert_spins_about_y_at_half_rev_per_second(&s0);
         for s in &h {
             assert_eq!(s.pose, Pose::IDENTITY);
@@ -387,19 +451,28 @@ pub(crate) mod tests {
 
     #[test]
     fn pos_quat_round_trips_and_rejects_wrong_sizes() {
-        let pq = PosQuat { sensor: 3, position: [1.0, -2.0, 0.5], quat: [0.0, 0.6, 0.0, 0.8] };
+        let pq = PosQuat {
+            sensor: 3,
+            position: [1.0, -2.0, 0.5],
+            quat: [0.0, 0.6, 0.0, 0.8],
+        };
         let bytes = pq.encode();
         assert_eq!(bytes.len(), POS_QUAT_LEN);
         assert_eq!(&bytes[..8], &[0, 0, 0, 3, 0, 0, 0, 3]);
         assert_eq!(PosQuat::decode(&bytes), Ok(pq));
-        assert_eq!(PosQuat::decode(&bytes[..60]), Err(WireError::BadPosQuat { len: 60 }));
+        assert_eq!(
+            PosQuat::decode(&bytes[..60]),
+            Err(WireError::BadPosQuat { len: 60 })
+        );
     }
 
     #[test]
     fn bad_headers_and_descriptions_are_errors() {
         let mut dec = StreamDecoder::new();
         dec.feed(&cookie(0));
-        dec.feed(&[0, 0, 0, 8, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+        dec.feed(&[
+            0, 0, 0, 8, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+        ]);
         assert_eq!(dec.next_message(), Err(WireError::TooShort { len: 8 }));
         let mut dec = StreamDecoder::new();
         dec.feed(&cookie(0));
