@@ -10,10 +10,12 @@ pub mod distance_code;
 pub mod file;
 pub mod proximity;
 pub mod requests;
+pub mod run;
 pub mod rgbe;
 pub mod sample;
 pub mod section;
 pub mod server;
+pub mod worker;
 
 pub use file::{FileError, HoloFile};
 pub use sample::Sample;

@@ -1,0 +1,80 @@
+//! Worker threads and TCP worker processes (here: threads running the same client loop)
+//! filling one holodeck together; a worker that dies mid-packet loses only that packet,
+//! which another worker computes.
+
+use std::net::TcpListener;
+use std::sync::Arc;
+use std::time::Duration;
+
+use glam::DVec3;
+use holocave_holodeck::run::{RunOptions, run};
+use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_holodeck::worker::{SampleSource, run_remote};
+use holocave_holodeck::{HoloFile, Section, ViewClass};
+use holocave_protocol::frame::{MAX_FRAME_BYTES, read_frame, write_frame};
+use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, WorkerHello, WorkerMsg};
+
+/// Radiance from the direction; everything at distance 2.
+struct Analytic;
+
+impl SampleSource for Analytic {
+    fn trace(&self, rays: &[([f32; 3], [f32; 3])], _seed: u64) -> Vec<([f32; 3], f32)> {
+        rays.iter().map(|(_, d)| (d.map(f32::abs), 2.0)).collect()
+    }
+}
+
+#[test]
+fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("w.hdk");
+    let s = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [3, 3, 3], ViewClass::Interior).unwrap();
+    HoloFile::create(&path, vec![s], [("scene".to_string(), "analytic".to_string())].into()).unwrap();
+    let server = Server::new(HoloFile::open_rw(&path).unwrap(), Mode::Batch, ServerConfig::default());
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let remotes: Vec<_> = (0..2)
+        .map(|i| {
+            let a = addr.clone();
+            std::thread::spawn(move || run_remote(&a, &format!("remote-{i}"), "analytic", &Analytic))
+        })
+        .collect();
+    // A worker that takes a packet and dies.
+    let a = addr.clone();
+    let dying = std::thread::spawn(move || {
+        let mut c = std::net::TcpStream::connect(&a).unwrap();
+        let hello = WorkerMsg::Hello(WorkerHello { protocol: PROTOCOL_VERSION, name: "dying".into(), scene: "analytic".into() });
+        write_frame(&mut c, &hello, MAX_FRAME_BYTES).unwrap();
+        assert!(matches!(read_frame(&mut c, MAX_FRAME_BYTES).unwrap(), ServerMsg::Welcome(_)));
+        assert!(matches!(read_frame(&mut c, MAX_FRAME_BYTES).unwrap(), ServerMsg::Rays(_)));
+    });
+    let opts = RunOptions {
+        threads: 2,
+        source: Some(Arc::new(Analytic)),
+        listener: Some(listener),
+        scene: "analytic".into(),
+        commit_every: Duration::from_millis(300),
+    };
+    let mut max_workers = 0;
+    let server = run(server, opts, |p| {
+        max_workers = max_workers.max(p.stats.workers);
+        p.stats.added >= 200_000 && p.stats.packets_reassigned >= 1 && p.commits >= 1
+    })
+    .unwrap();
+    dying.join().unwrap();
+    let stats = server.stats();
+    assert!(max_workers >= 4, "2 threads and at least 2 TCP workers were seen ({max_workers})");
+    for r in remotes {
+        let report = r.join().unwrap().unwrap();
+        assert_eq!(report.server_scene, "analytic");
+        assert!(report.rays > 0, "every TCP worker traced rays");
+    }
+    assert_eq!(stats.workers, 0, "all workers have left");
+    let h = server.into_file().unwrap();
+    drop(h);
+    let h = HoloFile::open(&path).unwrap();
+    let stored: u64 = h.directory(0).iter().map(|e| u64::from(e.count)).sum();
+    assert_eq!(stored, stats.samples, "every sample that came back was stored");
+    let mut v = Vec::new();
+    h.read_beam(0, 0, &mut v).unwrap();
+    assert!(!v.is_empty());
+}
