@@ -35,15 +35,30 @@ impl BeamIndex {
         }
         let beams = beam_start[6];
         if beams > u64::from(u32::MAX) {
-            return Err(SectionError::TooManyBeams { grid, beams, max: u64::from(u32::MAX) });
+            return Err(SectionError::TooManyBeams {
+                grid,
+                beams,
+                max: u64::from(u32::MAX),
+            });
         }
-        Ok(Self { grid, cells, cell_start, beam_start, total_cells })
+        Ok(Self {
+            grid,
+            cells,
+            cell_start,
+            beam_start,
+            total_cells,
+        })
     }
 
     /// The paper's closed form.
     pub fn count(grid: [u32; 3]) -> u64 {
         let [w, d, h] = grid.map(u64::from);
-        2 * w * w * d * d + 2 * w * w * h * h + 2 * d * d * h * h + 8 * w * w * d * h + 8 * w * d * d * h + 8 * w * d * h * h
+        2 * w * w * d * d
+            + 2 * w * w * h * h
+            + 2 * d * d * h * h
+            + 8 * w * w * d * h
+            + 8 * w * d * d * h
+            + 8 * w * d * h * h
     }
 
     /// Number of beams.
@@ -58,15 +73,23 @@ impl BeamIndex {
 
     fn global(&self, c: Cell) -> Option<u64> {
         let [gu, gv] = self.wall_dims(c.wall);
-        (c.wall < 6 && c.u < gu && c.v < gv)
-            .then(|| self.cell_start[usize::from(c.wall)] + u64::from(c.u) * u64::from(gv) + u64::from(c.v))
+        (c.wall < 6 && c.u < gu && c.v < gv).then(|| {
+            self.cell_start[usize::from(c.wall)] + u64::from(c.u) * u64::from(gv) + u64::from(c.v)
+        })
     }
 
     fn cell_of(&self, global: u64) -> Cell {
-        let w = (0..6).rev().find(|&w| self.cell_start[w] <= global).expect("cell_start[0] = 0");
+        let w = (0..6)
+            .rev()
+            .find(|&w| self.cell_start[w] <= global)
+            .expect("cell_start[0] = 0");
         let local = global - self.cell_start[w];
         let [_, gv] = self.wall_dims(w as u8);
-        Cell { wall: w as u8, u: (local / u64::from(gv)) as u32, v: (local % u64::from(gv)) as u32 }
+        Cell {
+            wall: w as u8,
+            u: (local / u64::from(gv)) as u32,
+            v: (local % u64::from(gv)) as u32,
+        }
     }
 
     /// The beam from `entry` to `exit`; `None` if a cell is off the grid or both are on one
@@ -78,7 +101,11 @@ impl BeamIndex {
         let (a, b) = (self.global(entry)?, self.global(exit)?);
         let w = usize::from(entry.wall);
         let local = a - self.cell_start[w];
-        let rank = if b < self.cell_start[w] { b } else { b - self.cells[w] };
+        let rank = if b < self.cell_start[w] {
+            b
+        } else {
+            b - self.cells[w]
+        };
         Some((self.beam_start[w] + local * (self.total_cells - self.cells[w]) + rank) as u32)
     }
 
@@ -88,11 +115,18 @@ impl BeamIndex {
         if b >= self.beam_start[6] {
             return None;
         }
-        let w = (0..6).rev().find(|&w| self.beam_start[w] <= b).expect("beam_start[0] = 0");
+        let w = (0..6)
+            .rev()
+            .find(|&w| self.beam_start[w] <= b)
+            .expect("beam_start[0] = 0");
         let q = b - self.beam_start[w];
         let others = self.total_cells - self.cells[w];
         let (local, rank) = (q / others, q % others);
-        let exit = if rank < self.cell_start[w] { rank } else { rank + self.cells[w] };
+        let exit = if rank < self.cell_start[w] {
+            rank
+        } else {
+            rank + self.cells[w]
+        };
         Some((self.cell_of(self.cell_start[w] + local), self.cell_of(exit)))
     }
 }
@@ -107,7 +141,11 @@ mod tests {
             for d in 1..=12 {
                 for h in [1, 2, 3, 5, 8, 13, 24] {
                     let idx = BeamIndex::new([w, d, h]).unwrap();
-                    assert_eq!(u64::from(idx.beams()), BeamIndex::count([w, d, h]), "{w}x{d}x{h}");
+                    assert_eq!(
+                        u64::from(idx.beams()),
+                        BeamIndex::count([w, d, h]),
+                        "{w}x{d}x{h}"
+                    );
                 }
             }
         }
@@ -133,9 +171,43 @@ mod tests {
     #[test]
     fn rejects_same_wall_and_off_grid_cells() {
         let idx = BeamIndex::new([2, 2, 2]).unwrap();
-        let c = Cell { wall: 0, u: 0, v: 0 };
-        assert!(idx.beam(c, Cell { wall: 0, u: 1, v: 1 }).is_none());
-        assert!(idx.beam(c, Cell { wall: 3, u: 2, v: 0 }).is_none());
-        assert!(idx.beam(c, Cell { wall: 6, u: 0, v: 0 }).is_none());
+        let c = Cell {
+            wall: 0,
+            u: 0,
+            v: 0,
+        };
+        assert!(
+            idx.beam(
+                c,
+                Cell {
+                    wall: 0,
+                    u: 1,
+                    v: 1
+                }
+            )
+            .is_none()
+        );
+        assert!(
+            idx.beam(
+                c,
+                Cell {
+                    wall: 3,
+                    u: 2,
+                    v: 0
+                }
+            )
+            .is_none()
+        );
+        assert!(
+            idx.beam(
+                c,
+                Cell {
+                    wall: 6,
+                    u: 0,
+                    v: 0
+                }
+            )
+            .is_none()
+        );
     }
 }

@@ -40,7 +40,14 @@ pub struct BeamCache {
 impl BeamCache {
     /// A cache of at most about `budget` bytes over `file`.
     pub fn new(file: HoloFile, budget: usize) -> Self {
-        Self { file, budget, used: 0, clock: 0, beams: HashMap::new(), lru: BTreeMap::new() }
+        Self {
+            file,
+            budget,
+            used: 0,
+            clock: 0,
+            beams: HashMap::new(),
+            lru: BTreeMap::new(),
+        }
     }
 
     pub fn file(&self) -> &HoloFile {
@@ -87,8 +94,13 @@ impl BeamCache {
             return Ok(());
         }
         let mut samples = Vec::new();
-        self.file.read_beam(usize::from(key.0), key.1, &mut samples)?;
-        let e = Entry { stored: samples.len() as u32, samples, last_use: 0 };
+        self.file
+            .read_beam(usize::from(key.0), key.1, &mut samples)?;
+        let e = Entry {
+            stored: samples.len() as u32,
+            samples,
+            last_use: 0,
+        };
         self.used += e.bytes();
         self.beams.insert(key, e);
         Ok(())
@@ -130,7 +142,8 @@ impl BeamCache {
     fn write_back(&mut self, key: BeamKey) -> Result<(), FileError> {
         let e = self.beams.get_mut(&key).expect("cached");
         if e.samples.len() as u32 != e.stored {
-            self.file.write_beam(usize::from(key.0), key.1, &e.samples)?;
+            self.file
+                .write_beam(usize::from(key.0), key.1, &e.samples)?;
             e.stored = e.samples.len() as u32;
         }
         Ok(())
@@ -138,8 +151,12 @@ impl BeamCache {
 
     /// Writes every changed beam (in beam order) and commits; returns the commit number.
     pub fn flush(&mut self) -> Result<u64, FileError> {
-        let mut dirty: Vec<BeamKey> =
-            self.beams.iter().filter(|(_, e)| e.samples.len() as u32 != e.stored).map(|(k, _)| *k).collect();
+        let mut dirty: Vec<BeamKey> = self
+            .beams
+            .iter()
+            .filter(|(_, e)| e.samples.len() as u32 != e.stored)
+            .map(|(k, _)| *k)
+            .collect();
         dirty.sort_unstable();
         for key in dirty {
             self.write_back(key)?;
@@ -161,14 +178,23 @@ mod tests {
     use glam::DVec3;
 
     fn s(i: u32) -> Sample {
-        Sample { dist: i as u16, ..Default::default() }
+        Sample {
+            dist: i as u16,
+            ..Default::default()
+        }
     }
 
     #[test]
     fn lru_write_back_keeps_every_sample() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.hdk");
-        let sec = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [2, 2, 2], ViewClass::Interior).unwrap();
+        let sec = Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            [2, 2, 2],
+            ViewClass::Interior,
+        )
+        .unwrap();
         let h = HoloFile::create(&p, vec![sec], Default::default()).unwrap();
         // Room for about three beams of 20 samples.
         let mut c = BeamCache::new(h, 3 * (20 * SAMPLE_BYTES + ENTRY_OVERHEAD) + 100);

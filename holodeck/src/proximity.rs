@@ -31,7 +31,13 @@ pub fn uniform<R: Rng>(n: usize, rng: &mut R) -> Vec<RayCode> {
 
 /// `n` rays of `beam`, each passing within `eye.radius` of `eye.pos` where the method finds
 /// one; the second value counts the rays that fell back to uniform sampling.
-pub fn near_eye<R: Rng>(section: &Section, beam: u32, eye: Eye, n: usize, rng: &mut R) -> (Vec<RayCode>, usize) {
+pub fn near_eye<R: Rng>(
+    section: &Section,
+    beam: u32,
+    eye: Eye,
+    n: usize,
+    rng: &mut R,
+) -> (Vec<RayCode>, usize) {
     let Some((ca, cb)) = section.index().cells(beam) else {
         return (uniform(n, rng), n);
     };
@@ -39,7 +45,14 @@ pub fn near_eye<R: Rng>(section: &Section, beam: u32, eye: Eye, n: usize, rng: &
     let entry_box = [[0.0, 0.0], [1.0, 1.0]]
         .iter()
         .filter_map(|&f| conic_box(section.cell_point_f(cb, f), eye, section, ca))
-        .reduce(|a, b| [a[0].min(b[0]), a[1].max(b[1]), a[2].min(b[2]), a[3].max(b[3])]);
+        .reduce(|a, b| {
+            [
+                a[0].min(b[0]),
+                a[1].max(b[1]),
+                a[2].min(b[2]),
+                a[3].max(b[3]),
+            ]
+        });
     // Step 5.
     let Some(eb) = entry_box else {
         return (uniform(n, rng), n);
@@ -53,7 +66,10 @@ pub fn near_eye<R: Rng>(section: &Section, beam: u32, eye: Eye, n: usize, rng: &
             return (out, rest);
         }
         // Step 6.
-        let fa = [rng.random_range(eb[0]..=eb[1]), rng.random_range(eb[2]..=eb[3])];
+        let fa = [
+            rng.random_range(eb[0]..=eb[1]),
+            rng.random_range(eb[2]..=eb[3]),
+        ];
         let ea = bytes(fa);
         let a = section.cell_point(ca, ea);
         // Steps 7–8.
@@ -62,7 +78,10 @@ pub fn near_eye<R: Rng>(section: &Section, beam: u32, eye: Eye, n: usize, rng: &
             continue;
         };
         // Step 9, keeping only rays that truly pass near the eye.
-        let xb_bytes = bytes([rng.random_range(xb[0]..=xb[1]), rng.random_range(xb[2]..=xb[3])]);
+        let xb_bytes = bytes([
+            rng.random_range(xb[0]..=xb[1]),
+            rng.random_range(xb[2]..=xb[3]),
+        ]);
         let b = section.cell_point(cb, xb_bytes);
         if line_distance(a, b, eye.pos) <= eye.radius {
             out.push((ea, xb_bytes));
@@ -98,7 +117,14 @@ fn conic_box(apex: DVec3, eye: Eye, section: &Section, cell: Cell) -> Option<[f6
     let (a, b) = section.cell_edges(cell.wall);
     let c = section.cell_point_f(cell, [0.0, 0.0]) - apex;
     let q = |x: DVec3, y: DVec3| x.dot(s) * y.dot(s) - k * x.dot(y);
-    let (ca, cb, cc, cd, ce, cf) = (q(a, a), 2.0 * q(a, b), q(b, b), 2.0 * q(a, c), 2.0 * q(b, c), q(c, c));
+    let (ca, cb, cc, cd, ce, cf) = (
+        q(a, a),
+        2.0 * q(a, b),
+        q(b, b),
+        2.0 * q(a, c),
+        2.0 * q(b, c),
+        q(c, c),
+    );
     let f = |u: f64, v: f64| ca * u * u + cb * u * v + cc * v * v + cd * u + ce * v + cf;
     let tol = 1e-9 * (ca.abs() + cb.abs() + cc.abs() + cd.abs() + ce.abs() + cf.abs());
     let mut pts: Vec<(f64, f64)> = Vec::new();
@@ -142,9 +168,12 @@ fn conic_box(apex: DVec3, eye: Eye, section: &Section, cell: Cell) -> Option<[f6
         .map(|(u, v)| (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)))
         .collect();
     let first = pts.first()?;
-    Some(pts.iter().fold([first.0, first.0, first.1, first.1], |b, &(u, v)| {
-        [b[0].min(u), b[1].max(u), b[2].min(v), b[3].max(v)]
-    }))
+    Some(
+        pts.iter()
+            .fold([first.0, first.0, first.1, first.1], |b, &(u, v)| {
+                [b[0].min(u), b[1].max(u), b[2].min(v), b[3].max(v)]
+            }),
+    )
 }
 
 /// Real roots of `a x² + b x + c` (a linear equation when `a` is negligible).
@@ -154,7 +183,11 @@ fn roots(a: f64, b: f64, c: f64) -> Vec<f64> {
         return Vec::new();
     }
     if a.abs() <= 1e-12 * scale {
-        return if b.abs() > 1e-12 * scale { vec![-c / b] } else { Vec::new() };
+        return if b.abs() > 1e-12 * scale {
+            vec![-c / b]
+        } else {
+            Vec::new()
+        };
     }
     let disc = b * b - 4.0 * a * c;
     if disc < 0.0 {
@@ -179,9 +212,17 @@ mod tests {
 
     #[test]
     fn rays_pass_near_the_eye_or_fall_back() {
-        let s = Section::new(DVec3::ZERO, [DVec3::X * 4.0, DVec3::Y * 3.0, DVec3::Z * 5.0], [4, 3, 5], ViewClass::Interior)
-            .unwrap();
-        let eye = Eye { pos: DVec3::new(2.1, 1.4, 2.6), radius: 0.3 };
+        let s = Section::new(
+            DVec3::ZERO,
+            [DVec3::X * 4.0, DVec3::Y * 3.0, DVec3::Z * 5.0],
+            [4, 3, 5],
+            ViewClass::Interior,
+        )
+        .unwrap();
+        let eye = Eye {
+            pos: DVec3::new(2.1, 1.4, 2.6),
+            radius: 0.3,
+        };
         let mut rng = SmallRng::seed_from_u64(1);
         let (mut near, mut fell, mut beams_hit) = (0, 0, 0);
         for beam in (0..s.beam_count()).step_by(37) {
@@ -195,7 +236,10 @@ mod tests {
                     line_distance(a, b, eye.pos) <= eye.radius
                 })
                 .count();
-            assert!(close >= 8 - fallback, "beam {beam}: {close} close, {fallback} fell back");
+            assert!(
+                close >= 8 - fallback,
+                "beam {beam}: {close} close, {fallback} fell back"
+            );
             near += close;
             beams_hit += usize::from(fallback == 0);
         }
@@ -208,18 +252,33 @@ mod tests {
                 uniform_near += usize::from(line_distance(a, b, eye.pos) <= eye.radius);
             }
         }
-        assert!(near > 3 * uniform_near.max(1), "proximity {near} vs uniform {uniform_near} (fallbacks {fell})");
+        assert!(
+            near > 3 * uniform_near.max(1),
+            "proximity {near} vs uniform {uniform_near} (fallbacks {fell})"
+        );
     }
 
     #[test]
     fn eye_inside_cone_apex_or_far_away() {
-        let s = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [2, 2, 2], ViewClass::Interior).unwrap();
+        let s = Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            [2, 2, 2],
+            ViewClass::Interior,
+        )
+        .unwrap();
         let mut rng = SmallRng::seed_from_u64(2);
         // A sphere enclosing the section: every ray qualifies, none falls back.
-        let big = Eye { pos: DVec3::splat(0.5), radius: 2.0 };
+        let big = Eye {
+            pos: DVec3::splat(0.5),
+            radius: 2.0,
+        };
         assert_eq!(near_eye(&s, 3, big, 5, &mut rng).1, 0);
         // A tiny sphere far off every beam's lines: all fall back to uniform.
-        let far = Eye { pos: DVec3::new(50.0, -40.0, 0.5), radius: 0.01 };
+        let far = Eye {
+            pos: DVec3::new(50.0, -40.0, 0.5),
+            radius: 0.01,
+        };
         let (codes, fell) = near_eye(&s, 0, far, 5, &mut rng);
         assert_eq!((codes.len(), fell), (5, 5));
     }

@@ -20,7 +20,9 @@ impl Eq for Item {}
 impl Ord for Item {
     fn cmp(&self, o: &Self) -> Ordering {
         // Reversed: BinaryHeap is a max-heap, we want the lowest ratio; ties by key.
-        o.ratio.total_cmp(&self.ratio).then_with(|| o.key.cmp(&self.key))
+        o.ratio
+            .total_cmp(&self.ratio)
+            .then_with(|| o.key.cmp(&self.key))
     }
 }
 impl PartialOrd for Item {
@@ -42,7 +44,10 @@ impl RequestList {
         self.heap = wanted
             .iter()
             .filter(|(_, w)| **w > 0.0)
-            .map(|(&key, &w)| Item { ratio: f64::from(have(key)) / w, key })
+            .map(|(&key, &w)| Item {
+                ratio: f64::from(have(key)) / w,
+                key,
+            })
             .collect();
         self.wanted = wanted;
     }
@@ -64,10 +69,15 @@ impl RequestList {
     /// `limit`. The caller assigns samples to it and then calls [`RequestList::requeue`].
     pub fn pop(&mut self, have: impl Fn(BeamKey) -> u32, limit: f64) -> Option<(BeamKey, f64)> {
         while let Some(item) = self.heap.pop() {
-            let Some(&w) = self.wanted.get(&item.key) else { continue };
+            let Some(&w) = self.wanted.get(&item.key) else {
+                continue;
+            };
             let ratio = f64::from(have(item.key)) / w;
             if ratio > item.ratio {
-                self.heap.push(Item { ratio, key: item.key });
+                self.heap.push(Item {
+                    ratio,
+                    key: item.key,
+                });
                 continue;
             }
             if ratio >= limit {
@@ -82,7 +92,10 @@ impl RequestList {
     /// Puts a popped beam back with its current ratio.
     pub fn requeue(&mut self, key: BeamKey, have: u32) {
         if let Some(&w) = self.wanted.get(&key) {
-            self.heap.push(Item { ratio: f64::from(have) / w, key });
+            self.heap.push(Item {
+                ratio: f64::from(have) / w,
+                key,
+            });
         }
     }
 }
@@ -111,7 +124,9 @@ mod tests {
             r.requeue(k, get(k));
         }
         let ratios: Vec<f64> = wanted.iter().map(|(k, w)| f64::from(get(*k)) / w).collect();
-        let (lo, hi) = ratios.iter().fold((f64::MAX, 0f64), |(a, b), &x| (a.min(x), b.max(x)));
+        let (lo, hi) = ratios
+            .iter()
+            .fold((f64::MAX, 0f64), |(a, b), &x| (a.min(x), b.max(x)));
         assert!(hi - lo <= 1.0 / 10.0 + 1e-9, "{ratios:?}");
         // Nothing below a limit the beams have all reached.
         assert!(r.pop(get, lo).is_none());

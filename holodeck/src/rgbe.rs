@@ -96,7 +96,11 @@ mod tests {
         assert_eq!(encode([0.0; 3]), [0; 4]);
         assert_eq!(encode([-1.0, -0.0, f32::NEG_INFINITY]), [0; 4]);
         assert_eq!(encode([f32::NAN; 3]), [0; 4]);
-        assert_eq!(encode([1e-45, 0.0, 0.0]), [0; 4], "deepest denormal is black");
+        assert_eq!(
+            encode([1e-45, 0.0, 0.0]),
+            [0; 4],
+            "deepest denormal is black"
+        );
         // A denormal above 2^-128 is still represented.
         let d = 2f32.powi(-127);
         check_bound([d, 0.0, 0.0]);

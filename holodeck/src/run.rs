@@ -56,7 +56,11 @@ impl Shared {
 
 /// Runs until `stop` returns true (or Ctrl-C), then stops the workers, commits and returns
 /// the server.
-pub fn run(server: Server, opts: RunOptions, mut stop: impl FnMut(&Progress) -> bool) -> Result<Server, ServerError> {
+pub fn run(
+    server: Server,
+    opts: RunOptions,
+    mut stop: impl FnMut(&Progress) -> bool,
+) -> Result<Server, ServerError> {
     let shared = Arc::new(Shared {
         server: Mutex::new(server),
         wake: Condvar::new(),
@@ -68,12 +72,24 @@ pub fn run(server: Server, opts: RunOptions, mut stop: impl FnMut(&Progress) -> 
     if let Some(source) = &opts.source {
         for i in 0..opts.threads {
             let (sh, src) = (shared.clone(), source.clone());
-            threads.push(std::thread::Builder::new().name(format!("holodeck-worker-{i}")).spawn(move || thread_worker(&sh, &*src)).expect("spawn worker thread"));
+            threads.push(
+                std::thread::Builder::new()
+                    .name(format!("holodeck-worker-{i}"))
+                    .spawn(move || thread_worker(&sh, &*src))
+                    .expect("spawn worker thread"),
+            );
         }
     }
-    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().map_err(|e| {
-        ServerError::File(crate::FileError::Io { path: "tokio runtime".into(), source: e })
-    })?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .map_err(|e| {
+            ServerError::File(crate::FileError::Io {
+                path: "tokio runtime".into(),
+                source: e,
+            })
+        })?;
     {
         let sh = shared.clone();
         rt.spawn(async move {
@@ -110,7 +126,11 @@ pub fn run(server: Server, opts: RunOptions, mut stop: impl FnMut(&Progress) -> 
     let mut commits = 0;
     let mut result = Ok(());
     loop {
-        let progress = Progress { elapsed: shared.start.elapsed(), stats: shared.lock().stats(), commits };
+        let progress = Progress {
+            elapsed: shared.start.elapsed(),
+            stats: shared.lock().stats(),
+            commits,
+        };
         if shared.stop.load(Ordering::SeqCst) || stop(&progress) {
             break;
         }
@@ -163,7 +183,8 @@ fn thread_worker(sh: &Shared, source: &dyn SampleSource) {
             if sh.stop.load(Ordering::SeqCst) {
                 break;
             }
-            let result = trace_packet(source, &p).expect("packets built by the server are whole records");
+            let result =
+                trace_packet(source, &p).expect("packets built by the server are whole records");
             if let Err(e) = sh.lock().complete(id, &result, sh.now()) {
                 tracing::warn!("worker thread: {e}");
             }
@@ -180,21 +201,35 @@ enum ConnError {
     Protocol(String),
 }
 
-async fn serve_connection(sh: &Arc<Shared>, sock: tokio::net::TcpStream, scene: &str) -> Result<(), ConnError> {
+async fn serve_connection(
+    sh: &Arc<Shared>,
+    sock: tokio::net::TcpStream,
+    scene: &str,
+) -> Result<(), ConnError> {
     sock.set_nodelay(true).ok();
     let (mut rd, wr) = sock.into_split();
     let mut wr = BufWriter::new(wr);
-    let hello = tokio::time::timeout(Duration::from_secs(30), frame::read_frame_async::<_, WorkerMsg>(&mut rd, MAX_FRAME_BYTES))
-        .await
-        .map_err(|_| ConnError::Protocol("no hello within 30 s".into()))??;
+    let hello = tokio::time::timeout(
+        Duration::from_secs(30),
+        frame::read_frame_async::<_, WorkerMsg>(&mut rd, MAX_FRAME_BYTES),
+    )
+    .await
+    .map_err(|_| ConnError::Protocol("no hello within 30 s".into()))??;
     let WorkerMsg::Hello(hello) = hello else {
         return Err(ConnError::Protocol("first message was not a hello".into()));
     };
     if hello.protocol != PROTOCOL_VERSION {
-        return Err(ConnError::Protocol(format!("protocol {} (this server speaks {PROTOCOL_VERSION})", hello.protocol)));
+        return Err(ConnError::Protocol(format!(
+            "protocol {} (this server speaks {PROTOCOL_VERSION})",
+            hello.protocol
+        )));
     }
     if !scene.is_empty() && hello.scene != scene {
-        tracing::warn!("worker {} traces scene {:?}; the holodeck was made with {scene:?}", hello.name, hello.scene);
+        tracing::warn!(
+            "worker {} traces scene {:?}; the holodeck was made with {scene:?}",
+            hello.name,
+            hello.scene
+        );
     }
     let id: WorkerId = sh.lock().add_worker();
     tracing::info!("worker {id} ({}) joined", hello.name);
@@ -211,7 +246,15 @@ async fn worker_session(
     wr: &mut BufWriter<tokio::net::tcp::OwnedWriteHalf>,
     scene: &str,
 ) -> Result<(), ConnError> {
-    frame::write_frame_async(wr, &ServerMsg::Welcome(Welcome { worker_id: id, scene: scene.into() }), MAX_FRAME_BYTES).await?;
+    frame::write_frame_async(
+        wr,
+        &ServerMsg::Welcome(Welcome {
+            worker_id: id,
+            scene: scene.into(),
+        }),
+        MAX_FRAME_BYTES,
+    )
+    .await?;
     wr.flush().await.map_err(FrameError::from)?;
     // Reading runs apart from writing, so a worker blocked sending results never waits on us.
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();

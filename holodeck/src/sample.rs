@@ -90,7 +90,12 @@ mod tests {
 
     #[test]
     fn layout_is_little_endian() {
-        let s = Sample { rgbe: [1, 2, 3, 4], entry: [5, 6], exit: [7, 8], dist: 0x0a09 };
+        let s = Sample {
+            rgbe: [1, 2, 3, 4],
+            entry: [5, 6],
+            exit: [7, 8],
+            dist: 0x0a09,
+        };
         assert_eq!(s.to_bytes(), [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]);
     }
 }

@@ -50,7 +50,11 @@ pub enum SectionError {
     #[error("section grid {0:?} has an empty axis")]
     EmptyGrid([u32; 3]),
     #[error("section grid {grid:?} has {beams} beams, more than the {max} a section can index")]
-    TooManyBeams { grid: [u32; 3], beams: u64, max: u64 },
+    TooManyBeams {
+        grid: [u32; 3],
+        beams: u64,
+        max: u64,
+    },
 }
 
 /// A cell on one wall: the wall number (0..6) and the cell's row along the wall's two axes.
@@ -135,7 +139,15 @@ impl Section {
             .iter()
             .map(|d| d.length())
             .fold(0.0, f64::max);
-        Ok(Self { origin, edges, grid, class, to_unit: m.inverse(), index, size })
+        Ok(Self {
+            origin,
+            edges,
+            grid,
+            class,
+            to_unit: m.inverse(),
+            index,
+            size,
+        })
     }
 
     /// A section whose grid follows the edge lengths and gives about `target` beams.
@@ -193,7 +205,9 @@ impl Section {
     }
     /// Volume of the parallelepiped.
     pub fn volume(&self) -> f64 {
-        DMat3::from_cols(self.edges[0], self.edges[1], self.edges[2]).determinant().abs()
+        DMat3::from_cols(self.edges[0], self.edges[1], self.edges[2])
+            .determinant()
+            .abs()
     }
 
     /// World position of the wall point at in-plane coordinates `(pu, pv) ∈ [0, 1]²`.
@@ -270,7 +284,13 @@ impl Section {
         let (entry_cell, entry) = self.wall_position(near_wall, o + d * t_near);
         let (exit_cell, exit) = self.wall_position(far_wall, o + d * t_far);
         let beam = self.index.beam(entry_cell, exit_cell)?;
-        Some(Crossing { beam, entry, exit, t_entry: t_near, t_exit: t_far })
+        Some(Crossing {
+            beam,
+            entry,
+            exit,
+            t_entry: t_near,
+            t_exit: t_far,
+        })
     }
 
     /// Cell and byte position of unit-coordinate point `p` on `wall` (clamped onto the wall).
@@ -288,7 +308,12 @@ impl Section {
     }
 
     /// Entry and exit points (world) of a stored sample's ray.
-    pub fn sample_points(&self, beam: u32, entry: [u8; 2], exit: [u8; 2]) -> Option<(DVec3, DVec3)> {
+    pub fn sample_points(
+        &self,
+        beam: u32,
+        entry: [u8; 2],
+        exit: [u8; 2],
+    ) -> Option<(DVec3, DVec3)> {
         let (a, b) = self.index.cells(beam)?;
         Some((self.cell_point(a, entry), self.cell_point(b, exit)))
     }
@@ -301,8 +326,16 @@ impl Section {
         let len = chord.length();
         let dir = chord / len;
         Some(match self.class {
-            ViewClass::Interior => TraceRay { origin: p1, dir, offset: len },
-            ViewClass::Exterior => TraceRay { origin: p0, dir, offset: 0.0 },
+            ViewClass::Interior => TraceRay {
+                origin: p1,
+                dir,
+                offset: len,
+            },
+            ViewClass::Exterior => TraceRay {
+                origin: p0,
+                dir,
+                offset: 0.0,
+            },
         })
     }
 
@@ -354,7 +387,11 @@ mod tests {
     fn skewed() -> Section {
         Section::new(
             DVec3::new(-1.0, 0.5, 2.0),
-            [DVec3::new(2.0, 0.0, 0.3), DVec3::new(0.2, 1.5, 0.0), DVec3::new(0.0, 0.4, 3.0)],
+            [
+                DVec3::new(2.0, 0.0, 0.3),
+                DVec3::new(0.2, 1.5, 0.0),
+                DVec3::new(0.0, 0.4, 3.0),
+            ],
             [5, 3, 7],
             ViewClass::Interior,
         )
@@ -365,7 +402,10 @@ mod tests {
     fn bytes_at(s: &Section, wall: u8, p: DVec3) -> [f64; 2] {
         let (_, u, v) = wall_axes(wall);
         let t = s.to_unit * (p - s.origin);
-        [t[u] * f64::from(s.grid[u]) * 256.0, t[v] * f64::from(s.grid[v]) * 256.0]
+        [
+            t[u] * f64::from(s.grid[u]) * 256.0,
+            t[v] * f64::from(s.grid[v]) * 256.0,
+        ]
     }
 
     /// The decoded entry/exit points lie within half a quantisation step (per wall axis) of
@@ -386,7 +426,10 @@ mod tests {
         }
         // Decoded rays re-encode to the same code exactly.
         let again = s.crossing(p0, p1 - p0).unwrap();
-        assert_eq!((again.beam, again.entry, again.exit), (c.beam, c.entry, c.exit));
+        assert_eq!(
+            (again.beam, again.entry, again.exit),
+            (c.beam, c.entry, c.exit)
+        );
     }
 
     fn unit(s: &Section, t: DVec3) -> DVec3 {
@@ -433,8 +476,13 @@ mod tests {
 
     #[test]
     fn grazing_and_wall_rays() {
-        let s = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [4, 4, 4], ViewClass::Interior)
-            .unwrap();
+        let s = Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            [4, 4, 4],
+            ViewClass::Interior,
+        )
+        .unwrap();
         // Along a wall (in the plane x = 0), along an edge, through a corner.
         for (o, d) in [
             (DVec3::new(0.0, -1.0, 0.3), DVec3::Y),
@@ -451,13 +499,20 @@ mod tests {
         // different walls, still a crossing; a ray missing the box is not.
         assert!(s.crossing(DVec3::new(2.0, 0.5, 0.5), DVec3::Y).is_none());
         assert!(s.crossing(DVec3::new(0.5, 0.5, 0.5), DVec3::ZERO).is_none());
-        assert!(s.crossing(DVec3::new(0.5, 0.5, f64::NAN), DVec3::X).is_none());
+        assert!(
+            s.crossing(DVec3::new(0.5, 0.5, f64::NAN), DVec3::X)
+                .is_none()
+        );
     }
 
     #[test]
     fn default_grid_targets_200k_beams() {
-        let s = Section::with_default_grid(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], ViewClass::Interior)
-            .unwrap();
+        let s = Section::with_default_grid(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            ViewClass::Interior,
+        )
+        .unwrap();
         assert_eq!(s.grid(), [9, 9, 9]);
         let n = f64::from(s.beam_count());
         assert!((n / 200_000.0 - 1.0).abs() < 0.25, "{n}");
@@ -475,33 +530,67 @@ mod tests {
 
     #[test]
     fn errors_name_the_problem() {
-        let z = Section::new(DVec3::ZERO, [DVec3::X, DVec3::X, DVec3::Z], [2, 2, 2], ViewClass::Interior);
+        let z = Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::X, DVec3::Z],
+            [2, 2, 2],
+            ViewClass::Interior,
+        );
         assert!(matches!(z, Err(SectionError::Degenerate(_))));
-        let g = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [2, 0, 2], ViewClass::Interior);
+        let g = Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            [2, 0, 2],
+            ViewClass::Interior,
+        );
         assert!(matches!(g, Err(SectionError::EmptyGrid(_))));
-        let big = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [200, 200, 200], ViewClass::Interior);
+        let big = Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            [200, 200, 200],
+            ViewClass::Interior,
+        );
         assert!(matches!(big, Err(SectionError::TooManyBeams { .. })));
     }
 
     #[test]
     fn beam_volumes_sum_to_crofton_total() {
         // Σ over beams of ∫∫ cos cos / r dA dA → 4π V as the grid (or quadrature) refines.
-        let s = Section::new(DVec3::ZERO, [DVec3::X * 2.0, DVec3::Y, DVec3::Z * 1.5], [6, 3, 5], ViewClass::Interior)
-            .unwrap();
+        let s = Section::new(
+            DVec3::ZERO,
+            [DVec3::X * 2.0, DVec3::Y, DVec3::Z * 1.5],
+            [6, 3, 5],
+            ViewClass::Interior,
+        )
+        .unwrap();
         let want = 4.0 * std::f64::consts::PI * s.volume();
-        let sum = |sub| (0..s.beam_count()).map(|b| s.beam_volume(b, sub)).sum::<f64>();
+        let sum = |sub| {
+            (0..s.beam_count())
+                .map(|b| s.beam_volume(b, sub))
+                .sum::<f64>()
+        };
         let (c1, c3) = (sum(1), sum(3));
         let (e1, e3) = ((c1 / want - 1.0).abs(), (c3 / want - 1.0).abs());
-        assert!(e1 < 0.1 && e3 < e1, "centre rule {c1}, 3x3 {c3}, want {want}");
+        assert!(
+            e1 < 0.1 && e3 < e1,
+            "centre rule {c1}, 3x3 {c3}, want {want}"
+        );
     }
 
     #[test]
     fn trace_rays_follow_the_view_class() {
-        let mut s = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [2, 2, 2], ViewClass::Interior)
-            .unwrap();
+        let mut s = Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            [2, 2, 2],
+            ViewClass::Interior,
+        )
+        .unwrap();
         let b = s.crossing(DVec3::new(0.3, 0.4, -1.0), DVec3::Z).unwrap();
         let r = s.trace_ray(b.beam, b.entry, b.exit).unwrap();
-        assert!((r.origin.z - 1.0).abs() < 1e-12 && r.dir.z > 0.99 && (r.offset - 1.0).abs() < 1e-3);
+        assert!(
+            (r.origin.z - 1.0).abs() < 1e-12 && r.dir.z > 0.99 && (r.offset - 1.0).abs() < 1e-3
+        );
         s.class = ViewClass::Exterior;
         let r = s.trace_ray(b.beam, b.entry, b.exit).unwrap();
         assert!(r.origin.z.abs() < 1e-12 && r.offset == 0.0);

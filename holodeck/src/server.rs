@@ -55,7 +55,12 @@ pub struct ServerConfig {
 
 impl Default for ServerConfig {
     fn default() -> Self {
-        Self { cache_bytes: 256 << 20, queue_seconds: 3.0, initial_rate: 200.0, max_bundle: 21 }
+        Self {
+            cache_bytes: 256 << 20,
+            queue_seconds: 3.0,
+            initial_rate: 200.0,
+            max_bundle: 21,
+        }
     }
 }
 
@@ -72,7 +77,11 @@ pub enum ServerError {
     #[error("worker {worker} returned packet {packet}, which it does not hold")]
     UnknownPacket { worker: WorkerId, packet: u64 },
     #[error("packet {packet} had {rays} rays but {results} results came back")]
-    WrongCount { packet: u64, rays: usize, results: usize },
+    WrongCount {
+        packet: u64,
+        rays: usize,
+        results: usize,
+    },
     #[error(transparent)]
     Records(#[from] RecordError),
     #[error("section {section} beam {beam} is not in the holodeck")]
@@ -148,9 +157,18 @@ pub struct Server {
 impl Server {
     /// A server over an open (writable unless display-only) holodeck file.
     pub fn new(file: HoloFile, mode: Mode, config: ServerConfig) -> Self {
-        let codes = file.sections().iter().map(|s| DistanceCode::new(s.size())).collect();
+        let codes = file
+            .sections()
+            .iter()
+            .map(|s| DistanceCode::new(s.size()))
+            .collect();
         let samples: u64 = (0..file.sections().len())
-            .map(|s| file.directory(s).iter().map(|e| u64::from(e.count)).sum::<u64>())
+            .map(|s| {
+                file.directory(s)
+                    .iter()
+                    .map(|e| u64::from(e.count))
+                    .sum::<u64>()
+            })
             .sum();
         // Distinct per run (the file changes), so a resumed fill draws new rays.
         let rng = SmallRng::seed_from_u64(file.seq().wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ samples);
@@ -170,7 +188,10 @@ impl Server {
             eyes: HashMap::new(),
             codes,
             rng,
-            stats: Stats { samples, ..Default::default() },
+            stats: Stats {
+                samples,
+                ..Default::default()
+            },
         };
         if mode == Mode::Batch {
             server.request_by_volume();
@@ -192,7 +213,9 @@ impl Server {
             *v /= mean;
         }
         let (cache, pending) = (&self.cache, &self.pending);
-        self.requests.set(w.clone(), |k| cache.count(k) + pending.get(&k).copied().unwrap_or(0));
+        self.requests.set(w.clone(), |k| {
+            cache.count(k) + pending.get(&k).copied().unwrap_or(0)
+        });
         self.weights = w;
     }
 
@@ -201,7 +224,10 @@ impl Server {
     }
 
     pub fn stats(&self) -> Stats {
-        Stats { workers: self.workers.len(), ..self.stats }
+        Stats {
+            workers: self.workers.len(),
+            ..self.stats
+        }
     }
 
     pub fn cache(&self) -> &BeamCache {
@@ -212,7 +238,15 @@ impl Server {
     pub fn add_worker(&mut self) -> WorkerId {
         let id = self.next_worker;
         self.next_worker += 1;
-        self.workers.insert(id, WorkerState { in_flight: Vec::new(), rays_in_flight: 0, rate: None, last_done: 0.0 });
+        self.workers.insert(
+            id,
+            WorkerState {
+                in_flight: Vec::new(),
+                rays_in_flight: 0,
+                rate: None,
+                last_done: 0.0,
+            },
+        );
         id
     }
 
@@ -235,9 +269,12 @@ impl Server {
         if self.mode == Mode::DisplayOnly {
             return out;
         }
-        let Some(w) = self.workers.get(&id) else { return out };
+        let Some(w) = self.workers.get(&id) else {
+            return out;
+        };
         let rate = w.rate.unwrap_or(self.config.initial_rate);
-        let target = ((rate * self.config.queue_seconds) as usize).clamp(2 * MIN_PACKET_RAYS, 2 * MAX_PACKET_RAYS);
+        let target = ((rate * self.config.queue_seconds) as usize)
+            .clamp(2 * MIN_PACKET_RAYS, 2 * MAX_PACKET_RAYS);
         let size = (target / 2).clamp(MIN_PACKET_RAYS, MAX_PACKET_RAYS);
         while self.workers[&id].rays_in_flight < target {
             let pid = match self.orphans.pop_front() {
@@ -266,34 +303,54 @@ impl Server {
     }
 
     fn build_packet(&mut self, size: usize) -> Option<u64> {
-        let limit = if self.mode == Mode::Batch { f64::INFINITY } else { 1.0 };
-        let mut rays = RayPacket { id: self.next_packet, seed: self.rng.random(), rays: Vec::new() };
+        let limit = if self.mode == Mode::Batch {
+            f64::INFINITY
+        } else {
+            1.0
+        };
+        let mut rays = RayPacket {
+            id: self.next_packet,
+            seed: self.rng.random(),
+            rays: Vec::new(),
+        };
         let mut bundles = Vec::new();
         let mut n_rays = 0;
         while n_rays < size {
             let (cache, pending) = (&self.cache, &self.pending);
             let have = |k| cache.count(k) + pending.get(&k).copied().unwrap_or(0);
-            let Some((key, _)) = self.requests.pop(have, limit) else { break };
+            let Some((key, _)) = self.requests.pop(have, limit) else {
+                break;
+            };
             let want = match self.mode {
                 Mode::Batch => (self.weights[&key] * BATCH_BUNDLE).round(),
                 _ => (self.requests.wanted(key) - f64::from(self.have(key))).ceil(),
             };
-            let n = (want.max(1.0) as usize).min(self.config.max_bundle as usize).min(size - n_rays);
+            let n = (want.max(1.0) as usize)
+                .min(self.config.max_bundle as usize)
+                .min(size - n_rays);
             let section = &self.cache.file().sections()[usize::from(key.0)];
             let codes = match self.eyes.get(&key) {
-                Some(eye) if self.mode == Mode::Interactive => proximity::near_eye(section, key.1, *eye, n, &mut self.rng).0,
+                Some(eye) if self.mode == Mode::Interactive => {
+                    proximity::near_eye(section, key.1, *eye, n, &mut self.rng).0
+                }
                 _ => proximity::uniform(n, &mut self.rng),
             };
             let mut offsets = Vec::with_capacity(n);
             for &(e, x) in &codes {
-                let r = section.trace_ray(key.1, e, x).expect("requested beams exist");
+                let r = section
+                    .trace_ray(key.1, e, x)
+                    .expect("requested beams exist");
                 rays.push(r.origin.as_vec3().to_array(), r.dir.as_vec3().to_array());
                 offsets.push(r.offset);
             }
             *self.pending.entry(key).or_default() += n as u32;
             n_rays += n;
             self.requests.requeue(key, self.have(key));
-            bundles.push(Bundle { key, codes, offsets });
+            bundles.push(Bundle {
+                key,
+                codes,
+                offsets,
+            });
         }
         if bundles.is_empty() {
             return None;
@@ -301,19 +358,38 @@ impl Server {
         let id = self.next_packet;
         self.next_packet += 1;
         self.stats.rays_assigned += n_rays as u64;
-        self.packets.insert(id, Packet { rays, bundles, worker: None, sent_at: 0.0 });
+        self.packets.insert(
+            id,
+            Packet {
+                rays,
+                bundles,
+                worker: None,
+                sent_at: 0.0,
+            },
+        );
         Some(id)
     }
 
     /// Stores a worker's results. Returns the new samples per beam (for displays).
-    pub fn complete(&mut self, id: WorkerId, result: &SamplePacket, now: f64) -> Result<Vec<BeamSamples>, ServerError> {
+    pub fn complete(
+        &mut self,
+        id: WorkerId,
+        result: &SamplePacket,
+        now: f64,
+    ) -> Result<Vec<BeamSamples>, ServerError> {
         let pid = result.id;
         let holds = self.packets.get(&pid).is_some_and(|p| p.worker == Some(id));
         if !holds {
-            return Err(ServerError::UnknownPacket { worker: id, packet: pid });
+            return Err(ServerError::UnknownPacket {
+                worker: id,
+                packet: pid,
+            });
         }
         let rays = self.packets[&pid].rays.len();
-        let w = self.workers.get_mut(&id).expect("a packet's worker is registered");
+        let w = self
+            .workers
+            .get_mut(&id)
+            .expect("a packet's worker is registered");
         w.in_flight.retain(|&p| p != pid);
         w.rays_in_flight -= rays;
         let results = match result.results() {
@@ -323,7 +399,11 @@ impl Server {
                 self.packets.get_mut(&pid).expect("held").worker = None;
                 self.orphans.push_back(pid);
                 return Err(match other {
-                    Ok(r) => ServerError::WrongCount { packet: pid, rays, results: r.len() },
+                    Ok(r) => ServerError::WrongCount {
+                        packet: pid,
+                        rays,
+                        results: r.len(),
+                    },
                     Err(e) => e.into(),
                 });
             }
@@ -352,14 +432,20 @@ impl Server {
                 })
                 .collect();
             self.cache.add(b.key, &samples)?;
-            let p = self.pending.get_mut(&b.key).expect("assigned beams are pending");
+            let p = self
+                .pending
+                .get_mut(&b.key)
+                .expect("assigned beams are pending");
             *p -= samples.len() as u32;
             if *p == 0 {
                 self.pending.remove(&b.key);
             }
             self.stats.samples += samples.len() as u64;
             self.stats.added += samples.len() as u64;
-            out.push(BeamSamples { key: b.key, samples });
+            out.push(BeamSamples {
+                key: b.key,
+                samples,
+            });
         }
         Ok(out)
     }
@@ -373,23 +459,55 @@ impl Server {
         eye: Option<Eye>,
     ) -> Result<Vec<BeamSamples>, ServerError> {
         for &((s, b), _) in &wanted {
-            let ok = self.cache.file().sections().get(usize::from(s)).is_some_and(|sec| b < sec.beam_count());
+            let ok = self
+                .cache
+                .file()
+                .sections()
+                .get(usize::from(s))
+                .is_some_and(|sec| b < sec.beam_count());
             if !ok {
-                return Err(ServerError::NoBeam { section: s, beam: b });
+                return Err(ServerError::NoBeam {
+                    section: s,
+                    beam: b,
+                });
             }
         }
-        self.displays.insert(display, DisplayRequest { wanted: wanted.clone(), eye });
+        self.displays.insert(
+            display,
+            DisplayRequest {
+                wanted: wanted.clone(),
+                eye,
+            },
+        );
         self.merge_displays();
-        let mut have: Vec<BeamKey> = wanted.iter().map(|r| r.0).filter(|&k| self.cache.count(k) > 0).collect();
-        have.sort_by_key(|&k| (!self.cache.contains(k), self.cache.file().count(usize::from(k.0), k.1).min(1), self.file_offset(k)));
+        let mut have: Vec<BeamKey> = wanted
+            .iter()
+            .map(|r| r.0)
+            .filter(|&k| self.cache.count(k) > 0)
+            .collect();
+        have.sort_by_key(|&k| {
+            (
+                !self.cache.contains(k),
+                self.cache.file().count(usize::from(k.0), k.1).min(1),
+                self.file_offset(k),
+            )
+        });
         have.dedup();
         have.into_iter()
-            .map(|key| Ok(BeamSamples { key, samples: self.cache.get(key)?.to_vec() }))
+            .map(|key| {
+                Ok(BeamSamples {
+                    key,
+                    samples: self.cache.get(key)?.to_vec(),
+                })
+            })
             .collect()
     }
 
     fn file_offset(&self, k: BeamKey) -> u64 {
-        self.cache.file().entry(usize::from(k.0), k.1).map_or(0, |e| e.offset)
+        self.cache
+            .file()
+            .entry(usize::from(k.0), k.1)
+            .map_or(0, |e| e.offset)
     }
 
     /// A display went away.
@@ -414,7 +532,9 @@ impl Server {
             }
         }
         let (cache, pending) = (&self.cache, &self.pending);
-        self.requests.set(wanted, |k| cache.count(k) + pending.get(&k).copied().unwrap_or(0));
+        self.requests.set(wanted, |k| {
+            cache.count(k) + pending.get(&k).copied().unwrap_or(0)
+        });
     }
 
     /// Writes changed beams and commits.
@@ -437,14 +557,23 @@ mod tests {
     fn server(mode: Mode) -> (tempfile::TempDir, Server) {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.hdk");
-        let s = Section::new(DVec3::ZERO, [DVec3::X * 2.0, DVec3::Y, DVec3::Z], [3, 2, 2], ViewClass::Interior).unwrap();
+        let s = Section::new(
+            DVec3::ZERO,
+            [DVec3::X * 2.0, DVec3::Y, DVec3::Z],
+            [3, 2, 2],
+            ViewClass::Interior,
+        )
+        .unwrap();
         let h = HoloFile::create(&p, vec![s], Default::default()).unwrap();
         (dir, Server::new(h, mode, ServerConfig::default()))
     }
 
     /// A fake tracer: radiance from the direction, escaped rays.
     fn answer(p: &RayPacket) -> SamplePacket {
-        let mut s = SamplePacket { id: p.id, results: Vec::new() };
+        let mut s = SamplePacket {
+            id: p.id,
+            results: Vec::new(),
+        };
         for (_, d) in p.rays().unwrap() {
             s.push([d[0].abs(), d[1].abs(), d[2].abs()], 1.5);
         }
@@ -469,11 +598,19 @@ mod tests {
         let w = srv.add_worker();
         run_worker(&mut srv, w, 2000.0, 100, 0.0);
         let weights = srv.weights.clone();
-        let ratios: Vec<f64> = weights.iter().map(|(k, w)| f64::from(srv.cache.count(*k)) / w).collect();
-        let (lo, hi) = ratios.iter().fold((f64::MAX, 0f64), |(a, b), &x| (a.min(x), b.max(x)));
+        let ratios: Vec<f64> = weights
+            .iter()
+            .map(|(k, w)| f64::from(srv.cache.count(*k)) / w)
+            .collect();
+        let (lo, hi) = ratios
+            .iter()
+            .fold((f64::MAX, 0f64), |(a, b), &x| (a.min(x), b.max(x)));
         let min_w = weights.values().cloned().fold(f64::MAX, f64::min);
         // Even to within one bundle of the least-weighted beam (plus what is in flight).
-        assert!(lo > 0.0 && hi - lo <= (BATCH_BUNDLE * 2.0 + 1.0) / min_w, "{lo} {hi}");
+        assert!(
+            lo > 0.0 && hi - lo <= (BATCH_BUNDLE * 2.0 + 1.0) / min_w,
+            "{lo} {hi}"
+        );
         assert_eq!(srv.stats().samples, srv.stats().added);
         let added = srv.stats().added;
         let h = srv.into_file().unwrap();
@@ -494,9 +631,17 @@ mod tests {
         let t = run_worker(&mut srv, w, 10_000.0, 60, 0.0);
         let rate = srv.workers[&w].rate.unwrap();
         assert!((rate / 10_000.0 - 1.0).abs() < 0.2, "{rate}");
-        let queued = srv.workers[&w].rays_in_flight + srv.next_packets(w, t).iter().map(|p| p.len()).sum::<usize>();
+        let queued = srv.workers[&w].rays_in_flight
+            + srv
+                .next_packets(w, t)
+                .iter()
+                .map(|p| p.len())
+                .sum::<usize>();
         let seconds = queued as f64 / rate;
-        assert!((2.0..=4.0).contains(&seconds), "queue drains in {seconds} s");
+        assert!(
+            (2.0..=4.0).contains(&seconds),
+            "queue drains in {seconds} s"
+        );
     }
 
     #[test]
@@ -508,7 +653,11 @@ mod tests {
         let lost_rays: usize = lost.iter().map(|p| p.len()).sum();
         srv.remove_worker(a);
         let got = srv.next_packets(b, 0.0);
-        assert_eq!(&got[..lost.len()], &lost[..], "same packets, same rays and seeds");
+        assert_eq!(
+            &got[..lost.len()],
+            &lost[..],
+            "same packets, same rays and seeds"
+        );
         for p in &got {
             srv.complete(b, &answer(p), 1.0).unwrap();
         }
@@ -516,12 +665,18 @@ mod tests {
         assert_eq!(srv.stats().packets_reassigned, lost.len() as u64);
         assert!(srv.pending.is_empty());
         // A late answer from the dead worker is refused, not stored twice.
-        assert!(matches!(srv.complete(a, &answer(&lost[0]), 2.0), Err(ServerError::UnknownPacket { .. })));
+        assert!(matches!(
+            srv.complete(a, &answer(&lost[0]), 2.0),
+            Err(ServerError::UnknownPacket { .. })
+        ));
         // A short answer sends the packet elsewhere.
         let p = srv.next_packets(b, 3.0).remove(0);
         let mut short = answer(&p);
         short.results.truncate(16);
-        assert!(matches!(srv.complete(b, &short, 4.0), Err(ServerError::WrongCount { .. })));
+        assert!(matches!(
+            srv.complete(b, &short, 4.0),
+            Err(ServerError::WrongCount { .. })
+        ));
         assert_eq!(srv.orphans.front(), Some(&p.id));
     }
 
@@ -529,8 +684,15 @@ mod tests {
     fn interactive_requests_merge_and_replay_from_cache() {
         let (_d, mut srv) = server(Mode::Interactive);
         let w = srv.add_worker();
-        let eye = Eye { pos: DVec3::new(1.0, 0.5, 0.5), radius: 0.2 };
-        assert!(srv.set_requests(0, vec![((0, 3), 10.0), ((0, 4), 5.0)], Some(eye)).unwrap().is_empty());
+        let eye = Eye {
+            pos: DVec3::new(1.0, 0.5, 0.5),
+            radius: 0.2,
+        };
+        assert!(
+            srv.set_requests(0, vec![((0, 3), 10.0), ((0, 4), 5.0)], Some(eye))
+                .unwrap()
+                .is_empty()
+        );
         srv.set_requests(1, vec![((0, 3), 30.0)], None).unwrap();
         assert_eq!(srv.requests.wanted((0, 3)), 30.0);
         let mut t = 0.0;
@@ -547,9 +709,14 @@ mod tests {
         assert_eq!(srv.cache.count((0, 3)), 30);
         assert_eq!(srv.cache.count((0, 4)), 5);
         // A new display asking for the same beams gets them at once.
-        let got = srv.set_requests(2, vec![((0, 4), 5.0), ((0, 3), 1.0)], None).unwrap();
+        let got = srv
+            .set_requests(2, vec![((0, 4), 5.0), ((0, 3), 1.0)], None)
+            .unwrap();
         assert_eq!(got.iter().map(|b| b.samples.len()).sum::<usize>(), 35);
-        assert!(srv.set_requests(2, vec![((0, 1 << 30), 1.0)], None).is_err());
+        assert!(
+            srv.set_requests(2, vec![((0, 1 << 30), 1.0)], None)
+                .is_err()
+        );
         srv.remove_display(0);
         srv.remove_display(1);
         assert_eq!(srv.requests.wanted((0, 3)), 1.0);

@@ -8,20 +8,29 @@ use std::io::{BufReader, BufWriter, Write};
 use std::net::{TcpStream, ToSocketAddrs};
 
 use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
-use holocave_protocol::holodeck::{PROTOCOL_VERSION, RayPacket, RecordError, SamplePacket, ServerMsg, WorkerHello, WorkerMsg};
+use holocave_protocol::holodeck::{
+    PROTOCOL_VERSION, RayPacket, RecordError, SamplePacket, ServerMsg, WireRay, WireResult,
+    WorkerHello, WorkerMsg,
+};
 
 /// A sample generator.
 pub trait SampleSource: Send + Sync {
     /// Radiance and first-hit distance from the origin (`+Inf` if the ray escapes) for each
     /// `(origin, unit direction)`, deterministic for a seed, on the calling thread.
-    fn trace(&self, rays: &[([f32; 3], [f32; 3])], seed: u64) -> Vec<([f32; 3], f32)>;
+    fn trace(&self, rays: &[WireRay], seed: u64) -> Vec<WireResult>;
 }
 
 /// Traces one packet.
-pub fn trace_packet(source: &dyn SampleSource, packet: &RayPacket) -> Result<SamplePacket, RecordError> {
+pub fn trace_packet(
+    source: &dyn SampleSource,
+    packet: &RayPacket,
+) -> Result<SamplePacket, RecordError> {
     let rays = packet.rays()?;
     let results = source.trace(&rays, packet.seed);
-    let mut out = SamplePacket { id: packet.id, results: Vec::with_capacity(results.len() * 16) };
+    let mut out = SamplePacket {
+        id: packet.id,
+        results: Vec::with_capacity(results.len() * 16),
+    };
     for (rad, d) in results {
         out.push(rad, d);
     }
@@ -31,11 +40,18 @@ pub fn trace_packet(source: &dyn SampleSource, packet: &RayPacket) -> Result<Sam
 #[derive(Debug, thiserror::Error)]
 pub enum WorkerError {
     #[error("cannot connect to holodeck server {addr}: {source}")]
-    Connect { addr: String, source: std::io::Error },
+    Connect {
+        addr: String,
+        source: std::io::Error,
+    },
     #[error("holodeck server {addr}: {source}")]
     Frame { addr: String, source: FrameError },
     #[error("holodeck server {addr} sent {what} where {expected} was expected")]
-    Unexpected { addr: String, what: &'static str, expected: &'static str },
+    Unexpected {
+        addr: String,
+        what: &'static str,
+        expected: &'static str,
+    },
     #[error("holodeck server {addr}: {source}")]
     Records { addr: String, source: RecordError },
 }
@@ -51,18 +67,33 @@ pub struct WorkerReport {
 
 /// A worker process's loop: connects to `addr`, says hello, then traces every ray packet
 /// it receives and sends the results back, until the server says goodbye or closes.
-pub fn run_remote(addr: &str, name: &str, scene: &str, source: &dyn SampleSource) -> Result<WorkerReport, WorkerError> {
+pub fn run_remote(
+    addr: &str,
+    name: &str,
+    scene: &str,
+    source: &dyn SampleSource,
+) -> Result<WorkerReport, WorkerError> {
     let a = addr.to_string();
     let conn = addr
         .to_socket_addrs()
         .and_then(|mut it| it.next().ok_or_else(|| std::io::Error::other("no address")))
         .and_then(TcpStream::connect)
-        .map_err(|source| WorkerError::Connect { addr: a.clone(), source })?;
+        .map_err(|source| WorkerError::Connect {
+            addr: a.clone(),
+            source,
+        })?;
     conn.set_nodelay(true).ok();
-    let frame_err = |source| WorkerError::Frame { addr: a.clone(), source };
+    let frame_err = |source| WorkerError::Frame {
+        addr: a.clone(),
+        source,
+    };
     let mut rd = BufReader::new(conn.try_clone().map_err(|e| frame_err(e.into()))?);
     let mut wr = BufWriter::new(conn);
-    let hello = WorkerMsg::Hello(WorkerHello { protocol: PROTOCOL_VERSION, name: name.into(), scene: scene.into() });
+    let hello = WorkerMsg::Hello(WorkerHello {
+        protocol: PROTOCOL_VERSION,
+        name: name.into(),
+        scene: scene.into(),
+    });
     frame::write_frame(&mut wr, &hello, MAX_FRAME_BYTES).map_err(frame_err)?;
     wr.flush().map_err(|e| frame_err(e.into()))?;
     let mut report = WorkerReport::default();
@@ -71,21 +102,35 @@ pub fn run_remote(addr: &str, name: &str, scene: &str, source: &dyn SampleSource
             report.worker_id = w.worker_id;
             report.server_scene = w.scene;
         }
-        ServerMsg::Rays(_) => return Err(WorkerError::Unexpected { addr: a, what: "rays", expected: "welcome" }),
+        ServerMsg::Rays(_) => {
+            return Err(WorkerError::Unexpected {
+                addr: a,
+                what: "rays",
+                expected: "welcome",
+            });
+        }
         ServerMsg::Bye => return Ok(report),
     }
     loop {
         match frame::read_frame(&mut rd, MAX_FRAME_BYTES) {
             Ok(ServerMsg::Rays(p)) => {
-                let out = trace_packet(source, &p).map_err(|source| WorkerError::Records { addr: a.clone(), source })?;
+                let out = trace_packet(source, &p).map_err(|source| WorkerError::Records {
+                    addr: a.clone(),
+                    source,
+                })?;
                 report.packets += 1;
                 report.rays += p.len() as u64;
-                frame::write_frame(&mut wr, &WorkerMsg::Samples(out), MAX_FRAME_BYTES).map_err(frame_err)?;
+                frame::write_frame(&mut wr, &WorkerMsg::Samples(out), MAX_FRAME_BYTES)
+                    .map_err(frame_err)?;
                 wr.flush().map_err(|e| frame_err(e.into()))?;
             }
             Ok(ServerMsg::Bye) | Err(FrameError::Closed) => return Ok(report),
             Ok(ServerMsg::Welcome(_)) => {
-                return Err(WorkerError::Unexpected { addr: a, what: "a second welcome", expected: "rays" });
+                return Err(WorkerError::Unexpected {
+                    addr: a,
+                    what: "a second welcome",
+                    expected: "rays",
+                });
             }
             Err(e) => return Err(frame_err(e)),
         }

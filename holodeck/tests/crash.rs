@@ -19,7 +19,12 @@ use rand::{Rng, SeedableRng};
 /// Must match the writer's.
 fn expected(beam: u32, index: u32) -> Sample {
     Sample {
-        rgbe: [beam as u8, (beam >> 8) as u8, index as u8, (index >> 8) as u8],
+        rgbe: [
+            beam as u8,
+            (beam >> 8) as u8,
+            index as u8,
+            (index >> 8) as u8,
+        ],
         entry: [(index >> 16) as u8, (beam >> 16) as u8],
         exit: [0x5a, 0xa5],
         dist: (beam.wrapping_mul(31) ^ index.wrapping_mul(7)) as u16,
@@ -31,7 +36,13 @@ fn sigkill_at_random_moments_loses_nothing_flushed() {
     const KILLS: usize = 60;
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("crash.hdk");
-    let s = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [2, 2, 2], ViewClass::Interior).unwrap();
+    let s = Section::new(
+        DVec3::ZERO,
+        [DVec3::X, DVec3::Y, DVec3::Z],
+        [2, 2, 2],
+        ViewClass::Interior,
+    )
+    .unwrap();
     HoloFile::create(&path, vec![s], Default::default()).unwrap();
     let mut rng = SmallRng::seed_from_u64(3);
     let mut reported: HashMap<u32, u32> = HashMap::new();
@@ -83,7 +94,11 @@ fn sigkill_at_random_moments_loses_nothing_flushed() {
                 continue;
             }
         };
-        assert!(h.seq() >= last_seq, "kill {kill}: commit {last_seq} was reported, the file is at {}", h.seq());
+        assert!(
+            h.seq() >= last_seq,
+            "kill {kill}: commit {last_seq} was reported, the file is at {}",
+            h.seq()
+        );
         for beam in 0..h.sections()[0].beam_count() {
             let mut got = Vec::new();
             if let Err(e) = h.read_beam(0, beam, &mut got) {
@@ -93,7 +108,10 @@ fn sigkill_at_random_moments_loses_nothing_flushed() {
             }
             let want = reported.get(&beam).copied().unwrap_or(0) as usize;
             if got.len() < want {
-                eprintln!("kill {kill}: beam {beam} has {} samples, {want} were reported flushed", got.len());
+                eprintln!(
+                    "kill {kill}: beam {beam} has {} samples, {want} were reported flushed",
+                    got.len()
+                );
                 lost += 1;
             }
             for (i, s) in got.iter().enumerate() {
@@ -102,11 +120,17 @@ fn sigkill_at_random_moments_loses_nothing_flushed() {
                 }
             }
         }
-        assert!(check(&path).unwrap().is_clean(), "kill {kill}: check found damage");
+        assert!(
+            check(&path).unwrap().is_clean(),
+            "kill {kill}: check found damage"
+        );
     }
     eprintln!(
         "{KILLS} SIGKILLs, {commits_seen} reported commits: {unreadable} unreadable, {lost} lost flushed beams, {invented} invented samples"
     );
     assert_eq!((unreadable, lost, invented), (0, 0, 0));
-    assert!(commits_seen >= KILLS, "the children were killed while writing ({commits_seen} commits)");
+    assert!(
+        commits_seen >= KILLS,
+        "the children were killed while writing ({commits_seen} commits)"
+    );
 }

@@ -27,25 +27,52 @@ impl SampleSource for Analytic {
 fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("w.hdk");
-    let s = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [3, 3, 3], ViewClass::Interior).unwrap();
-    HoloFile::create(&path, vec![s], [("scene".to_string(), "analytic".to_string())].into()).unwrap();
-    let server = Server::new(HoloFile::open_rw(&path).unwrap(), Mode::Batch, ServerConfig::default());
+    let s = Section::new(
+        DVec3::ZERO,
+        [DVec3::X, DVec3::Y, DVec3::Z],
+        [3, 3, 3],
+        ViewClass::Interior,
+    )
+    .unwrap();
+    HoloFile::create(
+        &path,
+        vec![s],
+        [("scene".to_string(), "analytic".to_string())].into(),
+    )
+    .unwrap();
+    let server = Server::new(
+        HoloFile::open_rw(&path).unwrap(),
+        Mode::Batch,
+        ServerConfig::default(),
+    );
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = listener.local_addr().unwrap().to_string();
     let remotes: Vec<_> = (0..2)
         .map(|i| {
             let a = addr.clone();
-            std::thread::spawn(move || run_remote(&a, &format!("remote-{i}"), "analytic", &Analytic))
+            std::thread::spawn(move || {
+                run_remote(&a, &format!("remote-{i}"), "analytic", &Analytic)
+            })
         })
         .collect();
     // A worker that takes a packet and dies.
     let a = addr.clone();
     let dying = std::thread::spawn(move || {
         let mut c = std::net::TcpStream::connect(&a).unwrap();
-        let hello = WorkerMsg::Hello(WorkerHello { protocol: PROTOCOL_VERSION, name: "dying".into(), scene: "analytic".into() });
+        let hello = WorkerMsg::Hello(WorkerHello {
+            protocol: PROTOCOL_VERSION,
+            name: "dying".into(),
+            scene: "analytic".into(),
+        });
         write_frame(&mut c, &hello, MAX_FRAME_BYTES).unwrap();
-        assert!(matches!(read_frame(&mut c, MAX_FRAME_BYTES).unwrap(), ServerMsg::Welcome(_)));
-        assert!(matches!(read_frame(&mut c, MAX_FRAME_BYTES).unwrap(), ServerMsg::Rays(_)));
+        assert!(matches!(
+            read_frame(&mut c, MAX_FRAME_BYTES).unwrap(),
+            ServerMsg::Welcome(_)
+        ));
+        assert!(matches!(
+            read_frame(&mut c, MAX_FRAME_BYTES).unwrap(),
+            ServerMsg::Rays(_)
+        ));
     });
     let opts = RunOptions {
         threads: 2,
@@ -62,7 +89,10 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
     .unwrap();
     dying.join().unwrap();
     let stats = server.stats();
-    assert!(max_workers >= 4, "2 threads and at least 2 TCP workers were seen ({max_workers})");
+    assert!(
+        max_workers >= 4,
+        "2 threads and at least 2 TCP workers were seen ({max_workers})"
+    );
     for r in remotes {
         let report = r.join().unwrap().unwrap();
         assert_eq!(report.server_scene, "analytic");
@@ -73,7 +103,10 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
     drop(h);
     let h = HoloFile::open(&path).unwrap();
     let stored: u64 = h.directory(0).iter().map(|e| u64::from(e.count)).sum();
-    assert_eq!(stored, stats.samples, "every sample that came back was stored");
+    assert_eq!(
+        stored, stats.samples,
+        "every sample that came back was stored"
+    );
     let mut v = Vec::new();
     h.read_beam(0, 0, &mut v).unwrap();
     assert!(!v.is_empty());

@@ -29,14 +29,19 @@ pub enum FrameError {
     Io(#[from] std::io::Error),
 }
 
-fn config() -> bincode::config::Configuration<bincode::config::LittleEndian, bincode::config::Varint, bincode::config::Limit<{ MAX_FRAME_BYTES as usize }>> {
+fn config() -> bincode::config::Configuration<
+    bincode::config::LittleEndian,
+    bincode::config::Varint,
+    bincode::config::Limit<{ MAX_FRAME_BYTES as usize }>,
+> {
     bincode::config::standard().with_limit::<{ MAX_FRAME_BYTES as usize }>()
 }
 
 /// Encodes `msg` as a complete frame (length prefix included).
 pub fn encode<T: Serialize>(msg: &T, max: u32) -> Result<Vec<u8>, FrameError> {
     let mut out = vec![0u8; 4];
-    bincode::serde::encode_into_std_write(msg, &mut out, config()).map_err(|e| FrameError::Encode(e.to_string()))?;
+    bincode::serde::encode_into_std_write(msg, &mut out, config())
+        .map_err(|e| FrameError::Encode(e.to_string()))?;
     let len = (out.len() - 4) as u64;
     if len > u64::from(max) {
         return Err(FrameError::TooLarge { len, max });
@@ -47,8 +52,11 @@ pub fn encode<T: Serialize>(msg: &T, max: u32) -> Result<Vec<u8>, FrameError> {
 
 /// Decodes one payload (without its length prefix).
 pub fn decode<T: DeserializeOwned>(payload: &[u8]) -> Result<T, FrameError> {
-    let (msg, used) = bincode::serde::decode_from_slice(payload, config())
-        .map_err(|e| FrameError::Decode { len: payload.len(), detail: e.to_string() })?;
+    let (msg, used) =
+        bincode::serde::decode_from_slice(payload, config()).map_err(|e| FrameError::Decode {
+            len: payload.len(),
+            detail: e.to_string(),
+        })?;
     if used != payload.len() {
         return Err(FrameError::Decode {
             len: payload.len(),
@@ -61,7 +69,10 @@ pub fn decode<T: DeserializeOwned>(payload: &[u8]) -> Result<T, FrameError> {
 fn check_len(prefix: [u8; 4], max: u32) -> Result<usize, FrameError> {
     let len = u32::from_le_bytes(prefix);
     if len > max {
-        return Err(FrameError::TooLarge { len: u64::from(len), max });
+        return Err(FrameError::TooLarge {
+            len: u64::from(len),
+            max,
+        });
     }
     Ok(len as usize)
 }
@@ -71,7 +82,12 @@ fn read_payload<R: Read>(r: &mut R, len: usize) -> Result<Vec<u8>, FrameError> {
     let mut got = 0;
     while got < len {
         match r.read(&mut buf[got..]) {
-            Ok(0) => return Err(FrameError::Truncated { expected: len as u64, got: got as u64 }),
+            Ok(0) => {
+                return Err(FrameError::Truncated {
+                    expected: len as u64,
+                    got: got as u64,
+                });
+            }
             Ok(n) => got += n,
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
             Err(e) => return Err(e.into()),
@@ -93,7 +109,12 @@ pub fn read_frame<R: Read, T: DeserializeOwned>(r: &mut R, max: u32) -> Result<T
     while got < 4 {
         match r.read(&mut prefix[got..]) {
             Ok(0) if got == 0 => return Err(FrameError::Closed),
-            Ok(0) => return Err(FrameError::Truncated { expected: 4, got: got as u64 }),
+            Ok(0) => {
+                return Err(FrameError::Truncated {
+                    expected: 4,
+                    got: got as u64,
+                });
+            }
             Ok(n) => got += n,
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
             Err(e) => return Err(e.into()),
@@ -104,19 +125,33 @@ pub fn read_frame<R: Read, T: DeserializeOwned>(r: &mut R, max: u32) -> Result<T
 }
 
 /// Writes one frame to an async stream.
-pub async fn write_frame_async<W: AsyncWrite + Unpin, T: Serialize>(w: &mut W, msg: &T, max: u32) -> Result<(), FrameError> {
+pub async fn write_frame_async<W: AsyncWrite + Unpin, T: Serialize>(
+    w: &mut W,
+    msg: &T,
+    max: u32,
+) -> Result<(), FrameError> {
     w.write_all(&encode(msg, max)?).await?;
     Ok(())
 }
 
 /// Reads one frame from an async stream; [`FrameError::Closed`] on a clean end.
-pub async fn read_frame_async<R: AsyncRead + Unpin, T: DeserializeOwned>(r: &mut R, max: u32) -> Result<T, FrameError> {
+pub async fn read_frame_async<R: AsyncRead + Unpin, T: DeserializeOwned>(
+    r: &mut R,
+    max: u32,
+) -> Result<T, FrameError> {
     let mut prefix = [0u8; 4];
     let mut got = 0;
     while got < 4 {
         let n = r.read(&mut prefix[got..]).await?;
         if n == 0 {
-            return Err(if got == 0 { FrameError::Closed } else { FrameError::Truncated { expected: 4, got: got as u64 } });
+            return Err(if got == 0 {
+                FrameError::Closed
+            } else {
+                FrameError::Truncated {
+                    expected: 4,
+                    got: got as u64,
+                }
+            });
         }
         got += n;
     }
@@ -126,7 +161,10 @@ pub async fn read_frame_async<R: AsyncRead + Unpin, T: DeserializeOwned>(r: &mut
     while got < len {
         let n = r.read(&mut buf[got..]).await?;
         if n == 0 {
-            return Err(FrameError::Truncated { expected: len as u64, got: got as u64 });
+            return Err(FrameError::Truncated {
+                expected: len as u64,
+                got: got as u64,
+            });
         }
         got += n;
     }
@@ -146,20 +184,35 @@ mod tests {
 
     #[test]
     fn round_trip_sync_and_async() {
-        let m = Msg { a: 7, b: "x".into() };
+        let m = Msg {
+            a: 7,
+            b: "x".into(),
+        };
         let mut v = Vec::new();
         write_frame(&mut v, &m, MAX_FRAME_BYTES).unwrap();
         write_frame(&mut v, &m, MAX_FRAME_BYTES).unwrap();
         let mut r = &v[..];
         assert_eq!(read_frame::<_, Msg>(&mut r, MAX_FRAME_BYTES).unwrap(), m);
         assert_eq!(read_frame::<_, Msg>(&mut r, MAX_FRAME_BYTES).unwrap(), m);
-        assert!(matches!(read_frame::<_, Msg>(&mut r, MAX_FRAME_BYTES), Err(FrameError::Closed)));
-        let rt = tokio::runtime::Builder::new_current_thread().build().unwrap();
+        assert!(matches!(
+            read_frame::<_, Msg>(&mut r, MAX_FRAME_BYTES),
+            Err(FrameError::Closed)
+        ));
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
         rt.block_on(async {
             let mut w = Vec::new();
-            write_frame_async(&mut w, &m, MAX_FRAME_BYTES).await.unwrap();
+            write_frame_async(&mut w, &m, MAX_FRAME_BYTES)
+                .await
+                .unwrap();
             let mut r = &w[..];
-            assert_eq!(read_frame_async::<_, Msg>(&mut r, MAX_FRAME_BYTES).await.unwrap(), m);
+            assert_eq!(
+                read_frame_async::<_, Msg>(&mut r, MAX_FRAME_BYTES)
+                    .await
+                    .unwrap(),
+                m
+            );
         });
     }
 
@@ -168,19 +221,53 @@ mod tests {
         // Length above the maximum: rejected before allocating.
         let huge = [0xff, 0xff, 0xff, 0xff, 1, 2];
         let e = read_frame::<_, Msg>(&mut &huge[..], 1024).unwrap_err();
-        assert!(matches!(e, FrameError::TooLarge { len: 0xffff_ffff, max: 1024 }), "{e}");
+        assert!(
+            matches!(
+                e,
+                FrameError::TooLarge {
+                    len: 0xffff_ffff,
+                    max: 1024
+                }
+            ),
+            "{e}"
+        );
         // Truncated prefix and payload.
-        assert!(matches!(read_frame::<_, Msg>(&mut &[5u8, 0][..], 1024), Err(FrameError::Truncated { .. })));
-        assert!(matches!(read_frame::<_, Msg>(&mut &[5u8, 0, 0, 0, 1][..], 1024), Err(FrameError::Truncated { .. })));
+        assert!(matches!(
+            read_frame::<_, Msg>(&mut &[5u8, 0][..], 1024),
+            Err(FrameError::Truncated { .. })
+        ));
+        assert!(matches!(
+            read_frame::<_, Msg>(&mut &[5u8, 0, 0, 0, 1][..], 1024),
+            Err(FrameError::Truncated { .. })
+        ));
         // Garbage payload and trailing bytes.
         let bad = [3u8, 0, 0, 0, 0xff, 0xff, 0xff];
-        assert!(matches!(read_frame::<_, Msg>(&mut &bad[..], 1024), Err(FrameError::Decode { .. })));
-        let mut v = encode(&Msg { a: 1, b: String::new() }, 1024).unwrap();
+        assert!(matches!(
+            read_frame::<_, Msg>(&mut &bad[..], 1024),
+            Err(FrameError::Decode { .. })
+        ));
+        let mut v = encode(
+            &Msg {
+                a: 1,
+                b: String::new(),
+            },
+            1024,
+        )
+        .unwrap();
         v.push(0);
         v[0] += 1;
         let e = read_frame::<_, Msg>(&mut &v[..], 1024).unwrap_err();
         assert!(e.to_string().contains("trailing"), "{e}");
         // Encoding above the maximum.
-        assert!(matches!(encode(&Msg { a: 1, b: "y".repeat(100) }, 10), Err(FrameError::TooLarge { .. })));
+        assert!(matches!(
+            encode(
+                &Msg {
+                    a: 1,
+                    b: "y".repeat(100)
+                },
+                10
+            ),
+            Err(FrameError::TooLarge { .. })
+        ));
     }
 }

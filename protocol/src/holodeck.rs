@@ -16,6 +16,11 @@ pub const RAY_RECORD_BYTES: usize = 24;
 /// Bytes per result record: radiance `[f32; 3]`, distance `f32` (`+Inf` if escaped).
 pub const RESULT_RECORD_BYTES: usize = 16;
 
+/// A ray as sent: origin and unit direction.
+pub type WireRay = ([f32; 3], [f32; 3]);
+/// A result as sent: radiance and distance.
+pub type WireResult = ([f32; 3], f32);
+
 /// A record buffer whose length is not a whole number of records.
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[error("{what}: {len} bytes is not a whole number of {record}-byte records")]
@@ -97,9 +102,13 @@ impl RayPacket {
     }
 
     /// The rays as `(origin, dir)`; fails if the buffer is not whole records.
-    pub fn rays(&self) -> Result<Vec<([f32; 3], [f32; 3])>, RecordError> {
-        if self.rays.len() % RAY_RECORD_BYTES != 0 {
-            return Err(RecordError { what: "ray packet", len: self.rays.len(), record: RAY_RECORD_BYTES });
+    pub fn rays(&self) -> Result<Vec<WireRay>, RecordError> {
+        if !self.rays.len().is_multiple_of(RAY_RECORD_BYTES) {
+            return Err(RecordError {
+                what: "ray packet",
+                len: self.rays.len(),
+                record: RAY_RECORD_BYTES,
+            });
         }
         Ok(self
             .rays
@@ -129,9 +138,13 @@ impl SamplePacket {
     }
 
     /// The results as `(radiance, distance)`; fails if the buffer is not whole records.
-    pub fn results(&self) -> Result<Vec<([f32; 3], f32)>, RecordError> {
-        if self.results.len() % RESULT_RECORD_BYTES != 0 {
-            return Err(RecordError { what: "sample packet", len: self.results.len(), record: RESULT_RECORD_BYTES });
+    pub fn results(&self) -> Result<Vec<WireResult>, RecordError> {
+        if !self.results.len().is_multiple_of(RESULT_RECORD_BYTES) {
+            return Err(RecordError {
+                what: "sample packet",
+                len: self.results.len(),
+                record: RESULT_RECORD_BYTES,
+            });
         }
         Ok(self
             .results
@@ -179,10 +192,20 @@ mod tests {
 
     #[test]
     fn partial_records_are_errors() {
-        let p = RayPacket { id: 1, seed: 0, rays: vec![0; 25] };
+        let p = RayPacket {
+            id: 1,
+            seed: 0,
+            rays: vec![0; 25],
+        };
         let e = p.rays().unwrap_err();
-        assert_eq!(e.to_string(), "ray packet: 25 bytes is not a whole number of 24-byte records");
-        let s = SamplePacket { id: 1, results: vec![0; 15] };
+        assert_eq!(
+            e.to_string(),
+            "ray packet: 25 bytes is not a whole number of 24-byte records"
+        );
+        let s = SamplePacket {
+            id: 1,
+            results: vec![0; 15],
+        };
         assert!(s.results().is_err());
     }
 }

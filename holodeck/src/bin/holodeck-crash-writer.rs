@@ -17,7 +17,12 @@ use rand::{Rng, SeedableRng};
 /// The sample the writer stores at `index` of `beam` (shared with the test).
 fn expected(beam: u32, index: u32) -> Sample {
     Sample {
-        rgbe: [beam as u8, (beam >> 8) as u8, index as u8, (index >> 8) as u8],
+        rgbe: [
+            beam as u8,
+            (beam >> 8) as u8,
+            index as u8,
+            (index >> 8) as u8,
+        ],
         entry: [(index >> 16) as u8, (beam >> 16) as u8],
         exit: [0x5a, 0xa5],
         dist: (beam.wrapping_mul(31) ^ index.wrapping_mul(7)) as u16,
@@ -44,7 +49,9 @@ fn main() {
         for _ in 0..rng.random_range(1..12) {
             let beam = rng.random_range(0..beams);
             let have = cache.count((0, beam));
-            let new: Vec<Sample> = (0..rng.random_range(1..6)).map(|i| expected(beam, have + i)).collect();
+            let new: Vec<Sample> = (0..rng.random_range(1..6))
+                .map(|i| expected(beam, have + i))
+                .collect();
             cache.add((0, beam), &new).expect("add");
             changed.insert(beam, have + new.len() as u32);
         }

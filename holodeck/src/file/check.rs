@@ -25,7 +25,11 @@ impl CheckReport {
 /// Checks a file. Fails only if no commit of it can be read at all.
 pub fn check(path: &Path) -> Result<CheckReport, FileError> {
     let (h, damage) = HoloFile::open_tolerant(path)?;
-    let mut report = CheckReport { seq: h.seq(), damage, ..Default::default() };
+    let mut report = CheckReport {
+        seq: h.seq(),
+        damage,
+        ..Default::default()
+    };
     let mut buf = Vec::new();
     // Every referenced extent, to find overlaps.
     let mut used: Vec<(Extent, String)> = vec![(h.root, "the root block".into())];
@@ -71,7 +75,11 @@ pub fn check(path: &Path) -> Result<CheckReport, FileError> {
     if let Some((first, name)) = used.first()
         && first.offset < DATA_START
     {
-        report.damage.push(Damage { what: name.clone(), offset: first.offset, detail: "lies in the superblock area".into() });
+        report.damage.push(Damage {
+            what: name.clone(),
+            offset: first.offset,
+            detail: "lies in the superblock area".into(),
+        });
     }
     Ok(report)
 }
@@ -121,10 +129,21 @@ mod tests {
     use std::os::unix::fs::FileExt;
 
     fn make(path: &Path) -> HoloFile {
-        let s = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [2, 2, 2], ViewClass::Interior).unwrap();
+        let s = Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            [2, 2, 2],
+            ViewClass::Interior,
+        )
+        .unwrap();
         let mut h = HoloFile::create(path, vec![s], Default::default()).unwrap();
         for b in 0..20 {
-            let v: Vec<Sample> = (0..(b + 1)).map(|i| Sample { dist: i as u16, ..Default::default() }).collect();
+            let v: Vec<Sample> = (0..(b + 1))
+                .map(|i| Sample {
+                    dist: i as u16,
+                    ..Default::default()
+                })
+                .collect();
             h.write_beam(0, b, &v).unwrap();
         }
         h.commit().unwrap();
@@ -132,7 +151,11 @@ mod tests {
     }
 
     fn poke(path: &Path, at: u64) {
-        let f = std::fs::OpenOptions::new().read(true).write(true).open(path).unwrap();
+        let f = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(path)
+            .unwrap();
         let mut b = [0u8];
         f.read_exact_at(&mut b, at).unwrap();
         f.write_all_at(&[b[0] ^ 0x55], at).unwrap();
@@ -159,13 +182,27 @@ mod tests {
         let r = check(&p).unwrap();
         assert_eq!(r.damage.len(), 1);
         assert_eq!(r.damage[0].what, "beam 7 of section 0");
-        assert!(r.damage[0].detail.contains("checksum"), "{}", r.damage[0].detail);
+        assert!(
+            r.damage[0].detail.contains("checksum"),
+            "{}",
+            r.damage[0].detail
+        );
         let h = HoloFile::open(&p).unwrap();
         let err = h.read_beam(0, 7, &mut Vec::new()).unwrap_err().to_string();
-        assert!(err.contains("beam 7 of section 0") && err.contains(&format!("byte {off}")), "{err}");
+        assert!(
+            err.contains("beam 7 of section 0") && err.contains(&format!("byte {off}")),
+            "{err}"
+        );
         let out = dir.path().join("b.hdk");
         let s = salvage(&p, &out).unwrap();
-        assert_eq!(s, SalvageReport { beams: 19, samples: 202, beams_lost: 1 });
+        assert_eq!(
+            s,
+            SalvageReport {
+                beams: 19,
+                samples: 202,
+                beams_lost: 1
+            }
+        );
         assert!(check(&out).unwrap().is_clean());
     }
 
@@ -180,7 +217,12 @@ mod tests {
         // Truncated: strict open names the problem.
         let t = dir.path().join("t.hdk");
         std::fs::copy(&p, &t).unwrap();
-        std::fs::OpenOptions::new().write(true).open(&t).unwrap().set_len(len - 100).unwrap();
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open(&t)
+            .unwrap()
+            .set_len(len - 100)
+            .unwrap();
         let err = HoloFile::open(&t).err().unwrap().to_string();
         assert!(err.contains("truncated"), "{err}");
         // Damaged directory chunk.
@@ -188,9 +230,18 @@ mod tests {
         std::fs::copy(&p, &c).unwrap();
         poke(&c, chunk + 5);
         let err = HoloFile::open(&c).err().unwrap().to_string();
-        assert!(err.contains("directory chunk 0 of section 0") && err.contains("checksum"), "{err}");
+        assert!(
+            err.contains("directory chunk 0 of section 0") && err.contains("checksum"),
+            "{err}"
+        );
         let r = check(&c).unwrap();
-        assert!(r.damage.iter().any(|d| d.what.starts_with("directory chunk 0")), "{:?}", r.damage);
+        assert!(
+            r.damage
+                .iter()
+                .any(|d| d.what.starts_with("directory chunk 0")),
+            "{:?}",
+            r.damage
+        );
         // Damaged newest superblock: the previous commit is used.
         let s = dir.path().join("s.hdk");
         std::fs::copy(&p, &s).unwrap();
@@ -200,6 +251,9 @@ mod tests {
         // Not a holodeck file at all.
         let n = dir.path().join("n.hdk");
         std::fs::write(&n, b"hello").unwrap();
-        assert!(matches!(HoloFile::open(&n), Err(FileError::NotHolodeck { .. })));
+        assert!(matches!(
+            HoloFile::open(&n),
+            Err(FileError::NotHolodeck { .. })
+        ));
     }
 }

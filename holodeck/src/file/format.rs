@@ -67,7 +67,10 @@ pub struct DirEntry {
 
 impl DirEntry {
     pub fn extent(&self) -> Extent {
-        Extent { offset: self.offset, len: u64::from(self.count) * crate::sample::SAMPLE_BYTES as u64 }
+        Extent {
+            offset: self.offset,
+            len: u64::from(self.count) * crate::sample::SAMPLE_BYTES as u64,
+        }
     }
 }
 
@@ -127,7 +130,10 @@ impl Superblock {
         let version = r.u32()?;
         r.u32()?;
         let seq = r.u64()?;
-        let root = Extent { offset: r.u64()?, len: r.u64()? };
+        let root = Extent {
+            offset: r.u64()?,
+            len: r.u64()?,
+        };
         let file_end = r.u64()?;
         let root_crc = r.u32()?;
         let computed = crc32fast::hash(&b[..SUPERBLOCK_BYTES - 4]);
@@ -138,7 +144,13 @@ impl Superblock {
         if version != VERSION {
             return Err(LayoutError::Version(version));
         }
-        Ok(Self { version, seq, root, root_crc, file_end })
+        Ok(Self {
+            version,
+            seq,
+            root,
+            root_crc,
+            file_end,
+        })
     }
 }
 
@@ -208,8 +220,9 @@ impl Root {
             }
             let grid = [r.u32()?, r.u32()?, r.u32()?];
             let class_byte = r.bytes(4)?[0];
-            let class = ViewClass::from_byte(class_byte)
-                .ok_or_else(|| LayoutError::Invalid(format!("section {i}: unknown view class {class_byte}")))?;
+            let class = ViewClass::from_byte(class_byte).ok_or_else(|| {
+                LayoutError::Invalid(format!("section {i}: unknown view class {class_byte}"))
+            })?;
             let section = Section::new(v[0], [v[1], v[2], v[3]], grid, class)
                 .map_err(|e| LayoutError::Invalid(format!("section {i}: {e}")))?;
             let beams = r.u32()?;
@@ -221,26 +234,41 @@ impl Root {
             }
             let nc = r.count(16)?;
             if nc as u64 != u64::from(beams).div_ceil(u64::from(CHUNK_BEAMS)) {
-                return Err(LayoutError::Invalid(format!("section {i}: {nc} directory chunks for {beams} beams")));
+                return Err(LayoutError::Invalid(format!(
+                    "section {i}: {nc} directory chunks for {beams} beams"
+                )));
             }
             let mut locs = Vec::with_capacity(nc);
             for _ in 0..nc {
                 let offset = r.u64()?;
                 let len = u64::from(r.u32()?);
-                locs.push(ChunkLoc { extent: Extent { offset, len }, crc: r.u32()? });
+                locs.push(ChunkLoc {
+                    extent: Extent { offset, len },
+                    crc: r.u32()?,
+                });
             }
             sections.push(section);
             chunks.push(locs);
         }
         let nf = r.u64()?;
         if nf > (b.len() / 16) as u64 {
-            return Err(LayoutError::Invalid(format!("free list of {nf} extents cannot fit")));
+            return Err(LayoutError::Invalid(format!(
+                "free list of {nf} extents cannot fit"
+            )));
         }
         let mut free = Vec::with_capacity(nf as usize);
         for _ in 0..nf {
-            free.push(Extent { offset: r.u64()?, len: r.u64()? });
+            free.push(Extent {
+                offset: r.u64()?,
+                len: r.u64()?,
+            });
         }
-        Ok(Self { settings, sections, chunks, free })
+        Ok(Self {
+            settings,
+            sections,
+            chunks,
+            free,
+        })
     }
 }
 
@@ -258,11 +286,20 @@ pub fn chunk_to_bytes(entries: &[DirEntry]) -> Vec<u8> {
 /// Parses a chunk of `n` entries.
 pub fn parse_chunk(b: &[u8], n: usize) -> Result<Vec<DirEntry>, LayoutError> {
     if b.len() != n * DIR_ENTRY_BYTES {
-        return Err(LayoutError::Invalid(format!("{} bytes for {n} entries", b.len())));
+        return Err(LayoutError::Invalid(format!(
+            "{} bytes for {n} entries",
+            b.len()
+        )));
     }
     let mut r = ByteReader::new(b);
     (0..n)
-        .map(|_| Ok(DirEntry { offset: r.u64()?, count: r.u32()?, crc: r.u32()? }))
+        .map(|_| {
+            Ok(DirEntry {
+                offset: r.u64()?,
+                count: r.u32()?,
+                crc: r.u32()?,
+            })
+        })
         .collect()
 }
 
@@ -287,25 +324,37 @@ impl<'a> ByteReader<'a> {
     }
     fn bytes(&mut self, n: usize) -> Result<&'a [u8], LayoutError> {
         let end = self.at.checked_add(n).filter(|&e| e <= self.b.len());
-        let end = end.ok_or(LayoutError::Short { at: self.at, need: n })?;
+        let end = end.ok_or(LayoutError::Short {
+            at: self.at,
+            need: n,
+        })?;
         let s = &self.b[self.at..end];
         self.at = end;
         Ok(s)
     }
     fn u32(&mut self) -> Result<u32, LayoutError> {
-        Ok(u32::from_le_bytes(self.bytes(4)?.try_into().expect("4 bytes")))
+        Ok(u32::from_le_bytes(
+            self.bytes(4)?.try_into().expect("4 bytes"),
+        ))
     }
     fn u64(&mut self) -> Result<u64, LayoutError> {
-        Ok(u64::from_le_bytes(self.bytes(8)?.try_into().expect("8 bytes")))
+        Ok(u64::from_le_bytes(
+            self.bytes(8)?.try_into().expect("8 bytes"),
+        ))
     }
     fn f64(&mut self) -> Result<f64, LayoutError> {
-        Ok(f64::from_le_bytes(self.bytes(8)?.try_into().expect("8 bytes")))
+        Ok(f64::from_le_bytes(
+            self.bytes(8)?.try_into().expect("8 bytes"),
+        ))
     }
     /// A count of items of at least `min_bytes` each, checked against the bytes left.
     fn count(&mut self, min_bytes: usize) -> Result<usize, LayoutError> {
         let n = self.u32()? as usize;
         if n.saturating_mul(min_bytes) > self.b.len() - self.at {
-            return Err(LayoutError::Invalid(format!("count {n} at byte {} exceeds the block", self.at - 4)));
+            return Err(LayoutError::Invalid(format!(
+                "count {n} at byte {} exceeds the block",
+                self.at - 4
+            )));
         }
         Ok(n)
     }
@@ -326,7 +375,10 @@ mod tests {
         let sb = Superblock {
             version: VERSION,
             seq: 7,
-            root: Extent { offset: 8192, len: 100 },
+            root: Extent {
+                offset: 8192,
+                len: 100,
+            },
             root_crc: 0xdead_beef,
             file_end: 9000,
         };
@@ -335,20 +387,40 @@ mod tests {
         assert_eq!(Superblock::parse(&b).unwrap(), sb);
         let mut bad = b;
         bad[20] ^= 1;
-        assert!(matches!(Superblock::parse(&bad), Err(LayoutError::Checksum { .. })));
-        assert!(matches!(Superblock::parse(&b[..30]), Err(LayoutError::Short { .. })));
-        assert!(matches!(Superblock::parse(&[0; 56]), Err(LayoutError::BadMagic)));
+        assert!(matches!(
+            Superblock::parse(&bad),
+            Err(LayoutError::Checksum { .. })
+        ));
+        assert!(matches!(
+            Superblock::parse(&b[..30]),
+            Err(LayoutError::Short { .. })
+        ));
+        assert!(matches!(
+            Superblock::parse(&[0; 56]),
+            Err(LayoutError::BadMagic)
+        ));
     }
 
     #[test]
     fn root_round_trip_and_truncation() {
-        let s = Section::new(DVec3::ONE, [DVec3::X, DVec3::Y * 2.0, DVec3::Z], [2, 3, 1], ViewClass::Exterior)
-            .unwrap();
+        let s = Section::new(
+            DVec3::ONE,
+            [DVec3::X, DVec3::Y * 2.0, DVec3::Z],
+            [2, 3, 1],
+            ViewClass::Exterior,
+        )
+        .unwrap();
         let root = Root {
             settings: [("scene".to_string(), "cornell.gltf".to_string())].into(),
             sections: vec![s],
-            chunks: vec![vec![ChunkLoc { extent: Extent { offset: 1, len: 2 }, crc: 3 }]],
-            free: vec![Extent { offset: 10, len: 20 }],
+            chunks: vec![vec![ChunkLoc {
+                extent: Extent { offset: 1, len: 2 },
+                crc: 3,
+            }]],
+            free: vec![Extent {
+                offset: 10,
+                len: 20,
+            }],
         };
         let b = root.to_bytes();
         assert_eq!(Root::parse(&b).unwrap(), root);
@@ -359,7 +431,14 @@ mod tests {
 
     #[test]
     fn chunk_round_trip() {
-        let e = vec![DirEntry { offset: 1 << 40, count: 5, crc: 9 }, DirEntry::default()];
+        let e = vec![
+            DirEntry {
+                offset: 1 << 40,
+                count: 5,
+                crc: 9,
+            },
+            DirEntry::default(),
+        ];
         assert_eq!(parse_chunk(&chunk_to_bytes(&e), 2).unwrap(), e);
         assert!(parse_chunk(&chunk_to_bytes(&e), 3).is_err());
     }

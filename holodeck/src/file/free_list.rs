@@ -2,14 +2,15 @@
 //! saved in every root block, so holes survive restarts (the original kept it in memory
 //! only and lost every hole at each restart).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use super::format::Extent;
 
-/// Coalesced free extents, by offset.
+/// Coalesced free extents, by offset and by size (best fit in `O(log n)`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FreeList {
     map: BTreeMap<u64, u64>,
+    by_size: BTreeSet<(u64, u64)>,
 }
 
 impl FreeList {
@@ -21,8 +22,22 @@ impl FreeList {
         f
     }
 
+    fn put(&mut self, offset: u64, len: u64) {
+        self.map.insert(offset, len);
+        self.by_size.insert((len, offset));
+    }
+
+    fn take(&mut self, offset: u64) -> Option<u64> {
+        let len = self.map.remove(&offset)?;
+        self.by_size.remove(&(len, offset));
+        Some(len)
+    }
+
     pub fn extents(&self) -> Vec<Extent> {
-        self.map.iter().map(|(&offset, &len)| Extent { offset, len }).collect()
+        self.map
+            .iter()
+            .map(|(&offset, &len)| Extent { offset, len })
+            .collect()
     }
 
     pub fn total(&self) -> u64 {
@@ -48,22 +63,22 @@ impl FreeList {
         {
             start = o;
             end = end.max(o + l);
-            self.map.remove(&o);
+            self.take(o);
         }
         while let Some((&o, &l)) = self.map.range(start..=end).next() {
             end = end.max(o + l);
-            self.map.remove(&o);
+            self.take(o);
         }
-        self.map.insert(start, end - start);
+        self.put(start, end - start);
     }
 
-    /// Takes `len` bytes from the first extent large enough (lowest address first, which
-    /// keeps the file compact).
+    /// Takes `len` bytes from the smallest extent large enough (best fit keeps large
+    /// holes for large beams).
     pub fn allocate(&mut self, len: u64) -> Option<u64> {
-        let (&o, &l) = self.map.iter().find(|&(_, &l)| l >= len)?;
-        self.map.remove(&o);
+        let &(l, o) = self.by_size.range((len, 0)..).next()?;
+        self.take(o);
         if l > len {
-            self.map.insert(o + len, l - len);
+            self.put(o + len, l - len);
         }
         Some(o)
     }
@@ -76,12 +91,12 @@ impl FreeList {
         if o + l < offset + len {
             return false;
         }
-        self.map.remove(&o);
+        self.take(o);
         if offset > o {
-            self.map.insert(o, offset - o);
+            self.put(o, offset - o);
         }
         if o + l > offset + len {
-            self.map.insert(offset + len, o + l - offset - len);
+            self.put(offset + len, o + l - offset - len);
         }
         true
     }
@@ -90,12 +105,13 @@ impl FreeList {
     pub fn truncate(&mut self, end: u64) {
         let beyond: Vec<u64> = self.map.range(end..).map(|(&o, _)| o).collect();
         for o in beyond {
-            self.map.remove(&o);
+            self.take(o);
         }
-        if let Some((&o, l)) = self.map.range_mut(..end).next_back()
-            && o + *l > end
+        if let Some((&o, &l)) = self.map.range(..end).next_back()
+            && o + l > end
         {
-            *l = end - o;
+            self.take(o);
+            self.put(o, end - o);
         }
     }
 }
@@ -109,7 +125,7 @@ mod tests {
     }
 
     #[test]
-    fn coalesces_and_allocates_first_fit() {
+    fn coalesces_and_allocates_best_fit() {
         let mut f = FreeList::default();
         f.insert(e(100, 10));
         f.insert(e(120, 10));
@@ -117,7 +133,10 @@ mod tests {
         assert_eq!(f.extents(), vec![e(100, 30)]);
         f.insert(e(200, 50));
         assert_eq!(f.allocate(40), Some(200));
+        assert_eq!(f.allocate(5), Some(240), "the 10-byte hole fits best");
+        assert_eq!(f.allocate(5), Some(245));
         assert_eq!(f.allocate(5), Some(100));
+        f.insert(e(240, 10));
         assert_eq!(f.extents(), vec![e(105, 25), e(240, 10)]);
         assert_eq!(f.allocate(100), None);
         assert!(f.take_at(110, 5));

@@ -59,7 +59,13 @@ impl Info {
             .iter()
             .enumerate()
             .filter(|(_, n)| **n > 0)
-            .map(|(i, &n)| if i == 0 { (0, 0, n) } else { (1 << (i - 1), (1 << i) - 1, n) })
+            .map(|(i, &n)| {
+                if i == 0 {
+                    (0, 0, n)
+                } else {
+                    (1 << (i - 1), (1 << i) - 1, n)
+                }
+            })
             .collect();
         Info {
             sections,
@@ -84,11 +90,22 @@ impl fmt::Display for Info {
             writeln!(
                 f,
                 "section {i}: {:?} grid {}x{}x{}, size {:.3} m, {} beams, {} filled, {} samples",
-                s.class, s.grid[0], s.grid[1], s.grid[2], s.size, s.beams, s.beams_filled, s.samples
+                s.class,
+                s.grid[0],
+                s.grid[1],
+                s.grid[2],
+                s.size,
+                s.beams,
+                s.beams_filled,
+                s.samples
             )?;
         }
         let samples: u64 = self.sections.iter().map(|s| s.samples).sum();
-        writeln!(f, "commit {}, {} samples, {} sample bytes, file {} bytes", self.seq, samples, self.sample_bytes, self.file_bytes)?;
+        writeln!(
+            f,
+            "commit {}, {} samples, {} sample bytes, file {} bytes",
+            self.seq, samples, self.sample_bytes, self.file_bytes
+        )?;
         writeln!(
             f,
             "free space {} bytes in {} fragments ({:.1}% of the file)",
@@ -100,7 +117,11 @@ impl fmt::Display for Info {
         let max = self.histogram.iter().map(|h| h.2).max().unwrap_or(1);
         for &(lo, hi, n) in &self.histogram {
             let bar = "#".repeat(((n as f64 / max as f64) * 40.0).ceil() as usize);
-            let range = if lo == hi { format!("{lo}") } else { format!("{lo}-{hi}") };
+            let range = if lo == hi {
+                format!("{lo}")
+            } else {
+                format!("{lo}-{hi}")
+            };
             writeln!(f, "  {range:>13} {n:>9} {bar}")?;
         }
         Ok(())

@@ -19,34 +19,68 @@ use std::path::{Path, PathBuf};
 use format::{ChunkLoc, DirEntry, Extent};
 use free_list::FreeList;
 
-use crate::section::{Section, SectionError};
+use crate::section::Section;
 
 /// Errors of the holodeck file. Each names the file and, for damage, the structure and the
 /// byte offset where it was found.
 #[derive(Debug, thiserror::Error)]
 pub enum FileError {
     #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{path}: not a holodeck file (neither superblock slot has the magic number)")]
     NotHolodeck { path: PathBuf },
-    #[error("{path}: no valid commit record (slot 0 at byte 0: {slot0}; slot 1 at byte 4096: {slot1})")]
-    NoValidSuperblock { path: PathBuf, slot0: String, slot1: String },
-    #[error("{path}: truncated: {what} needs bytes {start}..{end} but the file has only {len} bytes")]
-    Truncated { path: PathBuf, what: String, start: u64, end: u64, len: u64 },
+    #[error(
+        "{path}: no valid commit record (slot 0 at byte 0: {slot0}; slot 1 at byte 4096: {slot1})"
+    )]
+    NoValidSuperblock {
+        path: PathBuf,
+        slot0: String,
+        slot1: String,
+    },
+    #[error(
+        "{path}: truncated: {what} needs bytes {start}..{end} but the file has only {len} bytes"
+    )]
+    Truncated {
+        path: PathBuf,
+        what: String,
+        start: u64,
+        end: u64,
+        len: u64,
+    },
     #[error("{path}: {what} at byte {offset} is damaged: {detail}")]
-    Corrupt { path: PathBuf, what: String, offset: u64, detail: String },
+    Corrupt {
+        path: PathBuf,
+        what: String,
+        offset: u64,
+        detail: String,
+    },
     #[error("{path}: there is no section {section} (the file has {count})")]
-    NoSection { path: PathBuf, section: usize, count: usize },
+    NoSection {
+        path: PathBuf,
+        section: usize,
+        count: usize,
+    },
     #[error("{path}: section {section} has no beam {beam} (it has {count} beams)")]
-    NoBeam { path: PathBuf, section: usize, beam: u32, count: u32 },
+    NoBeam {
+        path: PathBuf,
+        section: usize,
+        beam: u32,
+        count: u32,
+    },
     #[error("{path}: beam {beam} of section {section}: {detail}")]
-    BadWrite { path: PathBuf, section: usize, beam: u32, detail: String },
+    BadWrite {
+        path: PathBuf,
+        section: usize,
+        beam: u32,
+        detail: String,
+    },
     #[error("{path} already exists; not overwriting it")]
     Exists { path: PathBuf },
     #[error("{path}: the file is open read-only")]
     ReadOnly { path: PathBuf },
-    #[error("{path}: {source}")]
-    Section { path: PathBuf, source: SectionError },
 }
 
 /// A damaged structure found while opening tolerantly (for `check` and salvage).
@@ -107,7 +141,10 @@ impl HoloFile {
     }
     /// Samples stored for a beam.
     pub fn count(&self, section: usize, beam: u32) -> u32 {
-        self.dirs.get(section).and_then(|d| d.get(beam as usize)).map_or(0, |e| e.count)
+        self.dirs
+            .get(section)
+            .and_then(|d| d.get(beam as usize))
+            .map_or(0, |e| e.count)
     }
     /// The whole directory of a section.
     pub fn directory(&self, section: usize) -> &[DirEntry] {
@@ -127,18 +164,29 @@ impl HoloFile {
     }
 
     fn check_beam(&self, section: usize, beam: u32) -> Result<(), FileError> {
-        let s = self.sections.get(section).ok_or_else(|| FileError::NoSection {
-            path: self.path.clone(),
-            section,
-            count: self.sections.len(),
-        })?;
+        let s = self
+            .sections
+            .get(section)
+            .ok_or_else(|| FileError::NoSection {
+                path: self.path.clone(),
+                section,
+                count: self.sections.len(),
+            })?;
         if beam >= s.beam_count() {
-            return Err(FileError::NoBeam { path: self.path.clone(), section, beam, count: s.beam_count() });
+            return Err(FileError::NoBeam {
+                path: self.path.clone(),
+                section,
+                beam,
+                count: s.beam_count(),
+            });
         }
         Ok(())
     }
 
     fn io(&self, source: std::io::Error) -> FileError {
-        FileError::Io { path: self.path.clone(), source }
+        FileError::Io {
+            path: self.path.clone(),
+            source,
+        }
     }
 }

@@ -22,11 +22,15 @@ pub struct OptimizeReport {
 /// Optimises `path` in place (via a new file and a rename).
 pub fn optimize(path: &Path) -> Result<OptimizeReport, FileError> {
     let src = HoloFile::open(path)?;
-    let io = |source| FileError::Io { path: path.to_path_buf(), source };
+    let io = |source| FileError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     let bytes_before = std::fs::metadata(path).map_err(io)?.len();
     let fragments_before = src.free_extents().len();
     let tmp = temp_path(path);
-    let mut dst = HoloFile::create_at(&tmp, src.sections().to_vec(), src.settings().clone(), false)?;
+    let mut dst =
+        HoloFile::create_at(&tmp, src.sections().to_vec(), src.settings().clone(), false)?;
     let (mut beams, mut samples) = (0, 0);
     let mut buf = Vec::new();
     for (si, section) in src.sections().iter().enumerate() {
@@ -35,7 +39,9 @@ pub fn optimize(path: &Path) -> Result<OptimizeReport, FileError> {
                 continue;
             }
             buf.clear();
-            let copied = src.read_beam(si, beam, &mut buf).and_then(|()| dst.write_beam(si, beam, &buf));
+            let copied = src
+                .read_beam(si, beam, &mut buf)
+                .and_then(|()| dst.write_beam(si, beam, &buf));
             if let Err(e) = copied {
                 let _ = std::fs::remove_file(&tmp);
                 return Err(e);
@@ -49,7 +55,13 @@ pub fn optimize(path: &Path) -> Result<OptimizeReport, FileError> {
     std::fs::rename(&tmp, path).map_err(io)?;
     sync_parent(path).map_err(io)?;
     let bytes_after = std::fs::metadata(path).map_err(io)?.len();
-    Ok(OptimizeReport { bytes_before, bytes_after, fragments_before, beams, samples })
+    Ok(OptimizeReport {
+        bytes_before,
+        bytes_after,
+        fragments_before,
+        beams,
+        samples,
+    })
 }
 
 #[cfg(test)]
@@ -63,12 +75,22 @@ mod tests {
     fn optimize_orders_beams_and_removes_fragments() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.hdk");
-        let s = Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [2, 2, 2], ViewClass::Interior).unwrap();
+        let s = Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            [2, 2, 2],
+            ViewClass::Interior,
+        )
+        .unwrap();
         let mut h = HoloFile::create(&p, vec![s], Default::default()).unwrap();
-        let sample = |i: u32| Sample { dist: i as u16, ..Default::default() };
+        let sample = |i: u32| Sample {
+            dist: i as u16,
+            ..Default::default()
+        };
         for round in 0..5u32 {
             for b in (0..40u32).rev() {
-                h.append_beam(0, b * 7, &[sample(round), sample(b)]).unwrap();
+                h.append_beam(0, b * 7, &[sample(round), sample(b)])
+                    .unwrap();
             }
             h.commit().unwrap();
         }

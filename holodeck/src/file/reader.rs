@@ -10,8 +10,8 @@ use std::os::unix::fs::FileExt;
 use std::path::Path;
 
 use super::format::{
-    self, CHUNK_BEAMS, ChunkLoc, DATA_START, DIR_ENTRY_BYTES, DirEntry, Extent, LayoutError, Root, SLOT_BYTES,
-    SUPERBLOCK_BYTES, Superblock,
+    self, CHUNK_BEAMS, ChunkLoc, DATA_START, DIR_ENTRY_BYTES, DirEntry, Extent, LayoutError, Root,
+    SLOT_BYTES, SUPERBLOCK_BYTES, Superblock,
 };
 use super::free_list::FreeList;
 use super::{Damage, FileError, HoloFile};
@@ -33,9 +33,20 @@ impl HoloFile {
         Self::open_with(path, false, true)
     }
 
-    fn open_with(path: &Path, writable: bool, tolerant: bool) -> Result<(Self, Vec<Damage>), FileError> {
-        let io = |source| FileError::Io { path: path.to_path_buf(), source };
-        let file = OpenOptions::new().read(true).write(writable).open(path).map_err(io)?;
+    fn open_with(
+        path: &Path,
+        writable: bool,
+        tolerant: bool,
+    ) -> Result<(Self, Vec<Damage>), FileError> {
+        let io = |source| FileError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = OpenOptions::new()
+            .read(true)
+            .write(writable)
+            .open(path)
+            .map_err(io)?;
         let len = file.metadata().map_err(io)?.len();
         let mut slots = Vec::new();
         let mut why = Vec::new();
@@ -56,7 +67,9 @@ impl HoloFile {
         }
         if slots.is_empty() {
             if !any_magic {
-                return Err(FileError::NotHolodeck { path: path.to_path_buf() });
+                return Err(FileError::NotHolodeck {
+                    path: path.to_path_buf(),
+                });
             }
             return Err(FileError::NoValidSuperblock {
                 path: path.to_path_buf(),
@@ -94,7 +107,10 @@ impl HoloFile {
         damage: &mut Vec<Damage>,
     ) -> Result<Self, FileError> {
         let pathbuf = path.to_path_buf();
-        let io = |source| FileError::Io { path: path.to_path_buf(), source };
+        let io = |source| FileError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
         let corrupt = |what: String, offset: u64, detail: String| FileError::Corrupt {
             path: pathbuf.clone(),
             what,
@@ -103,7 +119,11 @@ impl HoloFile {
         };
         let root_what = format!("root block of commit {}", sb.seq);
         if sb.root.offset < DATA_START || sb.root.end() > sb.file_end {
-            return Err(corrupt(root_what, sb.root.offset, "lies outside the data area".into()));
+            return Err(corrupt(
+                root_what,
+                sb.root.offset,
+                "lies outside the data area".into(),
+            ));
         }
         if sb.file_end > len && !tolerant {
             return Err(FileError::Truncated {
@@ -127,10 +147,15 @@ impl HoloFile {
         file.read_exact_at(&mut buf, sb.root.offset).map_err(io)?;
         let computed = crc32fast::hash(&buf);
         if computed != sb.root_crc {
-            let detail = LayoutError::Checksum { stored: sb.root_crc, computed }.to_string();
+            let detail = LayoutError::Checksum {
+                stored: sb.root_crc,
+                computed,
+            }
+            .to_string();
             return Err(corrupt(root_what, sb.root.offset, detail));
         }
-        let root = Root::parse(&buf).map_err(|e| corrupt(root_what.clone(), sb.root.offset, e.to_string()))?;
+        let root = Root::parse(&buf)
+            .map_err(|e| corrupt(root_what.clone(), sb.root.offset, e.to_string()))?;
         let data_end = sb.file_end.min(len);
         let mut dirs = Vec::with_capacity(root.sections.len());
         for (si, (section, locs)) in root.sections.iter().zip(&root.chunks).enumerate() {
@@ -139,13 +164,17 @@ impl HoloFile {
             for (ci, loc) in locs.iter().enumerate() {
                 let first = ci as u32 * CHUNK_BEAMS;
                 let n = (beams - first).min(CHUNK_BEAMS) as usize;
-                let what = format!("directory chunk {ci} of section {si} (beams {first}..{})", first as usize + n);
+                let what = format!(
+                    "directory chunk {ci} of section {si} (beams {first}..{})",
+                    first as usize + n
+                );
                 match read_chunk(file, loc, n, data_end, len) {
                     Ok(Some(entries)) => {
                         for (k, e) in entries.into_iter().enumerate() {
                             let b = first as usize + k;
                             let ext = e.extent();
-                            let bad = e.count > 0 && (e.offset < DATA_START || ext.end() > data_end);
+                            let bad =
+                                e.count > 0 && (e.offset < DATA_START || ext.end() > data_end);
                             if bad {
                                 let err = if ext.end() > len {
                                     FileError::Truncated {
@@ -159,13 +188,21 @@ impl HoloFile {
                                     corrupt(
                                         format!("directory entry of beam {b} of section {si}"),
                                         loc.extent.offset + (k * DIR_ENTRY_BYTES) as u64,
-                                        format!("points at bytes {}..{} outside the data area", ext.offset, ext.end()),
+                                        format!(
+                                            "points at bytes {}..{} outside the data area",
+                                            ext.offset,
+                                            ext.end()
+                                        ),
                                     )
                                 };
                                 if !tolerant {
                                     return Err(err);
                                 }
-                                damage.push(Damage { what: format!("beam {b} of section {si}"), offset: ext.offset, detail: err.to_string() });
+                                damage.push(Damage {
+                                    what: format!("beam {b} of section {si}"),
+                                    offset: ext.offset,
+                                    detail: err.to_string(),
+                                });
                             } else {
                                 dir[b] = e;
                             }
@@ -176,7 +213,11 @@ impl HoloFile {
                         if !tolerant {
                             return Err(corrupt(what, loc.extent.offset, detail));
                         }
-                        damage.push(Damage { what, offset: loc.extent.offset, detail });
+                        damage.push(Damage {
+                            what,
+                            offset: loc.extent.offset,
+                            detail,
+                        });
                     }
                 }
             }
@@ -205,7 +246,12 @@ impl HoloFile {
     }
 
     /// Reads a beam's raw records into `buf` (cleared first) and verifies its checksum.
-    pub fn read_beam_bytes(&self, section: usize, beam: u32, buf: &mut Vec<u8>) -> Result<(), FileError> {
+    pub fn read_beam_bytes(
+        &self,
+        section: usize,
+        beam: u32,
+        buf: &mut Vec<u8>,
+    ) -> Result<(), FileError> {
         let e = self.entry(section, beam)?;
         buf.clear();
         if e.count == 0 {
@@ -233,14 +279,23 @@ impl HoloFile {
                 path: self.path.clone(),
                 what: format!("beam {beam} of section {section} ({} samples)", e.count),
                 offset: e.offset,
-                detail: LayoutError::Checksum { stored: e.crc, computed }.to_string(),
+                detail: LayoutError::Checksum {
+                    stored: e.crc,
+                    computed,
+                }
+                .to_string(),
             });
         }
         Ok(())
     }
 
     /// Reads a beam's samples, appending them to `out`.
-    pub fn read_beam(&self, section: usize, beam: u32, out: &mut Vec<Sample>) -> Result<(), FileError> {
+    pub fn read_beam(
+        &self,
+        section: usize,
+        beam: u32,
+        out: &mut Vec<Sample>,
+    ) -> Result<(), FileError> {
         let mut buf = Vec::new();
         self.read_beam_bytes(section, beam, &mut buf)?;
         Sample::read_all(&buf, out);
@@ -250,7 +305,13 @@ impl HoloFile {
 }
 
 /// Reads one directory chunk: `Ok(None)` for a never-written (all empty) chunk.
-fn read_chunk(file: &File, loc: &ChunkLoc, n: usize, data_end: u64, len: u64) -> Result<Option<Vec<DirEntry>>, String> {
+fn read_chunk(
+    file: &File,
+    loc: &ChunkLoc,
+    n: usize,
+    data_end: u64,
+    len: u64,
+) -> Result<Option<Vec<DirEntry>>, String> {
     if loc.extent.len == 0 {
         return Ok(None);
     }
@@ -263,10 +324,17 @@ fn read_chunk(file: &File, loc: &ChunkLoc, n: usize, data_end: u64, len: u64) ->
         ));
     }
     let mut buf = vec![0u8; ext.len as usize];
-    file.read_exact_at(&mut buf, ext.offset).map_err(|e| e.to_string())?;
+    file.read_exact_at(&mut buf, ext.offset)
+        .map_err(|e| e.to_string())?;
     let computed = crc32fast::hash(&buf);
     if computed != loc.crc {
-        return Err(LayoutError::Checksum { stored: loc.crc, computed }.to_string());
+        return Err(LayoutError::Checksum {
+            stored: loc.crc,
+            computed,
+        }
+        .to_string());
     }
-    format::parse_chunk(&buf, n).map(Some).map_err(|e| e.to_string())
+    format::parse_chunk(&buf, n)
+        .map(Some)
+        .map_err(|e| e.to_string())
 }

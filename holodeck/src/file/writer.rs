@@ -12,7 +12,10 @@ use std::fs::{File, OpenOptions};
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 
-use super::format::{CHUNK_BEAMS, ChunkLoc, DATA_START, DirEntry, Extent, Root, SLOT_BYTES, Superblock, VERSION, chunk_to_bytes};
+use super::format::{
+    CHUNK_BEAMS, ChunkLoc, DATA_START, DirEntry, Extent, Root, SLOT_BYTES, Superblock, VERSION,
+    chunk_to_bytes,
+};
 use super::free_list::FreeList;
 use super::{FileError, HoloFile};
 use crate::sample::{SAMPLE_BYTES, Sample};
@@ -27,7 +30,10 @@ pub fn temp_path(path: &Path) -> PathBuf {
 
 /// Syncs the directory holding `path`, making a rename durable.
 pub(crate) fn sync_parent(path: &Path) -> std::io::Result<()> {
-    let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let parent = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     File::open(parent)?.sync_all()
 }
 
@@ -35,13 +41,22 @@ impl HoloFile {
     /// Creates a new, empty holodeck file with these sections and settings. The file is
     /// built under a temporary name and renamed into place, so a crash never leaves a
     /// half-made file at `path`. Fails if `path` exists.
-    pub fn create(path: &Path, sections: Vec<Section>, settings: BTreeMap<String, String>) -> Result<Self, FileError> {
+    pub fn create(
+        path: &Path,
+        sections: Vec<Section>,
+        settings: BTreeMap<String, String>,
+    ) -> Result<Self, FileError> {
         if path.exists() {
-            return Err(FileError::Exists { path: path.to_path_buf() });
+            return Err(FileError::Exists {
+                path: path.to_path_buf(),
+            });
         }
         let tmp = temp_path(path);
         let mut h = Self::create_at(&tmp, sections, settings, true)?;
-        let io = |source| FileError::Io { path: path.to_path_buf(), source };
+        let io = |source| FileError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
         std::fs::rename(&tmp, path).map_err(io)?;
         sync_parent(path).map_err(io)?;
         h.path = path.to_path_buf();
@@ -58,15 +73,27 @@ impl HoloFile {
         settings: BTreeMap<String, String>,
         initial_commit: bool,
     ) -> Result<Self, FileError> {
-        let io = |source| FileError::Io { path: path.to_path_buf(), source };
-        let file = OpenOptions::new().read(true).write(true).create(true).truncate(true).open(path).map_err(io)?;
+        let io = |source| FileError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(path)
+            .map_err(io)?;
         file.set_len(DATA_START).map_err(io)?;
         let n = sections.len();
         let chunks = sections
             .iter()
             .map(|s| vec![ChunkLoc::default(); s.beam_count().div_ceil(CHUNK_BEAMS) as usize])
             .collect();
-        let dirs = sections.iter().map(|s| vec![DirEntry::default(); s.beam_count() as usize]).collect();
+        let dirs = sections
+            .iter()
+            .map(|s| vec![DirEntry::default(); s.beam_count() as usize])
+            .collect();
         let mut h = HoloFile {
             path: path.to_path_buf(),
             file,
@@ -99,11 +126,19 @@ impl HoloFile {
     }
 
     fn write_at(&self, bytes: &[u8], offset: u64) -> Result<(), FileError> {
-        self.file.write_all_at(bytes, offset).map_err(|e| self.io(e))
+        self.file
+            .write_all_at(bytes, offset)
+            .map_err(|e| self.io(e))
     }
 
     fn check_writable(&self) -> Result<(), FileError> {
-        if self.writable { Ok(()) } else { Err(FileError::ReadOnly { path: self.path.clone() }) }
+        if self.writable {
+            Ok(())
+        } else {
+            Err(FileError::ReadOnly {
+                path: self.path.clone(),
+            })
+        }
     }
 
     fn set_entry(&mut self, section: usize, beam: u32, e: DirEntry) {
@@ -115,7 +150,12 @@ impl HoloFile {
     /// stored count) are already on disk and unchanged. The new samples are appended in
     /// place when the space after the beam is free, otherwise the whole beam moves. Not
     /// durable until [`HoloFile::commit`].
-    pub fn write_beam(&mut self, section: usize, beam: u32, samples: &[Sample]) -> Result<(), FileError> {
+    pub fn write_beam(
+        &mut self,
+        section: usize,
+        beam: u32,
+        samples: &[Sample],
+    ) -> Result<(), FileError> {
         self.check_writable()?;
         let old = self.entry(section, beam)?;
         let have = old.count as usize;
@@ -149,7 +189,15 @@ impl HoloFile {
             let mut tail = crc32fast::Hasher::new();
             tail.update(&new_bytes);
             h.combine(&tail);
-            self.set_entry(section, beam, DirEntry { offset: old.offset, count, crc: h.finalize() });
+            self.set_entry(
+                section,
+                beam,
+                DirEntry {
+                    offset: old.offset,
+                    count,
+                    crc: h.finalize(),
+                },
+            );
         } else {
             let mut all = Vec::with_capacity(samples.len() * SAMPLE_BYTES);
             Sample::write_all(samples, &mut all);
@@ -166,16 +214,32 @@ impl HoloFile {
             let len = all.len() as u64;
             let slack = if self.compact { 0 } else { len / 2 };
             let at = self.allocate(len + slack);
-            self.free.insert(Extent { offset: at + len, len: slack });
+            self.free.insert(Extent {
+                offset: at + len,
+                len: slack,
+            });
             self.fresh.insert(at);
             self.write_at(&all, at)?;
-            self.set_entry(section, beam, DirEntry { offset: at, count, crc: crc32fast::hash(&all) });
+            self.set_entry(
+                section,
+                beam,
+                DirEntry {
+                    offset: at,
+                    count,
+                    crc: crc32fast::hash(&all),
+                },
+            );
         }
         Ok(())
     }
 
     /// Appends samples to a beam (reading the stored ones if the beam has to move).
-    pub fn append_beam(&mut self, section: usize, beam: u32, new: &[Sample]) -> Result<(), FileError> {
+    pub fn append_beam(
+        &mut self,
+        section: usize,
+        beam: u32,
+        new: &[Sample],
+    ) -> Result<(), FileError> {
         let mut all = Vec::new();
         self.read_beam(section, beam, &mut all)?;
         all.extend_from_slice(new);
@@ -210,7 +274,13 @@ impl HoloFile {
                 self.write_at(&bytes, at)?;
                 let old = std::mem::replace(
                     &mut self.chunks[s][ci as usize],
-                    ChunkLoc { extent: Extent { offset: at, len: bytes.len() as u64 }, crc: crc32fast::hash(&bytes) },
+                    ChunkLoc {
+                        extent: Extent {
+                            offset: at,
+                            len: bytes.len() as u64,
+                        },
+                        crc: crc32fast::hash(&bytes),
+                    },
                 );
                 self.pending_free.push(old.extent);
             }
@@ -227,14 +297,23 @@ impl HoloFile {
             free: saved.extents(),
         };
         let bytes = root.to_bytes();
-        let root_ext = Extent { offset: self.file_end, len: bytes.len() as u64 };
+        let root_ext = Extent {
+            offset: self.file_end,
+            len: bytes.len() as u64,
+        };
         self.file_end += root_ext.len;
         self.write_at(&bytes, root_ext.offset)?;
         // 3. Data durable before the commit record.
         self.file.sync_data().map_err(|e| self.io(e))?;
         // 4. The commit record, in the slot not holding the previous commit.
         let seq = self.seq + 1;
-        let sb = Superblock { version: VERSION, seq, root: root_ext, root_crc: crc32fast::hash(&bytes), file_end: self.file_end };
+        let sb = Superblock {
+            version: VERSION,
+            seq,
+            root: root_ext,
+            root_crc: crc32fast::hash(&bytes),
+            file_end: self.file_end,
+        };
         self.write_at(&sb.to_bytes(), (seq % 2) * SLOT_BYTES)?;
         self.file.sync_data().map_err(|e| self.io(e))?;
         // 5. Durable: released space is reusable.
@@ -255,19 +334,40 @@ mod tests {
     use glam::DVec3;
 
     fn section() -> Section {
-        Section::new(DVec3::ZERO, [DVec3::X, DVec3::Y, DVec3::Z], [2, 2, 2], ViewClass::Interior).unwrap()
+        Section::new(
+            DVec3::ZERO,
+            [DVec3::X, DVec3::Y, DVec3::Z],
+            [2, 2, 2],
+            ViewClass::Interior,
+        )
+        .unwrap()
     }
 
     fn samples(n: usize, tag: u8) -> Vec<Sample> {
-        (0..n).map(|i| Sample { rgbe: [tag, i as u8, 0, 128], entry: [1, 2], exit: [3, 4], dist: i as u16 }).collect()
+        (0..n)
+            .map(|i| Sample {
+                rgbe: [tag, i as u8, 0, 128],
+                entry: [1, 2],
+                exit: [3, 4],
+                dist: i as u16,
+            })
+            .collect()
     }
 
     #[test]
     fn create_write_commit_reopen() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.hdk");
-        let mut h = HoloFile::create(&p, vec![section(), section()], [("k".into(), "v".into())].into()).unwrap();
-        assert!(matches!(HoloFile::create(&p, vec![], BTreeMap::new()), Err(FileError::Exists { .. })));
+        let mut h = HoloFile::create(
+            &p,
+            vec![section(), section()],
+            [("k".into(), "v".into())].into(),
+        )
+        .unwrap();
+        assert!(matches!(
+            HoloFile::create(&p, vec![], BTreeMap::new()),
+            Err(FileError::Exists { .. })
+        ));
         h.append_beam(0, 5, &samples(3, 1)).unwrap();
         h.append_beam(0, 5, &samples(2, 2)).unwrap(); // in place at the end
         h.append_beam(1, 7, &samples(4, 3)).unwrap();
@@ -286,8 +386,14 @@ mod tests {
         assert_eq!(got, want);
         assert_eq!(h.count(1, 7), 4);
         assert_eq!(h.count(1, 9), 0);
-        assert!(matches!(h.read_beam(2, 0, &mut got), Err(FileError::NoSection { .. })));
-        assert!(matches!(h.read_beam(0, 1 << 20, &mut got), Err(FileError::NoBeam { .. })));
+        assert!(matches!(
+            h.read_beam(2, 0, &mut got),
+            Err(FileError::NoSection { .. })
+        ));
+        assert!(matches!(
+            h.read_beam(0, 1 << 20, &mut got),
+            Err(FileError::NoBeam { .. })
+        ));
     }
 
     #[test]
