@@ -1,0 +1,71 @@
+//! `holocave worker --server HOST:PORT --scene S`: a holodeck worker process. It loads the
+//! scene, connects to the holodeck server and traces the ray packets it is sent until the
+//! server says goodbye.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::Context;
+use clap::Args;
+use holocave_holodeck::worker::{SampleSource, run_remote};
+use holocave_scene::{LoadOptions, Ray, Scene};
+use holocave_tracer::{TraceSettings, Tracer};
+
+#[derive(Args)]
+pub struct WorkerArgs {
+    /// The holodeck server to work for.
+    #[arg(long)]
+    pub server: String,
+    /// The scene to trace (the one the holodeck was made with).
+    #[arg(long)]
+    pub scene: PathBuf,
+}
+
+/// The path tracer as the holodeck's sample generator: one thread per worker (the server
+/// runs as many workers as it wants cores used).
+pub struct TracerSource(pub Tracer);
+
+impl SampleSource for TracerSource {
+    fn trace(&self, rays: &[([f32; 3], [f32; 3])], seed: u64) -> Vec<([f32; 3], f32)> {
+        let rays: Vec<Ray> = rays
+            .iter()
+            .map(|(o, d)| Ray::new((*o).into(), (*d).into()))
+            .collect();
+        self.0
+            .trace_serial(&rays, seed)
+            .into_iter()
+            .map(|s| (s.radiance, s.distance))
+            .collect()
+    }
+}
+
+/// Loads a scene and makes its sample generator.
+pub fn load_source(scene: &Path) -> anyhow::Result<TracerSource> {
+    let s = Scene::load(scene, &LoadOptions::default())
+        .with_context(|| format!("loading scene {}", scene.display()))?;
+    Ok(TracerSource(Tracer::new(
+        Arc::new(s),
+        TraceSettings::default(),
+    )))
+}
+
+/// The scene's name as recorded in holodeck settings and checked between server and workers.
+pub fn scene_name(scene: &Path) -> String {
+    scene.file_name().map_or_else(
+        || scene.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
+    let source = load_source(&args.scene)?;
+    let name = format!("pid {}", std::process::id());
+    let report = run_remote(&args.server, &name, &scene_name(&args.scene), &source)?;
+    tracing::info!(
+        "worker {} done: {} packets, {} rays",
+        report.worker_id,
+        report.packets,
+        report.rays
+    );
+    Ok(())
+}
