@@ -1,0 +1,422 @@
+//! Daylight: a sun and a sky, for the many glTF scenes that carry no lights at all.
+//!
+//! Given in a small TOML file, by default `<scene stem>.daylight.toml` beside the scene:
+//!
+//! ```toml
+//! [sun]
+//! elevation_deg = 12.0          # or: direction = [x, y, z]  (towards the sun)
+//! azimuth_deg = 230.0           # from +Z towards +X, scene coordinates
+//! angular_diameter_deg = 0.53
+//! irradiance = [900.0, 850.0, 780.0]  # normal to the sun; or: radiance = [...]
+//!
+//! [sky]
+//! model = "cie_clear"           # "uniform", "cie_overcast", "cie_clear" or "map"
+//! zenith_radiance = [20.0, 24.0, 32.0]  # "radiance" for uniform; "path" (EXR) + "scale" for map
+//! ground_albedo = 0.2           # directions below the horizon see a diffuse ground
+//! ```
+//!
+//! Radiance is linear RGB in the scene's emission units.
+
+use std::f32::consts::PI;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use serde::Deserialize;
+
+use crate::error::SceneError;
+
+/// The sun: a disk of uniform radiance.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sun {
+    /// Unit vector from the scene towards the sun.
+    pub direction: Vec3,
+    /// Half the angular diameter, radians.
+    pub angular_radius: f32,
+    pub radiance: Vec3,
+}
+
+impl Sun {
+    /// Cosine of the angular radius: directions with `dot(d, direction) >= cos_radius`
+    /// see the sun.
+    pub fn cos_radius(&self) -> f32 {
+        self.angular_radius.cos()
+    }
+
+    /// The solid angle of the disk.
+    pub fn solid_angle(&self) -> f32 {
+        2.0 * PI * (1.0 - self.cos_radius())
+    }
+}
+
+/// An equirectangular radiance map: `u` is the azimuth (from −Z towards +X), `v` runs
+/// from the zenith (top row) to the nadir.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkyMap {
+    pub width: usize,
+    pub height: usize,
+    pub texels: Vec<Vec3>,
+}
+
+impl SkyMap {
+    /// The texel a direction falls in.
+    pub fn texel_of(&self, dir: Vec3) -> (usize, usize) {
+        let u = (dir.x.atan2(-dir.z) / (2.0 * PI) + 0.5).clamp(0.0, 1.0);
+        let v = (dir.y.clamp(-1.0, 1.0).acos() / PI).clamp(0.0, 1.0);
+        let x = ((u * self.width as f32) as usize).min(self.width - 1);
+        let y = ((v * self.height as f32) as usize).min(self.height - 1);
+        (x, y)
+    }
+
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        let (x, y) = self.texel_of(dir);
+        self.texels[y * self.width + x]
+    }
+}
+
+/// The sky dome's radiance distribution.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SkyModel {
+    Uniform(Vec3),
+    /// CIE standard overcast sky: `L(θ) = Lz (1 + 2 cos θ) / 3`.
+    CieOvercast {
+        zenith: Vec3,
+    },
+    /// CIE clear sky (Kittler), relative to the zenith, for a given sun direction.
+    CieClear {
+        zenith: Vec3,
+        sun: Vec3,
+    },
+    Map(SkyMap),
+}
+
+/// A sky: its model plus the ground seen below the horizon.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sky {
+    pub model: SkyModel,
+    /// Radiance of the ground (below the horizon) for analytic skies.
+    pub ground: Vec3,
+}
+
+fn cie_clear_ratio(cos_theta: f32, gamma: f32, sun_zenith: f32) -> f32 {
+    let f = |g: f32| 0.91 + 10.0 * (-3.0 * g).exp() + 0.45 * g.cos() * g.cos();
+    let phi = |c: f32| 1.0 - (-0.32 / c.max(1e-3)).exp();
+    (f(gamma) * phi(cos_theta)) / (f(sun_zenith) * phi(1.0))
+}
+
+impl Sky {
+    /// Radiance arriving from direction `dir` (unit, pointing away from the scene).
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        if let SkyModel::Map(m) = &self.model {
+            return m.radiance(dir);
+        }
+        if dir.y < 0.0 {
+            return self.ground;
+        }
+        self.dome_radiance(dir)
+    }
+
+    fn dome_radiance(&self, dir: Vec3) -> Vec3 {
+        match &self.model {
+            SkyModel::Uniform(l) => *l,
+            SkyModel::CieOvercast { zenith } => *zenith * ((1.0 + 2.0 * dir.y) / 3.0),
+            SkyModel::CieClear { zenith, sun } => {
+                let gamma = dir.dot(*sun).clamp(-1.0, 1.0).acos();
+                let sun_zenith = sun.y.clamp(-1.0, 1.0).acos();
+                *zenith * cie_clear_ratio(dir.y, gamma, sun_zenith)
+            }
+            SkyModel::Map(m) => m.radiance(dir),
+        }
+    }
+
+    /// Irradiance on a horizontal surface from the upper hemisphere of the dome,
+    /// integrated numerically (midpoint rule over a 64 × 256 grid in θ, φ).
+    fn horizontal_irradiance(&self) -> Vec3 {
+        let (nt, np) = (64, 256);
+        let mut e = Vec3::ZERO;
+        for i in 0..nt {
+            let theta = (i as f32 + 0.5) / nt as f32 * PI / 2.0;
+            let (s, c) = theta.sin_cos();
+            for j in 0..np {
+                let phi = (j as f32 + 0.5) / np as f32 * 2.0 * PI;
+                let d = Vec3::new(s * phi.cos(), c, s * phi.sin());
+                e += self.dome_radiance(d) * c * s;
+            }
+        }
+        e * (PI / 2.0 / nt as f32) * (2.0 * PI / np as f32)
+    }
+}
+
+/// The daylight of a scene.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Daylight {
+    pub sun: Option<Sun>,
+    pub sky: Option<Sky>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SunToml {
+    direction: Option<[f32; 3]>,
+    elevation_deg: Option<f32>,
+    azimuth_deg: Option<f32>,
+    angular_diameter_deg: Option<f32>,
+    radiance: Option<[f32; 3]>,
+    irradiance: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SkyToml {
+    model: String,
+    radiance: Option<[f32; 3]>,
+    zenith_radiance: Option<[f32; 3]>,
+    path: Option<PathBuf>,
+    scale: Option<f32>,
+    ground_albedo: Option<f32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DaylightToml {
+    sun: Option<SunToml>,
+    sky: Option<SkyToml>,
+}
+
+fn rgb(field: &str, v: [f32; 3], path: &Path) -> Result<Vec3, SceneError> {
+    let c = Vec3::from_array(v);
+    if !c.is_finite() || c.min_element() < 0.0 {
+        return Err(SceneError::Daylight {
+            path: path.into(),
+            message: format!("{field} must be finite and non-negative, got {v:?}"),
+        });
+    }
+    Ok(c)
+}
+
+impl Daylight {
+    /// Reads a daylight TOML file.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            path: path.into(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses daylight TOML; `path` names the input in errors and anchors relative map
+    /// paths.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
+        let err = |message: String| SceneError::Daylight {
+            path: path.into(),
+            message,
+        };
+        let t: DaylightToml = toml::from_str(text).map_err(|e| err(e.to_string()))?;
+        let sun = t.sun.map(|s| Self::parse_sun(s, path)).transpose()?;
+        let sky = match t.sky {
+            None => None,
+            Some(s) => Some(Self::parse_sky(s, sun.as_ref(), path)?),
+        };
+        Ok(Self { sun, sky })
+    }
+
+    fn parse_sun(s: SunToml, path: &Path) -> Result<Sun, SceneError> {
+        let err = |message: String| SceneError::Daylight {
+            path: path.into(),
+            message,
+        };
+        let direction = match (s.direction, s.elevation_deg, s.azimuth_deg) {
+            (Some(d), None, None) => {
+                let d = Vec3::from_array(d);
+                if !d.is_finite() || d.length() < 1e-6 {
+                    return Err(err(format!("sun.direction {d} is not a direction")));
+                }
+                d.normalize()
+            }
+            (None, Some(el), Some(az)) => {
+                let (el, az) = (el.to_radians(), az.to_radians());
+                Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos())
+            }
+            _ => {
+                return Err(err(
+                    "sun needs either direction or both elevation_deg and azimuth_deg".into(),
+                ));
+            }
+        };
+        let diameter = s.angular_diameter_deg.unwrap_or(0.53);
+        if !(diameter > 0.0 && diameter < 90.0) {
+            return Err(err(format!(
+                "sun.angular_diameter_deg must be in (0, 90), got {diameter}"
+            )));
+        }
+        let angular_radius = (diameter / 2.0).to_radians();
+        let solid_angle = 2.0 * PI * (1.0 - angular_radius.cos());
+        let radiance = match (s.radiance, s.irradiance) {
+            (Some(l), None) => rgb("sun.radiance", l, path)?,
+            (None, Some(e)) => rgb("sun.irradiance", e, path)? / solid_angle,
+            _ => return Err(err("sun needs exactly one of radiance or irradiance".into())),
+        };
+        Ok(Sun {
+            direction,
+            angular_radius,
+            radiance,
+        })
+    }
+
+    fn parse_sky(s: SkyToml, sun: Option<&Sun>, path: &Path) -> Result<Sky, SceneError> {
+        let err = |message: String| SceneError::Daylight {
+            path: path.into(),
+            message,
+        };
+        let need = |v: Option<[f32; 3]>, field: &str| {
+            v.ok_or_else(|| err(format!("sky model {:?} needs {field}", s.model)))
+                .and_then(|v| rgb(&format!("sky.{field}"), v, path))
+        };
+        let model = match s.model.as_str() {
+            "uniform" => SkyModel::Uniform(need(s.radiance, "radiance")?),
+            "cie_overcast" => SkyModel::CieOvercast {
+                zenith: need(s.zenith_radiance, "zenith_radiance")?,
+            },
+            "cie_clear" => SkyModel::CieClear {
+                zenith: need(s.zenith_radiance, "zenith_radiance")?,
+                sun: sun
+                    .ok_or_else(|| err("sky model \"cie_clear\" needs a [sun]".into()))?
+                    .direction,
+            },
+            "map" => {
+                let rel = s
+                    .path
+                    .as_ref()
+                    .ok_or_else(|| err("sky model \"map\" needs path".into()))?;
+                let full = path.parent().unwrap_or(Path::new(".")).join(rel);
+                SkyModel::Map(load_sky_map(&full, s.scale.unwrap_or(1.0))?)
+            }
+            other => {
+                return Err(err(format!(
+                    "unknown sky.model {other:?} (uniform, cie_overcast, cie_clear, map)"
+                )));
+            }
+        };
+        let albedo = s.ground_albedo.unwrap_or(0.2);
+        if !(0.0..=1.0).contains(&albedo) {
+            return Err(err(format!(
+                "sky.ground_albedo must be in [0, 1], got {albedo}"
+            )));
+        }
+        let mut sky = Sky {
+            model,
+            ground: Vec3::ZERO,
+        };
+        if !matches!(sky.model, SkyModel::Map(_)) {
+            let mut e = sky.horizontal_irradiance();
+            if let Some(sun) = sun {
+                e += sun.radiance * sun.solid_angle() * sun.direction.y.max(0.0);
+            }
+            sky.ground = e * albedo / PI;
+        }
+        Ok(sky)
+    }
+}
+
+/// Loads an equirectangular EXR as a sky map (RGB, scaled).
+pub fn load_sky_map(path: &Path, scale: f32) -> Result<SkyMap, SceneError> {
+    use exr::prelude::*;
+    let err = |message: String| SceneError::Daylight {
+        path: path.into(),
+        message,
+    };
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res, _| SkyMap {
+            width: res.width(),
+            height: res.height(),
+            texels: vec![Vec3::ZERO; res.width() * res.height()],
+        },
+        move |m: &mut SkyMap, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            let c = Vec3::new(r, g, b) * scale;
+            // Non-finite or negative texels would poison every path that sees them.
+            m.texels[pos.y() * m.width + pos.x()] = if c.is_finite() {
+                c.max(Vec3::ZERO)
+            } else {
+                Vec3::ZERO
+            };
+        },
+    )
+    .map_err(|e| err(format!("cannot read sky map: {e}")))?;
+    let map = image.layer_data.channel_data.pixels;
+    if map.width == 0 || map.height == 0 {
+        return Err(err("sky map is empty".into()));
+    }
+    Ok(map)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uniform_sky_horizontal_irradiance_is_pi_l() {
+        let sky = Sky {
+            model: SkyModel::Uniform(Vec3::ONE),
+            ground: Vec3::ZERO,
+        };
+        let e = sky.horizontal_irradiance();
+        assert!((e.x - PI).abs() < 1e-3, "{e}");
+    }
+
+    #[test]
+    fn parses_sun_and_sky_and_names_bad_fields() {
+        let d = Daylight::parse(
+            "[sun]\nelevation_deg = 90.0\nazimuth_deg = 0.0\nirradiance = [1.0, 1.0, 1.0]\n\
+             [sky]\nmodel = \"cie_overcast\"\nzenith_radiance = [3.0, 3.0, 3.0]\n",
+            Path::new("x.toml"),
+        )
+        .unwrap();
+        let sun = d.sun.unwrap();
+        assert!((sun.direction - Vec3::Y).length() < 1e-6);
+        assert!((sun.radiance.x * sun.solid_angle() - 1.0).abs() < 1e-4);
+        let sky = d.sky.unwrap();
+        assert!((sky.radiance(Vec3::Y).x - 3.0).abs() < 1e-6);
+        assert!((sky.radiance(Vec3::X).x - 1.0).abs() < 1e-6);
+        // Overcast: E = 7π/9 Lz; plus the sun at the zenith, times albedo / π.
+        let expected = (7.0 * PI / 9.0 * 3.0 + 1.0) * 0.2 / PI;
+        assert!((sky.radiance(-Vec3::Y).x - expected).abs() < 1e-3);
+
+        for (bad, needle) in [
+            ("[sky]\nmodel = \"bogus\"", "bogus"),
+            ("[sky]\nmodel = \"uniform\"", "radiance"),
+            (
+                "[sky]\nmodel = \"cie_clear\"\nzenith_radiance=[1.0,1.0,1.0]",
+                "[sun]",
+            ),
+            ("[sun]\nradiance = [1.0, 1.0, 1.0]", "direction"),
+            (
+                "[sun]\ndirection=[0.0,1.0,0.0]\nradiance = [-1.0, 1.0, 1.0]",
+                "sun.radiance",
+            ),
+            ("[sun", "x.toml"),
+        ] {
+            let e = Daylight::parse(bad, Path::new("x.toml"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(needle), "{e:?} should mention {needle:?}");
+        }
+    }
+
+    #[test]
+    fn cie_clear_is_brightest_near_the_sun() {
+        let sun = Vec3::new(0.0, 0.5, 0.866).normalize();
+        let sky = Sky {
+            model: SkyModel::CieClear {
+                zenith: Vec3::ONE,
+                sun,
+            },
+            ground: Vec3::ZERO,
+        };
+        assert!((sky.radiance(Vec3::Y).x - 1.0).abs() < 1e-5);
+        let near = sky
+            .radiance((sun + Vec3::new(0.0, 0.05, 0.0)).normalize())
+            .x;
+        let away = sky.radiance(Vec3::new(0.0, 0.5, -0.866).normalize()).x;
+        assert!(near > 3.0 * away, "near {near} away {away}");
+    }
+}

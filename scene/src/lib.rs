@@ -1,0 +1,27 @@
+//! Scenes for holocave: glTF loading, materials, lights, daylight, and BVH ray queries.
+//!
+//! One concept per module: [`load`] reads glTF into [`SceneParts`]; [`Scene`] holds the
+//! world-space triangles and answers ray queries through [`bvh`]; [`material`],
+//! [`texture`], [`light`], [`daylight`] and [`camera`] describe what the tracer shades.
+
+pub mod bvh;
+pub mod camera;
+pub mod daylight;
+pub mod error;
+pub mod generate;
+pub mod light;
+pub mod load;
+pub mod material;
+pub mod ray;
+pub mod scene;
+pub mod texture;
+
+pub use camera::NamedCamera;
+pub use daylight::{Daylight, Sky, SkyModel, Sun};
+pub use error::SceneError;
+pub use light::{PunctualKind, PunctualLight};
+pub use load::LoadOptions;
+pub use material::{Material, MaterialKind, SurfaceParams, TextureRef};
+pub use ray::{Hit, Ray};
+pub use scene::{Scene, SceneParts, SurfacePoint, TriangleShading};
+pub use texture::{Encoding, Texture};

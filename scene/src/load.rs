@@ -1,0 +1,581 @@
+//! glTF 2.0 loading (`.gltf` with external or embedded buffers, and `.glb`).
+//!
+//! Real files are imperfect, so the loader is lenient where it can be and says what it
+//! did: an unsupported extension listed as required is ignored with a warning (an error
+//! under strict loading); a missing or undecodable texture falls back to the material's
+//! factors; degenerate triangles are dropped. Bad geometry (non-finite vertices,
+//! out-of-range indices, accessors outside their buffers) is an error naming the file,
+//! mesh and primitive. Only each texture's core `source` image is read, so alternates
+//! from extensions such as `MSFT_texture_dds` are never loaded.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use base64::Engine;
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
+use gltf::{Document, mesh::Mode};
+use rayon::prelude::*;
+
+use crate::camera::NamedCamera;
+use crate::daylight::Daylight;
+use crate::error::SceneError;
+use crate::light::{PunctualKind, PunctualLight};
+use crate::material::{Material, TextureRef};
+use crate::scene::{Scene, SceneParts, TriangleShading};
+use crate::texture::{Encoding, Texture};
+
+/// Extensions whose meaning holocave implements.
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+];
+
+/// How to load a scene.
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Refuse files that require an extension holocave does not implement.
+    pub strict: bool,
+    /// Daylight file; when `None`, `<scene stem>.daylight.toml` beside the scene is used
+    /// if it exists.
+    pub daylight: Option<PathBuf>,
+}
+
+/// The daylight file looked for beside a scene.
+pub fn default_daylight_path(scene: &Path) -> PathBuf {
+    let stem = scene.file_stem().unwrap_or_default().to_string_lossy();
+    scene.with_file_name(format!("{stem}.daylight.toml"))
+}
+
+struct Loader<'a> {
+    path: &'a Path,
+    doc: &'a Document,
+    buffers: &'a [gltf::buffer::Data],
+    parts: SceneParts,
+}
+
+pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
+        path: path.into(),
+        source,
+    })?;
+    let gltf =
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| SceneError::Parse {
+            path: path.into(),
+            message: e.to_string(),
+        })?;
+    let mut warnings = check_extensions(path, &gltf.document, opts.strict)?;
+    validate(path, &gltf.document)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let buffers = load_buffers(path, &gltf.document, base, gltf.blob.clone())?;
+
+    let (textures, texture_map, tex_warnings) = load_textures(path, &gltf.document, base, &buffers);
+    warnings.extend(tex_warnings);
+
+    let mut loader = Loader {
+        path,
+        doc: &gltf.document,
+        buffers: &buffers,
+        parts: SceneParts {
+            name: path
+                .file_stem()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into(),
+            textures,
+            warnings,
+            ..Default::default()
+        },
+    };
+    loader.parts.materials = gltf
+        .document
+        .materials()
+        .map(|m| convert_material(&m, &texture_map))
+        .collect();
+    // Primitives without a material use glTF's default, appended last.
+    loader.parts.materials.push(Material::default());
+
+    let scene = gltf
+        .document
+        .default_scene()
+        .or_else(|| gltf.document.scenes().next());
+    match scene {
+        Some(scene) => {
+            for node in scene.nodes() {
+                loader.visit(&node, Mat4::IDENTITY)?;
+            }
+        }
+        None => {
+            let w = "the file has no scene; nothing to draw".to_string();
+            tracing::warn!("{}: {w}", path.display());
+        }
+    }
+
+    let daylight_path = opts
+        .daylight
+        .clone()
+        .or_else(|| Some(default_daylight_path(path)).filter(|p| p.exists()));
+    if let Some(p) = daylight_path {
+        loader.parts.daylight = Daylight::load(&p)?;
+    }
+    for w in &loader.parts.warnings {
+        tracing::warn!("{}: {w}", path.display());
+    }
+    let parts = loader.parts;
+    Scene::from_parts(parts, path)
+}
+
+/// Unsupported required extensions: an error under strict loading, else warnings.
+fn check_extensions(path: &Path, doc: &Document, strict: bool) -> Result<Vec<String>, SceneError> {
+    let mut warnings = Vec::new();
+    for ext in doc.extensions_required() {
+        if SUPPORTED_EXTENSIONS.contains(&ext) {
+            continue;
+        }
+        if strict {
+            return Err(SceneError::UnsupportedExtension {
+                path: path.into(),
+                extension: ext.into(),
+            });
+        }
+        warnings.push(format!(
+            "required extension {ext} is not supported: its data is ignored and the core glTF data is used"
+        ));
+    }
+    Ok(warnings)
+}
+
+/// glTF's own validation, minus its complaints about required extensions (decided
+/// above).
+fn validate(path: &Path, doc: &Document) -> Result<(), SceneError> {
+    let json = doc.as_json();
+    let mut errors = Vec::new();
+    use gltf::json::validation::Validate;
+    json.validate(json, gltf::json::Path::new, &mut |path, err| {
+        let p = path().to_string();
+        if !p.starts_with("extensionsRequired") && !p.starts_with("extensionsUsed") {
+            errors.push(format!("{p}: {err}"));
+        }
+    });
+    if errors.is_empty() {
+        return Ok(());
+    }
+    let more = if errors.len() > 5 {
+        format!(" (and {} more)", errors.len() - 5)
+    } else {
+        String::new()
+    };
+    errors.truncate(5);
+    Err(SceneError::Invalid {
+        path: path.into(),
+        message: format!("{}{more}", errors.join("; ")),
+    })
+}
+
+fn load_buffers(
+    path: &Path,
+    doc: &Document,
+    base: &Path,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<gltf::buffer::Data>, SceneError> {
+    let mut out = Vec::new();
+    for buffer in doc.buffers() {
+        let err = |message: String| SceneError::Buffer {
+            path: path.into(),
+            buffer: buffer.index(),
+            message,
+        };
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => blob
+                .take()
+                .ok_or_else(|| err("refers to the GLB binary chunk, which is missing".into()))?,
+            gltf::buffer::Source::Uri(uri) => read_uri(base, uri).map_err(err)?,
+        };
+        if data.len() < buffer.length() {
+            return Err(err(format!(
+                "holds {} bytes, the file declares {}",
+                data.len(),
+                buffer.length()
+            )));
+        }
+        out.push(gltf::buffer::Data(data));
+    }
+    Ok(out)
+}
+
+/// Reads a data URI or a file relative to the glTF file.
+fn read_uri(base: &Path, uri: &str) -> Result<Vec<u8>, String> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (_, payload) = rest
+            .split_once(";base64,")
+            .ok_or("data URI is not base64")?;
+        return base64::engine::general_purpose::STANDARD
+            .decode(payload)
+            .map_err(|e| format!("bad base64 data URI: {e}"));
+    }
+    let rel = urlencoding::decode(uri).map_err(|e| format!("bad URI {uri:?}: {e}"))?;
+    let file = base.join(rel.as_ref());
+    std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))
+}
+
+/// How each image is used decides its encoding: base colour and emissive are sRGB.
+fn texture_uses(doc: &Document) -> HashMap<usize, Encoding> {
+    let mut uses = HashMap::new();
+    for m in doc.materials() {
+        let pbr = m.pbr_metallic_roughness();
+        for (info, enc) in [
+            (pbr.base_color_texture(), Encoding::Srgb),
+            (m.emissive_texture(), Encoding::Srgb),
+            (pbr.metallic_roughness_texture(), Encoding::Linear),
+        ] {
+            if let Some(info) = info {
+                uses.insert(info.texture().index(), enc);
+            }
+        }
+    }
+    uses
+}
+
+/// Decodes every texture a material uses, in parallel. Returns the textures, a map from
+/// glTF texture index to ours, and warnings for the ones that could not be read.
+fn load_textures(
+    path: &Path,
+    doc: &Document,
+    base: &Path,
+    buffers: &[gltf::buffer::Data],
+) -> (Vec<Texture>, HashMap<usize, u32>, Vec<String>) {
+    let mut wanted: Vec<(usize, Encoding)> = texture_uses(doc).into_iter().collect();
+    wanted.sort_by_key(|(i, _)| *i);
+    let textures: Vec<_> = doc.textures().collect();
+    let decoded: Vec<Result<Texture, String>> = wanted
+        .par_iter()
+        .map(|&(index, encoding)| {
+            let image = textures[index].source().ok_or_else(|| {
+                format!(
+                    "texture {index} has no core image, only extension alternates \
+                     (such as MSFT_texture_dds) that holocave does not read"
+                )
+            })?;
+            let name = image.name().map(str::to_string);
+            let (bytes, label) = match image.source() {
+                gltf::image::Source::Uri { uri, .. } => {
+                    let label = name.unwrap_or_else(|| uri.to_string());
+                    (read_uri(base, uri), label)
+                }
+                gltf::image::Source::View { view, .. } => {
+                    let label = name.unwrap_or_else(|| format!("image {}", image.index()));
+                    let data = &buffers[view.buffer().index()];
+                    let range = view.offset()..view.offset() + view.length();
+                    let bytes = data
+                        .get(range)
+                        .map(<[u8]>::to_vec)
+                        .ok_or_else(|| "buffer view lies outside its buffer".to_string());
+                    (bytes, label)
+                }
+            };
+            let bytes = bytes.map_err(|e| format!("texture {label}: {e}"))?;
+            let img = image::load_from_memory(&bytes)
+                .map_err(|e| format!("texture {label}: cannot decode: {e}"))?
+                .to_rgba8();
+            let (w, h) = img.dimensions();
+            if w == 0 || h == 0 {
+                return Err(format!("texture {label}: empty image"));
+            }
+            let texels = img.pixels().map(|p| p.0).collect();
+            Ok(Texture::new(label, w, h, texels, encoding))
+        })
+        .collect();
+    let mut out = Vec::new();
+    let mut map = HashMap::new();
+    let mut warnings = Vec::new();
+    for ((index, _), t) in wanted.iter().zip(decoded) {
+        match t {
+            Ok(t) => {
+                map.insert(*index, out.len() as u32);
+                out.push(t);
+            }
+            Err(e) => warnings.push(format!("{e}; its materials fall back to their factors")),
+        }
+    }
+    let _ = path;
+    (out, map, warnings)
+}
+
+fn srgb_factor_is_linear(c: [f32; 4]) -> Vec4 {
+    // glTF factors are already linear.
+    Vec4::from_array(c)
+}
+
+fn convert_material(m: &gltf::Material, textures: &HashMap<usize, u32>) -> Material {
+    let tex = |info: Option<gltf::texture::Info>| {
+        info.and_then(|i| textures.get(&i.texture().index()))
+            .map(|&t| TextureRef { texture: t })
+    };
+    let pbr = m.pbr_metallic_roughness();
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    let (specular, specular_color) = match m.specular() {
+        Some(s) => (
+            s.specular_factor(),
+            Vec3::from_array(s.specular_color_factor()),
+        ),
+        None => (1.0, Vec3::ONE),
+    };
+    let finite = |x: f32, default: f32| if x.is_finite() { x } else { default };
+    Material {
+        name: m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0))),
+        base_color: srgb_factor_is_linear(pbr.base_color_factor()),
+        base_color_texture: tex(pbr.base_color_texture()),
+        metallic: finite(pbr.metallic_factor(), 1.0),
+        roughness: finite(pbr.roughness_factor(), 1.0),
+        metallic_roughness_texture: tex(pbr.metallic_roughness_texture()),
+        emissive: Vec3::from_array(m.emissive_factor()) * finite(strength, 1.0),
+        emissive_texture: tex(m.emissive_texture()),
+        specular: finite(specular, 1.0),
+        specular_color,
+        transmission: m
+            .transmission()
+            .map(|t| finite(t.transmission_factor(), 0.0))
+            .unwrap_or(0.0),
+        ior: m
+            .ior()
+            .filter(|i| i.is_finite() && *i >= 1.0)
+            .unwrap_or(1.5),
+        double_sided: m.double_sided(),
+    }
+}
+
+impl Loader<'_> {
+    fn geometry_error(&self, mesh: &gltf::Mesh, primitive: usize, message: String) -> SceneError {
+        SceneError::Geometry {
+            path: self.path.into(),
+            mesh: mesh
+                .name()
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("#{}", mesh.index())),
+            primitive,
+            message,
+        }
+    }
+
+    fn visit(&mut self, node: &gltf::Node, parent: Mat4) -> Result<(), SceneError> {
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
+        if let Some(mesh) = node.mesh() {
+            for (i, prim) in mesh.primitives().enumerate() {
+                self.add_primitive(&mesh, i, &prim, &world)?;
+            }
+        }
+        let (_, rotation, position) = world.to_scale_rotation_translation();
+        if let Some(light) = node.light() {
+            self.add_light(&light, position, rotation);
+        }
+        if let Some(camera) = node.camera()
+            && let gltf::camera::Projection::Perspective(p) = camera.projection()
+        {
+            self.parts.cameras.push(NamedCamera {
+                name: camera
+                    .name()
+                    .or(node.name())
+                    .map(str::to_string)
+                    .unwrap_or_else(|| format!("camera {}", camera.index())),
+                position,
+                rotation,
+                yfov: p.yfov(),
+                aspect: p.aspect_ratio(),
+            });
+        }
+        for child in node.children() {
+            self.visit(&child, world)?;
+        }
+        Ok(())
+    }
+
+    fn add_light(
+        &mut self,
+        light: &gltf::khr_lights_punctual::Light,
+        position: Vec3,
+        rotation: Quat,
+    ) {
+        use gltf::khr_lights_punctual::Kind;
+        let kind = match light.kind() {
+            Kind::Point => PunctualKind::Point,
+            Kind::Directional => PunctualKind::Directional,
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => PunctualKind::Spot {
+                cos_inner: inner_cone_angle.cos(),
+                cos_outer: outer_cone_angle.cos(),
+            },
+        };
+        let intensity = Vec3::from_array(light.color()) * light.intensity();
+        if !intensity.is_finite() || !position.is_finite() {
+            self.parts.warnings.push(format!(
+                "light {} has non-finite values; ignored",
+                light.index()
+            ));
+            return;
+        }
+        self.parts.lights.push(PunctualLight {
+            name: light
+                .name()
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("light {}", light.index())),
+            kind,
+            position,
+            direction: (rotation * Vec3::NEG_Z).normalize(),
+            intensity,
+            range: light.range(),
+        });
+    }
+
+    /// Checks that an accessor's bytes lie inside its buffer view and buffer.
+    fn check_accessor(&self, a: &gltf::Accessor) -> Result<(), String> {
+        let Some(view) = a.view() else {
+            return Err(format!(
+                "accessor {} has no buffer view (sparse-only accessors are not supported)",
+                a.index()
+            ));
+        };
+        let buffer_len = self.buffers[view.buffer().index()].len();
+        if view.offset() + view.length() > buffer_len {
+            return Err(format!(
+                "buffer view {} ends at byte {}, past its buffer's {} bytes",
+                view.index(),
+                view.offset() + view.length(),
+                buffer_len
+            ));
+        }
+        let elem = a.size();
+        let stride = view.stride().unwrap_or(elem);
+        let need = match a.count() {
+            0 => 0,
+            n => a.offset() + (n - 1) * stride + elem,
+        };
+        if need > view.length() {
+            return Err(format!(
+                "accessor {} needs {need} bytes, its buffer view has {}",
+                a.index(),
+                view.length()
+            ));
+        }
+        Ok(())
+    }
+
+    fn add_primitive(
+        &mut self,
+        mesh: &gltf::Mesh,
+        index: usize,
+        prim: &gltf::Primitive,
+        world: &Mat4,
+    ) -> Result<(), SceneError> {
+        let err = |this: &Self, m: String| this.geometry_error(mesh, index, m);
+        let mode = prim.mode();
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
+            self.parts.warnings.push(format!(
+                "mesh {:?} primitive {index}: mode {mode:?} has no surface; skipped",
+                mesh.name().unwrap_or("")
+            ));
+            return Ok(());
+        }
+        for (_, a) in prim.attributes() {
+            self.check_accessor(&a).map_err(|m| err(self, m))?;
+        }
+        if let Some(a) = prim.indices() {
+            self.check_accessor(&a).map_err(|m| err(self, m))?;
+        }
+        let buffers = self.buffers;
+        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+        let positions: Vec<Vec3> = reader
+            .read_positions()
+            .ok_or_else(|| err(self, "has no POSITION attribute".into()))?
+            .map(Vec3::from_array)
+            .collect();
+        if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(err(
+                self,
+                format!("vertex {bad} has a NaN or infinite position"),
+            ));
+        }
+        let normals: Option<Vec<Vec3>> = reader
+            .read_normals()
+            .map(|n| n.map(Vec3::from_array).collect());
+        let uvs: Option<Vec<Vec2>> = reader
+            .read_tex_coords(0)
+            .map(|t| t.into_f32().map(Vec2::from_array).collect());
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(i) => i.into_u32().collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        if let Some(bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+            return Err(err(
+                self,
+                format!("index {bad} is out of range ({} vertices)", positions.len()),
+            ));
+        }
+        let triangles: Vec<[u32; 3]> = match mode {
+            Mode::Triangles => indices
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect(),
+            Mode::TriangleStrip => (2..indices.len())
+                .map(|i| {
+                    if i % 2 == 0 {
+                        [indices[i - 2], indices[i - 1], indices[i]]
+                    } else {
+                        [indices[i - 1], indices[i - 2], indices[i]]
+                    }
+                })
+                .collect(),
+            _ => (2..indices.len())
+                .map(|i| [indices[0], indices[i - 1], indices[i]])
+                .collect(),
+        };
+        // A mirroring transform reverses the winding; swap two vertices to keep the
+        // front face in front (glTF §3.7.4).
+        let mirrored = world.determinant() < 0.0;
+        let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
+        let material = prim
+            .material()
+            .index()
+            .unwrap_or(self.parts.materials.len() - 1) as u32;
+        let material = material.min(self.parts.materials.len() as u32 - 1);
+        for tri in triangles {
+            let tri = if mirrored {
+                [tri[0], tri[2], tri[1]]
+            } else {
+                tri
+            };
+            let p = tri.map(|i| world.transform_point3(positions[i as usize]));
+            if p.iter().any(|v| !v.is_finite()) {
+                return Err(err(self, "a transformed vertex is not finite".into()));
+            }
+            let n = normals
+                .as_ref()
+                .map(|n| tri.map(|i| (normal_matrix * n[i as usize]).normalize_or_zero()));
+            // Unusable vertex normals (zero, NaN) fall back to the face normal.
+            let n = n.filter(|n| n.iter().all(|v| v.is_finite() && *v != Vec3::ZERO));
+            let uv = uvs
+                .as_ref()
+                .map(|t| tri.map(|i| t[i as usize]))
+                .filter(|t| t.iter().all(|v| v.is_finite()))
+                .unwrap_or([Vec2::ZERO; 3]);
+            self.parts.positions.push(p);
+            self.parts.shading.push(TriangleShading {
+                normals: n,
+                uvs: uv,
+                material,
+            });
+        }
+        let _ = self.doc;
+        Ok(())
+    }
+}

@@ -1,0 +1,200 @@
+//! The scene as the tracer sees it: world-space triangles with their shading data,
+//! materials, lights, viewpoints and daylight, plus the BVH that answers ray queries.
+
+use std::path::Path;
+use std::time::Duration;
+
+use glam::{Vec2, Vec3};
+
+use crate::bvh::Bvh;
+use crate::camera::NamedCamera;
+use crate::daylight::Daylight;
+use crate::error::SceneError;
+use crate::light::PunctualLight;
+use crate::material::Material;
+use crate::ray::{Hit, Ray};
+use crate::texture::Texture;
+
+/// Per-triangle data used for shading (not for intersection).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleShading {
+    /// Vertex normals; `None` means the face normal is used.
+    pub normals: Option<[Vec3; 3]>,
+    pub uvs: [Vec2; 3],
+    pub material: u32,
+}
+
+/// Everything a scene is made of, before the BVH is built.
+#[derive(Default)]
+pub struct SceneParts {
+    pub name: String,
+    pub positions: Vec<[Vec3; 3]>,
+    pub shading: Vec<TriangleShading>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<PunctualLight>,
+    pub cameras: Vec<NamedCamera>,
+    pub daylight: Daylight,
+    pub warnings: Vec<String>,
+}
+
+/// A point on a surface, as a hit sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub position: Vec3,
+    /// Unit face normal (winding order: counter-clockwise is the front).
+    pub geometric_normal: Vec3,
+    /// Unit interpolated normal, on the same side as `geometric_normal`.
+    pub shading_normal: Vec3,
+    pub uv: Vec2,
+    pub material: u32,
+    /// True when all three vertex normals equal the face normal: the surface is flat
+    /// here, so a mirror or glass pane images what is behind it without distortion.
+    pub flat: bool,
+}
+
+/// A loaded scene.
+pub struct Scene {
+    pub name: String,
+    positions: Vec<[Vec3; 3]>,
+    shading: Vec<TriangleShading>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<PunctualLight>,
+    pub cameras: Vec<NamedCamera>,
+    pub daylight: Daylight,
+    /// What the loader ignored or repaired, one line each (also logged).
+    pub warnings: Vec<String>,
+    bvh: Bvh,
+    bounds: (Vec3, Vec3),
+}
+
+impl Scene {
+    /// Loads a glTF (`.gltf` or `.glb`) scene; see [`crate::load`].
+    pub fn load(path: &Path, opts: &crate::LoadOptions) -> Result<Scene, SceneError> {
+        crate::load::load(path, opts)
+    }
+
+    /// Builds a scene from its parts: drops degenerate triangles (one warning with the
+    /// count) and builds the BVH. `source` names the input in errors.
+    pub fn from_parts(mut parts: SceneParts, source: &Path) -> Result<Scene, SceneError> {
+        assert_eq!(parts.positions.len(), parts.shading.len());
+        let before = parts.positions.len();
+        let mut keep_pos = Vec::with_capacity(before);
+        let mut keep_shading = Vec::with_capacity(before);
+        for (p, s) in parts.positions.iter().zip(&parts.shading) {
+            let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+            let area2 = e1.cross(e2).length();
+            let scale = e1.length_squared().max(e2.length_squared());
+            if area2 > 1e-10 * scale && area2.is_finite() {
+                keep_pos.push(*p);
+                keep_shading.push(*s);
+            }
+        }
+        let dropped = before - keep_pos.len();
+        if dropped > 0 {
+            let w = format!("dropped {dropped} degenerate (zero-area) triangles");
+            tracing::warn!("{}: {w}", source.display());
+            parts.warnings.push(w);
+        }
+        if keep_pos.is_empty() {
+            return Err(SceneError::Empty {
+                path: source.into(),
+            });
+        }
+        if parts.materials.is_empty() {
+            parts.materials.push(Material::default());
+        }
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for p in keep_pos.iter().flatten() {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let bvh = Bvh::build(&keep_pos);
+        Ok(Scene {
+            name: parts.name,
+            positions: keep_pos,
+            shading: keep_shading,
+            materials: parts.materials,
+            textures: parts.textures,
+            lights: parts.lights,
+            cameras: parts.cameras,
+            daylight: parts.daylight,
+            warnings: parts.warnings,
+            bvh,
+            bounds: (lo, hi),
+        })
+    }
+
+    /// World-space axis-aligned bounds of the geometry.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    pub fn triangle(&self, i: u32) -> &[Vec3; 3] {
+        &self.positions[i as usize]
+    }
+
+    pub fn triangle_shading(&self, i: u32) -> &TriangleShading {
+        &self.shading[i as usize]
+    }
+
+    pub fn bvh_build_time(&self) -> Duration {
+        self.bvh.build_time()
+    }
+
+    /// The closest hit before `tmax`.
+    pub fn closest_hit(&self, ray: &Ray, tmax: f32) -> Option<Hit> {
+        self.bvh.closest_hit(ray, tmax)
+    }
+
+    /// Whether anything lies on the ray before `tmax`.
+    pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
+        self.bvh.occluded(ray, tmax)
+    }
+
+    /// The surface point of a hit.
+    pub fn surface(&self, hit: &Hit) -> SurfacePoint {
+        let p = &self.positions[hit.triangle as usize];
+        let s = &self.shading[hit.triangle as usize];
+        let w = Vec3::new(1.0 - hit.u - hit.v, hit.u, hit.v);
+        let ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+        let (ns, flat) = match &s.normals {
+            Some(n) => {
+                let ns = (n[0] * w.x + n[1] * w.y + n[2] * w.z).normalize_or_zero();
+                let flat = n.iter().all(|n| n.dot(ng) > 0.99999);
+                let ns = if ns == Vec3::ZERO {
+                    ng
+                } else if ns.dot(ng) < 0.0 {
+                    -ns
+                } else {
+                    ns
+                };
+                (ns, flat)
+            }
+            None => (ng, true),
+        };
+        let uv = s.uvs[0] * w.x + s.uvs[1] * w.y + s.uvs[2] * w.z;
+        SurfacePoint {
+            // From the vertices, not `origin + t·dir`: exact on the surface even for
+            // rays that start far away.
+            position: p[0] * w.x + p[1] * w.y + p[2] * w.z,
+            geometric_normal: ng,
+            shading_normal: ns,
+            uv,
+            material: s.material,
+            flat,
+        }
+    }
+
+    /// Area of triangle `i`.
+    pub fn triangle_area(&self, i: u32) -> f32 {
+        let p = &self.positions[i as usize];
+        0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+    }
+}

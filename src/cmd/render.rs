@@ -1,0 +1,151 @@
+//! `holocave render`: one off-axis view of a scene, as a CAVE wall sees it.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use glam::Vec3;
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::render::render;
+use holocave_tracer::view::WallView;
+use holocave_tracer::{TraceSettings, Tracer};
+use indicatif::{ProgressBar, ProgressStyle};
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// The scene (glTF 2.0: .gltf or .glb).
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Eye position X,Y,Z in scene metres.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<Vec3>,
+    /// The screen rectangle "PA;PB;PC": lower-left, lower-right and upper-left corners.
+    #[arg(long, value_parser = parse_wall, allow_hyphen_values = true)]
+    pub wall: Option<[Vec3; 3]>,
+    /// Use a glTF camera of the scene instead of --eye/--wall.
+    #[arg(long, conflicts_with_all = ["eye", "wall"])]
+    pub camera: Option<String>,
+    /// Image size WxH in pixels.
+    #[arg(long, default_value = "512x512", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Path samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Output OpenEXR file; a tone-mapped PNG preview is written beside it.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Daylight file (default: <scene>.daylight.toml beside the scene, if present).
+    #[arg(long)]
+    pub daylight: Option<PathBuf>,
+    /// Refuse scenes that require glTF extensions holocave does not implement.
+    #[arg(long)]
+    pub strict: bool,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f32>()
+                .map_err(|e| format!("{p:?} in {s:?}: {e}"))
+        })
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        [_, _, _] => Err(format!("{s:?}: coordinates must be finite")),
+        _ => Err(format!("{s:?}: expected three numbers X,Y,Z")),
+    }
+}
+
+fn parse_wall(s: &str) -> Result<[Vec3; 3], String> {
+    let corners: Vec<Vec3> = s.split(';').map(parse_vec3).collect::<Result<_, _>>()?;
+    let [pa, pb, pc] = corners[..] else {
+        return Err(format!("{s:?}: expected three corners PA;PB;PC"));
+    };
+    let (right, up) = (pb - pa, pc - pa);
+    if right.cross(up).length() < 1e-9 {
+        return Err(format!("{s:?}: the corners do not span a rectangle"));
+    }
+    if right.normalize().dot(up.normalize()).abs() > 1e-3 {
+        return Err(format!("{s:?}: PA→PB and PA→PC are not perpendicular"));
+    }
+    Ok([pa, pb, pc])
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once('x')
+        .ok_or_else(|| format!("{s:?}: expected WxH"))?;
+    let w: u32 = w.parse().map_err(|e| format!("{s:?}: {e}"))?;
+    let h: u32 = h.parse().map_err(|e| format!("{s:?}: {e}"))?;
+    if w == 0 || h == 0 || u64::from(w) * u64::from(h) > 1 << 28 {
+        return Err(format!(
+            "{s:?}: size must be positive and at most 2^28 pixels"
+        ));
+    }
+    Ok((w, h))
+}
+
+pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Result<Scene> {
+    let opts = LoadOptions { strict, daylight };
+    // The loader logs its own warnings.
+    Scene::load(path, &opts).with_context(|| format!("loading scene {}", path.display()))
+}
+
+pub fn run(args: RenderArgs) -> Result<()> {
+    let scene = load_scene(&args.scene, args.daylight.clone(), args.strict)?;
+    let (width, height) = args.size;
+    let (eye, [pa, pb, pc]) = match (&args.camera, args.eye, args.wall) {
+        (Some(name), _, _) => {
+            let cam = scene
+                .cameras
+                .iter()
+                .find(|c| &c.name == name)
+                .with_context(|| {
+                    let names: Vec<_> = scene.cameras.iter().map(|c| c.name.as_str()).collect();
+                    format!(
+                        "{} has no camera {name:?} (it has {names:?})",
+                        args.scene.display()
+                    )
+                })?;
+            (cam.position, cam.screen(width as f32 / height as f32))
+        }
+        (None, Some(eye), Some(wall)) => (eye, wall),
+        _ => bail!("give --eye and --wall, or --camera"),
+    };
+    let view = WallView {
+        eye,
+        pa,
+        pb,
+        pc,
+        width,
+        height,
+    };
+    let tracer = Tracer::new(Arc::new(scene), TraceSettings::default());
+    let bar = ProgressBar::new(u64::from(height)).with_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} rows, {elapsed} (eta {eta})")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(format!("{}x{} at {} spp", width, height, args.spp));
+    let start = std::time::Instant::now();
+    let image = render(&tracer, &view, args.spp, args.seed, &|| bar.inc(1));
+    bar.finish();
+    let secs = start.elapsed().as_secs_f64();
+    let paths = f64::from(width) * f64::from(height) * f64::from(args.spp);
+    image.write_exr(&args.out)?;
+    let png = args.out.with_extension("png");
+    image.write_png(&png, image.auto_exposure())?;
+    println!(
+        "wrote {} and {} ({:.1} s, {:.2} M paths/s)",
+        args.out.display(),
+        png.display(),
+        secs,
+        paths / secs / 1e6
+    );
+    Ok(())
+}

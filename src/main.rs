@@ -1,0 +1,59 @@
+//! `holocave`: the one binary every machine of the cluster runs. The subcommand picks the
+//! role. This file only parses arguments and hands them to the crates; no algorithms here.
+
+mod cmd;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "holocave",
+    version,
+    about = "A clustered CAVE renderer with full global illumination"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render one off-axis view of a scene as a CAVE wall sees it (EXR + PNG preview).
+    Render(cmd::render::RenderArgs),
+    /// Inspect a scene.
+    #[command(subcommand)]
+    Scene(cmd::scene::SceneCommand),
+    /// Record tracker sources; evaluate and tune head-pose prediction.
+    #[command(subcommand)]
+    Tracking(cmd::tracking::TrackingCommand),
+    /// Check a CAVE configuration and show its walls and frusta.
+    #[command(subcommand)]
+    Cave(cmd::cave::CaveCommand),
+    /// Inspect, check, optimize or serve a holodeck file.
+    #[command(subcommand)]
+    Holodeck(cmd::holodeck::HolodeckCommand),
+    /// Batch-fill a holodeck with worker threads or processes.
+    Fill(cmd::fill::FillArgs),
+    /// Run a holodeck worker process for a server.
+    Worker(cmd::worker::WorkerArgs),
+}
+
+fn main() -> anyhow::Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Render(args) => cmd::render::run(args),
+        Command::Scene(c) => cmd::scene::run(c),
+        Command::Tracking(c) => cmd::tracking::run(c),
+        Command::Cave(c) => cmd::cave::run(c),
+        Command::Holodeck(c) => cmd::holodeck::run(c),
+        Command::Fill(a) => cmd::fill::run(a),
+        Command::Worker(a) => cmd::worker::run(a),
+    }
+}

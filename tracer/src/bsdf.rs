@@ -1,0 +1,316 @@
+//! The BSDF of glTF's metallic-roughness model at one surface point.
+//!
+//! Three components, mixed by the material's weights:
+//! - **metal** (`metallic`): GGX conductor with Schlick Fresnel tinted by the base colour;
+//! - **opaque dielectric** (`(1 − metallic)(1 − transmission)`): a GGX specular layer with
+//!   `KHR_materials_specular`'s F0/F90 over a Lambertian base scaled by `(1 − F(θo))(1 − F(θi))`,
+//!   which keeps the sum energy-conserving and reciprocal (a specular factor of 0 leaves pure
+//!   Lambert);
+//! - **glass** (`(1 − metallic) · transmission`): exact dielectric Fresnel with refraction
+//!   (Walter et al. 2007 when rough), transmission tinted by the base colour.
+//!
+//! A roughness below [`Ggx::is_smooth`] makes a lobe a delta (perfect mirror, smooth glass).
+//! All directions are local (normal = +Z); `wo` points to the viewer, `wi` to the light.
+//! Opaque components are two-sided: they see both directions mirrored to `wo`'s side.
+
+use glam::{Vec2, Vec3};
+use holocave_scene::SurfaceParams;
+use std::f32::consts::FRAC_1_PI;
+
+use crate::fresnel;
+use crate::microfacet::Ggx;
+use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
+
+/// One sampled direction.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    /// `f · |cos θi| / pdf`: what the path throughput is multiplied by.
+    pub weight: Vec3,
+    /// Solid-angle density (for MIS); the selection probability for delta lobes.
+    pub pdf: f32,
+    pub delta: bool,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct Bsdf {
+    base: Vec3,
+    metal: f32,
+    glass: f32,
+    dielectric: f32,
+    ggx: Ggx,
+    smooth: bool,
+    /// Specular layer of the opaque dielectric: F0, F90, and whether it exists at all.
+    spec_f0: Vec3,
+    spec_f90: Vec3,
+    spec_on: bool,
+    ior: f32,
+}
+
+fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// Pdf of sampling the visible normal `m` (m.z > 0) from `w` on either side.
+fn visible_pdf_abs(ggx: &Ggx, w: Vec3, m: Vec3) -> f32 {
+    if w.z == 0.0 {
+        return 0.0;
+    }
+    ggx.g1(w) / w.z.abs() * ggx.d(m) * w.dot(m).abs()
+}
+
+impl Bsdf {
+    pub fn new(p: &SurfaceParams) -> Self {
+        let metal = p.metallic;
+        let glass = (1.0 - metal) * p.transmission;
+        let dielectric = (1.0 - metal) * (1.0 - p.transmission);
+        let r0 = ((p.ior - 1.0) / (p.ior + 1.0)).powi(2);
+        let spec_f0 = (Vec3::splat(r0) * p.specular_color).min(Vec3::ONE) * p.specular;
+        Self {
+            base: p.base_color,
+            metal,
+            glass,
+            dielectric,
+            ggx: Ggx::from_roughness(p.roughness),
+            smooth: Ggx::is_smooth(p.roughness),
+            spec_f0,
+            spec_f90: Vec3::splat(p.specular),
+            spec_on: p.specular > 0.0,
+            ior: p.ior.max(1.0001),
+        }
+    }
+
+    /// Whether any lobe is not a delta: only then is light sampling worth a shadow ray.
+    pub fn has_non_delta(&self) -> bool {
+        self.dielectric > 0.0 || (!self.smooth && (self.metal > 0.0 || self.glass > 0.0))
+    }
+
+    /// Whether the surface is a pure delta reflector or refractor (a mirror or smooth
+    /// glass), through which virtual distances continue.
+    pub fn is_pure_delta(&self) -> bool {
+        !self.has_non_delta()
+    }
+
+    /// Whether light can pass to the other side (glass).
+    pub fn transmits(&self) -> bool {
+        self.glass > 0.0
+    }
+
+    /// Probability of sampling the dielectric's specular layer rather than its base.
+    fn spec_probability(&self, cos_o: f32) -> f32 {
+        if !self.spec_on {
+            return 0.0;
+        }
+        let f = luminance(fresnel::schlick(self.spec_f0, self.spec_f90, cos_o));
+        let d = (1.0 - f) * luminance(self.base);
+        (f / (f + d).max(1e-6)).clamp(0.1, 0.9)
+    }
+
+    /// `f(wo, wi)` of the non-delta lobes and the pdf that [`Bsdf::sample`] gives `wi`.
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let mut f = Vec3::ZERO;
+        let mut pdf = 0.0;
+        if wo.z == 0.0 || wi.z == 0.0 {
+            return (f, pdf);
+        }
+        if self.metal > 0.0 || self.dielectric > 0.0 {
+            // Opaque lobes: mirror both to the viewer's side.
+            let s = wo.z.signum();
+            let (o, i) = (wo * Vec3::new(1.0, 1.0, s), wi * Vec3::new(1.0, 1.0, s));
+            if i.z > 0.0 {
+                let h = (o + i).normalize();
+                if self.metal > 0.0 && !self.smooth {
+                    let fr = fresnel::schlick(self.base, Vec3::ONE, o.dot(h));
+                    f += self.metal * fr * self.ggx.d(h) * self.ggx.g2(o, i) / (4.0 * o.z * i.z);
+                    pdf += self.metal * self.ggx.visible_pdf(o, h) / (4.0 * o.dot(h));
+                }
+                if self.dielectric > 0.0 {
+                    let ps = self.spec_probability(o.z);
+                    if self.spec_on && !self.smooth {
+                        let fr = fresnel::schlick(self.spec_f0, self.spec_f90, o.dot(h));
+                        f += self.dielectric * fr * self.ggx.d(h) * self.ggx.g2(o, i)
+                            / (4.0 * o.z * i.z);
+                        pdf += self.dielectric * ps * self.ggx.visible_pdf(o, h) / (4.0 * o.dot(h));
+                    }
+                    let fo = fresnel::schlick(self.spec_f0, self.spec_f90, o.z);
+                    let fi = fresnel::schlick(self.spec_f0, self.spec_f90, i.z);
+                    f += self.dielectric
+                        * self.base
+                        * FRAC_1_PI
+                        * (Vec3::ONE - fo)
+                        * (Vec3::ONE - fi);
+                    pdf += self.dielectric * (1.0 - ps) * cosine_hemisphere_pdf(i.z);
+                }
+            }
+        }
+        if self.glass > 0.0 && !self.smooth {
+            let (fg, pg) = self.rough_glass_eval(wo, wi);
+            f += self.glass * fg;
+            pdf += self.glass * pg;
+        }
+        (f, pdf)
+    }
+
+    /// Samples `wi` for `wo`; `uc` picks the component and lobe, `u` the direction.
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        if wo.z == 0.0 {
+            return None;
+        }
+        // One-sample choice of component by its weight; `uc` is reused, rescaled, within.
+        let (mut uc, wm, wg) = (uc, self.metal, self.glass);
+        if uc < wm {
+            let s = wo.z.signum();
+            let o = wo * Vec3::new(1.0, 1.0, s);
+            if self.smooth {
+                let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+                let fr = fresnel::schlick(self.base, Vec3::ONE, o.z);
+                return Some(BsdfSample {
+                    wi,
+                    weight: fr,
+                    pdf: wm,
+                    delta: true,
+                });
+            }
+            let h = self.ggx.sample_visible(o, u);
+            let i = fresnel::reflect(o, h);
+            return self.finish_non_delta(wo, i * Vec3::new(1.0, 1.0, s));
+        }
+        uc -= wm;
+        if uc < wg {
+            return self.sample_glass(wo, uc / wg, u);
+        }
+        uc = ((uc - wg) / self.dielectric.max(1e-12)).min(1.0);
+        let s = wo.z.signum();
+        let o = wo * Vec3::new(1.0, 1.0, s);
+        let ps = self.spec_probability(o.z);
+        let i = if uc < ps {
+            if self.smooth {
+                let fr = fresnel::schlick(self.spec_f0, self.spec_f90, o.z);
+                let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+                let pdf = self.dielectric * ps;
+                return Some(BsdfSample {
+                    wi,
+                    weight: fr * self.dielectric / pdf,
+                    pdf,
+                    delta: true,
+                });
+            }
+            fresnel::reflect(o, self.ggx.sample_visible(o, u))
+        } else {
+            cosine_hemisphere(u)
+        };
+        self.finish_non_delta(wo, i * Vec3::new(1.0, 1.0, s))
+    }
+
+    /// A non-delta direction: weight by the whole BSDF over the whole pdf (one-sample MIS
+    /// over the components and lobes).
+    fn finish_non_delta(&self, wo: Vec3, wi: Vec3) -> Option<BsdfSample> {
+        let (f, pdf) = self.eval(wo, wi);
+        if !(pdf > 0.0) || !pdf.is_finite() {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: f * wi.z.abs() / pdf,
+            pdf,
+            delta: false,
+        })
+    }
+
+    fn sample_glass(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let eta = self.ior;
+        if self.smooth {
+            let r = fresnel::dielectric(wo.z, eta);
+            if uc < r {
+                let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+                let pdf = self.glass * r;
+                return Some(BsdfSample {
+                    wi,
+                    weight: Vec3::splat(self.glass * r / pdf),
+                    pdf,
+                    delta: true,
+                });
+            }
+            let (wi, etap) = fresnel::refract(wo, Vec3::Z, eta)?;
+            let pdf = self.glass * (1.0 - r);
+            let weight = self.base * (self.glass * (1.0 - r) / pdf / (etap * etap));
+            return Some(BsdfSample {
+                wi,
+                weight,
+                pdf,
+                delta: true,
+            });
+        }
+        // Visible normals are sampled from the viewer's side (the whole vector flipped).
+        let m = self
+            .ggx
+            .sample_visible(if wo.z < 0.0 { -wo } else { wo }, u);
+        let r = fresnel::dielectric(wo.dot(m), eta);
+        let wi = if uc < r {
+            let wi = fresnel::reflect(wo, m);
+            (wi.z * wo.z > 0.0).then_some(wi)?
+        } else {
+            let wi = fresnel::refract(wo, m, eta)?.0;
+            (wi.z * wo.z < 0.0).then_some(wi)?
+        };
+        self.finish_non_delta(wo, wi)
+    }
+
+    /// Rough dielectric (Walter et al. 2007): `f` and the pdf of [`Bsdf::sample_glass`].
+    fn rough_glass_eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let (co, ci) = (wo.z, wi.z);
+        let reflect = co * ci > 0.0;
+        let etap = if reflect {
+            1.0
+        } else if co > 0.0 {
+            self.ior
+        } else {
+            1.0 / self.ior
+        };
+        let wm = wi * etap + wo;
+        if wm.length_squared() < 1e-12 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let mut wm = wm.normalize();
+        if wm.z < 0.0 {
+            wm = -wm;
+        }
+        // Microfacets seen from behind contribute nothing.
+        if wm.dot(wi) * ci < 0.0 || wm.dot(wo) * co < 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let r = fresnel::dielectric(wo.dot(wm), self.ior);
+        let t = 1.0 - r;
+        let d = self.ggx.d(wm);
+        let g = self.ggx.g2(wo, wi);
+        let vis = visible_pdf_abs(&self.ggx, wo, wm);
+        if reflect {
+            let f = d * g * r / (4.0 * ci * co).abs();
+            let pdf = vis / (4.0 * wo.dot(wm).abs()) * r;
+            (Vec3::splat(f), pdf)
+        } else {
+            let denom = (wi.dot(wm) + wo.dot(wm) / etap).powi(2);
+            let f = t * d * g * (wi.dot(wm) * wo.dot(wm) / (ci * co * denom)).abs() / (etap * etap);
+            let pdf = vis * wi.dot(wm).abs() / denom * t;
+            (self.base * f, pdf)
+        }
+    }
+
+    /// Hemispherical-directional reflectance estimate helper for tests: `∫ f |cos| dωi`
+    /// including delta lobes, by sampling.
+    #[cfg(test)]
+    pub fn albedo(&self, wo: Vec3, n: usize) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        let k = (n as f32).sqrt() as usize;
+        for a in 0..k {
+            for b in 0..k {
+                let uc = ((a * 7919 + b * 104729) % 1000) as f32 / 1000.0 + 0.0005;
+                let u = Vec2::new((a as f32 + 0.5) / k as f32, (b as f32 + 0.5) / k as f32);
+                if let Some(s) = self.sample(wo, uc, u) {
+                    sum += s.weight;
+                }
+            }
+        }
+        sum / (k * k) as f32
+    }
+}

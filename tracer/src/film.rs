@@ -1,0 +1,151 @@
+//! Images of linear radiance: written as OpenEXR (the data) and as a tone-mapped PNG
+//! (for looking at), and compared by relative MSE.
+
+use std::path::Path;
+
+use glam::Vec3;
+
+/// A linear RGB image, rows from the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Vec3>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum FilmError {
+    #[error("writing {path}: {message}")]
+    Write { path: String, message: String },
+    #[error("reading {path}: {message}")]
+    Read { path: String, message: String },
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; width as usize * height as usize],
+        }
+    }
+
+    pub fn at(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Linear half-float RGB OpenEXR.
+    pub fn write_exr(&self, path: &Path) -> Result<(), FilmError> {
+        exr::prelude::write_rgb_file(path, self.width as usize, self.height as usize, |x, y| {
+            let p = self.at(x as u32, y as u32);
+            (p.x, p.y, p.z)
+        })
+        .map_err(|e| FilmError::Write {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })
+    }
+
+    pub fn read_exr(path: &Path) -> Result<Self, FilmError> {
+        let err = |e: exr::error::Error| FilmError::Read {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        };
+        let image = exr::prelude::read_first_rgba_layer_from_file(
+            path,
+            |res, _| Image::new(res.width() as u32, res.height() as u32),
+            |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let w = img.width as usize;
+                img.pixels[pos.y() * w + pos.x()] = Vec3::new(r, g, b);
+            },
+        )
+        .map_err(err)?;
+        Ok(image.layer_data.channel_data.pixels)
+    }
+
+    /// The exposure that maps the log-average luminance to middle grey.
+    pub fn auto_exposure(&self) -> f32 {
+        let lum = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let n = self.pixels.len().max(1) as f64;
+        let log_avg = self
+            .pixels
+            .iter()
+            .map(|&c| f64::from(lum(c).max(0.0) + 1e-4).ln())
+            .sum::<f64>()
+            / n;
+        (0.18 / log_avg.exp()) as f32
+    }
+
+    /// An 8-bit sRGB preview: exposure, Reinhard's `x / (1 + x)` on luminance, sRGB curve.
+    pub fn to_preview(&self, exposure: f32) -> image::RgbImage {
+        image::RgbImage::from_fn(self.width, self.height, |x, y| {
+            let c = self.at(x, y) * exposure;
+            let l = c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+            let c = if l > 0.0 {
+                c * (1.0 / (1.0 + l))
+            } else {
+                Vec3::ZERO
+            };
+            let enc = |v: f32| {
+                let v = v.clamp(0.0, 1.0);
+                let s = if v <= 0.003_130_8 {
+                    12.92 * v
+                } else {
+                    1.055 * v.powf(1.0 / 2.4) - 0.055
+                };
+                (s * 255.0 + 0.5) as u8
+            };
+            image::Rgb([enc(c.x), enc(c.y), enc(c.z)])
+        })
+    }
+
+    pub fn write_png(&self, path: &Path, exposure: f32) -> Result<(), FilmError> {
+        self.to_preview(exposure)
+            .save(path)
+            .map_err(|e| FilmError::Write {
+                path: path.display().to_string(),
+                message: e.to_string(),
+            })
+    }
+
+    /// Relative mean squared error against `reference`: the mean over pixels and channels
+    /// of `(a − b)² / (b² + 0.01)` (the 0.01 keeps black pixels from dominating).
+    pub fn relative_mse(&self, reference: &Image) -> f64 {
+        assert_eq!(
+            (self.width, self.height),
+            (reference.width, reference.height),
+            "image sizes differ"
+        );
+        let mut sum = 0.0f64;
+        for (a, b) in self.pixels.iter().zip(&reference.pixels) {
+            for c in 0..3 {
+                let (a, b) = (f64::from(a[c]), f64::from(b[c]));
+                sum += (a - b).powi(2) / (b * b + 0.01);
+            }
+        }
+        sum / (3 * self.pixels.len().max(1)) as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exr_round_trip_is_half_precise() {
+        let mut img = Image::new(7, 5);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            *p = Vec3::new(i as f32 * 0.37, 1.0 / (i as f32 + 1.0), 1000.0);
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.exr");
+        img.write_exr(&path).unwrap();
+        let back = Image::read_exr(&path).unwrap();
+        assert_eq!((back.width, back.height), (7, 5));
+        for (a, b) in img.pixels.iter().zip(&back.pixels) {
+            // Half floats keep 11 significant bits.
+            assert!(((*a - *b).abs() / a.abs().max(Vec3::splat(1e-3))).max_element() < 1e-3);
+        }
+        assert!(img.relative_mse(&img) == 0.0);
+    }
+}

@@ -1,0 +1,108 @@
+//! Sample warps used by the BSDFs and lights, each with its density.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Cosine-weighted direction on the +Z hemisphere (Malley's method).
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let r = u.x.sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).max(0.0).sqrt())
+}
+
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) / PI
+}
+
+/// Uniform direction in the cone of half-angle `acos(cos_max)` around +Z.
+pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let cos_t = 1.0 - u.x * (1.0 - cos_max);
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+}
+
+/// Uniform barycentrics `(u, v)` on a triangle (for weights of vertices 1 and 2).
+pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
+    let s = u.x.sqrt();
+    (1.0 - s, u.y * s)
+}
+
+/// Power heuristic (β = 2) weight of strategy `a` against `b`.
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
+    if a + b > 0.0 && (a + b).is_finite() {
+        a / (a + b)
+    } else if pdf_a.is_infinite() {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+/// A piecewise-constant discrete distribution, sampled by binary search on its CDF.
+#[derive(Clone, Debug)]
+pub struct Distribution {
+    cdf: Vec<f32>,
+    total: f32,
+}
+
+impl Distribution {
+    /// From non-negative weights; `None` when they sum to zero (or are not finite).
+    pub fn new(weights: &[f32]) -> Option<Self> {
+        let mut cdf = Vec::with_capacity(weights.len());
+        let mut acc = 0.0f64;
+        for w in weights {
+            acc += f64::from(w.max(0.0));
+            cdf.push(acc as f32);
+        }
+        let total = acc as f32;
+        (total > 0.0 && total.is_finite()).then_some(Self { cdf, total })
+    }
+
+    /// An index with probability weight / total.
+    pub fn sample(&self, u: f32) -> usize {
+        let target = u * self.total;
+        self.cdf
+            .partition_point(|&c| c <= target)
+            .min(self.cdf.len() - 1)
+    }
+
+    pub fn probability(&self, i: usize) -> f32 {
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        (self.cdf[i] - lo) / self.total
+    }
+
+    /// The cumulative probability of all indices before `i`.
+    pub fn cdf_before(&self, i: usize) -> f32 {
+        if i == 0 {
+            0.0
+        } else {
+            self.cdf[i - 1] / self.total
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.cdf.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distribution_samples_in_proportion() {
+        let d = Distribution::new(&[1.0, 0.0, 3.0]).unwrap();
+        let mut counts = [0usize; 3];
+        let n = 40_000;
+        for i in 0..n {
+            counts[d.sample((i as f32 + 0.5) / n as f32)] += 1;
+        }
+        assert_eq!(counts[1], 0);
+        assert!((counts[0] as f32 / n as f32 - 0.25).abs() < 1e-3);
+        assert!((d.probability(2) - 0.75).abs() < 1e-6);
+        assert!(Distribution::new(&[0.0, 0.0]).is_none());
+        assert!(Distribution::new(&[f32::INFINITY]).is_none());
+    }
+}

@@ -1,0 +1,67 @@
+//! An off-axis view as a CAVE wall sees it: an eye and a screen rectangle given by three
+//! corners (Kooima's lower-left `pa`, lower-right `pb`, upper-left `pc`). A pixel's value
+//! is the mean radiance through its patch of the screen.
+
+use glam::{Vec2, Vec3};
+use holocave_scene::Ray;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WallView {
+    pub eye: Vec3,
+    pub pa: Vec3,
+    pub pb: Vec3,
+    pub pc: Vec3,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl WallView {
+    /// The ray from the eye through the point `(x, y)` of the image, in pixels from the
+    /// top-left corner (fractional: `(0.5, 0.5)` is the centre of the first pixel).
+    pub fn ray(&self, pixel: Vec2) -> Ray {
+        let s = pixel.x / self.width as f32;
+        let t = 1.0 - pixel.y / self.height as f32;
+        let p = self.pa + (self.pb - self.pa) * s + (self.pc - self.pa) * t;
+        Ray::new(self.eye, (p - self.eye).normalize_or_zero())
+    }
+
+    /// `n` stratified, jittered rays through pixel `(x, y)`: a √n × √n grid (rounded up)
+    /// of which the first `n` cells are used. `jitter` yields uniform numbers in [0, 1).
+    pub fn pixel_rays(&self, x: u32, y: u32, n: u32, mut jitter: impl FnMut() -> f32) -> Vec<Ray> {
+        let k = (n as f32).sqrt().ceil().max(1.0) as u32;
+        (0..n)
+            .map(|i| {
+                let (a, b) = (i % k, i / k);
+                let sx = (a as f32 + jitter()) / k as f32;
+                let sy = ((b % k) as f32 + jitter()) / k as f32;
+                self.ray(Vec2::new(x as f32 + sx, y as f32 + sy))
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn corners_map_to_the_screen_corners() {
+        let v = WallView {
+            eye: Vec3::new(0.0, 1.5, 0.0),
+            pa: Vec3::new(-1.5, 0.0, -1.5),
+            pb: Vec3::new(1.5, 0.0, -1.5),
+            pc: Vec3::new(-1.5, 3.0, -1.5),
+            width: 100,
+            height: 50,
+        };
+        let through = |x: f32, y: f32| {
+            let r = v.ray(Vec2::new(x, y));
+            // Intersect with the screen plane z = −1.5.
+            let t = (-1.5 - r.origin.z) / r.dir.z;
+            r.at(t)
+        };
+        assert!((through(0.0, 50.0) - v.pa).length() < 1e-5);
+        assert!((through(100.0, 50.0) - v.pb).length() < 1e-5);
+        assert!((through(0.0, 0.0) - v.pc).length() < 1e-5);
+    }
+}
