@@ -1,0 +1,537 @@
+//! The render cache on the GPU (Walter, Drettakis & Parker; `papers/render-cache.md`): a
+//! fixed-size cache of shaded points shared by every eye, projected and filtered into each
+//! eye's image by compute shaders, which also choose the pixels to sample next.
+//!
+//! Per frame ([`RenderCache::draw`]), for each eye: clear, z-buffered projection
+//! (`shaders/project.wgsl`), 3×3 depth cull and 3×3 interpolation with the priority image
+//! (`shaders/filter.wgsl`), error-diffusion choice of pixels (`shaders/dither.wgsl`); then
+//! aging of all points (`shaders/age.wgsl`). Samples come back through
+//! [`RenderCache::insert`] (`shaders/insert.wgsl`). Every pass is linear in pixels or points.
+
+use std::time::{Duration, Instant};
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec3, Vec4};
+use holocave_tracer::film::Image;
+
+use crate::EyeView;
+use crate::gpu::{Binding, Gpu};
+
+/// Points per replacement group (the oldest of a group is replaced, groups round robin).
+pub const GROUP_SIZE: u32 = 8;
+/// A surface id for rays that escaped the scene.
+pub const BACKGROUND: u32 = u32::MAX - 1;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct EyeParams {
+    view_proj: [[f32; 4]; 4],
+    eye: [f32; 4],
+    width: u32,
+    height: u32,
+    npoints: u32,
+    target_samples: u32,
+    max_chosen: u32,
+    frame: u32,
+    pad: [u32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct InsertParams {
+    count: u32,
+    cursor: u32,
+    ngroups: u32,
+    group_size: u32,
+    npoints: u32,
+    pad: [u32; 3],
+}
+
+/// A point of the cache as the GPU stores it (`Point` in `shaders/common.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuPoint {
+    pub pos: [f32; 4],
+    pub rad: [f32; 4],
+    pub origin: [f32; 4],
+}
+
+/// A traced sample on its way into the cache (`NewSample` in `shaders/insert.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct NewSample {
+    pos: [f32; 4],
+    rad: [f32; 4],
+    origin: [f32; 4],
+}
+
+impl NewSample {
+    /// A sample for `pixel` (index `y * width + x` of the eye that asked for it): the ray
+    /// from `origin` hit `position` (at `distance`) on `surface` and brought `radiance`.
+    pub fn new(
+        pixel: u32,
+        origin: Vec3,
+        position: Vec3,
+        distance: f32,
+        radiance: [f32; 3],
+        surface: u32,
+    ) -> NewSample {
+        NewSample {
+            pos: position.extend(f32::from_bits(pixel)).to_array(),
+            rad: Vec3::from(radiance)
+                .extend(f32::from_bits(surface))
+                .to_array(),
+            origin: origin.extend(distance).to_array(),
+        }
+    }
+
+    pub fn pixel(&self) -> u32 {
+        self.pos[3].to_bits()
+    }
+
+    pub fn position(&self) -> Vec3 {
+        Vec4::from(self.pos).truncate()
+    }
+
+    pub fn radiance(&self) -> Vec3 {
+        Vec4::from(self.rad).truncate()
+    }
+}
+
+/// Wall-clock time of each step of [`RenderCache::draw`] (all eyes), measured by
+/// submitting each step on its own and waiting for it (only with `timed`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepTimes {
+    pub clear: Duration,
+    pub projection: Duration,
+    pub depth_cull: Duration,
+    /// Interpolation and the priority image (one pass).
+    pub interpolation_priority: Duration,
+    pub dither: Duration,
+    pub aging: Duration,
+    /// Copying the chosen pixels back to the CPU.
+    pub readback: Duration,
+}
+
+impl StepTimes {
+    pub fn total(&self) -> Duration {
+        self.clear
+            + self.projection
+            + self.depth_cull
+            + self.interpolation_priority
+            + self.dither
+            + self.aging
+            + self.readback
+    }
+}
+
+struct EyeBuffers {
+    width: u32,
+    height: u32,
+    params: wgpu::Buffer,
+    color: wgpu::Buffer,
+    priority: wgpu::Buffer,
+    chosen_img: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    chosen: wgpu::Buffer,
+    staging: wgpu::Buffer,
+    project_bg: wgpu::BindGroup,
+    filter_bg: wgpu::BindGroup,
+    dither_bg: wgpu::BindGroup,
+    insert_bg: wgpu::BindGroup,
+}
+
+struct Pipelines {
+    clear: wgpu::ComputePipeline,
+    depth: wgpu::ComputePipeline,
+    miss: wgpu::ComputePipeline,
+    index: wgpu::ComputePipeline,
+    cull: wgpu::ComputePipeline,
+    interpolate: wgpu::ComputePipeline,
+    dither: wgpu::ComputePipeline,
+    matching: wgpu::ComputePipeline,
+    place: wgpu::ComputePipeline,
+    age: wgpu::ComputePipeline,
+}
+
+/// The render cache of one render node: points shared by its eyes, images per eye.
+pub struct RenderCache {
+    gpu: Gpu,
+    capacity: u32,
+    ngroups: u32,
+    cursor: u32,
+    max_chosen: u32,
+    batch: u32,
+    frame: u32,
+    points: wgpu::Buffer,
+    samples: wgpu::Buffer,
+    insert_params: wgpu::Buffer,
+    age_bg: wgpu::BindGroup,
+    eyes: Vec<EyeBuffers>,
+    pipes: Pipelines,
+}
+
+fn groups(n: u32, size: u32) -> u32 {
+    n.div_ceil(size).max(1)
+}
+
+/// Records passes, and in timed mode submits and waits after each step.
+struct Recorder<'a> {
+    gpu: &'a Gpu,
+    enc: Option<wgpu::CommandEncoder>,
+    timed: bool,
+    t0: Instant,
+}
+
+impl<'a> Recorder<'a> {
+    fn new(gpu: &'a Gpu, timed: bool) -> Self {
+        Recorder {
+            gpu,
+            enc: Some(gpu.device.create_command_encoder(&Default::default())),
+            timed,
+            t0: Instant::now(),
+        }
+    }
+
+    fn enc(&mut self) -> &mut wgpu::CommandEncoder {
+        self.enc
+            .get_or_insert_with(|| self.gpu.device.create_command_encoder(&Default::default()))
+    }
+
+    fn pass(&mut self, pipe: &wgpu::ComputePipeline, bg: &wgpu::BindGroup, n: u32, size: u32) {
+        let mut pass = self.enc().begin_compute_pass(&Default::default());
+        pass.set_pipeline(pipe);
+        pass.set_bind_group(0, bg, &[]);
+        pass.dispatch_workgroups(groups(n, size), 1, 1);
+    }
+
+    /// Ends a step: in timed mode submits, waits and adds the elapsed time to `into`.
+    fn step(&mut self, into: &mut Duration) {
+        if self.timed {
+            self.submit();
+            self.gpu.wait();
+            *into += self.t0.elapsed();
+            self.t0 = Instant::now();
+        }
+    }
+
+    fn submit(&mut self) {
+        if let Some(enc) = self.enc.take() {
+            self.gpu.queue.submit([enc.finish()]);
+        }
+    }
+}
+
+impl RenderCache {
+    /// A cache of `capacity` points (rounded up to whole groups) for eyes of the given
+    /// sizes; at most `max_chosen` pixels are chosen per eye and frame.
+    pub fn new(gpu: Gpu, eyes: &[(u32, u32)], capacity: u32, max_chosen: u32) -> RenderCache {
+        let ngroups = capacity.div_ceil(GROUP_SIZE).max(1);
+        let capacity = ngroups * GROUP_SIZE;
+        let max_chosen = max_chosen.max(1);
+        let batch = max_chosen.min(ngroups);
+        let empty = GpuPoint {
+            pos: [0.0, 0.0, 0.0, 2.0e6],
+            rad: [0.0; 4],
+            origin: [0.0; 4],
+        };
+        let points = gpu.storage_init(
+            "points",
+            bytemuck::cast_slice(&vec![empty; capacity as usize]),
+        );
+        let visible = gpu.storage("visible", 4 * u64::from(capacity));
+        let samples = gpu.storage("samples", 48 * u64::from(batch));
+        let matched = gpu.storage("matched", 4 * u64::from(batch));
+        let insert_params = gpu.uniform("insert params", 32);
+
+        use Binding::{Storage, Uniform};
+        let rw = Storage { read_only: false };
+        let ro = Storage { read_only: true };
+        let project_l = gpu.layout("project", &[Uniform, ro, rw, rw, rw, rw, rw]);
+        let filter_l = gpu.layout("filter", &[Uniform, ro, ro, ro, ro, rw, rw, rw, rw]);
+        let dither_l = gpu.layout("dither", &[Uniform, ro, rw, rw, rw]);
+        let insert_l = gpu.layout("insert", &[Uniform, rw, ro, ro, rw]);
+        let age_l = gpu.layout("age", &[Uniform, rw, rw]);
+        let mut p = gpu.pipelines(
+            "project",
+            include_str!("shaders/project.wgsl"),
+            &project_l,
+            &["clear", "project_depth", "project_miss", "project_index"],
+        );
+        let mut f = gpu.pipelines(
+            "filter",
+            include_str!("shaders/filter.wgsl"),
+            &filter_l,
+            &["cull", "interpolate"],
+        );
+        let mut d = gpu.pipelines(
+            "dither",
+            include_str!("shaders/dither.wgsl"),
+            &dither_l,
+            &["dither"],
+        );
+        let mut ins = gpu.pipelines(
+            "insert",
+            include_str!("shaders/insert.wgsl"),
+            &insert_l,
+            &["match_samples", "place_samples"],
+        );
+        let mut a = gpu.pipelines("age", include_str!("shaders/age.wgsl"), &age_l, &["age"]);
+        let pipes = Pipelines {
+            age: a.remove(0),
+            place: ins.remove(1),
+            matching: ins.remove(0),
+            dither: d.remove(0),
+            interpolate: f.remove(1),
+            cull: f.remove(0),
+            index: p.remove(3),
+            miss: p.remove(2),
+            depth: p.remove(1),
+            clear: p.remove(0),
+        };
+
+        let eyes: Vec<EyeBuffers> = eyes
+            .iter()
+            .map(|&(width, height)| {
+                let n = u64::from(width) * u64::from(height);
+                let params = gpu.uniform("eye params", std::mem::size_of::<EyeParams>() as u64);
+                let depth = gpu.storage("depth", 4 * n);
+                let miss = gpu.storage("miss", 4 * n);
+                let index = gpu.storage("index", 4 * n);
+                let culled = gpu.storage("culled", 16 * n);
+                let color = gpu.storage("color", 16 * n);
+                let priority = gpu.storage("priority", 4 * n);
+                let chosen_img = gpu.storage("chosen image", 4 * n);
+                let counters = gpu.storage("counters", 16);
+                let chosen = gpu.storage("chosen", 4 * u64::from(max_chosen));
+                let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("chosen read-back"),
+                    size: 16 + 4 * u64::from(max_chosen),
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                let project_bg = gpu.bind_group(
+                    "project",
+                    &project_l,
+                    &[&params, &points, &depth, &miss, &index, &visible, &counters],
+                );
+                let filter_bg = gpu.bind_group(
+                    "filter",
+                    &filter_l,
+                    &[
+                        &params, &points, &depth, &miss, &index, &culled, &color, &priority,
+                        &counters,
+                    ],
+                );
+                let dither_bg = gpu.bind_group(
+                    "dither",
+                    &dither_l,
+                    &[&params, &priority, &counters, &chosen, &chosen_img],
+                );
+                let insert_bg = gpu.bind_group(
+                    "insert",
+                    &insert_l,
+                    &[&insert_params, &points, &samples, &index, &matched],
+                );
+                EyeBuffers {
+                    width,
+                    height,
+                    params,
+                    color,
+                    priority,
+                    chosen_img,
+                    counters,
+                    chosen,
+                    staging,
+                    project_bg,
+                    filter_bg,
+                    dither_bg,
+                    insert_bg,
+                }
+            })
+            .collect();
+        let age_bg = gpu.bind_group("age", &age_l, &[&eyes[0].params, &points, &visible]);
+        RenderCache {
+            gpu,
+            capacity,
+            ngroups,
+            cursor: 0,
+            max_chosen,
+            batch,
+            frame: 0,
+            points,
+            samples,
+            insert_params,
+            age_bg,
+            eyes,
+            pipes,
+        }
+    }
+
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    pub fn capacity(&self) -> u32 {
+        self.capacity
+    }
+
+    pub fn eye_count(&self) -> usize {
+        self.eyes.len()
+    }
+
+    pub fn eye_size(&self, eye: usize) -> (u32, u32) {
+        (self.eyes[eye].width, self.eyes[eye].height)
+    }
+
+    /// Draws every eye from the cache, chooses the pixels each eye should sample next
+    /// (about `targets[eye]` of them, at most `max_chosen`), ages the points, and returns
+    /// the chosen pixel indices per eye. With `timed`, adds each step's time to `times`.
+    pub fn draw(
+        &mut self,
+        views: &[EyeView],
+        targets: &[u32],
+        timed: bool,
+        times: &mut StepTimes,
+    ) -> Vec<Vec<u32>> {
+        assert_eq!(views.len(), self.eyes.len(), "one view per eye");
+        self.frame = self.frame.wrapping_add(1);
+        for (i, (e, v)) in self.eyes.iter().zip(views).enumerate() {
+            let params = EyeParams {
+                view_proj: v.view_proj.to_cols_array_2d(),
+                eye: v.eye().extend(v.near).to_array(),
+                width: e.width,
+                height: e.height,
+                npoints: self.capacity,
+                target_samples: targets.get(i).copied().unwrap_or(0).min(self.max_chosen),
+                max_chosen: self.max_chosen,
+                frame: self.frame,
+                pad: [0; 2],
+            };
+            self.gpu
+                .queue
+                .write_buffer(&e.params, 0, bytemuck::bytes_of(&params));
+        }
+        let p = &self.pipes;
+        let mut r = Recorder::new(&self.gpu, timed);
+        for e in &self.eyes {
+            let n = e.width * e.height;
+            r.pass(&p.clear, &e.project_bg, n.max(4), 256);
+            r.step(&mut times.clear);
+            r.pass(&p.depth, &e.project_bg, self.capacity, 256);
+            r.pass(&p.miss, &e.project_bg, self.capacity, 256);
+            r.pass(&p.index, &e.project_bg, self.capacity, 256);
+            r.step(&mut times.projection);
+            r.pass(&p.cull, &e.filter_bg, n, 256);
+            r.step(&mut times.depth_cull);
+            r.pass(&p.interpolate, &e.filter_bg, n, 256);
+            r.step(&mut times.interpolation_priority);
+            let tiles = e.width.div_ceil(8) * e.height.div_ceil(8);
+            r.pass(&p.dither, &e.dither_bg, tiles, 64);
+            r.step(&mut times.dither);
+        }
+        r.pass(&p.age, &self.age_bg, self.capacity, 256);
+        r.step(&mut times.aging);
+        for e in &self.eyes {
+            let enc = r.enc();
+            enc.copy_buffer_to_buffer(&e.counters, 0, &e.staging, 0, 16);
+            enc.copy_buffer_to_buffer(&e.chosen, 0, &e.staging, 16, 4 * u64::from(self.max_chosen));
+        }
+        r.submit();
+        let chosen = self
+            .eyes
+            .iter()
+            .map(|e| {
+                let bytes = self.gpu.map_read(&e.staging);
+                if bytes.len() < 16 {
+                    return Vec::new();
+                }
+                let words: &[u32] = bytemuck::cast_slice(&bytes);
+                let count = (words[1] as usize).min(self.max_chosen as usize);
+                words[4..4 + count].to_vec()
+            })
+            .collect();
+        r.step(&mut times.readback);
+        chosen
+    }
+
+    /// Adds samples that eye `eye` asked for (their pixels index its image).
+    pub fn insert(&mut self, eye: usize, samples: &[NewSample]) {
+        for chunk in samples.chunks(self.batch as usize) {
+            let params = InsertParams {
+                count: chunk.len() as u32,
+                cursor: self.cursor,
+                ngroups: self.ngroups,
+                group_size: GROUP_SIZE,
+                npoints: self.capacity,
+                pad: [0; 3],
+            };
+            self.cursor = (self.cursor + chunk.len() as u32) % self.ngroups;
+            self.gpu
+                .queue
+                .write_buffer(&self.insert_params, 0, bytemuck::bytes_of(&params));
+            self.gpu
+                .queue
+                .write_buffer(&self.samples, 0, bytemuck::cast_slice(chunk));
+            let mut r = Recorder::new(&self.gpu, false);
+            let bg = &self.eyes[eye].insert_bg;
+            r.pass(&self.pipes.matching, bg, chunk.len() as u32, 64);
+            r.pass(&self.pipes.place, bg, chunk.len() as u32, 64);
+            r.submit();
+        }
+    }
+
+    /// The image eye `eye` shows (linear radiance; holes black).
+    pub fn image(&self, eye: usize) -> Image {
+        let e = &self.eyes[eye];
+        let n = u64::from(e.width) * u64::from(e.height);
+        let bytes = self.gpu.read(&e.color, 16 * n);
+        let px: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        let mut img = Image::new(e.width, e.height);
+        for (d, s) in img.pixels.iter_mut().zip(px) {
+            *d = Vec3::new(s[0], s[1], s[2]);
+        }
+        img
+    }
+
+    /// How each pixel of eye `eye` was filled: 1 a point, 0.5 interpolated, 0 empty.
+    pub fn coverage(&self, eye: usize) -> Vec<f32> {
+        let e = &self.eyes[eye];
+        let n = u64::from(e.width) * u64::from(e.height);
+        let bytes = self.gpu.read(&e.color, 16 * n);
+        let px: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        px.iter().map(|p| p[3]).collect()
+    }
+
+    /// The priority image of eye `eye` (grey).
+    pub fn priority_image(&self, eye: usize) -> Image {
+        let e = &self.eyes[eye];
+        let n = u64::from(e.width) * u64::from(e.height);
+        let bytes = self.gpu.read(&e.priority, 4 * n);
+        let px: &[f32] = bytemuck::cast_slice(&bytes);
+        let mut img = Image::new(e.width, e.height);
+        for (d, &s) in img.pixels.iter_mut().zip(px) {
+            *d = Vec3::splat(s);
+        }
+        img
+    }
+
+    /// The pixels eye `eye` chose in the last frame (white on black).
+    pub fn chosen_image(&self, eye: usize) -> Image {
+        let e = &self.eyes[eye];
+        let n = u64::from(e.width) * u64::from(e.height);
+        let bytes = self.gpu.read(&e.chosen_img, 4 * n);
+        let px: &[u32] = bytemuck::cast_slice(&bytes);
+        let mut img = Image::new(e.width, e.height);
+        for (d, &s) in img.pixels.iter_mut().zip(px) {
+            *d = Vec3::splat(s as f32);
+        }
+        img
+    }
+
+    /// All points (for tests and debugging).
+    pub fn points(&self) -> Vec<GpuPoint> {
+        let bytes = self.gpu.read(&self.points, 48 * u64::from(self.capacity));
+        bytemuck::cast_slice(&bytes).to_vec()
+    }
+}

@@ -1,0 +1,30 @@
+//! The render node's display process (issue 5): a render cache on the GPU (Walter,
+//! Drettakis & Parker, `papers/render-cache.md`) over path-traced samples, in stereo.
+//!
+//! - [`gpu`]: the wgpu device (any adapter, Mesa's software ones included) and helpers;
+//! - [`cache`]: the point cache and the per-eye compute passes (WGSL in `shaders/`);
+//! - [`view`]: an eye's projection and its pixel rays;
+//! - [`source`]: chosen pixels → eye rays → the path tracer → new samples;
+//! - [`display`]: one frame of the display process for all eyes, and its output files.
+
+pub mod cache;
+pub mod display;
+pub mod gpu;
+pub mod source;
+pub mod view;
+
+pub use cache::{NewSample, RenderCache, StepTimes};
+pub use display::{DisplayProcess, FrameReport};
+pub use gpu::Gpu;
+pub use source::TracerSource;
+pub use view::EyeView;
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderNodeError {
+    #[error("no GPU adapter (hardware or software) is available: {0}")]
+    NoAdapter(String),
+    #[error("the GPU adapter refused a device: {0}")]
+    Device(String),
+    #[error("writing {path}: {message}")]
+    Write { path: String, message: String },
+}

@@ -1,0 +1,75 @@
+// Per eye: choose the pixels to sample next by error-diffusion dithering (Floyd–Steinberg,
+// serpentine) of the priority image scaled so that it sums to the sample budget. The image
+// is cut into TILE x TILE tiles, one invocation each, so the work is linear in pixels and
+// runs in parallel; error does not cross tiles. Chosen pixels are appended to `chosen`.
+
+@group(0) @binding(0) var<uniform> P: EyeParams;
+@group(0) @binding(1) var<storage, read> priority: array<f32>;
+@group(0) @binding(2) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(3) var<storage, read_write> chosen: array<u32>;
+@group(0) @binding(4) var<storage, read_write> chosen_img: array<u32>;
+
+const TILE: u32 = 8u;
+const SUM_SCALE: f32 = 256.0;
+
+@compute @workgroup_size(64)
+fn dither(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let tiles_x = (P.width + TILE - 1u) / TILE;
+    let tiles_y = (P.height + TILE - 1u) / TILE;
+    let t = gid.x;
+    if (t >= tiles_x * tiles_y) {
+        return;
+    }
+    let total = f32(atomicLoad(&counters[0])) / SUM_SCALE;
+    let scale = select(0.0, f32(P.target_samples) / total, total > 0.0);
+    let x0 = (t % tiles_x) * TILE;
+    let y0 = (t / tiles_x) * TILE;
+    // Error carried to this row and the next; index k+1 is column k of the tile.
+    var cur: array<f32, 10>;
+    var nxt: array<f32, 10>;
+    for (var k = 0u; k < 10u; k++) {
+        cur[k] = 0.0;
+        nxt[k] = 0.0;
+    }
+    // A random start so that tiles and frames do not repeat one pattern.
+    cur[1] = f32(hash_u32(t * 9781u + P.frame * 6271u + P.width) >> 8u) / 16777216.0 - 0.5;
+    for (var r = 0u; r < TILE; r++) {
+        let y = y0 + r;
+        let forward = (r & 1u) == 0u;
+        for (var s = 0u; s < TILE; s++) {
+            let c = select(TILE - 1u - s, s, forward);
+            let x = x0 + c;
+            if (x >= P.width || y >= P.height) {
+                continue;
+            }
+            let i = y * P.width + x;
+            let v = priority[i] * scale + cur[c + 1u];
+            var e = v;
+            chosen_img[i] = 0u;
+            if (v >= 0.5) {
+                e = v - 1.0;
+                let slot = atomicAdd(&counters[1], 1u);
+                if (slot < P.max_chosen) {
+                    chosen[slot] = i;
+                    chosen_img[i] = 1u;
+                }
+            }
+            // Floyd–Steinberg weights, mirrored on backward rows.
+            if (forward) {
+                cur[c + 2u] += e * 7.0 / 16.0;
+                nxt[c] += e * 3.0 / 16.0;
+                nxt[c + 1u] += e * 5.0 / 16.0;
+                nxt[c + 2u] += e * 1.0 / 16.0;
+            } else {
+                cur[c] += e * 7.0 / 16.0;
+                nxt[c + 2u] += e * 3.0 / 16.0;
+                nxt[c + 1u] += e * 5.0 / 16.0;
+                nxt[c] += e * 1.0 / 16.0;
+            }
+        }
+        for (var k = 0u; k < 10u; k++) {
+            cur[k] = nxt[k];
+            nxt[k] = 0.0;
+        }
+    }
+}

@@ -1,0 +1,113 @@
+// Per eye, per pixel: the 3x3 depth cull, the 3x3 interpolation (weights 4, 2, 1) and the
+// priority image.
+
+@group(0) @binding(0) var<uniform> P: EyeParams;
+@group(0) @binding(1) var<storage, read> points: array<Point>;
+@group(0) @binding(2) var<storage, read> depth_img: array<u32>;
+@group(0) @binding(3) var<storage, read> miss_img: array<u32>;
+@group(0) @binding(4) var<storage, read> index_img: array<u32>;
+// rgb + state: 1 a point is shown, 0 no point (after the cull).
+@group(0) @binding(5) var<storage, read_write> culled: array<vec4<f32>>;
+// rgb + state: 1 point, 0.5 interpolated, 0 empty.
+@group(0) @binding(6) var<storage, read_write> color: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read_write> priority: array<f32>;
+@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
+
+const CULL_FACTOR: f32 = 1.1;
+// Priority of a point: its age relative to this many frames (capped at 1) ...
+const AGE_SCALE: f32 = 32.0;
+// ... plus up to 0.5 when its ray missed this eye by this many metres or more.
+const MISS_SCALE: f32 = 0.02;
+// Fixed-point scale of the priority sum.
+const SUM_SCALE: f32 = 256.0;
+
+@compute @workgroup_size(256)
+fn cull(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= P.width * P.height) {
+        return;
+    }
+    let idx = index_img[i];
+    if (idx == EMPTY) {
+        culled[i] = vec4<f32>(0.0);
+        return;
+    }
+    let x = i32(i % P.width);
+    let y = i32(i / P.width);
+    var sum = 0.0;
+    var n = 0.0;
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let xx = x + dx;
+            let yy = y + dy;
+            if (xx < 0 || yy < 0 || xx >= i32(P.width) || yy >= i32(P.height)) {
+                continue;
+            }
+            let d = depth_img[u32(yy) * P.width + u32(xx)];
+            if (d != EMPTY) {
+                sum += bitcast<f32>(d);
+                n += 1.0;
+            }
+        }
+    }
+    let depth = bitcast<f32>(depth_img[i]);
+    if (depth > CULL_FACTOR * sum / n) {
+        culled[i] = vec4<f32>(0.0);
+    } else {
+        culled[i] = vec4<f32>(points[idx].rad.xyz, 1.0);
+    }
+}
+
+@compute @workgroup_size(256)
+fn interpolate(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= P.width * P.height) {
+        return;
+    }
+    let c = culled[i];
+    var pr = 0.0;
+    if (c.w > 0.0) {
+        color[i] = c;
+        let p = points[index_img[i]];
+        let age = min(p.pos.w / AGE_SCALE, 1.0);
+        let miss = min(bitcast<f32>(miss_img[i]) / MISS_SCALE, 1.0);
+        pr = age + 0.5 * miss;
+    } else {
+        let x = i32(i % P.width);
+        let y = i32(i / P.width);
+        var sum = vec3<f32>(0.0);
+        var wsum = 0.0;
+        var empty = 0.0;
+        for (var dy = -1; dy <= 1; dy++) {
+            for (var dx = -1; dx <= 1; dx++) {
+                if (dx == 0 && dy == 0) {
+                    continue;
+                }
+                let xx = x + dx;
+                let yy = y + dy;
+                if (xx < 0 || yy < 0 || xx >= i32(P.width) || yy >= i32(P.height)) {
+                    empty += 1.0;
+                    continue;
+                }
+                let n = culled[u32(yy) * P.width + u32(xx)];
+                if (n.w > 0.0) {
+                    // 4 at the centre (empty here), 2 on the edges, 1 at the corners.
+                    let w = select(1.0, 2.0, dx == 0 || dy == 0);
+                    sum += w * n.xyz;
+                    wsum += w;
+                } else {
+                    empty += 1.0;
+                }
+            }
+        }
+        if (wsum > 0.0) {
+            color[i] = vec4<f32>(sum / wsum, 0.5);
+        } else {
+            color[i] = vec4<f32>(0.0);
+        }
+        // Empty pixels first, the emptier their neighbourhood the more.
+        pr = 1.0 + empty / 8.0;
+    }
+    priority[i] = pr;
+    atomicAdd(&counters[0], u32(pr * SUM_SCALE + 0.5));
+}

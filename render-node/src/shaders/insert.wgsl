@@ -1,0 +1,89 @@
+// Inserting a batch of new samples for one eye, in two passes:
+//   match: a sample whose pixel already shows a point made from the same eye position
+//          is averaged into that point (progressive refinement of a still view);
+//   place: every other sample becomes a new point, replacing the oldest point of a
+//          group of GROUP points chosen round robin (the render cache's replacement).
+
+struct NewSample {
+    pos: vec4<f32>,    // xyz hit position, w pixel index (bitcast u32)
+    rad: vec4<f32>,    // rgb radiance, w surface id (bitcast u32)
+    origin: vec4<f32>, // xyz ray origin, w distance along the ray
+}
+
+struct InsertParams {
+    count: u32,
+    cursor: u32,
+    ngroups: u32,
+    group_size: u32,
+    npoints: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> Q: InsertParams;
+@group(0) @binding(1) var<storage, read_write> points: array<Point>;
+@group(0) @binding(2) var<storage, read> samples: array<NewSample>;
+@group(0) @binding(3) var<storage, read> index_img: array<u32>;
+@group(0) @binding(4) var<storage, read_write> matched: array<u32>;
+
+// Ray origins closer than this (m) count as the same eye position.
+const SAME_ORIGIN: f32 = 1.0e-4;
+
+@compute @workgroup_size(64)
+fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= Q.count) {
+        return;
+    }
+    let s = samples[i];
+    matched[i] = 0u;
+    let idx = index_img[bitcast<u32>(s.pos.w)];
+    if (idx == EMPTY) {
+        return;
+    }
+    var p = points[idx];
+    if (!point_valid(p) || distance(p.origin.xyz, s.origin.xyz) > SAME_ORIGIN) {
+        return;
+    }
+    let n = p.rad.w + 1.0;
+    p.rad = vec4<f32>(p.rad.xyz + (s.rad.xyz - p.rad.xyz) / n, n);
+    // The point stands for the pixel: keep the nearest hit so the depth cull sees the
+    // front surface at silhouettes.
+    if (s.origin.w < distance(p.pos.xyz, p.origin.xyz)) {
+        p.pos = vec4<f32>(s.pos.xyz, p.pos.w);
+        p.origin = vec4<f32>(p.origin.xyz, s.rad.w);
+    }
+    p.pos.w = 0.0;
+    points[idx] = p;
+    matched[i] = 1u;
+}
+
+@compute @workgroup_size(64)
+fn place_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= Q.count || matched[i] != 0u) {
+        return;
+    }
+    let s = samples[i];
+    let g = (Q.cursor + i) % Q.ngroups;
+    let base = g * Q.group_size;
+    var oldest = base;
+    var oldest_age = -1.0;
+    for (var k = 0u; k < Q.group_size; k++) {
+        let j = base + k;
+        if (j >= Q.npoints) {
+            break;
+        }
+        let a = points[j].pos.w;
+        if (a > oldest_age) {
+            oldest_age = a;
+            oldest = j;
+        }
+    }
+    points[oldest] = Point(
+        vec4<f32>(s.pos.xyz, 0.0),
+        vec4<f32>(s.rad.xyz, 1.0),
+        vec4<f32>(s.origin.xyz, s.rad.w),
+    );
+}

@@ -1,0 +1,80 @@
+//! Done-when 1 of issue 5: with a still viewer, the render cache's image of the Cornell
+//! box, seen through one CAVE wall, converges to the path tracer's own high-spp render of
+//! the same view (relative MSE < 0.01) within a stated time, on whatever adapter exists
+//! (Mesa's lavapipe or llvmpipe on CI).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use holocave_render_node::{DisplayProcess, EyeView, Gpu, RenderCache, TracerSource};
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::view::WallView;
+use holocave_tracer::{TraceSettings, Tracer, render::render};
+
+const SIZE: u32 = 64;
+/// The time the render cache has to converge (the reference render is not counted).
+const TIME_LIMIT: Duration = Duration::from_secs(120);
+const TARGET: f64 = 0.01;
+
+#[test]
+fn still_viewer_converges_to_the_path_traced_reference() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let scene = Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default())
+        .expect("load the Cornell box");
+    let tracer = Arc::new(Tracer::new(Arc::new(scene), TraceSettings::default()));
+    // The README's view: the front wall of a CAVE framing the box.
+    let wall = WallView {
+        eye: Vec3::new(0.0, 1.0, 3.4),
+        pa: Vec3::new(-1.0, 0.0, 1.2),
+        pb: Vec3::new(1.0, 0.0, 1.2),
+        pc: Vec3::new(-1.0, 2.0, 1.2),
+        width: SIZE,
+        height: SIZE,
+    };
+    let t = Instant::now();
+    let reference = render(&tracer, &wall, 4096, 7, &|| {});
+    eprintln!("reference: 4096 spp in {:.1} s", t.elapsed().as_secs_f64());
+
+    let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
+    eprintln!("adapter: {}", gpu.adapter);
+    let n = SIZE * SIZE;
+    let cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n + n / 4, n);
+    let mut display = DisplayProcess::new(cache, TracerSource::new(tracer, 1), n);
+    let view = EyeView::kooima(wall, 0.05);
+
+    let start = Instant::now();
+    let mut frame = 0u32;
+    let mut err = f64::INFINITY;
+    while start.elapsed() < TIME_LIMIT {
+        display.frame(&[view], false);
+        frame += 1;
+        if frame % 16 == 0 {
+            let image = display.cache.image(0);
+            err = image.relative_mse(&reference);
+            eprintln!(
+                "frame {frame}: {:.1} s, relative MSE {err:.5}",
+                start.elapsed().as_secs_f64()
+            );
+            if err < TARGET {
+                break;
+            }
+        }
+    }
+    let secs = start.elapsed().as_secs_f64();
+    if let Ok(dir) = std::env::var("HOLOCAVE_TEST_OUT") {
+        let dir = PathBuf::from(dir);
+        let img = display.cache.image(0);
+        let exposure = reference.auto_exposure();
+        holocave_render_node::display::write_image(&dir, "still-cache", &img, exposure).unwrap();
+        holocave_render_node::display::write_image(&dir, "still-reference", &reference, exposure)
+            .unwrap();
+    }
+    assert!(
+        err < TARGET,
+        "relative MSE {err:.5} after {frame} frames ({secs:.1} s); needs < {TARGET} within {} s",
+        TIME_LIMIT.as_secs()
+    );
+    eprintln!("converged: relative MSE {err:.5} after {frame} frames, {secs:.1} s");
+}
