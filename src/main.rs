@@ -36,6 +36,8 @@ enum Command {
     Fill(cmd::fill::FillArgs),
     /// Run a holodeck worker process for a server.
     Worker(cmd::worker::WorkerArgs),
+    /// Run a render node: one wall's display process (GPU render cache), in stereo.
+    Node(cmd::node::NodeArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -55,5 +57,6 @@ fn main() -> anyhow::Result<()> {
         Command::Holodeck(c) => cmd::holodeck::run(c),
         Command::Fill(a) => cmd::fill::run(a),
         Command::Worker(a) => cmd::worker::run(a),
+        Command::Node(a) => cmd::node::run(a),
     }
 }

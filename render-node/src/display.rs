@@ -64,11 +64,13 @@ impl DisplayProcess {
         report
     }
 
-    /// The exposure for PNG previews: set from the first image, then held steady unless
-    /// the scene's log-average brightness changes by more than a factor of two (so the
-    /// previews do not pump).
+    /// The exposure for PNG previews: the log-average luminance of the lit pixels mapped
+    /// to middle grey, set from the first image with any, then held steady unless it
+    /// changes by more than a factor of two (so the previews do not pump).
     pub fn exposure(&mut self, image: &Image) -> f32 {
-        let now = image.auto_exposure();
+        let Some(now) = lit_exposure(image) else {
+            return self.exposure.unwrap_or(1.0);
+        };
         match self.exposure {
             Some(e) if (now / e) < 2.0 && (e / now) < 2.0 => e,
             _ => {
@@ -79,8 +81,27 @@ impl DisplayProcess {
     }
 }
 
+/// Middle grey over the log-average luminance of the pixels that are not black (holes and
+/// escaped rays would otherwise wash the picture out); `None` for a black image.
+pub fn lit_exposure(image: &Image) -> Option<f32> {
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for p in &image.pixels {
+        let l = p.dot(glam::Vec3::new(0.2126, 0.7152, 0.0722));
+        if l > 1e-6 {
+            sum += f64::from(l).ln();
+            n += 1;
+        }
+    }
+    (n > 0).then(|| (0.18 / (sum / n as f64).exp()) as f32)
+}
+
 /// Writes `image` as `<stem>.exr` (linear) and `<stem>.png` (preview at `exposure`).
-pub fn write_image(dir: &Path, stem: &str, image: &Image, exposure: f32) -> Result<(), RenderNodeError> {
+pub fn write_image(
+    dir: &Path,
+    stem: &str,
+    image: &Image,
+    exposure: f32,
+) -> Result<(), RenderNodeError> {
     std::fs::create_dir_all(dir).map_err(|e| RenderNodeError::Write {
         path: dir.display().to_string(),
         message: e.to_string(),
@@ -89,8 +110,39 @@ pub fn write_image(dir: &Path, stem: &str, image: &Image, exposure: f32) -> Resu
         path: dir.join(stem).display().to_string(),
         message: e.to_string(),
     };
-    image.write_exr(&dir.join(format!("{stem}.exr"))).map_err(err)?;
+    image
+        .write_exr(&dir.join(format!("{stem}.exr")))
+        .map_err(err)?;
     image
         .write_png(&dir.join(format!("{stem}.png")), exposure)
         .map_err(err)
+}
+
+/// Tiles previews into one picture for looking at: one row per entry of `rows`, each image
+/// scaled up `zoom` times (nearest neighbour), 4-pixel grey gutters.
+pub fn contact_sheet(rows: &[Vec<image::RgbImage>], zoom: u32) -> image::RgbImage {
+    let zoom = zoom.max(1);
+    let gap = 4;
+    let cell_w = rows.iter().flatten().map(|i| i.width()).max().unwrap_or(1) * zoom;
+    let cell_h = rows.iter().flatten().map(|i| i.height()).max().unwrap_or(1) * zoom;
+    let cols = rows.iter().map(Vec::len).max().unwrap_or(1) as u32;
+    let mut sheet = image::RgbImage::from_pixel(
+        cols * (cell_w + gap) + gap,
+        rows.len() as u32 * (cell_h + gap) + gap,
+        image::Rgb([96, 96, 96]),
+    );
+    for (r, row) in rows.iter().enumerate() {
+        for (c, img) in row.iter().enumerate() {
+            let (x0, y0) = (
+                gap + c as u32 * (cell_w + gap),
+                gap + r as u32 * (cell_h + gap),
+            );
+            for y in 0..img.height() * zoom {
+                for x in 0..img.width() * zoom {
+                    sheet.put_pixel(x0 + x, y0 + y, *img.get_pixel(x / zoom, y / zoom));
+                }
+            }
+        }
+    }
+    sheet
 }

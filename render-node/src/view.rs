@@ -88,7 +88,10 @@ mod tests {
             let r = wall.ray(Vec2::new(x, y));
             let p = r.at(2.7);
             let (px, py, depth) = v.project(p).unwrap();
-            assert!((px - x).abs() < 1e-3 && (py - y).abs() < 1e-3, "{x},{y} -> {px},{py}");
+            assert!(
+                (px - x).abs() < 1e-3 && (py - y).abs() < 1e-3,
+                "{x},{y} -> {px},{py}"
+            );
             assert!((depth - 2.7 * r.dir.dot(Vec3::NEG_Z)).abs() < 1e-4);
         }
     }

@@ -3,6 +3,7 @@
 pub mod cave;
 pub mod fill;
 pub mod holodeck;
+pub mod node;
 pub mod render;
 pub mod scene;
 pub mod tracking;

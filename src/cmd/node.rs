@@ -1,0 +1,340 @@
+//! `holocave node`: one render node. `--standalone --headless` runs one wall by itself:
+//! its own tracker source, path tracer and GPU render cache, writing each frame's images.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use glam::{DVec3, Quat, Vec3};
+use holocave_master::frustum::{Eye, eye_position, off_axis};
+use holocave_master::load_cave;
+use holocave_render_node::display::{contact_sheet, write_image};
+use holocave_render_node::{DisplayProcess, EyeView, Gpu, RenderCache, TracerSource};
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::view::WallView;
+use holocave_tracer::{TraceSettings, Tracer};
+use holocave_tracking::source::{Next, Pacing, SourceSpec, open};
+use holocave_tracking::{HeadTracker, Pose};
+
+#[derive(Args)]
+pub struct NodeArgs {
+    /// Run one wall by itself (the only mode so far; the cluster mode needs the master).
+    #[arg(long)]
+    standalone: bool,
+    /// The CAVE config (TOML).
+    #[arg(long)]
+    config: PathBuf,
+    /// The wall to draw (its name in the config).
+    #[arg(long)]
+    wall: String,
+    /// The scene (glTF).
+    #[arg(long)]
+    scene: PathBuf,
+    /// A holodeck file to draw from (not supported yet: samples come from the tracer).
+    #[arg(long)]
+    holodeck: Option<PathBuf>,
+    /// Tracker source (file:PATH, synthetic:NAME, vrpn://...); default: the config's.
+    #[arg(long)]
+    tracker: Option<String>,
+    /// Place the tracker's first position at the room's inside point (for logs recorded
+    /// in another room, such as ../shared/tracking/pred6dof).
+    #[arg(long)]
+    recenter: bool,
+    /// Hold the head still at X,Y,Z (room coordinates), looking at -Z.
+    #[arg(long, value_parser = parse_vec3)]
+    still: Option<Vec3>,
+    /// Write images instead of opening a window (the only mode so far).
+    #[arg(long)]
+    headless: bool,
+    /// Output folder: images go to DIR/<wall>/<frame>-<eye>.exr and .png.
+    #[arg(long, default_value = "out/node")]
+    out: PathBuf,
+    /// Stop after this many frames.
+    #[arg(long)]
+    frames: Option<u64>,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    seconds: Option<f64>,
+    /// Image size per eye, WxH (default: the wall's pixels).
+    #[arg(long, value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Samples traced per eye and frame (default: a sixteenth of the pixels).
+    #[arg(long)]
+    samples: Option<u32>,
+    /// Display rate (Hz) that sets the tracker time of each frame.
+    #[arg(long, default_value_t = 60.0)]
+    fps: f64,
+    /// Also write each frame's priority image and chosen pixels (-priority, -chosen).
+    #[arg(long)]
+    debug_images: bool,
+    /// Write images every K frames (and always the last).
+    #[arg(long, default_value_t = 1)]
+    every: u64,
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("{s:?}: expected X,Y,Z")),
+    }
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once('x')
+        .ok_or_else(|| format!("{s:?}: expected WxH"))?;
+    let p = |v: &str| {
+        v.parse::<u32>()
+            .ok()
+            .filter(|&n| n > 0)
+            .ok_or_else(|| format!("{s:?}: {v:?} is not a positive size"))
+    };
+    Ok((p(w)?, p(h)?))
+}
+
+fn eye_name(eye: Eye) -> &'static str {
+    match eye {
+        Eye::Left => "left",
+        Eye::Right => "right",
+        Eye::Centre => "centre",
+    }
+}
+
+/// Head poses for frames, from the tracker source, in room coordinates.
+struct HeadSource {
+    source: Box<dyn holocave_tracking::source::TrackerSource>,
+    tracker: HeadTracker,
+    pending: Option<holocave_tracking::Sample>,
+    t0: Option<u64>,
+    origin: Option<Vec3>,
+    recenter: Option<Vec3>,
+    tracker_to_room: glam::DMat4,
+    last: Pose,
+    ended: bool,
+}
+
+impl HeadSource {
+    /// The head pose at `dt` after the first tracker sample.
+    fn pose(&mut self, dt: Duration) -> Pose {
+        loop {
+            let s = match self.pending.take() {
+                Some(s) => s,
+                None if self.ended => break,
+                None => match self
+                    .source
+                    .next(Instant::now() + Duration::from_millis(100))
+                {
+                    Next::Sample(s) => s,
+                    Next::Idle => break,
+                    Next::End => {
+                        self.ended = true;
+                        break;
+                    }
+                },
+            };
+            let t0 = *self.t0.get_or_insert(s.t_ns);
+            if s.t_ns > t0 + dt.as_nanos() as u64 {
+                self.pending = Some(s);
+                break;
+            }
+            self.tracker.push(s);
+        }
+        let Some(t0) = self.t0 else {
+            return self.last;
+        };
+        if let Some(p) = self.tracker.predict(t0 + dt.as_nanos() as u64) {
+            let m = self.tracker_to_room;
+            let q = m.as_mat4().to_scale_rotation_translation().1;
+            let mut pos = m.transform_point3(p.position.as_dvec3()).as_vec3();
+            if let Some(inside) = self.recenter {
+                let o = *self.origin.get_or_insert(pos);
+                pos = inside + (pos - o);
+            }
+            self.last = Pose::new(pos, q * p.orientation);
+        }
+        self.last
+    }
+}
+
+pub fn run(args: NodeArgs) -> Result<()> {
+    if !args.standalone {
+        bail!("only --standalone is supported: the cluster's master does not exist yet");
+    }
+    if !args.headless {
+        bail!("only --headless is supported: the windowed display is not built yet");
+    }
+    if let Some(h) = &args.holodeck {
+        bail!(
+            "--holodeck {}: drawing from a holodeck is not supported yet; the node traces its own samples",
+            h.display()
+        );
+    }
+    if args.frames.is_none() && args.seconds.is_none() {
+        bail!("say when to stop: --frames N or --seconds S");
+    }
+    let cave = load_cave(&args.config)?;
+    let wall = cave
+        .walls
+        .iter()
+        .find(|w| w.name == args.wall)
+        .with_context(|| {
+            format!(
+                "{}: no wall {:?} (walls: {})",
+                args.config.display(),
+                args.wall,
+                cave.walls
+                    .iter()
+                    .map(|w| w.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?
+        .clone();
+    let (width, height) = args.size.unwrap_or((wall.pixels[0], wall.pixels[1]));
+    let eyes = Eye::for_mode(wall.stereo);
+
+    let scene = Scene::load(&args.scene, &LoadOptions::default())
+        .with_context(|| format!("loading {}", args.scene.display()))?;
+    let tracer = Arc::new(Tracer::new(Arc::new(scene), TraceSettings::default()));
+
+    let mut head = match args.still {
+        Some(_) => None,
+        None => {
+            let spec: SourceSpec = match &args.tracker {
+                Some(t) => t
+                    .parse()
+                    .map_err(|e| anyhow::anyhow!("--tracker {t:?}: {e}"))?,
+                None => cave.source.clone(),
+            };
+            let source = open(&spec, Pacing::AsFastAsPossible, None)
+                .with_context(|| format!("opening tracker {spec:?}"))?;
+            Some(HeadSource {
+                source,
+                tracker: HeadTracker::new(&cave.tracking),
+                pending: None,
+                t0: None,
+                origin: None,
+                recenter: args.recenter.then(|| cave.inside.as_vec3()),
+                tracker_to_room: cave.tracker_to_room,
+                last: Pose::new(cave.inside.as_vec3(), Quat::IDENTITY),
+                ended: false,
+            })
+        }
+    };
+
+    let gpu = Gpu::new()?;
+    let pixels = width * height;
+    let samples = args.samples.unwrap_or((pixels / 16).max(1));
+    let capacity = (pixels * eyes.len() as u32) * 5 / 4;
+    let sizes = vec![(width, height); eyes.len()];
+    let cache = RenderCache::new(gpu, &sizes, capacity, samples.saturating_mul(2));
+    let mut display = DisplayProcess::new(cache, TracerSource::new(tracer, 1), samples);
+    println!(
+        "wall {:?}: {} eye(s) at {width}x{height}, {} points, {samples} samples per eye and frame, GPU {}",
+        wall.name,
+        eyes.len(),
+        display.cache.capacity(),
+        display.cache.gpu().adapter
+    );
+
+    let dir = args.out.join(&wall.name);
+    let to_scene = cave.room_to_scene;
+    let scene_pt = |p: DVec3| to_scene.transform_point3(p).as_vec3();
+    let mut views: Vec<EyeView> = Vec::new();
+    let start = Instant::now();
+    let mut frame = 0u64;
+    let mut totals = (Duration::ZERO, Duration::ZERO, Duration::ZERO);
+    loop {
+        let done = args.frames.is_some_and(|n| frame >= n)
+            || args
+                .seconds
+                .is_some_and(|s| start.elapsed().as_secs_f64() >= s);
+        if done {
+            break;
+        }
+        let dt = Duration::from_secs_f64(frame as f64 / args.fps);
+        let pose = match (&mut head, args.still) {
+            (_, Some(p)) => Pose::new(p, Quat::IDENTITY),
+            (Some(h), None) => h.pose(dt),
+            (None, None) => unreachable!(),
+        };
+        let mut fresh = Vec::with_capacity(eyes.len());
+        for &eye in eyes {
+            let e = eye_position(&cave, &pose, eye);
+            match off_axis(&wall, e, cave.near, &to_scene) {
+                Ok(f) => fresh.push(EyeView {
+                    view_proj: f.view_proj().as_mat4(),
+                    near: f.near as f32,
+                    wall: WallView {
+                        eye: scene_pt(e),
+                        pa: scene_pt(wall.pa),
+                        pb: scene_pt(wall.pb),
+                        pc: scene_pt(wall.pc),
+                        width,
+                        height,
+                    },
+                }),
+                Err(fault) => {
+                    tracing::warn!("frame {frame}: {fault}; keeping the last good views");
+                    break;
+                }
+            }
+        }
+        if fresh.len() == eyes.len() {
+            views = fresh;
+        }
+        if views.is_empty() {
+            frame += 1;
+            continue;
+        }
+        let report = display.frame(&views, false);
+        totals.0 += report.draw;
+        totals.1 += report.trace;
+        totals.2 += report.insert;
+        let last = args.frames.is_some_and(|n| frame + 1 == n);
+        if frame % args.every.max(1) == 0 || last {
+            let mut sheet = Vec::new();
+            for (i, &eye) in eyes.iter().enumerate() {
+                let img = display.cache.image(i);
+                let exposure = display.exposure(&img);
+                let stem = format!("{frame:05}-{}", eye_name(eye));
+                write_image(&dir, &stem, &img, exposure)?;
+                if args.debug_images {
+                    let pr = display.cache.priority_image(i).to_preview(0.5);
+                    pr.save(dir.join(format!("{stem}-priority.png")))?;
+                    let ch = display.cache.chosen_image(i).to_preview(100.0);
+                    ch.save(dir.join(format!("{stem}-chosen.png")))?;
+                    sheet.push(vec![img.to_preview(exposure), pr, ch]);
+                }
+            }
+            if args.debug_images {
+                let zoom = (512 / width).max(1);
+                contact_sheet(&sheet, zoom).save(dir.join(format!("{frame:05}-sheet.png")))?;
+            }
+        }
+        tracing::debug!(
+            "frame {frame}: head {:.3?}, chosen {:?}, draw {:?}, trace {:?}",
+            pose.position,
+            report.chosen,
+            report.draw,
+            report.trace
+        );
+        frame += 1;
+    }
+    let n = frame.max(1) as f64;
+    println!(
+        "{frame} frames in {:.2} s; per frame: draw + choose {:.2} ms, trace {:.2} ms, insert {:.2} ms; images in {}",
+        start.elapsed().as_secs_f64(),
+        totals.0.as_secs_f64() * 1e3 / n,
+        totals.1.as_secs_f64() * 1e3 / n,
+        totals.2.as_secs_f64() * 1e3 / n,
+        dir.display()
+    );
+    Ok(())
+}
