@@ -54,8 +54,16 @@ fn dither(@builtin(global_invocation_id) gid: vec3<u32>) {
                     chosen_img[i] = 1u;
                 }
             }
-            // Floyd–Steinberg weights, mirrored on backward rows.
-            if (forward) {
+            // Floyd–Steinberg weights, mirrored on backward rows; the tile's last row
+            // passes all its error along the row, so at most half a sample is lost per tile.
+            let last_row = r + 1u == TILE || y + 1u >= P.height;
+            if (last_row) {
+                if (forward) {
+                    cur[c + 2u] += e;
+                } else {
+                    cur[c] += e;
+                }
+            } else if (forward) {
                 cur[c + 2u] += e * 7.0 / 16.0;
                 nxt[c] += e * 3.0 / 16.0;
                 nxt[c + 1u] += e * 5.0 / 16.0;
@@ -66,6 +74,13 @@ fn dither(@builtin(global_invocation_id) gid: vec3<u32>) {
                 nxt[c + 1u] += e * 5.0 / 16.0;
                 nxt[c] += e * 1.0 / 16.0;
             }
+        }
+        // Error pushed past the tile's sides goes to where the next (serpentine) row
+        // starts, so that little is lost at tile edges.
+        if (forward) {
+            nxt[TILE] += cur[TILE + 1u] + nxt[TILE + 1u];
+        } else {
+            nxt[1] += cur[0] + nxt[0];
         }
         for (var k = 0u; k < 10u; k++) {
             cur[k] = nxt[k];

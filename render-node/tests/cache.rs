@@ -1,0 +1,151 @@
+//! The render cache's steps on a tiny image, checked pixel by pixel.
+
+use glam::{Vec2, Vec3};
+use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
+use holocave_tracer::view::WallView;
+
+const W: u32 = 8;
+const H: u32 = 8;
+
+fn view(eye: Vec3) -> EyeView {
+    EyeView::kooima(
+        WallView {
+            eye,
+            pa: Vec3::new(-1.0, 0.0, -1.0),
+            pb: Vec3::new(1.0, 0.0, -1.0),
+            pc: Vec3::new(-1.0, 2.0, -1.0),
+            width: W,
+            height: H,
+        },
+        0.05,
+    )
+}
+
+fn cache(capacity: u32) -> RenderCache {
+    let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
+    RenderCache::new(gpu, &[(W, H)], capacity, 64)
+}
+
+/// A sample for pixel (x, y) of `v` at distance `d` along its centre ray.
+fn sample(v: &EyeView, x: u32, y: u32, d: f32, rad: f32) -> NewSample {
+    let r = v.wall.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+    NewSample::new(y * W + x, r.origin, r.at(d), d, [rad; 3], 1)
+}
+
+fn draw(c: &mut RenderCache, v: &EyeView) -> Vec<u32> {
+    c.draw(&[*v], &[8], false, &mut StepTimes::default())
+        .remove(0)
+}
+
+#[test]
+fn a_point_shows_at_its_pixel_and_fills_its_neighbours() {
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let mut c = cache(256);
+    draw(&mut c, &v);
+    c.insert(0, &[sample(&v, 3, 4, 2.0, 0.5)]);
+    draw(&mut c, &v);
+    let img = c.image(0);
+    let cov = c.coverage(0);
+    assert_eq!(img.at(3, 4), Vec3::splat(0.5));
+    assert_eq!(cov[(4 * W + 3) as usize], 1.0);
+    // Every 3x3 neighbour is interpolated from it; pixels further away stay empty.
+    for (x, y) in [(2, 3), (4, 5), (3, 5), (2, 4)] {
+        assert_eq!(img.at(x, y), Vec3::splat(0.5), "({x},{y})");
+        assert_eq!(cov[(y * W + x) as usize], 0.5);
+    }
+    assert_eq!(img.at(0, 0), Vec3::ZERO);
+    assert_eq!(cov[0], 0.0);
+}
+
+#[test]
+fn the_nearer_point_wins_and_a_point_far_behind_its_neighbours_is_culled() {
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let mut c = cache(256);
+    draw(&mut c, &v);
+    // A wall of near points at distance 2, one pixel with only a far point at 5 behind,
+    // and one pixel with both (the near one must win).
+    let mut s = Vec::new();
+    for y in 0..H {
+        for x in 0..W {
+            if (x, y) != (4, 4) {
+                s.push(sample(&v, x, y, 2.0, 1.0));
+            }
+        }
+    }
+    s.push(sample(&v, 4, 4, 5.0, 9.0));
+    c.insert(0, &s);
+    draw(&mut c, &v);
+    // Shown from the same eye, the far point's pixel is culled and interpolated.
+    let img = c.image(0);
+    assert_eq!(c.coverage(0)[(4 * W + 4) as usize], 0.5);
+    assert_eq!(img.at(4, 4), Vec3::splat(1.0));
+    // A pixel with a near and a far point shows the near one (the far one is traced from
+    // 1 cm aside: from the same eye it would be averaged into the pixel's point).
+    let aside = view(v.eye() + Vec3::new(0.01, 0.0, 0.0));
+    let p = v.wall.ray(Vec2::new(2.5, 2.5)).at(6.0);
+    let d = (p - aside.eye()).length();
+    c.insert(0, &[NewSample::new(2 * W + 2, aside.eye(), p, d, [7.0; 3], 1)]);
+    draw(&mut c, &v);
+    assert_eq!(c.image(0).at(2, 2), Vec3::splat(1.0));
+}
+
+#[test]
+fn samples_from_the_same_eye_average_and_the_ray_nearest_the_eye_wins() {
+    let eye = Vec3::new(0.0, 1.0, 1.0);
+    let v = view(eye);
+    let mut c = cache(256);
+    draw(&mut c, &v);
+    c.insert(0, &[sample(&v, 5, 5, 2.0, 1.0)]);
+    draw(&mut c, &v);
+    c.insert(0, &[sample(&v, 5, 5, 2.0, 3.0)]);
+    draw(&mut c, &v);
+    assert_eq!(c.image(0).at(5, 5), Vec3::splat(2.0), "running mean of 1 and 3");
+
+    // A sample of the same point from 10 cm to the side, with another radiance: from the
+    // first eye the first point (its ray passed through the eye) still wins...
+    let side = view(eye + Vec3::new(0.1, 0.0, 0.0));
+    let p = v.wall.ray(Vec2::new(5.5, 5.5)).at(2.0);
+    let dir = (p - side.eye()).normalize();
+    let d = (p - side.eye()).length();
+    c.insert(0, &[NewSample::new(5 * W + 5, side.eye(), side.eye() + dir * d, d, [8.0; 3], 1)]);
+    draw(&mut c, &v);
+    assert_eq!(c.image(0).at(5, 5), Vec3::splat(2.0));
+    // ... and from the side eye the new one does.
+    let (px, py, _) = side.project(p).unwrap();
+    let mut c2 = c;
+    c2.draw(&[side], &[8], false, &mut StepTimes::default());
+    assert_eq!(c2.image(0).at(px as u32, py as u32), Vec3::splat(8.0));
+}
+
+#[test]
+fn replacement_takes_the_oldest_point_of_a_group() {
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    // One group of 8 points: the ninth sample must replace the oldest (the first).
+    let mut c = cache(8);
+    assert_eq!(c.capacity(), 8);
+    draw(&mut c, &v);
+    for i in 0..9u32 {
+        c.insert(0, &[sample(&v, i % W, i / W + 2, 2.0, i as f32 + 1.0)]);
+        draw(&mut c, &v); // ages every point by one frame
+    }
+    let mut rads: Vec<f32> = c.points().iter().map(|p| p.rad[0]).collect();
+    rads.sort_by(f32::total_cmp);
+    assert_eq!(rads, vec![2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
+}
+
+#[test]
+fn dithering_chooses_about_the_budget_and_empty_pixels_first() {
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let gpu = Gpu::new().expect("a wgpu adapter");
+    let mut c = RenderCache::new(gpu, &[(64, 64)], 8192, 4096);
+    let v64 = EyeView::kooima(WallView { width: 64, height: 64, ..v.wall }, 0.05);
+    let chosen = c
+        .draw(&[v64], &[500], false, &mut StepTimes::default())
+        .remove(0);
+    let n = chosen.len() as f64;
+    assert!((n - 500.0).abs() < 50.0, "{n} chosen for a budget of 500");
+    let mut sorted = chosen.clone();
+    sorted.sort();
+    sorted.dedup();
+    assert_eq!(sorted.len(), chosen.len(), "each pixel chosen once");
+}
