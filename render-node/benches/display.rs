@@ -1,0 +1,96 @@
+//! Display-process time per frame, split by step, at 512×512 and 1024×768 per eye, both
+//! eyes, on whatever adapter wgpu finds (Mesa's lavapipe on machines without a GPU). The
+//! cache holds 1.25 points per pixel of both eyes, filled with one point per pixel seen
+//! from each eye; each frame chooses 1/16 of the pixels per eye. Per-step figures come from
+//! submitting each step alone and waiting for it, so they include one submit and wait each.
+
+use std::time::Duration;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use glam::{Vec2, Vec3};
+use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
+use holocave_tracer::view::WallView;
+
+fn views(w: u32, h: u32) -> Vec<EyeView> {
+    [-0.032f32, 0.032]
+        .iter()
+        .map(|&dx| {
+            EyeView::kooima(
+                WallView {
+                    eye: Vec3::new(dx, 1.5, 0.0),
+                    pa: Vec3::new(-1.5, 0.0, -1.5),
+                    pb: Vec3::new(1.5, 0.0, -1.5),
+                    pc: Vec3::new(-1.5, 3.0, -1.5),
+                    width: w,
+                    height: h,
+                },
+                0.05,
+            )
+        })
+        .collect()
+}
+
+fn bench_size(c: &mut Criterion, w: u32, h: u32) {
+    let gpu = match Gpu::new() {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("skipping: {e}");
+            return;
+        }
+    };
+    let adapter = gpu.adapter.clone();
+    let n = w * h;
+    let budget = n / 16;
+    let mut cache = RenderCache::new(gpu, &[(w, h), (w, h)], 2 * n * 5 / 4, budget * 2);
+    let vs = views(w, h);
+    // Fill: a room-like depth field (a box 1.5 m around the eye) seen from each eye.
+    cache.draw(&vs, &[0, 0], false, &mut StepTimes::default());
+    for (e, v) in vs.iter().enumerate() {
+        let samples: Vec<NewSample> = (0..n)
+            .map(|i| {
+                let r = v.wall.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5));
+                let d = 1.5 / r.dir.z.abs().max(r.dir.x.abs()).max(0.2);
+                let c = (i % 7) as f32 / 7.0;
+                NewSample::new(i, r.origin, r.at(d), d, [c, 0.5, 1.0 - c], 1)
+            })
+            .collect();
+        cache.insert(e, &samples);
+    }
+    let mut steps = StepTimes::default();
+    let mut frames = 0u32;
+    let mut group = c.benchmark_group(format!("display/{w}x{h} stereo"));
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(10));
+    group.bench_function("frame (all steps, one submit)", |b| {
+        b.iter(|| cache.draw(&vs, &[budget, budget], false, &mut StepTimes::default()))
+    });
+    group.bench_function("frame (steps timed one by one)", |b| {
+        b.iter(|| {
+            frames += 1;
+            cache.draw(&vs, &[budget, budget], true, &mut steps)
+        })
+    });
+    group.finish();
+    let ms = |d: Duration| d.as_secs_f64() * 1e3 / f64::from(frames.max(1));
+    eprintln!(
+        "\n{w}x{h} per eye, 2 eyes, {adapter}: per frame over {frames} timed frames (ms)\n\
+         clear {:.2} | projection {:.2} | depth cull {:.2} | interpolation+priority {:.2} | \
+         dither {:.2} | aging {:.2} | chosen read-back {:.2} | total {:.2}\n",
+        ms(steps.clear),
+        ms(steps.projection),
+        ms(steps.depth_cull),
+        ms(steps.interpolation_priority),
+        ms(steps.dither),
+        ms(steps.aging),
+        ms(steps.readback),
+        ms(steps.total())
+    );
+}
+
+fn display(c: &mut Criterion) {
+    bench_size(c, 512, 512);
+    bench_size(c, 1024, 768);
+}
+
+criterion_group!(benches, display);
+criterion_main!(benches);
