@@ -1,6 +1,10 @@
 // Inserting a batch of new samples for one eye, in two passes:
 //   match: a sample whose pixel already shows a point made from the same eye position
-//          is averaged into that point (progressive refinement of a still view);
+//          is averaged into that point (progressive refinement of a still view); one
+//          from an eye position at most NEAR_ORIGIN away that hit the same surface at the
+//          same place joins a running mean capped at MOVING_MAX_COUNT samples (so a slowly
+//          moving head is not shown 1-sample noise, and view-dependent change still shows)
+//          and moves the point's ray origin to the new eye;
 //   place: every other sample becomes a new point, replacing the oldest point of a
 //          group of GROUP points chosen round robin (the render cache's replacement).
 
@@ -29,6 +33,11 @@ struct InsertParams {
 
 // Ray origins closer than this (m) count as the same eye position.
 const SAME_ORIGIN: f32 = 1.0e-4;
+// Ray origins closer than this (m) may share a point if the hits agree.
+const NEAR_ORIGIN: f32 = 0.02;
+// Hits closer than this fraction of their distance are the same place.
+const SAME_PLACE: f32 = 0.05;
+const MOVING_MAX_COUNT: f32 = 16.0;
 
 @compute @workgroup_size(64)
 fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -43,10 +52,20 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     var p = points[idx];
-    if (!point_valid(p) || distance(p.origin.xyz, s.origin.xyz) > SAME_ORIGIN) {
+    if (!point_valid(p)) {
         return;
     }
-    let n = p.rad.w + 1.0;
+    let moved = distance(p.origin.xyz, s.origin.xyz);
+    var n = p.rad.w + 1.0;
+    if (moved > SAME_ORIGIN) {
+        let same_surface = bitcast<u32>(p.origin.w) == bitcast<u32>(s.rad.w);
+        let same_place = distance(p.pos.xyz, s.pos.xyz) <= SAME_PLACE * s.origin.w;
+        if (moved > NEAR_ORIGIN || !same_surface || !same_place) {
+            return;
+        }
+        n = min(n, MOVING_MAX_COUNT);
+        p.origin = vec4<f32>(s.origin.xyz, p.origin.w);
+    }
     p.rad = vec4<f32>(p.rad.xyz + (s.rad.xyz - p.rad.xyz) / n, n);
     // The point stands for the pixel: keep the nearest hit so the depth cull sees the
     // front surface at silhouettes.
