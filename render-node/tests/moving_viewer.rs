@@ -110,21 +110,23 @@ fn moving_viewer_follows_a_recorded_trace() {
                  clamped at 1: {clamped:.4} (a {spp} spp path-traced frame: {baseline:.4})"
             );
             errors.push((clamped, baseline));
-            let pts = display.cache.points();
-            let valid: Vec<_> = pts.iter().filter(|p| p.pos[3] < 1e6).collect();
-            let mean_count =
-                valid.iter().map(|p| f64::from(p.rad[3])).sum::<f64>() / valid.len().max(1) as f64;
-            eprintln!("  {} points, mean samples per point {mean_count:.2}", valid.len());
             let e = holocave_render_node::display::lit_exposure(&reference).unwrap_or(1.0);
             sheet.push(vec![
                 img.to_preview(e),
                 display.cache.image(1).to_preview(e),
                 reference.to_preview(e),
+                same_rays.to_preview(e),
             ]);
+            let pts = display.cache.points();
+            let valid: Vec<_> = pts.iter().filter(|p| p.pos[3] < 1e6).collect();
+            let mean_count =
+                valid.iter().map(|p| f64::from(p.rad[3])).sum::<f64>() / valid.len().max(1) as f64;
+            eprintln!("  {} points, mean samples per point {mean_count:.2}", valid.len());
         }
     }
     if let Ok(dir) = std::env::var("HOLOCAVE_TEST_OUT") {
-        // Rows: frames 29, 59, 89, 119; columns: left eye, right eye, left reference.
+        // Rows: frames 29, 59, 89, 119; columns: left eye, right eye, left reference,
+        // a path-traced frame with as many rays.
         std::fs::create_dir_all(&dir).unwrap();
         holocave_render_node::display::contact_sheet(&sheet, 4)
             .save(PathBuf::from(dir).join("moving-sheet.png"))
