@@ -48,7 +48,9 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32) {
     for (e, v) in vs.iter().enumerate() {
         let samples: Vec<NewSample> = (0..n)
             .map(|i| {
-                let r = v.wall.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5));
+                let r = v
+                    .wall
+                    .ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5));
                 let d = 1.5 / r.dir.z.abs().max(r.dir.x.abs()).max(0.2);
                 let c = (i % 7) as f32 / 7.0;
                 NewSample::new(i, r.origin, r.at(d), d, [c, 0.5, 1.0 - c], 1)

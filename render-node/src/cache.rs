@@ -426,7 +426,8 @@ impl RenderCache {
             r.step(&mut times.depth_cull);
             r.pass(&p.interpolate, &e.filter_bg, n, 256);
             r.step(&mut times.interpolation_priority);
-            let tiles = e.width.div_ceil(8) * e.height.div_ceil(8);
+            // One more tile each way: the tile grid is shifted every frame.
+            let tiles = (e.width.div_ceil(8) + 1) * (e.height.div_ceil(8) + 1);
             r.pass(&p.dither, &e.dither_bg, tiles, 64);
             r.step(&mut times.dither);
         }

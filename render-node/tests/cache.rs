@@ -84,7 +84,10 @@ fn the_nearer_point_wins_and_a_point_far_behind_its_neighbours_is_culled() {
     let aside = view(v.eye() + Vec3::new(0.01, 0.0, 0.0));
     let p = v.wall.ray(Vec2::new(2.5, 2.5)).at(6.0);
     let d = (p - aside.eye()).length();
-    c.insert(0, &[NewSample::new(2 * W + 2, aside.eye(), p, d, [7.0; 3], 1)]);
+    c.insert(
+        0,
+        &[NewSample::new(2 * W + 2, aside.eye(), p, d, [7.0; 3], 1)],
+    );
     draw(&mut c, &v);
     assert_eq!(c.image(0).at(2, 2), Vec3::splat(1.0));
 }
@@ -99,7 +102,11 @@ fn samples_from_the_same_eye_average_and_the_ray_nearest_the_eye_wins() {
     draw(&mut c, &v);
     c.insert(0, &[sample(&v, 5, 5, 2.0, 3.0)]);
     draw(&mut c, &v);
-    assert_eq!(c.image(0).at(5, 5), Vec3::splat(2.0), "running mean of 1 and 3");
+    assert_eq!(
+        c.image(0).at(5, 5),
+        Vec3::splat(2.0),
+        "running mean of 1 and 3"
+    );
 
     // A sample of the same point from 10 cm to the side, with another radiance: from the
     // first eye the first point (its ray passed through the eye) still wins...
@@ -107,7 +114,17 @@ fn samples_from_the_same_eye_average_and_the_ray_nearest_the_eye_wins() {
     let p = v.wall.ray(Vec2::new(5.5, 5.5)).at(2.0);
     let dir = (p - side.eye()).normalize();
     let d = (p - side.eye()).length();
-    c.insert(0, &[NewSample::new(5 * W + 5, side.eye(), side.eye() + dir * d, d, [8.0; 3], 1)]);
+    c.insert(
+        0,
+        &[NewSample::new(
+            5 * W + 5,
+            side.eye(),
+            side.eye() + dir * d,
+            d,
+            [8.0; 3],
+            1,
+        )],
+    );
     draw(&mut c, &v);
     assert_eq!(c.image(0).at(5, 5), Vec3::splat(2.0));
     // ... and from the side eye the new one does.
@@ -138,7 +155,14 @@ fn dithering_chooses_about_the_budget_and_empty_pixels_first() {
     let v = view(Vec3::new(0.0, 1.0, 1.0));
     let gpu = Gpu::new().expect("a wgpu adapter");
     let mut c = RenderCache::new(gpu, &[(64, 64)], 8192, 4096);
-    let v64 = EyeView::kooima(WallView { width: 64, height: 64, ..v.wall }, 0.05);
+    let v64 = EyeView::kooima(
+        WallView {
+            width: 64,
+            height: 64,
+            ..v.wall
+        },
+        0.05,
+    );
     let chosen = c
         .draw(&[v64], &[500], false, &mut StepTimes::default())
         .remove(0);

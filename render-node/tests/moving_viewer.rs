@@ -121,7 +121,10 @@ fn moving_viewer_follows_a_recorded_trace() {
             let valid: Vec<_> = pts.iter().filter(|p| p.pos[3] < 1e6).collect();
             let mean_count =
                 valid.iter().map(|p| f64::from(p.rad[3])).sum::<f64>() / valid.len().max(1) as f64;
-            eprintln!("  {} points, mean samples per point {mean_count:.2}", valid.len());
+            eprintln!(
+                "  {} points, mean samples per point {mean_count:.2}",
+                valid.len()
+            );
         }
     }
     if let Ok(dir) = std::env::var("HOLOCAVE_TEST_OUT") {

@@ -15,6 +15,7 @@ use holocave_render_node::{DisplayProcess, EyeView, Gpu, RenderCache, TracerSour
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
+use holocave_tracking::predict::PredictorKind;
 use holocave_tracking::source::{Next, Pacing, SourceSpec, open};
 use holocave_tracking::{HeadTracker, Pose};
 
@@ -42,6 +43,10 @@ pub struct NodeArgs {
     /// in another room, such as ../shared/tracking/pred6dof).
     #[arg(long)]
     recenter: bool,
+    /// Predict head poses with the config's predictor (default: the last pose; a headless
+    /// node has no display latency to hide).
+    #[arg(long)]
+    prediction: bool,
     /// Hold the head still at X,Y,Z (room coordinates), looking at -Z.
     #[arg(long, value_parser = parse_vec3)]
     still: Option<Vec3>,
@@ -216,7 +221,11 @@ pub fn run(args: NodeArgs) -> Result<()> {
                 .with_context(|| format!("opening tracker {spec:?}"))?;
             Some(HeadSource {
                 source,
-                tracker: HeadTracker::new(&cave.tracking),
+                tracker: if args.prediction {
+                    HeadTracker::new(&cave.tracking)
+                } else {
+                    HeadTracker::with_predictor(&cave.tracking, PredictorKind::None)
+                },
                 pending: None,
                 t0: None,
                 origin: None,

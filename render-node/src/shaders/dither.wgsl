@@ -14,16 +14,22 @@ const SUM_SCALE: f32 = 256.0;
 
 @compute @workgroup_size(64)
 fn dither(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let tiles_x = (P.width + TILE - 1u) / TILE;
-    let tiles_y = (P.height + TILE - 1u) / TILE;
+    // The tile grid moves by a random offset every frame, so that what happens at tile
+    // edges (less error arriving, error lost) does not stay on the same pixels.
+    let shift = hash_u32(P.frame * 0x9e3779b9u + 17u);
+    let ox = shift % TILE;
+    let oy = (shift / TILE) % TILE;
+    let tiles_x = (P.width + ox + TILE - 1u) / TILE;
+    let tiles_y = (P.height + oy + TILE - 1u) / TILE;
     let t = gid.x;
     if (t >= tiles_x * tiles_y) {
         return;
     }
     let total = f32(atomicLoad(&counters[0])) / SUM_SCALE;
     let scale = select(0.0, f32(P.target_samples) / total, total > 0.0);
-    let x0 = (t % tiles_x) * TILE;
-    let y0 = (t / tiles_x) * TILE;
+    // Tile origin in image pixels (may be negative: i32).
+    let x0 = i32((t % tiles_x) * TILE) - i32(ox);
+    let y0 = i32((t / tiles_x) * TILE) - i32(oy);
     // Error carried to this row and the next; index k+1 is column k of the tile.
     var cur: array<f32, 10>;
     var nxt: array<f32, 10>;
@@ -34,14 +40,16 @@ fn dither(@builtin(global_invocation_id) gid: vec3<u32>) {
     // A random start so that tiles and frames do not repeat one pattern.
     cur[1] = f32(hash_u32(t * 9781u + P.frame * 6271u + P.width) >> 8u) / 16777216.0 - 0.5;
     for (var r = 0u; r < TILE; r++) {
-        let y = y0 + r;
+        let yi = y0 + i32(r);
         let forward = (r & 1u) == 0u;
         for (var s = 0u; s < TILE; s++) {
             let c = select(TILE - 1u - s, s, forward);
-            let x = x0 + c;
-            if (x >= P.width || y >= P.height) {
+            let xi = x0 + i32(c);
+            if (xi < 0 || yi < 0 || xi >= i32(P.width) || yi >= i32(P.height)) {
                 continue;
             }
+            let x = u32(xi);
+            let y = u32(yi);
             let i = y * P.width + x;
             let v = priority[i] * scale + cur[c + 1u];
             var e = v;
@@ -56,7 +64,7 @@ fn dither(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             // Floyd–Steinberg weights, mirrored on backward rows; the tile's last row
             // passes all its error along the row, so at most half a sample is lost per tile.
-            let last_row = r + 1u == TILE || y + 1u >= P.height;
+            let last_row = r + 1u == TILE || yi + 1 >= i32(P.height);
             if (last_row) {
                 if (forward) {
                     cur[c + 2u] += e;
