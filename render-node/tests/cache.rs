@@ -72,16 +72,29 @@ fn the_nearer_point_wins_and_a_point_far_behind_its_neighbours_is_culled() {
             }
         }
     }
-    s.push(sample(&v, 4, 4, 5.0, 9.0));
+    // The far point was traced from 1 cm aside (reprojected: a ray from this eye might
+    // have been stopped by what is in front of it).
+    let aside = view(v.eye() + Vec3::new(0.01, 0.0, 0.0));
+    let far = v.wall.ray(Vec2::new(4.5, 4.5)).at(5.0);
+    let d = (far - aside.eye()).length();
+    s.push(NewSample::new(4 * W + 4, aside.eye(), far, d, [9.0; 3], 1));
     c.insert(0, &s);
     draw(&mut c, &v);
-    // Shown from the same eye, the far point's pixel is culled and interpolated.
+    // The far point's pixel is culled and interpolated.
     let img = c.image(0);
     assert_eq!(c.coverage(0)[(4 * W + 4) as usize], 0.5);
     assert_eq!(img.at(4, 4), Vec3::splat(1.0));
+    // A point traced from this very eye is never culled: its ray hit nothing nearer.
+    let mut c2 = cache(256);
+    draw(&mut c2, &v);
+    let mut s2: Vec<NewSample> = s[..s.len() - 1].to_vec();
+    s2.push(sample(&v, 4, 4, 5.0, 9.0));
+    c2.insert(0, &s2);
+    draw(&mut c2, &v);
+    assert_eq!(c2.coverage(0)[(4 * W + 4) as usize], 1.0);
+    assert_eq!(c2.image(0).at(4, 4), Vec3::splat(9.0));
     // A pixel with a near and a far point shows the near one (the far one is traced from
-    // 1 cm aside: from the same eye it would be averaged into the pixel's point).
-    let aside = view(v.eye() + Vec3::new(0.01, 0.0, 0.0));
+    // aside: from the same eye it would be averaged into the pixel's point).
     let p = v.wall.ray(Vec2::new(2.5, 2.5)).at(6.0);
     let d = (p - aside.eye()).length();
     c.insert(

@@ -14,6 +14,8 @@
 @group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
 
 const CULL_FACTOR: f32 = 1.1;
+// A point whose ray passed this close to the eye (m) was traced from it.
+const SEEN_FROM_HERE: f32 = 1.0e-4;
 // Priority of a point: its age relative to this many frames (capped at 1) ...
 const AGE_SCALE: f32 = 32.0;
 // ... plus up to 0.5 when its ray missed this eye by this many metres or more.
@@ -51,7 +53,11 @@ fn cull(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     let depth = bitcast<f32>(depth_img[i]);
-    if (depth > CULL_FACTOR * sum / n) {
+    // A point whose ray started at this eye was the first thing that ray hit: nothing in
+    // front of it can have been missed, so only reprojected points are culled (this keeps
+    // background and far points beside silhouettes).
+    let seen_from_here = bitcast<f32>(miss_img[i]) < SEEN_FROM_HERE;
+    if (!seen_from_here && depth > CULL_FACTOR * sum / n) {
         culled[i] = vec4<f32>(0.0);
     } else {
         culled[i] = vec4<f32>(points[idx].rad.xyz, 1.0);
