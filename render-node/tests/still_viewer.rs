@@ -50,7 +50,7 @@ fn still_viewer_converges_to_the_path_traced_reference() {
     while start.elapsed() < TIME_LIMIT {
         display.frame(&[view], false);
         frame += 1;
-        if frame % 16 == 0 {
+        if frame.is_multiple_of(16) {
             let image = display.cache.image(0);
             err = image.relative_mse(&reference);
             eprintln!(

@@ -307,7 +307,7 @@ pub fn run(args: NodeArgs) -> Result<()> {
         totals.1 += report.trace;
         totals.2 += report.insert;
         let last = args.frames.is_some_and(|n| frame + 1 == n);
-        if frame % args.every.max(1) == 0 || last {
+        if frame.is_multiple_of(args.every.max(1)) || last {
             let mut sheet = Vec::new();
             for (i, &eye) in eyes.iter().enumerate() {
                 let img = display.cache.image(i);
