@@ -5,18 +5,21 @@
 //! - [`cache`]: the point cache and the per-eye compute passes (WGSL in `shaders/`);
 //! - [`view`]: an eye's projection and its pixel rays;
 //! - [`source`]: chosen pixels → eye rays → the path tracer → new samples;
+//! - [`tonemap`]: Ward Larson's histogram adjustment (camera and human modes), at display;
 //! - [`display`]: one frame of the display process for all eyes, and its output files.
 
 pub mod cache;
 pub mod display;
 pub mod gpu;
 pub mod source;
+pub mod tonemap;
 pub mod view;
 
 pub use cache::{NewSample, RenderCache, StepTimes};
 pub use display::{DisplayProcess, FrameReport};
 pub use gpu::Gpu;
 pub use source::TracerSource;
+pub use tonemap::{ToneMapper, ToneMode};
 pub use view::EyeView;
 
 #[derive(Debug, thiserror::Error)]

@@ -10,8 +10,10 @@ use clap::Args;
 use glam::{DVec3, Quat, Vec3};
 use holocave_master::frustum::{Eye, eye_position, off_axis};
 use holocave_master::load_cave;
-use holocave_render_node::display::{contact_sheet, write_image};
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, RenderCache, TracerSource};
+use holocave_render_node::display::contact_sheet;
+use holocave_render_node::{
+    DisplayProcess, EyeView, Gpu, RenderCache, ToneMapper, ToneMode, TracerSource,
+};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
@@ -74,6 +76,10 @@ pub struct NodeArgs {
     /// Also write each frame's priority image and chosen pixels (-priority, -chosen).
     #[arg(long)]
     debug_images: bool,
+    /// Tone mapping of the PNG previews: Ward Larson's histogram adjustment in `camera` or
+    /// `human` mode, or `reinhard` (the tracer's preview). EXR files are always linear.
+    #[arg(long, default_value = "camera")]
+    tone: String,
     /// Write images every K frames (and always the last).
     #[arg(long, default_value_t = 1)]
     every: u64,
@@ -252,6 +258,12 @@ pub fn run(args: NodeArgs) -> Result<()> {
         display.cache.gpu().adapter
     );
 
+    let mut tone = match args.tone.as_str() {
+        "camera" => Some(ToneMapper::new(ToneMode::Camera)),
+        "human" => Some(ToneMapper::new(ToneMode::Human)),
+        "reinhard" => None,
+        other => bail!("--tone {other:?}: expected camera, human or reinhard"),
+    };
     let dir = args.out.join(&wall.name);
     let to_scene = cave.room_to_scene;
     let scene_pt = |p: DVec3| to_scene.transform_point3(p).as_vec3();
@@ -311,15 +323,28 @@ pub fn run(args: NodeArgs) -> Result<()> {
             let mut sheet = Vec::new();
             for (i, &eye) in eyes.iter().enumerate() {
                 let img = display.cache.image(i);
-                let exposure = display.exposure(&img);
                 let stem = format!("{frame:05}-{}", eye_name(eye));
-                write_image(&dir, &stem, &img, exposure)?;
+                std::fs::create_dir_all(&dir)?;
+                img.write_exr(&dir.join(format!("{stem}.exr")))?;
+                let preview = match &mut tone {
+                    Some(tm) => {
+                        if i == 0 && tm.update(&img, false) {
+                            tracing::debug!("frame {frame}: tone mapping recomputed");
+                        }
+                        tm.apply(&img)
+                    }
+                    None => {
+                        let exposure = display.exposure(&img);
+                        img.to_preview(exposure)
+                    }
+                };
+                preview.save(dir.join(format!("{stem}.png")))?;
                 if args.debug_images {
                     let pr = display.cache.priority_image(i).to_preview(0.5);
                     pr.save(dir.join(format!("{stem}-priority.png")))?;
                     let ch = display.cache.chosen_image(i).to_preview(100.0);
                     ch.save(dir.join(format!("{stem}-chosen.png")))?;
-                    sheet.push(vec![img.to_preview(exposure), pr, ch]);
+                    sheet.push(vec![preview, pr, ch]);
                 }
             }
             if args.debug_images {
