@@ -180,11 +180,11 @@ impl ToneMapper {
                 n > 0 && (sum / n as f32 - m.log_mean).abs() > 2f32.log10()
             }
         };
-        if force || stale {
-            if let Some(m) = Mapping::new(image, self.mode) {
-                self.mapping = Some(m);
-                return true;
-            }
+        if (force || stale)
+            && let Some(m) = Mapping::new(image, self.mode)
+        {
+            self.mapping = Some(m);
+            return true;
         }
         false
     }
