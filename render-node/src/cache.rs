@@ -33,7 +33,8 @@ struct EyeParams {
     target_samples: u32,
     max_chosen: u32,
     frame: u32,
-    pad: [u32; 2],
+    eye_index: u32,
+    pad: u32,
 }
 
 #[repr(C)]
@@ -406,7 +407,8 @@ impl RenderCache {
                 target_samples: targets.get(i).copied().unwrap_or(0).min(self.max_chosen),
                 max_chosen: self.max_chosen,
                 frame: self.frame,
-                pad: [0; 2],
+                eye_index: i as u32,
+                pad: 0,
             };
             self.gpu
                 .queue

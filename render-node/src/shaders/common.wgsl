@@ -18,7 +18,7 @@ struct EyeParams {
     target_samples: u32,
     max_chosen: u32,
     frame: u32,
-    pad0: u32,
+    eye_index: u32,
     pad1: u32,
 }
 

@@ -16,7 +16,7 @@ const SUM_SCALE: f32 = 256.0;
 fn dither(@builtin(global_invocation_id) gid: vec3<u32>) {
     // The tile grid moves by a random offset every frame, so that what happens at tile
     // edges (less error arriving, error lost) does not stay on the same pixels.
-    let shift = hash_u32(P.frame * 0x9e3779b9u + 17u);
+    let shift = hash_u32(P.frame * 0x9e3779b9u + P.eye_index * 0x85ebca6bu + 17u);
     let ox = shift % TILE;
     let oy = (shift / TILE) % TILE;
     let tiles_x = (P.width + ox + TILE - 1u) / TILE;
@@ -38,7 +38,7 @@ fn dither(@builtin(global_invocation_id) gid: vec3<u32>) {
         nxt[k] = 0.0;
     }
     // A random start so that tiles and frames do not repeat one pattern.
-    cur[1] = f32(hash_u32(t * 9781u + P.frame * 6271u + P.width) >> 8u) / 16777216.0 - 0.5;
+    cur[1] = f32(hash_u32(t * 9781u + P.frame * 6271u + P.eye_index * 7919u) >> 8u) / 16777216.0 - 0.5;
     for (var r = 0u; r < TILE; r++) {
         let yi = y0 + i32(r);
         let forward = (r & 1u) == 0u;
