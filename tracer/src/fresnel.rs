@@ -75,9 +75,11 @@ mod tests {
         let sin_i = 0.6f32;
         let sin_t = (1.0 - wt.z * wt.z).sqrt();
         assert!((sin_i - eta * sin_t).abs() < 1e-5);
-        // And back out again.
-        let (back, _) = refract(-wt, n, 1.5).unwrap();
+        // And back out again: refracting the transmitted direction (now on the inside)
+        // gives the original one, with the inverse relative index.
+        let (back, eta_back) = refract(wt, n, 1.5).unwrap();
         assert!((back - wo).length() < 1e-5);
+        assert!((eta_back - 1.0 / 1.5).abs() < 1e-6);
         assert!(refract(Vec3::new(0.9, 0.0, -0.436).normalize(), n, 1.5).is_none());
     }
 }

@@ -10,7 +10,7 @@ use rand_pcg::Pcg32;
 use crate::bsdf::Bsdf;
 use crate::frame::Frame;
 use crate::lights::{LightSample, Lights};
-use crate::sampling::power_heuristic;
+use crate::sampling::{is_positive_finite, power_heuristic};
 use crate::{Sample, TraceSettings};
 
 /// How far a new ray starts off its surface, along the face normal: relative to the
@@ -55,12 +55,23 @@ impl Path<'_> {
             return;
         }
         let origin = offset(p, ng, ls.wi);
-        let tmax = if ls.dist.is_finite() {
-            (ls.dist - 2e-4 * (1.0 + p.abs().max_element())).max(0.0)
+        // Aim the shadow ray from the offset origin at the light point itself, and stop
+        // short of it. Keeping `ls.wi` from the offset origin would run parallel to the
+        // true segment and cross a light's plane `eps / cos θl` early: at grazing angles
+        // (cos θl < 1/2) the light then occluded itself.
+        let shadow = if ls.dist.is_finite() {
+            let target = p + ls.wi * ls.dist;
+            let d = target - origin;
+            let len = d.length();
+            if !is_positive_finite(len) {
+                return;
+            }
+            let margin = 1e-4 * (1.0 + target.abs().max_element());
+            (Ray::new(origin, d / len), (len - margin).max(0.0))
         } else {
-            f32::INFINITY
+            (Ray::new(origin, ls.wi), f32::INFINITY)
         };
-        if self.scene.occluded(&Ray::new(origin, ls.wi), tmax) {
+        if self.scene.occluded(&shadow.0, shadow.1) {
             return;
         }
         let w = if ls.pdf.is_infinite() {
@@ -96,10 +107,10 @@ impl Path<'_> {
         if let Some(ls) = lights.sample_sun(u2(rng)) {
             self.add_light(ls, frame, bsdf, wo, p, ng);
         }
-        if lights.sky.is_some() {
-            if let Some(ls) = lights.sample_sky(u2(rng)) {
-                self.add_light(ls, frame, bsdf, wo, p, ng);
-            }
+        if lights.sky.is_some()
+            && let Some(ls) = lights.sample_sky(u2(rng))
+        {
+            self.add_light(ls, frame, bsdf, wo, p, ng);
         }
     }
 
@@ -131,17 +142,37 @@ pub fn trace_path(
         distance: f32::INFINITY,
         virtual_distance: f32::INFINITY,
     };
-    let dir = ray.dir.normalize_or_zero();
-    if dir == Vec3::ZERO || !dir.is_finite() || !ray.origin.is_finite() {
+    // A unit direction is used exactly as given: renormalising it would turn it by up to
+    // an ulp (6e-8 rad), which shifts the line by 0.6 mm 10 km away. Others are scaled
+    // by their largest component before normalising, so that a finite direction whose
+    // squared length under- or overflows (components below ~1e-19 or above ~1e19) still
+    // has a direction. Zero, NaN and infinite directions give an empty sample.
+    let scale = ray.dir.abs().max_element();
+    if !is_positive_finite(scale) || !ray.dir.is_finite() || !ray.origin.is_finite() {
         return sample;
     }
-    let mut ray = Ray::new(ray.origin, dir);
+    let dir = if (ray.dir.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+        ray.dir
+    } else {
+        (ray.dir / scale).normalize_or_zero()
+    };
+    if dir == Vec3::ZERO || !dir.is_finite() {
+        return sample;
+    }
     let mut path = Path {
         scene,
         lights,
         radiance: Vec3::ZERO,
         throughput: Vec3::ONE,
     };
+    let (lo, hi) = scene.bounds();
+    let Some((origin, skipped)) = enter_bounds(ray.origin, dir, lo, hi) else {
+        // The ray passes the scene by: only the sky and sun can be seen along it.
+        path.add_environment(dir, None);
+        sample.radiance = finish(path.radiance);
+        return sample;
+    };
+    let mut ray = Ray::new(origin, dir);
     // `None` while the path has only seen delta lobes since its last light sample.
     let mut prev_pdf: Option<f32> = None;
     // Virtual distance so far, while the path is still looking through flat deltas.
@@ -151,9 +182,13 @@ pub fn trace_path(
             path.add_environment(ray.dir, prev_pdf);
             break;
         };
-        if depth == 0 {
-            sample.distance = hit.t;
-        }
+        // Distances along the camera ray count from its own origin.
+        let t = if depth == 0 {
+            sample.distance = (skipped + f64::from(hit.t)) as f32;
+            sample.distance
+        } else {
+            hit.t
+        };
         let sp = scene.surface(&hit);
         let material = &scene.materials[sp.material as usize];
         let params = material.params(&scene.textures, sp.uv);
@@ -162,7 +197,7 @@ pub fn trace_path(
         let bsdf = Bsdf::new(&params);
 
         if let Some(v) = virtual_so_far {
-            let v = v + hit.t;
+            let v = v + t;
             if bsdf.is_pure_delta() && sp.flat {
                 virtual_so_far = Some(v);
             } else {
@@ -207,9 +242,88 @@ pub fn trace_path(
         }
         ray = Ray::new(offset(sp.position, ng, wi), wi);
     }
-    let l = path.radiance;
-    if l.is_finite() {
-        sample.radiance = l.max(Vec3::ZERO).to_array();
-    }
+    sample.radiance = finish(path.radiance);
     sample
+}
+
+/// The radiance reported for a path: never negative, and zero rather than NaN or Inf.
+fn finish(l: Vec3) -> [f32; 3] {
+    if l.is_finite() {
+        l.max(Vec3::ZERO).to_array()
+    } else {
+        [0.0; 3]
+    }
+}
+
+/// Where a ray enters the scene's bounds (grown by a margin), computed in f64: a ray that
+/// starts far away (10 km, say) is moved up to the scene along its exact line, so that
+/// intersection is as precise as for a ray starting nearby, instead of working with an
+/// origin whose float spacing (1 mm at 1e4 m) shifts the ray sideways and lets it slip
+/// past edges. Returns the new origin and the distance skipped (0 and the origin itself
+/// when it is inside or within 8 scene sizes of the bounds), or `None` when the ray
+/// misses the bounds altogether.
+fn enter_bounds(origin: Vec3, dir: Vec3, lo: Vec3, hi: Vec3) -> Option<(Vec3, f64)> {
+    let extent = f64::from((hi - lo).max_element());
+    let margin = 1e-3 * (1.0 + extent);
+    let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
+    let (lo, hi) = (lo.as_dvec3() - margin, hi.as_dvec3() + margin);
+    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+    for a in 0..3 {
+        if d[a] == 0.0 {
+            if o[a] < lo[a] || o[a] > hi[a] {
+                return None;
+            }
+            continue;
+        }
+        let (ta, tb) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
+        t0 = t0.max(ta.min(tb));
+        t1 = t1.min(ta.max(tb));
+    }
+    if t0 > t1 {
+        return None;
+    }
+    // Nearby origins are kept exactly: moving one perturbs its ray by ~1e-7 for no gain.
+    if t0 <= 8.0 * (1.0 + extent) {
+        return Some((origin, 0.0));
+    }
+    Some(((o + d * t0).as_vec3(), t0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn far_origins_are_moved_to_the_bounds_on_their_exact_line() {
+        let (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(1.0));
+        let d = Vec3::new(0.1, 0.2, -1.0).normalize();
+        let o = Vec3::new(0.0, 0.0, 0.5) - d * 1e4;
+        let (p, t) = enter_bounds(o, d, lo, hi).unwrap();
+        // On the line from o along d (in f64), at the grown box's face z = 1.003.
+        let exact = o.as_dvec3() + d.as_dvec3() * t;
+        assert!((p.as_dvec3() - exact).length() < 1e-6);
+        assert!((f64::from(p.z) - 1.003).abs() < 1e-6, "{p}");
+        // Nearby and inside origins are left alone; rays missing the box are reported.
+        let near = Vec3::new(0.0, 0.0, 3.0);
+        assert_eq!(enter_bounds(near, -Vec3::Z, lo, hi), Some((near, 0.0)));
+        assert_eq!(
+            enter_bounds(Vec3::ZERO, Vec3::X, lo, hi),
+            Some((Vec3::ZERO, 0.0))
+        );
+        assert_eq!(
+            enter_bounds(Vec3::new(0.0, 5.0, 1e4), -Vec3::Z, lo, hi),
+            None
+        );
+        assert_eq!(
+            enter_bounds(Vec3::new(0.0, 0.0, 1e4), Vec3::Z, lo, hi),
+            None
+        );
+    }
+
+    #[test]
+    fn reported_radiance_is_never_negative_or_nan() {
+        assert_eq!(finish(Vec3::new(1.0, -0.5, 2.0)), [1.0, 0.0, 2.0]);
+        assert_eq!(finish(Vec3::new(1.0, f32::NAN, 2.0)), [0.0; 3]);
+        assert_eq!(finish(Vec3::new(f32::INFINITY, 0.0, 0.0)), [0.0; 3]);
+    }
 }

@@ -8,7 +8,7 @@ use holocave_scene::{Hit, PunctualKind, PunctualLight, Scene, Sky, Sun};
 use std::f32::consts::PI;
 
 use crate::frame::Frame;
-use crate::sampling::{Distribution, uniform_cone, uniform_triangle};
+use crate::sampling::{Distribution, is_positive_finite, uniform_cone, uniform_triangle};
 
 /// A direction towards a light, as seen from a shading point.
 #[derive(Clone, Copy, Debug)]
@@ -200,7 +200,7 @@ impl Lights {
         });
         let to = sp.position - p;
         let d2 = to.length_squared();
-        if !(d2 > 0.0) {
+        if !is_positive_finite(d2) {
             return None;
         }
         let dist = d2.sqrt();
@@ -212,7 +212,7 @@ impl Lights {
         }
         let le = m.params(&scene.textures, sp.uv).emission;
         let pdf = a.choose.probability(k) / scene.triangle_area(tri) * d2 / cos_l.abs();
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        if !is_positive_finite(pdf) {
             return None;
         }
         Some(LightSample {
@@ -236,7 +236,7 @@ impl Lights {
         }
         let to = l.position - p;
         let d2 = to.length_squared();
-        if !(d2 > 0.0) {
+        if !is_positive_finite(d2) {
             return None;
         }
         let dist = d2.sqrt();
@@ -272,7 +272,7 @@ impl Lights {
     pub fn sample_sky(&self, u: Vec2) -> Option<LightSample> {
         let s = self.sky.as_ref()?;
         let (wi, pdf) = s.sample(u);
-        if !(pdf > 0.0) {
+        if !is_positive_finite(pdf) {
             return None;
         }
         Some(LightSample {

@@ -28,6 +28,12 @@ pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
     (1.0 - s, u.y * s)
 }
 
+/// Whether `x > 0` and finite (false for NaN): the test every density and length passes
+/// before it is divided by.
+pub fn is_positive_finite(x: f32) -> bool {
+    x > 0.0 && x.is_finite()
+}
+
 /// Power heuristic (β = 2) weight of strategy `a` against `b`.
 pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
@@ -84,6 +90,11 @@ impl Distribution {
 
     pub fn len(&self) -> usize {
         self.cdf.len()
+    }
+
+    /// Always false: a distribution is only made from weights with a positive sum.
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty()
     }
 }
 
