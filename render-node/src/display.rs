@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use holocave_tracer::film::Image;
 
 use crate::cache::{RenderCache, StepTimes};
-use crate::source::TracerSource;
+use crate::source::{TracerSource, TracerThread};
 use crate::{EyeView, RenderNodeError};
 
 /// What one frame did.
@@ -17,49 +17,91 @@ pub struct FrameReport {
     pub chosen: Vec<usize>,
     /// Drawing from the cache and choosing pixels (GPU work + read-back).
     pub draw: Duration,
-    /// Tracing the chosen pixels.
+    /// Tracing the chosen pixels (zero when traced on the tracer thread).
     pub trace: Duration,
+    /// Samples inserted this frame.
+    pub inserted: usize,
     /// Uploading and inserting the samples.
     pub insert: Duration,
     /// Per-step times (only when timed).
     pub steps: StepTimes,
 }
 
+/// Where a display process gets its samples.
+pub enum Sampler {
+    /// Traced between frames, on the display's thread (deterministic).
+    Inline(TracerSource),
+    /// Traced on a thread of its own: frames never wait for rays.
+    Thread(TracerThread),
+}
+
 /// The render cache and its sample source.
 pub struct DisplayProcess {
     pub cache: RenderCache,
-    pub source: TracerSource,
+    pub sampler: Sampler,
     /// Samples asked for per eye and frame.
     pub samples_per_eye: u32,
     exposure: Option<f32>,
 }
 
 impl DisplayProcess {
+    /// Traces between frames (synchronous, deterministic).
     pub fn new(cache: RenderCache, source: TracerSource, samples_per_eye: u32) -> Self {
         DisplayProcess {
             cache,
-            source,
+            sampler: Sampler::Inline(source),
             samples_per_eye,
             exposure: None,
         }
     }
 
-    /// One frame: draw every eye, then trace and insert what each eye chose (the samples
-    /// appear in the next frame). Synchronous: the tracer runs between frames.
+    /// Traces on a thread of its own; each eye has at most one batch in flight, and a
+    /// frame inserts whatever has arrived.
+    pub fn threaded(cache: RenderCache, source: TracerSource, samples_per_eye: u32) -> Self {
+        let eyes = cache.eye_count();
+        DisplayProcess {
+            cache,
+            sampler: Sampler::Thread(TracerThread::spawn(source, eyes)),
+            samples_per_eye,
+            exposure: None,
+        }
+    }
+
+    /// One frame: draw every eye and choose its pixels; inline, trace and insert them (the
+    /// samples appear in the next frame); threaded, insert the batches that have arrived
+    /// and send this frame's pixels for every eye whose last batch is back.
     pub fn frame(&mut self, views: &[EyeView], timed: bool) -> FrameReport {
         let mut report = FrameReport::default();
+        if let Sampler::Thread(t) = &mut self.sampler {
+            let start = Instant::now();
+            for (eye, samples) in t.collect() {
+                report.inserted += samples.len();
+                self.cache.insert(eye, &samples);
+            }
+            report.insert += start.elapsed();
+        }
         let t = Instant::now();
         let targets = vec![self.samples_per_eye; views.len()];
         let chosen = self.cache.draw(views, &targets, timed, &mut report.steps);
         report.draw = t.elapsed();
-        for (eye, (view, pixels)) in views.iter().zip(&chosen).enumerate() {
-            let t = Instant::now();
-            let samples = self.source.sample(view, pixels);
-            report.trace += t.elapsed();
-            let t = Instant::now();
-            self.cache.insert(eye, &samples);
-            report.insert += t.elapsed();
+        for (eye, (view, pixels)) in views.iter().zip(chosen).enumerate() {
             report.chosen.push(pixels.len());
+            match &mut self.sampler {
+                Sampler::Inline(source) => {
+                    let t = Instant::now();
+                    let samples = source.sample(view, &pixels);
+                    report.trace += t.elapsed();
+                    let t = Instant::now();
+                    report.inserted += samples.len();
+                    self.cache.insert(eye, &samples);
+                    report.insert += t.elapsed();
+                }
+                Sampler::Thread(thread) => {
+                    if !thread.busy(eye) {
+                        thread.submit(eye, *view, pixels);
+                    }
+                }
+            }
         }
         report
     }

@@ -16,9 +16,9 @@ pub mod tonemap;
 pub mod view;
 
 pub use cache::{NewSample, RenderCache, StepTimes};
-pub use display::{DisplayProcess, FrameReport};
+pub use display::{DisplayProcess, FrameReport, Sampler};
 pub use gpu::Gpu;
-pub use source::TracerSource;
+pub use source::{TracerSource, TracerThread};
 pub use tonemap::{ToneMapper, ToneMode};
 pub use view::EyeView;
 

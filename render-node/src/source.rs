@@ -73,3 +73,85 @@ impl TracerSource {
             .collect()
     }
 }
+
+type Job = (usize, EyeView, Vec<u32>);
+
+/// A [`TracerSource`] on its own thread, so that the display never waits for rays: each
+/// eye has at most one batch in flight; finished batches are collected without blocking.
+pub struct TracerThread {
+    jobs: Option<std::sync::mpsc::Sender<Job>>,
+    done: std::sync::mpsc::Receiver<(usize, Vec<NewSample>)>,
+    in_flight: Vec<bool>,
+    handle: Option<std::thread::JoinHandle<()>>,
+}
+
+impl TracerThread {
+    pub fn spawn(mut source: TracerSource, eyes: usize) -> TracerThread {
+        let (jobs, job_rx) = std::sync::mpsc::channel::<Job>();
+        let (done_tx, done) = std::sync::mpsc::channel();
+        let handle = std::thread::Builder::new()
+            .name("render-node tracer".into())
+            .spawn(move || {
+                for (eye, view, pixels) in job_rx {
+                    let samples = source.sample(&view, &pixels);
+                    if done_tx.send((eye, samples)).is_err() {
+                        break;
+                    }
+                }
+            })
+            .expect("spawn the tracer thread");
+        TracerThread {
+            jobs: Some(jobs),
+            done,
+            in_flight: vec![false; eyes],
+            handle: Some(handle),
+        }
+    }
+
+    /// Whether eye `eye` still has a batch being traced.
+    pub fn busy(&self, eye: usize) -> bool {
+        self.in_flight[eye]
+    }
+
+    /// Queues the pixels of one eye (call only when not [`TracerThread::busy`]).
+    pub fn submit(&mut self, eye: usize, view: EyeView, pixels: Vec<u32>) {
+        if let Some(j) = &self.jobs
+            && j.send((eye, view, pixels)).is_ok()
+        {
+            self.in_flight[eye] = true;
+        }
+    }
+
+    /// The batches finished so far, without waiting.
+    pub fn collect(&mut self) -> Vec<(usize, Vec<NewSample>)> {
+        let batches: Vec<_> = self.done.try_iter().collect();
+        for (eye, _) in &batches {
+            self.in_flight[*eye] = false;
+        }
+        batches
+    }
+
+    /// Waits for every batch in flight.
+    pub fn finish(&mut self) -> Vec<(usize, Vec<NewSample>)> {
+        let mut out = Vec::new();
+        while self.in_flight.iter().any(|&b| b) {
+            match self.done.recv() {
+                Ok((eye, s)) => {
+                    self.in_flight[eye] = false;
+                    out.push((eye, s));
+                }
+                Err(_) => break,
+            }
+        }
+        out
+    }
+}
+
+impl Drop for TracerThread {
+    fn drop(&mut self) {
+        self.jobs = None;
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}

@@ -80,6 +80,10 @@ pub struct NodeArgs {
     /// `human` mode, or `reinhard` (the tracer's preview). EXR files are always linear.
     #[arg(long, default_value = "camera")]
     tone: String,
+    /// Trace between frames on the display's thread (deterministic output) instead of on a
+    /// tracer thread that frames never wait for.
+    #[arg(long)]
+    sync: bool,
     /// Write images every K frames (and always the last).
     #[arg(long, default_value_t = 1)]
     every: u64,
@@ -249,7 +253,12 @@ pub fn run(args: NodeArgs) -> Result<()> {
     let capacity = (pixels * eyes.len() as u32) * 5 / 4;
     let sizes = vec![(width, height); eyes.len()];
     let cache = RenderCache::new(gpu, &sizes, capacity, samples.saturating_mul(2));
-    let mut display = DisplayProcess::new(cache, TracerSource::new(tracer, 1), samples);
+    let source = TracerSource::new(tracer, 1);
+    let mut display = if args.sync {
+        DisplayProcess::new(cache, source, samples)
+    } else {
+        DisplayProcess::threaded(cache, source, samples)
+    };
     println!(
         "wall {:?}: {} eye(s) at {width}x{height}, {} points, {samples} samples per eye and frame, GPU {}",
         wall.name,
@@ -271,6 +280,7 @@ pub fn run(args: NodeArgs) -> Result<()> {
     let start = Instant::now();
     let mut frame = 0u64;
     let mut totals = (Duration::ZERO, Duration::ZERO, Duration::ZERO);
+    let mut inserted = 0usize;
     loop {
         let done = args.frames.is_some_and(|n| frame >= n)
             || args
@@ -318,6 +328,7 @@ pub fn run(args: NodeArgs) -> Result<()> {
         totals.0 += report.draw;
         totals.1 += report.trace;
         totals.2 += report.insert;
+        inserted += report.inserted;
         let last = args.frames.is_some_and(|n| frame + 1 == n);
         if frame.is_multiple_of(args.every.max(1)) || last {
             let mut sheet = Vec::new();
@@ -363,11 +374,17 @@ pub fn run(args: NodeArgs) -> Result<()> {
     }
     let n = frame.max(1) as f64;
     println!(
-        "{frame} frames in {:.2} s; per frame: draw + choose {:.2} ms, trace {:.2} ms, insert {:.2} ms; images in {}",
+        "{frame} frames in {:.2} s; per frame: draw + choose {:.2} ms, trace {:.2} ms{}, insert {:.2} ms, {:.0} samples inserted; images in {}",
         start.elapsed().as_secs_f64(),
         totals.0.as_secs_f64() * 1e3 / n,
         totals.1.as_secs_f64() * 1e3 / n,
+        if args.sync {
+            ""
+        } else {
+            " (on the tracer thread)"
+        },
         totals.2.as_secs_f64() * 1e3 / n,
+        inserted as f64 / n,
         dir.display()
     );
     Ok(())

@@ -1,0 +1,68 @@
+//! The display never waits for rays: with the tracer on its own thread and made slow on
+//! purpose (no Russian roulette: every path runs to 64 bounces), frames keep coming while
+//! batches are traced, and the picture still fills in as they arrive.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use holocave_render_node::{DisplayProcess, EyeView, Gpu, RenderCache, Sampler, TracerSource};
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::view::WallView;
+use holocave_tracer::{TraceSettings, Tracer};
+
+#[test]
+fn frames_do_not_wait_for_the_tracer() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let scene = Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default())
+        .expect("load the Cornell box");
+    let slow = TraceSettings {
+        max_depth: 64,
+        roulette_depth: 64,
+    };
+    let tracer = Arc::new(Tracer::new(Arc::new(scene), slow));
+    let size = 64;
+    let wall = WallView {
+        eye: Vec3::new(0.0, 1.0, 3.4),
+        pa: Vec3::new(-1.0, 0.0, 1.2),
+        pb: Vec3::new(1.0, 0.0, 1.2),
+        pc: Vec3::new(-1.0, 2.0, 1.2),
+        width: size,
+        height: size,
+    };
+    let view = EyeView::kooima(wall, 0.05);
+    let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
+    let n = size * size;
+    let cache = RenderCache::new(gpu, &[(size, size)], n * 2, n);
+    let mut display = DisplayProcess::threaded(cache, TracerSource::new(tracer, 5), n);
+
+    let start = Instant::now();
+    let (mut frames, mut arrivals) = (0u32, 0u32);
+    while start.elapsed() < Duration::from_secs(3) {
+        let r = display.frame(&[view], false);
+        frames += 1;
+        arrivals += u32::from(r.inserted > 0);
+        assert_eq!(r.trace, Duration::ZERO, "no tracing on the display thread");
+    }
+    eprintln!("{frames} frames, {arrivals} of them with a batch of samples");
+    assert!(arrivals >= 1, "no batch arrived in 3 s");
+    assert!(
+        frames >= 3 * arrivals,
+        "{frames} frames for {arrivals} batches: the display waited for the tracer"
+    );
+    // Let the last batch land; the picture is mostly drawn by now.
+    if let Sampler::Thread(t) = &mut display.sampler {
+        for (eye, s) in t.finish() {
+            display.cache.insert(eye, &s);
+        }
+    }
+    display.frame(&[view], false);
+    let cov = display.cache.coverage(0);
+    let drawn = cov.iter().filter(|&&c| c > 0.0).count() as f64 / cov.len() as f64;
+    assert!(
+        drawn > 0.9,
+        "only {:.0}% of the pixels drawn",
+        drawn * 100.0
+    );
+}
