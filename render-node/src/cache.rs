@@ -34,7 +34,7 @@ struct EyeParams {
     max_chosen: u32,
     frame: u32,
     eye_index: u32,
-    pad: u32,
+    index_bits: u32,
 }
 
 #[repr(C)]
@@ -45,7 +45,8 @@ struct InsertParams {
     ngroups: u32,
     group_size: u32,
     npoints: u32,
-    pad: [u32; 3],
+    index_bits: u32,
+    pad: [u32; 2],
 }
 
 /// A point of the cache as the GPU stores it (`Point` in `shaders/common.wgsl`).
@@ -145,8 +146,7 @@ struct EyeBuffers {
 struct Pipelines {
     clear: wgpu::ComputePipeline,
     depth: wgpu::ComputePipeline,
-    miss: wgpu::ComputePipeline,
-    index: wgpu::ComputePipeline,
+    key: wgpu::ComputePipeline,
     cull: wgpu::ComputePipeline,
     interpolate: wgpu::ComputePipeline,
     dither: wgpu::ComputePipeline,
@@ -164,6 +164,9 @@ pub struct RenderCache {
     max_chosen: u32,
     batch: u32,
     frame: u32,
+    /// Low bits of a pixel key holding the point index (enough for `capacity`, with the
+    /// all-ones index left for "empty").
+    index_bits: u32,
     points: wgpu::Buffer,
     samples: wgpu::Buffer,
     insert_params: wgpu::Buffer,
@@ -230,6 +233,12 @@ impl RenderCache {
         let ngroups = capacity.div_ceil(GROUP_SIZE).max(1);
         let capacity = ngroups * GROUP_SIZE;
         let max_chosen = max_chosen.max(1);
+        // At most 2^24 points, so that at least 8 bits of a pixel key quantise the miss.
+        let index_bits = (32 - capacity.leading_zeros()).max(1);
+        assert!(
+            index_bits <= 24,
+            "a render cache holds at most 2^24 - 1 points ({capacity} asked for)"
+        );
         let batch = max_chosen.min(ngroups);
         let empty = GpuPoint {
             pos: [0.0, 0.0, 0.0, 2.0e6],
@@ -248,8 +257,8 @@ impl RenderCache {
         use Binding::{Storage, Uniform};
         let rw = Storage { read_only: false };
         let ro = Storage { read_only: true };
-        let project_l = gpu.layout("project", &[Uniform, ro, rw, rw, rw, rw, rw]);
-        let filter_l = gpu.layout("filter", &[Uniform, ro, ro, ro, ro, rw, rw, rw, rw]);
+        let project_l = gpu.layout("project", &[Uniform, ro, rw, rw, rw, rw]);
+        let filter_l = gpu.layout("filter", &[Uniform, ro, ro, ro, rw, rw, rw, rw]);
         let dither_l = gpu.layout("dither", &[Uniform, ro, rw, rw, rw]);
         let insert_l = gpu.layout("insert", &[Uniform, rw, ro, ro, rw]);
         let age_l = gpu.layout("age", &[Uniform, rw, rw]);
@@ -257,7 +266,7 @@ impl RenderCache {
             "project",
             include_str!("shaders/project.wgsl"),
             &project_l,
-            &["clear", "project_depth", "project_miss", "project_index"],
+            &["clear", "project_depth", "project_key"],
         );
         let mut f = gpu.pipelines(
             "filter",
@@ -285,8 +294,7 @@ impl RenderCache {
             dither: d.remove(0),
             interpolate: f.remove(1),
             cull: f.remove(0),
-            index: p.remove(3),
-            miss: p.remove(2),
+            key: p.remove(2),
             depth: p.remove(1),
             clear: p.remove(0),
         };
@@ -297,8 +305,7 @@ impl RenderCache {
                 let n = u64::from(width) * u64::from(height);
                 let params = gpu.uniform("eye params", std::mem::size_of::<EyeParams>() as u64);
                 let depth = gpu.storage("depth", 4 * n);
-                let miss = gpu.storage("miss", 4 * n);
-                let index = gpu.storage("index", 4 * n);
+                let key = gpu.storage("key", 4 * n);
                 let culled = gpu.storage("culled", 16 * n);
                 let color = gpu.storage("color", 16 * n);
                 let priority = gpu.storage("priority", 4 * n);
@@ -314,14 +321,13 @@ impl RenderCache {
                 let project_bg = gpu.bind_group(
                     "project",
                     &project_l,
-                    &[&params, &points, &depth, &miss, &index, &visible, &counters],
+                    &[&params, &points, &depth, &key, &visible, &counters],
                 );
                 let filter_bg = gpu.bind_group(
                     "filter",
                     &filter_l,
                     &[
-                        &params, &points, &depth, &miss, &index, &culled, &color, &priority,
-                        &counters,
+                        &params, &points, &depth, &key, &culled, &color, &priority, &counters,
                     ],
                 );
                 let dither_bg = gpu.bind_group(
@@ -332,7 +338,7 @@ impl RenderCache {
                 let insert_bg = gpu.bind_group(
                     "insert",
                     &insert_l,
-                    &[&insert_params, &points, &samples, &index, &matched],
+                    &[&insert_params, &points, &samples, &key, &matched],
                 );
                 EyeBuffers {
                     width,
@@ -360,6 +366,7 @@ impl RenderCache {
             max_chosen,
             batch,
             frame: 0,
+            index_bits,
             points,
             samples,
             insert_params,
@@ -408,7 +415,7 @@ impl RenderCache {
                 max_chosen: self.max_chosen,
                 frame: self.frame,
                 eye_index: i as u32,
-                pad: 0,
+                index_bits: self.index_bits,
             };
             self.gpu
                 .queue
@@ -421,8 +428,7 @@ impl RenderCache {
             r.pass(&p.clear, &e.project_bg, n.max(4), 256);
             r.step(&mut times.clear);
             r.pass(&p.depth, &e.project_bg, self.capacity, 256);
-            r.pass(&p.miss, &e.project_bg, self.capacity, 256);
-            r.pass(&p.index, &e.project_bg, self.capacity, 256);
+            r.pass(&p.key, &e.project_bg, self.capacity, 256);
             r.step(&mut times.projection);
             r.pass(&p.cull, &e.filter_bg, n, 256);
             r.step(&mut times.depth_cull);
@@ -467,7 +473,8 @@ impl RenderCache {
                 ngroups: self.ngroups,
                 group_size: GROUP_SIZE,
                 npoints: self.capacity,
-                pad: [0; 3],
+                index_bits: self.index_bits,
+                pad: [0; 2],
             };
             self.cursor = (self.cursor + chunk.len() as u32) % self.ngroups;
             self.gpu

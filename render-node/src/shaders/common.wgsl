@@ -19,7 +19,8 @@ struct EyeParams {
     max_chosen: u32,
     frame: u32,
     eye_index: u32,
-    pad1: u32,
+    // Bits of a pixel key that hold the point index (the rest: the quantised miss).
+    index_bits: u32,
 }
 
 const EMPTY: u32 = 0xffffffffu;
@@ -50,4 +51,29 @@ fn hash_u32(x: u32) -> u32 {
     h = h * 0x846ca68bu;
     h = h ^ (h >> 16u);
     return h;
+}
+
+// A pixel's key: the quantised distance by which the point's ray missed the eye in the
+// high bits, the point index in the low `index_bits` (atomicMin picks the smallest miss,
+// then the smallest index). The miss is quantised as sqrt(miss / MISS_RANGE) so that small
+// misses keep fine steps.
+const MISS_RANGE: f32 = 1.0;
+
+fn miss_levels(index_bits: u32) -> u32 {
+    return (1u << (32u - index_bits)) - 1u;
+}
+
+fn make_key(miss: f32, index: u32, index_bits: u32) -> u32 {
+    let levels = miss_levels(index_bits);
+    let q = min(u32(sqrt(clamp(miss / MISS_RANGE, 0.0, 1.0)) * f32(levels) + 0.5), levels);
+    return (q << index_bits) | index;
+}
+
+fn key_index(key: u32, index_bits: u32) -> u32 {
+    return key & ((1u << index_bits) - 1u);
+}
+
+fn key_miss(key: u32, index_bits: u32) -> f32 {
+    let q = f32(key >> index_bits) / f32(miss_levels(index_bits));
+    return q * q * MISS_RANGE;
 }

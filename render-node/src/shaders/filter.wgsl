@@ -4,14 +4,13 @@
 @group(0) @binding(0) var<uniform> P: EyeParams;
 @group(0) @binding(1) var<storage, read> points: array<Point>;
 @group(0) @binding(2) var<storage, read> depth_img: array<u32>;
-@group(0) @binding(3) var<storage, read> miss_img: array<u32>;
-@group(0) @binding(4) var<storage, read> index_img: array<u32>;
+@group(0) @binding(3) var<storage, read> key_img: array<u32>;
 // rgb + state: 1 a point is shown, 0 no point (after the cull).
-@group(0) @binding(5) var<storage, read_write> culled: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> culled: array<vec4<f32>>;
 // rgb + state: 1 point, 0.5 interpolated, 0 empty.
-@group(0) @binding(6) var<storage, read_write> color: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read_write> priority: array<f32>;
-@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> color: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> priority: array<f32>;
+@group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>>;
 
 const CULL_FACTOR: f32 = 1.1;
 // A point whose ray passed this close to the eye (m) was traced from it.
@@ -29,8 +28,8 @@ fn cull(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= P.width * P.height) {
         return;
     }
-    let idx = index_img[i];
-    if (idx == EMPTY) {
+    let key = key_img[i];
+    if (key == EMPTY) {
         culled[i] = vec4<f32>(0.0);
         return;
     }
@@ -56,11 +55,11 @@ fn cull(@builtin(global_invocation_id) gid: vec3<u32>) {
     // A point whose ray started at this eye was the first thing that ray hit: nothing in
     // front of it can have been missed, so only reprojected points are culled (this keeps
     // background and far points beside silhouettes).
-    let seen_from_here = bitcast<f32>(miss_img[i]) < SEEN_FROM_HERE;
+    let seen_from_here = key_miss(key, P.index_bits) < SEEN_FROM_HERE;
     if (!seen_from_here && depth > CULL_FACTOR * sum / n) {
         culled[i] = vec4<f32>(0.0);
     } else {
-        culled[i] = vec4<f32>(points[idx].rad.xyz, 1.0);
+        culled[i] = vec4<f32>(points[key_index(key, P.index_bits)].rad.xyz, 1.0);
     }
 }
 
@@ -74,9 +73,10 @@ fn interpolate(@builtin(global_invocation_id) gid: vec3<u32>) {
     var pr = 0.0;
     if (c.w > 0.0) {
         color[i] = c;
-        let p = points[index_img[i]];
+        let key = key_img[i];
+        let p = points[key_index(key, P.index_bits)];
         let age = min(p.pos.w / AGE_SCALE, 1.0);
-        let miss = min(bitcast<f32>(miss_img[i]) / MISS_SCALE, 1.0);
+        let miss = min(key_miss(key, P.index_bits) / MISS_SCALE, 1.0);
         pr = age + 0.5 * miss;
     } else {
         let x = i32(i % P.width);

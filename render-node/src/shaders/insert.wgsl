@@ -20,7 +20,7 @@ struct InsertParams {
     ngroups: u32,
     group_size: u32,
     npoints: u32,
-    pad0: u32,
+    index_bits: u32,
     pad1: u32,
     pad2: u32,
 }
@@ -28,7 +28,7 @@ struct InsertParams {
 @group(0) @binding(0) var<uniform> Q: InsertParams;
 @group(0) @binding(1) var<storage, read_write> points: array<Point>;
 @group(0) @binding(2) var<storage, read> samples: array<NewSample>;
-@group(0) @binding(3) var<storage, read> index_img: array<u32>;
+@group(0) @binding(3) var<storage, read> key_img: array<u32>;
 @group(0) @binding(4) var<storage, read_write> matched: array<u32>;
 
 // Ray origins closer than this (m) count as the same eye position.
@@ -47,10 +47,11 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let s = samples[i];
     matched[i] = 0u;
-    let idx = index_img[bitcast<u32>(s.pos.w)];
-    if (idx == EMPTY) {
+    let key = key_img[bitcast<u32>(s.pos.w)];
+    if (key == EMPTY) {
         return;
     }
+    let idx = key_index(key, Q.index_bits);
     var p = points[idx];
     if (!point_valid(p)) {
         return;

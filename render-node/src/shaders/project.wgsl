@@ -1,18 +1,17 @@
-// Per eye: clear the per-pixel buffers, then z-buffered projection of every point in three
-// linear passes over the points (WGSL has only 32-bit atomics, so the packed
-// depth/convergence/index key is resolved one field per pass):
+// Per eye: clear the per-pixel buffers, then z-buffered projection of every point in two
+// linear passes over the points (WGSL has only 32-bit atomics, so depth and the rest of
+// the key are resolved one after the other):
 //   1. atomicMin of the depth (positive f32 bits order like u32),
-//   2. among points within 1% of the pixel's nearest depth, atomicMin of the distance by
-//      which their ray missed this eye (holodeck §2.4.2 convergence),
-//   3. among those with the smallest miss, atomicMin of the point index (deterministic).
+//   2. among points within 1% of the pixel's nearest depth, atomicMin of the key
+//      (quantised distance by which their ray missed this eye, then point index: the
+//      holodeck paper's §2.4.2 convergence, deterministic on ties).
 
 @group(0) @binding(0) var<uniform> P: EyeParams;
 @group(0) @binding(1) var<storage, read> points: array<Point>;
 @group(0) @binding(2) var<storage, read_write> depth_img: array<atomic<u32>>;
-@group(0) @binding(3) var<storage, read_write> miss_img: array<atomic<u32>>;
-@group(0) @binding(4) var<storage, read_write> index_img: array<atomic<u32>>;
-@group(0) @binding(5) var<storage, read_write> visible: array<u32>;
-@group(0) @binding(6) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(3) var<storage, read_write> key_img: array<atomic<u32>>;
+@group(0) @binding(4) var<storage, read_write> visible: array<u32>;
+@group(0) @binding(5) var<storage, read_write> counters: array<atomic<u32>>;
 
 const DEPTH_TOLERANCE: f32 = 1.01;
 
@@ -53,8 +52,7 @@ fn clear(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     atomicStore(&depth_img[i], EMPTY);
-    atomicStore(&miss_img[i], EMPTY);
-    atomicStore(&index_img[i], EMPTY);
+    atomicStore(&key_img[i], EMPTY);
 }
 
 @compute @workgroup_size(256)
@@ -72,7 +70,7 @@ fn project_depth(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 
 @compute @workgroup_size(256)
-fn project_miss(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn project_key(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     if (i >= P.npoints) {
         return;
@@ -84,24 +82,7 @@ fn project_miss(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let nearest = bitcast<f32>(atomicLoad(&depth_img[pr.pixel]));
     if (pr.depth <= nearest * DEPTH_TOLERANCE) {
-        atomicMin(&miss_img[pr.pixel], bitcast<u32>(miss_distance(p, P.eye.xyz)));
-    }
-}
-
-@compute @workgroup_size(256)
-fn project_index(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if (i >= P.npoints) {
-        return;
-    }
-    let p = points[i];
-    let pr = project(p);
-    if (!pr.ok) {
-        return;
-    }
-    let nearest = bitcast<f32>(atomicLoad(&depth_img[pr.pixel]));
-    if (pr.depth <= nearest * DEPTH_TOLERANCE
-        && bitcast<u32>(miss_distance(p, P.eye.xyz)) == atomicLoad(&miss_img[pr.pixel])) {
-        atomicMin(&index_img[pr.pixel], i);
+        let key = make_key(miss_distance(p, P.eye.xyz), i, P.index_bits);
+        atomicMin(&key_img[pr.pixel], key);
     }
 }
