@@ -46,7 +46,8 @@ struct InsertParams {
     group_size: u32,
     npoints: u32,
     index_bits: u32,
-    pad: [u32; 2],
+    width: u32,
+    height: u32,
 }
 
 /// A point of the cache as the GPU stores it (`Point` in `shaders/common.wgsl`).
@@ -474,7 +475,8 @@ impl RenderCache {
                 group_size: GROUP_SIZE,
                 npoints: self.capacity,
                 index_bits: self.index_bits,
-                pad: [0; 2],
+                width: self.eyes[eye].width,
+                height: self.eyes[eye].height,
             };
             self.cursor = (self.cursor + chunk.len() as u32) % self.ngroups;
             self.gpu

@@ -186,3 +186,39 @@ fn dithering_chooses_about_the_budget_and_empty_pixels_first() {
     sorted.dedup();
     assert_eq!(sorted.len(), chosen.len(), "each pixel chosen once");
 }
+
+#[test]
+fn a_changed_colour_from_another_eye_ages_the_points_around_it() {
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let mut c = cache(256);
+    draw(&mut c, &v);
+    // A wall of points at radiance 1, each of two samples from this eye.
+    let wall: Vec<NewSample> = (0..H)
+        .flat_map(|y| (0..W).map(move |x| (x, y)))
+        .map(|(x, y)| sample(&v, x, y, 2.0, 1.0))
+        .collect();
+    c.insert(0, &wall);
+    draw(&mut c, &v);
+    c.insert(0, &wall);
+    draw(&mut c, &v);
+    let ages = |c: &RenderCache| -> Vec<f32> {
+        let mut a: Vec<f32> = c
+            .points()
+            .iter()
+            .filter(|p| p.pos[3] < 1e6)
+            .map(|p| p.pos[3])
+            .collect();
+        a.sort_by(f32::total_cmp);
+        a
+    };
+    assert!(ages(&c).iter().all(|&a| a <= 1.0));
+    // A sample of pixel (4, 4) from 5 cm aside, ten times brighter: its 3x3 neighbourhood
+    // ages by 16 frames (the centre's own point is then replaced or refreshed).
+    let aside = v.eye() + Vec3::new(0.05, 0.0, 0.0);
+    let p = v.wall.ray(Vec2::new(4.5, 4.5)).at(2.0);
+    let d = (p - aside).length();
+    c.insert(0, &[NewSample::new(4 * W + 4, aside, p, d, [10.0; 3], 1)]);
+    let a = ages(&c);
+    let aged = a.iter().filter(|&&x| x >= 16.0).count();
+    assert_eq!(aged, 9, "ages {a:?}");
+}

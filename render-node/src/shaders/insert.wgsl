@@ -5,6 +5,8 @@
 //          same place joins a running mean capped at MOVING_MAX_COUNT samples (so a slowly
 //          moving head is not shown 1-sample noise, and view-dependent change still shows)
 //          and moves the point's ray origin to the new eye;
+//          a sample from another eye position whose colour differs a lot from the
+//          pixel's well-sampled point ages the points around it (premature aging);
 //   place: every other sample becomes a new point, replacing the oldest point of a
 //          group of GROUP points chosen round robin (the render cache's replacement).
 
@@ -21,8 +23,8 @@ struct InsertParams {
     group_size: u32,
     npoints: u32,
     index_bits: u32,
-    pad1: u32,
-    pad2: u32,
+    width: u32,
+    height: u32,
 }
 
 @group(0) @binding(0) var<uniform> Q: InsertParams;
@@ -38,6 +40,37 @@ const NEAR_ORIGIN: f32 = 0.02;
 // Hits closer than this fraction of their distance are the same place.
 const SAME_PLACE: f32 = 0.05;
 const MOVING_MAX_COUNT: f32 = 16.0;
+// Premature aging: a sample from another eye position whose luminance differs from the
+// pixel's point (of at least MIN_COUNT samples) by more than this factor either way ...
+const CHANGE_FACTOR: f32 = 4.0;
+const MIN_COUNT: f32 = 2.0;
+// ... ages the points shown in the pixel's 3x3 neighbourhood by this many frames, so they
+// are resampled sooner (the render cache's premature aging of stale points).
+const CHANGE_AGING: f32 = 16.0;
+
+fn lum(c: vec3<f32>) -> f32 {
+    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+}
+
+fn age_neighbourhood(pixel: u32) {
+    let x = i32(pixel % Q.width);
+    let y = i32(pixel / Q.width);
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let xx = x + dx;
+            let yy = y + dy;
+            if (xx < 0 || yy < 0 || xx >= i32(Q.width) || yy >= i32(Q.height)) {
+                continue;
+            }
+            let k = key_img[u32(yy) * Q.width + u32(xx)];
+            if (k != EMPTY) {
+                let j = key_index(k, Q.index_bits);
+                // Not atomic: two samples ageing one point may lose one bump; harmless.
+                points[j].pos.w = min(points[j].pos.w + CHANGE_AGING, MAX_AGE - 1.0);
+            }
+        }
+    }
+}
 
 @compute @workgroup_size(64)
 fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -57,6 +90,14 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let moved = distance(p.origin.xyz, s.origin.xyz);
+    if (moved > SAME_ORIGIN && p.rad.w >= MIN_COUNT) {
+        let a = lum(p.rad.xyz) + 1.0e-3;
+        let b = lum(s.rad.xyz) + 1.0e-3;
+        if (a > CHANGE_FACTOR * b || b > CHANGE_FACTOR * a) {
+            age_neighbourhood(bitcast<u32>(s.pos.w));
+            p.pos.w = points[idx].pos.w;
+        }
+    }
     var n = p.rad.w + 1.0;
     if (moved > SAME_ORIGIN) {
         let same_surface = bitcast<u32>(p.origin.w) == bitcast<u32>(s.rad.w);
