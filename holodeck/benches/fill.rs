@@ -8,13 +8,18 @@ use std::collections::VecDeque;
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::{SampleSource, trace_packet};
+use holocave_holodeck::worker::{DistanceKind, SampleSource, trace_packet};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 
 struct Analytic;
 
 impl SampleSource for Analytic {
-    fn trace(&self, rays: &[([f32; 3], [f32; 3])], _seed: u64) -> Vec<([f32; 3], f32)> {
+    fn trace(
+        &self,
+        rays: &[([f32; 3], [f32; 3])],
+        _seed: u64,
+        _distance: DistanceKind,
+    ) -> Vec<([f32; 3], f32)> {
         rays.iter()
             .map(|(o, d)| ([d[0].abs(), d[1].abs(), d[2].abs()], 1.0 + o[0].abs()))
             .collect()
@@ -58,8 +63,12 @@ fn fill(c: &mut Criterion) {
                     queue.extend(srv.next_packets(w, t));
                     let p = queue.pop_front().unwrap();
                     t += p.len() as f64 / 1e6;
-                    srv.complete(w, &trace_packet(&Analytic, &p).unwrap(), t)
-                        .unwrap();
+                    srv.complete(
+                        w,
+                        &trace_packet(&Analytic, &p, DistanceKind::Virtual).unwrap(),
+                        t,
+                    )
+                    .unwrap();
                 }
                 srv.flush().unwrap();
                 std::fs::remove_file(&path).unwrap();

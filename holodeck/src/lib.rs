@@ -15,6 +15,7 @@ pub mod run;
 pub mod sample;
 pub mod section;
 pub mod server;
+pub mod view;
 pub mod worker;
 
 pub use file::{FileError, HoloFile};

@@ -6,9 +6,9 @@
 //! has grown since (samples arrived or were assigned) is pushed back with the new ratio.
 
 use std::cmp::Ordering;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
 
-use crate::cache::BeamKey;
+use crate::cache::{BeamKey, BeamMap};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Item {
@@ -34,13 +34,13 @@ impl PartialOrd for Item {
 /// Requested beams and how many samples each should have.
 #[derive(Default)]
 pub struct RequestList {
-    wanted: HashMap<BeamKey, f64>,
+    wanted: BeamMap<BeamKey, f64>,
     heap: BinaryHeap<Item>,
 }
 
 impl RequestList {
     /// Sets (replacing) the list. `have` gives each beam's computed (+ assigned) samples.
-    pub fn set(&mut self, wanted: HashMap<BeamKey, f64>, have: impl Fn(BeamKey) -> u32) {
+    pub fn set(&mut self, wanted: BeamMap<BeamKey, f64>, have: impl Fn(BeamKey) -> u32) {
         self.heap = wanted
             .iter()
             .filter(|(_, w)| **w > 0.0)
@@ -107,10 +107,12 @@ mod tests {
 
     #[test]
     fn serves_lowest_ratio_first_and_fills_evenly() {
-        let have = RefCell::new(HashMap::<BeamKey, u32>::new());
+        let have = RefCell::new(BeamMap::<BeamKey, u32>::default());
         let get = |k| *have.borrow().get(&k).unwrap_or(&0);
         let mut r = RequestList::default();
-        let wanted: HashMap<BeamKey, f64> = [((0, 1), 10.0), ((0, 2), 30.0), ((1, 0), 60.0)].into();
+        let wanted: BeamMap<BeamKey, f64> = [((0, 1), 10.0), ((0, 2), 30.0), ((1, 0), 60.0)]
+            .into_iter()
+            .collect();
         have.borrow_mut().insert((1, 0), 30);
         r.set(wanted.clone(), get);
         let (k, ratio) = r.pop(get, f64::INFINITY).unwrap();

@@ -8,7 +8,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
-use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, Welcome, WorkerMsg};
+use holocave_protocol::holodeck::{DistanceKind, PROTOCOL_VERSION, ServerMsg, Welcome, WorkerMsg};
 use tokio::io::{AsyncWriteExt, BufWriter};
 
 use crate::server::{Server, ServerError, Stats, WorkerId};
@@ -41,6 +41,8 @@ struct Shared {
     stop: AtomicBool,
     connections: AtomicUsize,
     start: Instant,
+    /// The distance the holodeck stores, asked of every worker.
+    distance: DistanceKind,
 }
 
 impl Shared {
@@ -61,12 +63,14 @@ pub fn run(
     opts: RunOptions,
     mut stop: impl FnMut(&Progress) -> bool,
 ) -> Result<Server, ServerError> {
+    let distance = server.cache().file().distance_kind()?;
     let shared = Arc::new(Shared {
         server: Mutex::new(server),
         wake: Condvar::new(),
         stop: AtomicBool::new(false),
         connections: AtomicUsize::new(0),
         start: Instant::now(),
+        distance,
     });
     let mut threads = Vec::new();
     if let Some(source) = &opts.source {
@@ -135,10 +139,21 @@ pub fn run(
             break;
         }
         if last_commit.elapsed() >= opts.commit_every {
-            if let Err(e) = shared.lock().flush() {
-                result = Err(e);
-                break;
+            let mut s = shared.lock();
+            let t = Instant::now();
+            match s.flush() {
+                Ok(seq) => tracing::info!(
+                    "commit {seq}: {} samples durable ({} added by this run; {:.2} s)",
+                    s.stats().samples,
+                    s.stats().added,
+                    t.elapsed().as_secs_f64()
+                ),
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
             }
+            drop(s);
             commits += 1;
             last_commit = Instant::now();
         }
@@ -162,7 +177,12 @@ pub fn run(
         .into_inner()
         .unwrap_or_else(|p| p.into_inner());
     result?;
-    server.flush()?;
+    let seq = server.flush()?;
+    tracing::info!(
+        "commit {seq}: {} samples durable ({} added by this run)",
+        server.stats().samples,
+        server.stats().added
+    );
     Ok(server)
 }
 
@@ -183,8 +203,8 @@ fn thread_worker(sh: &Shared, source: &dyn SampleSource) {
             if sh.stop.load(Ordering::SeqCst) {
                 break;
             }
-            let result =
-                trace_packet(source, &p).expect("packets built by the server are whole records");
+            let result = trace_packet(source, &p, sh.distance)
+                .expect("packets built by the server are whole records");
             if let Err(e) = sh.lock().complete(id, &result, sh.now()) {
                 tracing::warn!("worker thread: {e}");
             }
@@ -251,6 +271,7 @@ async fn worker_session(
         &ServerMsg::Welcome(Welcome {
             worker_id: id,
             scene: scene.into(),
+            distance: sh.distance,
         }),
         MAX_FRAME_BYTES,
     )

@@ -14,13 +14,13 @@
 //! packets of half that, so one is traced while the next waits. A worker that leaves loses
 //! only its in-flight packets, which go to the next worker asking for work.
 
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 
 use holocave_protocol::holodeck::{RayPacket, RecordError, SamplePacket};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-use crate::cache::{BeamCache, BeamKey};
+use crate::cache::{BeamCache, BeamKey, BeamMap};
 use crate::distance_code::DistanceCode;
 use crate::file::{FileError, HoloFile};
 use crate::proximity::{self, Eye, RayCode};
@@ -68,7 +68,7 @@ impl Default for ServerConfig {
 const MIN_PACKET_RAYS: usize = 16;
 const MAX_PACKET_RAYS: usize = 1 << 16;
 /// Rays per assignment to a beam of average volume in batch mode.
-const BATCH_BUNDLE: f64 = 4.0;
+const BATCH_BUNDLE: f64 = 8.0;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ServerError {
@@ -139,16 +139,16 @@ pub struct Server {
     config: ServerConfig,
     requests: crate::requests::RequestList,
     /// Rays assigned to workers and not yet returned, per beam.
-    pending: HashMap<BeamKey, u32>,
+    pending: BeamMap<BeamKey, u32>,
     /// Per-beam weight in batch mode (mean 1).
-    weights: HashMap<BeamKey, f64>,
+    weights: BeamMap<BeamKey, f64>,
     workers: BTreeMap<WorkerId, WorkerState>,
     next_worker: WorkerId,
-    packets: HashMap<u64, Packet>,
+    packets: BeamMap<u64, Packet>,
     orphans: VecDeque<u64>,
     next_packet: u64,
     displays: BTreeMap<DisplayId, DisplayRequest>,
-    eyes: HashMap<BeamKey, Eye>,
+    eyes: BeamMap<BeamKey, Eye>,
     codes: Vec<DistanceCode>,
     rng: SmallRng,
     stats: Stats,
@@ -177,15 +177,15 @@ impl Server {
             mode,
             config,
             requests: Default::default(),
-            pending: HashMap::new(),
-            weights: HashMap::new(),
+            pending: BeamMap::default(),
+            weights: BeamMap::default(),
             workers: BTreeMap::new(),
             next_worker: 1,
-            packets: HashMap::new(),
+            packets: BeamMap::default(),
             orphans: VecDeque::new(),
             next_packet: 1,
             displays: BTreeMap::new(),
-            eyes: HashMap::new(),
+            eyes: BeamMap::default(),
             codes,
             rng,
             stats: Stats {
@@ -201,7 +201,7 @@ impl Server {
 
     /// Batch mode: every beam wanted in proportion to its volume.
     fn request_by_volume(&mut self) {
-        let mut w = HashMap::new();
+        let mut w = BeamMap::default();
         for (si, s) in self.cache.file().sections().iter().enumerate() {
             for b in 0..s.beam_count() {
                 w.insert((si as u16, b), s.beam_volume(b, 2));
@@ -370,7 +370,8 @@ impl Server {
         Some(id)
     }
 
-    /// Stores a worker's results. Returns the new samples per beam (for displays).
+    /// Stores a worker's results. Returns the new samples per beam for displays (nothing
+    /// while no display has asked for beams, as in batch mode).
     pub fn complete(
         &mut self,
         id: WorkerId,
@@ -442,10 +443,12 @@ impl Server {
             }
             self.stats.samples += samples.len() as u64;
             self.stats.added += samples.len() as u64;
-            out.push(BeamSamples {
-                key: b.key,
-                samples,
-            });
+            if !self.displays.is_empty() {
+                out.push(BeamSamples {
+                    key: b.key,
+                    samples,
+                });
+            }
         }
         Ok(out)
     }
@@ -517,7 +520,7 @@ impl Server {
     }
 
     fn merge_displays(&mut self) {
-        let mut wanted: HashMap<BeamKey, f64> = HashMap::new();
+        let mut wanted: BeamMap<BeamKey, f64> = BeamMap::default();
         self.eyes.clear();
         for d in self.displays.values() {
             for &(k, w) in &d.wanted {

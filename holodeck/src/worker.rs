@@ -8,6 +8,7 @@ use std::io::{BufReader, BufWriter, Write};
 use std::net::{TcpStream, ToSocketAddrs};
 
 use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
+pub use holocave_protocol::holodeck::DistanceKind;
 use holocave_protocol::holodeck::{
     PROTOCOL_VERSION, RayPacket, RecordError, SamplePacket, ServerMsg, WireRay, WireResult,
     WorkerHello, WorkerMsg,
@@ -15,18 +16,20 @@ use holocave_protocol::holodeck::{
 
 /// A sample generator.
 pub trait SampleSource: Send + Sync {
-    /// Radiance and first-hit distance from the origin (`+Inf` if the ray escapes) for each
+    /// Radiance and distance from the origin of the kind asked for (`+Inf` if the ray, or
+    /// for [`DistanceKind::Virtual`] its specular continuation, escapes) for each
     /// `(origin, unit direction)`, deterministic for a seed, on the calling thread.
-    fn trace(&self, rays: &[WireRay], seed: u64) -> Vec<WireResult>;
+    fn trace(&self, rays: &[WireRay], seed: u64, distance: DistanceKind) -> Vec<WireResult>;
 }
 
 /// Traces one packet.
 pub fn trace_packet(
     source: &dyn SampleSource,
     packet: &RayPacket,
+    distance: DistanceKind,
 ) -> Result<SamplePacket, RecordError> {
     let rays = packet.rays()?;
-    let results = source.trace(&rays, packet.seed);
+    let results = source.trace(&rays, packet.seed, distance);
     let mut out = SamplePacket {
         id: packet.id,
         results: Vec::with_capacity(results.len() * 16),
@@ -56,11 +59,23 @@ pub enum WorkerError {
     Records { addr: String, source: RecordError },
 }
 
+/// Whether a frame error means the server closed the connection.
+fn server_gone(e: &FrameError) -> bool {
+    use std::io::ErrorKind::{BrokenPipe, ConnectionAborted, ConnectionReset};
+    match e {
+        FrameError::Closed => true,
+        FrameError::Io(io) => matches!(io.kind(), BrokenPipe | ConnectionReset | ConnectionAborted),
+        _ => false,
+    }
+}
+
 /// What a remote worker did before the server said goodbye or went away.
 #[derive(Debug, Default, PartialEq)]
 pub struct WorkerReport {
     pub worker_id: u64,
     pub server_scene: String,
+    /// The distance the server asked for.
+    pub distance: DistanceKind,
     pub packets: u64,
     pub rays: u64,
 }
@@ -101,6 +116,7 @@ pub fn run_remote(
         ServerMsg::Welcome(w) => {
             report.worker_id = w.worker_id;
             report.server_scene = w.scene;
+            report.distance = w.distance;
         }
         ServerMsg::Rays(_) => {
             return Err(WorkerError::Unexpected {
@@ -114,17 +130,26 @@ pub fn run_remote(
     loop {
         match frame::read_frame(&mut rd, MAX_FRAME_BYTES) {
             Ok(ServerMsg::Rays(p)) => {
-                let out = trace_packet(source, &p).map_err(|source| WorkerError::Records {
-                    addr: a.clone(),
-                    source,
+                let out = trace_packet(source, &p, report.distance).map_err(|source| {
+                    WorkerError::Records {
+                        addr: a.clone(),
+                        source,
+                    }
                 })?;
                 report.packets += 1;
                 report.rays += p.len() as u64;
-                frame::write_frame(&mut wr, &WorkerMsg::Samples(out), MAX_FRAME_BYTES)
-                    .map_err(frame_err)?;
-                wr.flush().map_err(|e| frame_err(e.into()))?;
+                let sent = frame::write_frame(&mut wr, &WorkerMsg::Samples(out), MAX_FRAME_BYTES)
+                    .and_then(|()| wr.flush().map_err(FrameError::from));
+                match sent {
+                    Ok(()) => {}
+                    // The server stopped (or died) while this packet was traced: the packet
+                    // is lost, as any in-flight packet of a stopping server is.
+                    Err(e) if server_gone(&e) => return Ok(report),
+                    Err(e) => return Err(frame_err(e)),
+                }
             }
             Ok(ServerMsg::Bye) | Err(FrameError::Closed) => return Ok(report),
+            Err(e) if server_gone(&e) => return Ok(report),
             Ok(ServerMsg::Welcome(_)) => {
                 return Err(WorkerError::Unexpected {
                     addr: a,

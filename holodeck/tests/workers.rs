@@ -1,25 +1,36 @@
 //! Worker threads and TCP worker processes (here: threads running the same client loop)
 //! filling one holodeck together; a worker that dies mid-packet loses only that packet,
-//! which another worker computes.
+//! which another worker computes. Every worker is asked for the distance the file records.
 
 use std::net::TcpListener;
 use std::sync::Arc;
 use std::time::Duration;
 
 use glam::DVec3;
+use holocave_holodeck::distance_code::DistanceCode;
+use holocave_holodeck::file::DISTANCE_SETTING;
 use holocave_holodeck::run::{RunOptions, run};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::{SampleSource, run_remote};
+use holocave_holodeck::worker::{DistanceKind, SampleSource, run_remote};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_protocol::frame::{MAX_FRAME_BYTES, read_frame, write_frame};
 use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, WorkerHello, WorkerMsg};
 
-/// Radiance from the direction; everything at distance 2.
+/// Radiance from the direction; everything at first-hit distance 2 and virtual distance 3.
 struct Analytic;
 
 impl SampleSource for Analytic {
-    fn trace(&self, rays: &[([f32; 3], [f32; 3])], _seed: u64) -> Vec<([f32; 3], f32)> {
-        rays.iter().map(|(_, d)| (d.map(f32::abs), 2.0)).collect()
+    fn trace(
+        &self,
+        rays: &[([f32; 3], [f32; 3])],
+        _seed: u64,
+        distance: DistanceKind,
+    ) -> Vec<([f32; 3], f32)> {
+        let d = match distance {
+            DistanceKind::FirstHit => 2.0,
+            DistanceKind::Virtual => 3.0,
+        };
+        rays.iter().map(|(_, dir)| (dir.map(f32::abs), d)).collect()
     }
 }
 
@@ -37,7 +48,11 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
     HoloFile::create(
         &path,
         vec![s],
-        [("scene".to_string(), "analytic".to_string())].into(),
+        [
+            ("scene".to_string(), "analytic".to_string()),
+            (DISTANCE_SETTING.to_string(), "virtual".to_string()),
+        ]
+        .into(),
     )
     .unwrap();
     let server = Server::new(
@@ -96,6 +111,7 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
     for r in remotes {
         let report = r.join().unwrap().unwrap();
         assert_eq!(report.server_scene, "analytic");
+        assert_eq!(report.distance, DistanceKind::Virtual);
         assert!(report.rays > 0, "every TCP worker traced rays");
     }
     assert_eq!(stats.workers, 0, "all workers have left");
@@ -110,4 +126,18 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
     let mut v = Vec::new();
     h.read_beam(0, 0, &mut v).unwrap();
     assert!(!v.is_empty());
+    // Stored distances are the virtual ones (3), measured from the entry point: interior
+    // rays are traced from the exit point, one chord further on.
+    let section = &h.sections()[0];
+    let code = DistanceCode::new(section.size());
+    for beam in [0, 17, section.beam_count() - 1] {
+        v.clear();
+        h.read_beam(0, beam, &mut v).unwrap();
+        for s in &v {
+            let (p0, p1) = section.sample_points(beam, s.entry, s.exit).unwrap();
+            let want = 3.0 + (p1 - p0).length();
+            let got = f64::from(code.decode(s.dist));
+            assert!((got - want).abs() < 1e-3 * want, "{got} vs {want}");
+        }
+    }
 }

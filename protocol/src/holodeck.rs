@@ -10,10 +10,12 @@
 use serde::{Deserialize, Serialize};
 
 /// Version of this message set; a worker with another version is refused.
-pub const PROTOCOL_VERSION: u32 = 1;
+/// 2: the welcome says which distance the holodeck stores.
+pub const PROTOCOL_VERSION: u32 = 2;
 /// Bytes per ray record: origin `[f32; 3]`, unit direction `[f32; 3]`.
 pub const RAY_RECORD_BYTES: usize = 24;
-/// Bytes per result record: radiance `[f32; 3]`, distance `f32` (`+Inf` if escaped).
+/// Bytes per result record: radiance `[f32; 3]`, distance `f32` (`+Inf` if escaped), the
+/// distance being the kind the welcome asked for.
 pub const RESULT_RECORD_BYTES: usize = 16;
 
 /// A ray as sent: origin and unit direction.
@@ -60,6 +62,40 @@ pub struct Welcome {
     pub worker_id: u64,
     /// The scene the holodeck was made with, as recorded in its settings.
     pub scene: String,
+    /// Which distance the results must carry (a setting of the holodeck file).
+    pub distance: DistanceKind,
+}
+
+/// Which distance a sample generator answers for a ray (the holodeck paper's `VDISTANCE`,
+/// §2.3): measured from the ray's origin either way.
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DistanceKind {
+    /// To the first surface the ray hits (`VDISTANCE=False`).
+    FirstHit,
+    /// To the first non-specular surface, continuing through flat mirrors and flat glass
+    /// (`VDISTANCE=True`): samples seen in a mirror reproject to where the reflected object
+    /// appears, so reflections keep their parallax and stereo depth.
+    #[default]
+    Virtual,
+}
+
+impl DistanceKind {
+    /// The name used in holodeck settings and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            DistanceKind::FirstHit => "first-hit",
+            DistanceKind::Virtual => "virtual",
+        }
+    }
+
+    /// Parses [`DistanceKind::name`].
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "first-hit" => Some(DistanceKind::FirstHit),
+            "virtual" => Some(DistanceKind::Virtual),
+            _ => None,
+        }
+    }
 }
 
 /// Rays to trace.
@@ -188,6 +224,21 @@ mod tests {
             prop_assert_eq!(back, WorkerMsg::Samples(s.clone()));
             prop_assert_eq!(s.results().unwrap().len(), rays.len());
         }
+    }
+
+    #[test]
+    fn welcome_carries_the_distance_kind() {
+        for d in [DistanceKind::FirstHit, DistanceKind::Virtual] {
+            assert_eq!(DistanceKind::from_name(d.name()), Some(d));
+            let m = ServerMsg::Welcome(Welcome {
+                worker_id: 7,
+                scene: "cornell.gltf".into(),
+                distance: d,
+            });
+            let frame = encode(&m, MAX_FRAME_BYTES).unwrap();
+            assert_eq!(decode::<ServerMsg>(&frame[4..]).unwrap(), m);
+        }
+        assert_eq!(DistanceKind::from_name("vdistance"), None);
     }
 
     #[test]

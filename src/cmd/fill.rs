@@ -13,6 +13,7 @@ use std::time::Duration;
 use anyhow::{Context, bail};
 use clap::Args;
 use glam::DVec3;
+use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
 use holocave_holodeck::run::{RunOptions, run as run_server};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
@@ -30,8 +31,9 @@ pub struct FillArgs {
     #[arg(long)]
     pub holodeck: PathBuf,
     /// A section box `x0,y0,z0,x1,y1,z1` (metres, scene coordinates; repeatable). Used when
-    /// creating the file; default: the scene's bounds shrunk by 10% on each side.
-    #[arg(long)]
+    /// creating the file; default: the scene's bounds shrunk by 10% on each side. An
+    /// interior section should be free space: what lies inside it is never traced.
+    #[arg(long, allow_hyphen_values = true)]
     pub section: Vec<String>,
     /// Grid `W,D,H` for new sections (default: about 200,000 beams).
     #[arg(long)]
@@ -39,6 +41,11 @@ pub struct FillArgs {
     /// View class of new sections: interior (looking out) or exterior (looking in).
     #[arg(long, default_value = "interior")]
     pub class: String,
+    /// Distance stored with new files' samples: `virtual` (through flat mirrors and glass
+    /// to what they show, the paper's VDISTANCE=True) or `first-hit`. An existing file
+    /// keeps the one it was made with. [default: virtual]
+    #[arg(long)]
+    pub distance: Option<String>,
     /// Number of workers.
     #[arg(long, default_value_t = 1)]
     pub workers: usize,
@@ -105,6 +112,37 @@ fn make_sections(args: &FillArgs, scene: &Scene) -> anyhow::Result<Vec<Section>>
         .collect()
 }
 
+/// Triangles of the scene with a point strictly inside an interior section: rays are traced
+/// outward from the section's walls, so these are never seen from inside it (paper §2.1:
+/// interior sections are regions of free movement). Checked on a grid of points per triangle.
+fn triangles_inside(scene: &Scene, section: &Section) -> usize {
+    let (o, e) = (section.origin(), section.edges());
+    let m = glam::DMat3::from_cols(e[0], e[1], e[2]).inverse();
+    let margin = 1e-3;
+    let unit = |p: glam::Vec3| m * (p.as_dvec3() - o);
+    let inside = |p: glam::Vec3| {
+        let t = unit(p);
+        t.cmpgt(DVec3::splat(margin)).all() && t.cmplt(DVec3::splat(1.0 - margin)).all()
+    };
+    const N: u32 = 12;
+    (0..scene.triangle_count() as u32)
+        .filter(|&i| {
+            let [a, b, c] = *scene.triangle(i);
+            let (ta, tb, tc) = (unit(a), unit(b), unit(c));
+            let (lo, hi) = (ta.min(tb).min(tc), ta.max(tb).max(tc));
+            if lo.cmpge(DVec3::splat(1.0 - margin)).any() || hi.cmple(DVec3::splat(margin)).any() {
+                return false; // wholly outside one slab
+            }
+            (0..=N).any(|u| {
+                (0..=N - u).any(|v| {
+                    let (fu, fv) = (u as f32 / N as f32, v as f32 / N as f32);
+                    inside(a + (b - a) * fu + (c - a) * fv)
+                })
+            })
+        })
+        .count()
+}
+
 fn spawn_workers(n: usize, addr: &str, scene: &PathBuf) -> anyhow::Result<Vec<Child>> {
     let exe = std::env::current_exe().context("finding the holocave executable")?;
     (0..n)
@@ -135,17 +173,43 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
                 h.settings()["scene"]
             );
         }
+        let kind = h.distance_kind()?;
+        if let Some(d) = args.distance.as_ref().filter(|d| *d != kind.name()) {
+            tracing::warn!(
+                "{} stores {} distances: --distance {d} is ignored",
+                args.holodeck.display(),
+                kind.name(),
+            );
+        }
         h
     } else {
+        let distance = match &args.distance {
+            None => DistanceKind::Virtual,
+            Some(d) => DistanceKind::from_name(d)
+                .with_context(|| format!("--distance {d:?}: expected virtual or first-hit"))?,
+        };
         let scene = Scene::load(&args.scene, &LoadOptions::default())
             .with_context(|| format!("loading scene {}", args.scene.display()))?;
         let sections = make_sections(&args, &scene)?;
+        for (i, s) in sections.iter().enumerate() {
+            if s.class() == ViewClass::Interior {
+                let n = triangles_inside(&scene, s);
+                if n > 0 {
+                    tracing::warn!(
+                        "section {i} is interior (free space to look out of) but {n} triangles \
+                         of the scene lie inside it; they will be missing from views inside \
+                         it (give a free --section, or --class exterior)"
+                    );
+                }
+            }
+        }
         let settings = BTreeMap::from([
             ("scene".to_string(), name.clone()),
             (
                 "generator".to_string(),
-                "holocave-tracer, default TraceSettings, first-hit distance".to_string(),
+                "holocave-tracer, default TraceSettings".to_string(),
             ),
+            (DISTANCE_SETTING.to_string(), distance.name().to_string()),
             (
                 "created-by".to_string(),
                 format!("holocave {}", env!("CARGO_PKG_VERSION")),
@@ -164,6 +228,12 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
             s.beam_count()
         );
     }
+    tracing::info!(
+        "{}: {} samples, {} distances",
+        args.holodeck.display(),
+        file.total_samples(),
+        file.distance_kind()?.name()
+    );
     let config = ServerConfig {
         cache_bytes: args.cache_mb << 20,
         ..Default::default()

@@ -5,14 +5,17 @@ use std::net::TcpListener;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
+use glam::{DVec3, Vec3};
 use holocave_holodeck::HoloFile;
-use holocave_holodeck::file::check::{check, salvage};
+use holocave_holodeck::file::check::{check, holds, salvage};
 use holocave_holodeck::file::info::Info;
 use holocave_holodeck::file::optimize::optimize;
 use holocave_holodeck::run::{RunOptions, run as run_server};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_holodeck::view::{View, ViewOptions, reconstruct};
+use holocave_tracer::film::Image;
 
 #[derive(Subcommand)]
 pub enum HolodeckCommand {
@@ -24,11 +27,182 @@ pub enum HolodeckCommand {
         /// Write the intact beams to this new file.
         #[arg(long)]
         salvage: Option<PathBuf>,
+        /// Also verify that every sample of this earlier copy (e.g. a salvage taken while
+        /// the file was being filled) is still in the file, unchanged.
+        #[arg(long)]
+        holds: Option<PathBuf>,
     },
     /// Rewrite with neighbouring beams together and no free fragments (atomic replace).
     Optimize { file: PathBuf },
     /// Batch-fill the holodeck with TCP worker processes (`holocave worker`) only.
     Serve(ServeArgs),
+    /// Make a picture of one view from the stored samples alone (reprojection, no tracing).
+    View(ViewArgs),
+}
+
+#[derive(Args)]
+pub struct ViewArgs {
+    pub file: PathBuf,
+    /// The scene, for --camera.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Use this glTF camera of --scene.
+    #[arg(long, requires = "scene", conflicts_with_all = ["eye", "wall"])]
+    pub camera: Option<String>,
+    /// Eye position X,Y,Z in scene metres.
+    #[arg(long, allow_hyphen_values = true)]
+    pub eye: Option<String>,
+    /// The screen rectangle "PA;PB;PC": lower-left, lower-right and upper-left corners.
+    #[arg(long, allow_hyphen_values = true)]
+    pub wall: Option<String>,
+    /// Image size WxH in pixels.
+    #[arg(long, default_value = "256x256")]
+    pub size: String,
+    /// Largest angle in degrees between a sample's ray and the eye's line of sight to it.
+    #[arg(long, default_value_t = 10.0)]
+    pub max_angle: f64,
+    /// Fill empty pixels from their neighbours, this many pixels deep.
+    #[arg(long, default_value_t = 2)]
+    pub fill_holes: u32,
+    /// Output OpenEXR file; a tone-mapped PNG is written beside it.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A `holocave render` EXR of the same view: report the relative MSE against it and
+    /// use its exposure for the PNG.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+}
+
+fn parse_vec3(s: &str) -> anyhow::Result<Vec3> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{s:?}: expected X,Y,Z"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => bail!("{s:?}: expected three finite numbers X,Y,Z"),
+    }
+}
+
+fn view_of(a: &ViewArgs) -> anyhow::Result<View> {
+    let (w, h) = a
+        .size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .filter(|&(w, h)| w > 0 && h > 0 && u64::from(w) * u64::from(h) <= 1 << 26)
+        .with_context(|| format!("--size {:?}: expected WxH", a.size))?;
+    let (eye, [pa, pb, pc]) = match (&a.camera, &a.eye, &a.wall) {
+        (Some(name), _, _) => {
+            let path = a.scene.as_ref().expect("clap requires --scene");
+            let scene = super::render::load_scene(path, None, false)?;
+            let cam = scene
+                .cameras
+                .iter()
+                .find(|c| &c.name == name)
+                .with_context(|| format!("{} has no camera {name:?}", path.display()))?;
+            (cam.position, cam.screen(w as f32 / h as f32))
+        }
+        (None, Some(eye), Some(wall)) => {
+            let c: Vec<Vec3> = wall.split(';').map(parse_vec3).collect::<Result<_, _>>()?;
+            let [pa, pb, pc] = c[..] else {
+                bail!("--wall {wall:?}: expected three corners PA;PB;PC");
+            };
+            (parse_vec3(eye)?, [pa, pb, pc])
+        }
+        _ => bail!("give --eye and --wall, or --scene and --camera"),
+    };
+    let d = |v: Vec3| -> DVec3 { v.as_dvec3() };
+    Ok(View {
+        eye: d(eye),
+        pa: d(pa),
+        pb: d(pb),
+        pc: d(pc),
+        width: w,
+        height: h,
+    })
+}
+
+/// The image averaged over `k`×`k` blocks (edges dropped).
+fn blocks(i: &Image, k: u32) -> Image {
+    let mut out = Image::new(i.width / k, i.height / k);
+    for y in 0..out.height {
+        for x in 0..out.width {
+            let mut s = Vec3::ZERO;
+            for dy in 0..k {
+                for dx in 0..k {
+                    s += i.at(x * k + dx, y * k + dy);
+                }
+            }
+            out.pixels[(y * out.width + x) as usize] = s / (k * k) as f32;
+        }
+    }
+    out
+}
+
+fn run_view(a: ViewArgs) -> anyhow::Result<()> {
+    let view = view_of(&a)?;
+    let h = HoloFile::open(&a.file)?;
+    let start = std::time::Instant::now();
+    let opts = ViewOptions {
+        max_angle: a.max_angle.to_radians(),
+        ..Default::default()
+    };
+    let mut pic = reconstruct(&h, &view, &opts)?;
+    let secs = start.elapsed().as_secs_f64();
+    let coverage = pic.coverage();
+    pic.fill_holes(a.fill_holes);
+    let image = Image {
+        width: pic.width,
+        height: pic.height,
+        pixels: pic.pixels.iter().map(|p| Vec3::from_array(*p)).collect(),
+    };
+    image.write_exr(&a.out)?;
+    let used: Vec<u32> = pic.counts.iter().copied().filter(|&c| c > 0).collect();
+    println!(
+        "{}: {} samples read, {} used, {:.1}% of pixels covered, {:.1} samples per covered \
+         pixel, {:.2} s",
+        a.file.display(),
+        pic.samples_read,
+        pic.samples_used,
+        100.0 * coverage,
+        pic.samples_used as f64 / used.len().max(1) as f64,
+        secs
+    );
+    let mut exposure = image.auto_exposure();
+    if let Some(r) = &a.reference {
+        let reference = Image::read_exr(r)?;
+        if (reference.width, reference.height) != (image.width, image.height) {
+            bail!(
+                "{} is {}x{}, the view {}x{}",
+                r.display(),
+                reference.width,
+                reference.height,
+                image.width,
+                image.height
+            );
+        }
+        exposure = reference.auto_exposure();
+        let mean = |i: &Image| i.pixels.iter().sum::<Vec3>() / i.pixels.len() as f32;
+        let (m, mr) = (mean(&image), mean(&reference));
+        println!(
+            "against {}: relative MSE {:.4} ({:.4} in 8x8-pixel blocks); mean RGB {:.4} {:.4} \
+             {:.4}, reference {:.4} {:.4} {:.4}",
+            r.display(),
+            image.relative_mse(&reference),
+            blocks(&image, 8).relative_mse(&blocks(&reference, 8)),
+            m.x,
+            m.y,
+            m.z,
+            mr.x,
+            mr.y,
+            mr.z
+        );
+    }
+    let png = a.out.with_extension("png");
+    image.write_png(&png, exposure)?;
+    println!("wrote {} and {}", a.out.display(), png.display());
+    Ok(())
 }
 
 #[derive(Args)]
@@ -51,7 +225,11 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
             let h = HoloFile::open(&file)?;
             print!("{}", Info::of(&h));
         }
-        HolodeckCommand::Check { file, salvage: out } => {
+        HolodeckCommand::Check {
+            file,
+            salvage: out,
+            holds: old,
+        } => {
             let r = check(&file)?;
             println!(
                 "commit {}: {} beams, {} samples verified",
@@ -73,6 +251,20 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
             if !r.is_clean() {
                 anyhow::bail!("{}: {} damaged structures", file.display(), r.damage.len());
             }
+            if let Some(old) = old {
+                let h = holds(&file, &old)?;
+                println!(
+                    "holds {}: {} beams, {} samples compared; {} beams short, {} samples changed",
+                    old.display(),
+                    h.beams,
+                    h.samples,
+                    h.beams_short,
+                    h.samples_changed
+                );
+                if !h.holds_all() {
+                    anyhow::bail!("{} lost samples of {}", file.display(), old.display());
+                }
+            }
             println!("{}: ok", file.display());
         }
         HolodeckCommand::Optimize { file } => {
@@ -87,6 +279,7 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
                 r.fragments_before
             );
         }
+        HolodeckCommand::View(a) => run_view(a)?,
         HolodeckCommand::Serve(a) => {
             let h = HoloFile::open_rw(&a.file)?;
             let scene = h.settings().get("scene").cloned().unwrap_or_default();

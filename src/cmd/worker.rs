@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::Args;
-use holocave_holodeck::worker::{SampleSource, run_remote};
+use holocave_holodeck::worker::{DistanceKind, SampleSource, run_remote};
 use holocave_scene::{LoadOptions, Ray, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
 
@@ -22,11 +22,18 @@ pub struct WorkerArgs {
 }
 
 /// The path tracer as the holodeck's sample generator: one thread per worker (the server
-/// runs as many workers as it wants cores used).
+/// runs as many workers as it wants cores used). It answers the distance the holodeck file
+/// records (`distance` setting): the tracer's `virtual_distance` (the paper's
+/// `VDISTANCE=True`, the default for new files) or its first-hit `distance`.
 pub struct TracerSource(pub Tracer);
 
 impl SampleSource for TracerSource {
-    fn trace(&self, rays: &[([f32; 3], [f32; 3])], seed: u64) -> Vec<([f32; 3], f32)> {
+    fn trace(
+        &self,
+        rays: &[([f32; 3], [f32; 3])],
+        seed: u64,
+        distance: DistanceKind,
+    ) -> Vec<([f32; 3], f32)> {
         let rays: Vec<Ray> = rays
             .iter()
             .map(|(o, d)| Ray::new((*o).into(), (*d).into()))
@@ -34,7 +41,10 @@ impl SampleSource for TracerSource {
         self.0
             .trace_serial(&rays, seed)
             .into_iter()
-            .map(|s| (s.radiance, s.distance))
+            .map(|s| match distance {
+                DistanceKind::FirstHit => (s.radiance, s.distance),
+                DistanceKind::Virtual => (s.radiance, s.virtual_distance),
+            })
             .collect()
     }
 }
@@ -62,10 +72,11 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
     let name = format!("pid {}", std::process::id());
     let report = run_remote(&args.server, &name, &scene_name(&args.scene), &source)?;
     tracing::info!(
-        "worker {} done: {} packets, {} rays",
+        "worker {} done: {} packets, {} rays ({} distance)",
         report.worker_id,
         report.packets,
-        report.rays
+        report.rays,
+        report.distance.name()
     );
     Ok(())
 }

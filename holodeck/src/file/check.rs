@@ -119,6 +119,62 @@ pub fn salvage(path: &Path, out: &Path) -> Result<SalvageReport, FileError> {
     Ok(report)
 }
 
+/// How much of an earlier copy a file still holds.
+#[derive(Debug, Default, PartialEq)]
+pub struct HoldsReport {
+    /// Beams with samples in the earlier copy.
+    pub beams: u64,
+    /// Samples in the earlier copy.
+    pub samples: u64,
+    /// Beams with fewer samples now than in the earlier copy.
+    pub beams_short: u64,
+    /// Samples of the earlier copy that differ now (same beam, same position).
+    pub samples_changed: u64,
+}
+
+impl HoldsReport {
+    /// Whether every sample of the earlier copy is still there, unchanged.
+    pub fn holds_all(&self) -> bool {
+        self.beams_short == 0 && self.samples_changed == 0
+    }
+}
+
+/// Compares `path` with an earlier copy of it (`old`, e.g. a salvage taken while it was
+/// being filled): every beam of `old` must be a prefix of the same beam now, since samples
+/// are only ever appended (`optimize` moves beams but keeps their order).
+pub fn holds(path: &Path, old: &Path) -> Result<HoldsReport, FileError> {
+    let h = HoloFile::open(path)?;
+    let o = HoloFile::open(old)?;
+    if o.sections() != h.sections() {
+        return Err(FileError::Corrupt {
+            path: old.to_path_buf(),
+            what: "section geometry".into(),
+            offset: 0,
+            detail: format!("differs from that of {}", path.display()),
+        });
+    }
+    let mut report = HoldsReport::default();
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for (si, section) in o.sections().iter().enumerate() {
+        for beam in 0..section.beam_count() {
+            if o.count(si, beam) == 0 {
+                continue;
+            }
+            a.clear();
+            b.clear();
+            o.read_beam(si, beam, &mut a)?;
+            h.read_beam(si, beam, &mut b)?;
+            report.beams += 1;
+            report.samples += a.len() as u64;
+            if b.len() < a.len() {
+                report.beams_short += 1;
+            }
+            report.samples_changed += a.iter().zip(&b).filter(|(x, y)| x != y).count() as u64;
+        }
+    }
+    Ok(report)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -204,6 +260,57 @@ mod tests {
             }
         );
         assert!(check(&out).unwrap().is_clean());
+        // The salvage holds only what it copied; the original holds all of the salvage.
+        let r = holds(&p, &out).unwrap();
+        assert!(r.holds_all() && r.samples == 202, "{r:?}");
+    }
+
+    #[test]
+    fn holds_finds_missing_and_changed_samples() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.hdk");
+        let mut h = make(&p);
+        let old = dir.path().join("old.hdk");
+        std::fs::copy(&p, &old).unwrap();
+        let more = [Sample {
+            dist: 999,
+            ..Default::default()
+        }];
+        h.append_beam(0, 3, &more).unwrap();
+        h.commit().unwrap();
+        assert_eq!(
+            holds(&p, &old).unwrap(),
+            HoldsReport {
+                beams: 20,
+                samples: 210,
+                beams_short: 0,
+                samples_changed: 0
+            }
+        );
+        // The other way round, beam 3 is short; a changed sample is counted.
+        assert_eq!(holds(&old, &p).unwrap().beams_short, 1);
+        let mut v: Vec<Sample> = Vec::new();
+        h.read_beam(0, 5, &mut v).unwrap();
+        drop(h);
+        let c = dir.path().join("c.hdk");
+        let mut h = HoloFile::create(
+            &c,
+            HoloFile::open(&p).unwrap().sections().to_vec(),
+            Default::default(),
+        )
+        .unwrap();
+        for b in 0..20 {
+            let mut s: Vec<Sample> = Vec::new();
+            HoloFile::open(&p).unwrap().read_beam(0, b, &mut s).unwrap();
+            if b == 5 {
+                s[2].dist ^= 1;
+            }
+            h.write_beam(0, b, &s).unwrap();
+        }
+        h.commit().unwrap();
+        let r = holds(&c, &old).unwrap();
+        assert_eq!((r.beams_short, r.samples_changed), (0, 1), "{r:?}");
+        assert!(!r.holds_all());
     }
 
     #[test]

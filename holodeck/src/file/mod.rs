@@ -20,6 +20,11 @@ use format::{ChunkLoc, DirEntry, Extent};
 use free_list::FreeList;
 
 use crate::section::Section;
+pub use holocave_protocol::holodeck::DistanceKind;
+
+/// The settings key recording which distance the samples hold (`first-hit` or `virtual`,
+/// [`DistanceKind::name`]). Files without it hold first-hit distances.
+pub const DISTANCE_SETTING: &str = "distance";
 
 /// Errors of the holodeck file. Each names the file and, for damage, the structure and the
 /// byte offset where it was found.
@@ -79,6 +84,13 @@ pub enum FileError {
     },
     #[error("{path} already exists; not overwriting it")]
     Exists { path: PathBuf },
+    #[error("{path}: setting {key:?} is {value:?}; expected {expected}")]
+    BadSetting {
+        path: PathBuf,
+        key: String,
+        value: String,
+        expected: String,
+    },
     #[error("{path}: the file is open read-only")]
     ReadOnly { path: PathBuf },
 }
@@ -130,6 +142,18 @@ impl HoloFile {
     pub fn settings(&self) -> &BTreeMap<String, String> {
         &self.settings
     }
+    /// Which distance the samples hold, from the settings (first-hit when not recorded).
+    pub fn distance_kind(&self) -> Result<DistanceKind, FileError> {
+        match self.settings.get(DISTANCE_SETTING) {
+            None => Ok(DistanceKind::FirstHit),
+            Some(v) => DistanceKind::from_name(v).ok_or_else(|| FileError::BadSetting {
+                path: self.path.clone(),
+                key: DISTANCE_SETTING.into(),
+                value: v.clone(),
+                expected: "first-hit or virtual".into(),
+            }),
+        }
+    }
     /// Sequence number of the last commit.
     pub fn seq(&self) -> u64 {
         self.seq
@@ -145,6 +169,10 @@ impl HoloFile {
             .get(section)
             .and_then(|d| d.get(beam as usize))
             .map_or(0, |e| e.count)
+    }
+    /// Samples stored in all sections.
+    pub fn total_samples(&self) -> u64 {
+        self.dirs.iter().flatten().map(|e| u64::from(e.count)).sum()
     }
     /// The whole directory of a section.
     pub fn directory(&self, section: usize) -> &[DirEntry] {

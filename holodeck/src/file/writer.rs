@@ -159,7 +159,7 @@ impl HoloFile {
         self.check_writable()?;
         let old = self.entry(section, beam)?;
         let have = old.count as usize;
-        if samples.len() < have || samples.len() > u32::MAX as usize {
+        if samples.len() < have {
             return Err(FileError::BadWrite {
                 path: self.path.clone(),
                 section,
@@ -167,11 +167,46 @@ impl HoloFile {
                 detail: format!("{} samples given but {have} are stored", samples.len()),
             });
         }
-        if samples.len() == have {
+        self.put(section, beam, old, &samples[have..], Some(samples))
+    }
+
+    /// Appends samples to a beam: in place when the space after it is free, otherwise the
+    /// stored records are read (and their checksum verified) and the whole beam moves.
+    pub fn append_beam(
+        &mut self,
+        section: usize,
+        beam: u32,
+        new: &[Sample],
+    ) -> Result<(), FileError> {
+        self.check_writable()?;
+        let old = self.entry(section, beam)?;
+        self.put(section, beam, old, new, None)
+    }
+
+    /// Appends `new` to the beam whose directory entry is `old`; `all` is its whole content
+    /// if the caller has it (else it is read if the beam has to move).
+    fn put(
+        &mut self,
+        section: usize,
+        beam: u32,
+        old: DirEntry,
+        new: &[Sample],
+        all: Option<&[Sample]>,
+    ) -> Result<(), FileError> {
+        if new.is_empty() {
             return Ok(());
         }
+        let have = old.count as usize;
+        let Some(count) = u32::try_from(have + new.len()).ok() else {
+            return Err(FileError::BadWrite {
+                path: self.path.clone(),
+                section,
+                beam,
+                detail: format!("{} samples exceed a beam's limit", have + new.len()),
+            });
+        };
         let mut new_bytes = Vec::new();
-        Sample::write_all(&samples[have..], &mut new_bytes);
+        Sample::write_all(new, &mut new_bytes);
         let add = new_bytes.len() as u64;
         let old_ext = old.extent();
         let in_place = have > 0
@@ -182,7 +217,6 @@ impl HoloFile {
                 }
                 at_end
             });
-        let count = samples.len() as u32;
         if in_place {
             self.write_at(&new_bytes, old_ext.end())?;
             let mut h = crc32fast::Hasher::new_with_initial_len(old.crc, old_ext.len);
@@ -199,8 +233,14 @@ impl HoloFile {
                 },
             );
         } else {
-            let mut all = Vec::with_capacity(samples.len() * SAMPLE_BYTES);
-            Sample::write_all(samples, &mut all);
+            let mut bytes = Vec::with_capacity(count as usize * SAMPLE_BYTES);
+            match all {
+                Some(all) => Sample::write_all(all, &mut bytes),
+                None => {
+                    self.read_beam_bytes(section, beam, &mut bytes)?;
+                    bytes.extend_from_slice(&new_bytes);
+                }
+            }
             if have > 0 {
                 if self.fresh.remove(&old.offset) {
                     // Written since the last commit: no commit references it.
@@ -211,7 +251,7 @@ impl HoloFile {
             }
             // Half again as much room, left free right after the beam, so that the next
             // appends usually go in place (not when writing a compact copy).
-            let len = all.len() as u64;
+            let len = bytes.len() as u64;
             let slack = if self.compact { 0 } else { len / 2 };
             let at = self.allocate(len + slack);
             self.free.insert(Extent {
@@ -219,31 +259,18 @@ impl HoloFile {
                 len: slack,
             });
             self.fresh.insert(at);
-            self.write_at(&all, at)?;
+            self.write_at(&bytes, at)?;
             self.set_entry(
                 section,
                 beam,
                 DirEntry {
                     offset: at,
                     count,
-                    crc: crc32fast::hash(&all),
+                    crc: crc32fast::hash(&bytes),
                 },
             );
         }
         Ok(())
-    }
-
-    /// Appends samples to a beam (reading the stored ones if the beam has to move).
-    pub fn append_beam(
-        &mut self,
-        section: usize,
-        beam: u32,
-        new: &[Sample],
-    ) -> Result<(), FileError> {
-        let mut all = Vec::new();
-        self.read_beam(section, beam, &mut all)?;
-        all.extend_from_slice(new);
-        self.write_beam(section, beam, &all)
     }
 
     /// Whether anything was written since the last commit.
