@@ -11,6 +11,7 @@ use crate::RenderNodeError;
 /// A device and its queue, on whichever adapter exists (a real GPU, or Mesa's lavapipe
 /// or llvmpipe on machines without one).
 pub struct Gpu {
+    _instance: wgpu::Instance,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     /// Adapter name, backend and driver, for logs and benchmark tables.
@@ -26,20 +27,37 @@ pub enum Binding {
 
 impl Gpu {
     /// Opens the first adapter wgpu finds (high performance preferred; software adapters
-    /// allowed). `WGPU_BACKEND` (e.g. `vulkan`, `gl`) restricts the backends.
+    /// allowed). `WGPU_BACKEND` (e.g. `vulkan`, `gl`) chooses the backends.
     pub fn new() -> Result<Gpu, RenderNodeError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        if std::env::var_os("WGPU_BACKEND").is_none() {
-            desc.backends = wgpu::Backends::VULKAN | wgpu::Backends::GL;
+        // Vulkan first, OpenGL only if there is no Vulkan adapter (probing EGL prints
+        // warnings on headless machines); WGPU_BACKEND overrides both.
+        let tries: &[Option<wgpu::Backends>] = if std::env::var_os("WGPU_BACKEND").is_some() {
+            &[None]
+        } else {
+            &[Some(wgpu::Backends::VULKAN), Some(wgpu::Backends::GL)]
+        };
+        let mut found = None;
+        let mut last_error = String::from("no backend tried");
+        for backends in tries {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+            if let Some(b) = backends {
+                desc.backends = *b;
+            }
+            let instance = wgpu::Instance::new(desc);
+            match pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                force_fallback_adapter: false,
+                compatible_surface: None,
+                apply_limit_buckets: false,
+            })) {
+                Ok(adapter) => {
+                    found = Some((instance, adapter));
+                    break;
+                }
+                Err(e) => last_error = e.to_string(),
+            }
         }
-        let instance = wgpu::Instance::new(desc);
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: None,
-            apply_limit_buckets: false,
-        }))
-        .map_err(|e| RenderNodeError::NoAdapter(e.to_string()))?;
+        let (instance, adapter) = found.ok_or(RenderNodeError::NoAdapter(last_error))?;
         let info = adapter.get_info();
         let name = format!(
             "{} ({:?}, {} {})",
@@ -60,6 +78,7 @@ impl Gpu {
         .map_err(|e| RenderNodeError::Device(e.to_string()))?;
         tracing::info!("render node GPU: {name}");
         Ok(Gpu {
+            _instance: instance,
             device,
             queue,
             adapter: name,
