@@ -1,1 +1,128 @@
-fn main() {}
+//! BVH benchmarks on one core: build time, and closest-hit throughput for primary rays
+//! (a pinhole camera at the scene's first glTF camera, 256 × 256 rays through the pixel
+//! centres, traced one after another on the calling thread).
+//!
+//! Scenes: the project's Cornell box (`scenes/cornell.gltf`) and Sponza from the shared
+//! scenes beside the checkout (`../shared/scenes/sponza/Sponza.gltf`), which is skipped
+//! with a message when absent.
+//!
+//! `cargo bench -p holocave-scene --bench bvh`; criterion reports the ray throughput as
+//! elements/s, i.e. rays/s.
+
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec3;
+use holocave_scene::bvh::Bvh;
+use holocave_scene::{LoadOptions, Ray, Scene};
+
+const WIDTH: u32 = 256;
+const HEIGHT: u32 = 256;
+
+fn scenes() -> Vec<(&'static str, Scene)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let candidates: [(&str, PathBuf); 2] = [
+        ("cornell", root.join("scenes/cornell.gltf")),
+        ("sponza", root.join("../shared/scenes/sponza/Sponza.gltf")),
+    ];
+    let mut out = Vec::new();
+    for (name, path) in candidates {
+        if !path.exists() {
+            eprintln!(
+                "bvh bench: {} is absent; skipping the {name} benchmarks",
+                path.display()
+            );
+            continue;
+        }
+        match Scene::load(&path, &LoadOptions::default()) {
+            Ok(s) => out.push((name, s)),
+            Err(e) => eprintln!("bvh bench: skipping {name}: {e}"),
+        }
+    }
+    out
+}
+
+/// Primary rays through the pixel centres of the scene's first camera (row by row, as a
+/// renderer would issue them).
+fn primary_rays(scene: &Scene) -> Option<Vec<Ray>> {
+    let cam = scene.cameras.first()?;
+    let [pa, pb, pc] = cam.screen(WIDTH as f32 / HEIGHT as f32);
+    let mut rays = Vec::with_capacity((WIDTH * HEIGHT) as usize);
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let s = (x as f32 + 0.5) / WIDTH as f32;
+            let t = 1.0 - (y as f32 + 0.5) / HEIGHT as f32;
+            let p = pa + (pb - pa) * s + (pc - pa) * t;
+            rays.push(Ray::new(cam.position, (p - cam.position).normalize()));
+        }
+    }
+    Some(rays)
+}
+
+fn bvh(c: &mut Criterion) {
+    let scenes = scenes();
+
+    let mut build = c.benchmark_group("bvh_build");
+    build.sample_size(10);
+    for (name, scene) in &scenes {
+        let tris: Vec<[Vec3; 3]> = (0..scene.triangle_count() as u32)
+            .map(|i| *scene.triangle(i))
+            .collect();
+        build.throughput(Throughput::Elements(tris.len() as u64));
+        build.bench_with_input(BenchmarkId::from_parameter(name), &tris, |b, tris| {
+            b.iter(|| Bvh::build(black_box(tris)))
+        });
+    }
+    build.finish();
+
+    let mut closest = c.benchmark_group("closest_hit_primary");
+    for (name, scene) in &scenes {
+        let Some(rays) = primary_rays(scene) else {
+            eprintln!("bvh bench: {name} has no camera; skipping its primary rays");
+            continue;
+        };
+        let hits = rays
+            .iter()
+            .filter(|r| scene.closest_hit(r, f32::INFINITY).is_some())
+            .count();
+        eprintln!(
+            "bvh bench: {name}: {} triangles, camera {:?}, {hits} of {} primary rays hit",
+            scene.triangle_count(),
+            scene.cameras[0].name,
+            rays.len()
+        );
+        closest.throughput(Throughput::Elements(rays.len() as u64));
+        closest.bench_with_input(BenchmarkId::from_parameter(name), &rays, |b, rays| {
+            b.iter(|| {
+                let mut t_sum = 0.0f32;
+                for r in rays {
+                    if let Some(h) = scene.closest_hit(r, f32::INFINITY) {
+                        t_sum += h.t;
+                    }
+                }
+                black_box(t_sum)
+            })
+        });
+    }
+    closest.finish();
+
+    let mut occluded = c.benchmark_group("occluded_primary");
+    for (name, scene) in &scenes {
+        let Some(rays) = primary_rays(scene) else {
+            continue;
+        };
+        occluded.throughput(Throughput::Elements(rays.len() as u64));
+        occluded.bench_with_input(BenchmarkId::from_parameter(name), &rays, |b, rays| {
+            b.iter(|| {
+                rays.iter()
+                    .filter(|r| scene.occluded(r, f32::INFINITY))
+                    .count()
+            })
+        });
+    }
+    occluded.finish();
+}
+
+criterion_group!(benches, bvh);
+criterion_main!(benches);

@@ -233,6 +233,14 @@ impl Daylight {
                 d.normalize()
             }
             (None, Some(el), Some(az)) => {
+                if !(-90.0..=90.0).contains(&el) {
+                    return Err(err(format!(
+                        "sun.elevation_deg must be in [-90, 90], got {el}"
+                    )));
+                }
+                if !az.is_finite() {
+                    return Err(err(format!("sun.azimuth_deg must be finite, got {az}")));
+                }
                 let (el, az) = (el.to_radians(), az.to_radians());
                 Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos())
             }
@@ -287,8 +295,14 @@ impl Daylight {
                     .path
                     .as_ref()
                     .ok_or_else(|| err("sky model \"map\" needs path".into()))?;
+                let scale = s.scale.unwrap_or(1.0);
+                if !(scale.is_finite() && scale >= 0.0) {
+                    return Err(err(format!(
+                        "sky.scale must be finite and non-negative, got {scale}"
+                    )));
+                }
                 let full = path.parent().unwrap_or(Path::new(".")).join(rel);
-                SkyModel::Map(load_sky_map(&full, s.scale.unwrap_or(1.0))?)
+                SkyModel::Map(load_sky_map(&full, scale)?)
             }
             other => {
                 return Err(err(format!(

@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 
 use base64::Engine;
 use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
-use gltf::{Document, mesh::Mode};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::{Document, Semantic, mesh::Mode};
 use rayon::prelude::*;
 
 use crate::camera::NamedCamera;
@@ -102,11 +103,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError>
         .default_scene()
         .or_else(|| gltf.document.scenes().next());
     match scene {
-        Some(scene) => {
-            for node in scene.nodes() {
-                loader.visit(&node, Mat4::IDENTITY)?;
-            }
-        }
+        Some(scene) => loader.visit_scene(&scene)?,
         None => {
             let w = "the file has no scene; nothing to draw".to_string();
             tracing::warn!("{}: {w}", path.display());
@@ -152,6 +149,28 @@ fn check_extensions(path: &Path, doc: &Document, strict: bool) -> Result<Vec<Str
 fn validate(path: &Path, doc: &Document) -> Result<(), SceneError> {
     let json = doc.as_json();
     let mut errors = Vec::new();
+    // gltf-json's validator indexes `accessors` with each primitive's POSITION index
+    // without checking it (it panics on a bad one), so those are checked first.
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            for (semantic, index) in &prim.attributes {
+                if index.value() >= json.accessors.len() {
+                    errors.push(format!(
+                        "meshes[{m}].primitives[{p}].attributes[\"{}\"]: accessor {} does not exist ({} accessors)",
+                        semantic_name(semantic),
+                        index.value(),
+                        json.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    if !errors.is_empty() {
+        return Err(SceneError::Invalid {
+            path: path.into(),
+            message: errors.join("; "),
+        });
+    }
     use gltf::json::validation::Validate;
     json.validate(json, gltf::json::Path::new, &mut |path, err| {
         let p = path().to_string();
@@ -172,6 +191,13 @@ fn validate(path: &Path, doc: &Document) -> Result<(), SceneError> {
         path: path.into(),
         message: format!("{}{more}", errors.join("; ")),
     })
+}
+
+fn semantic_name(s: &gltf::json::validation::Checked<gltf::json::mesh::Semantic>) -> String {
+    match s {
+        gltf::json::validation::Checked::Valid(s) => s.to_string(),
+        gltf::json::validation::Checked::Invalid => "invalid".into(),
+    }
 }
 
 fn load_buffers(
@@ -362,7 +388,39 @@ impl Loader<'_> {
         }
     }
 
-    fn visit(&mut self, node: &gltf::Node, parent: Mat4) -> Result<(), SceneError> {
+    /// Visits the scene's node trees depth first (pre-order, children in file order),
+    /// with an explicit stack so that deep hierarchies cannot overflow the call stack.
+    /// A node reached twice (a cycle, or a node with two parents, both invalid glTF) is
+    /// an error: following it could loop forever or multiply the work exponentially.
+    fn visit_scene(&mut self, scene: &gltf::Scene) -> Result<(), SceneError> {
+        let mut seen = vec![false; self.doc.nodes().len()];
+        let mut stack: Vec<(gltf::Node, Mat4)> = scene
+            .nodes()
+            .map(|n| (n, Mat4::IDENTITY))
+            .collect::<Vec<_>>();
+        stack.reverse();
+        while let Some((node, parent)) = stack.pop() {
+            if std::mem::replace(&mut seen[node.index()], true) {
+                return Err(SceneError::Invalid {
+                    path: self.path.into(),
+                    message: format!(
+                        "node {} is reached twice in the node hierarchy of scene {} \
+                         (a cycle, or a node with two parents)",
+                        node.index(),
+                        scene.index()
+                    ),
+                });
+            }
+            let world = self.visit(&node, parent)?;
+            let first = stack.len();
+            stack.extend(node.children().map(|c| (c, world)));
+            stack[first..].reverse();
+        }
+        Ok(())
+    }
+
+    /// Adds one node's mesh, light and camera; returns its world transform.
+    fn visit(&mut self, node: &gltf::Node, parent: Mat4) -> Result<Mat4, SceneError> {
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
         if let Some(mesh) = node.mesh() {
@@ -389,10 +447,7 @@ impl Loader<'_> {
                 aspect: p.aspect_ratio(),
             });
         }
-        for child in node.children() {
-            self.visit(&child, world)?;
-        }
-        Ok(())
+        Ok(world)
     }
 
     fn add_light(
@@ -434,33 +489,61 @@ impl Loader<'_> {
         });
     }
 
-    /// Checks that an accessor's bytes lie inside its buffer view and buffer.
-    fn check_accessor(&self, a: &gltf::Accessor) -> Result<(), String> {
-        let Some(view) = a.view() else {
+    /// Checks an accessor before the `gltf` reader sees it: its element type is one the
+    /// reader accepts for `what` (it panics on others), it is not sparse, and its bytes
+    /// lie inside its buffer view and buffer.
+    fn check_accessor(
+        &self,
+        a: &gltf::Accessor,
+        what: &str,
+        types: &[(DataType, Dimensions)],
+    ) -> Result<(), String> {
+        let index = a.index();
+        if !types.contains(&(a.data_type(), a.dimensions())) {
             return Err(format!(
-                "accessor {} has no buffer view (sparse-only accessors are not supported)",
-                a.index()
+                "{what} accessor {index} has type {:?} {:?}, which is not allowed for {what}",
+                a.dimensions(),
+                a.data_type()
             ));
+        }
+        if a.sparse().is_some() {
+            return Err(format!("{what} accessor {index} is sparse (not supported)"));
+        }
+        let Some(view) = a.view() else {
+            return Err(format!("{what} accessor {index} has no buffer view"));
         };
+        if a.count() == 0 {
+            return Err(format!("{what} accessor {index} has no elements"));
+        }
         let buffer_len = self.buffers[view.buffer().index()].len();
-        if view.offset() + view.length() > buffer_len {
+        let view_end = view.offset().checked_add(view.length());
+        if view_end.is_none_or(|end| end > buffer_len) {
             return Err(format!(
-                "buffer view {} ends at byte {}, past its buffer's {} bytes",
+                "buffer view {} (bytes {} + {}) runs past its buffer's {} bytes",
                 view.index(),
-                view.offset() + view.length(),
+                view.offset(),
+                view.length(),
                 buffer_len
             ));
         }
         let elem = a.size();
         let stride = view.stride().unwrap_or(elem);
-        let need = match a.count() {
-            0 => 0,
-            n => a.offset() + (n - 1) * stride + elem,
-        };
-        if need > view.length() {
+        if stride < elem {
             return Err(format!(
-                "accessor {} needs {need} bytes, its buffer view has {}",
-                a.index(),
+                "{what} accessor {index}: buffer view {} has a stride of {stride} bytes, \
+                 less than the {elem}-byte element",
+                view.index()
+            ));
+        }
+        let need = (a.count() - 1)
+            .checked_mul(stride)
+            .and_then(|n| n.checked_add(a.offset()))
+            .and_then(|n| n.checked_add(elem));
+        if need.is_none_or(|need| need > view.length()) {
+            return Err(format!(
+                "{what} accessor {index} ({} elements from byte {}) needs more than the {} bytes of its buffer view",
+                a.count(),
+                a.offset(),
                 view.length()
             ));
         }
@@ -486,11 +569,25 @@ impl Loader<'_> {
             ));
             return Ok(());
         }
-        for (_, a) in prim.attributes() {
-            self.check_accessor(&a).map_err(|m| err(self, m))?;
+        use Dimensions::{Scalar, Vec2 as V2, Vec3 as V3};
+        let Some(pos) = prim.get(&Semantic::Positions) else {
+            return Err(err(self, "has no POSITION attribute".into()));
+        };
+        self.check_accessor(&pos, "POSITION", &[(DataType::F32, V3)])
+            .map_err(|m| err(self, m))?;
+        if let Some(a) = prim.get(&Semantic::Normals) {
+            self.check_accessor(&a, "NORMAL", &[(DataType::F32, V3)])
+                .map_err(|m| err(self, m))?;
+        }
+        if let Some(a) = prim.get(&Semantic::TexCoords(0)) {
+            let types = [DataType::F32, DataType::U8, DataType::U16].map(|t| (t, V2));
+            self.check_accessor(&a, "TEXCOORD_0", &types)
+                .map_err(|m| err(self, m))?;
         }
         if let Some(a) = prim.indices() {
-            self.check_accessor(&a).map_err(|m| err(self, m))?;
+            let types = [DataType::U8, DataType::U16, DataType::U32].map(|t| (t, Scalar));
+            self.check_accessor(&a, "indices", &types)
+                .map_err(|m| err(self, m))?;
         }
         let buffers = self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
@@ -511,6 +608,23 @@ impl Loader<'_> {
         let uvs: Option<Vec<Vec2>> = reader
             .read_tex_coords(0)
             .map(|t| t.into_f32().map(Vec2::from_array).collect());
+        // glTF requires every attribute of a primitive to have the same count.
+        for (name, len) in [
+            ("NORMAL", normals.as_ref().map(Vec::len)),
+            ("TEXCOORD_0", uvs.as_ref().map(Vec::len)),
+        ] {
+            if let Some(len) = len
+                && len != positions.len()
+            {
+                return Err(err(
+                    self,
+                    format!(
+                        "{name} has {len} elements but POSITION has {}",
+                        positions.len()
+                    ),
+                ));
+            }
+        }
         let indices: Vec<u32> = match reader.read_indices() {
             Some(i) => i.into_u32().collect(),
             None => (0..positions.len() as u32).collect(),

@@ -39,7 +39,7 @@ impl GltfWriter {
     }
 
     fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
-        while self.buffer.len() % 4 != 0 {
+        while !self.buffer.len().is_multiple_of(4) {
             self.buffer.push(0);
         }
         self.views.push(json!({

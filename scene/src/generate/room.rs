@@ -109,7 +109,7 @@ pub fn room() -> String {
     w.node(
         "block",
         block,
-        Vec3::new(1.6, 0.4, -1.4),
+        Vec3::new(1.6, 0.4, -1.35),
         Quat::from_rotation_y(0.3),
         Vec3::new(1.2, 0.8, 0.9),
     );
