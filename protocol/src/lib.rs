@@ -3,9 +3,13 @@
 //! allocation. Bulk data travels as packed fixed-size little-endian records.
 //!
 //! - [`frame`]: framing, sync and async, with its errors.
+//! - [`handshake`]: the cluster's preamble and mutual HMAC authentication.
+//! - [`cluster`]: master ↔ render node messages (frame state, ready, swap).
 //! - [`holodeck`]: holodeck server ↔ worker messages (hello, ray packets, sample packets).
 
+pub mod cluster;
 pub mod frame;
+pub mod handshake;
 pub mod holodeck;
 
 pub use frame::{FrameError, MAX_FRAME_BYTES};
