@@ -19,6 +19,38 @@ pub struct CaveFile {
     pub navigation: RigidTransform,
     #[serde(rename = "wall")]
     pub walls: Vec<WallConfig>,
+    #[serde(default)]
+    pub cluster: ClusterConfig,
+}
+
+/// How the master and the render nodes find and trust each other, and the frame clock.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ClusterConfig {
+    /// The cluster's name; a node of another cluster is refused.
+    pub id: String,
+    /// Where the master listens for render nodes (`HOST:PORT`).
+    pub master: String,
+    /// The shared secret every node proves it knows (HMAC challenge–response). Required to
+    /// run a cluster; the `HOLOCAVE_SECRET` environment variable overrides it.
+    pub secret: String,
+    /// Frames per second of the master's clock.
+    pub rate_hz: f64,
+    /// How long the swap barrier waits for a node's Ready before marking it late
+    /// (milliseconds; default one frame period).
+    pub deadline_ms: Option<f64>,
+}
+
+impl Default for ClusterConfig {
+    fn default() -> Self {
+        ClusterConfig {
+            id: "holocave".to_owned(),
+            master: "127.0.0.1:7400".to_owned(),
+            secret: String::new(),
+            rate_hz: 60.0,
+            deadline_ms: None,
+        }
+    }
 }
 
 /// The physical room.

@@ -1,8 +1,13 @@
-//! The holocave master's geometry: the CAVE configuration (walls, user, tracking,
-//! navigation), its validation, and the off-axis stereo frusta of every wall and eye.
+//! The holocave master: the CAVE configuration (walls, user, tracking, navigation, cluster),
+//! its validation, the off-axis stereo frusta of every wall and eye, the tracked head, and
+//! the running cluster master (frame clock, frame states, swap barrier).
 
+pub mod barrier;
+pub mod cluster;
 pub mod config;
+pub mod frame_state;
 pub mod frustum;
+pub mod head;
 pub mod validate;
 
 pub use config::CaveFile;

@@ -8,7 +8,7 @@ use glam::{DMat4, DQuat, DVec3};
 use holocave_tracking::params::TrackingParams;
 use holocave_tracking::source::SourceSpec;
 
-use crate::config::{CaveFile, RigidTransform, StereoMode};
+use crate::config::{CaveFile, ClusterConfig, RigidTransform, StereoMode};
 use crate::frustum::MIN_EYE_DISTANCE;
 
 /// How far (m) `pc` may sit off the perpendicular to `pa→pb` at `pa` for the corners to
@@ -71,6 +71,34 @@ pub struct Cave {
     pub tracker_to_room: DMat4,
     pub room_to_scene: DMat4,
     pub tracking: TrackingParams,
+    pub cluster: ClusterConfig,
+}
+
+impl Cave {
+    /// The frame period of the master's clock.
+    pub fn frame_period(&self) -> std::time::Duration {
+        std::time::Duration::from_secs_f64(1.0 / self.cluster.rate_hz)
+    }
+
+    /// How long the swap barrier waits for a node.
+    pub fn deadline(&self) -> std::time::Duration {
+        self.cluster.deadline_ms.map_or(self.frame_period(), |ms| {
+            std::time::Duration::from_secs_f64(ms / 1e3)
+        })
+    }
+
+    /// The shared secret (`HOLOCAVE_SECRET` overrides the config's); an error naming the
+    /// field when there is none.
+    pub fn secret(&self) -> Result<Vec<u8>, String> {
+        let s = std::env::var("HOLOCAVE_SECRET").unwrap_or_else(|_| self.cluster.secret.clone());
+        if s.is_empty() {
+            return Err(
+                "cluster.secret: empty; a cluster needs a shared secret (or set HOLOCAVE_SECRET)"
+                    .to_owned(),
+            );
+        }
+        Ok(s.into_bytes())
+    }
 }
 
 /// Reads and checks a CAVE file.
@@ -232,6 +260,23 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
         &mut problems,
     );
     let room_to_scene = transform(&file.navigation, "navigation", &mut problems);
+    let c = &file.cluster;
+    if !(c.rate_hz > 0.0 && c.rate_hz <= 1000.0) {
+        problems.push(format!(
+            "cluster.rate_hz: {} is not a frame rate (0 to 1000 Hz)",
+            c.rate_hz
+        ));
+    }
+    if let Some(d) = c.deadline_ms
+        && !(d > 0.0 && d <= 10_000.0)
+    {
+        problems.push(format!(
+            "cluster.deadline_ms: {d} must be positive and at most 10 s"
+        ));
+    }
+    if c.master.parse::<std::net::SocketAddr>().is_err() && !c.master.contains(':') {
+        problems.push(format!("cluster.master: {:?} is not HOST:PORT", c.master));
+    }
     if !problems.is_empty() {
         return Err(problems);
     }
@@ -256,6 +301,7 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
             filter: file.tracking.filter,
             prediction: file.tracking.prediction,
         },
+        cluster: file.cluster.clone(),
     })
 }
 

@@ -93,9 +93,13 @@ pub struct NodeStats {
 pub enum MasterMsg {
     Frame(FrameState),
     /// Show the frame (every node that was ready for it gets the same Swap).
-    Swap { frame: u64 },
+    Swap {
+        frame: u64,
+    },
     /// The cluster is stopping; the node exits.
-    Shutdown { reason: String },
+    Shutdown {
+        reason: String,
+    },
 }
 
 /// Node → master.

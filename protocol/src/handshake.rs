@@ -210,7 +210,11 @@ pub fn accept<S: Read + Write>(
             peer: hello.cluster.clone(),
             ours: cluster.to_owned(),
         };
-        write_frame(stream, &Challenge::Refused(e.to_string()), MAX_HANDSHAKE_FRAME)?;
+        write_frame(
+            stream,
+            &Challenge::Refused(e.to_string()),
+            MAX_HANDSHAKE_FRAME,
+        )?;
         return Err(e);
     }
     let master_nonce = nonce();
@@ -251,7 +255,11 @@ impl Accepted {
     }
 
     pub fn refuse<W: Write>(self, stream: &mut W, why: &str) -> Result<(), FrameError> {
-        write_frame(stream, &Verdict::Refused(why.to_owned()), MAX_HANDSHAKE_FRAME)
+        write_frame(
+            stream,
+            &Verdict::Refused(why.to_owned()),
+            MAX_HANDSHAKE_FRAME,
+        )
     }
 }
 

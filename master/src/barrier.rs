@@ -1,0 +1,202 @@
+//! The swap barrier's bookkeeping, without sockets or clocks: who is in the cluster, whom
+//! the barrier waits for, who was ready for the frame, who is late.
+//!
+//! A node that misses a frame's deadline leaves the barrier (the others swap without it);
+//! it comes back the first time it is ready for the frame being collected. A node that
+//! joins (or reconnects) starts outside the barrier and enters the same way, so no frame
+//! ever waits for a node that has not yet shown it keeps up.
+
+use std::collections::BTreeMap;
+
+use holocave_protocol::cluster::NodeStats;
+
+/// A connection's number.
+pub type NodeId = u64;
+
+/// What the master knows of one node.
+#[derive(Clone, Debug)]
+pub struct Member {
+    pub wall: String,
+    /// The barrier waits for this node.
+    pub in_barrier: bool,
+    /// The newest frame this node said it was ready for.
+    pub ready: Option<u64>,
+    /// Frames whose deadline it missed.
+    pub late: u64,
+    /// Frames it swapped.
+    pub swapped: u64,
+    pub stats: NodeStats,
+}
+
+/// The outcome of one frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Closed {
+    /// Nodes that get Swap.
+    pub swap: Vec<NodeId>,
+    /// Nodes that missed the deadline (now outside the barrier).
+    pub late: Vec<NodeId>,
+}
+
+/// The members and the frame being collected.
+#[derive(Clone, Debug, Default)]
+pub struct Barrier {
+    members: BTreeMap<NodeId, Member>,
+    frame: u64,
+}
+
+impl Barrier {
+    pub fn members(&self) -> &BTreeMap<NodeId, Member> {
+        &self.members
+    }
+
+    /// A node joined; it enters the barrier when it is first ready in time.
+    pub fn join(&mut self, id: NodeId, wall: &str) {
+        self.members.insert(
+            id,
+            Member {
+                wall: wall.to_owned(),
+                in_barrier: false,
+                ready: None,
+                late: 0,
+                swapped: 0,
+                stats: NodeStats::default(),
+            },
+        );
+    }
+
+    pub fn leave(&mut self, id: NodeId) -> Option<Member> {
+        self.members.remove(&id)
+    }
+
+    /// Starts collecting Ready for `frame`.
+    pub fn begin(&mut self, frame: u64) {
+        self.frame = frame;
+    }
+
+    /// A node is ready for `frame`. Stale answers (an older frame) only update its stats.
+    pub fn ready(&mut self, id: NodeId, frame: u64, stats: NodeStats) {
+        if let Some(m) = self.members.get_mut(&id) {
+            m.stats = stats;
+            if frame == self.frame {
+                m.ready = Some(frame);
+                m.in_barrier = true;
+            }
+        }
+    }
+
+    /// Every node the barrier waits for is ready (true with no such node).
+    pub fn complete(&self) -> bool {
+        self.members
+            .values()
+            .filter(|m| m.in_barrier)
+            .all(|m| m.ready == Some(self.frame))
+    }
+
+    /// Ends the frame: the ready nodes swap, the others the barrier waited for are late.
+    pub fn close(&mut self) -> Closed {
+        let mut out = Closed::default();
+        for (&id, m) in &mut self.members {
+            if m.ready == Some(self.frame) {
+                m.swapped += 1;
+                out.swap.push(id);
+            } else if m.in_barrier {
+                m.in_barrier = false;
+                m.late += 1;
+                out.late.push(id);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stats() -> NodeStats {
+        NodeStats::default()
+    }
+
+    #[test]
+    fn all_ready_swaps_all() {
+        let mut b = Barrier::default();
+        for id in 0..4 {
+            b.join(id, "w");
+        }
+        b.begin(1);
+        for id in 0..4 {
+            b.ready(id, 1, stats());
+        }
+        assert!(b.complete());
+        assert_eq!(b.close().swap, vec![0, 1, 2, 3]);
+        b.begin(2);
+        assert!(
+            !b.complete(),
+            "members are in the barrier once they kept up"
+        );
+    }
+
+    #[test]
+    fn a_late_node_leaves_the_barrier_and_rejoins_when_it_catches_up() {
+        let mut b = Barrier::default();
+        for id in 0..3 {
+            b.join(id, "w");
+        }
+        b.begin(1);
+        for id in 0..3 {
+            b.ready(id, 1, stats());
+        }
+        b.close();
+        b.begin(2);
+        b.ready(0, 2, stats());
+        b.ready(1, 2, stats());
+        assert!(!b.complete());
+        let c = b.close();
+        assert_eq!((c.swap, c.late), (vec![0, 1], vec![2]));
+        // Frame 3: node 2 answers frame 2 late (stale) — the barrier does not wait for it.
+        b.begin(3);
+        b.ready(2, 2, stats());
+        b.ready(0, 3, stats());
+        b.ready(1, 3, stats());
+        assert!(b.complete());
+        assert_eq!(
+            b.close(),
+            Closed {
+                swap: vec![0, 1],
+                late: vec![]
+            }
+        );
+        // Frame 4: it is ready in time again and swaps with the others.
+        b.begin(4);
+        for id in 0..3 {
+            b.ready(id, 4, stats());
+        }
+        assert_eq!(b.close().swap, vec![0, 1, 2]);
+        assert_eq!(b.members()[&2].late, 1);
+    }
+
+    #[test]
+    fn a_node_that_leaves_is_not_waited_for_and_a_new_one_is_not_waited_for_yet() {
+        let mut b = Barrier::default();
+        b.join(0, "a");
+        b.join(1, "b");
+        b.begin(1);
+        b.ready(0, 1, stats());
+        b.ready(1, 1, stats());
+        b.close();
+        b.begin(2);
+        b.ready(0, 2, stats());
+        b.leave(1);
+        b.join(2, "b");
+        assert!(b.complete());
+        assert_eq!(b.close().swap, vec![0]);
+    }
+
+    #[test]
+    fn no_nodes_is_complete() {
+        let mut b = Barrier::default();
+        b.begin(7);
+        assert!(b.complete());
+        assert_eq!(b.close(), Closed::default());
+    }
+}

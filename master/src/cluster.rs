@@ -1,0 +1,464 @@
+//! The running master: the frame clock, the broadcast of each frame's state, the swap
+//! barrier over TCP, node membership, and the operator's status line.
+//!
+//! Threads: one accepts connections; each connection gets a thread that runs the
+//! handshake (with a timeout, so a silent or hostile peer costs nothing but its thread)
+//! and then reads the node's messages; the caller's thread runs the frame loop. They meet
+//! in one channel of [`Event`]s, so the frame loop never blocks on a socket read.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
+use std::time::{Duration, Instant};
+
+use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
+use holocave_protocol::frame::{encode, read_frame};
+use holocave_protocol::handshake::{self, Role, Welcome};
+
+use crate::Cave;
+use crate::barrier::{Barrier, NodeId};
+use crate::frame_state::{FrameTimes, frame_state};
+use crate::frustum::CaveFrusta;
+use crate::head::{Clock, Head};
+
+/// How long a peer has for the whole handshake.
+const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(2);
+/// Most handshakes in progress at once; more connections are closed at once.
+const MAX_HANDSHAKES: usize = 64;
+/// A node whose socket does not take a frame state within this long is dropped (it
+/// reconnects); the frame loop never waits longer on one node.
+const WRITE_TIMEOUT: Duration = Duration::from_millis(20);
+
+/// How to run.
+pub struct MasterOptions {
+    pub clock: Clock,
+    /// Stop after this many frames.
+    pub frames: Option<u64>,
+    /// Stop after this long.
+    pub seconds: Option<f64>,
+    /// Stop when a recorded tracker source ends.
+    pub stop_at_end_of_log: bool,
+    /// The holodeck server's address for displays, told to every node.
+    pub holodeck: Option<String>,
+    /// Append every frame state (as its wire frame) to this file.
+    pub states_log: Option<PathBuf>,
+    /// Print a status line this often.
+    pub status_every: Duration,
+    /// Set from outside (Ctrl-C, a test) to stop after the current frame.
+    pub stop: Arc<AtomicBool>,
+}
+
+/// What a run measured.
+#[derive(Clone, Debug, Default)]
+pub struct Summary {
+    pub frames: u64,
+    pub elapsed: Duration,
+    /// Per frame: from sending the state to sending Swap.
+    pub barrier: Vec<Duration>,
+    /// Per frame with a tracker sample (live clock): from the sample's arrival to Swap.
+    pub motion_to_photon: Vec<Duration>,
+    /// Per wall: frames swapped, frames late.
+    pub walls: BTreeMap<String, (u64, u64)>,
+    /// Frames that swapped with every wall present.
+    pub full_frames: u64,
+    /// Connections refused (bad handshake, wrong secret, unknown wall).
+    pub refused: u64,
+    /// Connections dropped for bad messages or write failures.
+    pub dropped: u64,
+}
+
+/// The `q` quantile (0..1) of durations.
+pub fn quantile(v: &[Duration], q: f64) -> Duration {
+    if v.is_empty() {
+        return Duration::ZERO;
+    }
+    let mut s = v.to_vec();
+    s.sort();
+    s[((s.len() - 1) as f64 * q).round() as usize]
+}
+
+enum Event {
+    Joined {
+        id: NodeId,
+        wall: String,
+        writer: TcpStream,
+    },
+    Msg {
+        id: NodeId,
+        msg: NodeMsg,
+    },
+    Left {
+        id: NodeId,
+        why: String,
+    },
+    Refused {
+        peer: SocketAddr,
+        why: String,
+    },
+}
+
+struct Accepting {
+    cluster: String,
+    secret: Vec<u8>,
+    walls: Vec<String>,
+    welcome: Welcome,
+    next_id: AtomicU64,
+    handshakes: AtomicUsize,
+    stop: AtomicBool,
+}
+
+fn accept_loop(listener: TcpListener, shared: Arc<Accepting>, events: Sender<Event>) {
+    for conn in listener.incoming() {
+        if shared.stop.load(Ordering::Relaxed) {
+            return;
+        }
+        let Ok(stream) = conn else { continue };
+        if shared.handshakes.fetch_add(1, Ordering::AcqRel) >= MAX_HANDSHAKES {
+            shared.handshakes.fetch_sub(1, Ordering::AcqRel);
+            let _ = stream.shutdown(Shutdown::Both);
+            continue;
+        }
+        let (shared, events) = (shared.clone(), events.clone());
+        let _ = std::thread::Builder::new()
+            .name("master connection".into())
+            .spawn(move || serve_connection(stream, &shared, &events));
+    }
+}
+
+/// One connection: handshake, then its messages until it closes or misbehaves.
+fn serve_connection(mut stream: TcpStream, shared: &Accepting, events: &Sender<Event>) {
+    let peer = stream
+        .peer_addr()
+        .unwrap_or_else(|_| SocketAddr::from(([0, 0, 0, 0], 0)));
+    let refuse = |why: String| {
+        let _ = events.send(Event::Refused { peer, why });
+    };
+    let _ = stream.set_nodelay(true);
+    let _ = stream.set_read_timeout(Some(HANDSHAKE_TIMEOUT));
+    let _ = stream.set_write_timeout(Some(HANDSHAKE_TIMEOUT));
+    let accepted = handshake::accept(&mut stream, &shared.cluster, &shared.secret);
+    shared.handshakes.fetch_sub(1, Ordering::AcqRel);
+    let accepted = match accepted {
+        Ok(a) => a,
+        Err(e) => return refuse(e.to_string()),
+    };
+    let Role::Node { wall } = accepted.role.clone();
+    if !shared.walls.contains(&wall) {
+        let why = format!(
+            "no wall {wall:?} in this CAVE (walls: {})",
+            shared.walls.join(", ")
+        );
+        let _ = accepted.refuse(&mut stream, &why);
+        return refuse(why);
+    }
+    let id = shared.next_id.fetch_add(1, Ordering::Relaxed);
+    let welcome = Welcome {
+        node_id: id,
+        ..shared.welcome.clone()
+    };
+    if let Err(e) = accepted.welcome(&mut stream, welcome) {
+        return refuse(format!("welcome: {e}"));
+    }
+    let _ = stream.set_read_timeout(None);
+    let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
+    let Ok(writer) = stream.try_clone() else {
+        return;
+    };
+    if events.send(Event::Joined { id, wall, writer }).is_err() {
+        return;
+    }
+    loop {
+        match read_frame::<_, NodeMsg>(&mut stream, MAX_CLUSTER_FRAME) {
+            Ok(msg) => {
+                if events.send(Event::Msg { id, msg }).is_err() {
+                    return;
+                }
+            }
+            Err(e) => {
+                let _ = stream.shutdown(Shutdown::Both);
+                let _ = events.send(Event::Left {
+                    id,
+                    why: e.to_string(),
+                });
+                return;
+            }
+        }
+    }
+}
+
+/// A connected node's socket for writing.
+struct Link {
+    wall: String,
+    writer: TcpStream,
+}
+
+/// The master's state between frames.
+struct Master<'a> {
+    cave: &'a Cave,
+    events: Receiver<Event>,
+    barrier: Barrier,
+    links: BTreeMap<NodeId, Link>,
+    summary: Summary,
+}
+
+impl Master<'_> {
+    fn handle(&mut self, e: Event) {
+        match e {
+            Event::Joined { id, wall, writer } => {
+                tracing::info!("node {id} joined for wall {wall:?}");
+                self.barrier.join(id, &wall);
+                self.links.insert(id, Link { wall, writer });
+            }
+            Event::Msg {
+                id,
+                msg: NodeMsg::Ready { frame, stats },
+            } => self.barrier.ready(id, frame, stats),
+            Event::Left { id, why } => {
+                if let Some(l) = self.links.remove(&id) {
+                    self.summary.dropped += u64::from(!why.contains("connection closed"));
+                    tracing::warn!("node {id} (wall {:?}) left: {why}", l.wall);
+                }
+                self.forget(id);
+            }
+            Event::Refused { peer, why } => {
+                self.summary.refused += 1;
+                tracing::warn!("refused a connection from {peer}: {why}");
+            }
+        }
+    }
+
+    /// Removes a node from the barrier, keeping its counts in the summary.
+    fn forget(&mut self, id: NodeId) {
+        if let Some(mem) = self.barrier.leave(id) {
+            let e = self.summary.walls.entry(mem.wall).or_default();
+            e.0 += mem.swapped;
+            e.1 += mem.late;
+        }
+    }
+
+    /// Sends `bytes` to the given nodes (all when `None`); drops a node that fails.
+    fn send(&mut self, bytes: &[u8], to: Option<&[NodeId]>) {
+        let ids: Vec<NodeId> = match to {
+            Some(ids) => ids.to_vec(),
+            None => self.links.keys().copied().collect(),
+        };
+        for id in ids {
+            let Some(link) = self.links.get_mut(&id) else {
+                continue;
+            };
+            if let Err(e) = link.writer.write_all(bytes) {
+                tracing::warn!("node {id} (wall {:?}): {e}; dropping it", link.wall);
+                let _ = link.writer.shutdown(Shutdown::Both);
+                self.links.remove(&id);
+                self.forget(id);
+                self.summary.dropped += 1;
+            }
+        }
+    }
+
+    fn status_line(&self, frame: u64, rate: f64, head: &Head) -> String {
+        let mut line = format!("frame {frame:6} {rate:5.1} Hz |");
+        for wall in &self.cave.walls {
+            let m = self
+                .barrier
+                .members()
+                .values()
+                .filter(|m| m.wall == wall.name)
+                .max_by_key(|m| m.swapped);
+            line += &match m {
+                Some(m) => format!(
+                    " {} {:.1} ms{} late {} |",
+                    wall.name,
+                    m.stats.draw_us as f64 / 1e3,
+                    if m.in_barrier { "" } else { " (out)" },
+                    m.late
+                ),
+                None => format!(" {} absent |", wall.name),
+            };
+        }
+        let n = self.summary.barrier.len();
+        let recent = &self.summary.barrier[n.saturating_sub(120)..];
+        line += &format!(
+            " barrier p50 {:.2} ms | tracker {}",
+            quantile(recent, 0.5).as_secs_f64() * 1e3,
+            head.fault_line()
+        );
+        line
+    }
+}
+
+/// Runs the master on `listener` until a stop condition; then tells every node to shut
+/// down and returns what it measured.
+pub fn run(
+    cave: &Cave,
+    mut head: Head,
+    listener: TcpListener,
+    secret: Vec<u8>,
+    opts: MasterOptions,
+) -> std::io::Result<Summary> {
+    let addr = listener.local_addr()?;
+    let period = cave.frame_period();
+    let deadline = cave.deadline();
+    let (tx, events) = channel();
+    let accepting = Arc::new(Accepting {
+        cluster: cave.cluster.id.clone(),
+        secret,
+        walls: cave.walls.iter().map(|w| w.name.clone()).collect(),
+        welcome: Welcome {
+            node_id: 0,
+            rate_hz: cave.cluster.rate_hz,
+            holodeck: opts.holodeck.clone(),
+        },
+        next_id: AtomicU64::new(1),
+        handshakes: AtomicUsize::new(0),
+        stop: AtomicBool::new(false),
+    });
+    let acceptor = {
+        let (a, tx) = (accepting.clone(), tx.clone());
+        std::thread::Builder::new()
+            .name("master accept".into())
+            .spawn(move || accept_loop(listener, a, tx))?
+    };
+    drop(tx);
+    let mut states = match &opts.states_log {
+        Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p)?)),
+        None => None,
+    };
+    let mut m = Master {
+        cave,
+        events,
+        barrier: Barrier::default(),
+        links: BTreeMap::new(),
+        summary: Summary::default(),
+    };
+    let mut frusta = CaveFrusta::new(cave);
+    let start = Instant::now();
+    let period_ns = period.as_nanos() as u64;
+    let mut next_tick = start;
+    let mut last_status = (start, 0u64);
+    let mut frame = 0u64;
+    loop {
+        let stop = opts.stop.load(Ordering::Relaxed)
+            || opts.frames.is_some_and(|n| frame >= n)
+            || opts
+                .seconds
+                .is_some_and(|s| start.elapsed().as_secs_f64() >= s)
+            || (opts.stop_at_end_of_log && head.ended());
+        if stop {
+            break;
+        }
+        // Wait for the tick, handling joins and stale messages meanwhile.
+        loop {
+            let now = Instant::now();
+            if now >= next_tick {
+                break;
+            }
+            match m.events.recv_timeout(next_tick - now) {
+                Ok(e) => m.handle(e),
+                Err(RecvTimeoutError::Timeout) => break,
+                Err(RecvTimeoutError::Disconnected) => std::thread::sleep(next_tick - now),
+            }
+        }
+        while let Ok(e) = m.events.try_recv() {
+            m.handle(e);
+        }
+        let master_ns = match opts.clock {
+            Clock::Live => start.elapsed().as_nanos() as u64,
+            Clock::Replay => frame * period_ns,
+        };
+        // The frame is shown about one period after it starts (drawn, then swapped).
+        let display_ns = master_ns + period_ns;
+        head.advance(master_ns);
+        let (pose, tracker_ns) = head.pose_at(display_ns);
+        frusta.update(cave, &pose);
+        let times = FrameTimes {
+            master_ns,
+            display_ns,
+            tracker_ns,
+        };
+        let state = frame_state(cave, &frusta, frame, times, &pose);
+        let bytes = encode(&MasterMsg::Frame(state), MAX_CLUSTER_FRAME)
+            .map_err(|e| std::io::Error::other(e.to_string()))?;
+        if let Some(w) = &mut states {
+            w.write_all(&bytes)?;
+        }
+        let sent = Instant::now();
+        m.barrier.begin(frame);
+        m.send(&bytes, None);
+        let until = sent + deadline;
+        while !m.barrier.complete() {
+            let now = Instant::now();
+            if now >= until {
+                break;
+            }
+            match m.events.recv_timeout(until - now) {
+                Ok(e) => m.handle(e),
+                Err(_) => break,
+            }
+        }
+        let closed = m.barrier.close();
+        let swap = encode(&MasterMsg::Swap { frame }, MAX_CLUSTER_FRAME)
+            .map_err(|e| std::io::Error::other(e.to_string()))?;
+        m.send(&swap, Some(&closed.swap));
+        let swapped = Instant::now();
+        m.summary.barrier.push(swapped - sent);
+        if let (Clock::Live, Some(t)) = (opts.clock, tracker_ns) {
+            let t = start + Duration::from_nanos(t);
+            m.summary
+                .motion_to_photon
+                .push(swapped.saturating_duration_since(t));
+        }
+        let mut walls_swapped: Vec<&str> = closed
+            .swap
+            .iter()
+            .filter_map(|id| m.links.get(id).map(|l| l.wall.as_str()))
+            .collect();
+        walls_swapped.sort();
+        walls_swapped.dedup();
+        if walls_swapped.len() == cave.walls.len() {
+            m.summary.full_frames += 1;
+        }
+        for id in &closed.late {
+            if let Some(mem) = m.barrier.members().get(id) {
+                tracing::debug!("frame {frame}: wall {:?} late", mem.wall);
+            }
+        }
+        if swapped - last_status.0 >= opts.status_every {
+            let rate = (frame + 1 - last_status.1) as f64 / (swapped - last_status.0).as_secs_f64();
+            tracing::info!("{}", m.status_line(frame, rate, &head));
+            last_status = (swapped, frame + 1);
+        }
+        frame += 1;
+        next_tick += period;
+        let now = Instant::now();
+        if now > next_tick + period {
+            // Far behind (a stall): start again from now rather than racing to catch up.
+            next_tick = now;
+        }
+    }
+    let bye = encode(
+        &MasterMsg::Shutdown {
+            reason: "the master is stopping".into(),
+        },
+        MAX_CLUSTER_FRAME,
+    )
+    .map_err(|e| std::io::Error::other(e.to_string()))?;
+    m.send(&bye, None);
+    for l in m.links.values() {
+        let _ = l.writer.shutdown(Shutdown::Write);
+    }
+    accepting.stop.store(true, Ordering::Relaxed);
+    let _ = TcpStream::connect(addr);
+    let _ = acceptor.join();
+    m.summary.frames = frame;
+    m.summary.elapsed = start.elapsed();
+    let ids: Vec<NodeId> = m.barrier.members().keys().copied().collect();
+    for id in ids {
+        m.forget(id);
+    }
+    Ok(m.summary)
+}

@@ -1,0 +1,219 @@
+//! The tracked head as the master sees it: raw samples from a tracker source, through the
+//! tracking pipeline (guard, hemisphere, filter, predictor), mapped to room coordinates and
+//! predicted to a frame's display time.
+//!
+//! Two clocks: *live*, where a sample's arrival is the master's clock when it was read, and
+//! *replay*, where the master's clock is virtual (frame × period) and a log's samples
+//! arrive at their own time since the log's first sample — the same log then gives the
+//! same poses, bit for bit, however fast the machine is. In both, the pose is predicted
+//! to `sample time + (display time − arrival time)` of the newest sample, so sources
+//! whose timestamps are on another clock (a VRPN server, a recorded log) work unchanged.
+
+use std::time::Instant;
+
+use glam::{DMat4, DVec3, Quat, Vec3};
+use holocave_tracking::predict::PredictorKind;
+use holocave_tracking::source::{Next, Pacing, SourceError, SourceSpec, TrackerSource, open};
+use holocave_tracking::{HeadTracker, Pose, Sample};
+
+use crate::Cave;
+
+/// How the head source is read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Clock {
+    /// Samples as they arrive; the master's clock is real.
+    Live,
+    /// Samples at their own times since the first; the master's clock is virtual.
+    Replay,
+}
+
+/// The head: its source, pipeline and the transform into the room.
+pub struct Head {
+    source: Box<dyn TrackerSource>,
+    tracker: HeadTracker,
+    clock: Clock,
+    pending: Option<Sample>,
+    /// The first sample's time (replay's time origin).
+    t0: Option<u64>,
+    /// The newest accepted sample: its own time and its arrival on the master's clock.
+    newest: Option<(u64, u64)>,
+    tracker_to_room: DMat4,
+    /// Where the first position is moved to (logs recorded in another room).
+    recenter: Option<Vec3>,
+    origin: Option<Vec3>,
+    last: Pose,
+    ended: bool,
+    /// Raw samples read.
+    pub samples: u64,
+}
+
+impl Head {
+    /// Opens `spec` (the config's source when `None`). `predict` chooses the config's
+    /// predictor or none; `recenter` moves the first position to the room's inside point.
+    pub fn open(
+        cave: &Cave,
+        spec: Option<&SourceSpec>,
+        clock: Clock,
+        predict: bool,
+        recenter: bool,
+    ) -> Result<Head, SourceError> {
+        let spec = spec.unwrap_or(&cave.source);
+        let pacing = match clock {
+            Clock::Live => Pacing::RealTime,
+            Clock::Replay => Pacing::AsFastAsPossible,
+        };
+        Ok(Head {
+            source: open(spec, pacing, None)?,
+            tracker: if predict {
+                HeadTracker::new(&cave.tracking)
+            } else {
+                HeadTracker::with_predictor(&cave.tracking, PredictorKind::None)
+            },
+            clock,
+            pending: None,
+            t0: None,
+            newest: None,
+            tracker_to_room: cave.tracker_to_room,
+            recenter: recenter.then(|| cave.inside.as_vec3()),
+            origin: None,
+            last: Pose::new(cave.inside.as_vec3(), Quat::IDENTITY),
+            ended: false,
+            samples: 0,
+        })
+    }
+
+    /// Reads every sample that has arrived by `now_ns` on the master's clock (live: without
+    /// waiting; replay: every sample up to `now_ns` after the first).
+    pub fn advance(&mut self, now_ns: u64) {
+        loop {
+            let s = match self.pending.take() {
+                Some(s) => s,
+                None if self.ended => return,
+                None => {
+                    let deadline = match self.clock {
+                        Clock::Live => Instant::now(),
+                        // Recorded sources answer at once; the margin only guards a
+                        // synthetic source's first call.
+                        Clock::Replay => Instant::now() + std::time::Duration::from_millis(100),
+                    };
+                    match self.source.next(deadline) {
+                        Next::Sample(s) => {
+                            self.samples += 1;
+                            s
+                        }
+                        Next::Idle => return,
+                        Next::End => {
+                            self.ended = true;
+                            return;
+                        }
+                    }
+                }
+            };
+            let arrival = match self.clock {
+                Clock::Live => now_ns,
+                Clock::Replay => {
+                    let t0 = *self.t0.get_or_insert(s.t_ns);
+                    let at = s.t_ns.saturating_sub(t0);
+                    if at > now_ns {
+                        self.pending = Some(s);
+                        return;
+                    }
+                    at
+                }
+            };
+            if let holocave_tracking::guard::Checked::Accepted { .. } = self.tracker.push(s) {
+                self.newest = Some((s.t_ns, arrival));
+            }
+        }
+    }
+
+    /// The head pose in room coordinates expected at `display_ns` on the master's clock,
+    /// and the arrival time of the newest sample it rests on. Before any good sample (or
+    /// when the prediction is not finite) it is the last good pose.
+    pub fn pose_at(&mut self, display_ns: u64) -> (Pose, Option<u64>) {
+        let Some((t, arrival)) = self.newest else {
+            return (self.last, None);
+        };
+        let at = t.saturating_add(display_ns.saturating_sub(arrival));
+        if let Some(p) = self.tracker.predict(at) {
+            let m = self.tracker_to_room;
+            let q = m.as_mat4().to_scale_rotation_translation().1;
+            let mut pos = m.transform_point3(p.position.as_dvec3()).as_vec3();
+            if let Some(inside) = self.recenter {
+                let o = *self.origin.get_or_insert(pos);
+                pos = inside + (pos - o);
+            }
+            let pose = Pose::new(pos, (q * p.orientation).normalize());
+            if pose.is_finite() {
+                self.last = pose;
+            }
+        }
+        (self.last, Some(arrival))
+    }
+
+    /// True once a recorded source has no more samples.
+    pub fn ended(&self) -> bool {
+        self.ended && self.pending.is_none()
+    }
+
+    /// What the tracking guard rejected so far, in one line.
+    pub fn fault_line(&self) -> String {
+        let r = self.tracker.report();
+        format!("{} rejected of {} read", r.rejected(), self.samples)
+    }
+}
+
+/// The room point `p` in scene coordinates.
+pub fn to_scene(cave: &Cave, p: DVec3) -> DVec3 {
+    cave.room_to_scene.transform_point3(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse_cave;
+
+    fn cave(source: &str) -> Cave {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../configs/cave4.toml"
+        ))
+        .unwrap()
+        .replace("vrpn://Tracker0@localhost:3883", source);
+        parse_cave(&text, "cave4.toml").unwrap()
+    }
+
+    #[test]
+    fn replay_gives_the_same_poses_twice_and_follows_the_log() {
+        let c = cave("synthetic:walk");
+        let run = || {
+            let mut h = Head::open(&c, None, Clock::Replay, true, false).unwrap();
+            (0..120u64)
+                .map(|k| {
+                    let now = k * 16_666_667;
+                    h.advance(now);
+                    h.pose_at(now + 16_666_667)
+                })
+                .collect::<Vec<_>>()
+        };
+        let (a, b) = (run(), run());
+        assert_eq!(a, b);
+        let moved = a
+            .first()
+            .unwrap()
+            .0
+            .position
+            .distance(a.last().unwrap().0.position);
+        assert!(moved > 0.01, "the walk moved the head {moved} m");
+        assert!(a.iter().all(|(p, _)| p.is_finite()));
+    }
+
+    #[test]
+    fn before_any_sample_the_head_is_at_the_inside_point() {
+        let c = cave("synthetic:still");
+        let mut h = Head::open(&c, None, Clock::Replay, true, false).unwrap();
+        let (p, arrival) = h.pose_at(0);
+        assert_eq!(p.position, c.inside.as_vec3());
+        assert_eq!(arrival, None);
+    }
+}
