@@ -18,6 +18,11 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run a whole simulated CAVE on this machine: the master and one render-node process
+    /// per wall on loopback, headless; writes every wall's frames and mosaics.
+    Sim(cmd::sim::SimArgs),
+    /// Run the cluster's master: head tracking, the frame clock and the swap barrier.
+    Master(cmd::master::MasterArgs),
     /// Render one off-axis view of a scene as a CAVE wall sees it (EXR + PNG preview).
     Render(cmd::render::RenderArgs),
     /// Inspect a scene.
@@ -36,7 +41,8 @@ enum Command {
     Fill(cmd::fill::FillArgs),
     /// Run a holodeck worker process for a server.
     Worker(cmd::worker::WorkerArgs),
-    /// Run a render node: one wall's display process (GPU render cache), in stereo.
+    /// Run a render node: one wall's display process (GPU render cache), in stereo, in a
+    /// cluster (--master) or by itself (--standalone).
     Node(cmd::node::NodeArgs),
 }
 
@@ -50,6 +56,8 @@ fn main() -> anyhow::Result<()> {
         .init();
     let cli = Cli::parse();
     match cli.command {
+        Command::Sim(a) => cmd::sim::run(a),
+        Command::Master(a) => cmd::master::run(a),
         Command::Render(args) => cmd::render::run(args),
         Command::Scene(c) => cmd::scene::run(c),
         Command::Tracking(c) => cmd::tracking::run(c),

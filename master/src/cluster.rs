@@ -50,6 +50,8 @@ pub struct MasterOptions {
     pub status_every: Duration,
     /// Set from outside (Ctrl-C, a test) to stop after the current frame.
     pub stop: Arc<AtomicBool>,
+    /// Before the first frame, wait this long at most for a node of every wall.
+    pub wait_for_walls: Duration,
 }
 
 /// What a run measured.
@@ -335,6 +337,30 @@ pub fn run(
         links: BTreeMap::new(),
         summary: Summary::default(),
     };
+    let waiting = Instant::now() + opts.wait_for_walls;
+    while !cave
+        .walls
+        .iter()
+        .all(|w| m.links.values().any(|l| l.wall == w.name))
+    {
+        let now = Instant::now();
+        if now >= waiting {
+            let absent: Vec<&str> = cave
+                .walls
+                .iter()
+                .filter(|w| !m.links.values().any(|l| l.wall == w.name))
+                .map(|w| w.name.as_str())
+                .collect();
+            if !opts.wait_for_walls.is_zero() {
+                tracing::warn!("starting without walls {absent:?}: no node joined for them");
+            }
+            break;
+        }
+        match m.events.recv_timeout(waiting - now) {
+            Ok(e) => m.handle(e),
+            Err(_) => break,
+        }
+    }
     let mut frusta = CaveFrusta::new(cave);
     let start = Instant::now();
     let period_ns = period.as_nanos() as u64;
@@ -374,6 +400,7 @@ pub fn run(
         let display_ns = master_ns + period_ns;
         head.advance(master_ns);
         let (pose, tracker_ns) = head.pose_at(display_ns);
+        tracing::trace!("frame {frame}: head {:?}", pose.position);
         frusta.update(cave, &pose);
         let times = FrameTimes {
             master_ns,

@@ -18,6 +18,12 @@ use holocave_tracking::{HeadTracker, Pose, Sample};
 
 use crate::Cave;
 
+/// Fastest plausible head motion (m/s); a prediction further from its newest sample than
+/// this allows for the look-ahead is discarded.
+pub const MAX_HEAD_SPEED: f32 = 3.0;
+/// Fastest plausible head turn (rad/s), about two turns a second.
+pub const MAX_HEAD_TURN: f32 = 4.0 * std::f32::consts::PI;
+
 /// How the head source is read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Clock {
@@ -35,8 +41,10 @@ pub struct Head {
     pending: Option<Sample>,
     /// The first sample's time (replay's time origin).
     t0: Option<u64>,
-    /// The newest accepted sample: its own time and its arrival on the master's clock.
-    newest: Option<(u64, u64)>,
+    /// The newest accepted sample and its arrival on the master's clock.
+    newest: Option<(Sample, u64)>,
+    /// Predictions discarded as implausible (see [`MAX_HEAD_SPEED`]).
+    pub implausible: u64,
     tracker_to_room: DMat4,
     /// Where the first position is moved to (logs recorded in another room).
     recenter: Option<Vec3>,
@@ -73,6 +81,7 @@ impl Head {
             pending: None,
             t0: None,
             newest: None,
+            implausible: 0,
             tracker_to_room: cave.tracker_to_room,
             recenter: recenter.then(|| cave.inside.as_vec3()),
             origin: None,
@@ -121,8 +130,9 @@ impl Head {
                     at
                 }
             };
-            if let holocave_tracking::guard::Checked::Accepted { .. } = self.tracker.push(s) {
-                self.newest = Some((s.t_ns, arrival));
+            if let holocave_tracking::guard::Checked::Accepted { sample, .. } = self.tracker.push(s)
+            {
+                self.newest = Some((sample, arrival));
             }
         }
     }
@@ -131,11 +141,22 @@ impl Head {
     /// and the arrival time of the newest sample it rests on. Before any good sample (or
     /// when the prediction is not finite) it is the last good pose.
     pub fn pose_at(&mut self, display_ns: u64) -> (Pose, Option<u64>) {
-        let Some((t, arrival)) = self.newest else {
+        let Some((newest, arrival)) = self.newest else {
             return (self.last, None);
         };
-        let at = t.saturating_add(display_ns.saturating_sub(arrival));
-        if let Some(p) = self.tracker.predict(at) {
+        let ahead = display_ns.saturating_sub(arrival);
+        let at = newest.t_ns.saturating_add(ahead);
+        if let Some(mut p) = self.tracker.predict(at) {
+            // A predictor's transient (the first samples, a burst after a gap) can throw
+            // the pose metres away; no head moves that fast, so show the sample instead.
+            let s = ahead as f32 * 1e-9;
+            let far = p.position.distance(newest.pose.position) > MAX_HEAD_SPEED * s + 0.01;
+            let turned = p.orientation.angle_between(newest.pose.orientation)
+                > MAX_HEAD_TURN * s + 2f32.to_radians();
+            if far || turned || !p.is_finite() {
+                self.implausible += 1;
+                p = newest.pose;
+            }
             let m = self.tracker_to_room;
             let q = m.as_mat4().to_scale_rotation_translation().1;
             let mut pos = m.transform_point3(p.position.as_dvec3()).as_vec3();
@@ -159,7 +180,12 @@ impl Head {
     /// What the tracking guard rejected so far, in one line.
     pub fn fault_line(&self) -> String {
         let r = self.tracker.report();
-        format!("{} rejected of {} read", r.rejected(), self.samples)
+        format!(
+            "{} rejected of {} read, {} implausible predictions",
+            r.rejected(),
+            self.samples,
+            self.implausible
+        )
     }
 }
 

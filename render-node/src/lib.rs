@@ -6,11 +6,15 @@
 //! - [`view`]: an eye's projection and its pixel rays;
 //! - [`source`]: chosen pixels → eye rays → the path tracer → new samples;
 //! - [`tonemap`]: Ward Larson's histogram adjustment (camera and human modes), at display;
-//! - [`display`]: one frame of the display process for all eyes, and its output files.
+//! - [`display`]: one frame of the display process for all eyes, and its output files;
+//! - [`cluster`]: the node's link to the master and the frame cycle (ready, swap);
+//! - [`mosaic`]: the unfolded CAVE as one picture.
 
 pub mod cache;
+pub mod cluster;
 pub mod display;
 pub mod gpu;
+pub mod mosaic;
 pub mod source;
 pub mod tonemap;
 pub mod view;

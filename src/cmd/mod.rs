@@ -1,10 +1,13 @@
 //! One module per subcommand: argument structs and the calls into the crates.
 
 pub mod cave;
+pub mod cluster_node;
 pub mod fill;
 pub mod holodeck;
+pub mod master;
 pub mod node;
 pub mod render;
 pub mod scene;
+pub mod sim;
 pub mod tracking;
 pub mod worker;

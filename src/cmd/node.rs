@@ -1,7 +1,7 @@
 //! `holocave node`: one render node. `--standalone --headless` runs one wall by itself:
 //! its own tracker source, path tracer and GPU render cache, writing each frame's images.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -23,70 +23,73 @@ use holocave_tracking::{HeadTracker, Pose};
 
 #[derive(Args)]
 pub struct NodeArgs {
-    /// Run one wall by itself (the only mode so far; the cluster mode needs the master).
+    /// Run one wall by itself, with its own tracker, tracer and (optionally) holodeck.
+    #[arg(long, conflicts_with = "master")]
+    pub(crate) standalone: bool,
+    /// Join a cluster: draw the frames the master at HOST:PORT sends, in its lockstep.
     #[arg(long)]
-    standalone: bool,
+    pub(crate) master: Option<String>,
     /// The CAVE config (TOML).
     #[arg(long)]
-    config: PathBuf,
+    pub(crate) config: PathBuf,
     /// The wall to draw (its name in the config).
     #[arg(long)]
-    wall: String,
+    pub(crate) wall: String,
     /// The scene (glTF).
     #[arg(long)]
-    scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// A holodeck file to draw from (not supported yet: samples come from the tracer).
     #[arg(long)]
-    holodeck: Option<PathBuf>,
+    pub(crate) holodeck: Option<PathBuf>,
     /// Tracker source (file:PATH, synthetic:NAME, vrpn://...); default: the config's.
     #[arg(long)]
-    tracker: Option<String>,
+    pub(crate) tracker: Option<String>,
     /// Place the tracker's first position at the room's inside point (for logs recorded
     /// in another room, such as ../shared/tracking/pred6dof).
     #[arg(long)]
-    recenter: bool,
+    pub(crate) recenter: bool,
     /// Predict head poses with the config's predictor (default: the last pose; a headless
     /// node has no display latency to hide).
     #[arg(long)]
-    prediction: bool,
+    pub(crate) prediction: bool,
     /// Hold the head still at X,Y,Z (room coordinates), looking at -Z.
     #[arg(long, value_parser = parse_vec3)]
-    still: Option<Vec3>,
+    pub(crate) still: Option<Vec3>,
     /// Write images instead of opening a window (the only mode so far).
     #[arg(long)]
-    headless: bool,
+    pub(crate) headless: bool,
     /// Output folder: images go to DIR/<wall>/<frame>-<eye>.exr and .png.
     #[arg(long, default_value = "out/node")]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
     /// Stop after this many frames.
     #[arg(long)]
-    frames: Option<u64>,
+    pub(crate) frames: Option<u64>,
     /// Stop after this many seconds.
     #[arg(long)]
-    seconds: Option<f64>,
+    pub(crate) seconds: Option<f64>,
     /// Image size per eye, WxH (default: the wall's pixels).
     #[arg(long, value_parser = parse_size)]
-    size: Option<(u32, u32)>,
+    pub(crate) size: Option<(u32, u32)>,
     /// Samples traced per eye and frame (default: a sixteenth of the pixels).
     #[arg(long)]
-    samples: Option<u32>,
+    pub(crate) samples: Option<u32>,
     /// Display rate (Hz) that sets the tracker time of each frame.
     #[arg(long, default_value_t = 60.0)]
-    fps: f64,
+    pub(crate) fps: f64,
     /// Also write each frame's priority image and chosen pixels (-priority, -chosen).
     #[arg(long)]
-    debug_images: bool,
+    pub(crate) debug_images: bool,
     /// Tone mapping of the PNG previews: Ward Larson's histogram adjustment in `camera` or
     /// `human` mode, or `reinhard` (the tracer's preview). EXR files are always linear.
     #[arg(long, default_value = "camera")]
-    tone: String,
+    pub(crate) tone: String,
     /// Trace between frames on the display's thread (deterministic output) instead of on a
     /// tracer thread that frames never wait for.
     #[arg(long)]
-    sync: bool,
+    pub(crate) sync: bool,
     /// Write images every K frames (and always the last).
     #[arg(long, default_value_t = 1)]
-    every: u64,
+    pub(crate) every: u64,
 }
 
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
@@ -113,7 +116,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((p(w)?, p(h)?))
 }
 
-fn eye_name(eye: Eye) -> &'static str {
+pub(crate) fn eye_name(eye: Eye) -> &'static str {
     match eye {
         Eye::Left => "left",
         Eye::Right => "right",
@@ -178,8 +181,11 @@ impl HeadSource {
 }
 
 pub fn run(args: NodeArgs) -> Result<()> {
+    if let Some(master) = &args.master {
+        return super::cluster_node::run(&args, master);
+    }
     if !args.standalone {
-        bail!("only --standalone is supported: the cluster's master does not exist yet");
+        bail!("say how the node runs: --standalone, or --master HOST:PORT to join a cluster");
     }
     if !args.headless {
         bail!("only --headless is supported: the windowed display is not built yet");
@@ -331,37 +337,14 @@ pub fn run(args: NodeArgs) -> Result<()> {
         inserted += report.inserted;
         let last = args.frames.is_some_and(|n| frame + 1 == n);
         if frame.is_multiple_of(args.every.max(1)) || last {
-            let mut sheet = Vec::new();
-            for (i, &eye) in eyes.iter().enumerate() {
-                let img = display.cache.image(i);
-                let stem = format!("{frame:05}-{}", eye_name(eye));
-                std::fs::create_dir_all(&dir)?;
-                img.write_exr(&dir.join(format!("{stem}.exr")))?;
-                let preview = match &mut tone {
-                    Some(tm) => {
-                        if i == 0 && tm.update(&img, false) {
-                            tracing::debug!("frame {frame}: tone mapping recomputed");
-                        }
-                        tm.apply(&img)
-                    }
-                    None => {
-                        let exposure = display.exposure(&img);
-                        img.to_preview(exposure)
-                    }
-                };
-                preview.save(dir.join(format!("{stem}.png")))?;
-                if args.debug_images {
-                    let pr = display.cache.priority_image(i).to_preview(0.5);
-                    pr.save(dir.join(format!("{stem}-priority.png")))?;
-                    let ch = display.cache.chosen_image(i).to_preview(100.0);
-                    ch.save(dir.join(format!("{stem}-chosen.png")))?;
-                    sheet.push(vec![preview, pr, ch]);
-                }
-            }
-            if args.debug_images {
-                let zoom = (512 / width).max(1);
-                contact_sheet(&sheet, zoom).save(dir.join(format!("{frame:05}-sheet.png")))?;
-            }
+            write_images(
+                &dir,
+                frame,
+                eyes,
+                &mut display,
+                &mut tone,
+                args.debug_images,
+            )?;
         }
         tracing::debug!(
             "frame {frame}: head {:.3?}, chosen {:?}, draw {:?}, trace {:?}",
@@ -387,5 +370,52 @@ pub fn run(args: NodeArgs) -> Result<()> {
         inserted as f64 / n,
         dir.display()
     );
+    Ok(())
+}
+
+/// Writes frame `frame`'s images of every eye: `DIR/<frame>-<eye>.exr` (linear) and
+/// `.png` (tone-mapped preview), and with `debug` the priority image, the chosen pixels
+/// and a contact sheet of all three.
+pub(crate) fn write_images(
+    dir: &Path,
+    frame: u64,
+    eyes: &[Eye],
+    display: &mut DisplayProcess,
+    tone: &mut Option<ToneMapper>,
+    debug: bool,
+) -> Result<()> {
+    let mut sheet = Vec::new();
+    let mut width = 1;
+    for (i, &eye) in eyes.iter().enumerate() {
+        let img = display.cache.image(i);
+        width = img.width;
+        let stem = format!("{frame:05}-{}", eye_name(eye));
+        std::fs::create_dir_all(dir)?;
+        img.write_exr(&dir.join(format!("{stem}.exr")))?;
+        let preview = match tone {
+            Some(tm) => {
+                if i == 0 && tm.update(&img, false) {
+                    tracing::debug!("frame {frame}: tone mapping recomputed");
+                }
+                tm.apply(&img)
+            }
+            None => {
+                let exposure = display.exposure(&img);
+                img.to_preview(exposure)
+            }
+        };
+        preview.save(dir.join(format!("{stem}.png")))?;
+        if debug {
+            let pr = display.cache.priority_image(i).to_preview(0.5);
+            pr.save(dir.join(format!("{stem}-priority.png")))?;
+            let ch = display.cache.chosen_image(i).to_preview(100.0);
+            ch.save(dir.join(format!("{stem}-chosen.png")))?;
+            sheet.push(vec![preview, pr, ch]);
+        }
+    }
+    if debug {
+        let zoom = (512 / width).max(1);
+        contact_sheet(&sheet, zoom).save(dir.join(format!("{frame:05}-sheet.png")))?;
+    }
     Ok(())
 }

@@ -1,0 +1,239 @@
+//! A render node in a cluster: its link to the master and the frame cycle — take the
+//! newest frame state, draw it, say Ready, show it on Swap. A node that falls behind skips
+//! to the newest state instead of drawing a backlog, so it catches up in one frame.
+
+use std::net::TcpStream;
+use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError, channel};
+use std::time::{Duration, Instant};
+
+use glam::{DMat4, DVec3};
+use holocave_master::Wall;
+use holocave_protocol::cluster::{FrameState, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats};
+use holocave_protocol::frame::{read_frame, write_frame};
+use holocave_protocol::handshake::{self, Role, Welcome};
+use holocave_tracer::view::WallView;
+
+use crate::{DisplayProcess, EyeView};
+
+/// How long the handshake may take.
+const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// Why the link to the master failed or ended.
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    #[error("cannot reach the master at {addr}: {source}")]
+    Connect {
+        addr: String,
+        source: std::io::Error,
+    },
+    #[error("handshake with the master at {addr}: {source}")]
+    Handshake {
+        addr: String,
+        source: handshake::HandshakeError,
+    },
+    #[error("link to the master lost: {0}")]
+    Lost(String),
+}
+
+/// An authenticated connection to the master. A reader thread turns its messages into a
+/// channel, so waiting for the next one has a timeout and never blocks a frame.
+pub struct MasterLink {
+    writer: TcpStream,
+    messages: Receiver<Result<MasterMsg, String>>,
+    pub welcome: Welcome,
+}
+
+impl MasterLink {
+    /// Connects and authenticates as the node of `wall`.
+    pub fn connect(
+        addr: &str,
+        cluster: &str,
+        wall: &str,
+        secret: &[u8],
+    ) -> Result<MasterLink, LinkError> {
+        let mut stream = TcpStream::connect(addr).map_err(|source| LinkError::Connect {
+            addr: addr.to_owned(),
+            source,
+        })?;
+        let _ = stream.set_nodelay(true);
+        let _ = stream.set_read_timeout(Some(HANDSHAKE_TIMEOUT));
+        let role = Role::Node {
+            wall: wall.to_owned(),
+        };
+        let welcome = handshake::connect(&mut stream, cluster, role, secret).map_err(|source| {
+            LinkError::Handshake {
+                addr: addr.to_owned(),
+                source,
+            }
+        })?;
+        let _ = stream.set_read_timeout(None);
+        let mut reader = stream
+            .try_clone()
+            .map_err(|e| LinkError::Lost(e.to_string()))?;
+        let (tx, messages) = channel();
+        std::thread::Builder::new()
+            .name("master link".into())
+            .spawn(move || {
+                loop {
+                    let msg = read_frame::<_, MasterMsg>(&mut reader, MAX_CLUSTER_FRAME)
+                        .map_err(|e| e.to_string());
+                    let end = msg.is_err();
+                    if tx.send(msg).is_err() || end {
+                        return;
+                    }
+                }
+            })
+            .map_err(|e| LinkError::Lost(e.to_string()))?;
+        Ok(MasterLink {
+            writer: stream,
+            messages,
+            welcome,
+        })
+    }
+
+    /// The next message, waiting at most `timeout` (`None` when none came).
+    pub fn recv(&self, timeout: Duration) -> Result<Option<MasterMsg>, LinkError> {
+        match self.messages.recv_timeout(timeout) {
+            Ok(m) => m.map(Some).map_err(LinkError::Lost),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(LinkError::Lost("reader ended".into())),
+        }
+    }
+
+    /// The next message if one is already here.
+    pub fn try_recv(&self) -> Result<Option<MasterMsg>, LinkError> {
+        match self.messages.try_recv() {
+            Ok(m) => m.map(Some).map_err(LinkError::Lost),
+            Err(TryRecvError::Empty) => Ok(None),
+            Err(TryRecvError::Disconnected) => Err(LinkError::Lost("reader ended".into())),
+        }
+    }
+
+    /// Tells the master that `frame` is drawn.
+    pub fn ready(&mut self, frame: u64, stats: NodeStats) -> Result<(), LinkError> {
+        write_frame(
+            &mut self.writer,
+            &NodeMsg::Ready { frame, stats },
+            MAX_CLUSTER_FRAME,
+        )
+        .map_err(|e| LinkError::Lost(e.to_string()))
+    }
+}
+
+/// The eye views of `wall` in a frame state, at `size` pixels; `None` if the state has no
+/// such wall (a master with another config).
+pub fn eye_views(state: &FrameState, wall: &Wall, size: (u32, u32)) -> Option<Vec<EyeView>> {
+    let w = state.wall(&wall.name)?;
+    let nav = DMat4::from_cols_array(&state.navigation);
+    let scene = |p: DVec3| nav.transform_point3(p).as_vec3();
+    Some(
+        w.eyes
+            .iter()
+            .map(|e| EyeView {
+                view_proj: (DMat4::from_cols_array(&e.proj) * DMat4::from_cols_array(&e.view))
+                    .as_mat4(),
+                near: e.near as f32,
+                wall: WallView {
+                    eye: DVec3::from_array(e.position).as_vec3(),
+                    pa: scene(wall.pa),
+                    pb: scene(wall.pb),
+                    pc: scene(wall.pc),
+                    width: size.0,
+                    height: size.1,
+                },
+            })
+            .collect(),
+    )
+}
+
+/// What the node has done so far (kept across reconnections).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NodeCounters {
+    pub presented: u64,
+    pub skipped: u64,
+    pub last_presented: Option<u64>,
+}
+
+/// How following the master ended.
+#[derive(Debug)]
+pub enum Ended {
+    /// The master said so.
+    Shutdown(String),
+    /// The link failed; the caller may reconnect.
+    Lost(LinkError),
+}
+
+/// Follows the master's frames until it shuts down or the link fails. `present` shows a
+/// swapped frame (writes it, for a headless node).
+pub fn follow(
+    link: &mut MasterLink,
+    display: &mut DisplayProcess,
+    wall: &Wall,
+    size: (u32, u32),
+    counters: &mut NodeCounters,
+    present: &mut dyn FnMut(&FrameState, &mut DisplayProcess) -> Result<(), String>,
+) -> Ended {
+    let mut next: Option<FrameState> = None;
+    let mut stats = NodeStats::default();
+    loop {
+        let mut state = match next.take() {
+            Some(s) => s,
+            None => match link.recv(Duration::from_secs(1)) {
+                Ok(Some(MasterMsg::Frame(s))) => s,
+                Ok(Some(MasterMsg::Swap { .. })) | Ok(None) => continue,
+                Ok(Some(MasterMsg::Shutdown { reason })) => return Ended::Shutdown(reason),
+                Err(e) => return Ended::Lost(e),
+            },
+        };
+        // The newest state wins: draw only the frame the master is collecting now.
+        loop {
+            match link.try_recv() {
+                Ok(Some(MasterMsg::Frame(s))) => {
+                    counters.skipped += 1;
+                    state = s;
+                }
+                Ok(Some(MasterMsg::Swap { .. })) => {}
+                Ok(Some(MasterMsg::Shutdown { reason })) => return Ended::Shutdown(reason),
+                Ok(None) => break,
+                Err(e) => return Ended::Lost(e),
+            }
+        }
+        let Some(views) = eye_views(&state, wall, size) else {
+            return Ended::Lost(LinkError::Lost(format!(
+                "the master's frame {} has no wall {:?}",
+                state.frame, wall.name
+            )));
+        };
+        let t = Instant::now();
+        let report = display.frame(&views, false);
+        stats.draw_us = t.elapsed().as_micros().min(u32::MAX as u128) as u32;
+        stats.samples = report.inserted.min(u32::MAX as usize) as u32;
+        stats.presented = counters.presented;
+        stats.skipped = counters.skipped;
+        if let Err(e) = link.ready(state.frame, stats) {
+            return Ended::Lost(e);
+        }
+        // Wait for this frame's Swap; a newer frame instead means the master went on
+        // without this node (it was late): draw that one next.
+        loop {
+            match link.recv(Duration::from_secs(1)) {
+                Ok(Some(MasterMsg::Swap { frame })) if frame == state.frame => {
+                    if let Err(e) = present(&state, display) {
+                        tracing::error!("frame {}: {e}", state.frame);
+                    }
+                    counters.presented += 1;
+                    counters.last_presented = Some(frame);
+                    break;
+                }
+                Ok(Some(MasterMsg::Swap { .. })) | Ok(None) => {}
+                Ok(Some(MasterMsg::Frame(s))) => {
+                    counters.skipped += 1;
+                    next = Some(s);
+                    break;
+                }
+                Ok(Some(MasterMsg::Shutdown { reason })) => return Ended::Shutdown(reason),
+                Err(e) => return Ended::Lost(e),
+            }
+        }
+    }
+}

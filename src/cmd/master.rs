@@ -1,0 +1,138 @@
+//! `holocave master`: the cluster's master. It reads the head tracker, runs the frame clock
+//! and the swap barrier for the render nodes, and prints a status line every second.
+
+use std::net::TcpListener;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use anyhow::{Context, Result, anyhow};
+use clap::Args;
+use holocave_master::cluster::{MasterOptions, Summary, quantile, run as run_master};
+use holocave_master::head::{Clock, Head};
+use holocave_master::{Cave, load_cave};
+use holocave_tracking::source::SourceSpec;
+
+#[derive(Args)]
+pub struct MasterArgs {
+    /// The CAVE config (TOML); its [cluster] section says where to listen.
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Listen here instead of the config's cluster.master.
+    #[arg(long)]
+    pub listen: Option<String>,
+    #[command(flatten)]
+    pub head: HeadArgs,
+    /// Stop after this many frames.
+    #[arg(long)]
+    pub frames: Option<u64>,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    pub seconds: Option<f64>,
+    /// Append every frame state, as sent, to this file.
+    #[arg(long)]
+    pub states: Option<PathBuf>,
+}
+
+/// Where head poses come from, shared by `master` and `sim`.
+#[derive(Args, Clone)]
+pub struct HeadArgs {
+    /// Tracker source (file:PATH, synthetic:NAME, vrpn://...); default: the config's.
+    #[arg(long)]
+    pub tracker: Option<String>,
+    /// Move the tracker's first position to the room's inside point (for logs recorded in
+    /// another room, such as ../shared/tracking/pred6dof).
+    #[arg(long)]
+    pub recenter: bool,
+    /// Deterministic replay: the master's clock is virtual (frame × period) and a log's
+    /// samples arrive at their own times, so the same log gives the same frame states, bit
+    /// for bit.
+    #[arg(long)]
+    pub replay: bool,
+}
+
+impl HeadArgs {
+    pub fn open(&self, cave: &Cave) -> Result<Head> {
+        let spec: Option<SourceSpec> = match &self.tracker {
+            Some(t) => Some(t.parse().map_err(|e| anyhow!("--tracker {t:?}: {e}"))?),
+            None => None,
+        };
+        let clock = if self.replay {
+            Clock::Replay
+        } else {
+            Clock::Live
+        };
+        Head::open(cave, spec.as_ref(), clock, true, self.recenter).with_context(|| {
+            format!(
+                "opening tracker {:?}",
+                spec.as_ref().unwrap_or(&cave.source)
+            )
+        })
+    }
+}
+
+/// The end-of-run summary.
+pub fn print_summary(s: &Summary) {
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    println!(
+        "{} frames in {:.2} s ({:.1} Hz); {} with every wall",
+        s.frames,
+        s.elapsed.as_secs_f64(),
+        s.frames as f64 / s.elapsed.as_secs_f64().max(1e-9),
+        s.full_frames
+    );
+    for (wall, (swapped, late)) in &s.walls {
+        println!("  wall {wall:6}: {swapped} frames swapped, {late} late");
+    }
+    println!(
+        "  barrier (state sent → swap sent): p50 {:.3} ms, p99 {:.3} ms",
+        ms(quantile(&s.barrier, 0.5)),
+        ms(quantile(&s.barrier, 0.99))
+    );
+    if !s.motion_to_photon.is_empty() {
+        println!(
+            "  motion to photon (tracker sample → swap): p50 {:.2} ms, p99 {:.2} ms",
+            ms(quantile(&s.motion_to_photon, 0.5)),
+            ms(quantile(&s.motion_to_photon, 0.99))
+        );
+    }
+    println!(
+        "  connections refused: {}, dropped for bad messages: {}",
+        s.refused, s.dropped
+    );
+}
+
+pub fn run(args: MasterArgs) -> Result<()> {
+    let cave = load_cave(&args.config)?;
+    let secret = cave
+        .secret()
+        .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
+    let addr = args.listen.clone().unwrap_or(cave.cluster.master.clone());
+    let listener = TcpListener::bind(&addr).with_context(|| format!("listening on {addr}"))?;
+    println!("master listening on {}", listener.local_addr()?);
+    let head = args.head.open(&cave)?;
+    let summary = run_master(
+        &cave,
+        head,
+        listener,
+        secret,
+        MasterOptions {
+            clock: if args.head.replay {
+                Clock::Replay
+            } else {
+                Clock::Live
+            },
+            frames: args.frames,
+            seconds: args.seconds,
+            stop_at_end_of_log: false,
+            holodeck: None,
+            states_log: args.states.clone(),
+            status_every: Duration::from_secs(1),
+            stop: Arc::new(AtomicBool::new(false)),
+            wait_for_walls: Duration::ZERO,
+        },
+    )?;
+    print_summary(&summary);
+    Ok(())
+}

@@ -1,0 +1,238 @@
+//! `holocave sim`: a whole CAVE cluster on one machine — the master in this process, one
+//! render-node process per wall, on loopback with real sockets — headless. Each node writes
+//! its frames; at the end the walls of every written frame are laid out as the unfolded
+//! CAVE (left | front | right, the floor under the front wall).
+
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use holocave_master::cluster::{MasterOptions, run as run_master};
+use holocave_master::frustum::Eye;
+use holocave_master::head::Clock;
+use holocave_master::load_cave;
+use holocave_render_node::mosaic::cave_mosaic;
+use rand::TryRngCore;
+
+use super::master::{HeadArgs, print_summary};
+use super::node::eye_name;
+
+/// The recorded head trace used when none is given (a HoloLens user walking and looking
+/// around), if the shared data is beside the checkout; otherwise a synthetic walk.
+const DEFAULT_LOG: &str = "../shared/tracking/pred6dof/1.csv";
+
+#[derive(Args)]
+pub struct SimArgs {
+    /// The CAVE config.
+    #[arg(long, default_value = "configs/cave4-room.toml")]
+    pub config: PathBuf,
+    /// The scene (glTF).
+    #[arg(long, default_value = "scenes/room.gltf")]
+    pub scene: PathBuf,
+    #[command(flatten)]
+    pub head: HeadArgs,
+    /// Frames to run.
+    #[arg(long, default_value_t = 240)]
+    pub frames: u64,
+    /// Output folder: DIR/<wall>/ for each node's frames, DIR/mosaic/ for the mosaics.
+    #[arg(long, default_value = "out/sim")]
+    pub out: PathBuf,
+    /// Wall images at this fraction of the config's pixels (each eye).
+    #[arg(long, default_value_t = 0.125)]
+    pub scale: f64,
+    /// Frame rate (default: the config's cluster.rate_hz).
+    #[arg(long)]
+    pub rate: Option<f64>,
+    /// Write every wall's images (and a mosaic) every K frames.
+    #[arg(long, default_value_t = 30)]
+    pub every: u64,
+}
+
+/// Child processes that are killed if the simulation stops early.
+struct Children(Vec<(String, Child)>);
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        for (_, c) in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+impl Children {
+    /// Waits up to `limit` for every child to exit; kills the rest and names them.
+    fn wait(&mut self, limit: Duration) -> Vec<String> {
+        let end = Instant::now() + limit;
+        let mut stuck = Vec::new();
+        for (name, c) in &mut self.0 {
+            loop {
+                match c.try_wait() {
+                    Ok(Some(status)) if status.success() => break,
+                    Ok(Some(status)) => {
+                        stuck.push(format!("{name} exited with {status}"));
+                        break;
+                    }
+                    Ok(None) if Instant::now() < end => {
+                        std::thread::sleep(Duration::from_millis(20));
+                    }
+                    _ => {
+                        let _ = c.kill();
+                        stuck.push(format!("{name} did not exit"));
+                        break;
+                    }
+                }
+            }
+        }
+        self.0.clear();
+        stuck
+    }
+}
+
+pub fn run(mut args: SimArgs) -> Result<()> {
+    let mut cave = load_cave(&args.config)?;
+    if let Some(r) = args.rate {
+        if !(r > 0.0 && r <= 1000.0) {
+            bail!("--rate {r}: not a frame rate (0 to 1000 Hz)");
+        }
+        cave.cluster.rate_hz = r;
+        cave.cluster.deadline_ms = None;
+    }
+    if !(args.scale > 0.0 && args.scale <= 1.0) {
+        bail!("--scale {}: expected a fraction in (0, 1]", args.scale);
+    }
+    if args.head.tracker.is_none() {
+        if Path::new(DEFAULT_LOG).exists() {
+            args.head.tracker = Some(format!("file:{DEFAULT_LOG}"));
+            args.head.recenter = true;
+        } else {
+            args.head.tracker = Some("synthetic:walk".into());
+        }
+    }
+    // A fresh secret for this run; the nodes get it through their environment.
+    let mut key = [0u8; 16];
+    rand::rngs::OsRng
+        .try_fill_bytes(&mut key)
+        .map_err(|e| anyhow::anyhow!("reading the operating system's random source: {e}"))?;
+    let secret: String = key.iter().map(|b| format!("{b:02x}")).collect();
+    let listener = TcpListener::bind("127.0.0.1:0").context("listening on loopback")?;
+    let addr = listener.local_addr()?.to_string();
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let exe = std::env::current_exe().context("finding the holocave executable")?;
+    println!(
+        "simulated CAVE: {} walls, {} frames at {} Hz, tracker {}, master on {addr}, output in {}",
+        cave.walls.len(),
+        args.frames,
+        cave.cluster.rate_hz,
+        args.head.tracker.as_deref().unwrap_or("?"),
+        args.out.display()
+    );
+    let mut children = Children(Vec::new());
+    for wall in &cave.walls {
+        let dir = args.out.join(&wall.name);
+        std::fs::create_dir_all(&dir)?;
+        // A fresh presented.log per run.
+        let _ = std::fs::remove_file(dir.join("presented.log"));
+        let log = std::fs::File::create(dir.join("node.log"))?;
+        let size = |p: u32| ((f64::from(p) * args.scale).round() as u32).max(8);
+        let child = Command::new(&exe)
+            .arg("node")
+            .args(["--master", &addr, "--wall", &wall.name, "--headless"])
+            .arg("--config")
+            .arg(&args.config)
+            .arg("--scene")
+            .arg(&args.scene)
+            .arg("--out")
+            .arg(&args.out)
+            .args([
+                "--size",
+                &format!("{}x{}", size(wall.pixels[0]), size(wall.pixels[1])),
+                "--every",
+                &args.every.to_string(),
+            ])
+            .env("HOLOCAVE_SECRET", &secret)
+            // Four nodes share this machine's cores: one tracing thread each.
+            .env("RAYON_NUM_THREADS", "1")
+            .stdout(log.try_clone()?)
+            .stderr(log)
+            .stdin(Stdio::null())
+            .spawn()
+            .context("starting a render-node process")?;
+        children.0.push((format!("node {}", wall.name), child));
+    }
+    let head = args.head.open(&cave)?;
+    let summary = run_master(
+        &cave,
+        head,
+        listener,
+        secret.into_bytes(),
+        MasterOptions {
+            clock: if args.head.replay {
+                Clock::Replay
+            } else {
+                Clock::Live
+            },
+            frames: Some(args.frames),
+            seconds: None,
+            stop_at_end_of_log: false,
+            holodeck: None,
+            states_log: Some(args.out.join("states.bin")),
+            status_every: Duration::from_secs(1),
+            stop: Arc::new(AtomicBool::new(false)),
+            wait_for_walls: Duration::from_secs(60),
+        },
+    )?;
+    for problem in children.wait(Duration::from_secs(20)) {
+        tracing::warn!("{problem}");
+    }
+    print_summary(&summary);
+    let mosaics = write_mosaics(&args.out, &cave, args.frames, args.every)?;
+    println!(
+        "{} mosaics in {}; frame states in {}",
+        mosaics,
+        args.out.join("mosaic").display(),
+        args.out.join("states.bin").display()
+    );
+    Ok(())
+}
+
+/// Mosaics of every frame for which every wall wrote its first eye's preview.
+fn write_mosaics(
+    out: &Path,
+    cave: &holocave_master::Cave,
+    frames: u64,
+    every: u64,
+) -> Result<usize> {
+    let dir = out.join("mosaic");
+    std::fs::create_dir_all(&dir)?;
+    let mut n = 0;
+    for frame in (0..frames).step_by(every.max(1) as usize) {
+        let mut images = Vec::new();
+        for wall in &cave.walls {
+            let eye = Eye::for_mode(wall.stereo)[0];
+            let p = out
+                .join(&wall.name)
+                .join(format!("{frame:05}-{}.png", eye_name(eye)));
+            match image::open(&p) {
+                Ok(img) => images.push((wall.name.as_str(), img.to_rgb8())),
+                Err(_) => break,
+            }
+        }
+        if images.len() < cave.walls.len() {
+            continue;
+        }
+        let walls: Vec<(&str, &image::RgbImage)> = images.iter().map(|(n, i)| (*n, i)).collect();
+        let path = dir.join(format!("{frame:05}.png"));
+        cave_mosaic(&walls)
+            .save(&path)
+            .with_context(|| format!("writing {}", path.display()))?;
+        n += 1;
+    }
+    Ok(n)
+}
