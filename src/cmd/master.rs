@@ -33,6 +33,12 @@ pub struct MasterArgs {
     /// Append every frame state, as sent, to this file.
     #[arg(long)]
     pub states: Option<PathBuf>,
+    /// Frame rate (default: the config's cluster.rate_hz).
+    #[arg(long)]
+    pub rate: Option<f64>,
+    /// Before the first frame, wait up to this many seconds for a node of every wall.
+    #[arg(long, default_value_t = 0.0)]
+    pub wait_for_walls: f64,
 }
 
 /// Where head poses come from, shared by `master` and `sim`.
@@ -104,13 +110,28 @@ pub fn print_summary(s: &Summary) {
 }
 
 pub fn run(args: MasterArgs) -> Result<()> {
-    let cave = load_cave(&args.config)?;
+    let mut cave = load_cave(&args.config)?;
+    if let Some(r) = args.rate {
+        if !(r > 0.0 && r <= 1000.0) {
+            anyhow::bail!("--rate {r}: not a frame rate (0 to 1000 Hz)");
+        }
+        cave.cluster.rate_hz = r;
+        cave.cluster.deadline_ms = None;
+    }
+    if !(args.wait_for_walls >= 0.0 && args.wait_for_walls < 1e6) {
+        anyhow::bail!(
+            "--wait-for-walls {}: not a number of seconds",
+            args.wait_for_walls
+        );
+    }
     let secret = cave
         .secret()
         .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
     let addr = args.listen.clone().unwrap_or(cave.cluster.master.clone());
     let listener = TcpListener::bind(&addr).with_context(|| format!("listening on {addr}"))?;
     println!("master listening on {}", listener.local_addr()?);
+    // Tests and scripts read the address from the first line.
+    std::io::Write::flush(&mut std::io::stdout())?;
     let head = args.head.open(&cave)?;
     let summary = run_master(
         &cave,
@@ -130,7 +151,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
             states_log: args.states.clone(),
             status_every: Duration::from_secs(1),
             stop: Arc::new(AtomicBool::new(false)),
-            wait_for_walls: Duration::ZERO,
+            wait_for_walls: Duration::from_secs_f64(args.wait_for_walls),
         },
     )?;
     print_summary(&summary);

@@ -1,0 +1,514 @@
+//! The cluster over real processes and sockets: `holocave master` and one `holocave node
+//! --master` process per wall, on loopback. Each node appends every frame it presents to
+//! `<out>/<wall>/presented.log`; these logs and the master's summary are the evidence.
+//!
+//! Rates are low (20 Hz) and images tiny so that four nodes keep up on a 2-core CI
+//! machine without a GPU; the properties checked do not depend on the rate.
+
+use std::collections::BTreeSet;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdout, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use holocave_master::frame_state::{FrameTimes, frame_state};
+use holocave_master::{CaveFrusta, load_cave};
+use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
+use holocave_protocol::frame::{read_frame, write_frame};
+use holocave_protocol::handshake::{self, Welcome};
+use holocave_tracking::Pose;
+
+const CONFIG: &str = "configs/cave4-room.toml";
+const SCENE: &str = "scenes/room.gltf";
+const WALLS: [&str; 4] = ["front", "left", "right", "floor"];
+const SECRET: &str = "cluster-test-secret";
+const RATE: f64 = 20.0;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("holocave-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A child process killed when dropped (a failing test leaves nothing running).
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+impl Proc {
+    /// Waits for the process to exit by itself within `limit`; its status and stderr.
+    fn finish(mut self, limit: Duration) -> (std::process::ExitStatus, String) {
+        let end = Instant::now() + limit;
+        let status = loop {
+            if let Some(s) = self.0.try_wait().unwrap() {
+                break s;
+            }
+            assert!(
+                Instant::now() < end,
+                "process did not exit within {limit:?}"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        let mut err = String::new();
+        if let Some(mut e) = self.0.stderr.take() {
+            let _ = e.read_to_string(&mut err);
+        }
+        (status, err)
+    }
+}
+
+/// Starts `holocave master` on an ephemeral port; returns it, its address and its stdout.
+fn master(extra: &[&str], secret: &str) -> (Proc, String, BufReader<ChildStdout>) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_holocave"))
+        .current_dir(root())
+        .args(["master", "--config", CONFIG, "--listen", "127.0.0.1:0"])
+        .args(["--rate", &RATE.to_string()])
+        .args(extra)
+        .env("HOLOCAVE_SECRET", secret)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start holocave master");
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    out.read_line(&mut line).unwrap();
+    let addr = line
+        .trim()
+        .strip_prefix("master listening on ")
+        .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
+        .to_owned();
+    (Proc(child), addr, out)
+}
+
+/// Starts a render node for `wall`.
+fn node(addr: &str, wall: &str, out: &Path, secret: &str) -> Proc {
+    Proc(
+        Command::new(env!("CARGO_BIN_EXE_holocave"))
+            .current_dir(root())
+            .args(["node", "--master", addr, "--wall", wall, "--headless"])
+            .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
+            .args(["--samples", "48", "--every", "1000000"])
+            .arg("--out")
+            .arg(out)
+            .env("HOLOCAVE_SECRET", secret)
+            .env("RAYON_NUM_THREADS", "1")
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start holocave node"),
+    )
+}
+
+/// The frames a node presented, in order.
+fn presented(out: &Path, wall: &str) -> Vec<u64> {
+    std::fs::read_to_string(out.join(wall).join("presented.log"))
+        .unwrap_or_default()
+        .lines()
+        .map(|l| l.parse().expect("a frame number per line"))
+        .collect()
+}
+
+/// Waits until `cond` holds, polling.
+fn wait_until(limit: Duration, what: &str, mut cond: impl FnMut() -> bool) {
+    let end = Instant::now() + limit;
+    while !cond() {
+        assert!(Instant::now() < end, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The master's summary: per wall (swapped, late).
+fn swapped_per_wall(summary: &str) -> Vec<(String, u64, u64)> {
+    summary
+        .lines()
+        .filter_map(|l| {
+            let l = l.trim().strip_prefix("wall ")?;
+            let (wall, rest) = l.split_once(':')?;
+            let mut nums = rest
+                .split(|c: char| !c.is_ascii_digit())
+                .filter(|s| !s.is_empty());
+            Some((
+                wall.trim().to_owned(),
+                nums.next()?.parse().ok()?,
+                nums.next()?.parse().ok()?,
+            ))
+        })
+        .collect()
+}
+
+fn strictly_increasing(v: &[u64]) -> bool {
+    v.windows(2).all(|w| w[0] < w[1])
+}
+
+#[test]
+fn four_nodes_present_the_same_frames_in_the_same_order() {
+    let out = scratch("lockstep");
+    let frames = 60;
+    let (m, addr, mut stdout) = master(
+        &["--frames", &frames.to_string(), "--wait-for-walls", "60"],
+        SECRET,
+    );
+    let nodes: Vec<Proc> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
+    let (status, err) = m.finish(Duration::from_secs(120));
+    assert!(status.success(), "master failed: {err}");
+    let mut summary = String::new();
+    stdout.read_to_string(&mut summary).unwrap();
+    for n in nodes {
+        let (status, err) = n.finish(Duration::from_secs(30));
+        assert!(status.success(), "a node failed: {err}");
+    }
+    let logs: Vec<Vec<u64>> = WALLS.iter().map(|w| presented(&out, w)).collect();
+    let counts = swapped_per_wall(&summary);
+    println!("{summary}");
+    for (wall, log) in WALLS.iter().zip(&logs) {
+        println!(
+            "{wall:6} presented {} frames: {:?}…",
+            log.len(),
+            &log[..log.len().min(8)]
+        );
+        assert!(
+            strictly_increasing(log),
+            "{wall}: frames out of order: {log:?}"
+        );
+        // What the node presented is exactly what the master swapped for it.
+        let (_, swapped, _) = counts
+            .iter()
+            .find(|(w, ..)| w == wall)
+            .unwrap_or_else(|| panic!("{wall} missing from the summary:\n{summary}"));
+        assert_eq!(log.len() as u64, *swapped, "{wall}");
+        assert!(log.iter().all(|&f| f < frames));
+    }
+    // Most frames were shown on all four walls (a node misses a frame only when the
+    // master marked it late, or before its first Ready entered it into the barrier).
+    let all: BTreeSet<u64> = logs.iter().flatten().copied().collect();
+    let common = all
+        .iter()
+        .filter(|f| logs.iter().all(|l| l.binary_search(f).is_ok()))
+        .count();
+    println!("{common} of {frames} frames on all four walls");
+    assert!(
+        common as u64 >= frames * 9 / 10,
+        "only {common} of {frames} frames on all four walls"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_killed_node_leaves_the_others_at_full_rate_and_its_restart_rejoins() {
+    let out = scratch("kill");
+    let (m, addr, _stdout) = master(&["--seconds", "60", "--wait-for-walls", "60"], SECRET);
+    let mut nodes: Vec<Option<Proc>> = WALLS
+        .iter()
+        .map(|w| Some(node(&addr, w, &out, SECRET)))
+        .collect();
+    wait_until(Duration::from_secs(60), "every wall presenting", || {
+        WALLS.iter().all(|w| presented(&out, w).len() >= 20)
+    });
+    // SIGKILL the front node: no goodbye, the socket just dies.
+    nodes[0].take().unwrap().0.kill().unwrap();
+    let killed_at = *presented(&out, "front").last().unwrap();
+    let others = &WALLS[1..];
+    let start = others
+        .iter()
+        .map(|w| *presented(&out, w).last().unwrap())
+        .max()
+        .unwrap();
+    let window = 2 * RATE as u64; // two seconds of frames without the front wall
+    wait_until(Duration::from_secs(30), "the others going on", || {
+        others.iter().all(|w| {
+            presented(&out, w)
+                .last()
+                .is_some_and(|&f| f >= start + window)
+        })
+    });
+    for w in others {
+        let log = presented(&out, w);
+        let shown = log
+            .iter()
+            .filter(|&&f| f > start && f <= start + window)
+            .count() as u64;
+        println!("{w}: {shown} of {window} frames while the front node was dead");
+        assert!(
+            shown * 100 >= window * 95,
+            "{w} presented only {shown} of {window} frames after the front node died"
+        );
+    }
+    let restarted = Instant::now();
+    let before = presented(&out, "front").len();
+    nodes[0] = Some(node(&addr, "front", &out, SECRET));
+    wait_until(
+        Duration::from_secs(60),
+        "the restarted node presenting",
+        || presented(&out, "front").len() > before + 10,
+    );
+    println!(
+        "front: killed after frame {killed_at}, restarted, presenting again {:.2} s later (process start included)",
+        restarted.elapsed().as_secs_f64()
+    );
+    // Back in lockstep: its newest frames are the others' too.
+    let front = presented(&out, "front");
+    let rejoined: Vec<u64> = front[before..].to_vec();
+    assert!(strictly_increasing(&front));
+    assert!(rejoined[0] > killed_at);
+    wait_until(
+        Duration::from_secs(10),
+        "the others passing the front",
+        || {
+            others.iter().all(|w| {
+                presented(&out, w)
+                    .last()
+                    .is_some_and(|f| f > rejoined.last().unwrap())
+            })
+        },
+    );
+    let last10 = &rejoined[rejoined.len() - 10..];
+    for w in others {
+        let log = presented(&out, w);
+        let shared = last10
+            .iter()
+            .filter(|f| log.binary_search(f).is_ok())
+            .count();
+        assert!(shared >= 9, "{w} shares only {shared} of {last10:?}");
+    }
+    drop(m);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_node_with_a_wrong_secret_is_refused_and_the_master_says_why() {
+    let out = scratch("secret");
+    let (m, addr, _stdout) = master(&["--seconds", "20"], SECRET);
+    let (status, err) =
+        node(&addr, "front", &out, "not-the-secret").finish(Duration::from_secs(60));
+    assert!(!status.success());
+    assert!(err.contains("authentication"), "node said: {err}");
+    // No secret at all: the node refuses to start, naming the setting.
+    let (status, err) = node(&addr, "left", &out, "").finish(Duration::from_secs(60));
+    assert!(!status.success());
+    assert!(err.contains("cluster.secret"), "node said: {err}");
+    let mut m = m;
+    m.0.kill().unwrap();
+    let (_, master_err) = m.finish(Duration::from_secs(10));
+    assert!(
+        master_err.contains("refused a connection") && master_err.contains("authentication"),
+        "master said: {master_err}"
+    );
+    assert!(presented(&out, "front").is_empty());
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A small deterministic generator for garbage.
+struct XorShift(u64);
+impl XorShift {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn bytes(&mut self, n: usize) -> Vec<u8> {
+        (0..n).map(|_| self.next() as u8).collect()
+    }
+}
+
+/// Sends one kind of bad input on a fresh connection.
+fn attack(addr: &str, kind: u64, rng: &mut XorShift) {
+    let Ok(mut s) = TcpStream::connect(addr) else {
+        return;
+    };
+    let _ = s.set_read_timeout(Some(Duration::from_millis(500)));
+    let mut preamble = b"HOLOCAVE".to_vec();
+    preamble.extend(1u32.to_le_bytes());
+    let n = 1 + (rng.next() % 300) as usize;
+    let garbage = rng.bytes(n);
+    let bytes: Vec<u8> = match kind % 6 {
+        0 => garbage,
+        1 => preamble[..(rng.next() % 12) as usize].to_vec(),
+        // A length prefix far beyond the limit: must be refused before allocating.
+        2 => [&preamble[..], &u32::MAX.to_le_bytes()].concat(),
+        // A frame that promises more than it sends, then the connection closes.
+        3 => [&preamble[..], &100u32.to_le_bytes(), &garbage[..n.min(50)]].concat(),
+        // A well-framed random payload.
+        4 => [&preamble[..], &(n as u32).to_le_bytes(), &garbage].concat(),
+        // Another protocol version.
+        _ => [&b"HOLOCAVE"[..], &7u32.to_le_bytes()].concat(),
+    };
+    let _ = s.write_all(&bytes);
+    let mut sink = [0u8; 256];
+    let _ = s.read(&mut sink);
+}
+
+#[test]
+fn garbage_sent_to_the_master_does_not_disturb_the_honest_nodes() {
+    let out = scratch("fuzz-master");
+    let (m, addr, _stdout) = master(&["--seconds", "60", "--wait-for-walls", "60"], SECRET);
+    let nodes: Vec<Proc> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
+    wait_until(Duration::from_secs(60), "every wall presenting", || {
+        WALLS.iter().all(|w| presented(&out, w).len() >= 10)
+    });
+    let start = WALLS
+        .iter()
+        .map(|w| *presented(&out, w).last().unwrap())
+        .max()
+        .unwrap();
+    let mut rng = XorShift(0x9E37_79B9_7F4A_7C15);
+    let t = Instant::now();
+    let mut sent = 0;
+    while t.elapsed() < Duration::from_secs(2) {
+        attack(&addr, sent, &mut rng);
+        sent += 1;
+    }
+    let end = start + (t.elapsed().as_secs_f64() * RATE) as u64;
+    wait_until(Duration::from_secs(30), "frames after the attack", || {
+        WALLS
+            .iter()
+            .all(|w| presented(&out, w).last().is_some_and(|&f| f >= end + 5))
+    });
+    for w in WALLS {
+        let log = presented(&out, w);
+        let shown = log.iter().filter(|&&f| f > start && f <= end).count() as u64;
+        println!(
+            "{w}: {shown} of {} frames during {sent} bad connections",
+            end - start
+        );
+        assert!(
+            shown * 100 >= (end - start) * 90,
+            "{w}: only {shown} of {} frames during the attack",
+            end - start
+        );
+    }
+    let mut m = m;
+    m.0.kill().unwrap();
+    let (_, err) = m.finish(Duration::from_secs(10));
+    let refused = err.matches("refused a connection").count();
+    println!(
+        "master refused {refused} of {sent} bad connections; e.g. {:?}",
+        err.lines().find(|l| l.contains("exceeds"))
+    );
+    assert!(
+        refused as u64 >= sent * 9 / 10,
+        "refused {refused} of {sent}"
+    );
+    assert!(
+        err.contains("exceeds the maximum"),
+        "oversized frames are named"
+    );
+    drop(nodes);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A master in this test: handshakes honestly, then sends what `script` says.
+fn fake_master_accept(l: &TcpListener) -> TcpStream {
+    let (mut s, _) = l.accept().unwrap();
+    let a = handshake::accept(&mut s, "holocave", SECRET.as_bytes()).expect("handshake");
+    a.welcome(
+        &mut s,
+        Welcome {
+            node_id: 1,
+            rate_hz: RATE,
+            holodeck: None,
+        },
+    )
+    .unwrap();
+    s
+}
+
+#[test]
+fn garbage_from_the_master_makes_a_node_reconnect_and_serve_the_honest_master() {
+    let out = scratch("fuzz-node");
+    let l = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = l.local_addr().unwrap().to_string();
+    let n = node(&addr, "front", &out, SECRET);
+    let mut rng = XorShift(12345);
+    // Three bad masters in a row: random payload, an oversized length, a truncated frame.
+    for bad in [
+        {
+            let g = rng.bytes(64);
+            [&64u32.to_le_bytes()[..], &g].concat()
+        },
+        u32::MAX.to_le_bytes().to_vec(),
+        [&200u32.to_le_bytes()[..], &rng.bytes(20)].concat(),
+    ] {
+        let mut s = fake_master_accept(&l);
+        s.write_all(&bad).unwrap();
+        drop(s);
+    }
+    // Then an honest one: ten frames, each swapped once the node is ready.
+    let cave = load_cave(&root().join(CONFIG)).unwrap();
+    let mut frusta = CaveFrusta::new(&cave);
+    let mut s = fake_master_accept(&l);
+    s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    let pose = Pose::new(cave.inside.as_vec3(), glam::Quat::IDENTITY);
+    frusta.update(&cave, &pose);
+    for frame in 100..110u64 {
+        let times = FrameTimes {
+            master_ns: frame * 50_000_000,
+            display_ns: (frame + 1) * 50_000_000,
+            tracker_ns: None,
+        };
+        let state = frame_state(&cave, &frusta, frame, times, &pose);
+        write_frame(&mut s, &MasterMsg::Frame(state), MAX_CLUSTER_FRAME).unwrap();
+        match read_frame::<_, NodeMsg>(&mut s, MAX_CLUSTER_FRAME).unwrap() {
+            NodeMsg::Ready { frame: f, .. } => assert_eq!(f, frame),
+        }
+        write_frame(&mut s, &MasterMsg::Swap { frame }, MAX_CLUSTER_FRAME).unwrap();
+    }
+    let bye = MasterMsg::Shutdown {
+        reason: "test over".into(),
+    };
+    write_frame(&mut s, &bye, MAX_CLUSTER_FRAME).unwrap();
+    let (status, err) = n.finish(Duration::from_secs(30));
+    assert!(status.success(), "node failed: {err}");
+    assert_eq!(presented(&out, "front"), (100..110).collect::<Vec<_>>());
+    assert!(err.matches("reconnecting").count() >= 3, "node said: {err}");
+    assert!(err.contains("exceeds the maximum"), "node said: {err}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn replay_sends_the_same_frame_states_bit_for_bit() {
+    let dir = scratch("replay");
+    let log = root().join("../shared/tracking/pred6dof/2.csv");
+    let tracker = if log.exists() {
+        format!("file:{}", log.display())
+    } else {
+        eprintln!("{} absent: replaying a synthetic shake", log.display());
+        "synthetic:shake".to_owned()
+    };
+    let run = |name: &str, tracker: &str| {
+        let states = dir.join(name);
+        let (m, _, _stdout) = master(
+            &[
+                "--replay",
+                "--recenter",
+                "--frames",
+                "90",
+                "--tracker",
+                tracker,
+                "--states",
+                states.to_str().unwrap(),
+            ],
+            SECRET,
+        );
+        let (status, err) = m.finish(Duration::from_secs(60));
+        assert!(status.success(), "{err}");
+        std::fs::read(states).unwrap()
+    };
+    let (a, b) = (run("a.bin", &tracker), run("b.bin", &tracker));
+    assert!(a.len() > 90 * 100, "{} bytes of states", a.len());
+    assert!(a == b, "two replays of one log differ");
+    let c = run("c.bin", "synthetic:nod");
+    assert!(a != c, "another log gives other states");
+    let _ = std::fs::remove_dir_all(&dir);
+}
