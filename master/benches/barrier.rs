@@ -1,0 +1,123 @@
+//! The swap barrier's round trip on loopback: the master sends a frame state to four
+//! nodes, each answers Ready at once (no drawing), the master sends Swap. The time from
+//! sending the state to sending Swap is the barrier's cost. Goal (issue 6, after VR
+//! Juggler's software swap lock): p99 ≤ 100 µs.
+//!
+//! `cargo bench -p holocave-master --bench barrier` prints p50 and p99 over 3000 frames,
+//! then criterion's mean per frame.
+
+use std::net::{TcpListener, TcpStream};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use holocave_master::cluster::{MasterOptions, Summary, quantile, run};
+use holocave_master::head::{Clock, Head};
+use holocave_master::{Cave, parse_cave};
+use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats};
+use holocave_protocol::frame::{read_frame, write_frame};
+use holocave_protocol::handshake::{Role, connect};
+
+const SECRET: &[u8] = b"bench";
+/// Frames at the start left out: nodes enter the barrier with their first Ready.
+const WARM_UP: usize = 10;
+
+fn cave() -> Cave {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../configs/cave4.toml"
+    ))
+    .unwrap()
+    .replace("vrpn://Tracker0@localhost:3883", "synthetic:still");
+    let mut cave = parse_cave(&text, "cave4.toml").unwrap();
+    // Fast enough that the barrier, not the clock, is what a frame waits for.
+    cave.cluster.rate_hz = 500.0;
+    cave
+}
+
+/// A node that answers every frame state with Ready at once.
+fn echo_node(addr: String, wall: String) {
+    let mut s = TcpStream::connect(&addr).unwrap();
+    s.set_nodelay(true).unwrap();
+    connect(&mut s, "holocave", Role::Node { wall }, SECRET).unwrap();
+    let mut w = s.try_clone().unwrap();
+    loop {
+        match read_frame::<_, MasterMsg>(&mut s, MAX_CLUSTER_FRAME) {
+            Ok(MasterMsg::Frame(f)) => {
+                let ready = NodeMsg::Ready {
+                    frame: f.frame,
+                    stats: NodeStats::default(),
+                };
+                if write_frame(&mut w, &ready, MAX_CLUSTER_FRAME).is_err() {
+                    return;
+                }
+            }
+            Ok(MasterMsg::Swap { .. }) => {}
+            Ok(MasterMsg::Shutdown { .. }) | Err(_) => return,
+        }
+    }
+}
+
+/// Runs a master and four echo nodes for `frames` frames.
+fn cluster(frames: u64) -> Summary {
+    let cave = cave();
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let nodes: Vec<_> = cave
+        .walls
+        .iter()
+        .map(|w| {
+            let (a, n) = (addr.clone(), w.name.clone());
+            std::thread::spawn(move || echo_node(a, n))
+        })
+        .collect();
+    let head = Head::open(&cave, None, Clock::Replay, true, false).unwrap();
+    let summary = run(
+        &cave,
+        head,
+        listener,
+        SECRET.to_vec(),
+        MasterOptions {
+            clock: Clock::Replay,
+            frames: Some(frames + WARM_UP as u64),
+            seconds: None,
+            stop_at_end_of_log: false,
+            holodeck: None,
+            states_log: None,
+            status_every: Duration::from_secs(3600),
+            stop: Arc::new(AtomicBool::new(false)),
+            wait_for_walls: Duration::from_secs(10),
+        },
+    )
+    .unwrap();
+    for n in nodes {
+        n.join().unwrap();
+    }
+    summary
+}
+
+fn barrier(c: &mut Criterion) {
+    let s = cluster(3000);
+    let b = &s.barrier[WARM_UP..];
+    println!(
+        "barrier round trip, 4 nodes on loopback, {} frames ({} with a node late): p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+        b.len(),
+        s.frames - s.full_frames,
+        quantile(b, 0.5).as_secs_f64() * 1e6,
+        quantile(b, 0.99).as_secs_f64() * 1e6,
+        quantile(b, 1.0).as_secs_f64() * 1e6,
+    );
+    let mut g = c.benchmark_group("barrier");
+    g.sample_size(10);
+    g.bench_function("round trip, 4 nodes", |bench| {
+        bench.iter_custom(|iters| {
+            let s = cluster(iters);
+            s.barrier[WARM_UP..].iter().sum()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, barrier);
+criterion_main!(benches);
