@@ -64,10 +64,7 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
                     .daylight
                     .sky
                     .as_ref()
-                    .map_or("none".into(), |s| format!(
-                        "{:?}",
-                        std::mem::discriminant(&s.model)
-                    ))
+                    .map_or("none".into(), |s| sky_name(&s.model).to_owned())
             );
             println!("  textures      {}", scene.textures.len());
             let cams: Vec<_> = scene.cameras.iter().map(|c| c.name.as_str()).collect();
@@ -94,4 +91,15 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The sky model's name, as the daylight file spells it.
+fn sky_name(model: &holocave_scene::daylight::SkyModel) -> &'static str {
+    use holocave_scene::daylight::SkyModel;
+    match model {
+        SkyModel::Uniform(_) => "uniform",
+        SkyModel::CieOvercast { .. } => "cie_overcast",
+        SkyModel::CieClear { .. } => "cie_clear",
+        SkyModel::Map(_) => "map",
+    }
 }
