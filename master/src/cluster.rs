@@ -262,7 +262,7 @@ impl Master<'_> {
         }
     }
 
-    fn status_line(&self, frame: u64, rate: f64, head: &Head) -> String {
+    fn status_line(&self, frame: u64, rate: f64, tracker_hz: f64, head: &Head) -> String {
         let mut line = format!("frame {frame:6} {rate:5.1} Hz |");
         for wall in &self.cave.walls {
             let m = self
@@ -285,7 +285,7 @@ impl Master<'_> {
         let n = self.summary.barrier.len();
         let recent = &self.summary.barrier[n.saturating_sub(120)..];
         line += &format!(
-            " barrier p50 {:.2} ms | tracker {}",
+            " barrier p50 {:.2} ms | tracker {tracker_hz:.0} Hz, {}",
             quantile(recent, 0.5).as_secs_f64() * 1e3,
             head.fault_line()
         );
@@ -365,7 +365,7 @@ pub fn run(
     let start = Instant::now();
     let period_ns = period.as_nanos() as u64;
     let mut next_tick = start;
-    let mut last_status = (start, 0u64);
+    let mut last_status = (start, 0u64, 0u64);
     let mut frame = 0u64;
     loop {
         let stop = opts.stop.load(Ordering::Relaxed)
@@ -455,9 +455,11 @@ pub fn run(
             }
         }
         if swapped - last_status.0 >= opts.status_every {
-            let rate = (frame + 1 - last_status.1) as f64 / (swapped - last_status.0).as_secs_f64();
-            tracing::info!("{}", m.status_line(frame, rate, &head));
-            last_status = (swapped, frame + 1);
+            let secs = (swapped - last_status.0).as_secs_f64();
+            let rate = (frame + 1 - last_status.1) as f64 / secs;
+            let tracker_hz = (head.samples - last_status.2) as f64 / secs;
+            tracing::info!("{}", m.status_line(frame, rate, tracker_hz, &head));
+            last_status = (swapped, frame + 1, head.samples);
         }
         frame += 1;
         next_tick += period;
