@@ -2,9 +2,11 @@
 //! barrier over TCP, node membership, and the operator's status line.
 //!
 //! Threads: one accepts connections; each connection gets a thread that runs the
-//! handshake (with a timeout, so a silent or hostile peer costs nothing but its thread)
-//! and then reads the node's messages; the caller's thread runs the frame loop. They meet
-//! in one channel of [`Event`]s, so the frame loop never blocks on a socket read.
+//! handshake (with a timeout, so a silent or hostile peer costs nothing but its thread).
+//! An accepted node's socket then moves to the frame loop, which runs on one thread with
+//! tokio: every node's messages are read there as they arrive, so a Ready reaches the
+//! barrier without a hand-over between threads (the barrier's round trip is most of a
+//! frame's overhead). Everything meets in one channel of [`Event`]s.
 
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -12,12 +14,15 @@ use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
 
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
-use holocave_protocol::frame::{encode, read_frame};
+use holocave_protocol::frame::{encode, read_frame_async};
 use holocave_protocol::handshake::{self, Role, Welcome};
+use tokio::io::AsyncWriteExt;
+use tokio::net::tcp::OwnedWriteHalf;
+use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
+use tokio::time::timeout_at;
 
 use crate::Cave;
 use crate::barrier::{Barrier, NodeId};
@@ -87,7 +92,7 @@ enum Event {
     Joined {
         id: NodeId,
         wall: String,
-        writer: TcpStream,
+        stream: TcpStream,
     },
     Msg {
         id: NodeId,
@@ -113,7 +118,7 @@ struct Accepting {
     stop: AtomicBool,
 }
 
-fn accept_loop(listener: TcpListener, shared: Arc<Accepting>, events: Sender<Event>) {
+fn accept_loop(listener: TcpListener, shared: Arc<Accepting>, events: UnboundedSender<Event>) {
     for conn in listener.incoming() {
         if shared.stop.load(Ordering::Relaxed) {
             return;
@@ -131,8 +136,8 @@ fn accept_loop(listener: TcpListener, shared: Arc<Accepting>, events: Sender<Eve
     }
 }
 
-/// One connection: handshake, then its messages until it closes or misbehaves.
-fn serve_connection(mut stream: TcpStream, shared: &Accepting, events: &Sender<Event>) {
+/// One connection's handshake; an accepted node goes to the frame loop.
+fn serve_connection(mut stream: TcpStream, shared: &Accepting, events: &UnboundedSender<Event>) {
     let peer = stream
         .peer_addr()
         .unwrap_or_else(|_| SocketAddr::from(([0, 0, 0, 0], 0)));
@@ -165,23 +170,25 @@ fn serve_connection(mut stream: TcpStream, shared: &Accepting, events: &Sender<E
     if let Err(e) = accepted.welcome(&mut stream, welcome) {
         return refuse(format!("welcome: {e}"));
     }
-    let _ = stream.set_read_timeout(None);
-    let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
-    let Ok(writer) = stream.try_clone() else {
-        return;
-    };
-    if events.send(Event::Joined { id, wall, writer }).is_err() {
-        return;
+    if stream.set_nonblocking(true).is_ok() {
+        let _ = events.send(Event::Joined { id, wall, stream });
     }
+}
+
+/// Reads one node's messages until it closes or sends something undecodable.
+async fn read_node(
+    id: NodeId,
+    mut reader: tokio::net::tcp::OwnedReadHalf,
+    events: UnboundedSender<Event>,
+) {
     loop {
-        match read_frame::<_, NodeMsg>(&mut stream, MAX_CLUSTER_FRAME) {
+        match read_frame_async::<_, NodeMsg>(&mut reader, MAX_CLUSTER_FRAME).await {
             Ok(msg) => {
                 if events.send(Event::Msg { id, msg }).is_err() {
                     return;
                 }
             }
             Err(e) => {
-                let _ = stream.shutdown(Shutdown::Both);
                 let _ = events.send(Event::Left {
                     id,
                     why: e.to_string(),
@@ -195,13 +202,15 @@ fn serve_connection(mut stream: TcpStream, shared: &Accepting, events: &Sender<E
 /// A connected node's socket for writing.
 struct Link {
     wall: String,
-    writer: TcpStream,
+    writer: OwnedWriteHalf,
 }
 
 /// The master's state between frames.
 struct Master<'a> {
     cave: &'a Cave,
-    events: Receiver<Event>,
+    events: UnboundedReceiver<Event>,
+    /// For the node readers' messages.
+    tx: UnboundedSender<Event>,
     barrier: Barrier,
     links: BTreeMap<NodeId, Link>,
     summary: Summary,
@@ -210,7 +219,13 @@ struct Master<'a> {
 impl Master<'_> {
     fn handle(&mut self, e: Event) {
         match e {
-            Event::Joined { id, wall, writer } => {
+            Event::Joined { id, wall, stream } => {
+                let stream = match tokio::net::TcpStream::from_std(stream) {
+                    Ok(s) => s,
+                    Err(e) => return tracing::warn!("node {id}: {e}"),
+                };
+                let (reader, writer) = stream.into_split();
+                tokio::spawn(read_node(id, reader, self.tx.clone()));
                 tracing::info!("node {id} joined for wall {wall:?}");
                 self.barrier.join(id, &wall);
                 self.links.insert(id, Link { wall, writer });
@@ -242,8 +257,9 @@ impl Master<'_> {
         }
     }
 
-    /// Sends `bytes` to the given nodes (all when `None`); drops a node that fails.
-    fn send(&mut self, bytes: &[u8], to: Option<&[NodeId]>) {
+    /// Sends `bytes` to the given nodes (all when `None`); drops a node that fails or
+    /// does not take them within [`WRITE_TIMEOUT`].
+    async fn send(&mut self, bytes: &[u8], to: Option<&[NodeId]>) {
         let ids: Vec<NodeId> = match to {
             Some(ids) => ids.to_vec(),
             None => self.links.keys().copied().collect(),
@@ -252,9 +268,16 @@ impl Master<'_> {
             let Some(link) = self.links.get_mut(&id) else {
                 continue;
             };
-            if let Err(e) = link.writer.write_all(bytes) {
+            let wrote = tokio::time::timeout(WRITE_TIMEOUT, link.writer.write_all(bytes)).await;
+            let failed = match wrote {
+                Ok(Ok(())) => None,
+                Ok(Err(e)) => Some(e.to_string()),
+                Err(_) => Some(format!(
+                    "took more than {WRITE_TIMEOUT:?} to take a message"
+                )),
+            };
+            if let Some(e) = failed {
                 tracing::warn!("node {id} (wall {:?}): {e}; dropping it", link.wall);
-                let _ = link.writer.shutdown(Shutdown::Both);
                 self.links.remove(&id);
                 self.forget(id);
                 self.summary.dropped += 1;
@@ -297,6 +320,27 @@ impl Master<'_> {
 /// down and returns what it measured.
 pub fn run(
     cave: &Cave,
+    head: Head,
+    listener: TcpListener,
+    secret: Vec<u8>,
+    opts: MasterOptions,
+) -> std::io::Result<Summary> {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?
+        .block_on(run_frames(cave, head, listener, secret, opts))
+}
+
+/// Waits for `e` until `until` (`None` when the time is up first).
+async fn next_event(events: &mut UnboundedReceiver<Event>, until: Instant) -> Option<Event> {
+    timeout_at(tokio::time::Instant::from_std(until), events.recv())
+        .await
+        .ok()
+        .flatten()
+}
+
+async fn run_frames(
+    cave: &Cave,
     mut head: Head,
     listener: TcpListener,
     secret: Vec<u8>,
@@ -305,7 +349,7 @@ pub fn run(
     let addr = listener.local_addr()?;
     let period = cave.frame_period();
     let deadline = cave.deadline();
-    let (tx, events) = channel();
+    let (tx, events) = unbounded_channel();
     let accepting = Arc::new(Accepting {
         cluster: cave.cluster.id.clone(),
         secret,
@@ -325,7 +369,6 @@ pub fn run(
             .name("master accept".into())
             .spawn(move || accept_loop(listener, a, tx))?
     };
-    drop(tx);
     let mut states = match &opts.states_log {
         Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p)?)),
         None => None,
@@ -333,6 +376,7 @@ pub fn run(
     let mut m = Master {
         cave,
         events,
+        tx,
         barrier: Barrier::default(),
         links: BTreeMap::new(),
         summary: Summary::default(),
@@ -356,9 +400,9 @@ pub fn run(
             }
             break;
         }
-        match m.events.recv_timeout(waiting - now) {
-            Ok(e) => m.handle(e),
-            Err(_) => break,
+        match next_event(&mut m.events, waiting).await {
+            Some(e) => m.handle(e),
+            None => break,
         }
     }
     let mut frusta = CaveFrusta::new(cave);
@@ -378,15 +422,10 @@ pub fn run(
             break;
         }
         // Wait for the tick, handling joins and stale messages meanwhile.
-        loop {
-            let now = Instant::now();
-            if now >= next_tick {
-                break;
-            }
-            match m.events.recv_timeout(next_tick - now) {
-                Ok(e) => m.handle(e),
-                Err(RecvTimeoutError::Timeout) => break,
-                Err(RecvTimeoutError::Disconnected) => std::thread::sleep(next_tick - now),
+        while Instant::now() < next_tick {
+            match next_event(&mut m.events, next_tick).await {
+                Some(e) => m.handle(e),
+                None => break,
             }
         }
         while let Ok(e) = m.events.try_recv() {
@@ -415,22 +454,18 @@ pub fn run(
         }
         let sent = Instant::now();
         m.barrier.begin(frame);
-        m.send(&bytes, None);
+        m.send(&bytes, None).await;
         let until = sent + deadline;
         while !m.barrier.complete() {
-            let now = Instant::now();
-            if now >= until {
-                break;
-            }
-            match m.events.recv_timeout(until - now) {
-                Ok(e) => m.handle(e),
-                Err(_) => break,
+            match next_event(&mut m.events, until).await {
+                Some(e) => m.handle(e),
+                None => break,
             }
         }
         let closed = m.barrier.close();
         let swap = encode(&MasterMsg::Swap { frame }, MAX_CLUSTER_FRAME)
             .map_err(|e| std::io::Error::other(e.to_string()))?;
-        m.send(&swap, Some(&closed.swap));
+        m.send(&swap, Some(&closed.swap)).await;
         let swapped = Instant::now();
         m.summary.barrier.push(swapped - sent);
         if let (Clock::Live, Some(t)) = (opts.clock, tracker_ns) {
@@ -476,9 +511,9 @@ pub fn run(
         MAX_CLUSTER_FRAME,
     )
     .map_err(|e| std::io::Error::other(e.to_string()))?;
-    m.send(&bye, None);
-    for l in m.links.values() {
-        let _ = l.writer.shutdown(Shutdown::Write);
+    m.send(&bye, None).await;
+    for l in m.links.values_mut() {
+        let _ = l.writer.shutdown().await;
     }
     accepting.stop.store(true, Ordering::Relaxed);
     let _ = TcpStream::connect(addr);
