@@ -84,6 +84,19 @@ impl Barrier {
         }
     }
 
+    /// Some node is ready for the frame being collected.
+    pub fn any_ready(&self) -> bool {
+        self.members.values().any(|m| m.ready == Some(self.frame))
+    }
+
+    /// Waits for every member from now on (when no node made the deadline: the whole
+    /// cluster is slow, and it runs at its slowest node's rate instead of showing nothing).
+    pub fn widen(&mut self) {
+        for m in self.members.values_mut() {
+            m.in_barrier = true;
+        }
+    }
+
     /// Every node the barrier waits for is ready (true with no such node).
     pub fn complete(&self) -> bool {
         self.members
@@ -190,6 +203,21 @@ mod tests {
         b.join(2, "b");
         assert!(b.complete());
         assert_eq!(b.close().swap, vec![0]);
+    }
+
+    #[test]
+    fn widening_waits_for_nodes_outside_the_barrier() {
+        let mut b = Barrier::default();
+        b.join(0, "a");
+        b.join(1, "b");
+        b.begin(1);
+        assert!(b.complete() && !b.any_ready(), "nobody in the barrier yet");
+        b.widen();
+        assert!(!b.complete());
+        b.ready(0, 1, stats());
+        assert!(b.any_ready() && !b.complete());
+        b.ready(1, 1, stats());
+        assert_eq!(b.close().swap, vec![0, 1]);
     }
 
     #[test]

@@ -32,6 +32,8 @@ use crate::head::{Clock, Head};
 
 /// How long a peer has for the whole handshake.
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(2);
+/// When no node made a frame's deadline, the barrier waits for all of them this long.
+const OVERLOAD_LIMIT: Duration = Duration::from_secs(1);
 /// Most handshakes in progress at once; more connections are closed at once.
 const MAX_HANDSHAKES: usize = 64;
 /// A node whose socket does not take a frame state within this long is dropped (it
@@ -460,6 +462,19 @@ async fn run_frames(
             match next_event(&mut m.events, until).await {
                 Some(e) => m.handle(e),
                 None => break,
+            }
+        }
+        if !m.barrier.any_ready() && !m.links.is_empty() {
+            // Nobody made the deadline, so there is no one to go on with: the cluster is
+            // overloaded, not one node. Wait for every node, as a classic lockstep
+            // cluster does (the frame rate drops to the slowest wall's), up to a limit.
+            m.barrier.widen();
+            let until = sent + OVERLOAD_LIMIT.max(deadline);
+            while !m.barrier.complete() {
+                match next_event(&mut m.events, until).await {
+                    Some(e) => m.handle(e),
+                    None => break,
+                }
             }
         }
         let closed = m.barrier.close();
