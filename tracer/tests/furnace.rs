@@ -141,10 +141,9 @@ fn rays_at_sphere(centre: Vec3, radius: f32, n: usize, seed: u64) -> Vec<Ray> {
 }
 
 /// Which rays from outside a closed object enter it through a crack: their first hit is
-/// a back face. The scene's intersector (Möller–Trumbore in f32) is not watertight, so a
-/// ray through a shared edge can miss both triangles (about one ray in 10^5 here); such a
-/// ray is the BVH's business, not the tracer's, and is left out of the comparisons below
-/// (and counted: more than one in 10^3 fails the test).
+/// a back face. Plain Möller–Trumbore in f32 let about one ray in 10^5 through a shared
+/// edge here; the scene's intersector widens its bounds so that none does, and any leak
+/// fails the test (the returned mask keeps a leak from also failing the comparisons).
 fn leaks(scene: &holocave_scene::Scene, rays: &[Ray]) -> Vec<bool> {
     let leaked: Vec<bool> = rays
         .iter()
@@ -155,7 +154,7 @@ fn leaks(scene: &holocave_scene::Scene, rays: &[Ray]) -> Vec<bool> {
         .collect();
     let count = leaked.iter().filter(|&&l| l).count();
     eprintln!("{count} of {} rays entered through a crack", rays.len());
-    assert!(count * 1000 <= rays.len(), "{count} leaks");
+    assert_eq!(count, 0, "rays leaked through shared edges");
     leaked
 }
 

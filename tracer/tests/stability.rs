@@ -251,16 +251,12 @@ fn rays_along_edges_and_through_vertices() {
     }
 }
 
-/// KNOWN FAILURE of the scene crate, not of the tracer: `holocave_scene::bvh` intersects
-/// with Möller–Trumbore in f32 and rejects `u < 0`, `v < 0`, `u + v > 1` exactly, which
-/// is not watertight: a ray through the shared diagonal of two triangles can get `u` =
-/// −9e-8 in one and `v` = −1.8e-7 in the other and miss both (e.g. from (0.05, 1.1, 3.4)
-/// to the floor point (−0.25, 0, 0.25)), escaping a closed box. About 1 ray in 10^5
-/// leaked through a 16 × 32 facet sphere in `furnace.rs`. Run with `--ignored` once the
-/// intersector is watertight (Woop et al. 2013, or a small tolerance on the barycentric
-/// bounds).
+/// Rays through the edges two triangles share never escape a closed box: the scene's
+/// intersector widens its barycentric bounds (`holocave_scene::bvh::EDGE_TOLERANCE`)
+/// because Möller–Trumbore in f32 alone is not watertight (a ray from (0.05, 1.1, 3.4) to
+/// the floor point (−0.25, 0, 0.25) got u = −9e-8 in one triangle, v = −1.8e-7 in the
+/// other, and missed both).
 #[test]
-#[ignore = "scene BVH intersection is not watertight (see the comment)"]
 fn rays_through_closed_edges_never_leak() {
     let scene = cornell();
     let mut leaks = Vec::new();
