@@ -461,6 +461,30 @@ impl Server {
         wanted: Vec<(BeamKey, f64)>,
         eye: Option<Eye>,
     ) -> Result<Vec<BeamSamples>, ServerError> {
+        self.request_unsent(display, wanted, eye, None)
+    }
+
+    /// As [`Server::set_requests`], but `known` holds how many of each beam's samples the
+    /// display already has (a beam's samples only ever grow at the end, so these are a
+    /// prefix): only the rest are returned, and `known` is updated. A display that repeats
+    /// its request every frame so gets each stored sample once.
+    pub fn set_requests_once(
+        &mut self,
+        display: DisplayId,
+        wanted: Vec<(BeamKey, f64)>,
+        eye: Option<Eye>,
+        known: &mut BeamMap<BeamKey, u32>,
+    ) -> Result<Vec<BeamSamples>, ServerError> {
+        self.request_unsent(display, wanted, eye, Some(known))
+    }
+
+    fn request_unsent(
+        &mut self,
+        display: DisplayId,
+        wanted: Vec<(BeamKey, f64)>,
+        eye: Option<Eye>,
+        mut known: Option<&mut BeamMap<BeamKey, u32>>,
+    ) -> Result<Vec<BeamSamples>, ServerError> {
         for &((s, b), _) in &wanted {
             let ok = self
                 .cache
@@ -486,7 +510,10 @@ impl Server {
         let mut have: Vec<BeamKey> = wanted
             .iter()
             .map(|r| r.0)
-            .filter(|&k| self.cache.count(k) > 0)
+            .filter(|&k| {
+                let have = known.as_ref().and_then(|m| m.get(&k).copied());
+                self.cache.count(k) > have.unwrap_or(0)
+            })
             .collect();
         have.sort_by_key(|&k| {
             (
@@ -498,9 +525,19 @@ impl Server {
         have.dedup();
         have.into_iter()
             .map(|key| {
+                let all = self.cache.get(key)?;
+                let skip = match known.as_mut() {
+                    Some(m) => {
+                        let k = m.entry(key).or_default();
+                        let skip = (*k as usize).min(all.len());
+                        *k = all.len() as u32;
+                        skip
+                    }
+                    None => 0,
+                };
                 Ok(BeamSamples {
                     key,
-                    samples: self.cache.get(key)?.to_vec(),
+                    samples: all[skip..].to_vec(),
                 })
             })
             .collect()

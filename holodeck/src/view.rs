@@ -129,43 +129,103 @@ impl Picture {
     }
 }
 
+/// A stored sample decoded into world space: the ray's entry and exit points on its
+/// section, its unit direction, the surface point it reached and its radiance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldSample {
+    pub entry: DVec3,
+    pub exit: DVec3,
+    /// Unit direction, entry to exit (the direction the ray looks along).
+    pub dir: DVec3,
+    /// Distance from the entry point to the surface point; infinite for an escaped ray.
+    pub distance: f32,
+    pub radiance: [f32; 3],
+}
+
+impl WorldSample {
+    /// Decodes sample `s` of `beam` of `section` (`code` is the section's distance code);
+    /// `None` if the beam does not exist or its cells coincide.
+    pub fn decode(
+        section: &crate::Section,
+        code: &DistanceCode,
+        beam: u32,
+        s: &Sample,
+    ) -> Option<WorldSample> {
+        let (entry, exit) = section.sample_points(beam, s.entry, s.exit)?;
+        let dir = (exit - entry).normalize_or_zero();
+        if dir == DVec3::ZERO {
+            return None;
+        }
+        Some(WorldSample {
+            entry,
+            exit,
+            dir,
+            distance: code.decode(s.dist),
+            radiance: rgbe::decode(s.rgbe),
+        })
+    }
+
+    /// Whether the ray escaped the scene.
+    pub fn escaped(&self) -> bool {
+        !self.distance.is_finite()
+    }
+
+    /// The surface point (for an escaped ray: `far` beyond the exit point, along the ray).
+    pub fn point(&self, far: f64) -> DVec3 {
+        if self.escaped() {
+            self.exit + self.dir * far
+        } else {
+            self.entry + self.dir * f64::from(self.distance)
+        }
+    }
+
+    /// The distance by which the ray's line misses `eye`.
+    pub fn miss(&self, eye: DVec3) -> f64 {
+        let v = eye - self.entry;
+        (v - self.dir * v.dot(self.dir)).length()
+    }
+
+    /// The point of the ray's line nearest `eye`.
+    pub fn nearest_to(&self, eye: DVec3) -> DVec3 {
+        self.entry + self.dir * (eye - self.entry).dot(self.dir)
+    }
+
+    /// Whether `eye` may use this sample: the angle between the ray and the eye's line of
+    /// sight to the surface point is below `max_angle` (for an escaped ray: to a point one
+    /// `size` beyond the exit, as far as the section can tell parallax). Returns the line
+    /// of sight (for an escaped ray, the ray's direction) and the depth (infinite for an
+    /// escaped ray).
+    pub fn seen_from(&self, eye: DVec3, max_angle: f64, size: f64) -> Option<(DVec3, f64)> {
+        let sees = |x: DVec3| {
+            let v = x - eye;
+            let len = v.length();
+            (len > 0.0 && self.dir.dot(v) >= len * max_angle.cos()).then_some((v, len))
+        };
+        if self.escaped() {
+            // No parallax, so it projects as its direction, but whether the eye's own line
+            // of sight escapes too depends on where the ray passed. It must pass the eye
+            // as closely as a point one section size beyond its exit would need to.
+            sees(self.exit + self.dir * size)?;
+            Some((self.dir, f64::INFINITY))
+        } else {
+            sees(self.point(0.0))
+        }
+    }
+}
+
 struct Hit {
     pixel: usize,
     depth: f64,
     rgb: [f32; 3],
 }
 
-/// The pixel and depth of a sample with entry and exit points `p0`, `p1` and distance
-/// `dist` from `p0` in a section of size `size`; `None` if it is not usable for this view.
-fn project(
-    view: &View,
-    opts: &ViewOptions,
-    p0: DVec3,
-    p1: DVec3,
-    dist: f32,
-    size: f64,
-) -> Option<(usize, f64)> {
+/// The pixel and depth of a decoded sample in a section of size `size`; `None` if it is
+/// not usable for this view.
+fn project(view: &View, opts: &ViewOptions, ws: &WorldSample, size: f64) -> Option<(usize, f64)> {
     // A batch fill spreads its rays over every line through the section, so few pass
     // within a fraction of a degree of a given eye; the bound trades occlusion and
     // view-dependence errors against coverage.
-    let dir = (p1 - p0).normalize_or_zero();
-    if dir == DVec3::ZERO {
-        return None;
-    }
-    let sees = |x: DVec3| {
-        let v = x - view.eye;
-        let len = v.length();
-        (len > 0.0 && dir.dot(v) >= len * opts.max_angle.cos()).then_some((v, len))
-    };
-    let (v, depth) = if dist.is_finite() {
-        sees(p0 + dir * f64::from(dist))?
-    } else {
-        // An escaped ray: no parallax, so it projects as its direction, but whether the
-        // eye's own line of sight escapes too depends on where the ray passed. It must pass
-        // the eye as closely as a point one section size beyond its exit would need to.
-        sees(p1 + dir * size)?;
-        (dir, f64::INFINITY)
-    };
+    let (v, depth) = ws.seen_from(view.eye, opts.max_angle, size)?;
     let (x, y) = view.project(v)?;
     if !(x >= 0.0 && y >= 0.0 && x < f64::from(view.width) && y < f64::from(view.height)) {
         return None;
@@ -191,19 +251,15 @@ pub fn reconstruct(file: &HoloFile, view: &View, opts: &ViewOptions) -> Result<P
             file.read_beam(si, beam, &mut samples)?;
             samples_read += samples.len() as u64;
             for s in &samples {
-                let Sample {
-                    rgbe, entry, exit, ..
-                } = *s;
-                let Some((p0, p1)) = section.sample_points(beam, entry, exit) else {
+                let Some(ws) = WorldSample::decode(section, &code, beam, s) else {
                     continue;
                 };
-                let dist = code.decode(s.dist);
-                if let Some((pixel, depth)) = project(view, opts, p0, p1, dist, section.size()) {
+                if let Some((pixel, depth)) = project(view, opts, &ws, section.size()) {
                     nearest[pixel] = nearest[pixel].min(depth);
                     hits.push(Hit {
                         pixel,
                         depth,
-                        rgb: rgbe::decode(rgbe),
+                        rgb: ws.radiance,
                     });
                 }
             }

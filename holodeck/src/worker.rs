@@ -118,10 +118,10 @@ pub fn run_remote(
             report.server_scene = w.scene;
             report.distance = w.distance;
         }
-        ServerMsg::Rays(_) => {
+        ServerMsg::Rays(_) | ServerMsg::DisplayWelcome(_) | ServerMsg::Beams(_) => {
             return Err(WorkerError::Unexpected {
                 addr: a,
-                what: "rays",
+                what: "rays or a display message",
                 expected: "welcome",
             });
         }
@@ -150,10 +150,10 @@ pub fn run_remote(
             }
             Ok(ServerMsg::Bye) | Err(FrameError::Closed) => return Ok(report),
             Err(e) if server_gone(&e) => return Ok(report),
-            Ok(ServerMsg::Welcome(_)) => {
+            Ok(ServerMsg::Welcome(_) | ServerMsg::DisplayWelcome(_) | ServerMsg::Beams(_)) => {
                 return Err(WorkerError::Unexpected {
                     addr: a,
-                    what: "a second welcome",
+                    what: "a second welcome or a display message",
                     expected: "rays",
                 });
             }

@@ -1,0 +1,263 @@
+//! The display service: a display over TCP on loopback and one in the server's process
+//! ask for beams near their eyes and receive samples — the stored ones at once, then new
+//! ones as worker threads trace them, each sample once; a second display is sent the new
+//! samples of beams it is up to date on; the stored samples survive a restart.
+
+use std::collections::HashMap;
+use std::net::TcpListener;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use holocave_holodeck::cache::BeamKey;
+use holocave_holodeck::display::{DisplayClient, EyeRequest};
+use holocave_holodeck::distance_code::DistanceCode;
+use holocave_holodeck::proximity::Eye;
+use holocave_holodeck::run::{RunOptions, start};
+use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_holodeck::view::WorldSample;
+use holocave_holodeck::worker::{DistanceKind, SampleSource};
+use holocave_holodeck::{HoloFile, Sample, Section, ViewClass};
+
+/// Radiance from the direction, everything 2 m along the ray.
+struct Analytic;
+
+impl SampleSource for Analytic {
+    fn trace(
+        &self,
+        rays: &[([f32; 3], [f32; 3])],
+        _seed: u64,
+        _distance: DistanceKind,
+    ) -> Vec<([f32; 3], f32)> {
+        rays.iter()
+            .map(|(_, dir)| (dir.map(f32::abs), 2.0))
+            .collect()
+    }
+}
+
+fn section() -> Section {
+    Section::new(
+        DVec3::ZERO,
+        [DVec3::X * 2.0, DVec3::Y * 2.0, DVec3::Z * 2.0],
+        [4, 4, 4],
+        ViewClass::Interior,
+    )
+    .unwrap()
+}
+
+fn options(threads: usize, listener: Option<TcpListener>) -> RunOptions {
+    RunOptions {
+        threads,
+        source: Some(Arc::new(Analytic)),
+        listener,
+        scene: "analytic".into(),
+        commit_every: Duration::from_millis(500),
+    }
+}
+
+/// The beams the lines of sight from `eye` along a few directions cross, 50 samples each.
+fn wanted(s: &Section, eye: DVec3) -> Vec<(BeamKey, f64)> {
+    let mut out: Vec<(BeamKey, f64)> = Vec::new();
+    for d in [
+        DVec3::new(0.1, 0.2, -1.0),
+        DVec3::new(-0.3, 0.1, -1.0),
+        DVec3::new(1.0, 0.2, 0.3),
+        DVec3::new(0.0, -1.0, 0.2),
+    ] {
+        let c = s.crossing(eye, d).unwrap();
+        if !out.iter().any(|w| w.0 == (0, c.beam)) {
+            out.push(((0, c.beam), 50.0));
+        }
+    }
+    out
+}
+
+/// Collects until `enough` holds for the per-beam samples received, or 20 s pass.
+fn receive(
+    c: &DisplayClient,
+    got: &mut HashMap<BeamKey, Vec<Sample>>,
+    enough: impl Fn(&HashMap<BeamKey, Vec<Sample>>) -> bool,
+) -> bool {
+    let t = Instant::now();
+    while t.elapsed() < Duration::from_secs(20) {
+        for a in c.collect() {
+            for b in a.iter() {
+                got.entry(b.key).or_default().extend(&b.samples);
+            }
+        }
+        if enough(got) {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    false
+}
+
+#[test]
+fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("d.hdk");
+    HoloFile::create(&path, vec![section()], Default::default()).unwrap();
+    let server = Server::new(
+        HoloFile::open_rw(&path).unwrap(),
+        Mode::Interactive,
+        ServerConfig::default(),
+    );
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let running = start(server, options(2, Some(listener))).unwrap();
+    let addr = running.local_addr().unwrap();
+
+    let tcp = DisplayClient::connect(addr, 3).unwrap();
+    assert_eq!(
+        tcp.sections(),
+        &[section()],
+        "the welcome carries the sections"
+    );
+    let s = &tcp.sections()[0];
+    let eye = DVec3::new(0.7, 1.1, 1.3);
+    let want = wanted(s, eye);
+    tcp.request(EyeRequest {
+        slot: 0,
+        eye: Some(Eye {
+            pos: eye,
+            radius: 0.05,
+        }),
+        wanted: want.clone(),
+    });
+    let mut got = HashMap::new();
+    let all_there = |g: &HashMap<BeamKey, Vec<Sample>>| {
+        want.iter()
+            .all(|(k, n)| g.get(k).is_some_and(|v| v.len() as f64 >= *n))
+    };
+    assert!(
+        receive(&tcp, &mut got, all_there),
+        "the TCP display received traced samples: {:?}",
+        got.iter().map(|(k, v)| (*k, v.len())).collect::<Vec<_>>()
+    );
+    // The new rays pass near the eye (Appendix A; a few may fall back to uniform ones).
+    let code = DistanceCode::new(s.size());
+    let (mut near, mut total) = (0, 0);
+    for (k, v) in &got {
+        for smp in v {
+            let ws = WorldSample::decode(s, &code, k.1, smp).unwrap();
+            assert!((ws.point(0.0) - ws.exit).length() > 0.0);
+            total += 1;
+            near += usize::from(ws.miss(eye) <= 0.05 + 1e-3);
+        }
+    }
+    assert!(
+        near * 10 >= total * 9,
+        "{near} of {total} rays pass near the eye"
+    );
+
+    // A display in the server's process asking for the same beams gets what is stored at
+    // once, with no worker involved (its requests ask for no more than is there).
+    let local = running.display(9);
+    let stored: HashMap<BeamKey, usize> = want.iter().map(|(k, _)| (*k, got[k].len())).collect();
+    local.request(EyeRequest {
+        slot: 1,
+        eye: None,
+        wanted: want.iter().map(|(k, _)| (*k, 1.0)).collect(),
+    });
+    let mut got_local = HashMap::new();
+    assert!(receive(&local, &mut got_local, |g| {
+        stored
+            .iter()
+            .all(|(k, n)| g.get(k).is_some_and(|v| v.len() >= *n))
+    }));
+    // Repeating the request sends nothing twice.
+    local.request(EyeRequest {
+        slot: 1,
+        eye: None,
+        wanted: want.iter().map(|(k, _)| (*k, 1.0)).collect(),
+    });
+    std::thread::sleep(Duration::from_millis(300));
+    for a in local.collect() {
+        for b in a.iter() {
+            got_local.entry(b.key).or_default().extend(&b.samples);
+        }
+    }
+    // The TCP display asks for more: the new samples reach both displays (the local one
+    // is up to date on these beams), and each sample arrives once.
+    let more: Vec<(BeamKey, f64)> = want.iter().map(|(k, _)| (*k, 120.0)).collect();
+    tcp.request(EyeRequest {
+        slot: 0,
+        eye: Some(Eye {
+            pos: eye,
+            radius: 0.05,
+        }),
+        wanted: more.clone(),
+    });
+    let enough = |g: &HashMap<BeamKey, Vec<Sample>>| {
+        more.iter()
+            .all(|(k, n)| g.get(k).is_some_and(|v| v.len() as f64 >= *n))
+    };
+    assert!(receive(&tcp, &mut got, enough));
+    assert!(receive(&local, &mut got_local, enough));
+    std::thread::sleep(Duration::from_millis(300));
+    for (c, g) in [(&tcp, &mut got), (&local, &mut got_local)] {
+        receive(c, g, |_| true);
+    }
+    for (k, v) in &got {
+        assert_eq!(
+            got_local.get(k).map(Vec::len),
+            Some(v.len()),
+            "beam {k:?}: both displays have every sample, once"
+        );
+        let mut a = v.clone();
+        let mut b = got_local[k].clone();
+        a.sort_by_key(|s| s.to_bytes());
+        b.sort_by_key(|s| s.to_bytes());
+        assert_eq!(a, b);
+    }
+    drop(local);
+    drop(tcp);
+    let server = running.stop().unwrap();
+    let total: u64 = server.stats().samples;
+    drop(server);
+
+    // Reopened, without workers: a new TCP display gets the stored samples.
+    let server = Server::new(
+        HoloFile::open_rw(&path).unwrap(),
+        Mode::Interactive,
+        ServerConfig::default(),
+    );
+    assert_eq!(server.stats().samples, total, "every sample was committed");
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let running = start(server, options(0, Some(listener))).unwrap();
+    let tcp = DisplayClient::connect(running.local_addr().unwrap(), 3).unwrap();
+    tcp.request(EyeRequest {
+        slot: 0,
+        eye: None,
+        wanted: more.clone(),
+    });
+    let mut again = HashMap::new();
+    assert!(receive(&tcp, &mut again, enough));
+    drop(tcp);
+    running.stop().unwrap();
+}
+
+#[test]
+fn a_display_with_another_protocol_is_refused() {
+    use holocave_protocol::frame::{MAX_FRAME_BYTES, read_frame, write_frame};
+    use holocave_protocol::holodeck::{DisplayHello, ServerMsg, WorkerMsg};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.hdk");
+    HoloFile::create(&path, vec![section()], Default::default()).unwrap();
+    let server = Server::new(
+        HoloFile::open_rw(&path).unwrap(),
+        Mode::Interactive,
+        ServerConfig::default(),
+    );
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let running = start(server, options(0, Some(listener))).unwrap();
+    let mut c = std::net::TcpStream::connect(running.local_addr().unwrap()).unwrap();
+    let hello = WorkerMsg::DisplayHello(DisplayHello {
+        protocol: 1,
+        display: 0,
+        name: "old".into(),
+    });
+    write_frame(&mut c, &hello, MAX_FRAME_BYTES).unwrap();
+    assert!(read_frame::<_, ServerMsg>(&mut c, MAX_FRAME_BYTES).is_err());
+    running.stop().unwrap();
+}
