@@ -41,10 +41,18 @@ pub fn near_eye<R: Rng>(
     let Some((ca, cb)) = section.index().cells(beam) else {
         return (uniform(n, rng), n);
     };
-    // Steps 1–4: the entry region from two opposite exit corners.
+    // Steps 1–4: the entry region. The paper bounds it by the cones from two opposite
+    // exit corners; when only one of their conics meets the entry cell (the beam is seen
+    // from the eye through a corner of that cell), that bound shrinks to a few centimetres
+    // of the true region and every ray of the beam goes through it (one pixel of the view,
+    // traced again and again while the rest of the beam's pixels wait). Here the region is
+    // the box around the central projections of all four exit corners through the eye,
+    // widened by the eye sphere's cone, and the two-corner conics as the paper has them;
+    // step 9 still keeps only rays that truly pass near the eye.
     let entry_box = [[0.0, 0.0], [1.0, 1.0]]
         .iter()
         .filter_map(|&f| conic_box(section.cell_point_f(cb, f), eye, section, ca))
+        .chain(projected_box(section, ca, cb, eye))
         .reduce(|a, b| {
             [
                 a[0].min(b[0]),
@@ -90,6 +98,58 @@ pub fn near_eye<R: Rng>(
         }
     }
     (out, 0)
+}
+
+/// The box (cell fractions of `entry`, clipped to it) around the points where the lines from
+/// the corners of `exit` through the eye's centre meet the entry wall, each widened by the
+/// size of the eye sphere's cone there; `None` if it misses the cell.
+fn projected_box(section: &Section, entry: Cell, exit: Cell, eye: Eye) -> Option<[f64; 4]> {
+    let (eu, ev) = section.cell_edges(entry.wall);
+    let o = section.cell_point_f(entry, [0.0, 0.0]);
+    let n = eu.cross(ev);
+    // Fractions (u, v) of a point of the wall plane: solve the 2×2 Gram system.
+    let (guu, guv, gvv) = (eu.dot(eu), eu.dot(ev), ev.dot(ev));
+    let det = guu * gvv - guv * guv;
+    if det.abs() <= 1e-18 * guu * gvv {
+        return None;
+    }
+    let frac = |p: DVec3| {
+        let d = p - o;
+        let (a, b) = (d.dot(eu), d.dot(ev));
+        ((gvv * a - guv * b) / det, (guu * b - guv * a) / det)
+    };
+    let mut b = [
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for f in [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]] {
+        let c = section.cell_point_f(exit, f);
+        let dir = eye.pos - c;
+        let den = n.dot(dir);
+        if den.abs() <= 1e-12 * n.length() * dir.length() {
+            return None;
+        }
+        let t = n.dot(o - c) / den;
+        if !(t > 1.0) {
+            // The entry wall is not behind the eye as seen from this corner.
+            return None;
+        }
+        let (u, v) = frac(c + dir * t);
+        // The cone around the sphere is `radius × t` wide there; over the wall's slant.
+        let slant = (n.length() * dir.length() / den.abs()).min(10.0);
+        let m = eye.radius * t * slant;
+        let (mu, mv) = (m / guu.sqrt(), m / gvv.sqrt());
+        b = [
+            b[0].min(u - mu),
+            b[1].max(u + mu),
+            b[2].min(v - mv),
+            b[3].max(v + mv),
+        ];
+    }
+    let b = [b[0].max(0.0), b[1].min(1.0), b[2].max(0.0), b[3].min(1.0)];
+    (b[0] <= b[1] && b[2] <= b[3]).then_some(b)
 }
 
 fn bytes(f: [f64; 2]) -> [u8; 2] {
