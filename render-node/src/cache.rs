@@ -66,6 +66,8 @@ pub struct NewSample {
     pos: [f32; 4],
     rad: [f32; 4],
     origin: [f32; 4],
+    /// x: how many samples this one stands for (their mean radiance); yzw unused.
+    weight: [f32; 4],
 }
 
 impl NewSample {
@@ -85,7 +87,19 @@ impl NewSample {
                 .extend(f32::from_bits(surface))
                 .to_array(),
             origin: origin.extend(distance).to_array(),
+            weight: [1.0, 0.0, 0.0, 0.0],
         }
+    }
+
+    /// The same sample standing for the mean of `n` samples (counted `n` times in the
+    /// point's running mean).
+    pub fn with_weight(mut self, n: f32) -> NewSample {
+        self.weight[0] = n.max(1.0);
+        self
+    }
+
+    pub fn weight(&self) -> f32 {
+        self.weight[0]
     }
 
     pub fn pixel(&self) -> u32 {
@@ -251,7 +265,10 @@ impl RenderCache {
             bytemuck::cast_slice(&vec![empty; capacity as usize]),
         );
         let visible = gpu.storage("visible", 4 * u64::from(capacity));
-        let samples = gpu.storage("samples", 48 * u64::from(batch));
+        let samples = gpu.storage(
+            "samples",
+            std::mem::size_of::<NewSample>() as u64 * u64::from(batch),
+        );
         let matched = gpu.storage("matched", 4 * u64::from(batch));
         let insert_params = gpu.uniform("insert params", 32);
 

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 use holocave_tracer::film::Image;
 
 use crate::cache::{RenderCache, StepTimes};
+use crate::holodeck::HolodeckSource;
 use crate::source::{TracerSource, TracerThread};
 use crate::{EyeView, RenderNodeError};
 
@@ -33,6 +34,9 @@ pub enum Sampler {
     Inline(TracerSource),
     /// Traced on a thread of its own: frames never wait for rays.
     Thread(TracerThread),
+    /// Asked of a holodeck server (in this process or over TCP): frames hand over their
+    /// chosen pixels and insert whatever samples have arrived, never waiting.
+    Holodeck(HolodeckSource),
 }
 
 /// The render cache and its sample source.
@@ -67,23 +71,44 @@ impl DisplayProcess {
         }
     }
 
+    /// Draws from a holodeck server's samples (see [`HolodeckSource`]).
+    pub fn holodeck(cache: RenderCache, source: HolodeckSource, samples_per_eye: u32) -> Self {
+        DisplayProcess {
+            cache,
+            sampler: Sampler::Holodeck(source),
+            samples_per_eye,
+            exposure: None,
+        }
+    }
+
     /// One frame: draw every eye and choose its pixels; inline, trace and insert them (the
     /// samples appear in the next frame); threaded, insert the batches that have arrived
-    /// and send this frame's pixels for every eye whose last batch is back.
+    /// and send this frame's pixels for every eye whose last batch is back; from a
+    /// holodeck, insert the samples that have arrived and send this frame's pixels.
     pub fn frame(&mut self, views: &[EyeView], timed: bool) -> FrameReport {
         let mut report = FrameReport::default();
-        if let Sampler::Thread(t) = &mut self.sampler {
-            let start = Instant::now();
-            for (eye, samples) in t.collect() {
+        let start = Instant::now();
+        let arrived = match &mut self.sampler {
+            Sampler::Inline(_) => Vec::new(),
+            Sampler::Thread(t) => t.collect(),
+            Sampler::Holodeck(h) => h.collect(),
+        };
+        for (eye, samples) in arrived {
+            if eye < self.cache.eye_count() {
                 report.inserted += samples.len();
                 self.cache.insert(eye, &samples);
             }
-            report.insert += start.elapsed();
         }
+        report.insert += start.elapsed();
         let t = Instant::now();
         let targets = vec![self.samples_per_eye; views.len()];
         let chosen = self.cache.draw(views, &targets, timed, &mut report.steps);
         report.draw = t.elapsed();
+        if let Sampler::Holodeck(h) = &mut self.sampler {
+            report.chosen = chosen.iter().map(Vec::len).collect();
+            h.submit(views, chosen);
+            return report;
+        }
         for (eye, (view, pixels)) in views.iter().zip(chosen).enumerate() {
             report.chosen.push(pixels.len());
             match &mut self.sampler {
@@ -101,6 +126,7 @@ impl DisplayProcess {
                         thread.submit(eye, *view, pixels);
                     }
                 }
+                Sampler::Holodeck(_) => unreachable!("handled above"),
             }
         }
         report

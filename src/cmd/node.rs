@@ -1,6 +1,10 @@
 //! `holocave node`: one render node. `--standalone --headless` runs one wall by itself:
 //! its own tracker source, path tracer and GPU render cache, writing each frame's images.
+//! With `--holodeck H.hdk` the samples come from a holodeck server in this process (with
+//! `--workers` tracer threads), which keeps every ray it traces in the file.
 
+use std::collections::BTreeMap;
+use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -8,11 +12,17 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::{DVec3, Quat, Vec3};
+use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
+use holocave_holodeck::run::{RunOptions, Running, start};
+use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_holodeck::{HoloFile, Section, ViewClass};
+use holocave_master::Cave;
 use holocave_master::frustum::{Eye, eye_position, off_axis};
 use holocave_master::load_cave;
 use holocave_render_node::display::contact_sheet;
 use holocave_render_node::{
-    DisplayProcess, EyeView, Gpu, RenderCache, ToneMapper, ToneMode, TracerSource,
+    DisplayProcess, EyeView, Gpu, HolodeckOptions, HolodeckSource, RenderCache, ToneMapper,
+    ToneMode, TracerSource,
 };
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
@@ -38,9 +48,18 @@ pub struct NodeArgs {
     /// The scene (glTF).
     #[arg(long)]
     pub(crate) scene: PathBuf,
-    /// A holodeck file to draw from (not supported yet: samples come from the tracer).
+    /// Draw from this holodeck file (created if missing: one interior section, the CAVE's
+    /// inside volume in scene coordinates), served in this process by `--workers` tracer
+    /// threads that add every ray they trace to it. Without it the node traces its own
+    /// samples and keeps none.
     #[arg(long)]
     pub(crate) holodeck: Option<PathBuf>,
+    /// Tracer threads of the in-process holodeck server (default: the cores).
+    #[arg(long)]
+    pub(crate) workers: Option<usize>,
+    /// Also accept holodeck workers and displays on this address (with --holodeck).
+    #[arg(long)]
+    pub(crate) listen: Option<String>,
     /// Tracker source (file:PATH, synthetic:NAME, vrpn://...); default: the config's.
     #[arg(long)]
     pub(crate) tracker: Option<String>,
@@ -190,12 +209,6 @@ pub fn run(args: NodeArgs) -> Result<()> {
     if !args.headless {
         bail!("only --headless is supported: the windowed display is not built yet");
     }
-    if let Some(h) = &args.holodeck {
-        bail!(
-            "--holodeck {}: drawing from a holodeck is not supported yet; the node traces its own samples",
-            h.display()
-        );
-    }
     if args.frames.is_none() && args.seconds.is_none() {
         bail!("say when to stop: --frames N or --seconds S");
     }
@@ -220,9 +233,11 @@ pub fn run(args: NodeArgs) -> Result<()> {
     let (width, height) = args.size.unwrap_or((wall.pixels[0], wall.pixels[1]));
     let eyes = Eye::for_mode(wall.stereo);
 
-    let scene = Scene::load(&args.scene, &LoadOptions::default())
-        .with_context(|| format!("loading {}", args.scene.display()))?;
-    let tracer = Arc::new(Tracer::new(Arc::new(scene), TraceSettings::default()));
+    let scene = Arc::new(
+        Scene::load(&args.scene, &LoadOptions::default())
+            .with_context(|| format!("loading {}", args.scene.display()))?,
+    );
+    let tracer = Arc::new(Tracer::new(scene.clone(), TraceSettings::default()));
 
     let mut head = match args.still {
         Some(_) => None,
@@ -259,11 +274,22 @@ pub fn run(args: NodeArgs) -> Result<()> {
     let capacity = (pixels * eyes.len() as u32) * 5 / 4;
     let sizes = vec![(width, height); eyes.len()];
     let cache = RenderCache::new(gpu, &sizes, capacity, samples.saturating_mul(2));
-    let source = TracerSource::new(tracer, 1);
-    let mut display = if args.sync {
-        DisplayProcess::new(cache, source, samples)
-    } else {
-        DisplayProcess::threaded(cache, source, samples)
+    let mut holodeck = None;
+    let mut display = match &args.holodeck {
+        Some(path) => {
+            let running = start_holodeck(&args, path, &cave, &scene)?;
+            let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
+            holodeck = Some(running);
+            DisplayProcess::holodeck(cache, source, samples)
+        }
+        None => {
+            let source = TracerSource::new(tracer, 1);
+            if args.sync {
+                DisplayProcess::new(cache, source, samples)
+            } else {
+                DisplayProcess::threaded(cache, source, samples)
+            }
+        }
     };
     println!(
         "wall {:?}: {} eye(s) at {width}x{height}, {} points, {samples} samples per eye and frame, GPU {}",
@@ -292,7 +318,7 @@ pub fn run(args: NodeArgs) -> Result<()> {
             || args
                 .seconds
                 .is_some_and(|s| start.elapsed().as_secs_f64() >= s);
-        if done {
+        if done || holodeck.as_ref().is_some_and(Running::stopping) {
             break;
         }
         let dt = Duration::from_secs_f64(frame as f64 / args.fps);
@@ -356,6 +382,25 @@ pub fn run(args: NodeArgs) -> Result<()> {
         frame += 1;
     }
     let n = frame.max(1) as f64;
+    let holo_counts = match &display.sampler {
+        holocave_render_node::Sampler::Holodeck(h) => Some(h.counts()),
+        _ => None,
+    };
+    drop(display);
+    if let (Some(running), Some(path)) = (holodeck, &args.holodeck) {
+        let server = running.stop()?;
+        let s = server.stats();
+        let c = holo_counts.unwrap_or_default();
+        println!(
+            "{}: {} samples received ({} used, {} passing near an eye), {} traced and added by this run, {} in the holodeck",
+            path.display(),
+            c.received,
+            c.used,
+            c.near,
+            s.added,
+            s.samples
+        );
+    }
     println!(
         "{frame} frames in {:.2} s; per frame: draw + choose {:.2} ms, trace {:.2} ms{}, insert {:.2} ms, {:.0} samples inserted; images in {}",
         start.elapsed().as_secs_f64(),
@@ -371,6 +416,129 @@ pub fn run(args: NodeArgs) -> Result<()> {
         dir.display()
     );
     Ok(())
+}
+
+/// The section of a new holodeck for a CAVE: the box around its walls (the room's inside
+/// volume) in scene coordinates, interior (looking out), so every eye in the room lies in
+/// it and every line of sight through a wall crosses it.
+fn cave_section(cave: &Cave) -> Result<Section> {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for w in &cave.walls {
+        for p in [w.pa, w.pb, w.pc, w.pb + w.pc - w.pa] {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    let (lo, hi) = (lo.min(cave.inside), hi.max(cave.inside));
+    // The walls' box may be flat (a single wall): give it depth toward the inside point,
+    // and at least 1 m on every axis.
+    let mid = (lo + hi) * 0.5;
+    let half = ((hi - lo) * 0.5).max(DVec3::splat(0.5));
+    let (lo, hi) = (mid - half, mid + half);
+    let m = cave.room_to_scene;
+    let corners = (0..8).map(|i| {
+        let pick = |bit: usize, a: f64, b: f64| if i & bit == 0 { a } else { b };
+        m.transform_point3(DVec3::new(
+            pick(1, lo.x, hi.x),
+            pick(2, lo.y, hi.y),
+            pick(4, lo.z, hi.z),
+        ))
+    });
+    let (slo, shi) = corners.fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(a, b), p| (a.min(p), b.max(p)),
+    );
+    let d = shi - slo;
+    Section::with_default_grid(
+        slo,
+        [DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z],
+        ViewClass::Interior,
+    )
+    .context("the CAVE's section")
+}
+
+/// Opens (or creates) the holodeck and starts its server with tracer threads.
+fn start_holodeck(
+    args: &NodeArgs,
+    path: &Path,
+    cave: &Cave,
+    scene: &Arc<Scene>,
+) -> Result<Running> {
+    let name = super::worker::scene_name(&args.scene);
+    let file = if path.exists() {
+        let h = HoloFile::open_rw(path)?;
+        if h.settings().get("scene").is_some_and(|s| *s != name) {
+            tracing::warn!(
+                "{} was made with scene {:?}, drawing with {name:?}",
+                path.display(),
+                h.settings()["scene"]
+            );
+        }
+        h
+    } else {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+        let section = cave_section(cave)?;
+        let inside = super::fill::triangles_inside(scene, &section);
+        if inside > 0 {
+            tracing::warn!(
+                "the CAVE's volume holds {inside} triangles of the scene: they will be missing \
+                 from the holodeck's views (make the holodeck with `holocave fill --section`)"
+            );
+        }
+        let settings = BTreeMap::from([
+            ("scene".to_string(), name.clone()),
+            (
+                "generator".to_string(),
+                "holocave-tracer, default TraceSettings".to_string(),
+            ),
+            (
+                DISTANCE_SETTING.to_string(),
+                DistanceKind::Virtual.name().to_string(),
+            ),
+            (
+                "created-by".to_string(),
+                format!("holocave node {}", env!("CARGO_PKG_VERSION")),
+            ),
+        ]);
+        HoloFile::create(path, vec![section], settings)?
+    };
+    let g = file.sections()[0].grid();
+    println!(
+        "holodeck {}: {} samples, {} section(s), first grid {}x{}x{}",
+        path.display(),
+        file.total_samples(),
+        file.sections().len(),
+        g[0],
+        g[1],
+        g[2]
+    );
+    let workers = args.workers.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    });
+    let listener = args
+        .listen
+        .as_ref()
+        .map(|a| TcpListener::bind(a).with_context(|| format!("--listen {a}")))
+        .transpose()?;
+    let source = super::worker::TracerSource(Tracer::new(scene.clone(), TraceSettings::default()));
+    let server = Server::new(file, Mode::Interactive, ServerConfig::default());
+    let running = start(
+        server,
+        RunOptions {
+            threads: workers,
+            source: Some(Arc::new(source)),
+            listener,
+            scene: name,
+            commit_every: Duration::from_secs(5),
+        },
+    )?;
+    if let Some(a) = running.local_addr() {
+        println!("holodeck workers and displays may connect to {a}");
+    }
+    Ok(running)
 }
 
 /// Writes frame `frame`'s images of every eye: `DIR/<frame>-<eye>.exr` (linear) and

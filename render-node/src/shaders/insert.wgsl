@@ -14,6 +14,7 @@ struct NewSample {
     pos: vec4<f32>,    // xyz hit position, w pixel index (bitcast u32)
     rad: vec4<f32>,    // rgb radiance, w surface id (bitcast u32)
     origin: vec4<f32>, // xyz ray origin, w distance along the ray
+    weight: vec4<f32>, // x: samples this one's radiance is the mean of (1 when traced)
 }
 
 struct InsertParams {
@@ -98,7 +99,8 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
             p.pos.w = points[idx].pos.w;
         }
     }
-    var n = p.rad.w + 1.0;
+    let w = max(s.weight.x, 1.0);
+    var n = p.rad.w + w;
     if (moved > SAME_ORIGIN) {
         let same_surface = bitcast<u32>(p.origin.w) == bitcast<u32>(s.rad.w);
         let same_place = distance(p.pos.xyz, s.pos.xyz) <= SAME_PLACE * s.origin.w;
@@ -108,7 +110,7 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
         n = min(n, MOVING_MAX_COUNT);
         p.origin = vec4<f32>(s.origin.xyz, p.origin.w);
     }
-    p.rad = vec4<f32>(p.rad.xyz + (s.rad.xyz - p.rad.xyz) / n, n);
+    p.rad = vec4<f32>(p.rad.xyz + (s.rad.xyz - p.rad.xyz) * min(w / n, 1.0), n);
     // The point stands for the pixel: keep the nearest hit so the depth cull sees the
     // front surface at silhouettes.
     if (s.origin.w < distance(p.pos.xyz, p.origin.xyz)) {
@@ -144,7 +146,7 @@ fn place_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     points[oldest] = Point(
         vec4<f32>(s.pos.xyz, 0.0),
-        vec4<f32>(s.rad.xyz, 1.0),
+        vec4<f32>(s.rad.xyz, max(s.weight.x, 1.0)),
         vec4<f32>(s.origin.xyz, s.rad.w),
     );
 }
