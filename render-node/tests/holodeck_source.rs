@@ -1,0 +1,176 @@
+//! A render node's holodeck source over TCP against a holodeck server on loopback (no
+//! GPU needed): the chosen pixels of two eyes become beam requests, worker threads trace
+//! rays near the eyes (an analytic scene), and the samples come back as render-cache
+//! samples at the pixels where their points project, with the scene's colour there.
+
+use std::net::TcpListener;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::{DVec3, Vec2, Vec3};
+use holocave_holodeck::run::{RunOptions, start};
+use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_holodeck::worker::{DistanceKind, SampleSource};
+use holocave_holodeck::{HoloFile, Section, ViewClass};
+use holocave_render_node::{EyeView, HolodeckSource, NewSample};
+use holocave_tracer::view::WallView;
+
+/// A back plane z = -3: red where x < 0, green where x ≥ 0; everything else escapes.
+struct Plane;
+
+impl SampleSource for Plane {
+    fn trace(
+        &self,
+        rays: &[([f32; 3], [f32; 3])],
+        _seed: u64,
+        _distance: DistanceKind,
+    ) -> Vec<([f32; 3], f32)> {
+        rays.iter()
+            .map(|(o, d)| {
+                if d[2] >= 0.0 {
+                    return ([0.0; 3], f32::INFINITY);
+                }
+                let t = (-3.0 - o[2]) / d[2];
+                let x = o[0] + t * d[0];
+                (
+                    if x < 0.0 {
+                        [1.0, 0.0, 0.0]
+                    } else {
+                        [0.0, 1.0, 0.0]
+                    },
+                    t,
+                )
+            })
+            .collect()
+    }
+}
+
+const SIZE: u32 = 24;
+
+fn eye_view(eye: Vec3) -> EyeView {
+    EyeView::kooima(
+        WallView {
+            eye,
+            pa: Vec3::new(-1.0, -1.0, -1.0),
+            pb: Vec3::new(1.0, -1.0, -1.0),
+            pc: Vec3::new(-1.0, 1.0, -1.0),
+            width: SIZE,
+            height: SIZE,
+        },
+        0.05,
+    )
+}
+
+#[test]
+fn tcp_holodeck_source_turns_requests_into_samples_at_the_right_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plane.hdk");
+    // An interior section around the eyes, its far face the screen.
+    let section = Section::with_target_beams(
+        DVec3::new(-1.0, -1.0, -1.0),
+        [DVec3::X * 2.0, DVec3::Y * 2.0, DVec3::Z * 2.0],
+        ViewClass::Interior,
+        20_000,
+    )
+    .unwrap();
+    HoloFile::create(&path, vec![section], Default::default()).unwrap();
+    let server = Server::new(
+        HoloFile::open_rw(&path).unwrap(),
+        Mode::Interactive,
+        ServerConfig::default(),
+    );
+    let running = start(
+        server,
+        RunOptions {
+            threads: 2,
+            source: Some(Arc::new(Plane)),
+            listener: Some(TcpListener::bind("127.0.0.1:0").unwrap()),
+            scene: "plane".into(),
+            commit_every: Duration::from_secs(60),
+        },
+    )
+    .unwrap();
+    let mut source = HolodeckSource::connect(running.local_addr().unwrap(), 2).unwrap();
+    assert!(source.is_connected());
+    let views = [
+        eye_view(Vec3::new(-0.032, 0.1, 0.3)),
+        eye_view(Vec3::new(0.032, 0.1, 0.3)),
+    ];
+    let all: Vec<u32> = (0..SIZE * SIZE).collect();
+    let mut got: Vec<Vec<NewSample>> = vec![Vec::new(), Vec::new()];
+    let t = Instant::now();
+    while t.elapsed() < Duration::from_secs(20) {
+        // Frames hand over their pixels and never wait.
+        let f = Instant::now();
+        source.submit(&views, vec![all.clone(), all.clone()]);
+        for (eye, s) in source.collect() {
+            got[eye].extend(s);
+        }
+        assert!(f.elapsed() < Duration::from_millis(50), "a frame waited");
+        let covered = got
+            .iter()
+            .map(|g| {
+                g.iter()
+                    .map(NewSample::pixel)
+                    .collect::<std::collections::HashSet<_>>()
+                    .len()
+            })
+            .min()
+            .unwrap();
+        if covered * 20 >= (SIZE * SIZE) as usize * 19 {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let counts = source.counts();
+    eprintln!(
+        "{:?} samples per eye in {:.2} s; {counts:?}",
+        got.iter().map(Vec::len).collect::<Vec<_>>(),
+        t.elapsed().as_secs_f64()
+    );
+    assert!(
+        counts.received > 0 && counts.near * 10 >= counts.used * 8,
+        "{counts:?}"
+    );
+    for (eye, samples) in got.iter().enumerate() {
+        assert!(
+            samples.len() >= (SIZE * SIZE) as usize,
+            "eye {eye}: {} samples",
+            samples.len()
+        );
+        let v = &views[eye];
+        let mut pixels = std::collections::HashSet::new();
+        let mut wrong = 0;
+        for s in samples {
+            let p = s.pixel();
+            pixels.insert(p);
+            let (x, y) = (p % SIZE, p / SIZE);
+            // The point projects into its pixel.
+            let (px, py, _) = v.project(s.position()).unwrap();
+            assert!(
+                px.floor() as u32 == x && py.floor() as u32 == y,
+                "eye {eye}: point at ({px}, {py}) for pixel ({x}, {y})"
+            );
+            // Its colour is the plane's where the eye's line of sight meets it (pixels
+            // within one of the colour boundary may be mixed).
+            let r = v.wall.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let t = (-3.0 - r.origin.z) / r.dir.z;
+            let bx = r.origin.x + t * r.dir.x;
+            let pixel_width = 2.0 / SIZE as f32 * (3.0 + r.origin.z) / (1.0 + r.origin.z);
+            let c = s.radiance();
+            if bx.abs() > 1.5 * pixel_width && ((bx < 0.0) != (c.x > c.y)) {
+                wrong += 1;
+            }
+            assert!(s.weight() >= 1.0);
+        }
+        assert_eq!(wrong, 0, "eye {eye}: samples with the wrong colour");
+        assert!(
+            pixels.len() * 10 >= (SIZE * SIZE) as usize * 9,
+            "eye {eye}: {} of {} pixels have samples",
+            pixels.len(),
+            SIZE * SIZE
+        );
+    }
+    drop(source);
+    running.stop().unwrap();
+}
