@@ -132,7 +132,7 @@ fn projected_box(section: &Section, entry: Cell, exit: Cell, eye: Eye) -> Option
             return None;
         }
         let t = n.dot(o - c) / den;
-        if !(t > 1.0) {
+        if t.is_nan() || t <= 1.0 {
             // The entry wall is not behind the eye as seen from this corner.
             return None;
         }

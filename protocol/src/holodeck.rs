@@ -151,6 +151,9 @@ impl BeamRequest {
     }
 }
 
+/// One beam of a [`BeamBatch`]: section, beam and its sample records.
+pub type BatchBeam<'a> = (u16, u32, &'a [u8]);
+
 impl BeamBatch {
     /// Appends one beam's samples, given as consecutive 10-byte records.
     pub fn push(&mut self, section: u16, beam: u32, records: &[u8]) {
@@ -171,7 +174,7 @@ impl BeamBatch {
     }
 
     /// The beams as `(section, beam, records)`; fails on a truncated buffer.
-    pub fn beams(&self) -> Result<Vec<(u16, u32, &[u8])>, RecordError> {
+    pub fn beams(&self) -> Result<Vec<BatchBeam<'_>>, RecordError> {
         let mut out = Vec::new();
         let mut rest = &self.data[..];
         let bad = || RecordError {

@@ -406,7 +406,8 @@ impl Worker {
         });
         for (b, view) in self.best.iter_mut().zip(&self.views) {
             let (eye, w, h) = (view.eye().as_dvec3(), view.wall.width, view.wall.height);
-            let moved = !(b.0.distance(eye) <= self.options.eye_radius * 0.25);
+            let d = b.0.distance(eye);
+            let moved = d.is_nan() || d > self.options.eye_radius * 0.25;
             if moved || b.1 != w || b.2 != h {
                 *b = (eye, w, h, vec![f32::INFINITY; (w * h) as usize]);
             }
