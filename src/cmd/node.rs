@@ -524,7 +524,13 @@ fn start_holodeck(
         .map(|a| TcpListener::bind(a).with_context(|| format!("--listen {a}")))
         .transpose()?;
     let source = super::worker::TracerSource(Tracer::new(scene.clone(), TraceSettings::default()));
-    let server = Server::new(file, Mode::Interactive, ServerConfig::default());
+    let config = ServerConfig {
+        // A tracked head moves: rays chosen for where an eye was 3 s ago (the batch
+        // default) pass far from where it is; in-process workers need no deep queue.
+        queue_seconds: 0.5,
+        ..Default::default()
+    };
+    let server = Server::new(file, Mode::Interactive, config);
     let running = start(
         server,
         RunOptions {
