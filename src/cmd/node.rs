@@ -212,6 +212,14 @@ pub fn run(args: NodeArgs) -> Result<()> {
     if args.frames.is_none() && args.seconds.is_none() {
         bail!("say when to stop: --frames N or --seconds S");
     }
+    if args.holodeck.is_none() && (args.workers.is_some() || args.listen.is_some()) {
+        bail!("--workers and --listen are for the holodeck's server: give --holodeck H.hdk");
+    }
+    if args.holodeck.is_some() && args.sync {
+        tracing::warn!(
+            "--sync is ignored with --holodeck: samples arrive as the workers trace them"
+        );
+    }
     let cave = load_cave(&args.config)?;
     let wall = cave
         .walls
@@ -406,7 +414,9 @@ pub fn run(args: NodeArgs) -> Result<()> {
         start.elapsed().as_secs_f64(),
         totals.0.as_secs_f64() * 1e3 / n,
         totals.1.as_secs_f64() * 1e3 / n,
-        if args.sync {
+        if args.holodeck.is_some() {
+            " (the holodeck's workers)"
+        } else if args.sync {
             ""
         } else {
             " (on the tracer thread)"
