@@ -114,14 +114,14 @@ impl Hub {
         let id: DisplayId = sub.display * SLOTS + u32::from(req.slot) % SLOTS;
         let got = server.set_requests_once(id, req.wanted, req.eye, &mut sub.known)?;
         if !got.is_empty() && !(sub.deliver)(Arc::new(got)) {
-            self.subs.remove(&token);
+            self.unsubscribe(server, token);
         }
         Ok(())
     }
 
     /// Sends new samples (as [`Server::complete`] returned them, already added) to every
     /// display up to date on their beams.
-    pub fn distribute(&mut self, server: &Server, new: &[BeamSamples]) {
+    pub fn distribute(&mut self, server: &mut Server, new: &[BeamSamples]) {
         if new.is_empty() || self.subs.is_empty() {
             return;
         }
@@ -151,7 +151,7 @@ impl Hub {
             }
         }
         for t in gone {
-            self.subs.remove(&t);
+            self.unsubscribe(server, t);
         }
     }
 }

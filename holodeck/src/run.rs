@@ -25,6 +25,8 @@ use crate::worker::{SampleSource, trace_packet};
 
 /// Largest sample batch sent to a TCP display in one message.
 const DISPLAY_BATCH_BYTES: usize = 1 << 20;
+/// Most samples queued for a TCP display (320 MB) before it counts as gone.
+const MAX_QUEUED_SAMPLES: usize = 32 << 20;
 
 /// How to run.
 pub struct RunOptions {
@@ -79,7 +81,7 @@ impl Shared {
         let new = s.complete(id, result, self.now())?;
         if !new.is_empty() {
             let mut hub = self.hub.lock().unwrap_or_else(|p| p.into_inner());
-            hub.distribute(&s, &new);
+            hub.distribute(&mut s, &new);
         }
         Ok(())
     }
@@ -472,14 +474,26 @@ async fn serve_display(
             hello.protocol
         )));
     }
-    let (tx, mut samples) = tokio::sync::mpsc::unbounded_channel();
+    let (tx, mut samples) = tokio::sync::mpsc::unbounded_channel::<display::Arrival>();
+    // Samples queued for this display and not yet written: a display that stops reading
+    // is dropped (its channel closes, ending the session) rather than filling memory.
+    let queued = Arc::new(AtomicUsize::new(0));
+    let q = queued.clone();
+    let deliver = move |a: display::Arrival| {
+        let n: usize = a.iter().map(|b| b.samples.len()).sum();
+        if q.fetch_add(n, Ordering::SeqCst) + n > MAX_QUEUED_SAMPLES {
+            tracing::warn!("a display is not reading its samples: dropping it");
+            return false;
+        }
+        tx.send(a).is_ok()
+    };
     let (welcome, token) = {
         let s = sh.lock();
         let token = sh
             .hub
             .lock()
             .unwrap_or_else(|p| p.into_inner())
-            .subscribe(hello.display, Box::new(move |a| tx.send(a).is_ok()));
+            .subscribe(hello.display, Box::new(deliver));
         (display::welcome(&s, &sh.scene), token)
     };
     tracing::info!("display {} ({}) joined", hello.display, hello.name);
@@ -524,10 +538,12 @@ async fn serve_display(
                     while let Ok(more) = samples.try_recv() {
                         all.extend(more.iter().cloned());
                     }
+                    let n: usize = all.iter().map(|b| b.samples.len()).sum();
                     for b in display::pack(&all, DISPLAY_BATCH_BYTES) {
                         frame::write_frame_async(&mut wr, &ServerMsg::Beams(b), MAX_FRAME_BYTES).await?;
                     }
                     wr.flush().await.map_err(FrameError::from)?;
+                    queued.fetch_sub(n, Ordering::SeqCst);
                 }
                 _ = tick.tick() => {}
             }
