@@ -148,7 +148,8 @@ pub struct Server {
     orphans: VecDeque<u64>,
     next_packet: u64,
     displays: BTreeMap<DisplayId, DisplayRequest>,
-    eyes: BeamMap<BeamKey, Eye>,
+    /// Per beam, the eyes of the displays that want it and how many samples each wants.
+    eyes: BeamMap<BeamKey, Vec<(Eye, f64)>>,
     codes: Vec<DistanceCode>,
     rng: SmallRng,
     stats: Stats,
@@ -329,11 +330,25 @@ impl Server {
                 .min(self.config.max_bundle as usize)
                 .min(size - n_rays);
             let section = &self.cache.file().sections()[usize::from(key.0)];
-            let codes = match self.eyes.get(&key) {
-                Some(eye) if self.mode == Mode::Interactive => {
-                    proximity::near_eye(section, key.1, *eye, n, &mut self.rng).0
+            // Several displays (both eyes of a stereo wall) may want a beam: each bundle
+            // passes near one of their eyes, drawn in proportion to what each wants.
+            let eye = match self.eyes.get(&key) {
+                Some(eyes) if self.mode == Mode::Interactive && !eyes.is_empty() => {
+                    let total: f64 = eyes.iter().map(|e| e.1).sum();
+                    let mut x = self.rng.random::<f64>() * total;
+                    eyes.iter()
+                        .find(|e| {
+                            x -= e.1;
+                            x < 0.0
+                        })
+                        .or(eyes.last())
+                        .map(|e| e.0)
                 }
-                _ => proximity::uniform(n, &mut self.rng),
+                _ => None,
+            };
+            let codes = match eye {
+                Some(eye) => proximity::near_eye(section, key.1, eye, n, &mut self.rng).0,
+                None => proximity::uniform(n, &mut self.rng),
             };
             let mut offsets = Vec::with_capacity(n);
             for &(e, x) in &codes {
@@ -562,12 +577,9 @@ impl Server {
         for d in self.displays.values() {
             for &(k, w) in &d.wanted {
                 let slot = wanted.entry(k).or_default();
-                if w > *slot {
-                    *slot = w;
-                    match d.eye {
-                        Some(e) => self.eyes.insert(k, e),
-                        None => self.eyes.remove(&k),
-                    };
+                *slot = slot.max(w);
+                if let Some(e) = d.eye {
+                    self.eyes.entry(k).or_default().push((e, w));
                 }
             }
         }
