@@ -1,6 +1,8 @@
 //! The cluster over real processes and sockets: `holocave master` and one `holocave node
 //! --master` process per wall, on loopback. Each node appends every frame it presents to
 //! `<out>/<wall>/presented.log`; these logs and the master's summary are the evidence.
+//! With `--holodeck` the master also hosts the holodeck, which `holocave worker` processes
+//! fill and the nodes draw from.
 //!
 //! Rates are low (20 Hz) and images tiny so that four nodes keep up on a 2-core CI
 //! machine without a GPU; the properties checked do not depend on the rate.
@@ -511,4 +513,148 @@ fn replay_sends_the_same_frame_states_bit_for_bit() {
     let c = run("c.bin", "synthetic:nod");
     assert!(a != c, "another log gives other states");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Starts a render node for `wall` that writes its images every `every` frames.
+fn holodeck_node(addr: &str, wall: &str, out: &Path, every: u64) -> Proc {
+    Proc(
+        Command::new(env!("CARGO_BIN_EXE_holocave"))
+            .current_dir(root())
+            .args(["node", "--master", addr, "--wall", wall, "--headless"])
+            .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
+            .args(["--samples", "48", "--every", &every.to_string()])
+            .arg("--out")
+            .arg(out)
+            .env("HOLOCAVE_SECRET", SECRET)
+            .env("RAYON_NUM_THREADS", "1")
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start holocave node"),
+    )
+}
+
+/// Starts `holocave master` hosting the holodeck `hdk`; returns it, its address for nodes
+/// and the holodeck's address for workers (from its stdout).
+fn holodeck_master(hdk: &Path, frames: u64) -> (Proc, String, String, BufReader<ChildStdout>) {
+    let hdk = hdk.to_str().unwrap();
+    let (m, addr, mut out) = master(
+        &[
+            "--frames",
+            &frames.to_string(),
+            "--wait-for-walls",
+            "60",
+            "--holodeck",
+            hdk,
+            "--scene",
+            SCENE,
+            "--holodeck-listen",
+            "127.0.0.1:0",
+        ],
+        SECRET,
+    );
+    let mut line = String::new();
+    let holodeck = loop {
+        line.clear();
+        assert!(out.read_line(&mut line).unwrap() > 0, "no holodeck address");
+        if let Some(a) = line
+            .trim()
+            .strip_prefix("holodeck workers and displays may connect to ")
+        {
+            break a.to_owned();
+        }
+    };
+    (m, addr, holodeck, out)
+}
+
+/// The fraction of an image's pixels that show something (not black).
+fn coverage(png: &Path) -> f64 {
+    let img = image::open(png)
+        .unwrap_or_else(|e| panic!("{}: {e}", png.display()))
+        .to_rgb8();
+    let lit = img.pixels().filter(|p| p.0.iter().any(|&c| c > 0)).count();
+    lit as f64 / (img.width() * img.height()) as f64
+}
+
+fn holodeck_samples(hdk: &Path) -> u64 {
+    holocave_holodeck::HoloFile::open(hdk)
+        .unwrap_or_else(|e| panic!("{}: {e}", hdk.display()))
+        .total_samples()
+}
+
+#[test]
+fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
+    let out = scratch("cluster-holodeck");
+    let hdk = out.join("room.hdk");
+    let walls = WALLS;
+
+    // Run 1: an empty holodeck in the master, one worker process tracing what the two
+    // walls ask for.
+    let (m, addr, holodeck, mut m_out) = holodeck_master(&hdk, 60);
+    let worker = Proc(
+        Command::new(env!("CARGO_BIN_EXE_holocave"))
+            .current_dir(root())
+            .args(["worker", "--server", &holodeck, "--scene", SCENE])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start holocave worker"),
+    );
+    let run1 = out.join("run1");
+    let nodes: Vec<Proc> = walls
+        .iter()
+        .map(|w| holodeck_node(&addr, w, &run1, 20))
+        .collect();
+    let (status, err) = m.finish(Duration::from_secs(120));
+    assert!(status.success(), "master failed: {err}");
+    let mut summary = String::new();
+    m_out.read_to_string(&mut summary).unwrap();
+    for n in nodes {
+        let (status, err) = n.finish(Duration::from_secs(30));
+        assert!(status.success(), "node failed: {err}");
+        assert!(err.contains("drawing from the holodeck"), "{err}");
+    }
+    drop(worker);
+    let traced = holodeck_samples(&hdk);
+    assert!(traced > 0, "nothing reached the holodeck: {summary}");
+    assert!(
+        summary.contains(&format!(
+            "{traced} samples added by this run, {traced} in all"
+        )),
+        "{summary}"
+    );
+
+    // Run 2: the same file, no worker: everything the walls show comes from run 1's rays.
+    let (m, addr, _, mut m_out) = holodeck_master(&hdk, 6);
+    let run2 = out.join("run2");
+    let nodes: Vec<Proc> = walls
+        .iter()
+        .map(|w| holodeck_node(&addr, w, &run2, 1))
+        .collect();
+    let (status, err) = m.finish(Duration::from_secs(120));
+    assert!(status.success(), "master failed: {err}");
+    let mut summary = String::new();
+    m_out.read_to_string(&mut summary).unwrap();
+    for n in nodes {
+        let (status, err) = n.finish(Duration::from_secs(30));
+        assert!(status.success(), "node failed: {err}");
+    }
+    assert_eq!(
+        holodeck_samples(&hdk),
+        traced,
+        "run 2 traced nothing and lost nothing"
+    );
+    // With no tracer anywhere, a wall shows only what the holodeck answers from the file.
+    // The head is still (the config's synthetic:still), so run 2's views were run 1's:
+    // by the last frame nearly every pixel (all but a wall's edge, say 5%) shows a sample.
+    for wall in walls {
+        let frames = presented(&run2, wall);
+        let last = *frames.last().expect("run 2 presented frames");
+        let shown = coverage(&run2.join(wall).join(format!("{last:05}-left.png")));
+        eprintln!("{wall}: frame {last} of run 2 shows {shown:.3} of its pixels");
+        assert!(
+            shown >= 0.95,
+            "{wall}: only {shown:.3} of the pixels from the file"
+        );
+    }
 }

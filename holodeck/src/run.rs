@@ -120,6 +120,17 @@ impl Shared {
     }
 }
 
+/// Reads a running server's totals (see [`Running::monitor`]).
+#[derive(Clone)]
+pub struct Monitor(std::sync::Weak<Shared>);
+
+impl Monitor {
+    /// The running totals; `None` once the server has stopped.
+    pub fn stats(&self) -> Option<Stats> {
+        self.0.upgrade().map(|sh| sh.lock().stats())
+    }
+}
+
 /// A server running in the background (see [`start`]).
 pub struct Running {
     /// `None` only once stopped.
@@ -169,6 +180,12 @@ impl Running {
     /// Running totals.
     pub fn stats(&self) -> Stats {
         self.sh().lock().stats()
+    }
+
+    /// A handle that reads the running totals from another thread (an operator's status
+    /// line) without keeping the server alive.
+    pub fn monitor(&self) -> Monitor {
+        Monitor(Arc::downgrade(self.sh()))
     }
 
     /// Commits so far.

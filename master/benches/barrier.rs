@@ -88,6 +88,7 @@ fn cluster(frames: u64) -> Summary {
             status_every: Duration::from_secs(3600),
             stop: Arc::new(AtomicBool::new(false)),
             wait_for_walls: Duration::from_secs(10),
+            status_extra: None,
         },
     )
     .unwrap();

@@ -59,6 +59,9 @@ pub struct MasterOptions {
     pub stop: Arc<AtomicBool>,
     /// Before the first frame, wait this long at most for a node of every wall.
     pub wait_for_walls: Duration,
+    /// Appended to each status line (the holodeck's fill and ray rate, when the master
+    /// hosts it).
+    pub status_extra: Option<Box<dyn FnMut() -> String + Send>>,
 }
 
 /// What a run measured.
@@ -346,8 +349,16 @@ async fn run_frames(
     mut head: Head,
     listener: TcpListener,
     secret: Vec<u8>,
-    opts: MasterOptions,
+    mut opts: MasterOptions,
 ) -> std::io::Result<Summary> {
+    // Ctrl-C ends the run cleanly: the nodes are told to shut down, not left to retry.
+    let stop = opts.stop.clone();
+    tokio::spawn(async move {
+        if tokio::signal::ctrl_c().await.is_ok() {
+            tracing::info!("interrupted: stopping after this frame");
+            stop.store(true, Ordering::Relaxed);
+        }
+    });
     let addr = listener.local_addr()?;
     let period = cave.frame_period();
     let deadline = cave.deadline();
@@ -508,7 +519,11 @@ async fn run_frames(
             let secs = (swapped - last_status.0).as_secs_f64();
             let rate = (frame + 1 - last_status.1) as f64 / secs;
             let tracker_hz = (head.samples - last_status.2) as f64 / secs;
-            tracing::info!("{}", m.status_line(frame, rate, tracker_hz, &head));
+            let mut line = m.status_line(frame, rate, tracker_hz, &head);
+            if let Some(extra) = opts.status_extra.as_mut() {
+                line += &format!(" | {}", extra());
+            }
+            tracing::info!("{line}");
             last_status = (swapped, frame + 1, head.samples);
         }
         frame += 1;

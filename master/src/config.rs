@@ -39,6 +39,9 @@ pub struct ClusterConfig {
     /// How long the swap barrier waits for a node's Ready before marking it late
     /// (milliseconds; default one frame period).
     pub deadline_ms: Option<f64>,
+    /// Where the holodeck server accepts workers and render nodes (`HOST:PORT`), when the
+    /// master hosts it (`holocave master --holodeck FILE`).
+    pub holodeck: String,
 }
 
 impl Default for ClusterConfig {
@@ -49,6 +52,7 @@ impl Default for ClusterConfig {
             secret: String::new(),
             rate_hz: 60.0,
             deadline_ms: None,
+            holodeck: "127.0.0.1:7401".to_owned(),
         }
     }
 }

@@ -7,6 +7,7 @@
 pub mod bvh;
 pub mod camera;
 pub mod daylight;
+pub mod empty_box;
 pub mod error;
 pub mod generate;
 pub mod light;

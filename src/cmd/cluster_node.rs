@@ -1,7 +1,11 @@
 //! `holocave node --master HOST:PORT`: a render node in a cluster. It draws the frames the
 //! master sends, in lockstep with the other walls, and reconnects whenever the link drops.
+//! Its samples come from the cluster's holodeck when the master names one (requests for
+//! its eyes' pixels, answered from the file or traced by the workers), else from a tracer
+//! thread of its own.
 
 use std::io::Write;
+use std::net::{IpAddr, SocketAddr, ToSocketAddrs};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -9,7 +13,9 @@ use anyhow::{Context, Result, anyhow, bail};
 use holocave_master::frustum::Eye;
 use holocave_master::load_cave;
 use holocave_render_node::cluster::{Ended, MasterLink, NodeCounters, follow};
-use holocave_render_node::{DisplayProcess, Gpu, RenderCache, ToneMapper, ToneMode, TracerSource};
+use holocave_render_node::{
+    DisplayProcess, Gpu, HolodeckSource, RenderCache, ToneMapper, ToneMode, TracerSource,
+};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
 
@@ -37,16 +43,32 @@ pub fn run(args: &NodeArgs, master: &str) -> Result<()> {
     let scene = Scene::load(&args.scene, &LoadOptions::default())
         .with_context(|| format!("loading {}", args.scene.display()))?;
     let tracer = Arc::new(Tracer::new(Arc::new(scene), TraceSettings::default()));
-    let gpu = Gpu::new()?;
-    let pixels = size.0 * size.1;
-    let samples = args.samples.unwrap_or((pixels / 16).max(1));
-    let capacity = (pixels * eyes.len() as u32) * 5 / 4;
-    let cache = RenderCache::new(gpu, &vec![size; eyes.len()], capacity, samples * 2);
-    let seed = wall
-        .name
-        .bytes()
-        .fold(1u64, |h, b| h.wrapping_mul(31) ^ u64::from(b));
-    let mut display = DisplayProcess::threaded(cache, TracerSource::new(tracer, seed), samples);
+    // The wall's display id at the holodeck: its place in the config (every node reads
+    // the same config).
+    let display_id = cave
+        .walls
+        .iter()
+        .position(|w| w.name == wall.name)
+        .unwrap_or(0) as u32;
+    let make = Maker {
+        size,
+        eyes: eyes.len() as u32,
+        samples: args.samples.unwrap_or((size.0 * size.1 / 16).max(1)),
+        tracer,
+        seed: wall
+            .name
+            .bytes()
+            .fold(1u64, |h, b| h.wrapping_mul(31) ^ u64::from(b)),
+        display_id,
+        master_ip: master
+            .to_socket_addrs()
+            .ok()
+            .and_then(|mut a| a.next())
+            .map(|a| a.ip()),
+    };
+    // The display and the holodeck it was made for (rebuilt when the master names
+    // another).
+    let mut display: Option<(Option<String>, DisplayProcess)> = None;
     let mut tone = Some(ToneMapper::new(ToneMode::Camera));
     let dir = args.out.join(&wall.name);
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -107,14 +129,16 @@ pub fn run(args: &NodeArgs, master: &str) -> Result<()> {
             link.welcome.rate_hz
         );
         warned = false;
-        match follow(
-            &mut link,
-            &mut display,
-            &wall,
-            size,
-            &mut counters,
-            &mut present,
-        ) {
+        let wanted = link.welcome.holodeck.clone();
+        let made = match display.take() {
+            Some((had, d)) if had == wanted => (had, d),
+            old => {
+                drop(old);
+                (wanted.clone(), make.display(wanted.as_deref())?)
+            }
+        };
+        let display = &mut display.insert(made).1;
+        match follow(&mut link, display, &wall, size, &mut counters, &mut present) {
             Ended::Shutdown(reason) => {
                 println!(
                     "wall {:?}: {} frames presented, {} skipped; master: {reason}",
@@ -127,5 +151,62 @@ pub fn run(args: &NodeArgs, master: &str) -> Result<()> {
                 since = Instant::now();
             }
         }
+    }
+}
+
+/// Makes the node's display process for the holodeck the master names.
+struct Maker {
+    size: (u32, u32),
+    eyes: u32,
+    samples: u32,
+    tracer: Arc<Tracer>,
+    seed: u64,
+    display_id: u32,
+    /// The master's address: a holodeck on an unspecified address (0.0.0.0) is there.
+    master_ip: Option<IpAddr>,
+}
+
+impl Maker {
+    fn display(&self, holodeck: Option<&str>) -> Result<DisplayProcess> {
+        let gpu = Gpu::new()?;
+        let pixels = self.size.0 * self.size.1;
+        let capacity = pixels * self.eyes * 5 / 4;
+        let sizes = vec![self.size; self.eyes as usize];
+        let cache = RenderCache::new(gpu, &sizes, capacity, self.samples * 2);
+        let local = |cache| {
+            let source = TracerSource::new(self.tracer.clone(), self.seed);
+            DisplayProcess::threaded(cache, source, self.samples)
+        };
+        let Some(addr) = holodeck else {
+            return Ok(local(cache));
+        };
+        let connected = self.resolve(addr).and_then(|a| {
+            HolodeckSource::connect(a, self.display_id).map_err(|e| anyhow!("{a}: {e}"))
+        });
+        Ok(match connected {
+            Ok(source) => {
+                tracing::info!("drawing from the holodeck at {addr}");
+                DisplayProcess::holodeck(cache, source, self.samples)
+            }
+            Err(e) => {
+                // A wall that shows something beats a black one: trace locally.
+                tracing::warn!("holodeck {addr}: {e:#}; tracing this wall's samples locally");
+                local(cache)
+            }
+        })
+    }
+
+    fn resolve(&self, addr: &str) -> Result<SocketAddr> {
+        let mut a = addr
+            .to_socket_addrs()
+            .with_context(|| format!("the holodeck address {addr:?}"))?
+            .next()
+            .with_context(|| format!("the holodeck address {addr:?} resolves to nothing"))?;
+        if a.ip().is_unspecified()
+            && let Some(ip) = self.master_ip
+        {
+            a.set_ip(ip);
+        }
+        Ok(a)
     }
 }

@@ -115,7 +115,7 @@ fn make_sections(args: &FillArgs, scene: &Scene) -> anyhow::Result<Vec<Section>>
 /// Triangles of the scene with a point strictly inside an interior section: rays are traced
 /// outward from the section's walls, so these are never seen from inside it (paper §2.1:
 /// interior sections are regions of free movement). Checked on a grid of points per triangle.
-pub(crate) fn triangles_inside(scene: &Scene, section: &Section) -> usize {
+fn triangles_inside(scene: &Scene, section: &Section) -> usize {
     let (o, e) = (section.origin(), section.edges());
     let m = glam::DMat3::from_cols(e[0], e[1], e[2]).inverse();
     let margin = 1e-3;

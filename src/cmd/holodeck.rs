@@ -34,7 +34,8 @@ pub enum HolodeckCommand {
     },
     /// Rewrite with neighbouring beams together and no free fragments (atomic replace).
     Optimize { file: PathBuf },
-    /// Batch-fill the holodeck with TCP worker processes (`holocave worker`) only.
+    /// Serve the holodeck to TCP worker processes (`holocave worker`): batch-fill it, or
+    /// with --interactive answer a cluster's render nodes.
     Serve(ServeArgs),
     /// Make a picture of one view from the stored samples alone (reprojection, no tracing).
     View(ViewArgs),
@@ -217,6 +218,10 @@ pub struct ServeArgs {
     /// Beam cache budget in MiB.
     #[arg(long, default_value_t = 256)]
     pub cache_mb: usize,
+    /// Serve render nodes (a cluster's holodeck on its own host: `holocave master
+    /// --holodeck-server ADDR`): trace what their eyes ask for, not the whole volume.
+    #[arg(long)]
+    pub interactive: bool,
 }
 
 pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
@@ -290,11 +295,18 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
                 a.file.display(),
                 listener.local_addr()?
             );
+            let (mode, queue_seconds) = if a.interactive {
+                // Short worker queues: rays for where a tracked eye is now.
+                (Mode::Interactive, 0.5)
+            } else {
+                (Mode::Batch, ServerConfig::default().queue_seconds)
+            };
             let config = ServerConfig {
                 cache_bytes: a.cache_mb << 20,
+                queue_seconds,
                 ..Default::default()
             };
-            let server = Server::new(h, Mode::Batch, config);
+            let server = Server::new(h, mode, config);
             let opts = RunOptions {
                 threads: 0,
                 source: None,

@@ -14,6 +14,8 @@ use holocave_master::head::{Clock, Head};
 use holocave_master::{Cave, load_cave};
 use holocave_tracking::source::SourceSpec;
 
+use super::cave_holodeck::{Hosted, host};
+
 #[derive(Args)]
 pub struct MasterArgs {
     /// The CAVE config (TOML); its [cluster] section says where to listen.
@@ -39,6 +41,52 @@ pub struct MasterArgs {
     /// Before the first frame, wait up to this many seconds for a node of every wall.
     #[arg(long, default_value_t = 0.0)]
     pub wait_for_walls: f64,
+    #[command(flatten)]
+    pub holodeck: HolodeckArgs,
+}
+
+/// The cluster's holodeck: hosted by the master (the default way) or on its own host.
+#[derive(Args, Clone)]
+pub struct HolodeckArgs {
+    /// Host this holodeck file (created for the CAVE if missing) in the master; the
+    /// render nodes draw from it and `holocave worker` processes fill it. Needs --scene.
+    #[arg(long, conflicts_with = "holodeck_server")]
+    pub holodeck: Option<PathBuf>,
+    /// The scene the hosted holodeck is traced from (the nodes' scene).
+    #[arg(long, requires = "holodeck")]
+    pub scene: Option<PathBuf>,
+    /// Accept the holodeck's workers and render nodes here (default: the config's
+    /// cluster.holodeck).
+    #[arg(long, requires = "holodeck")]
+    pub holodeck_listen: Option<String>,
+    /// Tracer threads in the master for the hosted holodeck (workers on other hosts add
+    /// more).
+    #[arg(long, default_value_t = 0, requires = "holodeck")]
+    pub tracer_threads: usize,
+    /// The nodes draw from a holodeck served elsewhere (`holocave holodeck serve
+    /// --interactive`) at HOST:PORT.
+    #[arg(long)]
+    pub holodeck_server: Option<String>,
+}
+
+impl HolodeckArgs {
+    /// Starts the hosted holodeck, if any, and says where the nodes find theirs.
+    pub fn start(&self, cave: &Cave, made_by: &str) -> Result<(Option<Hosted>, Option<String>)> {
+        let Some(path) = &self.holodeck else {
+            return Ok((None, self.holodeck_server.clone()));
+        };
+        let scene = self
+            .scene
+            .as_ref()
+            .context("--holodeck needs --scene: the scene its rays are traced in")?;
+        let listen = self
+            .holodeck_listen
+            .as_ref()
+            .unwrap_or(&cave.cluster.holodeck);
+        let hosted = host(path, cave, scene, self.tracer_threads, listen, made_by)?;
+        let addr = hosted.addr.to_string();
+        Ok((Some(hosted), Some(addr)))
+    }
 }
 
 /// Where head poses come from, shared by `master` and `sim`.
@@ -133,6 +181,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
     // Tests and scripts read the address from the first line.
     std::io::Write::flush(&mut std::io::stdout())?;
     let head = args.head.open(&cave)?;
+    let (hosted, holodeck) = args.holodeck.start(&cave, "master")?;
     let summary = run_master(
         &cave,
         head,
@@ -147,13 +196,17 @@ pub fn run(args: MasterArgs) -> Result<()> {
             frames: args.frames,
             seconds: args.seconds,
             stop_at_end_of_log: false,
-            holodeck: None,
+            holodeck,
             states_log: args.states.clone(),
             status_every: Duration::from_secs(1),
             stop: Arc::new(AtomicBool::new(false)),
             wait_for_walls: Duration::from_secs_f64(args.wait_for_walls),
+            status_extra: hosted.as_ref().map(Hosted::status),
         },
     )?;
     print_summary(&summary);
+    if let Some(h) = hosted {
+        h.stop()?;
+    }
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! One module per subcommand: argument structs and the calls into the crates.
 
 pub mod cave;
+pub mod cave_holodeck;
 pub mod cluster_node;
 pub mod fill;
 pub mod holodeck;

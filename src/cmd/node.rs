@@ -3,7 +3,6 @@
 //! With `--holodeck H.hdk` the samples come from a holodeck server in this process (with
 //! `--workers` tracer threads), which keeps every ray it traces in the file.
 
-use std::collections::BTreeMap;
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -12,12 +11,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::{DVec3, Quat, Vec3};
-use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
-use holocave_holodeck::run::{RunOptions, Running, start};
-use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::{HoloFile, Section, ViewClass};
-use holocave_master::Cave;
+use holocave_holodeck::run::Running;
 use holocave_master::frustum::{Eye, eye_position, off_axis};
+use holocave_master::head::{Clock, Head};
 use holocave_master::load_cave;
 use holocave_render_node::display::contact_sheet;
 use holocave_render_node::{
@@ -27,9 +23,10 @@ use holocave_render_node::{
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
-use holocave_tracking::predict::PredictorKind;
-use holocave_tracking::source::{Next, Pacing, SourceSpec, open};
-use holocave_tracking::{HeadTracker, Pose};
+use holocave_tracking::Pose;
+use holocave_tracking::source::SourceSpec;
+
+use super::cave_holodeck;
 
 #[derive(Args)]
 pub struct NodeArgs {
@@ -143,62 +140,6 @@ pub(crate) fn eye_name(eye: Eye) -> &'static str {
     }
 }
 
-/// Head poses for frames, from the tracker source, in room coordinates.
-struct HeadSource {
-    source: Box<dyn holocave_tracking::source::TrackerSource>,
-    tracker: HeadTracker,
-    pending: Option<holocave_tracking::Sample>,
-    t0: Option<u64>,
-    origin: Option<Vec3>,
-    recenter: Option<Vec3>,
-    tracker_to_room: glam::DMat4,
-    last: Pose,
-    ended: bool,
-}
-
-impl HeadSource {
-    /// The head pose at `dt` after the first tracker sample.
-    fn pose(&mut self, dt: Duration) -> Pose {
-        loop {
-            let s = match self.pending.take() {
-                Some(s) => s,
-                None if self.ended => break,
-                None => match self
-                    .source
-                    .next(Instant::now() + Duration::from_millis(100))
-                {
-                    Next::Sample(s) => s,
-                    Next::Idle => break,
-                    Next::End => {
-                        self.ended = true;
-                        break;
-                    }
-                },
-            };
-            let t0 = *self.t0.get_or_insert(s.t_ns);
-            if s.t_ns > t0 + dt.as_nanos() as u64 {
-                self.pending = Some(s);
-                break;
-            }
-            self.tracker.push(s);
-        }
-        let Some(t0) = self.t0 else {
-            return self.last;
-        };
-        if let Some(p) = self.tracker.predict(t0 + dt.as_nanos() as u64) {
-            let m = self.tracker_to_room;
-            let q = m.as_mat4().to_scale_rotation_translation().1;
-            let mut pos = m.transform_point3(p.position.as_dvec3()).as_vec3();
-            if let Some(inside) = self.recenter {
-                let o = *self.origin.get_or_insert(pos);
-                pos = inside + (pos - o);
-            }
-            self.last = Pose::new(pos, q * p.orientation);
-        }
-        self.last
-    }
-}
-
 pub fn run(args: NodeArgs) -> Result<()> {
     if let Some(master) = &args.master {
         return super::cluster_node::run(&args, master);
@@ -250,29 +191,28 @@ pub fn run(args: NodeArgs) -> Result<()> {
     let mut head = match args.still {
         Some(_) => None,
         None => {
-            let spec: SourceSpec = match &args.tracker {
-                Some(t) => t
-                    .parse()
-                    .map_err(|e| anyhow::anyhow!("--tracker {t:?}: {e}"))?,
-                None => cave.source.clone(),
+            let spec: Option<SourceSpec> = match &args.tracker {
+                Some(t) => Some(
+                    t.parse()
+                        .map_err(|e| anyhow::anyhow!("--tracker {t:?}: {e}"))?,
+                ),
+                None => None,
             };
-            let source = open(&spec, Pacing::AsFastAsPossible, None)
-                .with_context(|| format!("opening tracker {spec:?}"))?;
-            Some(HeadSource {
-                source,
-                tracker: if args.prediction {
-                    HeadTracker::new(&cave.tracking)
-                } else {
-                    HeadTracker::with_predictor(&cave.tracking, PredictorKind::None)
-                },
-                pending: None,
-                t0: None,
-                origin: None,
-                recenter: args.recenter.then(|| cave.inside.as_vec3()),
-                tracker_to_room: cave.tracker_to_room,
-                last: Pose::new(cave.inside.as_vec3(), Quat::IDENTITY),
-                ended: false,
-            })
+            // The replay clock: frame k shows the head at k / fps after the first sample.
+            let head = Head::open(
+                &cave,
+                spec.as_ref(),
+                Clock::Replay,
+                args.prediction,
+                args.recenter,
+            )
+            .with_context(|| {
+                format!(
+                    "opening tracker {:?}",
+                    spec.as_ref().unwrap_or(&cave.source)
+                )
+            })?;
+            Some(head)
         }
     };
 
@@ -285,7 +225,17 @@ pub fn run(args: NodeArgs) -> Result<()> {
     let mut holodeck = None;
     let mut display = match &args.holodeck {
         Some(path) => {
-            let running = start_holodeck(&args, path, &cave, &scene)?;
+            let file = cave_holodeck::open_or_create(path, &cave, &args.scene, &scene, "node")?;
+            let workers = args.workers.unwrap_or_else(|| {
+                std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+            });
+            let listener = args
+                .listen
+                .as_ref()
+                .map(|a| TcpListener::bind(a).with_context(|| format!("--listen {a}")))
+                .transpose()?;
+            let name = super::worker::scene_name(&args.scene);
+            let running = cave_holodeck::serve(file, workers, scene.clone(), name, listener)?;
             let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
             holodeck = Some(running);
             DisplayProcess::holodeck(cache, source, samples)
@@ -332,7 +282,11 @@ pub fn run(args: NodeArgs) -> Result<()> {
         let dt = Duration::from_secs_f64(frame as f64 / args.fps);
         let pose = match (&mut head, args.still) {
             (_, Some(p)) => Pose::new(p, Quat::IDENTITY),
-            (Some(h), None) => h.pose(dt),
+            (Some(h), None) => {
+                let ns = dt.as_nanos() as u64;
+                h.advance(ns);
+                h.pose_at(ns).0
+            }
             (None, None) => unreachable!(),
         };
         let mut fresh = Vec::with_capacity(eyes.len());
@@ -426,135 +380,6 @@ pub fn run(args: NodeArgs) -> Result<()> {
         dir.display()
     );
     Ok(())
-}
-
-/// The section of a new holodeck for a CAVE: the box around its walls (the room's inside
-/// volume) in scene coordinates, interior (looking out), so every eye in the room lies in
-/// it and every line of sight through a wall crosses it.
-fn cave_section(cave: &Cave) -> Result<Section> {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for w in &cave.walls {
-        for p in [w.pa, w.pb, w.pc, w.pb + w.pc - w.pa] {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
-    }
-    let (lo, hi) = (lo.min(cave.inside), hi.max(cave.inside));
-    // The walls' box may be flat (a single wall): give it depth toward the inside point,
-    // and at least 1 m on every axis.
-    let mid = (lo + hi) * 0.5;
-    let half = ((hi - lo) * 0.5).max(DVec3::splat(0.5));
-    let (lo, hi) = (mid - half, mid + half);
-    let m = cave.room_to_scene;
-    let corners = (0..8).map(|i| {
-        let pick = |bit: usize, a: f64, b: f64| if i & bit == 0 { a } else { b };
-        m.transform_point3(DVec3::new(
-            pick(1, lo.x, hi.x),
-            pick(2, lo.y, hi.y),
-            pick(4, lo.z, hi.z),
-        ))
-    });
-    let (slo, shi) = corners.fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(a, b), p| (a.min(p), b.max(p)),
-    );
-    let d = shi - slo;
-    Section::with_default_grid(
-        slo,
-        [DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z],
-        ViewClass::Interior,
-    )
-    .context("the CAVE's section")
-}
-
-/// Opens (or creates) the holodeck and starts its server with tracer threads.
-fn start_holodeck(
-    args: &NodeArgs,
-    path: &Path,
-    cave: &Cave,
-    scene: &Arc<Scene>,
-) -> Result<Running> {
-    let name = super::worker::scene_name(&args.scene);
-    let file = if path.exists() {
-        let h = HoloFile::open_rw(path)?;
-        if h.settings().get("scene").is_some_and(|s| *s != name) {
-            tracing::warn!(
-                "{} was made with scene {:?}, drawing with {name:?}",
-                path.display(),
-                h.settings()["scene"]
-            );
-        }
-        h
-    } else {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        }
-        let section = cave_section(cave)?;
-        let inside = super::fill::triangles_inside(scene, &section);
-        if inside > 0 {
-            tracing::warn!(
-                "the CAVE's volume holds {inside} triangles of the scene: they will be missing \
-                 from the holodeck's views (make the holodeck with `holocave fill --section`)"
-            );
-        }
-        let settings = BTreeMap::from([
-            ("scene".to_string(), name.clone()),
-            (
-                "generator".to_string(),
-                "holocave-tracer, default TraceSettings".to_string(),
-            ),
-            (
-                DISTANCE_SETTING.to_string(),
-                DistanceKind::Virtual.name().to_string(),
-            ),
-            (
-                "created-by".to_string(),
-                format!("holocave node {}", env!("CARGO_PKG_VERSION")),
-            ),
-        ]);
-        HoloFile::create(path, vec![section], settings)?
-    };
-    let g = file.sections()[0].grid();
-    println!(
-        "holodeck {}: {} samples, {} section(s), first grid {}x{}x{}",
-        path.display(),
-        file.total_samples(),
-        file.sections().len(),
-        g[0],
-        g[1],
-        g[2]
-    );
-    let workers = args.workers.unwrap_or_else(|| {
-        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-    });
-    let listener = args
-        .listen
-        .as_ref()
-        .map(|a| TcpListener::bind(a).with_context(|| format!("--listen {a}")))
-        .transpose()?;
-    let source = super::worker::TracerSource(Tracer::new(scene.clone(), TraceSettings::default()));
-    let config = ServerConfig {
-        // A tracked head moves: rays chosen for where an eye was 3 s ago (the batch
-        // default) pass far from where it is; in-process workers need no deep queue.
-        queue_seconds: 0.5,
-        ..Default::default()
-    };
-    let server = Server::new(file, Mode::Interactive, config);
-    let running = start(
-        server,
-        RunOptions {
-            threads: workers,
-            source: Some(Arc::new(source)),
-            listener,
-            scene: name,
-            commit_every: Duration::from_secs(5),
-        },
-    )?;
-    if let Some(a) = running.local_addr() {
-        println!("holodeck workers and displays may connect to {a}");
-    }
-    Ok(running)
 }
 
 /// Writes frame `frame`'s images of every eye: `DIR/<frame>-<eye>.exr` (linear) and

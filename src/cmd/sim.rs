@@ -1,7 +1,8 @@
-//! `holocave sim`: a whole CAVE cluster on one machine — the master in this process, one
-//! render-node process per wall, on loopback with real sockets — headless. Each node writes
-//! its frames; at the end the walls of every written frame are laid out as the unfolded
-//! CAVE (left | front | right, the floor under the front wall).
+//! `holocave sim`: a whole CAVE cluster on one machine — the master and the holodeck's
+//! server in this process, one render-node process per wall and holodeck worker processes,
+//! on loopback with real sockets — headless. Each node writes its frames; at the end the
+//! walls of every written frame are laid out as the unfolded CAVE (left | front | right,
+//! the floor under the front wall).
 
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
@@ -19,6 +20,7 @@ use holocave_master::load_cave;
 use holocave_render_node::mosaic::cave_mosaic;
 use rand::TryRngCore;
 
+use super::cave_holodeck::{Hosted, host};
 use super::master::{HeadArgs, print_summary};
 use super::node::eye_name;
 
@@ -52,6 +54,16 @@ pub struct SimArgs {
     /// Write every wall's images (and a mosaic) every K frames.
     #[arg(long, default_value_t = 30)]
     pub every: u64,
+    /// The holodeck the walls draw from, hosted by the master and kept between runs: a
+    /// second run starts from every ray the first traced (default: DIR/<scene>.hdk).
+    #[arg(long)]
+    pub holodeck: Option<PathBuf>,
+    /// No holodeck: each node traces its own samples and keeps none.
+    #[arg(long, conflicts_with = "holodeck")]
+    pub no_holodeck: bool,
+    /// Worker processes tracing for the holodeck.
+    #[arg(long, default_value_t = 2)]
+    pub workers: usize,
 }
 
 /// Child processes that are killed if the simulation stops early.
@@ -132,7 +144,35 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         args.head.tracker.as_deref().unwrap_or("?"),
         args.out.display()
     );
+    let hosted = if args.no_holodeck {
+        None
+    } else {
+        let stem = args
+            .scene
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let path = args
+            .holodeck
+            .clone()
+            .unwrap_or_else(|| args.out.join(format!("{stem}.hdk")));
+        Some(host(&path, &cave, &args.scene, 0, "127.0.0.1:0", "sim")?)
+    };
     let mut children = Children(Vec::new());
+    if let Some(h) = &hosted {
+        for i in 0..args.workers {
+            let log = std::fs::File::create(args.out.join(format!("worker{i}.log")))?;
+            let child = Command::new(&exe)
+                .args(["worker", "--server", &h.addr.to_string()])
+                .arg("--scene")
+                .arg(&args.scene)
+                .stdout(log.try_clone()?)
+                .stderr(log)
+                .stdin(Stdio::null())
+                .spawn()
+                .context("starting a holodeck worker process")?;
+            children.0.push((format!("worker {i}"), child));
+        }
+    }
     for wall in &cave.walls {
         let dir = args.out.join(&wall.name);
         std::fs::create_dir_all(&dir)?;
@@ -180,13 +220,18 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             frames: Some(args.frames),
             seconds: None,
             stop_at_end_of_log: false,
-            holodeck: None,
+            holodeck: hosted.as_ref().map(|h| h.addr.to_string()),
             states_log: Some(args.out.join("states.bin")),
             status_every: Duration::from_secs(1),
             stop: Arc::new(AtomicBool::new(false)),
             wait_for_walls: Duration::from_secs(60),
+            status_extra: hosted.as_ref().map(Hosted::status),
         },
     )?;
+    // Stopping the holodeck commits its samples and tells the workers goodbye.
+    if let Some(h) = hosted {
+        h.stop()?;
+    }
     for problem in children.wait(Duration::from_secs(20)) {
         tracing::warn!("{problem}");
     }

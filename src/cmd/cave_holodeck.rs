@@ -1,0 +1,244 @@
+//! A CAVE's holodeck: the file every render node of a CAVE draws from (one interior
+//! section around the walls), and its server in interactive mode, shared by `node
+//! --holodeck` (one wall by itself), `master --holodeck` (the cluster's server) and `sim`.
+
+use std::collections::BTreeMap;
+use std::net::{SocketAddr, TcpListener};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result};
+use glam::DVec3;
+use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
+use holocave_holodeck::run::{RunOptions, Running, start};
+use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_holodeck::{HoloFile, Section, ViewClass};
+use holocave_master::Cave;
+use holocave_scene::empty_box::{Aabb, empty_box};
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::{TraceSettings, Tracer};
+
+use super::worker::{TracerSource, scene_name};
+
+/// Surfaces are kept at least this far (scene metres) outside a CAVE's section.
+const SURFACE_GAP: f64 = 0.01;
+
+/// The section of a new holodeck for a CAVE: the box around its walls (the room's inside
+/// volume) in scene coordinates, interior (looking out), so every eye in the room lies in
+/// it and every line of sight through a wall crosses it — cut down, where the scene has
+/// surfaces inside the CAVE (a floor, a table), to the empty box around the room's inside
+/// point: a section only holds rays passing through it, so what lies inside would vanish.
+pub fn cave_section(cave: &Cave, scene: &Scene) -> Result<Section> {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for w in &cave.walls {
+        for p in [w.pa, w.pb, w.pc, w.pb + w.pc - w.pa] {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    let (lo, hi) = (lo.min(cave.inside), hi.max(cave.inside));
+    // The walls' box may be flat (a single wall): give it depth toward the inside point,
+    // and at least 1 m on every axis.
+    let mid = (lo + hi) * 0.5;
+    let half = ((hi - lo) * 0.5).max(DVec3::splat(0.5));
+    let (lo, hi) = (mid - half, mid + half);
+    let m = cave.room_to_scene;
+    let corners = (0..8).map(|i| {
+        let pick = |bit: usize, a: f64, b: f64| if i & bit == 0 { a } else { b };
+        m.transform_point3(DVec3::new(
+            pick(1, lo.x, hi.x),
+            pick(2, lo.y, hi.y),
+            pick(4, lo.z, hi.z),
+        ))
+    });
+    let (slo, shi) = corners.fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(a, b), p| (a.min(p), b.max(p)),
+    );
+    let start = Aabb { lo: slo, hi: shi };
+    let inside = m.transform_point3(cave.inside);
+    let b = empty_box(scene, start, inside, SURFACE_GAP).with_context(|| {
+        format!(
+            "the scene has a surface within {SURFACE_GAP} m of the CAVE's inside point \
+             {inside:.3} (scene coordinates): no holodeck section fits around the viewer"
+        )
+    })?;
+    if b != start {
+        println!(
+            "holodeck section: {:.2} .. {:.2} (scene coordinates), cut from the CAVE's box \
+             {:.2} .. {:.2} to leave the scene's surfaces outside; eyes outside it see no \
+             holodeck samples",
+            b.lo, b.hi, start.lo, start.hi
+        );
+    }
+    let d = b.hi - b.lo;
+    Section::with_default_grid(
+        b.lo,
+        [DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z],
+        ViewClass::Interior,
+    )
+    .context("the CAVE's section")
+}
+
+/// Opens the holodeck at `path`, or creates it for `cave` (made with `scene`, loaded from
+/// `scene_path`) if it does not exist. `made_by` names the command in its settings.
+pub fn open_or_create(
+    path: &Path,
+    cave: &Cave,
+    scene_path: &Path,
+    scene: &Scene,
+    made_by: &str,
+) -> Result<HoloFile> {
+    let name = scene_name(scene_path);
+    let file = if path.exists() {
+        let h = HoloFile::open_rw(path)?;
+        if h.settings().get("scene").is_some_and(|s| *s != name) {
+            tracing::warn!(
+                "{} was made with scene {:?}, drawing with {name:?}",
+                path.display(),
+                h.settings()["scene"]
+            );
+        }
+        h
+    } else {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+        let section = cave_section(cave, scene)?;
+        let settings = BTreeMap::from([
+            ("scene".to_string(), name),
+            (
+                "generator".to_string(),
+                "holocave-tracer, default TraceSettings".to_string(),
+            ),
+            (
+                DISTANCE_SETTING.to_string(),
+                DistanceKind::Virtual.name().to_string(),
+            ),
+            (
+                "created-by".to_string(),
+                format!("holocave {made_by} {}", env!("CARGO_PKG_VERSION")),
+            ),
+        ]);
+        HoloFile::create(path, vec![section], settings)?
+    };
+    let g = file.sections()[0].grid();
+    println!(
+        "holodeck {}: {} samples, {} section(s), first grid {}x{}x{}",
+        path.display(),
+        file.total_samples(),
+        file.sections().len(),
+        g[0],
+        g[1],
+        g[2]
+    );
+    Ok(file)
+}
+
+/// Starts the holodeck's server for displays: `threads` tracer threads in this process
+/// tracing `scene` (named `name` for TCP workers), and TCP workers and displays accepted
+/// on `listener`. It commits every 5 s; [`Running::stop`] commits the rest.
+pub fn serve(
+    file: HoloFile,
+    threads: usize,
+    scene: Arc<Scene>,
+    name: String,
+    listener: Option<TcpListener>,
+) -> Result<Running> {
+    let source = TracerSource(Tracer::new(scene, TraceSettings::default()));
+    let config = ServerConfig {
+        // A tracked head moves: rays chosen for where an eye was 3 s ago (the batch
+        // default) pass far from where it is; keep worker queues short.
+        queue_seconds: 0.5,
+        ..Default::default()
+    };
+    let server = Server::new(file, Mode::Interactive, config);
+    let running = start(
+        server,
+        RunOptions {
+            threads,
+            source: Some(Arc::new(source)),
+            listener,
+            scene: name,
+            commit_every: Duration::from_secs(5),
+        },
+    )?;
+    if let Some(a) = running.local_addr() {
+        println!("holodeck workers and displays may connect to {a}");
+    }
+    Ok(running)
+}
+
+/// A CAVE's holodeck hosted by the cluster's master (or `sim`): the server, the address
+/// workers and render nodes reach it at, and its file.
+pub struct Hosted {
+    running: Running,
+    pub addr: SocketAddr,
+    path: PathBuf,
+}
+
+/// Opens or creates the holodeck `path` for `cave` and serves it on `listen` with
+/// `threads` tracer threads in this process (workers may add more from any host).
+pub fn host(
+    path: &Path,
+    cave: &Cave,
+    scene_path: &Path,
+    threads: usize,
+    listen: &str,
+    made_by: &str,
+) -> Result<Hosted> {
+    let scene = Arc::new(
+        Scene::load(scene_path, &LoadOptions::default())
+            .with_context(|| format!("loading {}", scene_path.display()))?,
+    );
+    let file = open_or_create(path, cave, scene_path, &scene, made_by)?;
+    let listener =
+        TcpListener::bind(listen).with_context(|| format!("holodeck: listening on {listen}"))?;
+    let addr = listener.local_addr()?;
+    let running = serve(file, threads, scene, scene_name(scene_path), Some(listener))?;
+    Ok(Hosted {
+        running,
+        addr,
+        path: path.to_owned(),
+    })
+}
+
+impl Hosted {
+    /// A status-line part: samples held, samples added per second since the last call,
+    /// workers connected.
+    pub fn status(&self) -> Box<dyn FnMut() -> String + Send> {
+        let monitor = self.running.monitor();
+        let mut last: Option<(Instant, u64)> = None;
+        Box::new(move || {
+            let Some(s) = monitor.stats() else {
+                return "holodeck stopped".to_owned();
+            };
+            let now = Instant::now();
+            let rate = last.map_or(0.0, |(t, added)| {
+                (s.added - added) as f64 / now.duration_since(t).as_secs_f64().max(1e-3)
+            });
+            last = Some((now, s.added));
+            format!(
+                "holodeck {:.2} M samples, {:.0} k rays/s, {} workers",
+                s.samples as f64 / 1e6,
+                rate / 1e3,
+                s.workers
+            )
+        })
+    }
+
+    /// Stops the server, commits everything traced and says how much it holds.
+    pub fn stop(self) -> Result<()> {
+        let server = self.running.stop()?;
+        let s = server.stats();
+        println!(
+            "holodeck {}: {} samples added by this run, {} in all (committed)",
+            self.path.display(),
+            s.added,
+            s.samples
+        );
+        Ok(())
+    }
+}
