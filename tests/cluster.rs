@@ -658,3 +658,102 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
         );
     }
 }
+
+#[test]
+fn a_node_whose_holodeck_dies_goes_on_tracing_locally() {
+    let out = scratch("holodeck-dies");
+    let hdk = out.join("room.hdk");
+    // The CAVE's holodeck file, made by a master that hosts it for one frame.
+    let (m, _, _m_out) = master(
+        &[
+            "--frames",
+            "1",
+            "--holodeck",
+            hdk.to_str().unwrap(),
+            "--scene",
+            SCENE,
+            "--holodeck-listen",
+            "127.0.0.1:0",
+        ],
+        SECRET,
+    );
+    let (status, err) = m.finish(Duration::from_secs(60));
+    assert!(status.success(), "master failed: {err}");
+
+    // The holodeck on its own host, the master pointing the nodes at it.
+    let mut serve = Command::new(env!("CARGO_BIN_EXE_holocave"))
+        .current_dir(root())
+        .args([
+            "holodeck",
+            "serve",
+            "--interactive",
+            "--listen",
+            "127.0.0.1:0",
+        ])
+        .arg(&hdk)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start holocave holodeck serve");
+    let mut line = String::new();
+    BufReader::new(serve.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let holodeck = line
+        .trim()
+        .strip_prefix("holodeck workers and displays may connect to ")
+        .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
+        .to_owned();
+    let mut serve = Proc(serve);
+    let frames = 100;
+    let (m, addr, mut m_out) = master(
+        &[
+            "--frames",
+            &frames.to_string(),
+            "--wait-for-walls",
+            "60",
+            "--holodeck-server",
+            &holodeck,
+        ],
+        SECRET,
+    );
+    let nodes: Vec<Proc> = WALLS
+        .iter()
+        .map(|w| holodeck_node(&addr, w, &out, 1000))
+        .collect();
+    wait_until(Duration::from_secs(60), "20 frames", || {
+        presented(&out, "front").len() >= 20
+    });
+    // The holodeck's host dies.
+    serve.0.kill().unwrap();
+    serve.0.wait().unwrap();
+    let killed_at = *presented(&out, "front").last().unwrap();
+
+    let (status, err) = m.finish(Duration::from_secs(120));
+    assert!(status.success(), "master failed: {err}");
+    let mut summary = String::new();
+    m_out.read_to_string(&mut summary).unwrap();
+    for (wall, n) in WALLS.iter().zip(nodes) {
+        let (status, err) = n.finish(Duration::from_secs(30));
+        assert!(status.success(), "node {wall} failed: {err}");
+        assert!(err.contains("drawing from the holodeck"), "{wall}: {err}");
+        assert!(err.contains("the holodeck went away"), "{wall}: {err}");
+        assert!(
+            err.contains("tracing this wall's samples locally"),
+            "{wall}: {err}"
+        );
+        // A new display costs one GPU start (about 0.4 s on lavapipe): the wall may miss
+        // the frames of a second (20 at 20 Hz) and presents every other one after the
+        // kill.
+        let after = presented(&out, wall)
+            .into_iter()
+            .filter(|&f| f > killed_at)
+            .count() as u64;
+        let possible = frames - 1 - killed_at;
+        eprintln!("{wall}: {after} of {possible} frames after the holodeck died");
+        assert!(
+            after + RATE as u64 >= possible,
+            "{wall}: {after} of {possible} frames after the kill\n{summary}"
+        );
+    }
+}

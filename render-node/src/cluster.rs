@@ -161,6 +161,9 @@ pub enum Ended {
     Shutdown(String),
     /// The link failed; the caller may reconnect.
     Lost(LinkError),
+    /// The display's holodeck server went away (the master link is still up): the caller
+    /// makes a new display and follows on.
+    SourceLost,
 }
 
 /// Follows the master's frames until it shuts down or the link fails. `present` shows a
@@ -197,6 +200,11 @@ pub fn follow(
                 Ok(None) => break,
                 Err(e) => return Ended::Lost(e),
             }
+        }
+        // Checked after the master's messages, so a shutdown (which stops a holodeck the
+        // master hosts) is seen as one.
+        if display.source_lost() {
+            return Ended::SourceLost;
         }
         let Some(views) = eye_views(&state, wall, size) else {
             return Ended::Lost(LinkError::Lost(format!(

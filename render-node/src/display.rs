@@ -49,6 +49,12 @@ pub struct DisplayProcess {
 }
 
 impl DisplayProcess {
+    /// True when the samples' source is a holodeck server that is no longer reachable
+    /// (the cache still draws; no new samples arrive).
+    pub fn source_lost(&self) -> bool {
+        matches!(&self.sampler, Sampler::Holodeck(h) if !h.is_connected())
+    }
+
     /// Traces between frames (synchronous, deterministic).
     pub fn new(cache: RenderCache, source: TracerSource, samples_per_eye: u32) -> Self {
         DisplayProcess {

@@ -14,7 +14,7 @@ use holocave_master::frustum::Eye;
 use holocave_master::load_cave;
 use holocave_render_node::cluster::{Ended, MasterLink, NodeCounters, follow};
 use holocave_render_node::{
-    DisplayProcess, Gpu, HolodeckSource, RenderCache, ToneMapper, ToneMode, TracerSource,
+    DisplayProcess, Gpu, HolodeckSource, RenderCache, Sampler, ToneMapper, ToneMode, TracerSource,
 };
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
@@ -130,25 +130,40 @@ pub fn run(args: &NodeArgs, master: &str) -> Result<()> {
         );
         warned = false;
         let wanted = link.welcome.holodeck.clone();
-        let made = match display.take() {
-            Some((had, d)) if had == wanted => (had, d),
-            old => {
-                drop(old);
-                (wanted.clone(), make.display(wanted.as_deref())?)
-            }
-        };
-        let display = &mut display.insert(made).1;
-        match follow(&mut link, display, &wall, size, &mut counters, &mut present) {
-            Ended::Shutdown(reason) => {
-                println!(
-                    "wall {:?}: {} frames presented, {} skipped; master: {reason}",
-                    wall.name, counters.presented, counters.skipped
-                );
-                return Ok(());
-            }
-            Ended::Lost(e) => {
-                tracing::warn!("wall {:?}: {e}; reconnecting", wall.name);
-                since = Instant::now();
+        loop {
+            // Keep the display while it serves what the master names: a live link to that
+            // holodeck, or local tracing when it names none.
+            let made = match display.take() {
+                Some((had, d))
+                    if had == wanted
+                        && matches!(d.sampler, Sampler::Holodeck(_)) == wanted.is_some()
+                        && !d.source_lost() =>
+                {
+                    (had, d)
+                }
+                old => {
+                    drop(old);
+                    (wanted.clone(), make.display(wanted.as_deref())?)
+                }
+            };
+            let display = &mut display.insert(made).1;
+            match follow(&mut link, display, &wall, size, &mut counters, &mut present) {
+                Ended::SourceLost => tracing::warn!(
+                    "wall {:?}: the holodeck went away; reconnecting to it (or tracing locally)",
+                    wall.name
+                ),
+                Ended::Shutdown(reason) => {
+                    println!(
+                        "wall {:?}: {} frames presented, {} skipped; master: {reason}",
+                        wall.name, counters.presented, counters.skipped
+                    );
+                    return Ok(());
+                }
+                Ended::Lost(e) => {
+                    tracing::warn!("wall {:?}: {e}; reconnecting", wall.name);
+                    since = Instant::now();
+                    break;
+                }
             }
         }
     }

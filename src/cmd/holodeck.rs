@@ -290,11 +290,12 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
             let scene = h.settings().get("scene").cloned().unwrap_or_default();
             let listener = TcpListener::bind(&a.listen)
                 .with_context(|| format!("listening on {}", a.listen))?;
-            tracing::info!(
-                "serving {} to workers on {}",
-                a.file.display(),
+            // Scripts and tests read the address from this line.
+            println!(
+                "holodeck workers and displays may connect to {}",
                 listener.local_addr()?
             );
+            std::io::Write::flush(&mut std::io::stdout())?;
             let (mode, queue_seconds) = if a.interactive {
                 // Short worker queues: rays for where a tracked eye is now.
                 (Mode::Interactive, 0.5)
