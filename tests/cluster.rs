@@ -576,6 +576,28 @@ fn coverage(png: &Path) -> f64 {
     lit as f64 / (img.width() * img.height()) as f64
 }
 
+/// Waits for the master and then its nodes to exit successfully; the master's stdout (its
+/// summary) and each node's stderr.
+fn finish_all(
+    m: Proc,
+    mut m_out: BufReader<ChildStdout>,
+    nodes: Vec<Proc>,
+) -> (String, Vec<String>) {
+    let (status, err) = m.finish(Duration::from_secs(120));
+    assert!(status.success(), "master failed: {err}");
+    let mut summary = String::new();
+    m_out.read_to_string(&mut summary).unwrap();
+    let errs = nodes
+        .into_iter()
+        .map(|n| {
+            let (status, err) = n.finish(Duration::from_secs(30));
+            assert!(status.success(), "node failed: {err}");
+            err
+        })
+        .collect();
+    (summary, errs)
+}
+
 fn holodeck_samples(hdk: &Path) -> u64 {
     holocave_holodeck::HoloFile::open(hdk)
         .unwrap_or_else(|e| panic!("{}: {e}", hdk.display()))
@@ -588,9 +610,9 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
     let hdk = out.join("room.hdk");
     let walls = WALLS;
 
-    // Run 1: an empty holodeck in the master, one worker process tracing what the two
-    // walls ask for.
-    let (m, addr, holodeck, mut m_out) = holodeck_master(&hdk, 60);
+    // Run 1: an empty holodeck in the master, one worker process tracing what the walls
+    // ask for.
+    let (m, addr, holodeck, m_out) = holodeck_master(&hdk, 60);
     let worker = Proc(
         Command::new(env!("CARGO_BIN_EXE_holocave"))
             .current_dir(root())
@@ -605,13 +627,8 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
         .iter()
         .map(|w| holodeck_node(&addr, w, &run1, 20))
         .collect();
-    let (status, err) = m.finish(Duration::from_secs(120));
-    assert!(status.success(), "master failed: {err}");
-    let mut summary = String::new();
-    m_out.read_to_string(&mut summary).unwrap();
-    for n in nodes {
-        let (status, err) = n.finish(Duration::from_secs(30));
-        assert!(status.success(), "node failed: {err}");
+    let (summary, errs) = finish_all(m, m_out, nodes);
+    for err in errs {
         assert!(err.contains("drawing from the holodeck"), "{err}");
     }
     drop(worker);
@@ -625,20 +642,13 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
     );
 
     // Run 2: the same file, no worker: everything the walls show comes from run 1's rays.
-    let (m, addr, _, mut m_out) = holodeck_master(&hdk, 6);
+    let (m, addr, _, m_out) = holodeck_master(&hdk, 6);
     let run2 = out.join("run2");
     let nodes: Vec<Proc> = walls
         .iter()
         .map(|w| holodeck_node(&addr, w, &run2, 1))
         .collect();
-    let (status, err) = m.finish(Duration::from_secs(120));
-    assert!(status.success(), "master failed: {err}");
-    let mut summary = String::new();
-    m_out.read_to_string(&mut summary).unwrap();
-    for n in nodes {
-        let (status, err) = n.finish(Duration::from_secs(30));
-        assert!(status.success(), "node failed: {err}");
-    }
+    finish_all(m, m_out, nodes);
     assert_eq!(
         holodeck_samples(&hdk),
         traced,
@@ -706,7 +716,7 @@ fn a_node_whose_holodeck_dies_goes_on_tracing_locally() {
         .to_owned();
     let mut serve = Proc(serve);
     let frames = 100;
-    let (m, addr, mut m_out) = master(
+    let (m, addr, m_out) = master(
         &[
             "--frames",
             &frames.to_string(),
@@ -729,13 +739,8 @@ fn a_node_whose_holodeck_dies_goes_on_tracing_locally() {
     serve.0.wait().unwrap();
     let killed_at = *presented(&out, "front").last().unwrap();
 
-    let (status, err) = m.finish(Duration::from_secs(120));
-    assert!(status.success(), "master failed: {err}");
-    let mut summary = String::new();
-    m_out.read_to_string(&mut summary).unwrap();
-    for (wall, n) in WALLS.iter().zip(nodes) {
-        let (status, err) = n.finish(Duration::from_secs(30));
-        assert!(status.success(), "node {wall} failed: {err}");
+    let (summary, errs) = finish_all(m, m_out, nodes);
+    for (wall, err) in WALLS.iter().zip(errs) {
         assert!(err.contains("drawing from the holodeck"), "{wall}: {err}");
         assert!(err.contains("the holodeck went away"), "{wall}: {err}");
         assert!(

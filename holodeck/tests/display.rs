@@ -93,18 +93,27 @@ fn receive(
     false
 }
 
-#[test]
-fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("d.hdk");
-    HoloFile::create(&path, vec![section()], Default::default()).unwrap();
+/// A new holodeck at `path` served in interactive mode with `threads` worker threads,
+/// accepting TCP workers and displays on a loopback port.
+fn interactive_on_loopback(
+    path: &std::path::Path,
+    threads: usize,
+) -> holocave_holodeck::run::Running {
+    HoloFile::create(path, vec![section()], Default::default()).unwrap();
     let server = Server::new(
-        HoloFile::open_rw(&path).unwrap(),
+        HoloFile::open_rw(path).unwrap(),
         Mode::Interactive,
         ServerConfig::default(),
     );
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    let running = start(server, options(2, Some(listener))).unwrap();
+    start(server, options(threads, Some(listener))).unwrap()
+}
+
+#[test]
+fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("d.hdk");
+    let running = interactive_on_loopback(&path, 2);
     let addr = running.local_addr().unwrap();
 
     let tcp = DisplayClient::connect(addr, 3).unwrap();
@@ -242,15 +251,7 @@ fn a_display_with_another_protocol_is_refused() {
     use holocave_protocol::frame::{MAX_FRAME_BYTES, read_frame, write_frame};
     use holocave_protocol::holodeck::{DisplayHello, ServerMsg, WorkerMsg};
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("p.hdk");
-    HoloFile::create(&path, vec![section()], Default::default()).unwrap();
-    let server = Server::new(
-        HoloFile::open_rw(&path).unwrap(),
-        Mode::Interactive,
-        ServerConfig::default(),
-    );
-    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    let running = start(server, options(0, Some(listener))).unwrap();
+    let running = interactive_on_loopback(&dir.path().join("p.hdk"), 0);
     let mut c = std::net::TcpStream::connect(running.local_addr().unwrap()).unwrap();
     let hello = WorkerMsg::DisplayHello(DisplayHello {
         protocol: 1,
