@@ -82,6 +82,14 @@ pub fn cave_section(cave: &Cave, scene: &Scene) -> Result<Section> {
     .context("the CAVE's section")
 }
 
+/// True when `p` lies inside the section's parallelepiped.
+fn holds(section: &Section, p: DVec3) -> bool {
+    let e = section.edges();
+    let to_unit = glam::DMat3::from_cols(e[0], e[1], e[2]).inverse();
+    let u = to_unit * (p - section.origin());
+    u.cmpge(DVec3::ZERO).all() && u.cmple(DVec3::ONE).all()
+}
+
 /// Opens the holodeck at `path`, or creates it for `cave` (made with `scene`, loaded from
 /// `scene_path`) if it does not exist. `made_by` names the command in its settings.
 pub fn open_or_create(
@@ -99,6 +107,14 @@ pub fn open_or_create(
                 "{} was made with scene {:?}, drawing with {name:?}",
                 path.display(),
                 h.settings()["scene"]
+            );
+        }
+        let inside = cave.room_to_scene.transform_point3(cave.inside);
+        if !h.sections().iter().any(|s| holds(s, inside)) {
+            tracing::warn!(
+                "{} was made for another CAVE: no section holds this CAVE's inside point \
+                 {inside:.3} (scene coordinates), so its eyes will get no holodeck samples",
+                path.display()
             );
         }
         h
