@@ -222,3 +222,54 @@ fn a_changed_colour_from_another_eye_ages_the_points_around_it() {
     let aged = a.iter().filter(|&&x| x >= 16.0).count();
     assert_eq!(aged, 9, "ages {a:?}");
 }
+
+#[test]
+fn background_points_ask_for_samples_at_a_thirty_second_of_the_priority() {
+    use holocave_render_node::cache::BACKGROUND;
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let mut c = cache(256);
+    draw(&mut c, &v);
+    // Left half: a surface 2 m away; right half: rays that escaped the scene.
+    let mut s = Vec::new();
+    for y in 0..H {
+        for x in 0..W {
+            let r = v.wall.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let (d, surface) = if x < W / 2 {
+                (2.0, 1)
+            } else {
+                (1000.0, BACKGROUND)
+            };
+            s.push(NewSample::new(
+                y * W + x,
+                r.origin,
+                r.at(d),
+                d,
+                [0.5; 3],
+                surface,
+            ));
+        }
+    }
+    c.insert(0, &s);
+    // Ages grow by one a frame (new points show age 0 in their first frame); both kinds
+    // of point are the same age throughout.
+    draw(&mut c, &v);
+    for frames in 2..=40 {
+        draw(&mut c, &v);
+        let pr = c.priority_image(0);
+        let scene = pr.at(1, 4).x;
+        let sky = pr.at(6, 4).x;
+        assert!(
+            scene > 0.0,
+            "frame {frames}: a scene point asks for nothing"
+        );
+        // Same age, rays from this very eye (no miss term): exactly 1/32 of the priority.
+        assert!(
+            (sky * 32.0 - scene).abs() <= 1e-5 * scene,
+            "frame {frames}: scene {scene}, background {sky}"
+        );
+    }
+    // Old points saturate at 1; old background at 1/32.
+    let pr = c.priority_image(0);
+    assert_eq!(pr.at(1, 4).x, 1.0);
+    assert_eq!(pr.at(6, 4).x, 1.0 / 32.0);
+}

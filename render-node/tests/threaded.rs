@@ -47,8 +47,10 @@ fn frames_do_not_wait_for_the_tracer() {
     }
     eprintln!("{frames} frames, {arrivals} of them with a batch of samples");
     assert!(arrivals >= 1, "no batch arrived in 3 s");
+    // A display that waited for its batch in flight would draw one frame per batch; two
+    // or more per batch on average means frames went on while batches were traced.
     assert!(
-        frames >= 3 * arrivals,
+        frames >= 2 * arrivals,
         "{frames} frames for {arrivals} batches: the display waited for the tracer"
     );
     // Let the last batch land; the picture is mostly drawn by now.

@@ -24,6 +24,8 @@ struct EyeParams {
 }
 
 const EMPTY: u32 = 0xffffffffu;
+// The surface id of rays that escaped the scene (`cache::BACKGROUND`).
+const BACKGROUND: u32 = 0xfffffffeu;
 const MAX_AGE: f32 = 1.0e6;
 
 fn point_valid(p: Point) -> bool {

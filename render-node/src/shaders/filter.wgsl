@@ -19,6 +19,10 @@ const SEEN_FROM_HERE: f32 = 1.0e-4;
 const AGE_SCALE: f32 = 32.0;
 // ... plus up to 0.5 when its ray missed this eye by this many metres or more.
 const MISS_SCALE: f32 = 0.02;
+// A point whose ray escaped the scene shows the sky in its direction (or nothing), the
+// same from every eye position and free of noise: resampling it only refines within the
+// pixel, so it ages this much slower in the priority (samples go to the scene instead).
+const BACKGROUND_WEIGHT: f32 = 1.0 / 32.0;
 // Fixed-point scale of the priority sum.
 const SUM_SCALE: f32 = 256.0;
 
@@ -76,8 +80,12 @@ fn interpolate(@builtin(global_invocation_id) gid: vec3<u32>) {
         let key = key_img[i];
         let p = points[key_index(key, P.index_bits)];
         let age = min(p.pos.w / AGE_SCALE, 1.0);
-        let miss = min(key_miss(key, P.index_bits) / MISS_SCALE, 1.0);
-        pr = age + 0.5 * miss;
+        if (bitcast<u32>(p.origin.w) == BACKGROUND) {
+            pr = BACKGROUND_WEIGHT * age;
+        } else {
+            let miss = min(key_miss(key, P.index_bits) / MISS_SCALE, 1.0);
+            pr = age + 0.5 * miss;
+        }
     } else {
         let x = i32(i % P.width);
         let y = i32(i / P.width);
