@@ -28,8 +28,13 @@ fn cache(capacity: u32) -> RenderCache {
 
 /// A sample for pixel (x, y) of `v` at distance `d` along its centre ray.
 fn sample(v: &EyeView, x: u32, y: u32, d: f32, rad: f32) -> NewSample {
+    sample_on(v, x, y, d, rad, 1)
+}
+
+/// The same, on surface `surface`.
+fn sample_on(v: &EyeView, x: u32, y: u32, d: f32, rad: f32, surface: u32) -> NewSample {
     let r = v.wall.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-    NewSample::new(y * W + x, r.origin, r.at(d), d, [rad; 3], 1)
+    NewSample::new(y * W + x, r.origin, r.at(d), d, [rad; 3], surface)
 }
 
 fn draw(c: &mut RenderCache, v: &EyeView) -> Vec<u32> {
@@ -230,25 +235,12 @@ fn background_points_ask_for_samples_at_a_thirty_second_of_the_priority() {
     let mut c = cache(256);
     draw(&mut c, &v);
     // Left half: a surface 2 m away; right half: rays that escaped the scene.
-    let mut s = Vec::new();
-    for y in 0..H {
-        for x in 0..W {
-            let r = v.wall.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-            let (d, surface) = if x < W / 2 {
-                (2.0, 1)
-            } else {
-                (1000.0, BACKGROUND)
-            };
-            s.push(NewSample::new(
-                y * W + x,
-                r.origin,
-                r.at(d),
-                d,
-                [0.5; 3],
-                surface,
-            ));
-        }
-    }
+    let s: Vec<NewSample> = (0..W * H)
+        .map(|p| match (p % W, p / W) {
+            (x, y) if x < W / 2 => sample(&v, x, y, 2.0, 0.5),
+            (x, y) => sample_on(&v, x, y, 1000.0, 0.5, BACKGROUND),
+        })
+        .collect();
     c.insert(0, &s);
     // Ages grow by one a frame (new points show age 0 in their first frame); both kinds
     // of point are the same age throughout.
