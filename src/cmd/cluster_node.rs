@@ -32,24 +32,20 @@ pub fn run(args: &NodeArgs, master: &str) -> Result<()> {
     let secret = cave
         .secret()
         .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
-    let wall = cave
+    // The wall's display id at the holodeck is its place in the config (every node reads
+    // the same config).
+    let (display_id, wall) = cave
         .walls
         .iter()
-        .find(|w| w.name == args.wall)
-        .with_context(|| format!("{}: no wall {:?}", args.config.display(), args.wall))?
-        .clone();
+        .enumerate()
+        .find(|(_, w)| w.name == args.wall)
+        .map(|(i, w)| (i as u32, w.clone()))
+        .with_context(|| format!("{}: no wall {:?}", args.config.display(), args.wall))?;
     let size = args.size.unwrap_or((wall.pixels[0], wall.pixels[1]));
     let eyes = Eye::for_mode(wall.stereo);
     let scene = Scene::load(&args.scene, &LoadOptions::default())
         .with_context(|| format!("loading {}", args.scene.display()))?;
     let tracer = Arc::new(Tracer::new(Arc::new(scene), TraceSettings::default()));
-    // The wall's display id at the holodeck: its place in the config (every node reads
-    // the same config).
-    let display_id = cave
-        .walls
-        .iter()
-        .position(|w| w.name == wall.name)
-        .unwrap_or(0) as u32;
     let make = Maker {
         size,
         eyes: eyes.len() as u32,

@@ -227,11 +227,13 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             wait_for_walls: Duration::from_secs(60),
             status_extra: hosted.as_ref().map(Hosted::status),
         },
-    )?;
-    // Stopping the holodeck commits its samples and tells the workers goodbye.
+    );
+    // Stopping the holodeck commits its samples and tells the workers goodbye, also when
+    // the master failed: what the workers traced is kept.
     if let Some(h) = hosted {
         h.stop()?;
     }
+    let summary = summary?;
     for problem in children.wait(Duration::from_secs(20)) {
         tracing::warn!("{problem}");
     }
