@@ -93,14 +93,19 @@ fn master(extra: &[&str], secret: &str) -> (Proc, String, BufReader<ChildStdout>
     (Proc(child), addr, out)
 }
 
-/// Starts a render node for `wall`.
+/// Starts a render node for `wall` that writes images of frame 0 only.
 fn node(addr: &str, wall: &str, out: &Path, secret: &str) -> Proc {
+    node_every(addr, wall, out, secret, 1_000_000)
+}
+
+/// Starts a render node for `wall` that writes its images every `every` frames.
+fn node_every(addr: &str, wall: &str, out: &Path, secret: &str, every: u64) -> Proc {
     Proc(
         Command::new(env!("CARGO_BIN_EXE_holocave"))
             .current_dir(root())
             .args(["node", "--master", addr, "--wall", wall, "--headless"])
             .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
-            .args(["--samples", "48", "--every", "1000000"])
+            .args(["--samples", "48", "--every", &every.to_string()])
             .arg("--out")
             .arg(out)
             .env("HOLOCAVE_SECRET", secret)
@@ -515,25 +520,6 @@ fn replay_sends_the_same_frame_states_bit_for_bit() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Starts a render node for `wall` that writes its images every `every` frames.
-fn holodeck_node(addr: &str, wall: &str, out: &Path, every: u64) -> Proc {
-    Proc(
-        Command::new(env!("CARGO_BIN_EXE_holocave"))
-            .current_dir(root())
-            .args(["node", "--master", addr, "--wall", wall, "--headless"])
-            .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
-            .args(["--samples", "48", "--every", &every.to_string()])
-            .arg("--out")
-            .arg(out)
-            .env("HOLOCAVE_SECRET", SECRET)
-            .env("RAYON_NUM_THREADS", "1")
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start holocave node"),
-    )
-}
-
 /// Starts `holocave master` hosting the holodeck `hdk`; returns it, its address for nodes
 /// and the holodeck's address for workers (from its stdout).
 fn holodeck_master(hdk: &Path, frames: u64) -> (Proc, String, String, BufReader<ChildStdout>) {
@@ -625,7 +611,7 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
     let run1 = out.join("run1");
     let nodes: Vec<Proc> = walls
         .iter()
-        .map(|w| holodeck_node(&addr, w, &run1, 20))
+        .map(|w| node_every(&addr, w, &run1, SECRET, 20))
         .collect();
     let (summary, errs) = finish_all(m, m_out, nodes);
     for err in errs {
@@ -646,7 +632,7 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
     let run2 = out.join("run2");
     let nodes: Vec<Proc> = walls
         .iter()
-        .map(|w| holodeck_node(&addr, w, &run2, 1))
+        .map(|w| node_every(&addr, w, &run2, SECRET, 1))
         .collect();
     finish_all(m, m_out, nodes);
     assert_eq!(
@@ -727,10 +713,7 @@ fn a_node_whose_holodeck_dies_goes_on_tracing_locally() {
         ],
         SECRET,
     );
-    let nodes: Vec<Proc> = WALLS
-        .iter()
-        .map(|w| holodeck_node(&addr, w, &out, 1000))
-        .collect();
+    let nodes: Vec<Proc> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
     wait_until(Duration::from_secs(60), "20 frames", || {
         presented(&out, "front").len() >= 20
     });

@@ -182,6 +182,15 @@ impl Section {
     pub fn origin(&self) -> DVec3 {
         self.origin
     }
+    /// `p` in the section's own coordinates: the unit cube `[0, 1]³` is the section.
+    pub fn unit_coords(&self, p: DVec3) -> DVec3 {
+        self.to_unit * (p - self.origin)
+    }
+    /// True when `p` lies inside the section (or on its walls).
+    pub fn contains(&self, p: DVec3) -> bool {
+        let u = self.unit_coords(p);
+        u.cmpge(DVec3::ZERO).all() && u.cmple(DVec3::ONE).all()
+    }
     pub fn edges(&self) -> [DVec3; 3] {
         self.edges
     }
@@ -253,7 +262,7 @@ impl Section {
         if !origin.is_finite() || !dir.is_finite() || dir == DVec3::ZERO {
             return None;
         }
-        let o = self.to_unit * (origin - self.origin);
+        let o = self.unit_coords(origin);
         let d = self.to_unit * dir;
         let (mut t_near, mut t_far) = (f64::NEG_INFINITY, f64::INFINITY);
         let (mut near_wall, mut far_wall) = (u8::MAX, u8::MAX);
@@ -401,7 +410,7 @@ mod tests {
     /// Unit-coordinate position of a world point on a wall, in cell-byte units.
     fn bytes_at(s: &Section, wall: u8, p: DVec3) -> [f64; 2] {
         let (_, u, v) = wall_axes(wall);
-        let t = s.to_unit * (p - s.origin);
+        let t = s.unit_coords(p);
         [
             t[u] * f64::from(s.grid[u]) * 256.0,
             t[v] * f64::from(s.grid[v]) * 256.0,

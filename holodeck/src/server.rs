@@ -53,6 +53,17 @@ pub struct ServerConfig {
     pub max_bundle: u32,
 }
 
+impl ServerConfig {
+    /// For displays following a tracked head (interactive mode): worker queues half a
+    /// second deep, so rays are chosen near where an eye is now, not where it was 3 s ago.
+    pub fn interactive() -> Self {
+        Self {
+            queue_seconds: 0.5,
+            ..Self::default()
+        }
+    }
+}
+
 impl Default for ServerConfig {
     fn default() -> Self {
         Self {

@@ -13,6 +13,7 @@ use glam::DVec3;
 use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
 use holocave_holodeck::run::{RunOptions, Running, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_holodeck::worker::SampleSource;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_master::Cave;
 use holocave_scene::empty_box::{Aabb, empty_box};
@@ -82,15 +83,7 @@ pub fn cave_section(cave: &Cave, scene: &Scene) -> Result<Section> {
     .context("the CAVE's section")
 }
 
-/// True when `p` lies inside the section's parallelepiped.
-fn holds(section: &Section, p: DVec3) -> bool {
-    let e = section.edges();
-    let to_unit = glam::DMat3::from_cols(e[0], e[1], e[2]).inverse();
-    let u = to_unit * (p - section.origin());
-    u.cmpge(DVec3::ZERO).all() && u.cmple(DVec3::ONE).all()
-}
-
-/// Opens the holodeck at `path`, or creates it for `cave` (made with `scene`, loaded from
+/// Opens the holodeck at `path`, or creates it for `cave` with `scene` (loaded from
 /// `scene_path`) if it does not exist. `made_by` names the command in its settings.
 pub fn open_or_create(
     path: &Path,
@@ -99,47 +92,70 @@ pub fn open_or_create(
     scene: &Scene,
     made_by: &str,
 ) -> Result<HoloFile> {
-    let name = scene_name(scene_path);
-    let file = if path.exists() {
-        let h = HoloFile::open_rw(path)?;
-        if h.settings().get("scene").is_some_and(|s| *s != name) {
-            tracing::warn!(
-                "{} was made with scene {:?}, drawing with {name:?}",
-                path.display(),
-                h.settings()["scene"]
-            );
-        }
-        let inside = cave.room_to_scene.transform_point3(cave.inside);
-        if !h.sections().iter().any(|s| holds(s, inside)) {
-            tracing::warn!(
-                "{} was made for another CAVE: no section holds this CAVE's inside point \
-                 {inside:.3} (scene coordinates), so its eyes will get no holodeck samples",
-                path.display()
-            );
-        }
-        h
+    if path.exists() {
+        open(path, cave, scene_path)
     } else {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        }
-        let section = cave_section(cave, scene)?;
-        let settings = BTreeMap::from([
-            ("scene".to_string(), name),
-            (
-                "generator".to_string(),
-                "holocave-tracer, default TraceSettings".to_string(),
-            ),
-            (
-                DISTANCE_SETTING.to_string(),
-                DistanceKind::Virtual.name().to_string(),
-            ),
-            (
-                "created-by".to_string(),
-                format!("holocave {made_by} {}", env!("CARGO_PKG_VERSION")),
-            ),
-        ]);
-        HoloFile::create(path, vec![section], settings)?
-    };
+        create(path, cave, scene_path, scene, made_by)
+    }
+}
+
+/// Opens an existing holodeck for `cave`, warning when it was made for another scene or
+/// another CAVE.
+fn open(path: &Path, cave: &Cave, scene_path: &Path) -> Result<HoloFile> {
+    let name = scene_name(scene_path);
+    let h = HoloFile::open_rw(path)?;
+    if h.settings().get("scene").is_some_and(|s| *s != name) {
+        tracing::warn!(
+            "{} was made with scene {:?}, drawing with {name:?}",
+            path.display(),
+            h.settings()["scene"]
+        );
+    }
+    let inside = cave.room_to_scene.transform_point3(cave.inside);
+    if !h.sections().iter().any(|s| s.contains(inside)) {
+        tracing::warn!(
+            "{} was made for another CAVE: no section holds this CAVE's inside point \
+             {inside:.3} (scene coordinates), so its eyes will get no holodeck samples",
+            path.display()
+        );
+    }
+    announce(path, &h);
+    Ok(h)
+}
+
+/// Creates the holodeck at `path` for `cave`: one section, [`cave_section`].
+fn create(
+    path: &Path,
+    cave: &Cave,
+    scene_path: &Path,
+    scene: &Scene,
+    made_by: &str,
+) -> Result<HoloFile> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let section = cave_section(cave, scene)?;
+    let settings = BTreeMap::from([
+        ("scene".to_string(), scene_name(scene_path)),
+        (
+            "generator".to_string(),
+            "holocave-tracer, default TraceSettings".to_string(),
+        ),
+        (
+            DISTANCE_SETTING.to_string(),
+            DistanceKind::Virtual.name().to_string(),
+        ),
+        (
+            "created-by".to_string(),
+            format!("holocave {made_by} {}", env!("CARGO_PKG_VERSION")),
+        ),
+    ]);
+    let h = HoloFile::create(path, vec![section], settings)?;
+    announce(path, &h);
+    Ok(h)
+}
+
+fn announce(path: &Path, file: &HoloFile) {
     let g = file.sections()[0].grid();
     println!(
         "holodeck {}: {} samples, {} section(s), first grid {}x{}x{}",
@@ -150,32 +166,28 @@ pub fn open_or_create(
         g[1],
         g[2]
     );
-    Ok(file)
 }
 
 /// Starts the holodeck's server for displays: `threads` tracer threads in this process
-/// tracing `scene` (named `name` for TCP workers), and TCP workers and displays accepted
-/// on `listener`. It commits every 5 s; [`Running::stop`] commits the rest.
+/// tracing `scene` (needed only when `threads > 0`; named `name` for TCP workers), and
+/// TCP workers and displays accepted on `listener`. It commits every 5 s;
+/// [`Running::stop`] commits the rest.
 pub fn serve(
     file: HoloFile,
     threads: usize,
-    scene: Arc<Scene>,
+    scene: Option<Arc<Scene>>,
     name: String,
     listener: Option<TcpListener>,
 ) -> Result<Running> {
-    let source = TracerSource(Tracer::new(scene, TraceSettings::default()));
-    let config = ServerConfig {
-        // A tracked head moves: rays chosen for where an eye was 3 s ago (the batch
-        // default) pass far from where it is; keep worker queues short.
-        queue_seconds: 0.5,
-        ..Default::default()
-    };
-    let server = Server::new(file, Mode::Interactive, config);
+    let source = scene.map(|s| {
+        Arc::new(TracerSource(Tracer::new(s, TraceSettings::default()))) as Arc<dyn SampleSource>
+    });
+    let server = Server::new(file, Mode::Interactive, ServerConfig::interactive());
     let running = start(
         server,
         RunOptions {
-            threads,
-            source: Some(Arc::new(source)),
+            threads: if source.is_some() { threads } else { 0 },
+            source,
             listener,
             scene: name,
             commit_every: Duration::from_secs(5),
@@ -205,11 +217,19 @@ pub fn host(
     listen: &str,
     made_by: &str,
 ) -> Result<Hosted> {
-    let scene = Arc::new(
-        Scene::load(scene_path, &LoadOptions::default())
-            .with_context(|| format!("loading {}", scene_path.display()))?,
-    );
-    let file = open_or_create(path, cave, scene_path, &scene, made_by)?;
+    // The scene is needed to cut a new file's section and for tracer threads; a master
+    // serving an existing file to remote workers does without it.
+    let scene = if threads > 0 || !path.exists() {
+        let s = Scene::load(scene_path, &LoadOptions::default())
+            .with_context(|| format!("loading {}", scene_path.display()))?;
+        Some(Arc::new(s))
+    } else {
+        None
+    };
+    let file = match &scene {
+        Some(s) => open_or_create(path, cave, scene_path, s, made_by)?,
+        None => open(path, cave, scene_path)?,
+    };
     let listener =
         TcpListener::bind(listen).with_context(|| format!("holodeck: listening on {listen}"))?;
     let addr = listener.local_addr()?;

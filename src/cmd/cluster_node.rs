@@ -14,7 +14,7 @@ use holocave_master::frustum::Eye;
 use holocave_master::load_cave;
 use holocave_render_node::cluster::{Ended, MasterLink, NodeCounters, follow};
 use holocave_render_node::{
-    DisplayProcess, Gpu, HolodeckSource, RenderCache, Sampler, ToneMapper, ToneMode, TracerSource,
+    DisplayProcess, Gpu, HolodeckSource, RenderCache, ToneMapper, ToneMode, TracerSource,
 };
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
@@ -62,8 +62,7 @@ pub fn run(args: &NodeArgs, master: &str) -> Result<()> {
             .and_then(|mut a| a.next())
             .map(|a| a.ip()),
     };
-    // The display and the holodeck it was made for (rebuilt when the master names
-    // another).
+    // The display and the holodeck it draws from (`None`: tracing locally).
     let mut display: Option<(Option<String>, DisplayProcess)> = None;
     let mut tone = Some(ToneMapper::new(ToneMode::Camera));
     let dir = args.out.join(&wall.name);
@@ -128,18 +127,13 @@ pub fn run(args: &NodeArgs, master: &str) -> Result<()> {
         let wanted = link.welcome.holodeck.clone();
         loop {
             // Keep the display while it serves what the master names: a live link to that
-            // holodeck, or local tracing when it names none.
+            // holodeck, or local tracing when it names none. A wall tracing locally because
+            // the holodeck was unreachable tries it again here.
             let made = match display.take() {
-                Some((had, d))
-                    if had == wanted
-                        && matches!(d.sampler, Sampler::Holodeck(_)) == wanted.is_some()
-                        && !d.source_lost() =>
-                {
-                    (had, d)
-                }
+                Some((using, d)) if using == wanted && !d.source_lost() => (using, d),
                 old => {
                     drop(old);
-                    (wanted.clone(), make.display(wanted.as_deref())?)
+                    make.display(wanted.as_deref())?
                 }
             };
             let display = &mut display.insert(made).1;
@@ -178,7 +172,8 @@ struct Maker {
 }
 
 impl Maker {
-    fn display(&self, holodeck: Option<&str>) -> Result<DisplayProcess> {
+    /// The display, and the holodeck address it draws from (`None`: tracing locally).
+    fn display(&self, holodeck: Option<&str>) -> Result<(Option<String>, DisplayProcess)> {
         let gpu = Gpu::new()?;
         let pixels = self.size.0 * self.size.1;
         let capacity = pixels * self.eyes * 5 / 4;
@@ -189,7 +184,7 @@ impl Maker {
             DisplayProcess::threaded(cache, source, self.samples)
         };
         let Some(addr) = holodeck else {
-            return Ok(local(cache));
+            return Ok((None, local(cache)));
         };
         let connected = self.resolve(addr).and_then(|a| {
             HolodeckSource::connect(a, self.display_id).map_err(|e| anyhow!("{a}: {e}"))
@@ -197,12 +192,13 @@ impl Maker {
         Ok(match connected {
             Ok(source) => {
                 tracing::info!("drawing from the holodeck at {addr}");
-                DisplayProcess::holodeck(cache, source, self.samples)
+                let display = DisplayProcess::holodeck(cache, source, self.samples);
+                (Some(addr.to_owned()), display)
             }
             Err(e) => {
                 // A wall that shows something beats a black one: trace locally.
                 tracing::warn!("holodeck {addr}: {e:#}; tracing this wall's samples locally");
-                local(cache)
+                (None, local(cache))
             }
         })
     }

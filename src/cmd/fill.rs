@@ -116,10 +116,8 @@ fn make_sections(args: &FillArgs, scene: &Scene) -> anyhow::Result<Vec<Section>>
 /// outward from the section's walls, so these are never seen from inside it (paper §2.1:
 /// interior sections are regions of free movement). Checked on a grid of points per triangle.
 fn triangles_inside(scene: &Scene, section: &Section) -> usize {
-    let (o, e) = (section.origin(), section.edges());
-    let m = glam::DMat3::from_cols(e[0], e[1], e[2]).inverse();
     let margin = 1e-3;
-    let unit = |p: glam::Vec3| m * (p.as_dvec3() - o);
+    let unit = |p: glam::Vec3| section.unit_coords(p.as_dvec3());
     let inside = |p: glam::Vec3| {
         let t = unit(p);
         t.cmpgt(DVec3::splat(margin)).all() && t.cmplt(DVec3::splat(1.0 - margin)).all()

@@ -296,16 +296,14 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
                 listener.local_addr()?
             );
             std::io::Write::flush(&mut std::io::stdout())?;
-            let (mode, queue_seconds) = if a.interactive {
-                // Short worker queues: rays for where a tracked eye is now.
-                (Mode::Interactive, 0.5)
+            let (mode, config) = if a.interactive {
+                (Mode::Interactive, ServerConfig::interactive())
             } else {
-                (Mode::Batch, ServerConfig::default().queue_seconds)
+                (Mode::Batch, ServerConfig::default())
             };
             let config = ServerConfig {
                 cache_bytes: a.cache_mb << 20,
-                queue_seconds,
-                ..Default::default()
+                ..config
             };
             let server = Server::new(h, mode, config);
             let opts = RunOptions {

@@ -107,23 +107,45 @@ pub struct HeadArgs {
 }
 
 impl HeadArgs {
-    pub fn open(&self, cave: &Cave) -> Result<Head> {
-        let spec: Option<SourceSpec> = match &self.tracker {
-            Some(t) => Some(t.parse().map_err(|e| anyhow!("--tracker {t:?}: {e}"))?),
-            None => None,
-        };
-        let clock = if self.replay {
+    /// The master's clock: virtual with `--replay`, real otherwise.
+    pub fn clock(&self) -> Clock {
+        if self.replay {
             Clock::Replay
         } else {
             Clock::Live
-        };
-        Head::open(cave, spec.as_ref(), clock, true, self.recenter).with_context(|| {
-            format!(
-                "opening tracker {:?}",
-                spec.as_ref().unwrap_or(&cave.source)
-            )
-        })
+        }
     }
+
+    pub fn open(&self, cave: &Cave) -> Result<Head> {
+        open_head(
+            cave,
+            self.tracker.as_deref(),
+            self.clock(),
+            true,
+            self.recenter,
+        )
+    }
+}
+
+/// Opens the head source `tracker` (a source spec; the config's source when `None`) with
+/// the config's predictor when `predict`, or none.
+pub fn open_head(
+    cave: &Cave,
+    tracker: Option<&str>,
+    clock: Clock,
+    predict: bool,
+    recenter: bool,
+) -> Result<Head> {
+    let spec: Option<SourceSpec> = match tracker {
+        Some(t) => Some(t.parse().map_err(|e| anyhow!("--tracker {t:?}: {e}"))?),
+        None => None,
+    };
+    Head::open(cave, spec.as_ref(), clock, predict, recenter).with_context(|| {
+        format!(
+            "opening tracker {:?}",
+            spec.as_ref().unwrap_or(&cave.source)
+        )
+    })
 }
 
 /// The end-of-run summary.
@@ -188,11 +210,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
         listener,
         secret,
         MasterOptions {
-            clock: if args.head.replay {
-                Clock::Replay
-            } else {
-                Clock::Live
-            },
+            clock: args.head.clock(),
             frames: args.frames,
             seconds: args.seconds,
             stop_at_end_of_log: false,

@@ -13,7 +13,7 @@ use clap::Args;
 use glam::{DVec3, Quat, Vec3};
 use holocave_holodeck::run::Running;
 use holocave_master::frustum::{Eye, eye_position, off_axis};
-use holocave_master::head::{Clock, Head};
+use holocave_master::head::Clock;
 use holocave_master::load_cave;
 use holocave_render_node::display::contact_sheet;
 use holocave_render_node::{
@@ -24,9 +24,9 @@ use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
-use holocave_tracking::source::SourceSpec;
 
 use super::cave_holodeck;
+use super::master::open_head;
 
 #[derive(Args)]
 pub struct NodeArgs {
@@ -188,32 +188,16 @@ pub fn run(args: NodeArgs) -> Result<()> {
     );
     let tracer = Arc::new(Tracer::new(scene.clone(), TraceSettings::default()));
 
+    // The replay clock: frame k shows the head at k / fps after the first sample.
     let mut head = match args.still {
         Some(_) => None,
-        None => {
-            let spec: Option<SourceSpec> = match &args.tracker {
-                Some(t) => Some(
-                    t.parse()
-                        .map_err(|e| anyhow::anyhow!("--tracker {t:?}: {e}"))?,
-                ),
-                None => None,
-            };
-            // The replay clock: frame k shows the head at k / fps after the first sample.
-            let head = Head::open(
-                &cave,
-                spec.as_ref(),
-                Clock::Replay,
-                args.prediction,
-                args.recenter,
-            )
-            .with_context(|| {
-                format!(
-                    "opening tracker {:?}",
-                    spec.as_ref().unwrap_or(&cave.source)
-                )
-            })?;
-            Some(head)
-        }
+        None => Some(open_head(
+            &cave,
+            args.tracker.as_deref(),
+            Clock::Replay,
+            args.prediction,
+            args.recenter,
+        )?),
     };
 
     let gpu = Gpu::new()?;
@@ -235,7 +219,7 @@ pub fn run(args: NodeArgs) -> Result<()> {
                 .map(|a| TcpListener::bind(a).with_context(|| format!("--listen {a}")))
                 .transpose()?;
             let name = super::worker::scene_name(&args.scene);
-            let running = cave_holodeck::serve(file, workers, scene.clone(), name, listener)?;
+            let running = cave_holodeck::serve(file, workers, Some(scene.clone()), name, listener)?;
             let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
             holodeck = Some(running);
             DisplayProcess::holodeck(cache, source, samples)

@@ -15,7 +15,6 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use holocave_master::cluster::{MasterOptions, run as run_master};
 use holocave_master::frustum::Eye;
-use holocave_master::head::Clock;
 use holocave_master::load_cave;
 use holocave_render_node::mosaic::cave_mosaic;
 use rand::TryRngCore;
@@ -212,11 +211,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         listener,
         secret.into_bytes(),
         MasterOptions {
-            clock: if args.head.replay {
-                Clock::Replay
-            } else {
-                Clock::Live
-            },
+            clock: args.head.clock(),
             frames: Some(args.frames),
             seconds: None,
             stop_at_end_of_log: false,
