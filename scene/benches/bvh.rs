@@ -60,6 +60,23 @@ fn primary_rays(scene: &Scene) -> Option<Vec<Ray>> {
     Some(rays)
 }
 
+/// The same rays reordered into 4 × 4 pixel tiles, so that each packet of sixteen
+/// consecutive rays covers one tile.
+fn in_tiles(rays: &[Ray]) -> Vec<Ray> {
+    let mut out = Vec::with_capacity(rays.len());
+    let tall = holocave_scene::bvh::PACKET as u32 / 4;
+    for ty in (0..HEIGHT).step_by(tall as usize) {
+        for tx in (0..WIDTH).step_by(4) {
+            for y in ty..ty + tall {
+                for x in tx..tx + 4 {
+                    out.push(rays[(y * WIDTH + x) as usize]);
+                }
+            }
+        }
+    }
+    out
+}
+
 fn bvh(c: &mut Criterion) {
     let scenes = scenes();
 
@@ -106,6 +123,22 @@ fn bvh(c: &mut Criterion) {
         });
     }
     closest.finish();
+
+    let mut packets = c.benchmark_group("closest_hit_primary_packets");
+    for (name, scene) in &scenes {
+        let Some(rays) = primary_rays(scene) else {
+            continue;
+        };
+        let rays = in_tiles(&rays);
+        packets.throughput(Throughput::Elements(rays.len() as u64));
+        packets.bench_with_input(BenchmarkId::from_parameter(name), &rays, |b, rays| {
+            b.iter(|| {
+                let hits = scene.closest_hits(rays, f32::INFINITY);
+                black_box(hits.iter().flatten().map(|h| h.t).sum::<f32>())
+            })
+        });
+    }
+    packets.finish();
 
     let mut occluded = c.benchmark_group("occluded_primary");
     for (name, scene) in &scenes {

@@ -1,85 +1,79 @@
-//! Ray queries over the scene's triangles: a compressed-wide BVH (CWBVH) from `obvhs`.
+//! Ray queries over the scene's triangles.
 //!
-//! Two pitfalls of obvhs 0.4 are handled here, each with a test below:
-//! - its traversal misses every hit when a direction component is `-0.0`, so every
-//!   direction gets `+ 0.0` (which turns `-0.0` into `+0.0`) before traversal;
-//! - its `Triangle::compute_barycentric` is scaled by the triangle's area, so the
-//!   intersection (and its barycentrics) is computed here, by Möller–Trumbore.
+//! obvhs builds the tree (a compressed-wide BVH: PLOC with reinsertion, collapsed to eight
+//! children per node); [`wide_node`] unpacks it into the layout the CPU traverses fast,
+//! and the traversal below visits children nearest first. The triangles are stored in the
+//! tree's leaf order, so a leaf's triangles lie next to each other in memory.
 //!
-//! Möller–Trumbore in `f32` is not watertight: a ray through the edge two triangles share
-//! can get a barycentric of −1e-7 in both and slip through a closed surface. The bounds
-//! are therefore widened by [`EDGE_TOLERANCE`] (far above the rounding error, far below
-//! anything visible) and the barycentrics clamped back into the triangle.
+//! Two pitfalls of obvhs 0.4 do not reach us: its traversal (which missed every hit for a
+//! `-0.0` direction component) is not used, and neither is its `compute_barycentric`
+//! (scaled by the triangle's area); the tests below keep both cases.
 
+mod packet;
+mod triangle;
+mod wide_node;
+
+use std::cell::RefCell;
 use std::time::{Duration, Instant};
 
 use glam::{Vec3, Vec3A};
-use obvhs::{
-    BvhBuildParams,
-    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
-    ray::RayHit,
-    triangle::Triangle,
-};
+use obvhs::{BvhBuildParams, cwbvh::builder::build_cwbvh_from_tris, triangle::Triangle};
 
 use crate::ray::{Hit, Ray};
+pub use packet::PACKET;
+pub use triangle::EDGE_TOLERANCE;
+use triangle::IsectTriangle;
+use wide_node::{BoxRay, Child, WideNode, safe_inverse};
 
-/// How far outside `[0, 1]` a barycentric may fall and still hit: 50 times the rounding
-/// error seen on shared edges, i.e. 10 µm on a 1 m triangle.
-pub const EDGE_TOLERANCE: f32 = 1e-5;
+/// Children a traversal may hold back per level: all but the one it descends into.
+const PENDING_PER_LEVEL: usize = 7;
 
-/// A triangle prepared for intersection: first vertex and the two edges from it.
-#[derive(Clone, Copy, Debug)]
-struct IsectTriangle {
-    v0: Vec3A,
-    e1: Vec3A,
-    e2: Vec3A,
+/// A child put aside during a walk: where the ray enters it, and (for a leaf) its parent
+/// node and slot.
+#[derive(Clone, Copy)]
+struct Waiting {
+    child: Child,
+    distance: f32,
+    parent: u32,
+    slot: u32,
 }
 
-impl IsectTriangle {
-    /// Möller–Trumbore. Returns `(t, u, v)`; `t` is infinite on a miss. Written so that
-    /// any NaN along the way is a miss.
-    #[inline(always)]
-    fn intersect(&self, ray: &obvhs::ray::Ray) -> (f32, f32, f32) {
-        const MISS: (f32, f32, f32) = (f32::INFINITY, 0.0, 0.0);
-        let p = ray.direction.cross(self.e2);
-        let det = self.e1.dot(p);
-        if det == 0.0 {
-            return MISS;
-        }
-        let inv = 1.0 / det;
-        let s = ray.origin - self.v0;
-        let u = s.dot(p) * inv;
-        if !(-EDGE_TOLERANCE..=1.0 + EDGE_TOLERANCE).contains(&u) {
-            return MISS;
-        }
-        let q = s.cross(self.e1);
-        let v = ray.direction.dot(q) * inv;
-        if !(v >= -EDGE_TOLERANCE && u + v <= 1.0 + EDGE_TOLERANCE) {
-            return MISS;
-        }
-        let t = self.e2.dot(q) * inv;
-        if !(t >= ray.tmin && t < ray.tmax) {
-            return MISS;
-        }
-        // Back inside the triangle, for interpolation.
-        let (u, v) = (u.max(0.0), v.max(0.0));
-        let over = (u + v - 1.0).max(0.0) * 0.5;
-        (t, (u - over).max(0.0), (v - over).max(0.0))
-    }
+impl Waiting {
+    const NONE: Waiting = Waiting {
+        child: Child::EMPTY,
+        distance: 0.0,
+        parent: 0,
+        slot: 0,
+    };
 }
 
 /// The BVH and its triangles, stored in the BVH's leaf order.
 pub struct Bvh {
-    bvh: CwBvh,
+    nodes: Vec<WideNode>,
     /// Triangles in leaf order (a triangle may appear more than once with spatial splits).
     triangles: Vec<IsectTriangle>,
     /// For each leaf-order slot, the caller's triangle index.
     original: Vec<u32>,
+    /// The most entries a traversal's stack can hold.
+    stack_size: usize,
     build_time: Duration,
+}
+
+/// A ray's origin and direction as the traversal uses them; `None` for one that cannot
+/// hit anything (non-finite origin or direction, zero direction, NaN `tmax`).
+fn usable(ray: &Ray, tmax: f32) -> Option<(Vec3A, Vec3A)> {
+    let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+    if !origin.is_finite() || !dir.is_finite() || dir == Vec3A::ZERO || tmax.is_nan() {
+        return None;
+    }
+    Some((origin, dir))
 }
 
 impl Bvh {
     /// Builds the BVH over triangles given as three vertices each.
+    ///
+    /// Leaves address at most 2^29 triangle slots (about 5·10^8 triangles, far beyond
+    /// what the loader can hold in memory).
     pub fn build(vertices: &[[Vec3; 3]]) -> Self {
         let start = Instant::now();
         let tris: Vec<Triangle> = vertices
@@ -91,9 +85,9 @@ impl Bvh {
             })
             .collect();
         let mut core = Duration::ZERO;
-        let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut core);
-        let original = bvh.primitive_indices.clone();
-        let triangles = original
+        let cw = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut core);
+        let original = cw.primitive_indices.clone();
+        let triangles: Vec<IsectTriangle> = original
             .iter()
             .map(|&i| {
                 let t = &tris[i as usize];
@@ -104,10 +98,12 @@ impl Bvh {
                 }
             })
             .collect();
+        let (nodes, depth) = wide_node::unpack(&cw, |slot| triangles[slot].bounds());
         Self {
-            bvh,
+            nodes,
             triangles,
             original,
+            stack_size: depth * PENDING_PER_LEVEL + 1,
             build_time: start.elapsed(),
         }
     }
@@ -117,51 +113,211 @@ impl Bvh {
         self.build_time
     }
 
-    /// Converts to obvhs' ray, or `None` for a ray that cannot hit anything (non-finite
-    /// or zero direction).
-    fn to_obvhs(ray: &Ray, tmax: f32) -> Option<obvhs::ray::Ray> {
-        // `+ 0.0` turns -0.0 into +0.0: obvhs' traversal misses everything otherwise.
-        let dir = ray.dir + Vec3::ZERO;
-        if !ray.origin.is_finite() || !dir.is_finite() || dir == Vec3::ZERO || tmax.is_nan() {
-            return None;
+    /// Runs `walk` with a stack big enough for this tree: the thread's own, kept between
+    /// queries (filling a fresh one per ray cost more than the walk's node tests).
+    #[inline(always)]
+    fn with_stack<R>(&self, walk: impl FnOnce(&mut [Waiting]) -> R) -> R {
+        thread_local! {
+            static STACK: RefCell<Vec<Waiting>> = const { RefCell::new(Vec::new()) };
         }
-        Some(obvhs::ray::Ray::new(
-            ray.origin.into(),
-            dir.into(),
-            0.0,
-            tmax,
-        ))
+        STACK.with(|stack| match stack.try_borrow_mut() {
+            Ok(mut stack) => {
+                if stack.len() < self.stack_size {
+                    stack.resize(self.stack_size, Waiting::NONE);
+                }
+                walk(&mut stack)
+            }
+            // A walk inside a walk (not done today) gets a stack of its own.
+            Err(_) => walk(&mut vec![Waiting::NONE; self.stack_size]),
+        })
+    }
+
+    /// Visits the tree nearest child first. `enter(node, bound)` says which of a node's
+    /// children to enter and at what distance; `leaf(parent, slot, triangles)` tests a
+    /// leaf's triangles (the parent node and slot are there for a caller that tests the
+    /// leaf's box again) and returns the new bound. A child entered beyond the bound is
+    /// skipped.
+    #[inline(always)]
+    fn walk_nearest_first(
+        &self,
+        mut bound: f32,
+        mut enter: impl FnMut(&WideNode, f32) -> (u32, [f32; 8]),
+        mut leaf: impl FnMut(&WideNode, usize, std::ops::Range<usize>) -> f32,
+    ) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        self.with_stack(|stack| {
+            let mut len = 0;
+            let mut index = 0;
+            loop {
+                let node = &self.nodes[index];
+                let (mask, entry) = enter(node, bound);
+                let mut next = None;
+                if mask.is_power_of_two() {
+                    let slot = mask.trailing_zeros() as usize;
+                    match node.children[slot].as_node() {
+                        Some(child) => next = Some(child),
+                        None => bound = leaf(node, slot, node.children[slot].leaf_slots()),
+                    }
+                } else if mask != 0 {
+                    // Order the children entered by entry distance. Entry distances are
+                    // ≥ 0, so their bits order like the floats, and the low three bits can
+                    // carry the slot.
+                    let mut keys = [0u32; 8];
+                    let mut n = 0;
+                    let mut bits = mask;
+                    while bits != 0 {
+                        let slot = bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        keys[n] = (entry[slot].to_bits() & !7) | slot as u32;
+                        n += 1;
+                    }
+                    let keys = &mut keys[..n];
+                    for i in 1..n {
+                        let key = keys[i];
+                        let mut j = i;
+                        while j > 0 && keys[j - 1] > key {
+                            keys[j] = keys[j - 1];
+                            j -= 1;
+                        }
+                        keys[j] = key;
+                    }
+                    // Leaves nearer than every inner child are tested now. The nearest
+                    // inner child is visited next; the children beyond it wait, farthest
+                    // deepest.
+                    let distance = |key: u32| f32::from_bits(key & !7);
+                    let mut first_inner = n;
+                    for (k, &key) in keys.iter().enumerate() {
+                        let slot = (key & 7) as usize;
+                        if node.children[slot].as_node().is_some() {
+                            first_inner = k;
+                            break;
+                        }
+                        if distance(key) <= bound {
+                            bound = leaf(node, slot, node.children[slot].leaf_slots());
+                        }
+                    }
+                    if first_inner < n {
+                        for &key in keys[first_inner + 1..].iter().rev() {
+                            if distance(key) <= bound {
+                                let slot = (key & 7) as usize;
+                                stack[len] = Waiting {
+                                    child: node.children[slot],
+                                    distance: distance(key),
+                                    parent: index as u32,
+                                    slot: slot as u32,
+                                };
+                                len += 1;
+                            }
+                        }
+                        let key = keys[first_inner];
+                        if distance(key) <= bound {
+                            next = node.children[(key & 7) as usize].as_node();
+                        }
+                    }
+                }
+                if let Some(child) = next {
+                    index = child;
+                    continue;
+                }
+                // Resume with the nearest waiting child still within the bound; waiting
+                // leaves are tested as they come.
+                loop {
+                    if len == 0 {
+                        return;
+                    }
+                    len -= 1;
+                    let w = stack[len];
+                    if w.distance > bound {
+                        continue;
+                    }
+                    match w.child.as_node() {
+                        Some(child) => {
+                            index = child;
+                            break;
+                        }
+                        None => {
+                            let parent = &self.nodes[w.parent as usize];
+                            bound = leaf(parent, w.slot as usize, w.child.leaf_slots());
+                        }
+                    }
+                }
+            }
+        })
+    }
+
+    /// The hit of a leaf-order slot, in the caller's triangle numbering; `(u, v)` are
+    /// clamped back into the triangle (the test accepts points just outside it).
+    fn hit(&self, slot: usize, t: f32, u: f32, v: f32) -> Hit {
+        let (u, v) = (u.max(0.0), v.max(0.0));
+        let over = (u + v - 1.0).max(0.0) * 0.5;
+        Hit {
+            triangle: self.original[slot],
+            t,
+            u: (u - over).max(0.0),
+            v: (v - over).max(0.0),
+        }
     }
 
     /// The closest hit with `t < tmax`, if any.
     pub fn closest_hit(&self, ray: &Ray, tmax: f32) -> Option<Hit> {
-        let r = Self::to_obvhs(ray, tmax)?;
-        let mut hit = RayHit::none();
-        let (mut u, mut v) = (0.0, 0.0);
-        let found = self.bvh.ray_traverse(r, &mut hit, |r, id| {
-            let (t, tu, tv) = self.triangles[id].intersect(r);
-            if t < r.tmax {
-                u = tu;
-                v = tv;
-            }
-            t
-        });
-        found.then(|| Hit {
-            triangle: self.original[hit.primitive_id as usize],
-            t: hit.t,
-            u,
-            v,
-        })
+        let (origin, dir) = usable(ray, tmax)?;
+        let box_ray = BoxRay::new(origin, safe_inverse(dir));
+        let mut best: Option<(usize, f32, f32, f32)> = None;
+        let mut tmax = tmax;
+        self.walk_nearest_first(
+            tmax,
+            |node, bound| node.intersect(&box_ray, bound),
+            |_, _, slots| {
+                for slot in slots {
+                    let (t, u, v) = self.triangles[slot].intersect(origin, dir, tmax);
+                    if t < tmax {
+                        tmax = t;
+                        best = Some((slot, t, u, v));
+                    }
+                }
+                tmax
+            },
+        );
+        best.map(|(slot, t, u, v)| self.hit(slot, t, u, v))
     }
 
     /// True when something lies on the ray before `tmax`.
     pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
-        match Self::to_obvhs(ray, tmax) {
-            Some(r) => !self
-                .bvh
-                .ray_traverse_miss(r, |r, id| self.triangles[id].intersect(r).0),
-            None => false,
+        let Some((origin, dir)) = usable(ray, tmax) else {
+            return false;
+        };
+        let box_ray = BoxRay::new(origin, safe_inverse(dir));
+        if self.nodes.is_empty() {
+            return false;
         }
+        self.with_stack(|stack| {
+            let mut len = 0;
+            stack[0].child = Child::node(0);
+            len += 1;
+            while len > 0 {
+                len -= 1;
+                let child = stack[len].child;
+                if let Some(index) = child.as_node() {
+                    // Any hit ends the query, so the order of children does not matter.
+                    let (mut mask, _) = self.nodes[index].intersect(&box_ray, tmax);
+                    while mask != 0 {
+                        let slot = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack[len].child = self.nodes[index].children[slot];
+                        len += 1;
+                    }
+                } else {
+                    for slot in child.leaf_slots() {
+                        if self.triangles[slot].intersect(origin, dir, tmax).0 < tmax {
+                            return true;
+                        }
+                    }
+                }
+            }
+            false
+        })
     }
 }
 
@@ -209,6 +365,31 @@ mod tests {
             }
         }
         assert_eq!(missed, 0, "rays slipped between the two triangles");
+    }
+
+    #[test]
+    fn points_the_widened_triangle_accepts_are_not_lost_to_its_box() {
+        // A right triangle whose legs lie on the box's faces: rays aimed a little outside
+        // a leg, within the tolerance, hit the widened triangle; its box must let them in.
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let bvh = Bvh::build(&[tri]);
+        for i in 1..100 {
+            let along = i as f32 / 100.0;
+            let outside = EDGE_TOLERANCE * 0.5;
+            for target in [
+                Vec3::new(along, -outside, 0.0),
+                Vec3::new(-outside, along, 0.0),
+            ] {
+                let origin = target + Vec3::new(0.3, 0.2, 1.0);
+                let ray = Ray::new(origin, (target - origin).normalize());
+                assert!(bvh.closest_hit(&ray, f32::INFINITY).is_some(), "{target}");
+                assert!(bvh.occluded(&ray, f32::INFINITY), "{target}");
+                assert!(
+                    bvh.closest_hits(&[ray; 2], f32::INFINITY)[0].is_some(),
+                    "{target}"
+                );
+            }
+        }
     }
 
     #[test]

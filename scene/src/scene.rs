@@ -153,6 +153,12 @@ impl Scene {
         self.bvh.closest_hit(ray, tmax)
     }
 
+    /// The closest hit before `tmax` of each ray; rays next to each other are traced
+    /// together (see [`Bvh::closest_hits`]), so give them in a coherent order.
+    pub fn closest_hits(&self, rays: &[Ray], tmax: f32) -> Vec<Option<Hit>> {
+        self.bvh.closest_hits(rays, tmax)
+    }
+
     /// Whether anything lies on the ray before `tmax`.
     pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
         self.bvh.occluded(ray, tmax)

@@ -1,0 +1,211 @@
+//! Closest hits of coherent rays, traced sixteen at a time.
+//!
+//! Neighbouring primary rays (and the rays of one holodeck beam) pass through the same
+//! nodes. A packet walks the tree once for all its rays: one conservative box test per
+//! node for the whole packet ([`IntervalRay`]), children nearest first, and at a leaf each
+//! triangle tested against four rays at once. What a single ray pays per node (box test,
+//! ordering, stack, mispredicted branches) is paid once per packet.
+//!
+//! Rays whose directions do not share an octant cannot share the interval test; they are
+//! split by octant, and a ray alone in its octant is traced on its own.
+
+use glam::{Vec3A, Vec4};
+
+use super::triangle::{EDGE_TOLERANCE, IsectTriangle};
+use super::wide_node::{FAR_GROWTH, IntervalRay, safe_inverse};
+use super::{Bvh, usable};
+use crate::ray::{Hit, Ray};
+
+/// Rays per packet.
+pub const PACKET: usize = 16;
+const GROUPS: usize = PACKET / 4;
+
+/// Four rays in structure-of-arrays form, with the closest hit each has found so far.
+#[derive(Clone, Copy)]
+struct RayGroup {
+    origin: [Vec4; 3],
+    dir: [Vec4; 3],
+    inv_dir: [Vec4; 3],
+    /// How far each ray still looks; an unused lane has −1 and so never hits.
+    tmax: Vec4,
+    u: Vec4,
+    v: Vec4,
+    slot: [u32; 4],
+}
+
+impl RayGroup {
+    const UNUSED: RayGroup = RayGroup {
+        origin: [Vec4::ZERO; 3],
+        dir: [Vec4::ZERO; 3],
+        inv_dir: [Vec4::ONE; 3],
+        tmax: Vec4::splat(-1.0),
+        u: Vec4::ZERO,
+        v: Vec4::ZERO,
+        slot: [u32::MAX; 4],
+    };
+
+    fn set(&mut self, lane: usize, origin: Vec3A, dir: Vec3A, inv: Vec3A, tmax: f32) {
+        for axis in 0..3 {
+            self.origin[axis][lane] = origin[axis];
+            self.dir[axis][lane] = dir[axis];
+            self.inv_dir[axis][lane] = inv[axis];
+        }
+        self.tmax[lane] = tmax;
+    }
+
+    /// Whether any of the four rays enters the box before its closest hit so far (the same
+    /// slab test as a single ray's). `near` and `far` are the box's corners met first and
+    /// last along the rays' shared octant.
+    #[inline(always)]
+    fn enters(&self, near: Vec3A, far: Vec3A) -> bool {
+        let mut t_near = Vec4::ZERO;
+        let mut t_far = self.tmax;
+        for axis in 0..3 {
+            let t0 = (Vec4::splat(near[axis]) - self.origin[axis]) * self.inv_dir[axis];
+            let t1 = (Vec4::splat(far[axis]) - self.origin[axis]) * self.inv_dir[axis];
+            t_near = t_near.max(t0);
+            t_far = t_far.min(t1 * FAR_GROWTH);
+        }
+        t_near.cmple(t_far).any()
+    }
+
+    /// Möller–Trumbore for one triangle and four rays, with the same tolerance and the
+    /// same miss rules as the single-ray test (any NaN is a miss).
+    #[inline(always)]
+    fn intersect(&mut self, tri: &IsectTriangle, slot: usize) {
+        let [dx, dy, dz] = self.dir;
+        let (e1x, e1y, e1z) = (
+            Vec4::splat(tri.e1.x),
+            Vec4::splat(tri.e1.y),
+            Vec4::splat(tri.e1.z),
+        );
+        let (e2x, e2y, e2z) = (
+            Vec4::splat(tri.e2.x),
+            Vec4::splat(tri.e2.y),
+            Vec4::splat(tri.e2.z),
+        );
+        let px = dy * e2z - dz * e2y;
+        let py = dz * e2x - dx * e2z;
+        let pz = dx * e2y - dy * e2x;
+        let det = e1x * px + e1y * py + e1z * pz;
+        let inv = Vec4::ONE / det;
+        let sx = self.origin[0] - Vec4::splat(tri.v0.x);
+        let sy = self.origin[1] - Vec4::splat(tri.v0.y);
+        let sz = self.origin[2] - Vec4::splat(tri.v0.z);
+        let u = (sx * px + sy * py + sz * pz) * inv;
+        let qx = sy * e1z - sz * e1y;
+        let qy = sz * e1x - sx * e1z;
+        let qz = sx * e1y - sy * e1x;
+        let v = (dx * qx + dy * qy + dz * qz) * inv;
+        let t = (e2x * qx + e2y * qy + e2z * qz) * inv;
+        let low = Vec4::splat(-EDGE_TOLERANCE);
+        let high = Vec4::splat(1.0 + EDGE_TOLERANCE);
+        let hit = det.cmpne(Vec4::ZERO)
+            & u.cmpge(low)
+            & u.cmple(high)
+            & v.cmpge(low)
+            & (u + v).cmple(high)
+            & t.cmpge(Vec4::ZERO)
+            & t.cmplt(self.tmax);
+        let lanes = hit.bitmask();
+        if lanes == 0 {
+            return;
+        }
+        self.tmax = Vec4::select(hit, t, self.tmax);
+        self.u = Vec4::select(hit, u, self.u);
+        self.v = Vec4::select(hit, v, self.v);
+        for lane in 0..4 {
+            if lanes & (1 << lane) != 0 {
+                self.slot[lane] = slot as u32;
+            }
+        }
+    }
+}
+
+impl Bvh {
+    /// The closest hit before `tmax` of each ray, as [`Bvh::closest_hit`] would give it.
+    /// Rays next to each other in `rays` are traced together, so give them in a coherent
+    /// order (e.g. pixels in small tiles) to gain from it.
+    pub fn closest_hits(&self, rays: &[Ray], tmax: f32) -> Vec<Option<Hit>> {
+        let mut out = vec![None; rays.len()];
+        for (chunk, out) in rays.chunks(PACKET).zip(out.chunks_mut(PACKET)) {
+            self.closest_hits_of_packet(chunk, tmax, out);
+        }
+        out
+    }
+
+    /// One packet: its rays split by direction octant, each octant walked once.
+    fn closest_hits_of_packet(&self, rays: &[Ray], tmax: f32, out: &mut [Option<Hit>]) {
+        let mut origin = [Vec3A::ZERO; PACKET];
+        let mut dir = [Vec3A::ZERO; PACKET];
+        let mut inv = [Vec3A::ZERO; PACKET];
+        let mut octant = [0u32; PACKET];
+        let mut pending = 0u32;
+        for (i, ray) in rays.iter().enumerate() {
+            if let Some((o, d)) = usable(ray, tmax) {
+                (origin[i], dir[i], inv[i]) = (o, d, safe_inverse(d));
+                octant[i] = inv[i].is_negative_bitmask();
+                pending |= 1 << i;
+            }
+        }
+        while pending != 0 {
+            let lead = pending.trailing_zeros() as usize;
+            let mut members = [0usize; PACKET];
+            let mut n = 0;
+            let mut bits = pending;
+            while bits != 0 {
+                let i = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if octant[i] == octant[lead] {
+                    members[n] = i;
+                    n += 1;
+                    pending &= !(1 << i);
+                }
+            }
+            let members = &members[..n];
+            if n == 1 {
+                out[lead] = self.closest_hit(&rays[lead], tmax);
+                continue;
+            }
+            let mut groups = [RayGroup::UNUSED; GROUPS];
+            let mut bundle = [(Vec3A::ZERO, Vec3A::ZERO); PACKET];
+            for (k, &i) in members.iter().enumerate() {
+                groups[k / 4].set(k % 4, origin[i], dir[i], inv[i], tmax);
+                bundle[k] = (origin[i], inv[i]);
+            }
+            let groups = &mut groups[..n.div_ceil(4)];
+            let interval = IntervalRay::new(&bundle[..n]);
+            let negative = inv[lead].cmplt(Vec3A::ZERO);
+            self.walk_nearest_first(
+                tmax,
+                |node, bound| node.intersect_interval(&interval, bound),
+                |node, child, slots| {
+                    let (min, max) = node.child_box(child);
+                    let (near, far) = (
+                        Vec3A::select(negative, max, min),
+                        Vec3A::select(negative, min, max),
+                    );
+                    for group in groups.iter_mut() {
+                        if group.enters(near, far) {
+                            for slot in slots.clone() {
+                                group.intersect(&self.triangles[slot], slot);
+                            }
+                        }
+                    }
+                    groups
+                        .iter()
+                        .fold(Vec4::NEG_INFINITY, |m, g| m.max(g.tmax))
+                        .max_element()
+                },
+            );
+            for (k, &i) in members.iter().enumerate() {
+                let g = &groups[k / 4];
+                let lane = k % 4;
+                if g.slot[lane] != u32::MAX {
+                    out[i] =
+                        Some(self.hit(g.slot[lane] as usize, g.tmax[lane], g.u[lane], g.v[lane]));
+                }
+            }
+        }
+    }
+}
