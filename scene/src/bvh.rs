@@ -56,6 +56,8 @@ pub struct Bvh {
     original: Vec<u32>,
     /// The most entries a traversal's stack can hold.
     stack_size: usize,
+    /// The length of the scene's bounding box diagonal.
+    size: f32,
     build_time: Duration,
 }
 
@@ -99,11 +101,16 @@ impl Bvh {
             })
             .collect();
         let (nodes, depth) = wide_node::unpack(&cw, |slot| triangles[slot].bounds());
+        let size = nodes.first().map_or(0.0, |root| {
+            let (min, max) = root.bounds();
+            min.distance(max)
+        });
         Self {
             nodes,
             triangles,
             original,
             stack_size: depth * PENDING_PER_LEVEL + 1,
+            size,
             build_time: start.elapsed(),
         }
     }

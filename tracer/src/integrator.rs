@@ -3,7 +3,7 @@
 //! distance through flat mirrors and flat glass.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{Ray, Scene};
+use holocave_scene::{Hit, Ray, Scene};
 use rand::Rng;
 use rand_pcg::Pcg32;
 
@@ -129,6 +129,58 @@ impl Path<'_> {
     }
 }
 
+/// Where a path begins: either its sample is already known (a ray that cannot be traced,
+/// or one that passes the scene by and sees only the sky), or the ray to trace, moved up
+/// to the scene, and the distance that move skipped.
+pub enum PathStart {
+    Done(Sample),
+    Trace { ray: Ray, skipped: f64 },
+}
+
+/// The start of the path along `ray` (no random numbers are drawn here, and no ray is
+/// traced: the first hit may be found for many paths at once).
+pub fn start_path(scene: &Scene, lights: &Lights, ray: &Ray) -> PathStart {
+    let sample = Sample::NONE;
+    // A unit direction is used exactly as given: renormalising it would turn it by up to
+    // an ulp (6e-8 rad), which shifts the line by 0.6 mm 10 km away. Others are scaled
+    // by their largest component before normalising, so that a finite direction whose
+    // squared length under- or overflows (components below ~1e-19 or above ~1e19) still
+    // has a direction. Zero, NaN and infinite directions give an empty sample.
+    let scale = ray.dir.abs().max_element();
+    if !is_positive_finite(scale) || !ray.dir.is_finite() || !ray.origin.is_finite() {
+        return PathStart::Done(sample);
+    }
+    let dir = if (ray.dir.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+        ray.dir
+    } else {
+        (ray.dir / scale).normalize_or_zero()
+    };
+    if dir == Vec3::ZERO || !dir.is_finite() {
+        return PathStart::Done(sample);
+    }
+    let (lo, hi) = scene.bounds();
+    match enter_bounds(ray.origin, dir, lo, hi) {
+        Some((origin, skipped)) => PathStart::Trace {
+            ray: Ray::new(origin, dir),
+            skipped,
+        },
+        None => {
+            // The ray passes the scene by: only the sky and sun can be seen along it.
+            let mut path = Path {
+                scene,
+                lights,
+                radiance: Vec3::ZERO,
+                throughput: Vec3::ONE,
+            };
+            path.add_environment(dir, None);
+            PathStart::Done(Sample {
+                radiance: finish(path.radiance),
+                ..sample
+            })
+        }
+    }
+}
+
 /// Traces one path from `ray` and returns its sample.
 pub fn trace_path(
     scene: &Scene,
@@ -137,48 +189,43 @@ pub fn trace_path(
     ray: &Ray,
     rng: &mut Pcg32,
 ) -> Sample {
-    let mut sample = Sample {
-        radiance: [0.0; 3],
-        distance: f32::INFINITY,
-        virtual_distance: f32::INFINITY,
-    };
-    // A unit direction is used exactly as given: renormalising it would turn it by up to
-    // an ulp (6e-8 rad), which shifts the line by 0.6 mm 10 km away. Others are scaled
-    // by their largest component before normalising, so that a finite direction whose
-    // squared length under- or overflows (components below ~1e-19 or above ~1e19) still
-    // has a direction. Zero, NaN and infinite directions give an empty sample.
-    let scale = ray.dir.abs().max_element();
-    if !is_positive_finite(scale) || !ray.dir.is_finite() || !ray.origin.is_finite() {
-        return sample;
+    match start_path(scene, lights, ray) {
+        PathStart::Done(sample) => sample,
+        PathStart::Trace { ray, skipped } => {
+            let first = scene.closest_hit(&ray, f32::INFINITY);
+            finish_path(scene, lights, settings, ray, skipped, first, rng)
+        }
     }
-    let dir = if (ray.dir.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
-        ray.dir
-    } else {
-        (ray.dir / scale).normalize_or_zero()
-    };
-    if dir == Vec3::ZERO || !dir.is_finite() {
-        return sample;
-    }
+}
+
+/// The rest of a path that [`start_path`] began, given what its ray hits first.
+pub fn finish_path(
+    scene: &Scene,
+    lights: &Lights,
+    settings: &TraceSettings,
+    mut ray: Ray,
+    skipped: f64,
+    first_hit: Option<Hit>,
+    rng: &mut Pcg32,
+) -> Sample {
+    let mut sample = Sample::NONE;
     let mut path = Path {
         scene,
         lights,
         radiance: Vec3::ZERO,
         throughput: Vec3::ONE,
     };
-    let (lo, hi) = scene.bounds();
-    let Some((origin, skipped)) = enter_bounds(ray.origin, dir, lo, hi) else {
-        // The ray passes the scene by: only the sky and sun can be seen along it.
-        path.add_environment(dir, None);
-        sample.radiance = finish(path.radiance);
-        return sample;
-    };
-    let mut ray = Ray::new(origin, dir);
     // `None` while the path has only seen delta lobes since its last light sample.
     let mut prev_pdf: Option<f32> = None;
     // Virtual distance so far, while the path is still looking through flat deltas.
     let mut virtual_so_far = Some(0.0f32);
+    let mut first_hit = Some(first_hit);
     for depth in 0..settings.max_depth {
-        let Some(hit) = scene.closest_hit(&ray, f32::INFINITY) else {
+        let hit = match first_hit.take() {
+            Some(first) => first,
+            None => scene.closest_hit(&ray, f32::INFINITY),
+        };
+        let Some(hit) = hit else {
             path.add_environment(ray.dir, prev_pdf);
             break;
         };

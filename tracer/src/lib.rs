@@ -20,11 +20,13 @@ pub mod view;
 
 use std::sync::Arc;
 
+use holocave_scene::bvh::PACKET;
 use holocave_scene::{Ray, Scene};
 use rand::SeedableRng;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
+use crate::integrator::PathStart;
 use crate::lights::Lights;
 
 /// What the tracer answers for one ray.
@@ -38,6 +40,20 @@ pub struct Sample {
     /// flat glass (the holodeck paper's `VDISTANCE`); infinite if the path escapes first.
     pub virtual_distance: f32,
 }
+
+impl Sample {
+    /// The sample of a ray that cannot be traced (zero, NaN or infinite direction or
+    /// origin): no radiance, nothing hit.
+    pub const NONE: Sample = Sample {
+        radiance: [0.0; 3],
+        distance: f32::INFINITY,
+        virtual_distance: f32::INFINITY,
+    };
+}
+
+/// Rays whose first hits are found together: a few packets, small enough to spread over
+/// the threads.
+const BATCH: usize = 4 * PACKET;
 
 /// Path length limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,20 +104,60 @@ impl Tracer {
     }
 
     /// One sample per ray, on all cores. The result depends only on the rays and `seed`.
+    /// Rays next to each other should be coherent (neighbouring pixels, one beam): their
+    /// first hits are found together (see [`Scene::closest_hits`]).
     pub fn trace(&self, rays: &[Ray], seed: u64) -> Vec<Sample> {
-        rays.par_iter()
+        let mut out = vec![Sample::NONE; rays.len()];
+        out.par_chunks_mut(BATCH)
+            .zip(rays.par_chunks(BATCH))
             .enumerate()
-            .with_min_len(64)
-            .map(|(i, r)| self.trace_one(r, seed, i as u64))
-            .collect()
+            .for_each(|(c, (out, rays))| self.trace_batch(rays, seed, c * BATCH, out));
+        out
     }
 
     /// As [`Tracer::trace`], on the calling thread only (for workers that own a core).
     pub fn trace_serial(&self, rays: &[Ray], seed: u64) -> Vec<Sample> {
-        rays.iter()
-            .enumerate()
-            .map(|(i, r)| self.trace_one(r, seed, i as u64))
-            .collect()
+        let mut out = vec![Sample::NONE; rays.len()];
+        for (c, (out, rays)) in out.chunks_mut(BATCH).zip(rays.chunks(BATCH)).enumerate() {
+            self.trace_batch(rays, seed, c * BATCH, out);
+        }
+        out
+    }
+
+    /// Rays `first..` of a batch traced with `seed`: the first hits of the rays that reach
+    /// the scene found in packets, then each path on its own.
+    fn trace_batch(&self, rays: &[Ray], seed: u64, first: usize, out: &mut [Sample]) {
+        let (scene, lights) = (&*self.scene, &self.lights);
+        let starts: Vec<PathStart> = rays
+            .iter()
+            .map(|r| integrator::start_path(scene, lights, r))
+            .collect();
+        let entering: Vec<Ray> = starts
+            .iter()
+            .filter_map(|s| match s {
+                PathStart::Trace { ray, .. } => Some(*ray),
+                PathStart::Done(_) => None,
+            })
+            .collect();
+        let mut first_hits = scene.closest_hits(&entering, f32::INFINITY).into_iter();
+        for (i, (start, out)) in starts.into_iter().zip(out).enumerate() {
+            *out = match start {
+                PathStart::Done(sample) => sample,
+                PathStart::Trace { ray, skipped } => {
+                    let hit = first_hits.next().flatten();
+                    let mut rng = ray_rng(seed, (first + i) as u64);
+                    integrator::finish_path(
+                        scene,
+                        lights,
+                        &self.settings,
+                        ray,
+                        skipped,
+                        hit,
+                        &mut rng,
+                    )
+                }
+            };
+        }
     }
 
     /// The sample of ray `index` of a batch traced with `seed`.

@@ -19,6 +19,14 @@ use crate::ray::{Hit, Ray};
 /// Rays per packet.
 pub const PACKET: usize = 16;
 const GROUPS: usize = PACKET / 4;
+/// The fewest rays worth a shared walk.
+const MIN_SHARED: usize = 4;
+/// The widest angle (radians) between a packet's directions: 16 neighbouring pixels of a
+/// wall at 128 pixels across a 90° view span about 0.05 rad.
+const MAX_SPREAD: f32 = 0.1;
+/// How far apart (relative to the scene's size) a packet's origins may be: a holodeck
+/// beam's rays start within one cell, about a tenth of the section.
+const MAX_APART: f32 = 0.1;
 
 /// Four rays in structure-of-arrays form, with the closest hit each has found so far.
 #[derive(Clone, Copy)]
@@ -134,6 +142,30 @@ impl Bvh {
         out
     }
 
+    /// Whether rays are close enough to share a walk: at least [`MIN_SHARED`] of them,
+    /// directions within [`MAX_SPREAD`] of the first's, origins within [`MAX_APART`] of
+    /// the scene's size of the first's. A packet of scattered rays enters nearly every
+    /// node one of them enters, so each ray is walked alone instead.
+    fn coherent(&self, mut rays: impl ExactSizeIterator<Item = (Vec3A, Vec3A)>) -> bool {
+        if rays.len() < MIN_SHARED {
+            return false;
+        }
+        let Some((o, d)) = rays.next() else {
+            return false;
+        };
+        // Squared forms, to spare square roots: cos² of the angle against cos² of the
+        // spread, the squared distance against the squared allowance.
+        let cos2 = MAX_SPREAD.cos().powi(2);
+        let apart2 = (MAX_APART * self.size).powi(2);
+        let d2 = d.length_squared();
+        rays.all(|(oi, di)| {
+            let dot = di.dot(d);
+            dot > 0.0
+                && dot * dot >= cos2 * d2 * di.length_squared()
+                && oi.distance_squared(o) <= apart2
+        })
+    }
+
     /// One packet: its rays split by direction octant, each octant walked once.
     fn closest_hits_of_packet(&self, rays: &[Ray], tmax: f32, out: &mut [Option<Hit>]) {
         let mut origin = [Vec3A::ZERO; PACKET];
@@ -163,8 +195,10 @@ impl Bvh {
                 }
             }
             let members = &members[..n];
-            if n == 1 {
-                out[lead] = self.closest_hit(&rays[lead], tmax);
+            if !self.coherent(members.iter().map(|&i| (origin[i], dir[i]))) {
+                for &i in members {
+                    out[i] = self.closest_hit(&rays[i], tmax);
+                }
                 continue;
             }
             let mut groups = [RayGroup::UNUSED; GROUPS];

@@ -108,8 +108,6 @@ pub(super) struct IntervalRay {
     /// Per axis: the inverse direction of smallest and of largest magnitude (same sign).
     inv_small: [Vec4; 3],
     inv_large: [Vec4; 3],
-    /// Per axis, ±1: the direction's sign.
-    sign: [Vec4; 3],
     near: [usize; 3],
     far: [usize; 3],
 }
@@ -157,11 +155,6 @@ impl IntervalRay {
                 signed(0, inv_large),
                 signed(1, inv_large),
                 signed(2, inv_large),
-            ],
-            sign: [
-                Vec4::splat(sign(0)),
-                Vec4::splat(sign(1)),
-                Vec4::splat(sign(2)),
             ],
             near: [near(0), near(1), near(2)],
             far: [(near(0) + 3) % 6, (near(1) + 3) % 6, (near(2) + 3) % 6],
@@ -212,7 +205,7 @@ impl WideNode {
     }
 
     /// The box around all eight children.
-    fn bounds(&self) -> (Vec3A, Vec3A) {
+    pub fn bounds(&self) -> (Vec3A, Vec3A) {
         let mut min = Vec3A::INFINITY;
         let mut max = Vec3A::NEG_INFINITY;
         for axis in 0..3 {
@@ -257,17 +250,15 @@ impl WideNode {
         let mut mask = 0;
         let mut entry = [0.0; 8];
         for half in 0..2 {
-            // The smallest entry distance: a positive distance shrinks with the smaller
-            // |1/d|, a negative one with the larger.
+            // For a fixed offset to the plane the distance is monotonic in the inverse
+            // direction, so its extremes over the bundle lie at the two ends.
             let entry_at = |axis: usize| {
                 let d = self.planes[ray.near[axis]][half] - ray.origin_near[axis];
-                let ahead = (d * ray.sign[axis]).cmpge(Vec4::ZERO);
-                d * Vec4::select(ahead, ray.inv_small[axis], ray.inv_large[axis])
+                (d * ray.inv_small[axis]).min(d * ray.inv_large[axis])
             };
             let exit_at = |axis: usize| {
                 let d = self.planes[ray.far[axis]][half] - ray.origin_far[axis];
-                let ahead = (d * ray.sign[axis]).cmpge(Vec4::ZERO);
-                d * Vec4::select(ahead, ray.inv_large[axis], ray.inv_small[axis])
+                (d * ray.inv_small[axis]).max(d * ray.inv_large[axis])
             };
             let t_near = entry_at(0)
                 .max(entry_at(1))
