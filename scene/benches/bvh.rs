@@ -1,6 +1,7 @@
 //! BVH benchmarks on one core: build time, and closest-hit throughput for primary rays
 //! (a pinhole camera at the scene's first glTF camera, 256 × 256 rays through the pixel
-//! centres, traced one after another on the calling thread).
+//! centres, traced one after another on the calling thread; and the same traced in packets
+//! of 4 × 4 pixels, at 256 × 256 and at a wall's 1024 × 1024).
 //!
 //! Scenes: the project's Cornell box (`scenes/cornell.gltf`) and Sponza from the shared
 //! scenes beside the checkout (`../shared/scenes/sponza/Sponza.gltf`), which is skipped
@@ -17,8 +18,10 @@ use glam::Vec3;
 use holocave_scene::bvh::Bvh;
 use holocave_scene::{LoadOptions, Ray, Scene};
 
-const WIDTH: u32 = 256;
-const HEIGHT: u32 = 256;
+/// The image the primary rays go through (square): the figure comparable with earlier
+/// measurements, and a wall's resolution, where neighbouring rays are more alike.
+const SIZE: u32 = 256;
+const WALL_SIZE: u32 = 1024;
 
 fn scenes() -> Vec<(&'static str, Scene)> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -43,16 +46,16 @@ fn scenes() -> Vec<(&'static str, Scene)> {
     out
 }
 
-/// Primary rays through the pixel centres of the scene's first camera (row by row, as a
-/// renderer would issue them).
-fn primary_rays(scene: &Scene) -> Option<Vec<Ray>> {
+/// Primary rays through the pixel centres of the scene's first camera, `size` × `size`
+/// (row by row, as a renderer would issue them).
+fn primary_rays(scene: &Scene, size: u32) -> Option<Vec<Ray>> {
     let cam = scene.cameras.first()?;
-    let [pa, pb, pc] = cam.screen(WIDTH as f32 / HEIGHT as f32);
-    let mut rays = Vec::with_capacity((WIDTH * HEIGHT) as usize);
-    for y in 0..HEIGHT {
-        for x in 0..WIDTH {
-            let s = (x as f32 + 0.5) / WIDTH as f32;
-            let t = 1.0 - (y as f32 + 0.5) / HEIGHT as f32;
+    let [pa, pb, pc] = cam.screen(1.0);
+    let mut rays = Vec::with_capacity((size * size) as usize);
+    for y in 0..size {
+        for x in 0..size {
+            let s = (x as f32 + 0.5) / size as f32;
+            let t = 1.0 - (y as f32 + 0.5) / size as f32;
             let p = pa + (pb - pa) * s + (pc - pa) * t;
             rays.push(Ray::new(cam.position, (p - cam.position).normalize()));
         }
@@ -60,16 +63,16 @@ fn primary_rays(scene: &Scene) -> Option<Vec<Ray>> {
     Some(rays)
 }
 
-/// The same rays reordered into 4 × 4 pixel tiles, so that each packet of sixteen
-/// consecutive rays covers one tile.
-fn in_tiles(rays: &[Ray]) -> Vec<Ray> {
-    let mut out = Vec::with_capacity(rays.len());
+/// The same rays reordered into tiles four pixels wide and a packet's worth of pixels in
+/// all, so that each packet of consecutive rays covers one tile.
+fn in_tiles(rays: &[Ray], size: u32) -> Vec<Ray> {
     let tall = holocave_scene::bvh::PACKET as u32 / 4;
-    for ty in (0..HEIGHT).step_by(tall as usize) {
-        for tx in (0..WIDTH).step_by(4) {
+    let mut out = Vec::with_capacity(rays.len());
+    for ty in (0..size).step_by(tall as usize) {
+        for tx in (0..size).step_by(4) {
             for y in ty..ty + tall {
                 for x in tx..tx + 4 {
-                    out.push(rays[(y * WIDTH + x) as usize]);
+                    out.push(rays[(y * size + x) as usize]);
                 }
             }
         }
@@ -95,7 +98,7 @@ fn bvh(c: &mut Criterion) {
 
     let mut closest = c.benchmark_group("closest_hit_primary");
     for (name, scene) in &scenes {
-        let Some(rays) = primary_rays(scene) else {
+        let Some(rays) = primary_rays(scene, SIZE) else {
             eprintln!("bvh bench: {name} has no camera; skipping its primary rays");
             continue;
         };
@@ -126,23 +129,26 @@ fn bvh(c: &mut Criterion) {
 
     let mut packets = c.benchmark_group("closest_hit_primary_packets");
     for (name, scene) in &scenes {
-        let Some(rays) = primary_rays(scene) else {
-            continue;
-        };
-        let rays = in_tiles(&rays);
-        packets.throughput(Throughput::Elements(rays.len() as u64));
-        packets.bench_with_input(BenchmarkId::from_parameter(name), &rays, |b, rays| {
-            b.iter(|| {
-                let hits = scene.closest_hits(rays, f32::INFINITY);
-                black_box(hits.iter().flatten().map(|h| h.t).sum::<f32>())
-            })
-        });
+        for (size, label) in [(SIZE, *name), (WALL_SIZE, &format!("{name}_{WALL_SIZE}"))] {
+            let Some(rays) = primary_rays(scene, size) else {
+                continue;
+            };
+            let rays = in_tiles(&rays, size);
+            packets.throughput(Throughput::Elements(rays.len() as u64));
+            packets.sample_size(if size == SIZE { 100 } else { 10 });
+            packets.bench_with_input(BenchmarkId::from_parameter(label), &rays, |b, rays| {
+                b.iter(|| {
+                    let hits = scene.closest_hits(rays, f32::INFINITY);
+                    black_box(hits.iter().flatten().map(|h| h.t).sum::<f32>())
+                })
+            });
+        }
     }
     packets.finish();
 
     let mut occluded = c.benchmark_group("occluded_primary");
     for (name, scene) in &scenes {
-        let Some(rays) = primary_rays(scene) else {
+        let Some(rays) = primary_rays(scene, SIZE) else {
             continue;
         };
         occluded.throughput(Throughput::Elements(rays.len() as u64));
