@@ -4,12 +4,14 @@
 //! Juggler's software swap lock): p99 ≤ 100 µs.
 //!
 //! `cargo bench -p holocave-master --bench barrier` prints p50 and p99 over 3000 frames,
-//! then criterion's mean per frame.
+//! then criterion's mean per frame. It first prints the floor: the same exchange as raw
+//! 64-byte TCP messages, with no master, protocol or decoding.
 
+use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use holocave_master::cluster::{MasterOptions, Summary, quantile, run};
@@ -98,7 +100,51 @@ fn cluster(frames: u64) -> Summary {
     summary
 }
 
+/// The floor under the barrier on this machine: the same exchange with no protocol at
+/// all (64 bytes out to four echo threads and back, blocking sockets), one frame period
+/// apart as in the master's loop. On a virtual machine most of this is waking idle vCPUs;
+/// back to back the same exchange is several times faster.
+fn raw_round_trips(frames: usize, period: Duration) -> Vec<Duration> {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    for _ in 0..4 {
+        std::thread::spawn(move || {
+            let mut s = TcpStream::connect(addr).unwrap();
+            s.set_nodelay(true).unwrap();
+            let mut b = [0u8; 64];
+            while s.read_exact(&mut b).is_ok() && s.write_all(&b).is_ok() {}
+        });
+    }
+    let mut nodes: Vec<TcpStream> = (0..4)
+        .map(|_| {
+            let (s, _) = listener.accept().unwrap();
+            s.set_nodelay(true).unwrap();
+            s
+        })
+        .collect();
+    let mut b = [1u8; 64];
+    (0..frames)
+        .map(|_| {
+            std::thread::sleep(period);
+            let start = Instant::now();
+            for n in &mut nodes {
+                n.write_all(&b).unwrap();
+            }
+            for n in &mut nodes {
+                n.read_exact(&mut b).unwrap();
+            }
+            start.elapsed()
+        })
+        .collect()
+}
+
 fn barrier(c: &mut Criterion) {
+    let raw = raw_round_trips(3000, cave().frame_period());
+    println!(
+        "raw TCP round trip (no protocol), 4 echo threads, one frame period apart: p50 {:.1} µs, p99 {:.1} µs",
+        quantile(&raw, 0.5).as_secs_f64() * 1e6,
+        quantile(&raw, 0.99).as_secs_f64() * 1e6,
+    );
     let s = cluster(3000);
     let b = &s.barrier[WARM_UP..];
     println!(
