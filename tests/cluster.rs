@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use holocave_cave::{CaveFrusta, load_cave};
 use holocave_master::frame_state::{FrameTimes, frame_state};
-use holocave_master::{CaveFrusta, load_cave};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
 use holocave_protocol::frame::{read_frame, write_frame};
 use holocave_protocol::handshake::{self, Welcome};

@@ -9,8 +9,8 @@ use std::process::Command;
 use std::sync::Arc;
 
 use glam::{Quat, Vec3};
-use holocave_master::frustum::{Eye, eye_position};
-use holocave_master::load_cave;
+use holocave_cave::load_cave;
+use holocave_cave::{Eye, eye_position};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
 use holocave_tracer::view::WallView;

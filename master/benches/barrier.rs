@@ -14,9 +14,9 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use holocave_cave::{Cave, parse_cave};
 use holocave_master::cluster::{MasterOptions, Summary, quantile, run};
 use holocave_master::head::{Clock, Head};
-use holocave_master::{Cave, parse_cave};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats};
 use holocave_protocol::frame::{read_frame, write_frame};
 use holocave_protocol::handshake::{Role, connect};

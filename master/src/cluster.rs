@@ -24,11 +24,11 @@ use tokio::net::tcp::OwnedWriteHalf;
 use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
 use tokio::time::timeout_at;
 
-use crate::Cave;
 use crate::barrier::{Barrier, NodeId};
 use crate::frame_state::{FrameTimes, frame_state};
-use crate::frustum::CaveFrusta;
 use crate::head::{Clock, Head};
+use holocave_cave::Cave;
+use holocave_cave::CaveFrusta;
 
 /// How long a peer has for the whole handshake.
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(2);

@@ -4,8 +4,8 @@
 use holocave_protocol::cluster::{EyeState, FrameState, WallState, WireEye, WirePose};
 use holocave_tracking::Pose;
 
-use crate::Cave;
-use crate::frustum::{CaveFrusta, Eye};
+use holocave_cave::Cave;
+use holocave_cave::{CaveFrusta, Eye};
 
 /// Times of a frame on the master's clock (ns).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,7 +47,6 @@ pub fn frame_state(
         .zip(&frusta.walls)
         .map(|(wall, views)| WallState {
             wall: wall.name.clone(),
-            holding: views.holding,
             eyes: views
                 .eyes
                 .iter()

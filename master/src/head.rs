@@ -16,7 +16,7 @@ use holocave_tracking::predict::PredictorKind;
 use holocave_tracking::source::{Next, Pacing, SourceError, SourceSpec, TrackerSource, open};
 use holocave_tracking::{HeadTracker, Pose, Sample};
 
-use crate::Cave;
+use holocave_cave::Cave;
 
 /// Fastest plausible head motion (m/s); a prediction further from its newest sample than
 /// this allows for the look-ahead is discarded.
@@ -197,7 +197,7 @@ pub fn to_scene(cave: &Cave, p: DVec3) -> DVec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::parse_cave;
+    use holocave_cave::parse_cave;
 
     fn cave(source: &str) -> Cave {
         let text = std::fs::read_to_string(concat!(

@@ -46,8 +46,6 @@ pub struct EyeState {
 pub struct WallState {
     pub wall: String,
     pub eyes: Vec<EyeState>,
-    /// True while the wall shows views held from an earlier pose (a tracking fault).
-    pub holding: bool,
 }
 
 /// Everything a node needs to draw one frame.

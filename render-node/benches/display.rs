@@ -15,7 +15,7 @@ fn views(w: u32, h: u32) -> Vec<EyeView> {
     [-0.032f32, 0.032]
         .iter()
         .map(|&dx| {
-            EyeView::kooima(
+            EyeView::looking_at(
                 WallView {
                     eye: Vec3::new(dx, 1.5, 0.0),
                     pa: Vec3::new(-1.5, 0.0, -1.5),
@@ -26,6 +26,7 @@ fn views(w: u32, h: u32) -> Vec<EyeView> {
                 },
                 0.05,
             )
+            .expect("the eye is in front of the wall")
         })
         .collect()
 }

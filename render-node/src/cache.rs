@@ -242,6 +242,19 @@ impl<'a> Recorder<'a> {
 }
 
 impl RenderCache {
+    /// The cache a wall's node uses: `eyes` images of `size`, room for every pixel of every
+    /// eye and a quarter more (points off screen survive a head turn), and up to twice the
+    /// `samples` an eye asks for per frame chosen.
+    pub fn for_wall(gpu: Gpu, size: (u32, u32), eyes: usize, samples: u32) -> RenderCache {
+        let capacity = size.0 * size.1 * eyes as u32 * 5 / 4;
+        RenderCache::new(gpu, &vec![size; eyes], capacity, samples.saturating_mul(2))
+    }
+
+    /// Samples an eye asks for per frame unless told: a sixteenth of its pixels.
+    pub fn default_samples(size: (u32, u32)) -> u32 {
+        (size.0 * size.1 / 16).max(1)
+    }
+
     /// A cache of `capacity` points (rounded up to whole groups) for eyes of the given
     /// sizes; at most `max_chosen` pixels are chosen per eye and frame.
     pub fn new(gpu: Gpu, eyes: &[(u32, u32)], capacity: u32, max_chosen: u32) -> RenderCache {

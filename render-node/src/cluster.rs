@@ -6,12 +6,11 @@ use std::net::TcpStream;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError, channel};
 use std::time::{Duration, Instant};
 
-use glam::{DMat4, DVec3};
-use holocave_master::Wall;
+use glam::DMat4;
+use holocave_cave::Wall;
 use holocave_protocol::cluster::{FrameState, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats};
 use holocave_protocol::frame::{read_frame, write_frame};
 use holocave_protocol::handshake::{self, Role, Welcome};
-use holocave_tracer::view::WallView;
 
 use crate::{DisplayProcess, EyeView};
 
@@ -125,23 +124,10 @@ impl MasterLink {
 pub fn eye_views(state: &FrameState, wall: &Wall, size: (u32, u32)) -> Option<Vec<EyeView>> {
     let w = state.wall(&wall.name)?;
     let nav = DMat4::from_cols_array(&state.navigation);
-    let scene = |p: DVec3| nav.transform_point3(p).as_vec3();
     Some(
         w.eyes
             .iter()
-            .map(|e| EyeView {
-                view_proj: (DMat4::from_cols_array(&e.proj) * DMat4::from_cols_array(&e.view))
-                    .as_mat4(),
-                near: e.near as f32,
-                wall: WallView {
-                    eye: DVec3::from_array(e.position).as_vec3(),
-                    pa: scene(wall.pa),
-                    pb: scene(wall.pb),
-                    pc: scene(wall.pc),
-                    width: size.0,
-                    height: size.1,
-                },
-            })
+            .map(|e| EyeView::from_state(e, wall, &nav, size))
             .collect(),
     )
 }

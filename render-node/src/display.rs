@@ -8,7 +8,7 @@ use holocave_tracer::film::Image;
 
 use crate::cache::{RenderCache, StepTimes};
 use crate::holodeck::HolodeckSource;
-use crate::source::{TracerSource, TracerThread};
+use crate::source::{PixelTracer, TracerThread};
 use crate::{EyeView, RenderNodeError};
 
 /// What one frame did.
@@ -31,7 +31,7 @@ pub struct FrameReport {
 /// Where a display process gets its samples.
 pub enum Sampler {
     /// Traced between frames, on the display's thread (deterministic).
-    Inline(TracerSource),
+    Inline(PixelTracer),
     /// Traced on a thread of its own: frames never wait for rays.
     Thread(TracerThread),
     /// Asked of a holodeck server (in this process or over TCP): frames hand over their
@@ -56,7 +56,7 @@ impl DisplayProcess {
     }
 
     /// Traces between frames (synchronous, deterministic).
-    pub fn new(cache: RenderCache, source: TracerSource, samples_per_eye: u32) -> Self {
+    pub fn new(cache: RenderCache, source: PixelTracer, samples_per_eye: u32) -> Self {
         DisplayProcess {
             cache,
             sampler: Sampler::Inline(source),
@@ -67,7 +67,7 @@ impl DisplayProcess {
 
     /// Traces on a thread of its own; each eye has at most one batch in flight, and a
     /// frame inserts whatever has arrived.
-    pub fn threaded(cache: RenderCache, source: TracerSource, samples_per_eye: u32) -> Self {
+    pub fn threaded(cache: RenderCache, source: PixelTracer, samples_per_eye: u32) -> Self {
         let eyes = cache.eye_count();
         DisplayProcess {
             cache,

@@ -1,4 +1,4 @@
-//! The render node's display process (issue 5): a render cache on the GPU (Walter,
+//! The render node's display process: a render cache on the GPU (Walter,
 //! Drettakis & Parker, `papers/render-cache.md`) over path-traced samples, in stereo.
 //!
 //! - [`gpu`]: the wgpu device (any adapter, Mesa's software ones included) and helpers;
@@ -9,15 +9,19 @@
 //! - [`tonemap`]: Ward Larson's histogram adjustment (camera and human modes), at display;
 //! - [`display`]: one frame of the display process for all eyes, and its output files;
 //! - [`cluster`]: the node's link to the master and the frame cycle (ready, swap);
+//! - [`cluster_node`]: joining, reconnecting, and the display for the named holodeck;
+//! - [`standalone`]: one wall by itself, on its own clock and head poses;
 //! - [`mosaic`]: the unfolded CAVE as one picture.
 
 pub mod cache;
 pub mod cluster;
+pub mod cluster_node;
 pub mod display;
 pub mod gpu;
 pub mod holodeck;
 pub mod mosaic;
 pub mod source;
+pub mod standalone;
 pub mod tonemap;
 pub mod view;
 
@@ -25,7 +29,7 @@ pub use cache::{NewSample, RenderCache, StepTimes};
 pub use display::{DisplayProcess, FrameReport, Sampler};
 pub use gpu::Gpu;
 pub use holodeck::{HolodeckOptions, HolodeckSource};
-pub use source::{TracerSource, TracerThread};
+pub use source::{PixelTracer, TracerThread};
 pub use tonemap::{ToneMapper, ToneMode};
 pub use view::EyeView;
 

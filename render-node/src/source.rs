@@ -1,6 +1,6 @@
-//! Where samples come from: the chosen pixels of an eye become jittered eye rays, traced
-//! by the path tracer, and come back as [`NewSample`]s. (The holodeck server is the other
-//! intended source; see the crate's notes.)
+//! Samples traced by the node itself: the chosen pixels of an eye become jittered eye
+//! rays, traced by the path tracer, and come back as [`NewSample`]s. (The other source is
+//! a holodeck server: [`crate::holodeck`].)
 
 use std::sync::Arc;
 
@@ -17,15 +17,15 @@ use crate::cache::{BACKGROUND, NewSample};
 pub const BACKGROUND_DISTANCE: f32 = 1000.0;
 
 /// Traces the pixels an eye asks for, on the calling thread pool.
-pub struct TracerSource {
+pub struct PixelTracer {
     tracer: Arc<Tracer>,
     rng: SmallRng,
     seed: u64,
 }
 
-impl TracerSource {
+impl PixelTracer {
     pub fn new(tracer: Arc<Tracer>, seed: u64) -> Self {
-        TracerSource {
+        PixelTracer {
             tracer,
             rng: SmallRng::seed_from_u64(seed),
             seed,
@@ -76,7 +76,7 @@ impl TracerSource {
 
 type Job = (usize, EyeView, Vec<u32>);
 
-/// A [`TracerSource`] on its own thread, so that the display never waits for rays: each
+/// A [`PixelTracer`] on its own thread, so that the display never waits for rays: each
 /// eye has at most one batch in flight; finished batches are collected without blocking.
 pub struct TracerThread {
     jobs: Option<std::sync::mpsc::Sender<Job>>,
@@ -86,7 +86,7 @@ pub struct TracerThread {
 }
 
 impl TracerThread {
-    pub fn spawn(mut source: TracerSource, eyes: usize) -> TracerThread {
+    pub fn spawn(mut source: PixelTracer, eyes: usize) -> TracerThread {
         let (jobs, job_rx) = std::sync::mpsc::channel::<Job>();
         let (done_tx, done) = std::sync::mpsc::channel();
         let handle = std::thread::Builder::new()

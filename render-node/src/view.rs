@@ -1,7 +1,10 @@
 //! One eye's view of one wall: the matrix that projects points into its image and the
-//! wall view that turns its pixels into rays (both in scene coordinates).
+//! wall view that turns its pixels into rays (both in scene coordinates). The projection
+//! is always the CAVE's (`holocave_cave::frustum`); this only carries it to the GPU.
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{DMat4, DVec3, Mat4, Vec3};
+use holocave_cave::{Frustum, FrustumFault, Wall, config::StereoMode, off_axis};
+use holocave_protocol::cluster::EyeState;
 use holocave_tracer::view::WallView;
 
 /// What the render cache needs to draw one eye.
@@ -16,37 +19,55 @@ pub struct EyeView {
 }
 
 impl EyeView {
-    /// Kooima's off-axis projection for `wall` (reversed Z, infinite far plane, as in
-    /// `holocave_master::frustum`). The master's matrices may be used instead: they agree.
-    pub fn kooima(wall: WallView, near: f32) -> EyeView {
-        let right = (wall.pb - wall.pa).normalize();
-        let up = (wall.pc - wall.pa).normalize();
-        let normal = right.cross(up).normalize();
-        let eye = wall.eye;
-        let d = (eye - wall.pa).dot(normal);
-        let (va, vb, vc) = (wall.pa - eye, wall.pb - eye, wall.pc - eye);
-        let (l, r) = (right.dot(va), right.dot(vb));
-        let (b, t) = (up.dot(va), up.dot(vc));
-        let (w, h) = (r - l, t - b);
-        let proj = Mat4::from_cols(
-            Vec4::new(2.0 * d / w, 0.0, 0.0, 0.0),
-            Vec4::new(0.0, 2.0 * d / h, 0.0, 0.0),
-            Vec4::new((r + l) / w, (t + b) / h, 0.0, -1.0),
-            Vec4::new(0.0, 0.0, near, 0.0),
-        );
-        let basis = Mat4::from_cols(
-            right.extend(0.0),
-            up.extend(0.0),
-            normal.extend(0.0),
-            Vec4::W,
-        )
-        .transpose();
-        let view = basis * Mat4::from_translation(-eye);
+    /// The view of `wall` through an eye's frustum, with the room placed in the scene by
+    /// `room_to_scene`, drawn at `size` pixels.
+    pub fn new(frustum: &Frustum, wall: &Wall, room_to_scene: &DMat4, size: (u32, u32)) -> Self {
         EyeView {
-            view_proj: proj * view,
-            near,
-            wall,
+            view_proj: frustum.view_proj().as_mat4(),
+            near: frustum.near as f32,
+            wall: wall_view(
+                wall,
+                room_to_scene,
+                room_to_scene.transform_point3(frustum.eye),
+                size,
+            ),
         }
+    }
+
+    /// The view of `wall` as a frame state sends it (matrices already made by the master,
+    /// the eye in scene coordinates, the room placed by `navigation`).
+    pub fn from_state(eye: &EyeState, wall: &Wall, navigation: &DMat4, size: (u32, u32)) -> Self {
+        EyeView {
+            view_proj: (DMat4::from_cols_array(&eye.proj) * DMat4::from_cols_array(&eye.view))
+                .as_mat4(),
+            near: eye.near as f32,
+            wall: wall_view(wall, navigation, DVec3::from_array(eye.position), size),
+        }
+    }
+
+    /// The view from `wall.eye` of a wall whose corners are given directly in scene
+    /// coordinates (a tool's or a test's screen, no room): the CAVE's frustum with the
+    /// near plane at most `near`.
+    pub fn looking_at(wall: WallView, near: f32) -> Result<Self, FrustumFault> {
+        let screen = Wall::new(
+            "screen",
+            [wall.pa, wall.pb, wall.pc].map(Vec3::as_dvec3),
+            [wall.width, wall.height],
+            StereoMode::Mono,
+            "",
+        );
+        let f = off_axis(
+            &screen,
+            wall.eye.as_dvec3(),
+            f64::from(near),
+            &DMat4::IDENTITY,
+        )?;
+        Ok(EyeView::new(
+            &f,
+            &screen,
+            &DMat4::IDENTITY,
+            (wall.width, wall.height),
+        ))
     }
 
     pub fn eye(&self) -> Vec3 {
@@ -68,6 +89,19 @@ impl EyeView {
     }
 }
 
+/// The pixel rays of `wall` seen from `eye` (scene coordinates).
+fn wall_view(wall: &Wall, room_to_scene: &DMat4, eye: DVec3, size: (u32, u32)) -> WallView {
+    let scene = |p: DVec3| room_to_scene.transform_point3(p).as_vec3();
+    WallView {
+        eye: eye.as_vec3(),
+        pa: scene(wall.pa),
+        pb: scene(wall.pb),
+        pc: scene(wall.pc),
+        width: size.0,
+        height: size.1,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -83,7 +117,7 @@ mod tests {
             width: 64,
             height: 48,
         };
-        let v = EyeView::kooima(wall, 0.05);
+        let v = EyeView::looking_at(wall, 0.05).unwrap();
         for &(x, y) in &[(0.5, 0.5), (10.25, 30.75), (63.5, 47.5), (32.0, 24.0)] {
             let r = wall.ray(Vec2::new(x, y));
             let p = r.at(2.7);

@@ -8,7 +8,7 @@ const W: u32 = 8;
 const H: u32 = 8;
 
 fn view(eye: Vec3) -> EyeView {
-    EyeView::kooima(
+    EyeView::looking_at(
         WallView {
             eye,
             pa: Vec3::new(-1.0, 0.0, -1.0),
@@ -19,6 +19,7 @@ fn view(eye: Vec3) -> EyeView {
         },
         0.05,
     )
+    .expect("the eye is in front of the wall")
 }
 
 fn cache(capacity: u32) -> RenderCache {
@@ -173,14 +174,15 @@ fn dithering_chooses_about_the_budget_and_empty_pixels_first() {
     let v = view(Vec3::new(0.0, 1.0, 1.0));
     let gpu = Gpu::new().expect("a wgpu adapter");
     let mut c = RenderCache::new(gpu, &[(64, 64)], 8192, 4096);
-    let v64 = EyeView::kooima(
+    let v64 = EyeView::looking_at(
         WallView {
             width: 64,
             height: 64,
             ..v.wall
         },
         0.05,
-    );
+    )
+    .expect("the eye is in front of the wall");
     let chosen = c
         .draw(&[v64], &[500], false, &mut StepTimes::default())
         .remove(0);

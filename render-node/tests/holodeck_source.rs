@@ -48,7 +48,7 @@ impl SampleSource for Plane {
 const SIZE: u32 = 24;
 
 fn eye_view(eye: Vec3) -> EyeView {
-    EyeView::kooima(
+    EyeView::looking_at(
         WallView {
             eye,
             pa: Vec3::new(-1.0, -1.0, -1.0),
@@ -59,6 +59,7 @@ fn eye_view(eye: Vec3) -> EyeView {
         },
         0.05,
     )
+    .expect("the eye is in front of the wall")
 }
 
 #[test]

@@ -10,7 +10,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, RenderCache, TracerSource};
+use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
 use holocave_tracer::view::WallView;
@@ -51,7 +51,7 @@ fn moving_viewer_follows_a_recorded_trace() {
     let n = SIZE * SIZE;
     let budget = n / 16;
     let cache = RenderCache::new(gpu, &[(SIZE, SIZE), (SIZE, SIZE)], 2 * n * 5 / 4, budget);
-    let mut display = DisplayProcess::new(cache, TracerSource::new(tracer.clone(), 3), budget);
+    let mut display = DisplayProcess::new(cache, PixelTracer::new(tracer.clone(), 3), budget);
 
     let mut next = 0usize;
     let mut worst = Duration::ZERO;
@@ -72,7 +72,7 @@ fn moving_viewer_follows_a_recorded_trace() {
             .iter()
             .map(|s| {
                 let eye = head + pose.orientation * Vec3::new(s * IPD, 0.0, 0.0);
-                EyeView::kooima(wall(eye), 0.05)
+                EyeView::looking_at(wall(eye), 0.05).unwrap()
             })
             .collect();
         let start = Instant::now();

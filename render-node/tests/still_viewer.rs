@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, RenderCache, TracerSource};
+use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
@@ -41,8 +41,8 @@ fn still_viewer_converges_to_the_path_traced_reference() {
     eprintln!("adapter: {}", gpu.adapter);
     let n = SIZE * SIZE;
     let cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n + n / 4, n);
-    let mut display = DisplayProcess::new(cache, TracerSource::new(tracer, 1), n);
-    let view = EyeView::kooima(wall, 0.05);
+    let mut display = DisplayProcess::new(cache, PixelTracer::new(tracer, 1), n);
+    let view = EyeView::looking_at(wall, 0.05).unwrap();
 
     let start = Instant::now();
     let mut frame = 0u32;

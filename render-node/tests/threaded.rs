@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, RenderCache, Sampler, TracerSource};
+use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache, Sampler};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
@@ -31,11 +31,11 @@ fn frames_do_not_wait_for_the_tracer() {
         width: size,
         height: size,
     };
-    let view = EyeView::kooima(wall, 0.05);
+    let view = EyeView::looking_at(wall, 0.05).unwrap();
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let n = size * size;
     let cache = RenderCache::new(gpu, &[(size, size)], n * 2, n);
-    let mut display = DisplayProcess::threaded(cache, TracerSource::new(tracer, 5), n);
+    let mut display = DisplayProcess::threaded(cache, PixelTracer::new(tracer, 5), n);
 
     let start = Instant::now();
     let (mut frames, mut arrivals) = (0u32, 0u32);

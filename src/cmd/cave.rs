@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::Subcommand;
 use glam::Quat;
-use holocave_master::frustum::eye_position;
-use holocave_master::{CaveFrusta, load_cave};
+use holocave_cave::eye_position;
+use holocave_cave::{CaveFrusta, load_cave};
 use holocave_tracking::Pose;
 
 #[derive(Subcommand)]

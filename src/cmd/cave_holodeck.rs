@@ -10,12 +10,12 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use glam::DVec3;
+use holocave_cave::Cave;
 use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
 use holocave_holodeck::run::{RunOptions, Running, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::SampleSource;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
-use holocave_master::Cave;
 use holocave_scene::empty_box::{Aabb, empty_box};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};

@@ -51,14 +51,14 @@ pub struct ViewArgs {
     #[arg(long, requires = "scene", conflicts_with_all = ["eye", "wall"])]
     pub camera: Option<String>,
     /// Eye position X,Y,Z in scene metres.
-    #[arg(long, allow_hyphen_values = true)]
-    pub eye: Option<String>,
+    #[arg(long, allow_hyphen_values = true, value_parser = super::parse::vec3)]
+    pub eye: Option<Vec3>,
     /// The screen rectangle "PA;PB;PC": lower-left, lower-right and upper-left corners.
-    #[arg(long, allow_hyphen_values = true)]
-    pub wall: Option<String>,
+    #[arg(long, allow_hyphen_values = true, value_parser = super::parse::wall)]
+    pub wall: Option<[Vec3; 3]>,
     /// Image size WxH in pixels.
-    #[arg(long, default_value = "256x256")]
-    pub size: String,
+    #[arg(long, default_value = "256x256", value_parser = super::parse::size)]
+    pub size: (u32, u32),
     /// Largest angle in degrees between a sample's ray and the eye's line of sight to it.
     #[arg(long, default_value_t = 10.0)]
     pub max_angle: f64,
@@ -74,25 +74,8 @@ pub struct ViewArgs {
     pub reference: Option<PathBuf>,
 }
 
-fn parse_vec3(s: &str) -> anyhow::Result<Vec3> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("{s:?}: expected X,Y,Z"))?;
-    match v[..] {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
-        _ => bail!("{s:?}: expected three finite numbers X,Y,Z"),
-    }
-}
-
 fn view_of(a: &ViewArgs) -> anyhow::Result<View> {
-    let (w, h) = a
-        .size
-        .split_once('x')
-        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
-        .filter(|&(w, h)| w > 0 && h > 0 && u64::from(w) * u64::from(h) <= 1 << 26)
-        .with_context(|| format!("--size {:?}: expected WxH", a.size))?;
+    let (w, h) = a.size;
     let (eye, [pa, pb, pc]) = match (&a.camera, &a.eye, &a.wall) {
         (Some(name), _, _) => {
             let path = a.scene.as_ref().expect("clap requires --scene");
@@ -104,13 +87,7 @@ fn view_of(a: &ViewArgs) -> anyhow::Result<View> {
                 .with_context(|| format!("{} has no camera {name:?}", path.display()))?;
             (cam.position, cam.screen(w as f32 / h as f32))
         }
-        (None, Some(eye), Some(wall)) => {
-            let c: Vec<Vec3> = wall.split(';').map(parse_vec3).collect::<Result<_, _>>()?;
-            let [pa, pb, pc] = c[..] else {
-                bail!("--wall {wall:?}: expected three corners PA;PB;PC");
-            };
-            (parse_vec3(eye)?, [pa, pb, pc])
-        }
+        (None, Some(eye), Some(wall)) => (*eye, *wall),
         _ => bail!("give --eye and --wall, or --scene and --camera"),
     };
     let d = |v: Vec3| -> DVec3 { v.as_dvec3() };

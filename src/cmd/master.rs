@@ -9,9 +9,9 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
 use clap::Args;
+use holocave_cave::{Cave, load_cave};
 use holocave_master::cluster::{MasterOptions, Summary, quantile, run as run_master};
 use holocave_master::head::{Clock, Head};
-use holocave_master::{Cave, load_cave};
 use holocave_tracking::source::SourceSpec;
 
 use super::cave_holodeck::{Hosted, host};
@@ -182,11 +182,8 @@ pub fn print_summary(s: &Summary) {
 pub fn run(args: MasterArgs) -> Result<()> {
     let mut cave = load_cave(&args.config)?;
     if let Some(r) = args.rate {
-        if !(r > 0.0 && r <= 1000.0) {
-            anyhow::bail!("--rate {r}: not a frame rate (0 to 1000 Hz)");
-        }
-        cave.cluster.rate_hz = r;
-        cave.cluster.deadline_ms = None;
+        cave.set_rate(r)
+            .map_err(|e| anyhow::anyhow!("--rate {e}"))?;
     }
     if !(args.wait_for_walls >= 0.0 && args.wait_for_walls < 1e6) {
         anyhow::bail!(

@@ -2,11 +2,11 @@
 
 pub mod cave;
 pub mod cave_holodeck;
-pub mod cluster_node;
 pub mod fill;
 pub mod holodeck;
 pub mod master;
 pub mod node;
+pub mod parse;
 pub mod render;
 pub mod scene;
 pub mod sim;

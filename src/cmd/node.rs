@@ -1,27 +1,31 @@
-//! `holocave node`: one render node. `--standalone --headless` runs one wall by itself:
-//! its own tracker source, path tracer and GPU render cache, writing each frame's images.
-//! With `--holodeck H.hdk` the samples come from a holodeck server in this process (with
-//! `--workers` tracer threads), which keeps every ray it traces in the file.
+//! `holocave node`: one render node. `--standalone --headless` runs one wall by itself
+//! (`render_node::standalone`): its own tracker source, path tracer and GPU render cache,
+//! writing each frame's images. With `--holodeck H.hdk` the samples come from a holodeck
+//! server in this process (with `--workers` tracer threads), which keeps every ray it
+//! traces in the file. `--master HOST:PORT` joins a cluster (`render_node::cluster_node`)
+//! and writes the frames the master swaps.
 
+use std::io::Write;
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use clap::Args;
-use glam::{DVec3, Quat, Vec3};
+use glam::{Quat, Vec3};
+use holocave_cave::{Cave, Eye, Wall, load_cave};
 use holocave_holodeck::run::Running;
-use holocave_master::frustum::{Eye, eye_position, off_axis};
 use holocave_master::head::Clock;
-use holocave_master::load_cave;
+use holocave_protocol::cluster::FrameState;
+use holocave_render_node::cluster_node::{self, DisplayMaker, Membership};
 use holocave_render_node::display::contact_sheet;
+use holocave_render_node::standalone::{self, Schedule};
 use holocave_render_node::{
-    DisplayProcess, EyeView, Gpu, HolodeckOptions, HolodeckSource, RenderCache, ToneMapper,
-    ToneMode, TracerSource,
+    DisplayProcess, Gpu, HolodeckOptions, HolodeckSource, PixelTracer, RenderCache, Sampler,
+    ToneMapper, ToneMode,
 };
 use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
 
@@ -69,7 +73,7 @@ pub struct NodeArgs {
     #[arg(long)]
     pub(crate) prediction: bool,
     /// Hold the head still at X,Y,Z (room coordinates), looking at -Z.
-    #[arg(long, value_parser = parse_vec3)]
+    #[arg(long, value_parser = super::parse::vec3)]
     pub(crate) still: Option<Vec3>,
     /// Write images instead of opening a window (the only mode so far).
     #[arg(long)]
@@ -84,7 +88,7 @@ pub struct NodeArgs {
     #[arg(long)]
     pub(crate) seconds: Option<f64>,
     /// Image size per eye, WxH (default: the wall's pixels).
-    #[arg(long, value_parser = parse_size)]
+    #[arg(long, value_parser = super::parse::size)]
     pub(crate) size: Option<(u32, u32)>,
     /// Samples traced per eye and frame (default: a sixteenth of the pixels).
     #[arg(long)]
@@ -108,30 +112,6 @@ pub struct NodeArgs {
     pub(crate) every: u64,
 }
 
-fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}")))
-        .collect::<Result<_, _>>()?;
-    match v[..] {
-        [x, y, z] => Ok(Vec3::new(x, y, z)),
-        _ => Err(format!("{s:?}: expected X,Y,Z")),
-    }
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once('x')
-        .ok_or_else(|| format!("{s:?}: expected WxH"))?;
-    let p = |v: &str| {
-        v.parse::<u32>()
-            .ok()
-            .filter(|&n| n > 0)
-            .ok_or_else(|| format!("{s:?}: {v:?} is not a positive size"))
-    };
-    Ok((p(w)?, p(h)?))
-}
-
 pub(crate) fn eye_name(eye: Eye) -> &'static str {
     match eye {
         Eye::Left => "left",
@@ -141,31 +121,18 @@ pub(crate) fn eye_name(eye: Eye) -> &'static str {
 }
 
 pub fn run(args: NodeArgs) -> Result<()> {
-    if let Some(master) = &args.master {
-        return super::cluster_node::run(&args, master);
-    }
-    if !args.standalone {
-        bail!("say how the node runs: --standalone, or --master HOST:PORT to join a cluster");
-    }
     if !args.headless {
         bail!("only --headless is supported: the windowed display is not built yet");
     }
-    if args.frames.is_none() && args.seconds.is_none() {
-        bail!("say when to stop: --frames N or --seconds S");
-    }
-    if args.holodeck.is_none() && (args.workers.is_some() || args.listen.is_some()) {
-        bail!("--workers and --listen are for the holodeck's server: give --holodeck H.hdk");
-    }
-    if args.holodeck.is_some() && args.sync {
-        tracing::warn!(
-            "--sync is ignored with --holodeck: samples arrive as the workers trace them"
-        );
-    }
     let cave = load_cave(&args.config)?;
-    let wall = cave
+    // The wall's display id at the holodeck is its place in the config (every node reads
+    // the same config).
+    let (display_id, wall) = cave
         .walls
         .iter()
-        .find(|w| w.name == args.wall)
+        .enumerate()
+        .find(|(_, w)| w.name == args.wall)
+        .map(|(i, w)| (i as u32, w.clone()))
         .with_context(|| {
             format!(
                 "{}: no wall {:?} (walls: {})",
@@ -177,39 +144,73 @@ pub fn run(args: NodeArgs) -> Result<()> {
                     .collect::<Vec<_>>()
                     .join(", ")
             )
-        })?
-        .clone();
-    let (width, height) = args.size.unwrap_or((wall.pixels[0], wall.pixels[1]));
-    let eyes = Eye::for_mode(wall.stereo);
+        })?;
+    let size = args.size.unwrap_or((wall.pixels[0], wall.pixels[1]));
+    let samples = args
+        .samples
+        .unwrap_or_else(|| RenderCache::default_samples(size));
+    match &args.master {
+        Some(master) => in_cluster(&args, master, cave, wall, display_id, size, samples),
+        None if args.standalone => standalone(&args, &cave, &wall, size, samples),
+        None => {
+            bail!("say how the node runs: --standalone, or --master HOST:PORT to join a cluster")
+        }
+    }
+}
 
+fn load_tracer(path: &Path) -> Result<(Arc<Scene>, Arc<Tracer>)> {
     let scene = Arc::new(
-        Scene::load(&args.scene, &LoadOptions::default())
-            .with_context(|| format!("loading {}", args.scene.display()))?,
+        Scene::load(path, &LoadOptions::default())
+            .with_context(|| format!("loading {}", path.display()))?,
     );
     let tracer = Arc::new(Tracer::new(scene.clone(), TraceSettings::default()));
+    Ok((scene, tracer))
+}
 
+fn standalone(
+    args: &NodeArgs,
+    cave: &Cave,
+    wall: &Wall,
+    size: (u32, u32),
+    samples: u32,
+) -> Result<()> {
+    if args.frames.is_none() && args.seconds.is_none() {
+        bail!("say when to stop: --frames N or --seconds S");
+    }
+    if args.holodeck.is_none() && (args.workers.is_some() || args.listen.is_some()) {
+        bail!("--workers and --listen are for the holodeck's server: give --holodeck H.hdk");
+    }
+    if args.holodeck.is_some() && args.sync {
+        tracing::warn!(
+            "--sync is ignored with --holodeck: samples arrive as the workers trace them"
+        );
+    }
+    let eyes = Eye::for_mode(wall.stereo);
+    let (scene, tracer) = load_tracer(&args.scene)?;
     // The replay clock: frame k shows the head at k / fps after the first sample.
     let mut head = match args.still {
         Some(_) => None,
         None => Some(open_head(
-            &cave,
+            cave,
             args.tracker.as_deref(),
             Clock::Replay,
             args.prediction,
             args.recenter,
         )?),
     };
+    let mut pose_at = |ns: u64| match (&mut head, args.still) {
+        (Some(h), _) => {
+            h.advance(ns);
+            h.pose_at(ns).0
+        }
+        (None, p) => Pose::new(p.unwrap_or(Vec3::ZERO), Quat::IDENTITY),
+    };
 
-    let gpu = Gpu::new()?;
-    let pixels = width * height;
-    let samples = args.samples.unwrap_or((pixels / 16).max(1));
-    let capacity = (pixels * eyes.len() as u32) * 5 / 4;
-    let sizes = vec![(width, height); eyes.len()];
-    let cache = RenderCache::new(gpu, &sizes, capacity, samples.saturating_mul(2));
+    let cache = RenderCache::for_wall(Gpu::new()?, size, eyes.len(), samples);
     let mut holodeck = None;
     let mut display = match &args.holodeck {
         Some(path) => {
-            let file = cave_holodeck::open_or_create(path, &cave, &args.scene, &scene, "node")?;
+            let file = cave_holodeck::open_or_create(path, cave, &args.scene, &scene, "node")?;
             let workers = args.workers.unwrap_or_else(|| {
                 std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
             });
@@ -225,7 +226,7 @@ pub fn run(args: NodeArgs) -> Result<()> {
             DisplayProcess::holodeck(cache, source, samples)
         }
         None => {
-            let source = TracerSource::new(tracer, 1);
+            let source = PixelTracer::new(tracer, 1);
             if args.sync {
                 DisplayProcess::new(cache, source, samples)
             } else {
@@ -234,102 +235,41 @@ pub fn run(args: NodeArgs) -> Result<()> {
         }
     };
     println!(
-        "wall {:?}: {} eye(s) at {width}x{height}, {} points, {samples} samples per eye and frame, GPU {}",
+        "wall {:?}: {} eye(s) at {}x{}, {} points, {samples} samples per eye and frame, GPU {}",
         wall.name,
         eyes.len(),
+        size.0,
+        size.1,
         display.cache.capacity(),
         display.cache.gpu().adapter
     );
 
-    let mut tone = match args.tone.as_str() {
-        "camera" => Some(ToneMapper::new(ToneMode::Camera)),
-        "human" => Some(ToneMapper::new(ToneMode::Human)),
-        "reinhard" => None,
-        other => bail!("--tone {other:?}: expected camera, human or reinhard"),
-    };
+    let mut tone = tone_mapper(&args.tone)?;
     let dir = args.out.join(&wall.name);
-    let to_scene = cave.room_to_scene;
-    let scene_pt = |p: DVec3| to_scene.transform_point3(p).as_vec3();
-    let mut views: Vec<EyeView> = Vec::new();
-    let start = Instant::now();
-    let mut frame = 0u64;
-    let mut totals = (Duration::ZERO, Duration::ZERO, Duration::ZERO);
-    let mut inserted = 0usize;
-    loop {
-        let done = args.frames.is_some_and(|n| frame >= n)
-            || args
-                .seconds
-                .is_some_and(|s| start.elapsed().as_secs_f64() >= s);
-        if done || holodeck.as_ref().is_some_and(Running::stopping) {
-            break;
-        }
-        let dt = Duration::from_secs_f64(frame as f64 / args.fps);
-        let pose = match (&mut head, args.still) {
-            (_, Some(p)) => Pose::new(p, Quat::IDENTITY),
-            (Some(h), None) => {
-                let ns = dt.as_nanos() as u64;
-                h.advance(ns);
-                h.pose_at(ns).0
-            }
-            (None, None) => unreachable!(),
-        };
-        let mut fresh = Vec::with_capacity(eyes.len());
-        for &eye in eyes {
-            let e = eye_position(&cave, &pose, eye);
-            match off_axis(&wall, e, cave.near, &to_scene) {
-                Ok(f) => fresh.push(EyeView {
-                    view_proj: f.view_proj().as_mat4(),
-                    near: f.near as f32,
-                    wall: WallView {
-                        eye: scene_pt(e),
-                        pa: scene_pt(wall.pa),
-                        pb: scene_pt(wall.pb),
-                        pc: scene_pt(wall.pc),
-                        width,
-                        height,
-                    },
-                }),
-                Err(fault) => {
-                    tracing::warn!("frame {frame}: {fault}; keeping the last good views");
-                    break;
-                }
-            }
-        }
-        if fresh.len() == eyes.len() {
-            views = fresh;
-        }
-        if views.is_empty() {
-            frame += 1;
-            continue;
-        }
-        let report = display.frame(&views, false);
-        totals.0 += report.draw;
-        totals.1 += report.trace;
-        totals.2 += report.insert;
-        inserted += report.inserted;
-        let last = args.frames.is_some_and(|n| frame + 1 == n);
-        if frame.is_multiple_of(args.every.max(1)) || last {
-            write_images(
-                &dir,
-                frame,
-                eyes,
-                &mut display,
-                &mut tone,
-                args.debug_images,
-            )?;
-        }
-        tracing::debug!(
-            "frame {frame}: head {:.3?}, chosen {:?}, draw {:?}, trace {:?}",
-            pose.position,
-            report.chosen,
-            report.draw,
-            report.trace
-        );
-        frame += 1;
-    }
-    let n = frame.max(1) as f64;
+    let schedule = Schedule {
+        frames: args.frames,
+        seconds: args.seconds,
+        fps: args.fps,
+        every: args.every,
+    };
+    let stopping = || holodeck.as_ref().is_some_and(Running::stopping);
+    let mut present = |frame: u64, display: &mut DisplayProcess| {
+        write_images(&dir, frame, eyes, display, &mut tone, args.debug_images)
+            .map_err(|e| format!("{e:#}"))
+    };
+    let totals = standalone::run(
+        &mut display,
+        cave,
+        wall,
+        size,
+        schedule,
+        &mut pose_at,
+        &stopping,
+        &mut present,
+    )
+    .map_err(|e| anyhow!(e))?;
     let holo_counts = match &display.sampler {
-        holocave_render_node::Sampler::Holodeck(h) => Some(h.counts()),
+        Sampler::Holodeck(h) => Some(h.counts()),
         _ => None,
     };
     drop(display);
@@ -347,11 +287,14 @@ pub fn run(args: NodeArgs) -> Result<()> {
             s.samples
         );
     }
+    let n = totals.frames.max(1) as f64;
+    let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
     println!(
-        "{frame} frames in {:.2} s; per frame: draw + choose {:.2} ms, trace {:.2} ms{}, insert {:.2} ms, {:.0} samples inserted; images in {}",
-        start.elapsed().as_secs_f64(),
-        totals.0.as_secs_f64() * 1e3 / n,
-        totals.1.as_secs_f64() * 1e3 / n,
+        "{} frames in {:.2} s; per frame: draw + choose {:.2} ms, trace {:.2} ms{}, insert {:.2} ms, {:.0} samples inserted; images in {}",
+        totals.frames,
+        totals.elapsed.as_secs_f64(),
+        ms(totals.draw),
+        ms(totals.trace),
         if args.holodeck.is_some() {
             " (the holodeck's workers)"
         } else if args.sync {
@@ -359,9 +302,76 @@ pub fn run(args: NodeArgs) -> Result<()> {
         } else {
             " (on the tracer thread)"
         },
-        totals.2.as_secs_f64() * 1e3 / n,
-        inserted as f64 / n,
+        ms(totals.insert),
+        totals.inserted as f64 / n,
         dir.display()
+    );
+    Ok(())
+}
+
+/// The PNG previews' tone mapper (`None`: the tracer's Reinhard preview).
+fn tone_mapper(name: &str) -> Result<Option<ToneMapper>> {
+    Ok(match name {
+        "camera" => Some(ToneMapper::new(ToneMode::Camera)),
+        "human" => Some(ToneMapper::new(ToneMode::Human)),
+        "reinhard" => None,
+        other => bail!("--tone {other:?}: expected camera, human or reinhard"),
+    })
+}
+
+/// `--master`: follows the cluster's frames, appending every presented frame's number to
+/// `DIR/<wall>/presented.log` and writing its images every `--every` frames.
+fn in_cluster(
+    args: &NodeArgs,
+    master: &str,
+    cave: Cave,
+    wall: Wall,
+    display_id: u32,
+    size: (u32, u32),
+    samples: u32,
+) -> Result<()> {
+    let secret = cave
+        .secret()
+        .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
+    let (_, tracer) = load_tracer(&args.scene)?;
+    let maker = DisplayMaker::new(&wall, display_id, size, samples, tracer, master);
+    let eyes = Eye::for_mode(wall.stereo);
+    let mut tone = tone_mapper(&args.tone)?;
+    let dir = args.out.join(&wall.name);
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let log_path = dir.join("presented.log");
+    let mut log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&log_path)
+        .with_context(|| format!("opening {}", log_path.display()))?;
+    let every = args.every.max(1);
+    let mut present = |state: &FrameState, display: &mut DisplayProcess| -> Result<(), String> {
+        writeln!(log, "{}", state.frame).map_err(|e| format!("{}: {e}", log_path.display()))?;
+        if state.frame.is_multiple_of(every) {
+            write_images(
+                &dir,
+                state.frame,
+                eyes,
+                display,
+                &mut tone,
+                args.debug_images,
+            )
+            .map_err(|e| format!("{e:#}"))?;
+        }
+        Ok(())
+    };
+    let member = Membership {
+        master: master.to_owned(),
+        cluster: cave.cluster.id.clone(),
+        secret,
+        wall,
+        give_up_after: args.seconds.map(Duration::from_secs_f64),
+    };
+    let (counters, reason) = cluster_node::run(&member, &maker, &mut present)?;
+    println!(
+        "wall {:?}: {} frames presented, {} skipped; master: {reason}",
+        member.wall.name, counters.presented, counters.skipped
     );
     Ok(())
 }

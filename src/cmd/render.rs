@@ -18,16 +18,16 @@ pub struct RenderArgs {
     #[arg(long)]
     pub scene: PathBuf,
     /// Eye position X,Y,Z in scene metres.
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    #[arg(long, value_parser = super::parse::vec3, allow_hyphen_values = true)]
     pub eye: Option<Vec3>,
     /// The screen rectangle "PA;PB;PC": lower-left, lower-right and upper-left corners.
-    #[arg(long, value_parser = parse_wall, allow_hyphen_values = true)]
+    #[arg(long, value_parser = super::parse::wall, allow_hyphen_values = true)]
     pub wall: Option<[Vec3; 3]>,
     /// Use a glTF camera of the scene instead of --eye/--wall.
     #[arg(long, conflicts_with_all = ["eye", "wall"])]
     pub camera: Option<String>,
     /// Image size WxH in pixels.
-    #[arg(long, default_value = "512x512", value_parser = parse_size)]
+    #[arg(long, default_value = "512x512", value_parser = super::parse::size)]
     pub size: (u32, u32),
     /// Path samples per pixel.
     #[arg(long, default_value_t = 64)]
@@ -43,51 +43,6 @@ pub struct RenderArgs {
     pub strict: bool,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-}
-
-fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|p| {
-            p.trim()
-                .parse::<f32>()
-                .map_err(|e| format!("{p:?} in {s:?}: {e}"))
-        })
-        .collect::<Result<_, _>>()?;
-    match v[..] {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
-        [_, _, _] => Err(format!("{s:?}: coordinates must be finite")),
-        _ => Err(format!("{s:?}: expected three numbers X,Y,Z")),
-    }
-}
-
-fn parse_wall(s: &str) -> Result<[Vec3; 3], String> {
-    let corners: Vec<Vec3> = s.split(';').map(parse_vec3).collect::<Result<_, _>>()?;
-    let [pa, pb, pc] = corners[..] else {
-        return Err(format!("{s:?}: expected three corners PA;PB;PC"));
-    };
-    let (right, up) = (pb - pa, pc - pa);
-    if right.cross(up).length() < 1e-9 {
-        return Err(format!("{s:?}: the corners do not span a rectangle"));
-    }
-    if right.normalize().dot(up.normalize()).abs() > 1e-3 {
-        return Err(format!("{s:?}: PA→PB and PA→PC are not perpendicular"));
-    }
-    Ok([pa, pb, pc])
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once('x')
-        .ok_or_else(|| format!("{s:?}: expected WxH"))?;
-    let w: u32 = w.parse().map_err(|e| format!("{s:?}: {e}"))?;
-    let h: u32 = h.parse().map_err(|e| format!("{s:?}: {e}"))?;
-    if w == 0 || h == 0 || u64::from(w) * u64::from(h) > 1 << 28 {
-        return Err(format!(
-            "{s:?}: size must be positive and at most 2^28 pixels"
-        ));
-    }
-    Ok((w, h))
 }
 
 pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Result<Scene> {

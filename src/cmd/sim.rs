@@ -13,9 +13,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use holocave_cave::Eye;
+use holocave_cave::load_cave;
 use holocave_master::cluster::{MasterOptions, run as run_master};
-use holocave_master::frustum::Eye;
-use holocave_master::load_cave;
 use holocave_render_node::mosaic::cave_mosaic;
 use rand::TryRngCore;
 
@@ -108,11 +108,8 @@ impl Children {
 
 pub fn run(mut args: SimArgs) -> Result<()> {
     let mut cave = load_cave(&args.config)?;
-    if !(args.rate > 0.0 && args.rate <= 1000.0) {
-        bail!("--rate {}: not a frame rate (0 to 1000 Hz)", args.rate);
-    }
-    cave.cluster.rate_hz = args.rate;
-    cave.cluster.deadline_ms = None;
+    cave.set_rate(args.rate)
+        .map_err(|e| anyhow::anyhow!("--rate {e}"))?;
     if !(args.scale > 0.0 && args.scale <= 1.0) {
         bail!("--scale {}: expected a fraction in (0, 1]", args.scale);
     }
@@ -244,12 +241,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
 }
 
 /// Mosaics of every frame for which every wall wrote its first eye's preview.
-fn write_mosaics(
-    out: &Path,
-    cave: &holocave_master::Cave,
-    frames: u64,
-    every: u64,
-) -> Result<usize> {
+fn write_mosaics(out: &Path, cave: &holocave_cave::Cave, frames: u64, every: u64) -> Result<usize> {
     let dir = out.join("mosaic");
     std::fs::create_dir_all(&dir)?;
     let mut n = 0;

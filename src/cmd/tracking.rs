@@ -138,7 +138,7 @@ fn load(log: &str, unit: Option<TimeUnit>) -> Result<Vec<Sample>> {
 
 fn params(config: &Option<PathBuf>) -> Result<TrackingParams> {
     Ok(match config {
-        Some(path) => holocave_master::load_cave(path)?.tracking,
+        Some(path) => holocave_cave::load_cave(path)?.tracking,
         None => TrackingParams::default(),
     })
 }

@@ -9,7 +9,10 @@ use holocave_tracking::params::TrackingParams;
 use holocave_tracking::source::SourceSpec;
 
 use crate::config::{CaveFile, ClusterConfig, RigidTransform, StereoMode};
-use crate::frustum::MIN_EYE_DISTANCE;
+
+/// Closest an eye may come to a wall's plane (m) before its frustum is a fault, and the
+/// margin (×10) the room's inside point must keep from every wall.
+pub const MIN_EYE_DISTANCE: f64 = 1e-3;
 
 /// How far (m) `pc` may sit off the perpendicular to `pa→pb` at `pa` for the corners to
 /// count as a rectangle.
@@ -48,6 +51,35 @@ pub struct Wall {
 }
 
 impl Wall {
+    /// A wall from its corners `[pa, pb, pc]` (lower-left, lower-right, upper-left as seen
+    /// from the room), which must span a rectangle of non-zero size (a config is checked
+    /// for that by [`validate`]); `up` is made exactly perpendicular to `right`.
+    pub fn new(
+        name: &str,
+        [pa, pb, pc]: [DVec3; 3],
+        pixels: [u32; 2],
+        stereo: StereoMode,
+        node: &str,
+    ) -> Wall {
+        let width = (pb - pa).length();
+        let right = (pb - pa) / width;
+        let up = (pc - pa - right * (pc - pa).dot(right)).normalize();
+        Wall {
+            name: name.to_owned(),
+            pa,
+            pb,
+            pc,
+            right,
+            up,
+            normal: right.cross(up),
+            width,
+            height: (pc - pa).length(),
+            pixels,
+            stereo,
+            node: node.to_owned(),
+        }
+    }
+
     /// Signed distance of `p` from the wall's plane, positive in front (the room side).
     pub fn distance(&self, p: DVec3) -> f64 {
         (p - self.pa).dot(self.normal)
@@ -74,7 +106,28 @@ pub struct Cave {
     pub cluster: ClusterConfig,
 }
 
+/// The highest frame rate the master's clock runs at (Hz).
+pub const MAX_RATE_HZ: f64 = 1000.0;
+
+/// A frame rate in (0, [`MAX_RATE_HZ`]].
+fn check_rate(hz: f64) -> Result<(), String> {
+    if hz > 0.0 && hz <= MAX_RATE_HZ {
+        Ok(())
+    } else {
+        Err(format!("{hz} is not a frame rate (0 to {MAX_RATE_HZ} Hz)"))
+    }
+}
+
 impl Cave {
+    /// Runs the master's clock at `hz` instead of the config's rate, with the swap
+    /// barrier's deadline back at one frame period.
+    pub fn set_rate(&mut self, hz: f64) -> Result<(), String> {
+        check_rate(hz)?;
+        self.cluster.rate_hz = hz;
+        self.cluster.deadline_ms = None;
+        Ok(())
+    }
+
     /// The frame period of the master's clock.
     pub fn frame_period(&self) -> std::time::Duration {
         std::time::Duration::from_secs_f64(1.0 / self.cluster.rate_hz)
@@ -206,27 +259,18 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
             ));
             continue;
         }
-        let up = (pc - pa - right * off_square).normalize();
-        let normal = right.cross(up);
-        let wall = Wall {
-            name: w.name.clone(),
-            pa,
-            pb,
-            pc,
-            right,
-            up,
-            normal,
-            width,
-            height,
-            pixels: [w.pixels[0].max(0) as u32, w.pixels[1].max(0) as u32],
-            stereo: w.stereo,
-            node: w.node.clone(),
-        };
+        let wall = Wall::new(
+            &w.name,
+            [pa, pb, pc],
+            [w.pixels[0].max(0) as u32, w.pixels[1].max(0) as u32],
+            w.stereo,
+            &w.node,
+        );
         let d = wall.distance(inside);
         if d <= 0.0 {
             problems.push(format!(
                 "{at}: its normal (pb−pa)×(pc−pa) = ({:.3}, {:.3}, {:.3}) points away from the room's inside point room.inside; are pa, pb, pc (lower-left, lower-right, upper-left as seen from inside) in the right order?",
-                normal.x, normal.y, normal.z
+                wall.normal.x, wall.normal.y, wall.normal.z
             ));
         } else if d < MIN_EYE_DISTANCE * 10.0 {
             problems.push(format!(
@@ -261,11 +305,8 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
     );
     let room_to_scene = transform(&file.navigation, "navigation", &mut problems);
     let c = &file.cluster;
-    if !(c.rate_hz > 0.0 && c.rate_hz <= 1000.0) {
-        problems.push(format!(
-            "cluster.rate_hz: {} is not a frame rate (0 to 1000 Hz)",
-            c.rate_hz
-        ));
+    if let Err(e) = check_rate(c.rate_hz) {
+        problems.push(format!("cluster.rate_hz: {e}"));
     }
     if let Some(d) = c.deadline_ms
         && !(d > 0.0 && d <= 10_000.0)

@@ -16,10 +16,8 @@ use glam::{DMat4, DQuat, DVec3, DVec4, Mat4};
 use holocave_tracking::Pose;
 
 use crate::config::StereoMode;
-use crate::validate::{Cave, Wall};
+use crate::validate::{Cave, MIN_EYE_DISTANCE, Wall};
 
-/// Closest an eye may come to a wall's plane (m) before its frustum is a fault.
-pub const MIN_EYE_DISTANCE: f64 = 1e-3;
 /// The near plane is at most this fraction of the eye's distance to the wall.
 pub const NEAR_FRACTION: f64 = 0.5;
 
@@ -209,6 +207,27 @@ pub fn eye_position(cave: &Cave, head: &Pose, eye: Eye) -> DVec3 {
     centre + q * DVec3::new(eye.side() * cave.ipd, 0.0, 0.0)
 }
 
+/// The frusta of `eyes` of `wall` for a head pose in room coordinates: all of them, or the
+/// fault of the first eye that has none.
+pub fn wall_frusta(
+    cave: &Cave,
+    wall: &Wall,
+    head: &Pose,
+    eyes: &[Eye],
+) -> Result<Vec<(Eye, Frustum)>, FrustumFault> {
+    eyes.iter()
+        .map(|&eye| {
+            let f = off_axis(
+                wall,
+                eye_position(cave, head, eye),
+                cave.near,
+                &cave.room_to_scene,
+            )?;
+            Ok((eye, f))
+        })
+        .collect()
+}
+
 impl CaveFrusta {
     /// Frusta for an eye at the room's inside point (until tracking delivers a pose).
     pub fn new(cave: &Cave) -> CaveFrusta {
@@ -239,28 +258,13 @@ impl CaveFrusta {
     /// any of its eyes faults keeps all its last good views (the eyes stay consistent).
     pub fn update(&mut self, cave: &Cave, head: &Pose) {
         for (wall, views) in cave.walls.iter().zip(self.walls.iter_mut()) {
-            let mut fresh = Vec::with_capacity(views.eyes.len());
-            let mut fault = None;
-            for &(eye, _) in &views.eyes {
-                match off_axis(
-                    wall,
-                    eye_position(cave, head, eye),
-                    cave.near,
-                    &cave.room_to_scene,
-                ) {
-                    Ok(f) => fresh.push((eye, f)),
-                    Err(e) => {
-                        fault = Some(e);
-                        break;
-                    }
-                }
-            }
-            match fault {
-                None => {
+            let eyes: Vec<Eye> = views.eyes.iter().map(|&(e, _)| e).collect();
+            match wall_frusta(cave, wall, head, &eyes) {
+                Ok(fresh) => {
                     views.eyes = fresh;
                     views.holding = false;
                 }
-                Some(e) => {
+                Err(e) => {
                     match e {
                         FrustumFault::NonFiniteEye => views.faults.non_finite += 1,
                         FrustumFault::OnWall { .. } => views.faults.on_wall += 1,

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
-use holocave_master::{CaveFrusta, load_cave};
+use holocave_cave::{CaveFrusta, load_cave};
 use holocave_tracking::Pose;
 
 fn frusta(c: &mut Criterion) {

@@ -1,0 +1,205 @@
+//! A render node's life in a cluster (`holocave node --master`): join the master (retrying
+//! while it is not up; a refused handshake is final), follow its frames, reconnect when the
+//! link drops, and draw from the holodeck the master names. The display (and with it the
+//! render cache) is kept across reconnections while the master names the same holodeck;
+//! a holodeck that cannot be reached, or goes away, is replaced by local tracing, because
+//! a wall that shows something beats a black one.
+
+use std::net::{IpAddr, SocketAddr, ToSocketAddrs};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use holocave_cave::{Eye, Wall};
+use holocave_protocol::cluster::FrameState;
+use holocave_tracer::Tracer;
+
+use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, follow};
+use crate::{DisplayProcess, Gpu, HolodeckSource, PixelTracer, RenderCache, RenderNodeError};
+
+/// Pause between attempts to reach the master.
+const RETRY: Duration = Duration::from_millis(100);
+
+/// Why a cluster node stopped without the master telling it to.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    /// A refusal (wrong secret, unknown wall, other version) will not go away by retrying.
+    #[error("{0}")]
+    Refused(LinkError),
+    #[error("gave up after {seconds} s: {source}")]
+    GaveUp { seconds: f64, source: LinkError },
+    #[error(transparent)]
+    Gpu(#[from] RenderNodeError),
+}
+
+/// Who the node is in the cluster.
+pub struct Membership {
+    /// The master's `HOST:PORT`.
+    pub master: String,
+    /// The cluster's name and shared secret.
+    pub cluster: String,
+    pub secret: Vec<u8>,
+    pub wall: Wall,
+    /// Stop retrying a master that cannot be reached after this long.
+    pub give_up_after: Option<Duration>,
+}
+
+/// Makes the node's display process for the holodeck the master names.
+pub struct DisplayMaker {
+    size: (u32, u32),
+    eyes: usize,
+    samples: u32,
+    tracer: Arc<Tracer>,
+    seed: u64,
+    display_id: u32,
+    /// The master's address: a holodeck on an unspecified address (0.0.0.0) is there.
+    master_ip: Option<IpAddr>,
+}
+
+impl DisplayMaker {
+    /// Displays of `wall` at `size` pixels per eye asking for `samples` per eye and frame,
+    /// tracing locally with `tracer` when there is no holodeck. `display_id` names the
+    /// wall at the holodeck (its place in the config, which every node reads alike).
+    pub fn new(
+        wall: &Wall,
+        display_id: u32,
+        size: (u32, u32),
+        samples: u32,
+        tracer: Arc<Tracer>,
+        master: &str,
+    ) -> DisplayMaker {
+        DisplayMaker {
+            size,
+            eyes: Eye::for_mode(wall.stereo).len(),
+            samples,
+            tracer,
+            seed: wall
+                .name
+                .bytes()
+                .fold(1u64, |h, b| h.wrapping_mul(31) ^ u64::from(b)),
+            display_id,
+            master_ip: master
+                .to_socket_addrs()
+                .ok()
+                .and_then(|mut a| a.next())
+                .map(|a| a.ip()),
+        }
+    }
+
+    /// The display, and the holodeck address it draws from (`None`: tracing locally).
+    fn display(
+        &self,
+        holodeck: Option<&str>,
+    ) -> Result<(Option<String>, DisplayProcess), RenderNodeError> {
+        let cache = RenderCache::for_wall(Gpu::new()?, self.size, self.eyes, self.samples);
+        let local = |cache| {
+            let source = PixelTracer::new(self.tracer.clone(), self.seed);
+            DisplayProcess::threaded(cache, source, self.samples)
+        };
+        let Some(addr) = holodeck else {
+            return Ok((None, local(cache)));
+        };
+        let connected = self.resolve(addr).and_then(|a| {
+            HolodeckSource::connect(a, self.display_id).map_err(|e| format!("{a}: {e}"))
+        });
+        Ok(match connected {
+            Ok(source) => {
+                tracing::info!("drawing from the holodeck at {addr}");
+                let display = DisplayProcess::holodeck(cache, source, self.samples);
+                (Some(addr.to_owned()), display)
+            }
+            Err(e) => {
+                tracing::warn!("holodeck {addr}: {e}; tracing this wall's samples locally");
+                (None, local(cache))
+            }
+        })
+    }
+
+    fn resolve(&self, addr: &str) -> Result<SocketAddr, String> {
+        let mut a = addr
+            .to_socket_addrs()
+            .map_err(|e| format!("the holodeck address {addr:?}: {e}"))?
+            .next()
+            .ok_or_else(|| format!("the holodeck address {addr:?} resolves to nothing"))?;
+        if a.ip().is_unspecified()
+            && let Some(ip) = self.master_ip
+        {
+            a.set_ip(ip);
+        }
+        Ok(a)
+    }
+}
+
+/// Runs the node until the master shuts it down (its reason is returned with the
+/// counters) or it cannot go on. `present` shows each swapped frame.
+pub fn run(
+    member: &Membership,
+    maker: &DisplayMaker,
+    present: &mut dyn FnMut(&FrameState, &mut DisplayProcess) -> Result<(), String>,
+) -> Result<(NodeCounters, String), NodeError> {
+    let wall = &member.wall;
+    // The display and the holodeck it draws from (`None`: tracing locally).
+    let mut display: Option<(Option<String>, DisplayProcess)> = None;
+    let mut counters = NodeCounters::default();
+    let mut since = Instant::now();
+    let mut warned = false;
+    loop {
+        let mut link = match MasterLink::connect(
+            &member.master,
+            &member.cluster,
+            &wall.name,
+            &member.secret,
+        ) {
+            Ok(l) => l,
+            Err(e @ LinkError::Handshake { .. }) => return Err(NodeError::Refused(e)),
+            Err(e) => {
+                if !warned {
+                    tracing::warn!("{e}; retrying");
+                    warned = true;
+                }
+                if let Some(limit) = member.give_up_after
+                    && since.elapsed() > limit
+                {
+                    return Err(NodeError::GaveUp {
+                        seconds: limit.as_secs_f64(),
+                        source: e,
+                    });
+                }
+                std::thread::sleep(RETRY);
+                continue;
+            }
+        };
+        tracing::info!(
+            "wall {:?}: joined the cluster as node {} ({} Hz)",
+            wall.name,
+            link.welcome.node_id,
+            link.welcome.rate_hz
+        );
+        warned = false;
+        let wanted = link.welcome.holodeck.clone();
+        loop {
+            // Keep the display while it serves what the master names: a live link to that
+            // holodeck, or local tracing when it names none. A wall tracing locally because
+            // the holodeck was unreachable tries it again here.
+            let made = match display.take() {
+                Some((using, d)) if using == wanted && !d.source_lost() => (using, d),
+                old => {
+                    drop(old);
+                    maker.display(wanted.as_deref())?
+                }
+            };
+            let display = &mut display.insert(made).1;
+            match follow(&mut link, display, wall, maker.size, &mut counters, present) {
+                Ended::SourceLost => tracing::warn!(
+                    "wall {:?}: the holodeck went away; reconnecting to it (or tracing locally)",
+                    wall.name
+                ),
+                Ended::Shutdown(reason) => return Ok((counters, reason)),
+                Ended::Lost(e) => {
+                    tracing::warn!("wall {:?}: {e}; reconnecting", wall.name);
+                    since = Instant::now();
+                    break;
+                }
+            }
+        }
+    }
+}

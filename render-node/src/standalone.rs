@@ -1,0 +1,104 @@
+//! One wall by itself (`holocave node --standalone`): the node's own frame clock and head
+//! poses instead of a master's frame states. Each frame takes the head pose at that
+//! frame's time, makes the wall's eye views from it through the CAVE's frusta (a wall
+//! whose eye faults keeps its last good views), draws them and hands the frame to
+//! `present` every `every` frames and at the last one.
+
+use std::time::{Duration, Instant};
+
+use holocave_cave::{Cave, Eye, Wall, wall_frusta};
+use holocave_tracking::Pose;
+
+use crate::{DisplayProcess, EyeView};
+
+/// When a standalone run stops, its clock, and which frames it presents.
+#[derive(Clone, Copy, Debug)]
+pub struct Schedule {
+    /// Stop after this many frames.
+    pub frames: Option<u64>,
+    /// Stop after this many seconds of wall-clock time.
+    pub seconds: Option<f64>,
+    /// Frame k shows the head at k / fps.
+    pub fps: f64,
+    /// Present every this many frames (and always the last).
+    pub every: u64,
+}
+
+impl Schedule {
+    fn done(&self, frame: u64, start: Instant) -> bool {
+        self.frames.is_some_and(|n| frame >= n)
+            || self
+                .seconds
+                .is_some_and(|s| start.elapsed().as_secs_f64() >= s)
+    }
+}
+
+/// What a standalone run did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Totals {
+    pub frames: u64,
+    pub elapsed: Duration,
+    /// Summed over frames: drawing and choosing, tracing (inline only), inserting.
+    pub draw: Duration,
+    pub trace: Duration,
+    pub insert: Duration,
+    pub inserted: usize,
+}
+
+/// Runs `wall` of `cave` at `size` pixels per eye until the schedule ends or `stop` says
+/// so. `head` gives the head pose (room coordinates) at a time in ns from the start;
+/// `present` receives every presented frame's number and the display holding its images.
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    display: &mut DisplayProcess,
+    cave: &Cave,
+    wall: &Wall,
+    size: (u32, u32),
+    schedule: Schedule,
+    head: &mut dyn FnMut(u64) -> Pose,
+    stop: &dyn Fn() -> bool,
+    present: &mut dyn FnMut(u64, &mut DisplayProcess) -> Result<(), String>,
+) -> Result<Totals, String> {
+    let eyes = Eye::for_mode(wall.stereo);
+    let mut views: Vec<EyeView> = Vec::new();
+    let start = Instant::now();
+    let mut totals = Totals::default();
+    let mut frame = 0u64;
+    while !schedule.done(frame, start) && !stop() {
+        let ns = Duration::from_secs_f64(frame as f64 / schedule.fps).as_nanos() as u64;
+        let pose = head(ns);
+        match wall_frusta(cave, wall, &pose, eyes) {
+            Ok(frusta) => {
+                views = frusta
+                    .iter()
+                    .map(|(_, f)| EyeView::new(f, wall, &cave.room_to_scene, size))
+                    .collect();
+            }
+            Err(fault) => tracing::warn!("frame {frame}: {fault}; keeping the last good views"),
+        }
+        if views.is_empty() {
+            frame += 1;
+            continue;
+        }
+        let report = display.frame(&views, false);
+        totals.draw += report.draw;
+        totals.trace += report.trace;
+        totals.insert += report.insert;
+        totals.inserted += report.inserted;
+        let last = schedule.frames.is_some_and(|n| frame + 1 == n);
+        if frame.is_multiple_of(schedule.every.max(1)) || last {
+            present(frame, display)?;
+        }
+        tracing::debug!(
+            "frame {frame}: head {:.3?}, chosen {:?}, draw {:?}, trace {:?}",
+            pose.position,
+            report.chosen,
+            report.draw,
+            report.trace
+        );
+        frame += 1;
+    }
+    totals.frames = frame;
+    totals.elapsed = start.elapsed();
+    Ok(totals)
+}

@@ -1,0 +1,76 @@
+//! Parsers of command-line values shared by the subcommands (clap `value_parser`s): each
+//! error names the value and what was expected.
+
+use glam::Vec3;
+
+/// `X,Y,Z`: three finite numbers.
+pub fn vec3(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f32>()
+                .map_err(|e| format!("{p:?} in {s:?}: {e}"))
+        })
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        [_, _, _] => Err(format!("{s:?}: coordinates must be finite")),
+        _ => Err(format!("{s:?}: expected three numbers X,Y,Z")),
+    }
+}
+
+/// `PA;PB;PC`: a screen rectangle's lower-left, lower-right and upper-left corners.
+pub fn wall(s: &str) -> Result<[Vec3; 3], String> {
+    let corners: Vec<Vec3> = s.split(';').map(vec3).collect::<Result<_, _>>()?;
+    let [pa, pb, pc] = corners[..] else {
+        return Err(format!("{s:?}: expected three corners PA;PB;PC"));
+    };
+    let (right, up) = (pb - pa, pc - pa);
+    if right.cross(up).length() < 1e-9 {
+        return Err(format!("{s:?}: the corners do not span a rectangle"));
+    }
+    if right.normalize().dot(up.normalize()).abs() > 1e-3 {
+        return Err(format!("{s:?}: PA→PB and PA→PC are not perpendicular"));
+    }
+    Ok([pa, pb, pc])
+}
+
+/// `WxH`: an image size in pixels, both positive, at most 2^28 pixels.
+pub fn size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once('x')
+        .ok_or_else(|| format!("{s:?}: expected WxH"))?;
+    let w: u32 = w.parse().map_err(|e| format!("{s:?}: {e}"))?;
+    let h: u32 = h.parse().map_err(|e| format!("{s:?}: {e}"))?;
+    if w == 0 || h == 0 || u64::from(w) * u64::from(h) > 1 << 28 {
+        return Err(format!(
+            "{s:?}: size must be positive and at most 2^28 pixels"
+        ));
+    }
+    Ok((w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_values_are_named() {
+        assert_eq!(vec3("1, 2,3").unwrap(), Vec3::new(1.0, 2.0, 3.0));
+        assert!(vec3("1,2").unwrap_err().contains("expected three numbers"));
+        assert!(vec3("1,2,inf").unwrap_err().contains("finite"));
+        assert!(vec3("1,x,3").unwrap_err().contains("\"x\""));
+        assert!(wall("0,0,0;1,0,0;0,1,0").is_ok());
+        assert!(
+            wall("0,0,0;1,0,0;1,1,0")
+                .unwrap_err()
+                .contains("perpendicular")
+        );
+        assert!(wall("0,0,0;1,0,0;2,0,0").unwrap_err().contains("rectangle"));
+        assert_eq!(size("64x48").unwrap(), (64, 48));
+        assert!(size("64").unwrap_err().contains("WxH"));
+        assert!(size("0x48").unwrap_err().contains("positive"));
+        assert!(size("65536x65536").unwrap_err().contains("2^28"));
+    }
+}
