@@ -1,6 +1,7 @@
 //! The tunable parameters of the tracking pipeline as they appear in a CAVE config's
 //! `[tracking]` section. The defaults are the values tuned on the HoloLens traces with
-//! `holocave tracking tune` (see NOTES-for-README.md).
+//! `holocave tracking tune` (the README's "Tracking and frusta" section gives the tuning
+//! table and its caveats).
 
 use serde::{Deserialize, Serialize};
 
