@@ -69,7 +69,7 @@ impl Info {
             .collect();
         Info {
             sections,
-            file_bytes: h.file.metadata().map_or(0, |m| m.len()),
+            file_bytes: h.file.file().metadata().map_or(0, |m| m.len()),
             sample_bytes: total * SAMPLE_BYTES as u64,
             free_bytes: free.iter().map(|e| e.len).sum(),
             free_extents: free.len(),

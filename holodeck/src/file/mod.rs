@@ -5,17 +5,20 @@
 //! [`info`] for statistics.
 
 pub mod check;
+pub mod disk;
 pub mod format;
 pub mod free_list;
 pub mod info;
 pub mod optimize;
+#[cfg(test)]
+mod power_cut;
 pub mod reader;
 pub mod writer;
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::fs::File;
 use std::path::{Path, PathBuf};
 
+use disk::Disk;
 use format::{ChunkLoc, DirEntry, Extent};
 use free_list::FreeList;
 
@@ -108,7 +111,7 @@ pub struct Damage {
 /// "a copy of this directory is kept resident in memory").
 pub struct HoloFile {
     path: PathBuf,
-    file: File,
+    file: Disk,
     writable: bool,
     settings: BTreeMap<String, String>,
     sections: Vec<Section>,

@@ -9,6 +9,7 @@ use std::fs::{File, OpenOptions};
 use std::os::unix::fs::FileExt;
 use std::path::Path;
 
+use super::disk::Disk;
 use super::format::{
     self, CHUNK_BEAMS, ChunkLoc, DATA_START, DIR_ENTRY_BYTES, DirEntry, Extent, LayoutError, Root,
     SLOT_BYTES, SUPERBLOCK_BYTES, Superblock,
@@ -228,7 +229,7 @@ impl HoloFile {
         let sections = root.sections;
         Ok(HoloFile {
             path: pathbuf,
-            file: file.try_clone().map_err(io)?,
+            file: Disk::new(file.try_clone().map_err(io)?),
             writable,
             settings: root.settings,
             dirty: vec![BTreeSet::new(); sections.len()],
@@ -259,19 +260,22 @@ impl HoloFile {
         }
         let n = e.extent().len as usize;
         buf.resize(n, 0);
-        self.file.read_exact_at(buf, e.offset).map_err(|err| {
-            if err.kind() == std::io::ErrorKind::UnexpectedEof {
-                FileError::Truncated {
-                    path: self.path.clone(),
-                    what: format!("beam {beam} of section {section}"),
-                    start: e.offset,
-                    end: e.offset + n as u64,
-                    len: self.file.metadata().map_or(0, |m| m.len()),
+        self.file
+            .file()
+            .read_exact_at(buf, e.offset)
+            .map_err(|err| {
+                if err.kind() == std::io::ErrorKind::UnexpectedEof {
+                    FileError::Truncated {
+                        path: self.path.clone(),
+                        what: format!("beam {beam} of section {section}"),
+                        start: e.offset,
+                        end: e.offset + n as u64,
+                        len: self.file.file().metadata().map_or(0, |m| m.len()),
+                    }
+                } else {
+                    self.io(err)
                 }
-            } else {
-                self.io(err)
-            }
-        })?;
+            })?;
         let computed = crc32fast::hash(buf);
         if computed != e.crc {
             buf.clear();

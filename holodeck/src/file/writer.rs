@@ -9,9 +9,9 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs::{File, OpenOptions};
-use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 
+use super::disk::Disk;
 use super::format::{
     CHUNK_BEAMS, ChunkLoc, DATA_START, DirEntry, Extent, Root, SLOT_BYTES, Superblock, VERSION,
     chunk_to_bytes,
@@ -96,7 +96,7 @@ impl HoloFile {
             .collect();
         let mut h = HoloFile {
             path: path.to_path_buf(),
-            file,
+            file: Disk::new(file),
             writable: true,
             settings,
             sections,
