@@ -6,6 +6,7 @@
 
 pub mod beam_index;
 pub mod cache;
+pub mod cave_section;
 pub mod display;
 pub mod distance_code;
 pub mod file;

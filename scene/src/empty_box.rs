@@ -54,6 +54,19 @@ pub fn empty_box(scene: &Scene, start: Aabb, keep: DVec3, gap: f64) -> Option<Aa
     Some(b)
 }
 
+/// How many triangles of `scene` reach into the open box `b` (exactly: each triangle is
+/// clipped against the box shrunk by a `gap` of 1 µm, so one lying on a face is outside).
+pub fn triangles_inside(scene: &Scene, b: &Aabb) -> usize {
+    const ON_FACE: f64 = 1e-6;
+    let shrunk = Aabb {
+        lo: b.lo + ON_FACE,
+        hi: b.hi - ON_FACE,
+    };
+    (0..scene.triangle_count() as u32)
+        .filter(|&i| clip_bounds(&scene.triangle(i).map(|p| p.as_dvec3()), &shrunk).is_some())
+        .count()
+}
+
 /// The bounds of the part of triangle `tri` inside `b` (closed), if any: the triangle
 /// clipped against each face's plane in turn (Sutherland–Hodgman).
 fn clip_bounds(tri: &[DVec3; 3], b: &Aabb) -> Option<Aabb> {

@@ -9,79 +9,17 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use glam::DVec3;
 use holocave_cave::Cave;
+use holocave_holodeck::HoloFile;
+use holocave_holodeck::cave_section::CaveSection;
 use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
 use holocave_holodeck::run::{RunOptions, Running, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::SampleSource;
-use holocave_holodeck::{HoloFile, Section, ViewClass};
-use holocave_scene::empty_box::{Aabb, empty_box};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
 
 use super::worker::{TracerSource, scene_name};
-
-/// Surfaces are kept at least this far (scene metres) outside a CAVE's section.
-const SURFACE_GAP: f64 = 0.01;
-
-/// The section of a new holodeck for a CAVE: the box around its walls (the room's inside
-/// volume) in scene coordinates, interior (looking out), so every eye in the room lies in
-/// it and every line of sight through a wall crosses it — cut down, where the scene has
-/// surfaces inside the CAVE (a floor, a table), to the empty box around the room's inside
-/// point: a section only holds rays passing through it, so what lies inside would vanish.
-pub fn cave_section(cave: &Cave, scene: &Scene) -> Result<Section> {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for w in &cave.walls {
-        for p in [w.pa, w.pb, w.pc, w.pb + w.pc - w.pa] {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
-    }
-    let (lo, hi) = (lo.min(cave.inside), hi.max(cave.inside));
-    // The walls' box may be flat (a single wall): give it depth toward the inside point,
-    // and at least 1 m on every axis.
-    let mid = (lo + hi) * 0.5;
-    let half = ((hi - lo) * 0.5).max(DVec3::splat(0.5));
-    let (lo, hi) = (mid - half, mid + half);
-    let m = cave.room_to_scene;
-    let corners = (0..8).map(|i| {
-        let pick = |bit: usize, a: f64, b: f64| if i & bit == 0 { a } else { b };
-        m.transform_point3(DVec3::new(
-            pick(1, lo.x, hi.x),
-            pick(2, lo.y, hi.y),
-            pick(4, lo.z, hi.z),
-        ))
-    });
-    let (slo, shi) = corners.fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(a, b), p| (a.min(p), b.max(p)),
-    );
-    let start = Aabb { lo: slo, hi: shi };
-    let inside = m.transform_point3(cave.inside);
-    let b = empty_box(scene, start, inside, SURFACE_GAP).with_context(|| {
-        format!(
-            "the scene has a surface within {SURFACE_GAP} m of the CAVE's inside point \
-             {inside:.3} (scene coordinates): no holodeck section fits around the viewer"
-        )
-    })?;
-    if b != start {
-        println!(
-            "holodeck section: {:.2} .. {:.2} (scene coordinates), cut from the CAVE's box \
-             {:.2} .. {:.2} to leave the scene's surfaces outside; eyes outside it see no \
-             holodeck samples",
-            b.lo, b.hi, start.lo, start.hi
-        );
-    }
-    let d = b.hi - b.lo;
-    Section::with_default_grid(
-        b.lo,
-        [DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z],
-        ViewClass::Interior,
-    )
-    .context("the CAVE's section")
-}
 
 /// Opens the holodeck at `path`, or creates it for `cave` with `scene` (loaded from
 /// `scene_path`) if it does not exist. `made_by` names the command in its settings.
@@ -123,7 +61,7 @@ fn open(path: &Path, cave: &Cave, scene_path: &Path) -> Result<HoloFile> {
     Ok(h)
 }
 
-/// Creates the holodeck at `path` for `cave`: one section, [`cave_section`].
+/// Creates the holodeck at `path` for `cave`: one section, its [`CaveSection`].
 fn create(
     path: &Path,
     cave: &Cave,
@@ -134,7 +72,16 @@ fn create(
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let section = cave_section(cave, scene)?;
+    let cs = CaveSection::new(cave, scene)?;
+    if cs.was_cut() {
+        println!(
+            "holodeck section: {:.2} .. {:.2} (scene coordinates), cut from the CAVE's box \
+             {:.2} .. {:.2} to leave the scene's surfaces outside; eyes outside it see no \
+             holodeck samples",
+            cs.cut.lo, cs.cut.hi, cs.walls_box.lo, cs.walls_box.hi
+        );
+    }
+    let section = cs.section;
     let settings = BTreeMap::from([
         ("scene".to_string(), scene_name(scene_path)),
         (

@@ -17,6 +17,7 @@ use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
 use holocave_holodeck::run::{RunOptions, run as run_server};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
+use holocave_scene::empty_box::{Aabb, triangles_inside};
 use holocave_scene::{LoadOptions, Scene};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -98,6 +99,16 @@ fn make_sections(args: &FillArgs, scene: &Scene) -> anyhow::Result<Vec<Section>>
         .iter()
         .map(|b| {
             let (lo, hi) = (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]));
+            if class == ViewClass::Interior {
+                let n = triangles_inside(scene, &Aabb { lo, hi });
+                if n > 0 {
+                    tracing::warn!(
+                        "section {b:?} is interior (free space to look out of) but {n} \
+                         triangles of the scene reach into it; they will be missing from views \
+                         inside it (give a free --section, or --class exterior)"
+                    );
+                }
+            }
             let d = hi - lo;
             let edges = [DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z];
             let s = match &args.grid {
@@ -110,35 +121,6 @@ fn make_sections(args: &FillArgs, scene: &Scene) -> anyhow::Result<Vec<Section>>
             s.with_context(|| format!("section {b:?}"))
         })
         .collect()
-}
-
-/// Triangles of the scene with a point strictly inside an interior section: rays are traced
-/// outward from the section's walls, so these are never seen from inside it (paper §2.1:
-/// interior sections are regions of free movement). Checked on a grid of points per triangle.
-fn triangles_inside(scene: &Scene, section: &Section) -> usize {
-    let margin = 1e-3;
-    let unit = |p: glam::Vec3| section.unit_coords(p.as_dvec3());
-    let inside = |p: glam::Vec3| {
-        let t = unit(p);
-        t.cmpgt(DVec3::splat(margin)).all() && t.cmplt(DVec3::splat(1.0 - margin)).all()
-    };
-    const N: u32 = 12;
-    (0..scene.triangle_count() as u32)
-        .filter(|&i| {
-            let [a, b, c] = *scene.triangle(i);
-            let (ta, tb, tc) = (unit(a), unit(b), unit(c));
-            let (lo, hi) = (ta.min(tb).min(tc), ta.max(tb).max(tc));
-            if lo.cmpge(DVec3::splat(1.0 - margin)).any() || hi.cmple(DVec3::splat(margin)).any() {
-                return false; // wholly outside one slab
-            }
-            (0..=N).any(|u| {
-                (0..=N - u).any(|v| {
-                    let (fu, fv) = (u as f32 / N as f32, v as f32 / N as f32);
-                    inside(a + (b - a) * fu + (c - a) * fv)
-                })
-            })
-        })
-        .count()
 }
 
 fn spawn_workers(n: usize, addr: &str, scene: &PathBuf) -> anyhow::Result<Vec<Child>> {
@@ -189,18 +171,6 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         let scene = Scene::load(&args.scene, &LoadOptions::default())
             .with_context(|| format!("loading scene {}", args.scene.display()))?;
         let sections = make_sections(&args, &scene)?;
-        for (i, s) in sections.iter().enumerate() {
-            if s.class() == ViewClass::Interior {
-                let n = triangles_inside(&scene, s);
-                if n > 0 {
-                    tracing::warn!(
-                        "section {i} is interior (free space to look out of) but {n} triangles \
-                         of the scene lie inside it; they will be missing from views inside \
-                         it (give a free --section, or --class exterior)"
-                    );
-                }
-            }
-        }
         let settings = BTreeMap::from([
             ("scene".to_string(), name.clone()),
             (
