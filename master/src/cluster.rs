@@ -55,7 +55,8 @@ pub struct MasterOptions {
     pub states_log: Option<PathBuf>,
     /// Print a status line this often.
     pub status_every: Duration,
-    /// Set from outside (Ctrl-C, a test) to stop after the current frame.
+    /// Set from outside (the binary's Ctrl-C handler, a test) to stop after the current
+    /// frame; the nodes are then told to shut down, not left to retry.
     pub stop: Arc<AtomicBool>,
     /// Before the first frame, wait this long at most for a node of every wall.
     pub wait_for_walls: Duration,
@@ -351,14 +352,6 @@ async fn run_frames(
     secret: Vec<u8>,
     mut opts: MasterOptions,
 ) -> std::io::Result<Summary> {
-    // Ctrl-C ends the run cleanly: the nodes are told to shut down, not left to retry.
-    let stop = opts.stop.clone();
-    tokio::spawn(async move {
-        if tokio::signal::ctrl_c().await.is_ok() {
-            tracing::info!("interrupted: stopping after this frame");
-            stop.store(true, Ordering::Relaxed);
-        }
-    });
     let addr = listener.local_addr()?;
     let period = cave.frame_period();
     let deadline = cave.deadline();

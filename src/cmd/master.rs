@@ -3,8 +3,6 @@
 
 use std::net::TcpListener;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
@@ -214,7 +212,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
             holodeck,
             states_log: args.states.clone(),
             status_every: Duration::from_secs(1),
-            stop: Arc::new(AtomicBool::new(false)),
+            stop: super::interrupt::stop_flag(),
             wait_for_walls: Duration::from_secs_f64(args.wait_for_walls),
             status_extra: hosted.as_ref().map(Hosted::status),
         },

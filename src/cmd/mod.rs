@@ -4,6 +4,7 @@ pub mod cave;
 pub mod cave_holodeck;
 pub mod fill;
 pub mod holodeck;
+pub mod interrupt;
 pub mod master;
 pub mod node;
 pub mod parse;

@@ -7,8 +7,6 @@
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -215,7 +213,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             holodeck: hosted.as_ref().map(|h| h.addr.to_string()),
             states_log: Some(args.out.join("states.bin")),
             status_every: Duration::from_secs(1),
-            stop: Arc::new(AtomicBool::new(false)),
+            stop: super::interrupt::stop_flag(),
             wait_for_walls: Duration::from_secs(60),
             status_extra: hosted.as_ref().map(Hosted::status),
         },
