@@ -17,7 +17,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
-use holocave_protocol::frame::{encode, read_frame_async};
+use holocave_protocol::frame::{FrameError, encode, read_frame_async};
 use holocave_protocol::handshake::{self, Role, Welcome};
 use tokio::io::AsyncWriteExt;
 use tokio::net::tcp::OwnedWriteHalf;
@@ -80,7 +80,7 @@ pub struct Summary {
     pub full_frames: u64,
     /// Connections refused (bad handshake, wrong secret, unknown wall).
     pub refused: u64,
-    /// Connections dropped for bad messages or write failures.
+    /// Connections dropped for bad messages (too large, undecodable) or write failures.
     pub dropped: u64,
 }
 
@@ -106,7 +106,7 @@ enum Event {
     },
     Left {
         id: NodeId,
-        why: String,
+        why: FrameError,
     },
     Refused {
         peer: SocketAddr,
@@ -194,11 +194,8 @@ async fn read_node(
                     return;
                 }
             }
-            Err(e) => {
-                let _ = events.send(Event::Left {
-                    id,
-                    why: e.to_string(),
-                });
+            Err(why) => {
+                let _ = events.send(Event::Left { id, why });
                 return;
             }
         }
@@ -242,7 +239,10 @@ impl Master<'_> {
             } => self.barrier.ready(id, frame, stats),
             Event::Left { id, why } => {
                 if let Some(l) = self.links.remove(&id) {
-                    self.summary.dropped += u64::from(!why.contains("connection closed"));
+                    // A node whose link ends leaves; one that sent garbage is dropped.
+                    let bad =
+                        matches!(why, FrameError::TooLarge { .. } | FrameError::Decode { .. });
+                    self.summary.dropped += u64::from(bad);
                     tracing::warn!("node {id} (wall {:?}) left: {why}", l.wall);
                 }
                 self.forget(id);
@@ -252,6 +252,91 @@ impl Master<'_> {
                 tracing::warn!("refused a connection from {peer}: {why}");
             }
         }
+    }
+
+    /// Handles events until `until` or until the channel closes.
+    async fn handle_until(&mut self, until: Instant) {
+        while Instant::now() < until {
+            match next_event(&mut self.events, until).await {
+                Some(e) => self.handle(e),
+                None => break,
+            }
+        }
+    }
+
+    /// Handles events until the barrier is complete or `until`.
+    async fn collect_until(&mut self, until: Instant) {
+        while !self.barrier.complete() {
+            match next_event(&mut self.events, until).await {
+                Some(e) => self.handle(e),
+                None => break,
+            }
+        }
+    }
+
+    /// Before the first frame: waits up to `limit` for a node of every wall.
+    async fn wait_for_walls(&mut self, limit: Duration) {
+        let until = Instant::now() + limit;
+        let absent = |m: &Self| -> Vec<String> {
+            m.cave
+                .walls
+                .iter()
+                .filter(|w| !m.links.values().any(|l| l.wall == w.name))
+                .map(|w| w.name.clone())
+                .collect()
+        };
+        while !absent(self).is_empty() {
+            if Instant::now() >= until {
+                if !limit.is_zero() {
+                    tracing::warn!(
+                        "starting without walls {:?}: no node joined for them",
+                        absent(self)
+                    );
+                }
+                return;
+            }
+            match next_event(&mut self.events, until).await {
+                Some(e) => self.handle(e),
+                None => return,
+            }
+        }
+    }
+
+    /// Frame `frame`'s swap barrier, its state sent at `sent`: collects Ready until every
+    /// member is in or the deadline passes; when no node made it, the cluster is
+    /// overloaded rather than one node late, so it waits for every node as a classic
+    /// lockstep cluster does (the frame rate drops to the slowest wall's), up to a limit.
+    /// Then sends Swap to the ready nodes and counts the frame; returns when Swap went.
+    async fn swap_barrier(&mut self, frame: u64, sent: Instant) -> std::io::Result<Instant> {
+        let deadline = self.cave.deadline();
+        self.barrier.begin(frame);
+        self.collect_until(sent + deadline).await;
+        if !self.barrier.any_ready() && !self.links.is_empty() {
+            self.barrier.widen();
+            self.collect_until(sent + OVERLOAD_LIMIT.max(deadline))
+                .await;
+        }
+        let closed = self.barrier.close();
+        self.send(&encode_msg(&MasterMsg::Swap { frame })?, Some(&closed.swap))
+            .await;
+        let swapped = Instant::now();
+        self.summary.barrier.push(swapped - sent);
+        let mut walls_swapped: Vec<&str> = closed
+            .swap
+            .iter()
+            .filter_map(|id| self.links.get(id).map(|l| l.wall.as_str()))
+            .collect();
+        walls_swapped.sort();
+        walls_swapped.dedup();
+        if walls_swapped.len() == self.cave.walls.len() {
+            self.summary.full_frames += 1;
+        }
+        for id in &closed.late {
+            if let Some(mem) = self.barrier.members().get(id) {
+                tracing::debug!("frame {frame}: wall {:?} late", mem.wall);
+            }
+        }
+        Ok(swapped)
     }
 
     /// Removes a node from the barrier, keeping its counts in the summary.
@@ -353,8 +438,6 @@ async fn run_frames(
     mut opts: MasterOptions,
 ) -> std::io::Result<Summary> {
     let addr = listener.local_addr()?;
-    let period = cave.frame_period();
-    let deadline = cave.deadline();
     let (tx, events) = unbounded_channel();
     let accepting = Arc::new(Accepting {
         cluster: cave.cluster.id.clone(),
@@ -387,35 +470,16 @@ async fn run_frames(
         links: BTreeMap::new(),
         summary: Summary::default(),
     };
-    let waiting = Instant::now() + opts.wait_for_walls;
-    while !cave
-        .walls
-        .iter()
-        .all(|w| m.links.values().any(|l| l.wall == w.name))
-    {
-        let now = Instant::now();
-        if now >= waiting {
-            let absent: Vec<&str> = cave
-                .walls
-                .iter()
-                .filter(|w| !m.links.values().any(|l| l.wall == w.name))
-                .map(|w| w.name.as_str())
-                .collect();
-            if !opts.wait_for_walls.is_zero() {
-                tracing::warn!("starting without walls {absent:?}: no node joined for them");
-            }
-            break;
-        }
-        match next_event(&mut m.events, waiting).await {
-            Some(e) => m.handle(e),
-            None => break,
-        }
-    }
+    m.wait_for_walls(opts.wait_for_walls).await;
     let mut frusta = CaveFrusta::new(cave);
+    let period = cave.frame_period();
     let start = Instant::now();
-    let period_ns = period.as_nanos() as u64;
     let mut next_tick = start;
-    let mut last_status = (start, 0u64, 0u64);
+    let mut status = StatusClock {
+        since: start,
+        frame: 0,
+        samples: 0,
+    };
     let mut frame = 0u64;
     loop {
         let stop = opts.stop.load(Ordering::Relaxed)
@@ -428,15 +492,11 @@ async fn run_frames(
             break;
         }
         // Wait for the tick, handling joins and stale messages meanwhile.
-        while Instant::now() < next_tick {
-            match next_event(&mut m.events, next_tick).await {
-                Some(e) => m.handle(e),
-                None => break,
-            }
-        }
+        m.handle_until(next_tick).await;
         while let Ok(e) = m.events.try_recv() {
             m.handle(e);
         }
+        let period_ns = period.as_nanos() as u64;
         let master_ns = match opts.clock {
             Clock::Live => start.elapsed().as_nanos() as u64,
             Clock::Replay => frame * period_ns,
@@ -453,71 +513,25 @@ async fn run_frames(
             tracker_ns,
         };
         let state = frame_state(cave, &frusta, frame, times, &pose);
-        let bytes = encode(&MasterMsg::Frame(state), MAX_CLUSTER_FRAME)
-            .map_err(|e| std::io::Error::other(e.to_string()))?;
+        let bytes = encode_msg(&MasterMsg::Frame(state))?;
         if let Some(w) = &mut states {
             w.write_all(&bytes)?;
         }
         let sent = Instant::now();
-        m.barrier.begin(frame);
         m.send(&bytes, None).await;
-        let until = sent + deadline;
-        while !m.barrier.complete() {
-            match next_event(&mut m.events, until).await {
-                Some(e) => m.handle(e),
-                None => break,
-            }
-        }
-        if !m.barrier.any_ready() && !m.links.is_empty() {
-            // Nobody made the deadline, so there is no one to go on with: the cluster is
-            // overloaded, not one node. Wait for every node, as a classic lockstep
-            // cluster does (the frame rate drops to the slowest wall's), up to a limit.
-            m.barrier.widen();
-            let until = sent + OVERLOAD_LIMIT.max(deadline);
-            while !m.barrier.complete() {
-                match next_event(&mut m.events, until).await {
-                    Some(e) => m.handle(e),
-                    None => break,
-                }
-            }
-        }
-        let closed = m.barrier.close();
-        let swap = encode(&MasterMsg::Swap { frame }, MAX_CLUSTER_FRAME)
-            .map_err(|e| std::io::Error::other(e.to_string()))?;
-        m.send(&swap, Some(&closed.swap)).await;
-        let swapped = Instant::now();
-        m.summary.barrier.push(swapped - sent);
+        let swapped = m.swap_barrier(frame, sent).await?;
         if let (Clock::Live, Some(t)) = (opts.clock, tracker_ns) {
             let t = start + Duration::from_nanos(t);
             m.summary
                 .motion_to_photon
                 .push(swapped.saturating_duration_since(t));
         }
-        let mut walls_swapped: Vec<&str> = closed
-            .swap
-            .iter()
-            .filter_map(|id| m.links.get(id).map(|l| l.wall.as_str()))
-            .collect();
-        walls_swapped.sort();
-        walls_swapped.dedup();
-        if walls_swapped.len() == cave.walls.len() {
-            m.summary.full_frames += 1;
-        }
-        for id in &closed.late {
-            if let Some(mem) = m.barrier.members().get(id) {
-                tracing::debug!("frame {frame}: wall {:?} late", mem.wall);
-            }
-        }
-        if swapped - last_status.0 >= opts.status_every {
-            let secs = (swapped - last_status.0).as_secs_f64();
-            let rate = (frame + 1 - last_status.1) as f64 / secs;
-            let tracker_hz = (head.samples - last_status.2) as f64 / secs;
-            let mut line = m.status_line(frame, rate, tracker_hz, &head);
+        if swapped - status.since >= opts.status_every {
+            let mut line = status.line(&m, frame, swapped, &head);
             if let Some(extra) = opts.status_extra.as_mut() {
                 line += &format!(" | {}", extra());
             }
             tracing::info!("{line}");
-            last_status = (swapped, frame + 1, head.samples);
         }
         frame += 1;
         next_tick += period;
@@ -527,14 +541,13 @@ async fn run_frames(
             next_tick = now;
         }
     }
-    let bye = encode(
-        &MasterMsg::Shutdown {
+    m.send(
+        &encode_msg(&MasterMsg::Shutdown {
             reason: "the master is stopping".into(),
-        },
-        MAX_CLUSTER_FRAME,
+        })?,
+        None,
     )
-    .map_err(|e| std::io::Error::other(e.to_string()))?;
-    m.send(&bye, None).await;
+    .await;
     for l in m.links.values_mut() {
         let _ = l.writer.shutdown().await;
     }
@@ -548,4 +561,30 @@ async fn run_frames(
         m.forget(id);
     }
     Ok(m.summary)
+}
+
+fn encode_msg(msg: &MasterMsg) -> std::io::Result<Vec<u8>> {
+    encode(msg, MAX_CLUSTER_FRAME).map_err(|e| std::io::Error::other(e.to_string()))
+}
+
+/// Where the last status line left off.
+struct StatusClock {
+    since: Instant,
+    frame: u64,
+    samples: u64,
+}
+
+impl StatusClock {
+    /// The status line for the frames and tracker samples since the last one.
+    fn line(&mut self, m: &Master<'_>, frame: u64, now: Instant, head: &Head) -> String {
+        let secs = (now - self.since).as_secs_f64();
+        let rate = (frame + 1 - self.frame) as f64 / secs;
+        let tracker_hz = (head.samples - self.samples) as f64 / secs;
+        *self = StatusClock {
+            since: now,
+            frame: frame + 1,
+            samples: head.samples,
+        };
+        m.status_line(frame, rate, tracker_hz, head)
+    }
 }
