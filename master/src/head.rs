@@ -11,7 +11,7 @@
 
 use std::time::Instant;
 
-use glam::{DMat4, DVec3, Quat, Vec3};
+use glam::{DMat4, Quat, Vec3};
 use holocave_tracking::predict::PredictorKind;
 use holocave_tracking::source::{Next, Pacing, SourceError, SourceSpec, TrackerSource, open};
 use holocave_tracking::{HeadTracker, Pose, Sample};
@@ -187,11 +187,6 @@ impl Head {
             self.implausible
         )
     }
-}
-
-/// The room point `p` in scene coordinates.
-pub fn to_scene(cave: &Cave, p: DVec3) -> DVec3 {
-    cave.room_to_scene.transform_point3(p)
 }
 
 #[cfg(test)]

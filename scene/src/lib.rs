@@ -1,6 +1,7 @@
 //! Scenes for holocave: glTF loading, materials, lights, daylight, and BVH ray queries.
 //!
-//! One concept per module: [`load`] reads glTF into [`SceneParts`]; [`Scene`] holds the
+//! One concept per module: [`load`] reads glTF into [`SceneParts`] (in [`parts`]) and
+//! builds a [`Scene`] from them; [`Scene`] holds the
 //! world-space triangles and answers ray queries through [`bvh`]; [`material`],
 //! [`texture`], [`light`], [`daylight`] and [`camera`] describe what the tracer shades.
 
@@ -13,6 +14,7 @@ pub mod generate;
 pub mod light;
 pub mod load;
 pub mod material;
+pub mod parts;
 pub mod ray;
 pub mod scene;
 pub mod texture;
@@ -23,6 +25,7 @@ pub use error::SceneError;
 pub use light::{PunctualKind, PunctualLight};
 pub use load::LoadOptions;
 pub use material::{Material, MaterialKind, SurfaceParams, TextureRef};
+pub use parts::{SceneParts, TriangleShading};
 pub use ray::{Hit, Ray};
-pub use scene::{Scene, SceneParts, SurfacePoint, TriangleShading};
+pub use scene::{Scene, SurfacePoint};
 pub use texture::{Encoding, Texture};

@@ -22,7 +22,8 @@ use crate::daylight::Daylight;
 use crate::error::SceneError;
 use crate::light::{PunctualKind, PunctualLight};
 use crate::material::{Material, TextureRef};
-use crate::scene::{Scene, SceneParts, TriangleShading};
+use crate::parts::{SceneParts, TriangleShading};
+use crate::scene::Scene;
 use crate::texture::{Encoding, Texture};
 
 /// Extensions whose meaning holocave implements.
@@ -57,7 +58,14 @@ struct Loader<'a> {
     parts: SceneParts,
 }
 
-pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+impl Scene {
+    /// Loads a glTF (`.gltf` or `.glb`) scene (see the module's notes).
+    pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+        load(path, opts)
+    }
+}
+
+fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.into(),
         source,

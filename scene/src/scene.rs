@@ -12,31 +12,9 @@ use crate::daylight::Daylight;
 use crate::error::SceneError;
 use crate::light::PunctualLight;
 use crate::material::Material;
+use crate::parts::{SceneParts, TriangleShading};
 use crate::ray::{Hit, Ray};
 use crate::texture::Texture;
-
-/// Per-triangle data used for shading (not for intersection).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TriangleShading {
-    /// Vertex normals; `None` means the face normal is used.
-    pub normals: Option<[Vec3; 3]>,
-    pub uvs: [Vec2; 3],
-    pub material: u32,
-}
-
-/// Everything a scene is made of, before the BVH is built.
-#[derive(Default)]
-pub struct SceneParts {
-    pub name: String,
-    pub positions: Vec<[Vec3; 3]>,
-    pub shading: Vec<TriangleShading>,
-    pub materials: Vec<Material>,
-    pub textures: Vec<Texture>,
-    pub lights: Vec<PunctualLight>,
-    pub cameras: Vec<NamedCamera>,
-    pub daylight: Daylight,
-    pub warnings: Vec<String>,
-}
 
 /// A point on a surface, as a hit sees it.
 #[derive(Clone, Copy, Debug)]
@@ -70,11 +48,6 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Loads a glTF (`.gltf` or `.glb`) scene; see [`crate::load`].
-    pub fn load(path: &Path, opts: &crate::LoadOptions) -> Result<Scene, SceneError> {
-        crate::load::load(path, opts)
-    }
-
     /// Builds a scene from its parts: drops degenerate triangles (one warning with the
     /// count) and builds the BVH. `source` names the input in errors.
     pub fn from_parts(mut parts: SceneParts, source: &Path) -> Result<Scene, SceneError> {
