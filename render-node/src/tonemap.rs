@@ -4,6 +4,14 @@
 //! threshold-versus-intensity function of human vision). Glare, colour sensitivity and
 //! acuity loss of the full human model are not simulated.
 //!
+//! A scene whose world-luminance range fits the display's, or one whose histogram cannot
+//! be brought under the ceiling (the adjusted mapping would be steeper than linear), is
+//! mapped linearly instead, as Ward Larson et al. prescribe and Radiance's `pcond` does:
+//! its contrast is shown as it is, never stretched. The linear scale puts the image's
+//! log-mean at the display's log-middle (camera; moved just enough that a range that fits
+//! is all shown) or scales by the ratio of the threshold contrasts at the display's and
+//! the world's adaptation (human), clipped to the display's range.
+//!
 //! The mapping is computed from the histogram of the displayed image's log luminance and
 //! then held: [`ToneMapper::update`] recomputes it only on request or when the image's
 //! log-mean luminance moves by more than a stop, so the picture does not pump.
@@ -19,6 +27,10 @@ const LD_MAX: f32 = 100.0;
 pub const LUMINOUS_EFFICACY: f32 = 179.0;
 /// Luminances below this (cd/m²) are treated as black and left out of the histogram.
 const L_FLOOR: f32 = 1e-4;
+/// When ceiling trimming leaves at most this fraction of the histogram, the scene needs no
+/// compression and is mapped linearly (Radiance `pcond`'s `CVRATIO`); also the fraction
+/// trimmed in a round below which trimming stops.
+const CVRATIO: f32 = 0.025;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ToneMode {
@@ -26,15 +38,23 @@ pub enum ToneMode {
     Human,
 }
 
-/// A brightness mapping: the cumulative histogram of log world luminance.
+/// A brightness mapping: the cumulative histogram of log world luminance, or linear.
 #[derive(Clone, Debug)]
 pub struct Mapping {
     log_min: f32,
     log_max: f32,
-    /// Cumulative distribution at each bin's lower edge; BINS + 1 entries, 0 to 1.
-    cdf: Vec<f32>,
+    curve: Curve,
     /// Log-mean world luminance of the image it was made from.
     log_mean: f32,
+}
+
+#[derive(Clone, Debug)]
+enum Curve {
+    /// Histogram adjustment: the cumulative distribution at each bin's lower edge; BINS + 1
+    /// entries, 0 to 1.
+    Histogram(Vec<f32>),
+    /// Linear: log10 Ld = log10 Lw + `log_scale`, clipped to the display's range.
+    Linear { log_scale: f32 },
 }
 
 fn luminance(c: Vec3) -> f32 {
@@ -85,8 +105,31 @@ impl Mapping {
         }
         let (ldmin, ldmax) = (LD_MIN.log10(), LD_MAX.log10());
         let total0: f32 = hist.iter().sum();
-        // If the scene's range fits the display, a linear (naive) mapping needs no
-        // adjustment: contrast is never exaggerated.
+        let linear = |fits: bool| {
+            let log_scale = match mode {
+                // The log-mean at the display's log-middle; a range that fits is moved
+                // just enough to be shown whole.
+                ToneMode::Camera => {
+                    let s = 0.5 * (ldmin + ldmax) - log_mean;
+                    let (lo, hi) = (ldmin - log_min, ldmax - log_max);
+                    if fits && lo <= hi { s.clamp(lo, hi) } else { s }
+                }
+                // Visibility matching: a just-noticeable difference at the world's
+                // adaptation becomes one at the display's (pcond's `-s` linear scale).
+                ToneMode::Human => log_tvi(0.5 * (ldmin + ldmax)) - log_tvi(log_mean),
+            };
+            Some(Mapping {
+                log_min,
+                log_max,
+                curve: Curve::Linear { log_scale },
+                log_mean,
+            })
+        };
+        // A scene whose range fits the display's needs no compression: histogram
+        // adjustment would only stretch its contrast (Ward Larson et al. 1997).
+        if log_max - log_min <= ldmax - ldmin {
+            return linear(true);
+        }
         let cdf_of = |h: &[f32]| {
             let t: f32 = h.iter().sum::<f32>().max(1e-12);
             let mut cdf = Vec::with_capacity(BINS + 1);
@@ -99,11 +142,13 @@ impl Mapping {
             cdf
         };
         // Iteratively trim bins above the ceiling (the paper's loop; stops when less than
-        // 2.5% of the samples are trimmed in a round).
+        // 2.5% of the samples are trimmed in a round). If trimming leaves almost nothing,
+        // no histogram meets the ceiling: any adjusted mapping would be steeper than the
+        // linear one somewhere, so the linear one is used.
         for _ in 0..100 {
             let total: f32 = hist.iter().sum();
-            if total < 1e-6 * total0 {
-                break;
+            if total <= CVRATIO * total0 {
+                return linear(false);
             }
             let cdf = cdf_of(&hist);
             let mut trimmed = 0.0;
@@ -123,14 +168,17 @@ impl Mapping {
                     hist[b] = ceiling;
                 }
             }
-            if trimmed < 0.025 * total {
+            if trimmed < CVRATIO * total {
                 break;
             }
+        }
+        if hist.iter().sum::<f32>() <= CVRATIO * total0 {
+            return linear(false);
         }
         Some(Mapping {
             log_min,
             log_max,
-            cdf: cdf_of(&hist),
+            curve: Curve::Histogram(cdf_of(&hist)),
             log_mean,
         })
     }
@@ -140,12 +188,19 @@ impl Mapping {
         if lw <= L_FLOOR {
             return 0.0;
         }
+        let (ldmin, ldmax) = (LD_MIN.log10(), LD_MAX.log10());
+        let cdf = match &self.curve {
+            Curve::Linear { log_scale } => {
+                return 10f32.powf((lw.log10() + log_scale).clamp(ldmin, ldmax));
+            }
+            Curve::Histogram(cdf) => cdf,
+        };
         let x = ((lw.log10() - self.log_min) / (self.log_max - self.log_min)).clamp(0.0, 1.0)
             * BINS as f32;
         let b = (x as usize).min(BINS - 1);
         let f = x - b as f32;
-        let p = self.cdf[b] + (self.cdf[b + 1] - self.cdf[b]) * f;
-        10f32.powf(LD_MIN.log10() + (LD_MAX.log10() - LD_MIN.log10()) * p)
+        let p = cdf[b] + (cdf[b + 1] - cdf[b]) * f;
+        10f32.powf(ldmin + (ldmax - ldmin) * p)
     }
 }
 
@@ -239,6 +294,80 @@ mod tests {
                 assert!(ld >= last - 1e-4, "{mode:?}: not monotonic at {lw}");
                 assert!((LD_MIN - 1e-3..=LD_MAX + 1e-3).contains(&ld));
                 last = ld;
+            }
+        }
+    }
+
+    /// The slope of the mapping in log–log terms, `d log Ld / d log Lw`, between
+    /// neighbouring world luminances `a < b`: 1 is the linear operator's contrast.
+    fn log_slope(m: &Mapping, a: f32, b: f32) -> f32 {
+        (m.display_luminance(b) / m.display_luminance(a)).log10() / (b / a).log10()
+    }
+
+    #[test]
+    fn a_scene_whose_range_fits_the_display_is_mapped_linearly() {
+        // A 2:1 scene (50 to 100 cd/m²) on a 100:1 display: its contrast is shown as it
+        // is, 2:1, not stretched over the display's whole range.
+        for mode in [ToneMode::Camera, ToneMode::Human] {
+            let img = ramp(50.0, 100.0);
+            let m = Mapping::new(&img, mode).unwrap();
+            let (lo, mid, hi) = (
+                m.display_luminance(50.0),
+                m.display_luminance(75.0),
+                m.display_luminance(100.0),
+            );
+            assert!(
+                (hi / lo - 2.0).abs() < 2e-3 && (mid / lo - 1.5).abs() < 2e-3,
+                "{mode:?}: 50, 75, 100 cd/m² shown as {lo}, {mid}, {hi} cd/m² (not 2:1)"
+            );
+            assert!((LD_MIN..=LD_MAX).contains(&lo) && (LD_MIN..=LD_MAX).contains(&hi));
+            // The 8-bit picture: the two ends' linear display values are 2:1 within the
+            // rounding of their sRGB codes (half a code each).
+            let mut t = ToneMapper::new(mode);
+            assert!(t.update(&img, true));
+            let px = t.apply(&img);
+            let decode = |c: u8| {
+                let s = f32::from(c) / 255.0;
+                if s <= 0.040_45 {
+                    s / 12.92
+                } else {
+                    ((s + 0.055) / 1.055).powf(2.4)
+                }
+            };
+            let (a, b) = (px.get_pixel(0, 0)[1], px.get_pixel(63, 0)[1]);
+            let (da, db) = (decode(a), decode(b));
+            // d(linear)/d(code) relative to the value, for half a code at each end.
+            let rel = |c: u8| (decode(c.saturating_add(1)) - decode(c)) / decode(c) / 2.0;
+            let tol = 2.0 * (rel(a) + rel(b));
+            assert!(
+                (db / da / 2.0 - 1.0).abs() <= tol,
+                "{mode:?}: sRGB codes {a} and {b} are {:.3}:1, not 2:1 (± {tol:.3})",
+                db / da
+            );
+        }
+    }
+
+    #[test]
+    fn camera_mode_never_shows_more_contrast_than_the_linear_operator() {
+        // Whatever the scene's range, below, at or above the display's: nowhere is the
+        // mapping steeper than linear (Ward Larson's ceiling; the linear fallback where
+        // the ceiling cannot be met).
+        for (lo, hi) in [
+            (50.0, 100.0),
+            (1.0, 10.0),
+            (1.0, 99.0),
+            (1.0, 1e3),
+            (1e-2, 1e5),
+        ] {
+            let m = Mapping::new(&ramp(lo, hi), ToneMode::Camera).unwrap();
+            for k in 0..40 {
+                let a = lo * (hi / lo).powf(k as f32 / 40.0);
+                let b = lo * (hi / lo).powf((k + 1) as f32 / 40.0);
+                let s = log_slope(&m, a, b);
+                assert!(
+                    s <= 1.0 + 0.05,
+                    "{lo}..{hi} cd/m²: slope {s:.2} between {a:.3} and {b:.3} (linear is 1)"
+                );
             }
         }
     }
