@@ -11,19 +11,24 @@ pub fn project_path(rel: &str) -> PathBuf {
 }
 
 /// A file of the read-only shared scenes beside the checkout (`../shared/scenes`), or
-/// `None` (with a message saying the test is skipped) when they are absent.
+/// `None` (with a message saying the test is skipped) when they are absent. With
+/// `HOLOCAVE_REQUIRE_SHARED=1` (as CI sets it) an absent file fails the test instead.
 pub fn shared_scene(rel: &str) -> Option<PathBuf> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
     let p = root.join(rel);
     if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "SKIPPED: {} is absent (the shared scenes live in ../shared/scenes beside the checkout)",
-            p.display()
-        );
-        None
+        return Some(p);
     }
+    let why = format!(
+        "{} is absent (the shared scenes live in ../shared/scenes beside the checkout)",
+        p.display()
+    );
+    assert!(
+        std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
+        "HOLOCAVE_REQUIRE_SHARED=1 and {why}"
+    );
+    eprintln!("SKIPPED: {why}");
+    None
 }
 
 /// Loads a scene leniently; a load error is a test failure that shows the error.
