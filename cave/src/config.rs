@@ -36,9 +36,10 @@ pub struct ClusterConfig {
     pub secret: String,
     /// Frames per second of the master's clock.
     pub rate_hz: f64,
-    /// How long the swap barrier waits for a node's Ready before marking it late
-    /// (milliseconds; default one frame period).
-    pub deadline_ms: Option<f64>,
+    /// The dead-node timeout (milliseconds): every wall swaps only when every live node is
+    /// ready (frame lock); a node that is not ready this long after a frame state was sent
+    /// is declared out, and the others go on without it until it is ready again.
+    pub dead_node_ms: f64,
     /// Where the holodeck server accepts workers and render nodes (`HOST:PORT`), when the
     /// master hosts it (`holocave master --holodeck FILE`).
     pub holodeck: String,
@@ -51,7 +52,7 @@ impl Default for ClusterConfig {
             master: "127.0.0.1:7400".to_owned(),
             secret: String::new(),
             rate_hz: 60.0,
-            deadline_ms: None,
+            dead_node_ms: 250.0,
             holodeck: "127.0.0.1:7401".to_owned(),
         }
     }

@@ -119,12 +119,10 @@ fn check_rate(hz: f64) -> Result<(), String> {
 }
 
 impl Cave {
-    /// Runs the master's clock at `hz` instead of the config's rate, with the swap
-    /// barrier's deadline back at one frame period.
+    /// Runs the master's clock at `hz` instead of the config's rate.
     pub fn set_rate(&mut self, hz: f64) -> Result<(), String> {
         check_rate(hz)?;
         self.cluster.rate_hz = hz;
-        self.cluster.deadline_ms = None;
         Ok(())
     }
 
@@ -133,11 +131,9 @@ impl Cave {
         std::time::Duration::from_secs_f64(1.0 / self.cluster.rate_hz)
     }
 
-    /// How long the swap barrier waits for a node.
-    pub fn deadline(&self) -> std::time::Duration {
-        self.cluster.deadline_ms.map_or(self.frame_period(), |ms| {
-            std::time::Duration::from_secs_f64(ms / 1e3)
-        })
+    /// How long the swap barrier waits for a node before declaring it out.
+    pub fn dead_node_timeout(&self) -> std::time::Duration {
+        std::time::Duration::from_secs_f64(self.cluster.dead_node_ms / 1e3)
     }
 
     /// The shared secret (`HOLOCAVE_SECRET` overrides the config's); an error naming the
@@ -308,11 +304,10 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
     if let Err(e) = check_rate(c.rate_hz) {
         problems.push(format!("cluster.rate_hz: {e}"));
     }
-    if let Some(d) = c.deadline_ms
-        && !(d > 0.0 && d <= 10_000.0)
-    {
+    if !(c.dead_node_ms > 0.0 && c.dead_node_ms <= 10_000.0) {
         problems.push(format!(
-            "cluster.deadline_ms: {d} must be positive and at most 10 s"
+            "cluster.dead_node_ms: {} must be positive and at most 10 s",
+            c.dead_node_ms
         ));
     }
     if c.master.parse::<std::net::SocketAddr>().is_err() && !c.master.contains(':') {

@@ -1,10 +1,13 @@
 //! The swap barrier's bookkeeping, without sockets or clocks: who is in the cluster, whom
-//! the barrier waits for, who was ready for the frame, who is late.
+//! the barrier waits for, who was ready for the frame, who was declared out.
 //!
-//! A node that misses a frame's deadline leaves the barrier (the others swap without it);
-//! it comes back the first time it is ready for the frame being collected. A node that
-//! joins (or reconnects) starts outside the barrier and enters the same way, so no frame
-//! ever waits for a node that has not yet shown it keeps up.
+//! Frame lock: every wall swaps only when every node in the barrier is ready, however
+//! slow the slowest is. The caller closes a frame early only at the dead-node timeout; a
+//! node not ready by then is declared out (the others swap without it) and comes back the
+//! first time it is ready for the frame being collected. A node that joins (or reconnects)
+//! mid-run starts outside the barrier and enters the same way, so no frame waits for a
+//! node that has not yet shown it is drawing; before the first frame the caller holds
+//! every joined node ([`Barrier::hold_all`]), so all walls start on the same frame.
 
 use std::collections::BTreeMap;
 
@@ -21,8 +24,8 @@ pub struct Member {
     pub in_barrier: bool,
     /// The newest frame this node said it was ready for.
     pub ready: Option<u64>,
-    /// Frames whose deadline it missed.
-    pub late: u64,
+    /// Times it was declared out (missed the dead-node timeout).
+    pub outs: u64,
     /// Frames it swapped.
     pub swapped: u64,
     pub stats: NodeStats,
@@ -33,8 +36,8 @@ pub struct Member {
 pub struct Closed {
     /// Nodes that get Swap.
     pub swap: Vec<NodeId>,
-    /// Nodes that missed the deadline (now outside the barrier).
-    pub late: Vec<NodeId>,
+    /// Nodes declared out: the barrier waited for them and they were not ready.
+    pub out: Vec<NodeId>,
 }
 
 /// The members and the frame being collected.
@@ -57,7 +60,7 @@ impl Barrier {
                 wall: wall.to_owned(),
                 in_barrier: false,
                 ready: None,
-                late: 0,
+                outs: 0,
                 swapped: 0,
                 stats: NodeStats::default(),
             },
@@ -66,6 +69,11 @@ impl Barrier {
 
     pub fn leave(&mut self, id: NodeId) -> Option<Member> {
         self.members.remove(&id)
+    }
+
+    /// The frame being collected.
+    pub fn frame(&self) -> u64 {
+        self.frame
     }
 
     /// Starts collecting Ready for `frame`.
@@ -84,14 +92,9 @@ impl Barrier {
         }
     }
 
-    /// Some node is ready for the frame being collected.
-    pub fn any_ready(&self) -> bool {
-        self.members.values().any(|m| m.ready == Some(self.frame))
-    }
-
-    /// Waits for every member from now on (when no node made the deadline: the whole
-    /// cluster is slow, and it runs at its slowest node's rate instead of showing nothing).
-    pub fn widen(&mut self) {
+    /// Waits for every member from now on, joined or not yet drawing (the first frame:
+    /// every wall starts on it).
+    pub fn hold_all(&mut self) {
         for m in self.members.values_mut() {
             m.in_barrier = true;
         }
@@ -105,7 +108,7 @@ impl Barrier {
             .all(|m| m.ready == Some(self.frame))
     }
 
-    /// Ends the frame: the ready nodes swap, the others the barrier waited for are late.
+    /// Ends the frame: the ready nodes swap, the others the barrier waited for are out.
     pub fn close(&mut self) -> Closed {
         let mut out = Closed::default();
         for (&id, m) in &mut self.members {
@@ -114,8 +117,8 @@ impl Barrier {
                 out.swap.push(id);
             } else if m.in_barrier {
                 m.in_barrier = false;
-                m.late += 1;
-                out.late.push(id);
+                m.outs += 1;
+                out.out.push(id);
             }
         }
         out
@@ -150,7 +153,7 @@ mod tests {
     }
 
     #[test]
-    fn a_late_node_leaves_the_barrier_and_rejoins_when_it_catches_up() {
+    fn a_node_out_at_the_timeout_leaves_the_barrier_and_rejoins_when_it_catches_up() {
         let mut b = Barrier::default();
         for id in 0..3 {
             b.join(id, "w");
@@ -165,8 +168,9 @@ mod tests {
         b.ready(1, 2, stats());
         assert!(!b.complete());
         let c = b.close();
-        assert_eq!((c.swap, c.late), (vec![0, 1], vec![2]));
-        // Frame 3: node 2 answers frame 2 late (stale) — the barrier does not wait for it.
+        assert_eq!((c.swap, c.out), (vec![0, 1], vec![2]));
+        // Frame 3: node 2 answers frame 2 after it was declared out (stale) — the barrier
+        // does not wait for it.
         b.begin(3);
         b.ready(2, 2, stats());
         b.ready(0, 3, stats());
@@ -176,7 +180,7 @@ mod tests {
             b.close(),
             Closed {
                 swap: vec![0, 1],
-                late: vec![]
+                out: vec![]
             }
         );
         // Frame 4: it is ready in time again and swaps with the others.
@@ -185,7 +189,7 @@ mod tests {
             b.ready(id, 4, stats());
         }
         assert_eq!(b.close().swap, vec![0, 1, 2]);
-        assert_eq!(b.members()[&2].late, 1);
+        assert_eq!(b.members()[&2].outs, 1);
     }
 
     #[test]
@@ -206,16 +210,16 @@ mod tests {
     }
 
     #[test]
-    fn widening_waits_for_nodes_outside_the_barrier() {
+    fn holding_all_waits_for_nodes_outside_the_barrier() {
         let mut b = Barrier::default();
         b.join(0, "a");
         b.join(1, "b");
         b.begin(1);
-        assert!(b.complete() && !b.any_ready(), "nobody in the barrier yet");
-        b.widen();
+        assert!(b.complete(), "nobody in the barrier yet");
+        b.hold_all();
         assert!(!b.complete());
         b.ready(0, 1, stats());
-        assert!(b.any_ready() && !b.complete());
+        assert!(!b.complete(), "frame lock: one wall ready is not enough");
         b.ready(1, 1, stats());
         assert_eq!(b.close().swap, vec![0, 1]);
     }

@@ -27,13 +27,12 @@ use tokio::time::timeout_at;
 use crate::barrier::{Barrier, NodeId};
 use crate::frame_state::{FrameTimes, frame_state};
 use crate::head::{Clock, Head};
+use crate::pacing::Pacer;
 use holocave_cave::Cave;
 use holocave_cave::CaveFrusta;
 
 /// How long a peer has for the whole handshake.
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(2);
-/// When no node made a frame's deadline, the barrier waits for all of them this long.
-const OVERLOAD_LIMIT: Duration = Duration::from_secs(1);
 /// Most handshakes in progress at once; more connections are closed at once.
 const MAX_HANDSHAKES: usize = 64;
 /// A node whose socket does not take a frame state within this long is dropped (it
@@ -74,8 +73,14 @@ pub struct Summary {
     pub barrier: Vec<Duration>,
     /// Per frame with a tracker sample (live clock): from the sample's arrival to Swap.
     pub motion_to_photon: Vec<Duration>,
-    /// Per wall: frames swapped, frames late.
+    /// Per wall: frames swapped, times declared out (missed the dead-node timeout).
     pub walls: BTreeMap<String, (u64, u64)>,
+    /// Per wall: frames on which its Ready came last (it set the pace), and by how much
+    /// in all (from the Ready before it, or from the state sent when it was alone).
+    pub pace: BTreeMap<String, (u64, Duration)>,
+    /// The frame period the master ran at in the end (pacing: the slowest wall's, never
+    /// shorter than the configured rate's).
+    pub paced_period: Duration,
     /// Frames that swapped with every wall present.
     pub full_frames: u64,
     /// Connections refused (bad handshake, wrong secret, unknown wall).
@@ -216,6 +221,8 @@ struct Master<'a> {
     tx: UnboundedSender<Event>,
     barrier: Barrier,
     links: BTreeMap<NodeId, Link>,
+    /// Ready arrivals for the frame being collected, in order.
+    arrivals: Vec<(NodeId, Instant)>,
     summary: Summary,
 }
 
@@ -236,7 +243,12 @@ impl Master<'_> {
             Event::Msg {
                 id,
                 msg: NodeMsg::Ready { frame, stats },
-            } => self.barrier.ready(id, frame, stats),
+            } => {
+                if frame == self.barrier.frame() {
+                    self.arrivals.push((id, Instant::now()));
+                }
+                self.barrier.ready(id, frame, stats);
+            }
             Event::Left { id, why } => {
                 if let Some(l) = self.links.remove(&id) {
                     // A node whose link ends leaves; one that sent garbage is dropped.
@@ -302,25 +314,29 @@ impl Master<'_> {
         }
     }
 
-    /// Frame `frame`'s swap barrier, its state sent at `sent`: collects Ready until every
-    /// member is in or the deadline passes; when no node made it, the cluster is
-    /// overloaded rather than one node late, so it waits for every node as a classic
-    /// lockstep cluster does (the frame rate drops to the slowest wall's), up to a limit.
-    /// Then sends Swap to the ready nodes and counts the frame; returns when Swap went.
-    async fn swap_barrier(&mut self, frame: u64, sent: Instant) -> std::io::Result<Instant> {
-        let deadline = self.cave.deadline();
+    /// Frame `frame`'s swap barrier, its state sent at `sent` (frame lock): collects Ready
+    /// until every node in the barrier is ready or `timeout` has passed, declares out the
+    /// nodes that were not, sends Swap to the ready ones and counts the frame. `hold_all`
+    /// (the first frame) waits for every joined node, drawing yet or not. Returns when
+    /// Swap went.
+    async fn swap_barrier(
+        &mut self,
+        frame: u64,
+        sent: Instant,
+        timeout: Duration,
+        hold_all: bool,
+    ) -> std::io::Result<Instant> {
         self.barrier.begin(frame);
-        self.collect_until(sent + deadline).await;
-        if !self.barrier.any_ready() && !self.links.is_empty() {
-            self.barrier.widen();
-            self.collect_until(sent + OVERLOAD_LIMIT.max(deadline))
-                .await;
+        if hold_all {
+            self.barrier.hold_all();
         }
+        self.collect_until(sent + timeout).await;
         let closed = self.barrier.close();
         self.send(&encode_msg(&MasterMsg::Swap { frame })?, Some(&closed.swap))
             .await;
         let swapped = Instant::now();
         self.summary.barrier.push(swapped - sent);
+        let arrivals = std::mem::take(&mut self.arrivals);
         let mut walls_swapped: Vec<&str> = closed
             .swap
             .iter()
@@ -331,9 +347,26 @@ impl Master<'_> {
         if walls_swapped.len() == self.cave.walls.len() {
             self.summary.full_frames += 1;
         }
-        for id in &closed.late {
+        // The pace: the last Ready of the frame, and how long after the one before it.
+        if let Some(&(id, at)) = arrivals.last()
+            && closed.swap.contains(&id)
+            && let Some(link) = self.links.get(&id)
+        {
+            let before = arrivals
+                .len()
+                .checked_sub(2)
+                .map_or(sent, |k| arrivals[k].1);
+            let e = self.summary.pace.entry(link.wall.clone()).or_default();
+            e.0 += 1;
+            e.1 += at - before;
+        }
+        for id in &closed.out {
             if let Some(mem) = self.barrier.members().get(id) {
-                tracing::debug!("frame {frame}: wall {:?} late", mem.wall);
+                tracing::warn!(
+                    "frame {frame}: wall {:?} (node {id}) declared out: not ready within {timeout:?}; \
+                     the other walls go on without it until it is ready again",
+                    mem.wall
+                );
             }
         }
         Ok(swapped)
@@ -344,7 +377,7 @@ impl Master<'_> {
         if let Some(mem) = self.barrier.leave(id) {
             let e = self.summary.walls.entry(mem.wall).or_default();
             e.0 += mem.swapped;
-            e.1 += mem.late;
+            e.1 += mem.outs;
         }
     }
 
@@ -376,7 +409,16 @@ impl Master<'_> {
         }
     }
 
-    fn status_line(&self, frame: u64, rate: f64, tracker_hz: f64, head: &Head) -> String {
+    /// One status line: the rate, each wall's draw time (and whether it is out), the wall
+    /// that set the pace since `pace_before` and by how much, the barrier, the tracker.
+    fn status_line(
+        &self,
+        frame: u64,
+        rate: f64,
+        tracker_hz: f64,
+        head: &Head,
+        pace_before: &BTreeMap<String, (u64, Duration)>,
+    ) -> String {
         let mut line = format!("frame {frame:6} {rate:5.1} Hz |");
         for wall in &self.cave.walls {
             let m = self
@@ -387,14 +429,19 @@ impl Master<'_> {
                 .max_by_key(|m| m.swapped);
             line += &match m {
                 Some(m) => format!(
-                    " {} {:.1} ms{} late {} |",
+                    " {} {:.1} ms{} |",
                     wall.name,
                     m.stats.draw_us as f64 / 1e3,
                     if m.in_barrier { "" } else { " (out)" },
-                    m.late
                 ),
                 None => format!(" {} absent |", wall.name),
             };
+        }
+        if let Some((wall, frames, mean)) = pacer_since(&self.summary.pace, pace_before) {
+            line += &format!(
+                " pace: {wall} ({frames} frames last, {:.1} ms after the next) |",
+                mean.as_secs_f64() * 1e3
+            );
         }
         let n = self.summary.barrier.len();
         let recent = &self.summary.barrier[n.saturating_sub(120)..];
@@ -405,6 +452,22 @@ impl Master<'_> {
         );
         line
     }
+}
+
+/// The wall whose Ready came last most often between two snapshots of the pace counts:
+/// its name, how many frames, and by how much on average.
+pub fn pacer_since(
+    now: &BTreeMap<String, (u64, Duration)>,
+    before: &BTreeMap<String, (u64, Duration)>,
+) -> Option<(String, u64, Duration)> {
+    now.iter()
+        .map(|(wall, &(n, total))| {
+            let (n0, t0) = before.get(wall).copied().unwrap_or_default();
+            (wall, n - n0, total - t0)
+        })
+        .filter(|&(_, n, _)| n > 0)
+        .max_by_key(|&(_, n, _)| n)
+        .map(|(wall, n, total)| (wall.clone(), n, total / n as u32))
 }
 
 /// Runs the master on `listener` until a stop condition; then tells every node to shut
@@ -468,17 +531,21 @@ async fn run_frames(
         tx,
         barrier: Barrier::default(),
         links: BTreeMap::new(),
+        arrivals: Vec::new(),
         summary: Summary::default(),
     };
     m.wait_for_walls(opts.wait_for_walls).await;
     let mut frusta = CaveFrusta::new(cave);
     let period = cave.frame_period();
+    let dead_node = cave.dead_node_timeout();
+    let mut pacer = Pacer::new(period);
     let start = Instant::now();
     let mut next_tick = start;
     let mut status = StatusClock {
         since: start,
         frame: 0,
         samples: 0,
+        pace: BTreeMap::new(),
     };
     let mut frame = 0u64;
     loop {
@@ -496,13 +563,14 @@ async fn run_frames(
         while let Ok(e) = m.events.try_recv() {
             m.handle(e);
         }
-        let period_ns = period.as_nanos() as u64;
-        let master_ns = match opts.clock {
-            Clock::Live => start.elapsed().as_nanos() as u64,
-            Clock::Replay => frame * period_ns,
+        // The frame is shown about one period after it starts (drawn, then swapped): on a
+        // live clock the paced period, on a replay clock the configured one (a replay
+        // depends on nothing measured).
+        let (master_ns, ahead) = match opts.clock {
+            Clock::Live => (start.elapsed().as_nanos() as u64, pacer.period()),
+            Clock::Replay => (frame * period.as_nanos() as u64, period),
         };
-        // The frame is shown about one period after it starts (drawn, then swapped).
-        let display_ns = master_ns + period_ns;
+        let display_ns = master_ns + ahead.as_nanos() as u64;
         head.advance(master_ns);
         let (pose, tracker_ns) = head.pose_at(display_ns);
         tracing::trace!("frame {frame}: head {:?}", pose.position);
@@ -519,7 +587,15 @@ async fn run_frames(
         }
         let sent = Instant::now();
         m.send(&bytes, None).await;
-        let swapped = m.swap_barrier(frame, sent).await?;
+        let swapped = if frame == 0 {
+            // Every wall starts on the same frame: hold every joined node (its first draw
+            // may take long: pipelines, caches) up to the wait for walls.
+            let hold = opts.wait_for_walls.max(dead_node);
+            m.swap_barrier(frame, sent, hold, true).await?
+        } else {
+            m.swap_barrier(frame, sent, dead_node, false).await?
+        };
+        pacer.record(swapped - sent);
         if let (Clock::Live, Some(t)) = (opts.clock, tracker_ns) {
             let t = start + Duration::from_nanos(t);
             m.summary
@@ -555,6 +631,7 @@ async fn run_frames(
     let _ = TcpStream::connect(addr);
     let _ = acceptor.join();
     m.summary.frames = frame;
+    m.summary.paced_period = pacer.period();
     m.summary.elapsed = start.elapsed();
     let ids: Vec<NodeId> = m.barrier.members().keys().copied().collect();
     for id in ids {
@@ -572,6 +649,7 @@ struct StatusClock {
     since: Instant,
     frame: u64,
     samples: u64,
+    pace: BTreeMap<String, (u64, Duration)>,
 }
 
 impl StatusClock {
@@ -580,11 +658,13 @@ impl StatusClock {
         let secs = (now - self.since).as_secs_f64();
         let rate = (frame + 1 - self.frame) as f64 / secs;
         let tracker_hz = (head.samples - self.samples) as f64 / secs;
+        let line = m.status_line(frame, rate, tracker_hz, head, &self.pace);
         *self = StatusClock {
             since: now,
             frame: frame + 1,
             samples: head.samples,
+            pace: m.summary.pace.clone(),
         };
-        m.status_line(frame, rate, tracker_hz, head)
+        line
     }
 }

@@ -1,8 +1,9 @@
 //! The holocave master: the tracked head (tracker, filter, prediction), the frame clock,
-//! the frame states it sends, the swap barrier and node membership. The physical CAVE it
+//! the frame states it sends, pacing, the swap barrier (frame lock) and node membership. The physical CAVE it
 //! drives (config, walls, frusta) is `holocave_cave`.
 
 pub mod barrier;
 pub mod cluster;
 pub mod frame_state;
 pub mod head;
+pub mod pacing;

@@ -8,7 +8,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, anyhow};
 use clap::Args;
 use holocave_cave::{Cave, load_cave};
-use holocave_master::cluster::{MasterOptions, Summary, quantile, run as run_master};
+use holocave_master::cluster::{MasterOptions, Summary, pacer_since, quantile, run as run_master};
 use holocave_master::head::{Clock, Head};
 use holocave_tracking::source::SourceSpec;
 
@@ -156,8 +156,20 @@ pub fn print_summary(s: &Summary) {
         s.frames as f64 / s.elapsed.as_secs_f64().max(1e-9),
         s.full_frames
     );
-    for (wall, (swapped, late)) in &s.walls {
-        println!("  wall {wall:6}: {swapped} frames swapped, {late} late");
+    for (wall, (swapped, outs)) in &s.walls {
+        let (paced, by) = s.pace.get(wall).copied().unwrap_or_default();
+        println!(
+            "  wall {wall:6}: {swapped} frames swapped, declared out {outs} times; last ready on {paced} frames ({:.1} ms after the next on average)",
+            ms(by) / paced.max(1) as f64
+        );
+    }
+    if let Some((wall, frames, by)) = pacer_since(&s.pace, &Default::default()) {
+        println!(
+            "  pace set by wall {wall} (last ready on {frames} of {} frames, {:.1} ms after the next); ran at {:.1} Hz",
+            s.frames,
+            ms(by),
+            1.0 / s.paced_period.as_secs_f64().max(1e-9)
+        );
     }
     println!(
         "  barrier (state sent → swap sent): p50 {:.3} ms, p99 {:.3} ms",
@@ -166,7 +178,7 @@ pub fn print_summary(s: &Summary) {
     );
     if !s.motion_to_photon.is_empty() {
         println!(
-            "  motion to photon (tracker sample → swap): p50 {:.2} ms, p99 {:.2} ms",
+            "  motion to photon (tracker sample's arrival → swap sent): p50 {:.2} ms, p99 {:.2} ms",
             ms(quantile(&s.motion_to_photon, 0.5)),
             ms(quantile(&s.motion_to_photon, 0.99))
         );
@@ -212,7 +224,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
             holodeck,
             states_log: args.states.clone(),
             status_every: Duration::from_secs(1),
-            stop: super::interrupt::stop_flag(),
+            stop: super::interrupt::ctrl_c_flag(),
             wait_for_walls: Duration::from_secs_f64(args.wait_for_walls),
             status_extra: hosted.as_ref().map(Hosted::status),
         },

@@ -213,7 +213,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             holodeck: hosted.as_ref().map(|h| h.addr.to_string()),
             states_log: Some(args.out.join("states.bin")),
             status_every: Duration::from_secs(1),
-            stop: super::interrupt::stop_flag(),
+            stop: super::interrupt::ctrl_c_flag(),
             wait_for_walls: Duration::from_secs(60),
             status_extra: hosted.as_ref().map(Hosted::status),
         },
