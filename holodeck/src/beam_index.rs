@@ -5,6 +5,9 @@
 
 use crate::section::{Cell, SectionError};
 
+/// Identifies a beam: (section, beam).
+pub type BeamKey = (u16, u32);
+
 /// Beam numbering for one grid.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BeamIndex {

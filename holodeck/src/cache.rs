@@ -11,11 +11,9 @@
 use std::collections::{HashMap, VecDeque};
 use std::hash::{BuildHasherDefault, Hasher};
 
+use crate::beam_index::BeamKey;
 use crate::file::{FileError, HoloFile};
 use crate::sample::{SAMPLE_BYTES, Sample};
-
-/// Identifies a beam: (section, beam).
-pub type BeamKey = (u16, u32);
 
 /// A fast hasher for beam keys and other small integers (the multiply-rotate of rustc's
 /// FxHasher): the server looks beams up several times per ray bundle, and SipHash cost more

@@ -16,7 +16,7 @@ use crate::section::{Cell, Section};
 
 /// A viewpoint sphere.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Eye {
+pub struct EyeSphere {
     pub pos: DVec3,
     pub radius: f64,
 }
@@ -34,7 +34,7 @@ pub fn uniform<R: Rng>(n: usize, rng: &mut R) -> Vec<RayCode> {
 pub fn near_eye<R: Rng>(
     section: &Section,
     beam: u32,
-    eye: Eye,
+    eye: EyeSphere,
     n: usize,
     rng: &mut R,
 ) -> (Vec<RayCode>, usize) {
@@ -103,7 +103,7 @@ pub fn near_eye<R: Rng>(
 /// The box (cell fractions of `entry`, clipped to it) around the points where the lines from
 /// the corners of `exit` through the eye's centre meet the entry wall, each widened by the
 /// size of the eye sphere's cone there; `None` if it misses the cell.
-fn projected_box(section: &Section, entry: Cell, exit: Cell, eye: Eye) -> Option<[f64; 4]> {
+fn projected_box(section: &Section, entry: Cell, exit: Cell, eye: EyeSphere) -> Option<[f64; 4]> {
     let (eu, ev) = section.cell_edges(entry.wall);
     let o = section.cell_point_f(entry, [0.0, 0.0]);
     let n = eu.cross(ev);
@@ -167,7 +167,7 @@ pub fn line_distance(a: DVec3, b: DVec3, p: DVec3) -> f64 {
 /// such that the line from `apex` through `X` passes within the eye sphere: the region
 /// `f(u, v) ≥ 0` of the conic in which the double cone around the sphere cuts the wall,
 /// clipped to the cell. `None` if the region misses the cell.
-fn conic_box(apex: DVec3, eye: Eye, section: &Section, cell: Cell) -> Option<[f64; 4]> {
+fn conic_box(apex: DVec3, eye: EyeSphere, section: &Section, cell: Cell) -> Option<[f64; 4]> {
     let s = eye.pos - apex;
     let k = s.length_squared() - eye.radius * eye.radius;
     if k <= 0.0 {
@@ -279,7 +279,7 @@ mod tests {
             ViewClass::Interior,
         )
         .unwrap();
-        let eye = Eye {
+        let eye = EyeSphere {
             pos: DVec3::new(2.1, 1.4, 2.6),
             radius: 0.3,
         };
@@ -329,13 +329,13 @@ mod tests {
         .unwrap();
         let mut rng = SmallRng::seed_from_u64(2);
         // A sphere enclosing the section: every ray qualifies, none falls back.
-        let big = Eye {
+        let big = EyeSphere {
             pos: DVec3::splat(0.5),
             radius: 2.0,
         };
         assert_eq!(near_eye(&s, 3, big, 5, &mut rng).1, 0);
         // A tiny sphere far off every beam's lines: all fall back to uniform.
-        let far = Eye {
+        let far = EyeSphere {
             pos: DVec3::new(50.0, -40.0, 0.5),
             radius: 0.01,
         };

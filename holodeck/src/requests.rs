@@ -8,7 +8,8 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
-use crate::cache::{BeamKey, BeamMap};
+use crate::beam_index::BeamKey;
+use crate::cache::BeamMap;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Item {

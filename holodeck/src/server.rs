@@ -20,10 +20,11 @@ use holocave_protocol::holodeck::{RayPacket, RecordError, SamplePacket};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-use crate::cache::{BeamCache, BeamKey, BeamMap};
+use crate::beam_index::BeamKey;
+use crate::cache::{BeamCache, BeamMap};
 use crate::distance_code::DistanceCode;
 use crate::file::{FileError, HoloFile};
-use crate::proximity::{self, Eye, RayCode};
+use crate::proximity::{self, EyeSphere, RayCode};
 use crate::rgbe;
 use crate::sample::Sample;
 
@@ -36,7 +37,6 @@ pub type DisplayId = u32;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
     Batch,
-    DisplayOnly,
     Interactive,
 }
 
@@ -140,7 +140,7 @@ struct WorkerState {
 
 struct DisplayRequest {
     wanted: Vec<(BeamKey, f64)>,
-    eye: Option<Eye>,
+    eye: Option<EyeSphere>,
 }
 
 /// The server.
@@ -160,14 +160,14 @@ pub struct Server {
     next_packet: u64,
     displays: BTreeMap<DisplayId, DisplayRequest>,
     /// Per beam, the eyes of the displays that want it and how many samples each wants.
-    eyes: BeamMap<BeamKey, Vec<(Eye, f64)>>,
+    eyes: BeamMap<BeamKey, Vec<(EyeSphere, f64)>>,
     codes: Vec<DistanceCode>,
     rng: SmallRng,
     stats: Stats,
 }
 
 impl Server {
-    /// A server over an open (writable unless display-only) holodeck file.
+    /// A server over a holodeck file open for writing.
     pub fn new(file: HoloFile, mode: Mode, config: ServerConfig) -> Self {
         let codes = file
             .sections()
@@ -278,9 +278,6 @@ impl Server {
     /// the worker's queue is full or there is nothing to compute.
     pub fn next_packets(&mut self, id: WorkerId, now: f64) -> Vec<RayPacket> {
         let mut out = Vec::new();
-        if self.mode == Mode::DisplayOnly {
-            return out;
-        }
         let Some(w) = self.workers.get(&id) else {
             return out;
         };
@@ -479,38 +476,14 @@ impl Server {
         Ok(out)
     }
 
-    /// A display's wanted beams and eye (replacing its previous list). Returns at once the
-    /// samples already in the cache or the file for those beams, in file order.
+    /// A display's wanted beams and eye (replacing its previous list); the lists of all
+    /// displays are merged. Fails, changing nothing, if a beam is not in the holodeck.
     pub fn set_requests(
         &mut self,
         display: DisplayId,
         wanted: Vec<(BeamKey, f64)>,
-        eye: Option<Eye>,
-    ) -> Result<Vec<BeamSamples>, ServerError> {
-        self.request_unsent(display, wanted, eye, None)
-    }
-
-    /// As [`Server::set_requests`], but `known` holds how many of each beam's samples the
-    /// display already has (a beam's samples only ever grow at the end, so these are a
-    /// prefix): only the rest are returned, and `known` is updated. A display that repeats
-    /// its request every frame so gets each stored sample once.
-    pub fn set_requests_once(
-        &mut self,
-        display: DisplayId,
-        wanted: Vec<(BeamKey, f64)>,
-        eye: Option<Eye>,
-        known: &mut BeamMap<BeamKey, u32>,
-    ) -> Result<Vec<BeamSamples>, ServerError> {
-        self.request_unsent(display, wanted, eye, Some(known))
-    }
-
-    fn request_unsent(
-        &mut self,
-        display: DisplayId,
-        wanted: Vec<(BeamKey, f64)>,
-        eye: Option<Eye>,
-        mut known: Option<&mut BeamMap<BeamKey, u32>>,
-    ) -> Result<Vec<BeamSamples>, ServerError> {
+        eye: Option<EyeSphere>,
+    ) -> Result<(), ServerError> {
         for &((s, b), _) in &wanted {
             let ok = self
                 .cache
@@ -525,21 +498,22 @@ impl Server {
                 });
             }
         }
-        self.displays.insert(
-            display,
-            DisplayRequest {
-                wanted: wanted.clone(),
-                eye,
-            },
-        );
+        self.displays
+            .insert(display, DisplayRequest { wanted, eye });
         self.merge_displays();
-        let mut have: Vec<BeamKey> = wanted
-            .iter()
-            .map(|r| r.0)
-            .filter(|&k| {
-                let have = known.as_ref().and_then(|m| m.get(&k).copied());
-                self.cache.count(k) > have.unwrap_or(0)
-            })
+        Ok(())
+    }
+
+    /// The stored samples of `beams` from index `from(beam)` on (from the cache, or the
+    /// file, which loads them into the cache), in file order, beams with none left out.
+    pub fn stored_samples(
+        &mut self,
+        beams: impl IntoIterator<Item = BeamKey>,
+        from: impl Fn(BeamKey) -> u32,
+    ) -> Result<Vec<BeamSamples>, ServerError> {
+        let mut have: Vec<BeamKey> = beams
+            .into_iter()
+            .filter(|&k| self.cache.count(k) > from(k))
             .collect();
         have.sort_by_key(|&k| {
             (
@@ -551,19 +525,11 @@ impl Server {
         have.dedup();
         have.into_iter()
             .map(|key| {
+                let skip = from(key) as usize;
                 let all = self.cache.get(key)?;
-                let skip = match known.as_mut() {
-                    Some(m) => {
-                        let k = m.entry(key).or_default();
-                        let skip = (*k as usize).min(all.len());
-                        *k = all.len() as u32;
-                        skip
-                    }
-                    None => 0,
-                };
                 Ok(BeamSamples {
                     key,
-                    samples: all[skip..].to_vec(),
+                    samples: all[skip.min(all.len())..].to_vec(),
                 })
             })
             .collect()
@@ -747,15 +713,12 @@ mod tests {
     fn interactive_requests_merge_and_replay_from_cache() {
         let (_d, mut srv) = server(Mode::Interactive);
         let w = srv.add_worker();
-        let eye = Eye {
+        let eye = EyeSphere {
             pos: DVec3::new(1.0, 0.5, 0.5),
             radius: 0.2,
         };
-        assert!(
-            srv.set_requests(0, vec![((0, 3), 10.0), ((0, 4), 5.0)], Some(eye))
-                .unwrap()
-                .is_empty()
-        );
+        srv.set_requests(0, vec![((0, 3), 10.0), ((0, 4), 5.0)], Some(eye))
+            .unwrap();
         srv.set_requests(1, vec![((0, 3), 30.0)], None).unwrap();
         assert_eq!(srv.requests.wanted((0, 3)), 30.0);
         let mut t = 0.0;
@@ -771,11 +734,19 @@ mod tests {
         }
         assert_eq!(srv.cache.count((0, 3)), 30);
         assert_eq!(srv.cache.count((0, 4)), 5);
-        // A new display asking for the same beams gets them at once.
-        let got = srv
-            .set_requests(2, vec![((0, 4), 5.0), ((0, 3), 1.0)], None)
+        // What is stored is there at once, from any index on.
+        srv.set_requests(2, vec![((0, 4), 5.0), ((0, 3), 1.0)], None)
             .unwrap();
+        let got = srv.stored_samples([(0, 4), (0, 3)], |_| 0).unwrap();
         assert_eq!(got.iter().map(|b| b.samples.len()).sum::<usize>(), 35);
+        let rest = srv
+            .stored_samples([(0, 4), (0, 3)], |k| if k == (0, 3) { 25 } else { 5 })
+            .unwrap();
+        assert_eq!(rest.len(), 1);
+        assert_eq!(
+            rest[0].samples,
+            got.iter().find(|b| b.key == (0, 3)).unwrap().samples[25..]
+        );
         assert!(
             srv.set_requests(2, vec![((0, 1 << 30), 1.0)], None)
                 .is_err()
@@ -783,13 +754,5 @@ mod tests {
         srv.remove_display(0);
         srv.remove_display(1);
         assert_eq!(srv.requests.wanted((0, 3)), 1.0);
-    }
-
-    #[test]
-    fn display_only_sends_no_work() {
-        let (_d, mut srv) = server(Mode::DisplayOnly);
-        let w = srv.add_worker();
-        srv.set_requests(0, vec![((0, 1), 4.0)], None).unwrap();
-        assert!(srv.next_packets(w, 0.0).is_empty());
     }
 }

@@ -6,13 +6,14 @@
 use std::collections::HashMap;
 use std::net::TcpListener;
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use holocave_holodeck::cache::BeamKey;
+use holocave_holodeck::beam_index::BeamKey;
 use holocave_holodeck::display::{DisplayClient, EyeRequest};
 use holocave_holodeck::distance_code::DistanceCode;
-use holocave_holodeck::proximity::Eye;
+use holocave_holodeck::proximity::EyeSphere;
 use holocave_holodeck::run::{RunOptions, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::view::WorldSample;
@@ -52,6 +53,7 @@ fn options(threads: usize, listener: Option<TcpListener>) -> RunOptions {
         listener,
         scene: "analytic".into(),
         commit_every: Duration::from_millis(500),
+        stop: Arc::new(AtomicBool::new(false)),
     }
 }
 
@@ -93,6 +95,29 @@ fn receive(
     false
 }
 
+/// Collects until display `id` has received every sample the server has given it (at
+/// most 20 s), then checks that these are the holodeck's samples, each once: the server
+/// holds only the beams the displays asked for, and nothing more is being traced.
+fn assert_each_sample_once(
+    running: &holocave_holodeck::run::Running,
+    c: &DisplayClient,
+    id: u32,
+    got: &mut HashMap<BeamKey, Vec<Sample>>,
+) {
+    let given = running.display_tally(id).samples;
+    let count = |g: &HashMap<BeamKey, Vec<Sample>>| g.values().map(|v| v.len() as u64).sum::<u64>();
+    assert!(
+        receive(c, got, |g| count(g) >= given),
+        "display {id} was given {given} samples and received {}",
+        count(got)
+    );
+    assert_eq!(
+        (count(got), given),
+        (running.stats().samples, running.stats().samples),
+        "display {id}: samples received and given, against the samples the holodeck holds"
+    );
+}
+
 /// A new holodeck at `path` served in interactive mode with `threads` worker threads,
 /// accepting TCP workers and displays on a loopback port.
 fn interactive_on_loopback(
@@ -127,7 +152,7 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
     let want = wanted(s, eye);
     tcp.request(EyeRequest {
         slot: 0,
-        eye: Some(Eye {
+        eye: Some(EyeSphere {
             pos: eye,
             radius: 0.05,
         }),
@@ -174,24 +199,28 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
             .iter()
             .all(|(k, n)| g.get(k).is_some_and(|v| v.len() >= *n))
     }));
-    // Repeating the request sends nothing twice.
+    // Repeating the request sends nothing twice: once the server has served it, the
+    // display has been given each sample the holodeck holds exactly once.
     local.request(EyeRequest {
         slot: 1,
         eye: None,
         wanted: want.iter().map(|(k, _)| (*k, 1.0)).collect(),
     });
-    std::thread::sleep(Duration::from_millis(300));
-    for a in local.collect() {
-        for b in a.iter() {
-            got_local.entry(b.key).or_default().extend(&b.samples);
-        }
+    let t = Instant::now();
+    while running.display_tally(9).requests < 2 {
+        assert!(
+            t.elapsed() < Duration::from_secs(20),
+            "the repeated request was not served"
+        );
+        std::thread::sleep(Duration::from_millis(5));
     }
+    assert_each_sample_once(&running, &local, 9, &mut got_local);
     // The TCP display asks for more: the new samples reach both displays (the local one
     // is up to date on these beams), and each sample arrives once.
     let more: Vec<(BeamKey, f64)> = want.iter().map(|(k, _)| (*k, 120.0)).collect();
     tcp.request(EyeRequest {
         slot: 0,
-        eye: Some(Eye {
+        eye: Some(EyeSphere {
             pos: eye,
             radius: 0.05,
         }),
@@ -203,10 +232,9 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
     };
     assert!(receive(&tcp, &mut got, enough));
     assert!(receive(&local, &mut got_local, enough));
-    std::thread::sleep(Duration::from_millis(300));
-    for (c, g) in [(&tcp, &mut got), (&local, &mut got_local)] {
-        receive(c, g, |_| true);
-    }
+    // Every sample traced (nothing more is wanted) has reached both displays, once.
+    assert_each_sample_once(&running, &tcp, 3, &mut got);
+    assert_each_sample_once(&running, &local, 9, &mut got_local);
     for (k, v) in &got {
         assert_eq!(
             got_local.get(k).map(Vec::len),

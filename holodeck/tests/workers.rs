@@ -4,6 +4,7 @@
 
 use std::net::TcpListener;
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use glam::DVec3;
@@ -95,13 +96,30 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
         listener: Some(listener),
         scene: "analytic".into(),
         commit_every: Duration::from_millis(300),
+        stop: Arc::new(AtomicBool::new(false)),
     };
+    // The analytic source returns millions of samples a second on one core: even at a
+    // hundredth of that (with a commit on top), the fill is done by this deadline.
+    const SAMPLES: u64 = 200_000;
+    let deadline = Duration::from_secs_f64(SAMPLES as f64 / 10_000.0) + 2 * opts.commit_every;
     let mut max_workers = 0;
+    let mut last = None;
     let server = run(server, opts, |p| {
         max_workers = max_workers.max(p.stats.workers);
-        p.stats.added >= 200_000 && p.stats.packets_reassigned >= 1 && p.commits >= 1
+        last = Some(*p);
+        let done = p.stats.added >= SAMPLES && p.stats.packets_reassigned >= 1 && p.commits >= 1;
+        done || p.elapsed > deadline
     })
     .unwrap();
+    let last = last.unwrap();
+    assert!(
+        last.stats.added >= SAMPLES && last.stats.packets_reassigned >= 1 && last.commits >= 1,
+        "not done after {deadline:?}: {} samples added (want {SAMPLES}), {} packets \
+         reassigned (want 1: the dying worker's), {} commits (want 1)",
+        last.stats.added,
+        last.stats.packets_reassigned,
+        last.commits
+    );
     dying.join().unwrap();
     let stats = server.stats();
     assert!(

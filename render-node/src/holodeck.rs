@@ -33,10 +33,11 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use glam::{DVec3, Vec2};
-use holocave_holodeck::cache::{BeamKey, BeamMap};
+use holocave_holodeck::beam_index::BeamKey;
+use holocave_holodeck::cache::BeamMap;
 use holocave_holodeck::display::{DisplayClient, DisplayError, EyeRequest};
 use holocave_holodeck::distance_code::DistanceCode;
-use holocave_holodeck::proximity::Eye;
+use holocave_holodeck::proximity::EyeSphere;
 use holocave_holodeck::view::WorldSample;
 use holocave_holodeck::{Sample, Section};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
@@ -295,7 +296,7 @@ impl Worker {
                 .collect();
             self.client.request(EyeRequest {
                 slot: eye as u8,
-                eye: Some(Eye {
+                eye: Some(EyeSphere {
                     pos: view.eye().as_dvec3(),
                     radius: self.options.eye_radius,
                 }),

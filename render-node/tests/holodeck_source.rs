@@ -88,6 +88,7 @@ fn tcp_holodeck_source_turns_requests_into_samples_at_the_right_pixels() {
             listener: Some(TcpListener::bind("127.0.0.1:0").unwrap()),
             scene: "plane".into(),
             commit_every: Duration::from_secs(60),
+            stop: Default::default(),
         },
     )
     .unwrap();

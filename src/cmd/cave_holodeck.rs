@@ -138,6 +138,7 @@ pub fn serve(
             listener,
             scene: name,
             commit_every: Duration::from_secs(5),
+            stop: super::interrupt::ctrl_c_flag(),
         },
     )?;
     if let Some(a) = running.local_addr() {

@@ -250,6 +250,7 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         listener,
         scene: name,
         commit_every: Duration::from_secs_f64(args.commit_every.max(0.1)),
+        stop: super::interrupt::ctrl_c_flag(),
     };
     let result = run_server(server, opts, |p| {
         let secs = p.elapsed.as_secs_f64().max(1e-3);

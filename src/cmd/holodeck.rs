@@ -289,6 +289,7 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
                 listener: Some(listener),
                 scene,
                 commit_every: Duration::from_secs(5),
+                stop: super::interrupt::ctrl_c_flag(),
             };
             let limit = a.time.map(Duration::from_secs_f64);
             let server = run_server(server, opts, |p| limit.is_some_and(|l| p.elapsed >= l))?;

@@ -106,7 +106,7 @@ impl PowerCut {
 
     fn op(&mut self) {
         self.ops += 1;
-        if self.cut_every.is_some_and(|n| self.ops % n == 0) {
+        if self.cut_every.is_some_and(|n| self.ops.is_multiple_of(n)) {
             let image = self.image();
             self.cuts.push(image);
         }

@@ -1,0 +1,87 @@
+//! A TCP worker's session: the welcome (worker id, scene, distance kind), then ray packets
+//! out as its queue has room and results back as they come; its packets go back to the
+//! server for reassignment when it leaves.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
+use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, Welcome, WorkerHello, WorkerMsg};
+use tokio::io::{AsyncWriteExt, BufWriter};
+use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
+
+use super::listener::{ConnError, reader};
+use super::state::State;
+use crate::server::WorkerId;
+
+pub(crate) async fn serve(
+    st: &Arc<State>,
+    hello: WorkerHello,
+    rd: OwnedReadHalf,
+    mut wr: BufWriter<OwnedWriteHalf>,
+) -> Result<(), ConnError> {
+    let scene = st.scene.as_str();
+    if hello.protocol != PROTOCOL_VERSION {
+        return Err(ConnError::Protocol(format!(
+            "worker protocol {} (this server speaks {PROTOCOL_VERSION})",
+            hello.protocol
+        )));
+    }
+    if !scene.is_empty() && hello.scene != scene {
+        tracing::warn!(
+            "worker {} traces scene {:?}; the holodeck was made with {scene:?}",
+            hello.name,
+            hello.scene
+        );
+    }
+    let id: WorkerId = st.lock().add_worker();
+    tracing::info!("worker {id} ({}) joined", hello.name);
+    let res = session(st, id, rd, &mut wr).await;
+    st.lock().remove_worker(id);
+    tracing::info!("worker {id} left");
+    res
+}
+
+async fn session(
+    st: &Arc<State>,
+    id: WorkerId,
+    rd: OwnedReadHalf,
+    wr: &mut BufWriter<OwnedWriteHalf>,
+) -> Result<(), ConnError> {
+    let welcome = Welcome {
+        worker_id: id,
+        scene: st.scene.clone(),
+        distance: st.distance,
+    };
+    frame::write_frame_async(wr, &ServerMsg::Welcome(welcome), MAX_FRAME_BYTES).await?;
+    wr.flush().await.map_err(FrameError::from)?;
+    let (reader, mut rx) = reader(rd);
+    let mut tick = tokio::time::interval(Duration::from_millis(200));
+    let result = loop {
+        if st.stopping() {
+            let _ = frame::write_frame_async(wr, &ServerMsg::Bye, MAX_FRAME_BYTES).await;
+            let _ = wr.flush().await;
+            break Ok(());
+        }
+        let packets = st.lock().next_packets(id, st.now());
+        for p in packets {
+            frame::write_frame_async(wr, &ServerMsg::Rays(p), MAX_FRAME_BYTES).await?;
+        }
+        wr.flush().await.map_err(FrameError::from)?;
+        tokio::select! {
+            m = rx.recv() => match m {
+                Some(Ok(WorkerMsg::Samples(s))) => {
+                    if let Err(e) = st.complete(id, &s) {
+                        tracing::warn!("worker {id}: {e}");
+                    }
+                }
+                Some(Ok(_)) => break Err(ConnError::Protocol("a worker sent a hello or a display message".into())),
+                Some(Err(FrameError::Closed)) | None => break Ok(()),
+                Some(Err(e)) => break Err(e.into()),
+            },
+            _ = tick.tick() => {}
+        }
+    };
+    reader.abort();
+    result
+}
