@@ -2,7 +2,8 @@
 //! tracking pipeline (guard, hemisphere, filter, predictor), mapped to room coordinates and
 //! predicted to a frame's display time.
 //!
-//! Two clocks: *live*, where a sample's arrival is the master's clock when it was read, and
+//! Two clocks: *live*, where a sample's arrival is the master's clock when the tracker's
+//! reader got it (not when the frame loop read it from the reader), and
 //! *replay*, where the master's clock is virtual (frame × period) and a log's samples
 //! arrive at their own time since the log's first sample — the same log then gives the
 //! same poses, bit for bit, however fast the machine is. In both, the pose is predicted
@@ -38,7 +39,8 @@ pub struct Head {
     source: Box<dyn TrackerSource>,
     tracker: HeadTracker,
     clock: Clock,
-    pending: Option<Sample>,
+    /// A sample read but not yet due (replay), with its arrival.
+    pending: Option<(Sample, Instant)>,
     /// The first sample's time (replay's time origin).
     t0: Option<u64>,
     /// The newest accepted sample and its arrival on the master's clock.
@@ -70,8 +72,25 @@ impl Head {
             Clock::Live => Pacing::RealTime,
             Clock::Replay => Pacing::AsFastAsPossible,
         };
-        Ok(Head {
-            source: open(spec, pacing, None)?,
+        Ok(Head::with_source(
+            cave,
+            open(spec, pacing, None)?,
+            clock,
+            predict,
+            recenter,
+        ))
+    }
+
+    /// The head over an open tracker source.
+    pub fn with_source(
+        cave: &Cave,
+        source: Box<dyn TrackerSource>,
+        clock: Clock,
+        predict: bool,
+        recenter: bool,
+    ) -> Head {
+        Head {
+            source,
             tracker: if predict {
                 HeadTracker::new(&cave.tracking)
             } else {
@@ -88,15 +107,15 @@ impl Head {
             last: Pose::new(cave.inside.as_vec3(), Quat::IDENTITY),
             ended: false,
             samples: 0,
-        })
+        }
     }
 
     /// Reads every sample that has arrived by `now_ns` on the master's clock (live: without
     /// waiting; replay: every sample up to `now_ns` after the first).
     pub fn advance(&mut self, now_ns: u64) {
         loop {
-            let s = match self.pending.take() {
-                Some(s) => s,
+            let (s, arrived) = match self.pending.take() {
+                Some(p) => p,
                 None if self.ended => return,
                 None => {
                     let deadline = match self.clock {
@@ -106,9 +125,9 @@ impl Head {
                         Clock::Replay => Instant::now() + std::time::Duration::from_millis(100),
                     };
                     match self.source.next(deadline) {
-                        Next::Sample(s) => {
+                        Next::Sample(s, at) => {
                             self.samples += 1;
-                            s
+                            (s, at)
                         }
                         Next::Idle => return,
                         Next::End => {
@@ -119,12 +138,14 @@ impl Head {
                 }
             };
             let arrival = match self.clock {
-                Clock::Live => now_ns,
+                // When the tracker's reader got it, on the master's clock: `now_ns` less
+                // how long ago that was.
+                Clock::Live => now_ns.saturating_sub(arrived.elapsed().as_nanos() as u64),
                 Clock::Replay => {
                     let t0 = *self.t0.get_or_insert(s.t_ns);
                     let at = s.t_ns.saturating_sub(t0);
                     if at > now_ns {
-                        self.pending = Some(s);
+                        self.pending = Some((s, arrived));
                         return;
                     }
                     at
@@ -227,6 +248,45 @@ mod tests {
             .distance(a.last().unwrap().0.position);
         assert!(moved > 0.01, "the walk moved the head {moved} m");
         assert!(a.iter().all(|(p, _)| p.is_finite()));
+    }
+
+    /// One sample that arrived a while before the frame loop reads it.
+    struct ArrivedEarlier(Option<(Sample, Instant)>);
+
+    impl TrackerSource for ArrivedEarlier {
+        fn next(&mut self, _deadline: Instant) -> Next {
+            match self.0.take() {
+                Some((s, at)) => Next::Sample(s, at),
+                None => Next::Idle,
+            }
+        }
+        fn endless(&self) -> bool {
+            true
+        }
+    }
+
+    #[test]
+    fn a_live_sample_arrives_when_the_reader_got_it_not_when_the_frame_read_it() {
+        let c = cave("synthetic:still");
+        let waited = std::time::Duration::from_millis(40);
+        let Some(at) = Instant::now().checked_sub(waited) else {
+            return; // a clock younger than 40 ms: nothing to measure
+        };
+        let sample = Sample::new(5, Pose::new(c.inside.as_vec3(), Quat::IDENTITY));
+        let source = Box::new(ArrivedEarlier(Some((sample, at))));
+        let mut h = Head::with_source(&c, source, Clock::Live, false, false);
+        let now_ns = 1_000_000_000;
+        let read = Instant::now();
+        h.advance(now_ns);
+        let (_, arrival) = h.pose_at(now_ns);
+        // The stamp is `now_ns` less the sample's age when the head read it: between the
+        // 40 ms it had waited and that plus the time this test took to read it.
+        let age = now_ns - arrival.unwrap();
+        let most = waited + read.elapsed();
+        assert!(
+            age >= waited.as_nanos() as u64 && age <= most.as_nanos() as u64,
+            "arrived {age} ns before the frame read it; it waited {waited:?}"
+        );
     }
 
     #[test]

@@ -127,7 +127,7 @@ fn load(log: &str, unit: Option<TimeUnit>) -> Result<Vec<Sample>> {
     let mut source = open(&spec, Pacing::AsFastAsPossible, unit)?;
     let mut out = Vec::new();
     let far = Instant::now() + Duration::from_secs(3600);
-    while let Next::Sample(s) = source.next(far) {
+    while let Next::Sample(s, _) = source.next(far) {
         out.push(s);
     }
     if out.len() < 2 {

@@ -63,7 +63,7 @@ pub fn record(
     let mut written = 0;
     loop {
         let sample = match source.next(wall_end.unwrap_or(far)) {
-            Next::Sample(s) => s,
+            Next::Sample(s, _) => s,
             Next::Idle if wall_end.is_some_and(|e| Instant::now() >= e) => break,
             Next::Idle => continue,
             Next::End => break,

@@ -84,7 +84,10 @@ pub enum SourceError {
 /// What a source has next.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Next {
-    Sample(Sample),
+    /// A sample and when it arrived on this machine: stamped by the source's reader (for
+    /// VRPN, as the message is read off the socket), so latency is measured from there,
+    /// not from when a frame loop got round to it.
+    Sample(Sample, Instant),
     /// Nothing arrived before the deadline.
     Idle,
     /// The source has no more samples.
@@ -160,8 +163,9 @@ impl Replay {
     }
 }
 
-/// Waits until `sample` is due in real time; returns it, or keeps it pending at the deadline.
-fn pace(start: &mut Option<(Instant, u64)>, sample: Sample, deadline: Instant) -> Option<Sample> {
+/// Waits until `sample` is due in real time and returns when it was due (its arrival), or
+/// `None` at the deadline (the caller keeps it pending).
+fn pace(start: &mut Option<(Instant, u64)>, sample: Sample, deadline: Instant) -> Option<Instant> {
     let (t0, s0) = *start.get_or_insert((Instant::now(), sample.t_ns));
     let due = t0 + Duration::from_nanos(sample.t_ns.saturating_sub(s0));
     let now = Instant::now();
@@ -171,7 +175,7 @@ fn pace(start: &mut Option<(Instant, u64)>, sample: Sample, deadline: Instant) -
             return None;
         }
     }
-    Some(sample)
+    Some(due)
 }
 
 impl TrackerSource for Replay {
@@ -180,10 +184,10 @@ impl TrackerSource for Replay {
             return Next::End;
         };
         if self.pacing == Pacing::AsFastAsPossible {
-            return Next::Sample(sample);
+            return Next::Sample(sample, Instant::now());
         }
         match pace(&mut self.start, sample, deadline) {
-            Some(s) => Next::Sample(s),
+            Some(due) => Next::Sample(sample, due),
             None => {
                 self.pending = Some(sample);
                 Next::Idle
@@ -207,11 +211,15 @@ struct Synthetic {
 impl TrackerSource for Synthetic {
     fn next(&mut self, deadline: Instant) -> Next {
         let sample = self.motion.sample(self.i, SYNTHETIC_RATE_HZ);
-        if self.pacing == Pacing::RealTime && pace(&mut self.start, sample, deadline).is_none() {
-            return Next::Idle;
-        }
+        let arrived = match self.pacing {
+            Pacing::RealTime => match pace(&mut self.start, sample, deadline) {
+                Some(due) => due,
+                None => return Next::Idle,
+            },
+            Pacing::AsFastAsPossible => Instant::now(),
+        };
         self.i += 1;
-        Next::Sample(sample)
+        Next::Sample(sample, arrived)
     }
 
     fn endless(&self) -> bool {
@@ -227,7 +235,7 @@ impl TrackerSource for VrpnSource {
         loop {
             let wait = deadline.saturating_duration_since(Instant::now());
             match self.0.recv_timeout(wait) {
-                Ok(VrpnEvent::Sample(s)) => return Next::Sample(s),
+                Ok(VrpnEvent::Sample(s, at)) => return Next::Sample(s, at),
                 Ok(VrpnEvent::Connected { addr }) => {
                     tracing::info!("connected to VRPN server {addr}")
                 }
@@ -292,7 +300,7 @@ mod tests {
         let mut r = Replay::new(samples.clone(), Pacing::AsFastAsPossible);
         let far = Instant::now() + Duration::from_secs(60);
         for s in &samples {
-            assert_eq!(r.next(far), Next::Sample(*s));
+            assert!(matches!(r.next(far), Next::Sample(x, _) if x == *s));
         }
         assert_eq!(r.next(far), Next::End);
     }
@@ -304,7 +312,7 @@ mod tests {
             Motion::Still.sample(3600, 1.0),
         ];
         let mut r = Replay::new(samples.clone(), Pacing::RealTime);
-        assert_eq!(r.next(Instant::now()), Next::Sample(samples[0]));
+        assert!(matches!(r.next(Instant::now()), Next::Sample(x, _) if x == samples[0]));
         assert_eq!(r.next(Instant::now()), Next::Idle, "an hour early");
         assert_eq!(r.pending, Some(samples[1]));
     }

@@ -93,8 +93,9 @@ pub enum VrpnError {
 pub enum VrpnEvent {
     /// The handshake with the server completed.
     Connected { addr: String },
-    /// A report of the selected device and sensor (time: the server's clock).
-    Sample(Sample),
+    /// A report of the selected device and sensor (time: the server's clock), and when it
+    /// was read off the socket here.
+    Sample(Sample, std::time::Instant),
     /// The connection ended (or could not be made); the client retries.
     Disconnected(VrpnError),
 }
@@ -250,6 +251,8 @@ fn session(
             Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
             Err(source) => return Err((VrpnError::Io { addr, source }, connected)),
         };
+        // Every message in these bytes arrived now.
+        let arrived = std::time::Instant::now();
         decoder.feed(&buf[..n]);
         loop {
             let protocol = |source| {
@@ -286,7 +289,7 @@ fn session(
                 continue;
             }
             if let Some(sample) = selector.sample(&names, &msg).map_err(protocol)?
-                && tx.send(VrpnEvent::Sample(sample)).is_err()
+                && tx.send(VrpnEvent::Sample(sample, arrived)).is_err()
             {
                 return Ok(Stop::Requested);
             }
@@ -461,7 +464,7 @@ pub(crate) mod tests {
 
     fn next_sample(client: &VrpnClient) -> Sample {
         match next(client) {
-            VrpnEvent::Sample(s) => s,
+            VrpnEvent::Sample(s, _) => s,
             other => panic!("expected a sample, got {other:?}"),
         }
     }
@@ -594,7 +597,7 @@ pub(crate) mod tests {
             loop {
                 match next(&client) {
                     VrpnEvent::Connected { .. } => {}
-                    VrpnEvent::Sample(s) => samples.push(s),
+                    VrpnEvent::Sample(s, _) => samples.push(s),
                     VrpnEvent::Disconnected(VrpnError::Closed { .. }) => break,
                     other => panic!("{other:?}"),
                 }
