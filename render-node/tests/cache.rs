@@ -192,6 +192,48 @@ fn dithering_chooses_about_the_budget_and_empty_pixels_first() {
     sorted.sort();
     sorted.dedup();
     assert_eq!(sorted.len(), chosen.len(), "each pixel chosen once");
+
+    // Every pixel but a 16x16 hole gets a point traced from this eye (which has nothing
+    // left to gain there: age 0, no miss, priority 0; a pixel with no point of its own
+    // has at least 1). Asked for fewer samples than the hole has pixels, the eye spends
+    // them all on the hole.
+    let hole = |p: u32| (24..40).contains(&(p % 64)) && (24..40).contains(&(p / 64));
+    let filled: Vec<NewSample> = (0..64 * 64u32)
+        .filter(|&p| !hole(p))
+        .map(|p| {
+            let r = v64
+                .wall
+                .ray(Vec2::new((p % 64) as f32 + 0.5, (p / 64) as f32 + 0.5));
+            NewSample::new(p, r.origin, r.at(2.0), 2.0, [0.5; 3], 1)
+        })
+        .collect();
+    c.insert(0, &filled);
+    let chosen = c
+        .draw(&[v64], &[128], false, &mut StepTimes::default())
+        .remove(0);
+    let cov = c.coverage(0);
+    assert!(
+        (0..64 * 64u32).all(|p| hole(p) != (cov[p as usize] == 1.0)),
+        "the points fill exactly the pixels outside the hole"
+    );
+    // The dither's tiles round by up to a sample each; at most 9 (3x3) touch the hole.
+    assert!(
+        chosen.len() + 9 >= 128,
+        "{} pixels chosen for a budget of 128",
+        chosen.len()
+    );
+    let outside: Vec<(u32, u32)> = chosen
+        .iter()
+        .filter(|&&p| !hole(p))
+        .map(|&p| (p % 64, p / 64))
+        .collect();
+    assert!(
+        outside.is_empty(),
+        "{} of {} chosen pixels already have a fresh point while empty ones wait: \
+         {outside:?}",
+        outside.len(),
+        chosen.len()
+    );
 }
 
 #[test]

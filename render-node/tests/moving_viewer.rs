@@ -2,8 +2,10 @@
 //! (`../shared/tracking/pred6dof/1.csv`, HoloLens, recentred in front of the Cornell box),
 //! both eyes, 64×64 per eye, a sixteenth of the pixels traced per eye and frame.
 //! Checks that no frame is left black where samples exist (coverage after the first
-//! frames), that a frame's time stays bounded (the display traces a fixed budget and never
-//! waits for more), and reports the error of a few frames against path-traced references.
+//! frames), that every frame traces its fixed budget per eye and no more (what bounds a
+//! frame's cost; its speed is the `display` benchmark's business, not a test's), and that
+//! the error of a few frames against path-traced references stays near that of a
+//! path-traced frame with as many rays.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -21,13 +23,24 @@ const SIZE: u32 = 64;
 const FRAMES: u64 = 120;
 const FPS: f64 = 60.0;
 const IPD: f32 = 0.064;
+/// Tiles of the dither's grid on a SIZE×SIZE eye (shifted every frame, so one more each
+/// way). Each tile starts from a random error in [-0.5, 0.5) and hands at most half a
+/// sample on at its end, so an eye's count of chosen pixels is within one per tile of its
+/// budget, and never above it (the cache's `max_chosen`).
+const DITHER_TILES: u32 = (SIZE / 8 + 1) * (SIZE / 8 + 1);
 
 #[test]
 fn moving_viewer_follows_a_recorded_trace() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
     let log_path = root.join("../shared/tracking/pred6dof/1.csv");
     if !log_path.exists() {
-        eprintln!("skipping: {} is absent", log_path.display());
+        // CI sets HOLOCAVE_REQUIRE_SHARED=1: there, a missing trace is a failure.
+        assert!(
+            std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
+            "HOLOCAVE_REQUIRE_SHARED=1 and {} is absent",
+            log_path.display()
+        );
+        eprintln!("SKIPPED: {} is absent", log_path.display());
         return;
     }
     let log = read_csv(&log_path, None).expect("read the trace");
@@ -76,8 +89,24 @@ fn moving_viewer_follows_a_recorded_trace() {
             })
             .collect();
         let start = Instant::now();
-        display.frame(&views, false);
+        let report = display.frame(&views, false);
         worst = worst.max(start.elapsed());
+        // A fixed budget each frame: every eye chooses its budget of pixels (to within the
+        // dither's rounding), and exactly the chosen pixels are traced and inserted.
+        for (eye, &c) in report.chosen.iter().enumerate() {
+            let c = c as u32;
+            assert!(
+                c <= budget && c + DITHER_TILES >= budget,
+                "frame {frame} eye {eye}: {c} pixels chosen for a budget of {budget} \
+                 (± {DITHER_TILES})"
+            );
+        }
+        assert_eq!(report.chosen.len(), 2, "frame {frame}: both eyes drawn");
+        assert_eq!(
+            report.inserted,
+            report.chosen.iter().sum::<usize>(),
+            "frame {frame}: one sample per chosen pixel, traced and inserted this frame"
+        );
         // After 16 frames every eye has been sent about one sample per pixel.
         if frame >= 16 {
             for eye in 0..2 {
@@ -135,8 +164,8 @@ fn moving_viewer_follows_a_recorded_trace() {
             .save(PathBuf::from(dir).join("moving-sheet.png"))
             .unwrap();
     }
+    // For information only: speed is measured by the `display` benchmark.
     eprintln!("worst frame time {:.1} ms", worst.as_secs_f64() * 1e3);
-    assert!(worst < Duration::from_secs(2), "a frame took {worst:?}");
     for &(e, baseline) in &errors {
         assert!(
             e < 2.0 * baseline,
