@@ -7,6 +7,10 @@
 //! (`shaders/filter.wgsl`), error-diffusion choice of pixels (`shaders/dither.wgsl`); then
 //! aging of all points (`shaders/age.wgsl`). Samples come back through
 //! [`RenderCache::insert`] (`shaders/insert.wgsl`). Every pass is linear in pixels or points.
+//!
+//! Each shader file has a small module beside it in `shaders/` that owns its pipelines and
+//! bind group layout, makes its bind groups and records its passes; [`RenderCache::new`]
+//! assembles them.
 
 use std::time::{Duration, Instant};
 
@@ -15,7 +19,24 @@ use glam::{Vec3, Vec4};
 use holocave_tracer::film::Image;
 
 use crate::EyeView;
-use crate::gpu::{Binding, Gpu};
+use crate::gpu::Gpu;
+
+#[path = "shaders/age.rs"]
+mod age;
+#[path = "shaders/dither.rs"]
+mod dither;
+#[path = "shaders/filter.rs"]
+mod filter;
+#[path = "shaders/insert.rs"]
+mod insert;
+#[path = "shaders/project.rs"]
+mod project;
+
+use age::{Age, AgeBuffers};
+use dither::{Dither, DitherBuffers};
+use filter::{Filter, FilterBuffers};
+use insert::{Insert, InsertBuffers};
+use project::{Project, ProjectBuffers};
 
 /// Points per replacement group (the oldest of a group is replaced, groups round robin).
 pub const GROUP_SIZE: u32 = 8;
@@ -158,16 +179,13 @@ struct EyeBuffers {
     insert_bg: wgpu::BindGroup,
 }
 
-struct Pipelines {
-    clear: wgpu::ComputePipeline,
-    depth: wgpu::ComputePipeline,
-    key: wgpu::ComputePipeline,
-    cull: wgpu::ComputePipeline,
-    interpolate: wgpu::ComputePipeline,
-    dither: wgpu::ComputePipeline,
-    matching: wgpu::ComputePipeline,
-    place: wgpu::ComputePipeline,
-    age: wgpu::ComputePipeline,
+/// The passes, one per shader file.
+struct Passes {
+    project: Project,
+    filter: Filter,
+    dither: Dither,
+    insert: Insert,
+    age: Age,
 }
 
 /// The render cache of one render node: points shared by its eyes, images per eye.
@@ -187,7 +205,7 @@ pub struct RenderCache {
     insert_params: wgpu::Buffer,
     age_bg: wgpu::BindGroup,
     eyes: Vec<EyeBuffers>,
-    pipes: Pipelines,
+    passes: Passes,
 }
 
 fn groups(n: u32, size: u32) -> u32 {
@@ -285,49 +303,12 @@ impl RenderCache {
         let matched = gpu.storage("matched", 4 * u64::from(batch));
         let insert_params = gpu.uniform("insert params", 32);
 
-        use Binding::{Storage, Uniform};
-        let rw = Storage { read_only: false };
-        let ro = Storage { read_only: true };
-        let project_l = gpu.layout("project", &[Uniform, ro, rw, rw, rw, rw]);
-        let filter_l = gpu.layout("filter", &[Uniform, ro, ro, ro, rw, rw, rw, rw]);
-        let dither_l = gpu.layout("dither", &[Uniform, ro, rw, rw, rw]);
-        let insert_l = gpu.layout("insert", &[Uniform, rw, ro, ro, rw]);
-        let age_l = gpu.layout("age", &[Uniform, rw, rw]);
-        let mut p = gpu.pipelines(
-            "project",
-            include_str!("shaders/project.wgsl"),
-            &project_l,
-            &["clear", "project_depth", "project_key"],
-        );
-        let mut f = gpu.pipelines(
-            "filter",
-            include_str!("shaders/filter.wgsl"),
-            &filter_l,
-            &["cull", "interpolate"],
-        );
-        let mut d = gpu.pipelines(
-            "dither",
-            include_str!("shaders/dither.wgsl"),
-            &dither_l,
-            &["dither"],
-        );
-        let mut ins = gpu.pipelines(
-            "insert",
-            include_str!("shaders/insert.wgsl"),
-            &insert_l,
-            &["match_samples", "place_samples"],
-        );
-        let mut a = gpu.pipelines("age", include_str!("shaders/age.wgsl"), &age_l, &["age"]);
-        let pipes = Pipelines {
-            age: a.remove(0),
-            place: ins.remove(1),
-            matching: ins.remove(0),
-            dither: d.remove(0),
-            interpolate: f.remove(1),
-            cull: f.remove(0),
-            key: p.remove(2),
-            depth: p.remove(1),
-            clear: p.remove(0),
+        let passes = Passes {
+            project: Project::new(&gpu),
+            filter: Filter::new(&gpu),
+            dither: Dither::new(&gpu),
+            insert: Insert::new(&gpu),
+            age: Age::new(&gpu),
         };
 
         let eyes: Vec<EyeBuffers> = eyes
@@ -349,27 +330,49 @@ impl RenderCache {
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 });
-                let project_bg = gpu.bind_group(
-                    "project",
-                    &project_l,
-                    &[&params, &points, &depth, &key, &visible, &counters],
+                let project_bg = passes.project.bind_group(
+                    &gpu,
+                    &ProjectBuffers {
+                        params: &params,
+                        points: &points,
+                        depth: &depth,
+                        key: &key,
+                        visible: &visible,
+                        counters: &counters,
+                    },
                 );
-                let filter_bg = gpu.bind_group(
-                    "filter",
-                    &filter_l,
-                    &[
-                        &params, &points, &depth, &key, &culled, &color, &priority, &counters,
-                    ],
+                let filter_bg = passes.filter.bind_group(
+                    &gpu,
+                    &FilterBuffers {
+                        params: &params,
+                        points: &points,
+                        depth: &depth,
+                        key: &key,
+                        culled: &culled,
+                        color: &color,
+                        priority: &priority,
+                        counters: &counters,
+                    },
                 );
-                let dither_bg = gpu.bind_group(
-                    "dither",
-                    &dither_l,
-                    &[&params, &priority, &counters, &chosen, &chosen_img],
+                let dither_bg = passes.dither.bind_group(
+                    &gpu,
+                    &DitherBuffers {
+                        params: &params,
+                        priority: &priority,
+                        counters: &counters,
+                        chosen: &chosen,
+                        chosen_img: &chosen_img,
+                    },
                 );
-                let insert_bg = gpu.bind_group(
-                    "insert",
-                    &insert_l,
-                    &[&insert_params, &points, &samples, &key, &matched],
+                let insert_bg = passes.insert.bind_group(
+                    &gpu,
+                    &InsertBuffers {
+                        params: &insert_params,
+                        points: &points,
+                        samples: &samples,
+                        key: &key,
+                        matched: &matched,
+                    },
                 );
                 EyeBuffers {
                     width,
@@ -388,7 +391,14 @@ impl RenderCache {
                 }
             })
             .collect();
-        let age_bg = gpu.bind_group("age", &age_l, &[&eyes[0].params, &points, &visible]);
+        let age_bg = passes.age.bind_group(
+            &gpu,
+            &AgeBuffers {
+                params: &eyes[0].params,
+                points: &points,
+                visible: &visible,
+            },
+        );
         RenderCache {
             gpu,
             capacity,
@@ -403,7 +413,7 @@ impl RenderCache {
             insert_params,
             age_bg,
             eyes,
-            pipes,
+            passes,
         }
     }
 
@@ -452,25 +462,22 @@ impl RenderCache {
                 .queue
                 .write_buffer(&e.params, 0, bytemuck::bytes_of(&params));
         }
-        let p = &self.pipes;
+        let p = &self.passes;
         let mut r = Recorder::new(&self.gpu, timed);
         for e in &self.eyes {
             let n = e.width * e.height;
-            r.pass(&p.clear, &e.project_bg, n.max(4), 256);
+            p.project.clear(&mut r, &e.project_bg, n);
             r.step(&mut times.clear);
-            r.pass(&p.depth, &e.project_bg, self.capacity, 256);
-            r.pass(&p.key, &e.project_bg, self.capacity, 256);
+            p.project.project(&mut r, &e.project_bg, self.capacity);
             r.step(&mut times.projection);
-            r.pass(&p.cull, &e.filter_bg, n, 256);
+            p.filter.cull(&mut r, &e.filter_bg, n);
             r.step(&mut times.depth_cull);
-            r.pass(&p.interpolate, &e.filter_bg, n, 256);
+            p.filter.interpolate(&mut r, &e.filter_bg, n);
             r.step(&mut times.interpolation_priority);
-            // One more tile each way: the tile grid is shifted every frame.
-            let tiles = (e.width.div_ceil(8) + 1) * (e.height.div_ceil(8) + 1);
-            r.pass(&p.dither, &e.dither_bg, tiles, 64);
+            p.dither.dither(&mut r, &e.dither_bg, e.width, e.height);
             r.step(&mut times.dither);
         }
-        r.pass(&p.age, &self.age_bg, self.capacity, 256);
+        p.age.age(&mut r, &self.age_bg, self.capacity);
         r.step(&mut times.aging);
         for e in &self.eyes {
             let enc = r.enc();
@@ -517,8 +524,7 @@ impl RenderCache {
                 .write_buffer(&self.samples, 0, bytemuck::cast_slice(chunk));
             let mut r = Recorder::new(&self.gpu, false);
             let bg = &self.eyes[eye].insert_bg;
-            r.pass(&self.pipes.matching, bg, chunk.len() as u32, 64);
-            r.pass(&self.pipes.place, bg, chunk.len() as u32, 64);
+            self.passes.insert.insert(&mut r, bg, chunk.len() as u32);
             r.submit();
         }
     }
