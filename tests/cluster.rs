@@ -7,7 +7,6 @@
 //! Rates are low (20 Hz) and images tiny so that four nodes keep up on a 2-core CI
 //! machine without a GPU; the properties checked do not depend on the rate.
 
-use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
@@ -100,12 +99,18 @@ fn node(addr: &str, wall: &str, out: &Path, secret: &str) -> Proc {
 
 /// Starts a render node for `wall` that writes its images every `every` frames.
 fn node_every(addr: &str, wall: &str, out: &Path, secret: &str, every: u64) -> Proc {
+    node_with(addr, wall, out, secret, &["--every", &every.to_string()])
+}
+
+/// Starts a render node for `wall` with extra arguments.
+fn node_with(addr: &str, wall: &str, out: &Path, secret: &str, extra: &[&str]) -> Proc {
     Proc(
         Command::new(env!("CARGO_BIN_EXE_holocave"))
             .current_dir(root())
             .args(["node", "--master", addr, "--wall", wall, "--headless"])
             .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
-            .args(["--samples", "48", "--every", &every.to_string()])
+            .args(["--samples", "48"])
+            .args(extra)
             .arg("--out")
             .arg(out)
             .env("HOLOCAVE_SECRET", secret)
@@ -135,7 +140,7 @@ fn wait_until(limit: Duration, what: &str, mut cond: impl FnMut() -> bool) {
     }
 }
 
-/// The master's summary: per wall (swapped, late).
+/// The master's summary: per wall (swapped, times declared out).
 fn swapped_per_wall(summary: &str) -> Vec<(String, u64, u64)> {
     summary
         .lines()
@@ -196,18 +201,134 @@ fn four_nodes_present_the_same_frames_in_the_same_order() {
         assert_eq!(log.len() as u64, *swapped, "{wall}");
         assert!(log.iter().all(|&f| f < frames));
     }
-    // Most frames were shown on all four walls (a node misses a frame only when the
-    // master marked it late, or before its first Ready entered it into the barrier).
-    let all: BTreeSet<u64> = logs.iter().flatten().copied().collect();
-    let common = all
-        .iter()
-        .filter(|f| logs.iter().all(|l| l.binary_search(f).is_ok()))
-        .count();
-    println!("{common} of {frames} frames on all four walls");
-    assert!(
-        common as u64 >= frames * 9 / 10,
-        "only {common} of {frames} frames on all four walls"
+    // Frame lock: every wall shows exactly the same frames (the first frame holds every
+    // node; no node is slow enough to be declared out).
+    for (wall, log) in WALLS.iter().zip(&logs) {
+        assert_eq!(
+            log, &logs[0],
+            "{wall} and {} showed different frames",
+            WALLS[0]
+        );
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A wall made slow on purpose: each frame of the left node takes 120 ms more, far beyond
+/// the 50 ms period at 20 Hz but below the 250 ms dead-node timeout.
+const SLOW_MS: u64 = 120;
+
+#[test]
+fn a_slow_wall_holds_every_wall_on_the_same_frames_and_sets_the_pace() {
+    let out = scratch("slow");
+    let frames = 30;
+    let (m, addr, mut stdout) = master(
+        &["--frames", &frames.to_string(), "--wait-for-walls", "60"],
+        SECRET,
     );
+    let nodes: Vec<Proc> = WALLS
+        .iter()
+        .map(|&w| {
+            let slow = if w == "left" { SLOW_MS } else { 0 };
+            node_with(&addr, w, &out, SECRET, &["--slow-ms", &slow.to_string()])
+        })
+        .collect();
+    let (status, err) = m.finish(Duration::from_secs(120));
+    assert!(status.success(), "master failed: {err}");
+    let mut summary = String::new();
+    stdout.read_to_string(&mut summary).unwrap();
+    println!("{summary}");
+    for n in nodes {
+        let (status, err) = n.finish(Duration::from_secs(30));
+        assert!(status.success(), "a node failed: {err}");
+    }
+    let logs: Vec<Vec<u64>> = WALLS.iter().map(|w| presented(&out, w)).collect();
+    assert_eq!(
+        logs[0].len() as u64,
+        frames,
+        "every frame shown: {:?}",
+        logs[0]
+    );
+    for (wall, log) in WALLS.iter().zip(&logs) {
+        assert_eq!(
+            log, &logs[0],
+            "{wall} and {} showed different frames",
+            WALLS[0]
+        );
+    }
+    for (wall, _, outs) in swapped_per_wall(&summary) {
+        assert_eq!(outs, 0, "{wall} was declared out:\n{summary}");
+    }
+    assert!(
+        summary.contains("pace set by wall left"),
+        "the slow wall sets the pace:\n{summary}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_hung_node_is_declared_out_at_the_timeout_and_rejoins_when_it_resumes() {
+    let out = scratch("hung");
+    let (m, addr, _stdout) = master(&["--seconds", "60", "--wait-for-walls", "60"], SECRET);
+    let nodes: Vec<Proc> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
+    wait_until(Duration::from_secs(60), "every wall presenting", || {
+        WALLS.iter().all(|w| presented(&out, w).len() >= 10)
+    });
+    // SIGSTOP the front node: its socket stays open, it just stops answering.
+    let pid = nodes[0].0.id().to_string();
+    let signal = |s: &str| {
+        let ok = Command::new("kill").args([s, &pid]).status().unwrap();
+        assert!(ok.success(), "kill {s} {pid}");
+    };
+    signal("-STOP");
+    let stopped = presented(&out, "front").len();
+    let others = &WALLS[1..];
+    let start = others
+        .iter()
+        .map(|w| *presented(&out, w).last().unwrap())
+        .max()
+        .unwrap();
+    // The others go on: the master waits for the hung node once, up to the dead-node
+    // timeout, then not again.
+    wait_until(Duration::from_secs(30), "the others going on", || {
+        others.iter().all(|w| {
+            presented(&out, w)
+                .last()
+                .is_some_and(|&f| f >= start + 2 * RATE as u64)
+        })
+    });
+    assert_eq!(
+        presented(&out, "front").len(),
+        stopped,
+        "a stopped node presents nothing"
+    );
+    signal("-CONT");
+    wait_until(
+        Duration::from_secs(30),
+        "the resumed node presenting",
+        || presented(&out, "front").len() > stopped + 10,
+    );
+    // Back in lock: its newest frames are the others' too.
+    let front = presented(&out, "front");
+    let last5 = &front[front.len() - 5..];
+    wait_until(
+        Duration::from_secs(10),
+        "the others passing the front",
+        || {
+            others.iter().all(|w| {
+                presented(&out, w)
+                    .last()
+                    .is_some_and(|f| f >= last5.last().unwrap())
+            })
+        },
+    );
+    for w in others {
+        let log = presented(&out, w);
+        assert!(
+            last5.iter().all(|f| log.binary_search(f).is_ok()),
+            "{w} lacks some of {last5:?}"
+        );
+    }
+    drop(m);
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -153,12 +153,15 @@ pub enum Ended {
 }
 
 /// Follows the master's frames until it shuts down or the link fails. `present` shows a
-/// swapped frame (writes it, for a headless node).
+/// swapped frame (writes it, for a headless node). `slow_by` is added to every frame's
+/// drawing (a wall made slow on purpose, to see frame lock hold; zero otherwise).
+#[allow(clippy::too_many_arguments)]
 pub fn follow(
     link: &mut MasterLink,
     display: &mut DisplayProcess,
     wall: &Wall,
     size: (u32, u32),
+    slow_by: Duration,
     counters: &mut NodeCounters,
     present: &mut dyn FnMut(&FrameState, &mut DisplayProcess) -> Result<(), String>,
 ) -> Ended {
@@ -200,6 +203,9 @@ pub fn follow(
         };
         let t = Instant::now();
         let report = display.frame(&views, false);
+        if !slow_by.is_zero() {
+            std::thread::sleep(slow_by);
+        }
         stats.draw_us = t.elapsed().as_micros().min(u32::MAX as u128) as u32;
         stats.samples = report.inserted.min(u32::MAX as usize) as u32;
         stats.presented = counters.presented;

@@ -41,6 +41,8 @@ pub struct Membership {
     pub wall: Wall,
     /// Stop retrying a master that cannot be reached after this long.
     pub give_up_after: Option<Duration>,
+    /// Added to every frame's drawing: a wall made slow on purpose (tests of frame lock).
+    pub slow_by: Duration,
 }
 
 /// Makes the node's display process for the holodeck the master names.
@@ -188,7 +190,15 @@ pub fn run(
                 }
             };
             let display = &mut display.insert(made).1;
-            match follow(&mut link, display, wall, maker.size, &mut counters, present) {
+            match follow(
+                &mut link,
+                display,
+                wall,
+                maker.size,
+                member.slow_by,
+                &mut counters,
+                present,
+            ) {
                 Ended::SourceLost => tracing::warn!(
                     "wall {:?}: the holodeck went away; reconnecting to it (or tracing locally)",
                     wall.name

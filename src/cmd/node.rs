@@ -110,6 +110,10 @@ pub struct NodeArgs {
     /// Write images every K frames (and always the last).
     #[arg(long, default_value_t = 1)]
     pub(crate) every: u64,
+    /// With --master: sleep this many milliseconds per frame after drawing, a wall made
+    /// slow on purpose (to see the cluster's frame lock wait for it).
+    #[arg(long, default_value_t = 0)]
+    pub(crate) slow_ms: u64,
 }
 
 pub(crate) fn eye_name(eye: Eye) -> &'static str {
@@ -367,6 +371,7 @@ fn in_cluster(
         secret,
         wall,
         give_up_after: args.seconds.map(Duration::from_secs_f64),
+        slow_by: Duration::from_millis(args.slow_ms),
     };
     let (counters, reason) = cluster_node::run(&member, &maker, &mut present)?;
     println!(

@@ -4,6 +4,7 @@
 //! walls of every written frame are laid out as the unfolded CAVE (left | front | right,
 //! the floor under the front wall).
 
+use std::collections::{BTreeMap, BTreeSet};
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -11,8 +12,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use holocave_cave::Eye;
-use holocave_cave::load_cave;
+use holocave_cave::{Cave, Eye, load_cave};
 use holocave_master::cluster::{MasterOptions, run as run_master};
 use holocave_render_node::mosaic::cave_mosaic;
 use rand::TryRngCore;
@@ -228,42 +228,82 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         tracing::warn!("{problem}");
     }
     print_summary(&summary);
-    let mosaics = write_mosaics(&args.out, &cave, args.frames, args.every)?;
+    let presented = presented_logs(&args.out, &cave)?;
+    let all: BTreeSet<u64> = presented.values().flatten().copied().collect();
+    match presented.values().all(|p| p.len() == all.len()) {
+        true => println!(
+            "presented logs: identical on all {} walls ({} frames)",
+            presented.len(),
+            all.len()
+        ),
+        false => {
+            for (wall, p) in &presented {
+                println!(
+                    "presented logs: wall {wall} lacks {} of the {} frames some wall showed",
+                    all.len() - p.len(),
+                    all.len()
+                );
+            }
+        }
+    }
+    let every = args.every.max(1);
+    let written: Vec<u64> = all.into_iter().filter(|f| f % every == 0).collect();
+    let mosaics = write_mosaics(&args.out, &cave, &written)?;
+    for p in &mosaics {
+        println!("mosaic {}", p.display());
+    }
     println!(
         "{} mosaics in {}; frame states in {}",
-        mosaics,
+        mosaics.len(),
         args.out.join("mosaic").display(),
         args.out.join("states.bin").display()
     );
     Ok(())
 }
 
-/// Mosaics of every frame for which every wall wrote its first eye's preview.
-fn write_mosaics(out: &Path, cave: &holocave_cave::Cave, frames: u64, every: u64) -> Result<usize> {
+/// Each wall's presented frames in this run (its `presented.log`).
+fn presented_logs(out: &Path, cave: &Cave) -> Result<BTreeMap<String, BTreeSet<u64>>> {
+    cave.walls
+        .iter()
+        .map(|wall| {
+            let path = out.join(&wall.name).join("presented.log");
+            let text = std::fs::read_to_string(&path).unwrap_or_default();
+            let frames = text
+                .lines()
+                .map(|l| {
+                    l.trim()
+                        .parse::<u64>()
+                        .with_context(|| format!("{}: {l:?} is not a frame number", path.display()))
+                })
+                .collect::<Result<BTreeSet<u64>>>()?;
+            Ok((wall.name.clone(), frames))
+        })
+        .collect()
+}
+
+/// The mosaic of each of `frames` from the walls' first-eye previews (a wall that did not
+/// write the frame is left grey); the paths written.
+fn write_mosaics(out: &Path, cave: &Cave, frames: &[u64]) -> Result<Vec<PathBuf>> {
     let dir = out.join("mosaic");
     std::fs::create_dir_all(&dir)?;
-    let mut n = 0;
-    for frame in (0..frames).step_by(every.max(1) as usize) {
+    let mut written = Vec::new();
+    for &frame in frames {
         let mut images = Vec::new();
         for wall in &cave.walls {
             let eye = Eye::for_mode(wall.stereo)[0];
             let p = out
                 .join(&wall.name)
                 .join(format!("{frame:05}-{}.png", eye_name(eye)));
-            match image::open(&p) {
-                Ok(img) => images.push((wall.name.as_str(), img.to_rgb8())),
-                Err(_) => break,
+            if let Ok(img) = image::open(&p) {
+                images.push((wall.name.as_str(), img.to_rgb8()));
             }
-        }
-        if images.len() < cave.walls.len() {
-            continue;
         }
         let walls: Vec<(&str, &image::RgbImage)> = images.iter().map(|(n, i)| (*n, i)).collect();
         let path = dir.join(format!("{frame:05}.png"));
         cave_mosaic(&walls)
             .save(&path)
             .with_context(|| format!("writing {}", path.display()))?;
-        n += 1;
+        written.push(path);
     }
-    Ok(n)
+    Ok(written)
 }
