@@ -16,10 +16,11 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
 use holocave_holodeck::file::DISTANCE_SETTING;
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::{DistanceKind, SampleSource, trace_packet};
+use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, trace_packet};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_protocol::holodeck::SamplePacket;
-use holocave_scene::{LoadOptions, Ray, Scene};
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::holodeck::HolodeckTracer;
 use holocave_tracer::{TraceSettings, Tracer};
 
 /// Rays per measured iteration: about half a sweep of the batch order over every beam of
@@ -29,31 +30,6 @@ const RAYS: u64 = 700_000;
 /// The simulated worker rate: keeps packets at 4,096 rays, so a fill overshoots RAYS by
 /// less than 1%.
 const RATE: f64 = 4096.0 / 1.5;
-
-/// The tracer as a sample source, as `holocave worker` wraps it.
-struct TracerSource(Tracer);
-
-impl SampleSource for TracerSource {
-    fn trace(
-        &self,
-        rays: &[([f32; 3], [f32; 3])],
-        seed: u64,
-        distance: DistanceKind,
-    ) -> Vec<([f32; 3], f32)> {
-        let rays: Vec<Ray> = rays
-            .iter()
-            .map(|(o, d)| Ray::new((*o).into(), (*d).into()))
-            .collect();
-        self.0
-            .trace_serial(&rays, seed)
-            .into_iter()
-            .map(|s| match distance {
-                DistanceKind::FirstHit => (s.radiance, s.distance),
-                DistanceKind::Virtual => (s.radiance, s.virtual_distance),
-            })
-            .collect()
-    }
-}
 
 fn server(path: &Path) -> Server {
     let s = Section::with_default_grid(
@@ -74,7 +50,7 @@ fn server(path: &Path) -> Server {
 fn fill(c: &mut Criterion) {
     let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.gltf");
     let scene = Scene::load(&scene_path, &LoadOptions::default()).unwrap();
-    let source = TracerSource(Tracer::new(Arc::new(scene), TraceSettings::default()));
+    let source = HolodeckTracer(Tracer::new(Arc::new(scene), TraceSettings::default()));
     let dir = tempfile::tempdir().unwrap();
 
     // The rays a batch fill sends to workers: every other ray of its first sweep over all
@@ -89,8 +65,11 @@ fn fill(c: &mut Criterion) {
                 id: p.id,
                 results: Vec::new(),
             };
-            for ray in p.rays().unwrap() {
-                rays.push(ray);
+            for (o, d) in p.rays().unwrap() {
+                rays.push(SourceRay {
+                    origin: o.into(),
+                    dir: d.into(),
+                });
                 r.push([0.0; 3], f32::INFINITY);
             }
             t += p.len() as f64 / RATE;
@@ -116,7 +95,7 @@ fn fill(c: &mut Criterion) {
         .trace(&rays, 0, DistanceKind::FirstHit)
         .iter()
         .zip(&rays)
-        .filter(|(r, _)| r.1.is_finite())
+        .filter(|(r, _)| r.distance.is_finite())
         .map(|(_, ray)| *ray)
         .collect();
     g.throughput(Throughput::Elements(hitting.len() as u64));

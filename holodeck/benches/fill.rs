@@ -1,27 +1,28 @@
 //! Fill rate (issue 3): samples per second that one worker adds to the holodeck through the
 //! server (packet building, ray generation, sample encoding, caching). The sample generator
 //! here is analytic, so this is the server's ceiling per worker; with the path tracer the
-//! fill rate is the tracer's own rate (see holodeck/NOTES-for-README.md for measurements).
+//! fill rate is the tracer's own rate (the root crate's `holodeck_fill` bench; figures in
+//! README.md).
 
 use std::collections::VecDeque;
 
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::{DistanceKind, SampleSource, trace_packet};
+use holocave_holodeck::worker::{
+    DistanceKind, SampleSource, SourceRay, SourceResult, trace_packet,
+};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 
 struct Analytic;
 
 impl SampleSource for Analytic {
-    fn trace(
-        &self,
-        rays: &[([f32; 3], [f32; 3])],
-        _seed: u64,
-        _distance: DistanceKind,
-    ) -> Vec<([f32; 3], f32)> {
+    fn trace(&self, rays: &[SourceRay], _seed: u64, _distance: DistanceKind) -> Vec<SourceResult> {
         rays.iter()
-            .map(|(o, d)| ([d[0].abs(), d[1].abs(), d[2].abs()], 1.0 + o[0].abs()))
+            .map(|r| SourceResult {
+                radiance: r.dir.abs().to_array(),
+                distance: 1.0 + r.origin.x.abs(),
+            })
             .collect()
     }
 }

@@ -3,10 +3,25 @@
 //! exit cell among the cells not on the entry wall, so every index below the count is a
 //! beam and the count is `N = 2W²D² + 2W²H² + 2D²H² + 8W²DH + 8WD²H + 8WDH²`.
 
-use crate::section::{Cell, SectionError};
-
 /// Identifies a beam: (section, beam).
 pub type BeamKey = (u16, u32);
+
+/// A cell on one wall: the wall number (0..6) and the cell's row along the wall's two axes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Cell {
+    pub wall: u8,
+    pub u: u32,
+    pub v: u32,
+}
+
+/// A grid with more beams than a `u32` numbers.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("section grid {grid:?} has {beams} beams, more than the {max} a section can index")]
+pub struct TooManyBeams {
+    pub grid: [u32; 3],
+    pub beams: u64,
+    pub max: u64,
+}
 
 /// Beam numbering for one grid.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -23,7 +38,7 @@ pub struct BeamIndex {
 
 impl BeamIndex {
     /// The numbering for a `W × D × H` grid; fails if the count does not fit a `u32`.
-    pub fn new(grid: [u32; 3]) -> Result<Self, SectionError> {
+    pub fn new(grid: [u32; 3]) -> Result<Self, TooManyBeams> {
         let g = grid.map(u64::from);
         let per_axis = [g[1] * g[2], g[2] * g[0], g[0] * g[1]];
         let cells: [u64; 6] = std::array::from_fn(|w| per_axis[w / 2]);
@@ -38,7 +53,7 @@ impl BeamIndex {
         }
         let beams = beam_start[6];
         if beams > u64::from(u32::MAX) {
-            return Err(SectionError::TooManyBeams {
+            return Err(TooManyBeams {
                 grid,
                 beams,
                 max: u64::from(u32::MAX),

@@ -12,7 +12,8 @@
 use glam::DVec3;
 use rand::Rng;
 
-use crate::section::{Cell, Section};
+use crate::beam_index::Cell;
+use crate::section::Section;
 
 /// A viewpoint sphere.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -7,7 +7,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::beam_index::BeamIndex;
+use crate::beam_index::{BeamIndex, Cell, TooManyBeams};
 
 /// Beams a default grid aims for (the paper found 50,000 to 500,000 to work best).
 pub const DEFAULT_TARGET_BEAMS: u64 = 200_000;
@@ -49,20 +49,8 @@ pub enum SectionError {
     Degenerate([DVec3; 3]),
     #[error("section grid {0:?} has an empty axis")]
     EmptyGrid([u32; 3]),
-    #[error("section grid {grid:?} has {beams} beams, more than the {max} a section can index")]
-    TooManyBeams {
-        grid: [u32; 3],
-        beams: u64,
-        max: u64,
-    },
-}
-
-/// A cell on one wall: the wall number (0..6) and the cell's row along the wall's two axes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Cell {
-    pub wall: u8,
-    pub u: u32,
-    pub v: u32,
+    #[error(transparent)]
+    TooManyBeams(#[from] TooManyBeams),
 }
 
 /// Where a ray crosses a section: the beam and the sub-cell positions (paper §2.1).

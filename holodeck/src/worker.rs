@@ -2,24 +2,42 @@
 //! in the server's process or as separate processes connected over TCP.
 //!
 //! The holodeck does not depend on the tracer: a sample generator plugs in through
-//! [`SampleSource`] (the binary wraps `holocave_tracer::Tracer`, tests use analytic ones).
+//! [`SampleSource`] (`holocave_tracer::HolodeckTracer` is the path tracer; tests use
+//! analytic ones).
 
 use std::io::{BufReader, BufWriter, Write};
 use std::net::{TcpStream, ToSocketAddrs};
 
+use glam::Vec3;
 use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
 pub use holocave_protocol::holodeck::DistanceKind;
 use holocave_protocol::holodeck::{
-    PROTOCOL_VERSION, RayPacket, RecordError, SamplePacket, ServerMsg, WireRay, WireResult,
-    WorkerHello, WorkerMsg,
+    PROTOCOL_VERSION, RayPacket, RecordError, SamplePacket, ServerMsg, WorkerHello, WorkerMsg,
 };
+
+/// A ray a worker traces (scene coordinates, single precision as packets carry it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SourceRay {
+    pub origin: Vec3,
+    /// Unit direction.
+    pub dir: Vec3,
+}
+
+/// What a worker answers for one ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SourceResult {
+    /// Linear RGB radiance arriving along the ray.
+    pub radiance: [f32; 3],
+    /// Distance from the ray's origin, of the kind asked for; `+Inf` if it escapes.
+    pub distance: f32,
+}
 
 /// A sample generator.
 pub trait SampleSource: Send + Sync {
     /// Radiance and distance from the origin of the kind asked for (`+Inf` if the ray, or
-    /// for [`DistanceKind::Virtual`] its specular continuation, escapes) for each
-    /// `(origin, unit direction)`, deterministic for a seed, on the calling thread.
-    fn trace(&self, rays: &[WireRay], seed: u64, distance: DistanceKind) -> Vec<WireResult>;
+    /// for [`DistanceKind::Virtual`] its specular continuation, escapes) for each ray,
+    /// deterministic for a seed, on the calling thread.
+    fn trace(&self, rays: &[SourceRay], seed: u64, distance: DistanceKind) -> Vec<SourceResult>;
 }
 
 /// Traces one packet.
@@ -28,14 +46,21 @@ pub fn trace_packet(
     packet: &RayPacket,
     distance: DistanceKind,
 ) -> Result<SamplePacket, RecordError> {
-    let rays = packet.rays()?;
+    let rays: Vec<SourceRay> = packet
+        .rays()?
+        .into_iter()
+        .map(|(o, d)| SourceRay {
+            origin: Vec3::from_array(o),
+            dir: Vec3::from_array(d),
+        })
+        .collect();
     let results = source.trace(&rays, packet.seed, distance);
     let mut out = SamplePacket {
         id: packet.id,
         results: Vec::with_capacity(results.len() * 16),
     };
-    for (rad, d) in results {
-        out.push(rad, d);
+    for r in results {
+        out.push(r.radiance, r.distance);
     }
     Ok(out)
 }

@@ -17,21 +17,19 @@ use holocave_holodeck::proximity::EyeSphere;
 use holocave_holodeck::run::{RunOptions, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::view::WorldSample;
-use holocave_holodeck::worker::{DistanceKind, SampleSource};
+use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult};
 use holocave_holodeck::{HoloFile, Sample, Section, ViewClass};
 
 /// Radiance from the direction, everything 2 m along the ray.
 struct Analytic;
 
 impl SampleSource for Analytic {
-    fn trace(
-        &self,
-        rays: &[([f32; 3], [f32; 3])],
-        _seed: u64,
-        _distance: DistanceKind,
-    ) -> Vec<([f32; 3], f32)> {
+    fn trace(&self, rays: &[SourceRay], _seed: u64, _distance: DistanceKind) -> Vec<SourceResult> {
         rays.iter()
-            .map(|(_, dir)| (dir.map(f32::abs), 2.0))
+            .map(|r| SourceResult {
+                radiance: r.dir.abs().to_array(),
+                distance: 2.0,
+            })
             .collect()
     }
 }

@@ -12,7 +12,7 @@ use holocave_holodeck::distance_code::DistanceCode;
 use holocave_holodeck::file::DISTANCE_SETTING;
 use holocave_holodeck::run::{RunOptions, run};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::{DistanceKind, SampleSource, run_remote};
+use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult, run_remote};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_protocol::frame::{MAX_FRAME_BYTES, read_frame, write_frame};
 use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, WorkerHello, WorkerMsg};
@@ -21,17 +21,17 @@ use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, WorkerHello, Work
 struct Analytic;
 
 impl SampleSource for Analytic {
-    fn trace(
-        &self,
-        rays: &[([f32; 3], [f32; 3])],
-        _seed: u64,
-        distance: DistanceKind,
-    ) -> Vec<([f32; 3], f32)> {
+    fn trace(&self, rays: &[SourceRay], _seed: u64, distance: DistanceKind) -> Vec<SourceResult> {
         let d = match distance {
             DistanceKind::FirstHit => 2.0,
             DistanceKind::Virtual => 3.0,
         };
-        rays.iter().map(|(_, dir)| (dir.map(f32::abs), d)).collect()
+        rays.iter()
+            .map(|r| SourceResult {
+                radiance: r.dir.abs().to_array(),
+                distance: d,
+            })
+            .collect()
     }
 }
 

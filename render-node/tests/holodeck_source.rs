@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use glam::{DVec3, Vec2, Vec3};
 use holocave_holodeck::run::{RunOptions, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::{DistanceKind, SampleSource};
+use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_render_node::{EyeView, HolodeckSource, NewSample};
 use holocave_tracer::view::WallView;
@@ -21,25 +21,28 @@ struct Plane;
 impl SampleSource for Plane {
     fn trace(
         &self,
-        rays: &[([f32; 3], [f32; 3])],
+        rays: &[SourceRay],
         _seed: u64,
         _distance: DistanceKind,
-    ) -> Vec<([f32; 3], f32)> {
+    ) -> Vec<SourceResult> {
         rays.iter()
-            .map(|(o, d)| {
-                if d[2] >= 0.0 {
-                    return ([0.0; 3], f32::INFINITY);
+            .map(|&SourceRay { origin: o, dir: d }| {
+                if d.z >= 0.0 {
+                    return SourceResult {
+                        radiance: [0.0; 3],
+                        distance: f32::INFINITY,
+                    };
                 }
-                let t = (-3.0 - o[2]) / d[2];
-                let x = o[0] + t * d[0];
-                (
-                    if x < 0.0 {
+                let t = (-3.0 - o.z) / d.z;
+                let x = o.x + t * d.x;
+                SourceResult {
+                    radiance: if x < 0.0 {
                         [1.0, 0.0, 0.0]
                     } else {
                         [0.0, 1.0, 0.0]
                     },
-                    t,
-                )
+                    distance: t,
+                }
             })
             .collect()
     }

@@ -17,9 +17,10 @@ use holocave_holodeck::run::{RunOptions, Running, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::SampleSource;
 use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::holodeck::HolodeckTracer;
 use holocave_tracer::{TraceSettings, Tracer};
 
-use super::worker::{TracerSource, scene_name};
+use super::worker::scene_name;
 
 /// Opens the holodeck at `path`, or creates it for `cave` with `scene` (loaded from
 /// `scene_path`) if it does not exist. `made_by` names the command in its settings.
@@ -127,7 +128,7 @@ pub fn serve(
     listener: Option<TcpListener>,
 ) -> Result<Running> {
     let source = scene.map(|s| {
-        Arc::new(TracerSource(Tracer::new(s, TraceSettings::default()))) as Arc<dyn SampleSource>
+        Arc::new(HolodeckTracer(Tracer::new(s, TraceSettings::default()))) as Arc<dyn SampleSource>
     });
     let server = Server::new(file, Mode::Interactive, ServerConfig::interactive());
     let running = start(

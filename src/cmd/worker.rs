@@ -7,8 +7,9 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::Args;
-use holocave_holodeck::worker::{DistanceKind, SampleSource, run_remote};
-use holocave_scene::{LoadOptions, Ray, Scene};
+use holocave_holodeck::worker::run_remote;
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::holodeck::HolodeckTracer;
 use holocave_tracer::{TraceSettings, Tracer};
 
 #[derive(Args)]
@@ -21,39 +22,11 @@ pub struct WorkerArgs {
     pub scene: PathBuf,
 }
 
-/// The path tracer as the holodeck's sample generator: one thread per worker (the server
-/// runs as many workers as it wants cores used). It answers the distance the holodeck file
-/// records (`distance` setting): the tracer's `virtual_distance` (the paper's
-/// `VDISTANCE=True`, the default for new files) or its first-hit `distance`.
-pub struct TracerSource(pub Tracer);
-
-impl SampleSource for TracerSource {
-    fn trace(
-        &self,
-        rays: &[([f32; 3], [f32; 3])],
-        seed: u64,
-        distance: DistanceKind,
-    ) -> Vec<([f32; 3], f32)> {
-        let rays: Vec<Ray> = rays
-            .iter()
-            .map(|(o, d)| Ray::new((*o).into(), (*d).into()))
-            .collect();
-        self.0
-            .trace_serial(&rays, seed)
-            .into_iter()
-            .map(|s| match distance {
-                DistanceKind::FirstHit => (s.radiance, s.distance),
-                DistanceKind::Virtual => (s.radiance, s.virtual_distance),
-            })
-            .collect()
-    }
-}
-
 /// Loads a scene and makes its sample generator.
-pub fn load_source(scene: &Path) -> anyhow::Result<TracerSource> {
+pub fn load_source(scene: &Path) -> anyhow::Result<HolodeckTracer> {
     let s = Scene::load(scene, &LoadOptions::default())
         .with_context(|| format!("loading scene {}", scene.display()))?;
-    Ok(TracerSource(Tracer::new(
+    Ok(HolodeckTracer(Tracer::new(
         Arc::new(s),
         TraceSettings::default(),
     )))

@@ -11,6 +11,7 @@ pub mod bsdf;
 pub mod film;
 pub mod frame;
 pub mod fresnel;
+pub mod holodeck;
 pub mod integrator;
 pub mod lights;
 pub mod microfacet;
