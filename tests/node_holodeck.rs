@@ -251,13 +251,13 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
         m < 2.0 * late,
         "median relative error {m:.3} at once after reopening, {late:.3} at the end of run 1"
     );
-    // The beams of later frames' pixels follow within the 2 s, still with no tracing (1.1
-    // to 1.3 times run 1's final error seen: the same samples, reassembled from scratch).
+    // The beams of later frames' pixels follow within the 2 s, still with no tracing.
     let end = median_error(&frames.last().unwrap().1, &reference);
     eprintln!("run 2 last frame: median relative error {end:.3}");
     assert!(
-        end < 1.5 * late,
-        "median relative error {end:.3} at the end of run 2, {late:.3} at the end of run 1"
+        end < REOPENED_ERROR_RATIO * late,
+        "median relative error {end:.3} at the end of run 2, {late:.3} at the end of run 1 \
+         (needs < {REOPENED_ERROR_RATIO}x)"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -269,6 +269,15 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
 /// test asks 0.01 within two minutes). The bound leaves a factor of five for slower
 /// machines and fireflies.
 const TOLERANCE: f64 = 0.02;
+/// How much worse than run 1's final median relative error the reopened holodeck's view
+/// may be after its 2 s with no tracing. It shows the same stored samples, reassembled
+/// from scratch as its pixels' beams arrive, so it may hold fewer of them per pixel than
+/// run 1 ended with: with at least half as many, a pixel's noise (falling as 1/√n) is at
+/// most √2 ≈ 1.41 times run 1's, and the median over the box's ~660 lit pixels moves by a
+/// few percent more from frame to frame (1.41 × 1.05 ≈ 1.5). Seen: 1.1 to 1.3. A view
+/// that lost the stored samples, or most of them, shows 2× or worse (the first frame's
+/// bound above).
+const REOPENED_ERROR_RATIO: f64 = 1.5;
 /// Largest fraction of the reference's lit pixels allowed to be black in any frame once
 /// samples arrive (the first frames have the beams of the first requests: 12% seen).
 const MAX_HOLES_FIRST: f64 = 0.25;
