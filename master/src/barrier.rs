@@ -3,11 +3,12 @@
 //!
 //! Frame lock: every wall swaps only when every node in the barrier is ready, however
 //! slow the slowest is. The caller closes a frame early only at the dead-node timeout; a
-//! node not ready by then is declared out (the others swap without it) and comes back the
-//! first time it is ready for the frame being collected. A node that joins (or reconnects)
-//! mid-run starts outside the barrier and enters the same way, so no frame waits for a
-//! node that has not yet shown it is drawing; before the first frame the caller holds
-//! every joined node ([`Barrier::hold_all`]), so all walls start on the same frame.
+//! node not ready by then is declared out (the others swap without it) and comes back with
+//! its next Ready, for whatever frame: it is drawing again, and the frame being collected
+//! waits for it. A node that joins (or reconnects) mid-run starts outside the barrier and
+//! enters the same way, so no frame waits for a node that has not yet shown it is drawing;
+//! before the first frame the caller holds every joined node ([`Barrier::hold_all`]), so
+//! all walls start on the same frame.
 
 use std::collections::BTreeMap;
 
@@ -81,14 +82,16 @@ impl Barrier {
         self.frame = frame;
     }
 
-    /// A node is ready for `frame`. Stale answers (an older frame) only update its stats.
+    /// A node is ready for `frame`. A stale answer (an older frame, from a node that was
+    /// out or had just joined) shows the node is drawing again: it re-enters the barrier
+    /// for the frame being collected, whose state it has and draws next.
     pub fn ready(&mut self, id: NodeId, frame: u64, stats: NodeStats) {
         if let Some(m) = self.members.get_mut(&id) {
             m.stats = stats;
             if frame == self.frame {
                 m.ready = Some(frame);
-                m.in_barrier = true;
             }
+            m.in_barrier = true;
         }
     }
 
@@ -169,25 +172,15 @@ mod tests {
         assert!(!b.complete());
         let c = b.close();
         assert_eq!((c.swap, c.out), (vec![0, 1], vec![2]));
-        // Frame 3: node 2 answers frame 2 after it was declared out (stale) — the barrier
-        // does not wait for it.
+        // Frame 3: nobody waits for node 2 until its answer to frame 2 (stale) shows it is
+        // drawing again; then the barrier waits for it to draw frame 3 too.
         b.begin(3);
-        b.ready(2, 2, stats());
         b.ready(0, 3, stats());
         b.ready(1, 3, stats());
-        assert!(b.complete());
-        assert_eq!(
-            b.close(),
-            Closed {
-                swap: vec![0, 1],
-                out: vec![]
-            }
-        );
-        // Frame 4: it is ready in time again and swaps with the others.
-        b.begin(4);
-        for id in 0..3 {
-            b.ready(id, 4, stats());
-        }
+        assert!(b.complete(), "an out node is not waited for");
+        b.ready(2, 2, stats());
+        assert!(!b.complete(), "a node drawing again is waited for");
+        b.ready(2, 3, stats());
         assert_eq!(b.close().swap, vec![0, 1, 2]);
         assert_eq!(b.members()[&2].outs, 1);
     }
