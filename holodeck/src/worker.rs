@@ -8,9 +8,9 @@
 use std::io::{BufReader, BufWriter, Write};
 use std::net::{TcpStream, ToSocketAddrs};
 
+pub use crate::file::DistanceKind;
 use glam::Vec3;
 use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
-pub use holocave_protocol::holodeck::DistanceKind;
 use holocave_protocol::holodeck::{
     PROTOCOL_VERSION, RayPacket, RecordError, SamplePacket, ServerMsg, WorkerHello, WorkerMsg,
 };
@@ -141,7 +141,7 @@ pub fn run_remote(
         ServerMsg::Welcome(w) => {
             report.worker_id = w.worker_id;
             report.server_scene = w.scene;
-            report.distance = w.distance;
+            report.distance = w.distance.into();
         }
         ServerMsg::Rays(_) | ServerMsg::DisplayWelcome(_) | ServerMsg::Beams(_) => {
             return Err(WorkerError::Unexpected {

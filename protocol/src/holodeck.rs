@@ -62,7 +62,7 @@ pub enum WorkerMsg {
 /// Server → worker or display.
 #[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
 pub enum ServerMsg {
-    Welcome(Welcome),
+    Welcome(WorkerWelcome),
     Rays(RayPacket),
     /// The server is done; the worker (or display) should stop.
     Bye,
@@ -210,45 +210,25 @@ pub struct WorkerHello {
     pub scene: String,
 }
 
+/// The server's answer to a worker's hello.
 #[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
-pub struct Welcome {
+pub struct WorkerWelcome {
     pub worker_id: u64,
     /// The scene the holodeck was made with, as recorded in its settings.
     pub scene: String,
     /// Which distance the results must carry (a setting of the holodeck file).
-    pub distance: DistanceKind,
+    pub distance: WireDistanceKind,
 }
 
-/// Which distance a sample generator answers for a ray (the holodeck paper's `VDISTANCE`,
-/// §2.3): measured from the ray's origin either way.
+/// Which distance a worker must answer, as the welcome carries it (the holodeck's
+/// `holocave_holodeck::file::DistanceKind`, mapped at the boundary).
 #[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum DistanceKind {
-    /// To the first surface the ray hits (`VDISTANCE=False`).
+pub enum WireDistanceKind {
+    /// To the first surface the ray hits.
     FirstHit,
-    /// To the first non-specular surface, continuing through flat mirrors and flat glass
-    /// (`VDISTANCE=True`): samples seen in a mirror reproject to where the reflected object
-    /// appears, so reflections keep their parallax and stereo depth.
+    /// To the first non-specular surface, through flat mirrors and glass.
     #[default]
     Virtual,
-}
-
-impl DistanceKind {
-    /// The name used in holodeck settings and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            DistanceKind::FirstHit => "first-hit",
-            DistanceKind::Virtual => "virtual",
-        }
-    }
-
-    /// Parses [`DistanceKind::name`].
-    pub fn from_name(s: &str) -> Option<Self> {
-        match s {
-            "first-hit" => Some(DistanceKind::FirstHit),
-            "virtual" => Some(DistanceKind::Virtual),
-            _ => None,
-        }
-    }
 }
 
 /// Rays to trace.
@@ -381,9 +361,8 @@ mod tests {
 
     #[test]
     fn welcome_carries_the_distance_kind() {
-        for d in [DistanceKind::FirstHit, DistanceKind::Virtual] {
-            assert_eq!(DistanceKind::from_name(d.name()), Some(d));
-            let m = ServerMsg::Welcome(Welcome {
+        for d in [WireDistanceKind::FirstHit, WireDistanceKind::Virtual] {
+            let m = ServerMsg::Welcome(WorkerWelcome {
                 worker_id: 7,
                 scene: "cornell.gltf".into(),
                 distance: d,
@@ -391,7 +370,6 @@ mod tests {
             let frame = encode(&m, MAX_FRAME_BYTES).unwrap();
             assert_eq!(decode::<ServerMsg>(&frame[4..]).unwrap(), m);
         }
-        assert_eq!(DistanceKind::from_name("vdistance"), None);
     }
 
     #[test]

@@ -23,7 +23,58 @@ use format::{ChunkLoc, DirEntry, Extent};
 use free_list::FreeList;
 
 use crate::section::Section;
-pub use holocave_protocol::holodeck::DistanceKind;
+use holocave_protocol::holodeck::WireDistanceKind;
+
+/// Which distance a sample generator answers for a ray (the holodeck paper's `VDISTANCE`,
+/// §2.3): measured from the ray's origin either way. The file records it
+/// ([`DISTANCE_SETTING`]); workers are told it in their welcome.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DistanceKind {
+    /// To the first surface the ray hits (`VDISTANCE=False`).
+    FirstHit,
+    /// To the first non-specular surface, continuing through flat mirrors and flat glass
+    /// (`VDISTANCE=True`): samples seen in a mirror reproject to where the reflected object
+    /// appears, so reflections keep their parallax and stereo depth.
+    #[default]
+    Virtual,
+}
+
+impl DistanceKind {
+    /// The name used in holodeck settings and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            DistanceKind::FirstHit => "first-hit",
+            DistanceKind::Virtual => "virtual",
+        }
+    }
+
+    /// Parses [`DistanceKind::name`].
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "first-hit" => Some(DistanceKind::FirstHit),
+            "virtual" => Some(DistanceKind::Virtual),
+            _ => None,
+        }
+    }
+}
+
+impl From<DistanceKind> for WireDistanceKind {
+    fn from(d: DistanceKind) -> Self {
+        match d {
+            DistanceKind::FirstHit => WireDistanceKind::FirstHit,
+            DistanceKind::Virtual => WireDistanceKind::Virtual,
+        }
+    }
+}
+
+impl From<WireDistanceKind> for DistanceKind {
+    fn from(d: WireDistanceKind) -> Self {
+        match d {
+            WireDistanceKind::FirstHit => DistanceKind::FirstHit,
+            WireDistanceKind::Virtual => DistanceKind::Virtual,
+        }
+    }
+}
 
 /// The settings key recording which distance the samples hold (`first-hit` or `virtual`,
 /// [`DistanceKind::name`]). Files without it hold first-hit distances.

@@ -6,7 +6,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
-use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, Welcome, WorkerHello, WorkerMsg};
+use holocave_protocol::holodeck::{
+    PROTOCOL_VERSION, ServerMsg, WorkerHello, WorkerMsg, WorkerWelcome,
+};
 use tokio::io::{AsyncWriteExt, BufWriter};
 use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
 
@@ -48,10 +50,10 @@ async fn session(
     rd: OwnedReadHalf,
     wr: &mut BufWriter<OwnedWriteHalf>,
 ) -> Result<(), ConnError> {
-    let welcome = Welcome {
+    let welcome = WorkerWelcome {
         worker_id: id,
         scene: st.scene.clone(),
-        distance: st.distance,
+        distance: st.distance.into(),
     };
     frame::write_frame_async(wr, &ServerMsg::Welcome(welcome), MAX_FRAME_BYTES).await?;
     wr.flush().await.map_err(FrameError::from)?;
