@@ -16,8 +16,9 @@ use std::time::{Duration, Instant};
 use holocave_cave::{CaveFrusta, load_cave};
 use holocave_master::frame_state::{FrameTimes, frame_state};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
-use holocave_protocol::frame::{read_frame, write_frame};
+use holocave_protocol::frame::encode;
 use holocave_protocol::handshake::{self, Welcome};
+use holocave_protocol::session::{Opener, Sealer};
 use holocave_tracking::Pose;
 
 const CONFIG: &str = "configs/cave4-room.toml";
@@ -115,6 +116,9 @@ fn node_with(addr: &str, wall: &str, out: &Path, secret: &str, extra: &[&str]) -
             .arg(out)
             .env("HOLOCAVE_SECRET", secret)
             .env("RAYON_NUM_THREADS", "1")
+            // The tests read the node's info log (where it draws from, what it fell back
+            // to) as evidence, whatever RUST_LOG the tests run under.
+            .env("RUST_LOG", "info")
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
@@ -536,20 +540,76 @@ fn garbage_sent_to_the_master_does_not_disturb_the_honest_nodes() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-/// A master in this test: handshakes honestly, then sends what `script` says.
-fn fake_master_accept(l: &TcpListener) -> TcpStream {
+/// A master in this test: handshakes honestly; the link's stream, sealer and opener.
+fn fake_master_accept(l: &TcpListener) -> (TcpStream, Sealer, Opener) {
     let (mut s, _) = l.accept().unwrap();
     let a = handshake::accept(&mut s, "holocave", SECRET.as_bytes()).expect("handshake");
-    a.welcome(
-        &mut s,
-        Welcome {
-            node_id: 1,
-            rate_hz: RATE,
-            holodeck: None,
-        },
-    )
-    .unwrap();
-    s
+    let keys = a
+        .welcome(
+            &mut s,
+            Welcome {
+                node_id: 1,
+                rate_hz: RATE,
+                holodeck: None,
+            },
+        )
+        .unwrap();
+    let (sealer, opener) = keys.acceptor();
+    (s, sealer, opener)
+}
+
+/// A node in this test: handshakes honestly with the master as `wall`.
+fn fake_node(addr: &str, wall: &str) -> (TcpStream, Sealer, Opener) {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    let role = handshake::Role::Node { wall: wall.into() };
+    let linked = handshake::connect(&mut s, "holocave", role, SECRET.as_bytes()).unwrap();
+    let (sealer, opener) = linked.keys.connector();
+    (s, sealer, opener)
+}
+
+#[test]
+fn injected_and_replayed_messages_to_the_master_are_refused() {
+    let (m, addr, _stdout) = master(&["--seconds", "3"], SECRET);
+    // An injection: a well-formed Ready, unsealed, after an honest handshake.
+    let (mut s, ..) = fake_node(&addr, "front");
+    let ready = NodeMsg::Ready {
+        frame: 0,
+        stats: Default::default(),
+    };
+    s.write_all(&encode(&ready, MAX_CLUSTER_FRAME).unwrap())
+        .unwrap();
+    // A replay: a sealed Ready for the frame being collected, sent twice.
+    let (mut s2, mut sealer, mut opener) = fake_node(&addr, "left");
+    let frame = match opener
+        .read::<_, MasterMsg>(&mut s2, MAX_CLUSTER_FRAME)
+        .unwrap()
+    {
+        MasterMsg::Frame(state) => state.frame,
+        other => panic!("expected a frame state, got {other:?}"),
+    };
+    let sealed = sealer
+        .seal(
+            &NodeMsg::Ready {
+                frame,
+                stats: Default::default(),
+            },
+            MAX_CLUSTER_FRAME,
+        )
+        .unwrap();
+    s2.write_all(&sealed).unwrap();
+    s2.write_all(&sealed).unwrap();
+    let (status, err) = m.finish(Duration::from_secs(30));
+    assert!(status.success(), "master failed: {err}");
+    let forged: Vec<&str> = err
+        .lines()
+        .filter(|l| l.contains("failed authentication"))
+        .collect();
+    assert!(
+        forged.iter().any(|l| l.contains("message 0 "))
+            && forged.iter().any(|l| l.contains("message 1 ")),
+        "the injection (message 0) and the replay (message 1) are refused: {err}"
+    );
 }
 
 #[test]
@@ -559,7 +619,22 @@ fn garbage_from_the_master_makes_a_node_reconnect_and_serve_the_honest_master() 
     let addr = l.local_addr().unwrap().to_string();
     let n = node(&addr, "front", &out, SECRET);
     let mut rng = XorShift(12345);
-    // Three bad masters in a row: random payload, an oversized length, a truncated frame.
+    let cave = load_cave(&root().join(CONFIG)).unwrap();
+    let mut frusta = CaveFrusta::new(&cave);
+    let pose = Pose::new(cave.inside.as_vec3(), glam::Quat::IDENTITY);
+    frusta.update(&cave, &pose);
+    let state = |frame: u64| {
+        let times = FrameTimes {
+            master_ns: frame * 50_000_000,
+            display_ns: (frame + 1) * 50_000_000,
+            tracker_ns: None,
+        };
+        MasterMsg::Frame(frame_state(&cave, &frusta, frame, times, &pose))
+    };
+    // Five bad masters in a row, each after an honest handshake: random payload, an
+    // oversized length, a truncated frame, a well-formed but unsealed frame state (an
+    // injection), and a sealed frame state sent twice (a replay).
+    let unsealed = encode(&state(1), MAX_CLUSTER_FRAME).unwrap();
     for bad in [
         {
             let g = rng.bytes(64);
@@ -567,40 +642,54 @@ fn garbage_from_the_master_makes_a_node_reconnect_and_serve_the_honest_master() 
         },
         u32::MAX.to_le_bytes().to_vec(),
         [&200u32.to_le_bytes()[..], &rng.bytes(20)].concat(),
+        unsealed,
     ] {
-        let mut s = fake_master_accept(&l);
+        let (mut s, ..) = fake_master_accept(&l);
         s.write_all(&bad).unwrap();
         drop(s);
     }
+    {
+        let (mut s, mut sealer, mut opener) = fake_master_accept(&l);
+        let sealed = sealer.seal(&state(2), MAX_CLUSTER_FRAME).unwrap();
+        s.write_all(&sealed).unwrap();
+        let ready: NodeMsg = opener.read(&mut s, MAX_CLUSTER_FRAME).unwrap();
+        assert!(matches!(ready, NodeMsg::Ready { frame: 2, .. }));
+        s.write_all(&sealed).unwrap();
+        // The node hangs up on the replay rather than drawing frame 2 again.
+        let mut rest = Vec::new();
+        let _ = s.read_to_end(&mut rest);
+    }
     // Then an honest one: ten frames, each swapped once the node is ready.
-    let cave = load_cave(&root().join(CONFIG)).unwrap();
-    let mut frusta = CaveFrusta::new(&cave);
-    let mut s = fake_master_accept(&l);
+    let (mut s, mut sealer, mut opener) = fake_master_accept(&l);
     s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
-    let pose = Pose::new(cave.inside.as_vec3(), glam::Quat::IDENTITY);
-    frusta.update(&cave, &pose);
     for frame in 100..110u64 {
-        let times = FrameTimes {
-            master_ns: frame * 50_000_000,
-            display_ns: (frame + 1) * 50_000_000,
-            tracker_ns: None,
-        };
-        let state = frame_state(&cave, &frusta, frame, times, &pose);
-        write_frame(&mut s, &MasterMsg::Frame(state), MAX_CLUSTER_FRAME).unwrap();
-        match read_frame::<_, NodeMsg>(&mut s, MAX_CLUSTER_FRAME).unwrap() {
+        sealer
+            .write(&mut s, &state(frame), MAX_CLUSTER_FRAME)
+            .unwrap();
+        match opener
+            .read::<_, NodeMsg>(&mut s, MAX_CLUSTER_FRAME)
+            .unwrap()
+        {
             NodeMsg::Ready { frame: f, .. } => assert_eq!(f, frame),
         }
-        write_frame(&mut s, &MasterMsg::Swap { frame }, MAX_CLUSTER_FRAME).unwrap();
+        sealer
+            .write(&mut s, &MasterMsg::Swap { frame }, MAX_CLUSTER_FRAME)
+            .unwrap();
     }
     let bye = MasterMsg::Shutdown {
         reason: "test over".into(),
     };
-    write_frame(&mut s, &bye, MAX_CLUSTER_FRAME).unwrap();
+    sealer.write(&mut s, &bye, MAX_CLUSTER_FRAME).unwrap();
     let (status, err) = n.finish(Duration::from_secs(30));
     assert!(status.success(), "node failed: {err}");
+    // Frame 2 was drawn once (the replay of its state was refused, not shown).
     assert_eq!(presented(&out, "front"), (100..110).collect::<Vec<_>>());
-    assert!(err.matches("reconnecting").count() >= 3, "node said: {err}");
+    assert!(err.matches("reconnecting").count() >= 5, "node said: {err}");
     assert!(err.contains("exceeds the maximum"), "node said: {err}");
+    assert!(
+        err.matches("failed authentication").count() >= 3,
+        "the random payload, the injection and the replay are refused as forged: {err}"
+    );
     let _ = std::fs::remove_dir_all(&out);
 }
 
@@ -749,13 +838,25 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
     );
 
     // Run 2: the same file, no worker: everything the walls show comes from run 1's rays.
-    let (m, addr, _, m_out) = holodeck_master(&hdk, 6);
+    let (m, addr, holodeck, m_out) = holodeck_master(&hdk, 6);
     let run2 = out.join("run2");
     let nodes: Vec<Proc> = walls
         .iter()
         .map(|w| node_every(&addr, w, &run2, SECRET, 1))
         .collect();
-    finish_all(m, m_out, nodes);
+    let (_, errs) = finish_all(m, m_out, nodes);
+    // Every wall drew from the master's holodeck (a wall that could not reach it would
+    // trace locally and show its own samples, not the file's).
+    for (wall, err) in walls.iter().zip(&errs) {
+        assert!(
+            err.contains(&format!("drawing from the holodeck at {holodeck}")),
+            "{wall} did not draw from the holodeck at {holodeck}: {err}"
+        );
+        assert!(
+            !err.contains("locally"),
+            "{wall} traced locally in run 2: {err}"
+        );
+    }
     assert_eq!(
         holodeck_samples(&hdk),
         traced,

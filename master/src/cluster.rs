@@ -17,8 +17,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
-use holocave_protocol::frame::{FrameError, encode, read_frame_async};
+use holocave_protocol::frame::{FrameError, encode};
 use holocave_protocol::handshake::{self, Role, Welcome};
+use holocave_protocol::session::{Opener, Sealer, SessionKeys};
 use tokio::io::AsyncWriteExt;
 use tokio::net::tcp::OwnedWriteHalf;
 use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
@@ -104,6 +105,7 @@ enum Event {
         id: NodeId,
         wall: String,
         stream: TcpStream,
+        keys: SessionKeys,
     },
     Msg {
         id: NodeId,
@@ -164,7 +166,14 @@ fn serve_connection(mut stream: TcpStream, shared: &Accepting, events: &Unbounde
         Ok(a) => a,
         Err(e) => return refuse(e.to_string()),
     };
-    let Role::Node { wall } = accepted.role.clone();
+    let Role::Node { wall } = accepted.role.clone() else {
+        let why = format!(
+            "a {} connected to the master's port (render nodes only)",
+            accepted.role
+        );
+        let _ = accepted.refuse(&mut stream, &why);
+        return refuse(why);
+    };
     if !shared.walls.contains(&wall) {
         let why = format!(
             "no wall {wall:?} in this CAVE (walls: {})",
@@ -178,22 +187,32 @@ fn serve_connection(mut stream: TcpStream, shared: &Accepting, events: &Unbounde
         node_id: id,
         ..shared.welcome.clone()
     };
-    if let Err(e) = accepted.welcome(&mut stream, welcome) {
-        return refuse(format!("welcome: {e}"));
-    }
+    let keys = match accepted.welcome(&mut stream, welcome) {
+        Ok(k) => k,
+        Err(e) => return refuse(format!("welcome: {e}")),
+    };
     if stream.set_nonblocking(true).is_ok() {
-        let _ = events.send(Event::Joined { id, wall, stream });
+        let _ = events.send(Event::Joined {
+            id,
+            wall,
+            stream,
+            keys,
+        });
     }
 }
 
-/// Reads one node's messages until it closes or sends something undecodable.
+/// Reads one node's messages until it closes or sends something undecodable or forged.
 async fn read_node(
     id: NodeId,
     mut reader: tokio::net::tcp::OwnedReadHalf,
+    mut opener: Opener,
     events: UnboundedSender<Event>,
 ) {
     loop {
-        match read_frame_async::<_, NodeMsg>(&mut reader, MAX_CLUSTER_FRAME).await {
+        match opener
+            .read_async::<_, NodeMsg>(&mut reader, MAX_CLUSTER_FRAME)
+            .await
+        {
             Ok(msg) => {
                 if events.send(Event::Msg { id, msg }).is_err() {
                     return;
@@ -207,10 +226,11 @@ async fn read_node(
     }
 }
 
-/// A connected node's socket for writing.
+/// A connected node's socket for writing, and the sealer of its link.
 struct Link {
     wall: String,
     writer: OwnedWriteHalf,
+    sealer: Sealer,
 }
 
 /// The master's state between frames.
@@ -229,16 +249,29 @@ struct Master<'a> {
 impl Master<'_> {
     fn handle(&mut self, e: Event) {
         match e {
-            Event::Joined { id, wall, stream } => {
+            Event::Joined {
+                id,
+                wall,
+                stream,
+                keys,
+            } => {
                 let stream = match tokio::net::TcpStream::from_std(stream) {
                     Ok(s) => s,
                     Err(e) => return tracing::warn!("node {id}: {e}"),
                 };
                 let (reader, writer) = stream.into_split();
-                tokio::spawn(read_node(id, reader, self.tx.clone()));
+                let (sealer, opener) = keys.acceptor();
+                tokio::spawn(read_node(id, reader, opener, self.tx.clone()));
                 tracing::info!("node {id} joined for wall {wall:?}");
                 self.barrier.join(id, &wall);
-                self.links.insert(id, Link { wall, writer });
+                self.links.insert(
+                    id,
+                    Link {
+                        wall,
+                        writer,
+                        sealer,
+                    },
+                );
             }
             Event::Msg {
                 id,
@@ -252,8 +285,12 @@ impl Master<'_> {
             Event::Left { id, why } => {
                 if let Some(l) = self.links.remove(&id) {
                     // A node whose link ends leaves; one that sent garbage is dropped.
-                    let bad =
-                        matches!(why, FrameError::TooLarge { .. } | FrameError::Decode { .. });
+                    let bad = matches!(
+                        why,
+                        FrameError::TooLarge { .. }
+                            | FrameError::Decode { .. }
+                            | FrameError::Forged { .. }
+                    );
                     self.summary.dropped += u64::from(bad);
                     tracing::warn!("node {id} (wall {:?}) left: {why}", l.wall);
                 }
@@ -332,8 +369,8 @@ impl Master<'_> {
         }
         self.collect_until(sent + timeout).await;
         let closed = self.barrier.close();
-        self.send(&encode_msg(&MasterMsg::Swap { frame })?, Some(&closed.swap))
-            .await;
+        self.send(&MasterMsg::Swap { frame }, Some(&closed.swap))
+            .await?;
         let swapped = Instant::now();
         self.summary.barrier.push(swapped - sent);
         let arrivals = std::mem::take(&mut self.arrivals);
@@ -383,7 +420,7 @@ impl Master<'_> {
 
     /// Sends `bytes` to the given nodes (all when `None`); drops a node that fails or
     /// does not take them within [`WRITE_TIMEOUT`].
-    async fn send(&mut self, bytes: &[u8], to: Option<&[NodeId]>) {
+    async fn send(&mut self, msg: &MasterMsg, to: Option<&[NodeId]>) -> std::io::Result<()> {
         let ids: Vec<NodeId> = match to {
             Some(ids) => ids.to_vec(),
             None => self.links.keys().copied().collect(),
@@ -392,7 +429,12 @@ impl Master<'_> {
             let Some(link) = self.links.get_mut(&id) else {
                 continue;
             };
-            let wrote = tokio::time::timeout(WRITE_TIMEOUT, link.writer.write_all(bytes)).await;
+            // Sealed for this link: its own keys and message number.
+            let bytes = link
+                .sealer
+                .seal(msg, MAX_CLUSTER_FRAME)
+                .map_err(|e| std::io::Error::other(e.to_string()))?;
+            let wrote = tokio::time::timeout(WRITE_TIMEOUT, link.writer.write_all(&bytes)).await;
             let failed = match wrote {
                 Ok(Ok(())) => None,
                 Ok(Err(e)) => Some(e.to_string()),
@@ -407,6 +449,7 @@ impl Master<'_> {
                 self.summary.dropped += 1;
             }
         }
+        Ok(())
     }
 
     /// One status line: the rate, each wall's draw time (and whether it is out), the wall
@@ -580,13 +623,14 @@ async fn run_frames(
             display_ns,
             tracker_ns,
         };
-        let state = frame_state(cave, &frusta, frame, times, &pose);
-        let bytes = encode_msg(&MasterMsg::Frame(state))?;
+        let msg = MasterMsg::Frame(frame_state(cave, &frusta, frame, times, &pose));
         if let Some(w) = &mut states {
+            let bytes = encode(&msg, MAX_CLUSTER_FRAME)
+                .map_err(|e| std::io::Error::other(e.to_string()))?;
             w.write_all(&bytes)?;
         }
         let sent = Instant::now();
-        m.send(&bytes, None).await;
+        m.send(&msg, None).await?;
         let swapped = if frame == 0 {
             // Every wall starts on the same frame: hold every joined node (its first draw
             // may take long: pipelines, caches) up to the wait for walls.
@@ -618,12 +662,12 @@ async fn run_frames(
         }
     }
     m.send(
-        &encode_msg(&MasterMsg::Shutdown {
+        &MasterMsg::Shutdown {
             reason: "the master is stopping".into(),
-        })?,
+        },
         None,
     )
-    .await;
+    .await?;
     for l in m.links.values_mut() {
         let _ = l.writer.shutdown().await;
     }
@@ -638,10 +682,6 @@ async fn run_frames(
         m.forget(id);
     }
     Ok(m.summary)
-}
-
-fn encode_msg(msg: &MasterMsg) -> std::io::Result<Vec<u8>> {
-    encode(msg, MAX_CLUSTER_FRAME).map_err(|e| std::io::Error::other(e.to_string()))
 }
 
 /// Where the last status line left off.

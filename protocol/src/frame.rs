@@ -25,6 +25,10 @@ pub enum FrameError {
     Decode { len: usize, detail: String },
     #[error("message could not be encoded: {0}")]
     Encode(String),
+    #[error(
+        "message {seq} of this link failed authentication: forged, altered, replayed or out of order"
+    )]
+    Forged { seq: u64 },
     #[error("i/o error: {0}")]
     Io(#[from] std::io::Error),
 }
@@ -104,6 +108,11 @@ pub fn write_frame<W: Write, T: Serialize>(w: &mut W, msg: &T, max: u32) -> Resu
 
 /// Reads one frame; [`FrameError::Closed`] if the stream ends cleanly before it.
 pub fn read_frame<R: Read, T: DeserializeOwned>(r: &mut R, max: u32) -> Result<T, FrameError> {
+    decode(&read_payload_of_frame(r, max)?)
+}
+
+/// Reads one frame's payload, undecoded (at most `max` bytes).
+pub fn read_payload_of_frame<R: Read>(r: &mut R, max: u32) -> Result<Vec<u8>, FrameError> {
     let mut prefix = [0u8; 4];
     let mut got = 0;
     while got < 4 {
@@ -121,7 +130,7 @@ pub fn read_frame<R: Read, T: DeserializeOwned>(r: &mut R, max: u32) -> Result<T
         }
     }
     let len = check_len(prefix, max)?;
-    decode(&read_payload(r, len)?)
+    read_payload(r, len)
 }
 
 /// Writes one frame to an async stream.
@@ -139,6 +148,14 @@ pub async fn read_frame_async<R: AsyncRead + Unpin, T: DeserializeOwned>(
     r: &mut R,
     max: u32,
 ) -> Result<T, FrameError> {
+    decode(&read_payload_of_frame_async(r, max).await?)
+}
+
+/// Reads one frame's payload from an async stream, undecoded (at most `max` bytes).
+pub async fn read_payload_of_frame_async<R: AsyncRead + Unpin>(
+    r: &mut R,
+    max: u32,
+) -> Result<Vec<u8>, FrameError> {
     let mut prefix = [0u8; 4];
     let mut got = 0;
     while got < 4 {
@@ -168,7 +185,7 @@ pub async fn read_frame_async<R: AsyncRead + Unpin, T: DeserializeOwned>(
         }
         got += n;
     }
-    decode(&buf)
+    Ok(buf)
 }
 
 #[cfg(test)]

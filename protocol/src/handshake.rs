@@ -3,12 +3,18 @@
 //! HMAC-SHA256 challenge–response over a shared secret: neither side sends the secret, and
 //! each proves it knows it by signing both sides' fresh nonces.
 //!
+//! Every cluster port uses it: master ← render nodes, holodeck server ← workers and
+//! displays. Below, "node" is the side that connects and "master" the side that accepts.
+//!
 //! ```text
 //! node   → master  preamble, Hello { cluster, role, node nonce }
 //! master → node    Challenge { master nonce, master proof }   (or Refused)
 //! node   → master  Proof { node proof }                      (node checked the master)
 //! master → node    Welcome { .. }                             (or Refused)
 //! ```
+//!
+//! Both sides then derive the link's keys from the secret and both nonces
+//! ([`crate::session`]): every later message is sealed with them.
 
 use std::io::{Read, Write};
 
@@ -18,6 +24,7 @@ use serde::{Deserialize, Serialize};
 use sha2::Sha256;
 
 use crate::frame::{FrameError, read_frame, write_frame};
+use crate::session::SessionKeys;
 
 /// First bytes of every cluster connection.
 pub const MAGIC: [u8; 8] = *b"HOLOCAVE";
@@ -33,14 +40,20 @@ pub type Tag = [u8; 32];
 /// Who connects.
 #[derive(Serialize, Deserialize, Debug, Clone, PartialEq, Eq)]
 pub enum Role {
-    /// A render node drawing the wall of this name.
+    /// A render node drawing the wall of this name (to the master).
     Node { wall: String },
+    /// A holodeck worker tracing rays (to the holodeck server).
+    Worker,
+    /// A display drawing from the holodeck (to the holodeck server).
+    Display,
 }
 
 impl std::fmt::Display for Role {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Role::Node { wall } => write!(f, "node for wall {wall:?}"),
+            Role::Worker => write!(f, "holodeck worker"),
+            Role::Display => write!(f, "holodeck display"),
         }
     }
 }
@@ -63,15 +76,23 @@ struct Proof {
     proof: Tag,
 }
 
-/// What the master tells an accepted node.
-#[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
+/// What the accepting side tells an accepted peer.
+#[derive(Serialize, Deserialize, Debug, Clone, PartialEq, Default)]
 pub struct Welcome {
     /// This connection's number (for logs).
     pub node_id: u64,
-    /// The frame rate the master runs at.
+    /// The frame rate the master runs at (0 from a holodeck server).
     pub rate_hz: f64,
     /// Where the holodeck server takes displays, if the master runs one.
     pub holodeck: Option<String>,
+}
+
+/// An authenticated link, as the connecting side sees it after the handshake.
+#[derive(Debug)]
+pub struct Linked {
+    pub welcome: Welcome,
+    /// The keys every later message is sealed with.
+    pub keys: SessionKeys,
 }
 
 #[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
@@ -154,13 +175,23 @@ fn write_preamble<W: Write>(w: &mut W) -> Result<(), HandshakeError> {
     Ok(())
 }
 
-/// The node's side: proves the secret, checks the master's proof, returns the welcome.
+/// The link's shared session secret: only holders of `secret` who saw both nonces know it.
+fn session_keys(secret: &[u8], hello: &Hello, master_nonce: &Nonce) -> SessionKeys {
+    SessionKeys::derive(
+        &tag(secret, "session", hello, master_nonce)
+            .finalize()
+            .into_bytes(),
+    )
+}
+
+/// The connecting side: proves the secret, checks the master's proof, returns the welcome
+/// and the link's keys.
 pub fn connect<S: Read + Write>(
     stream: &mut S,
     cluster: &str,
     role: Role,
     secret: &[u8],
-) -> Result<Welcome, HandshakeError> {
+) -> Result<Linked, HandshakeError> {
     write_preamble(stream)?;
     let hello = Hello {
         cluster: cluster.to_owned(),
@@ -189,7 +220,10 @@ pub fn connect<S: Read + Write>(
         return Err(HandshakeError::Authentication);
     }
     match read_frame(stream, MAX_HANDSHAKE_FRAME)? {
-        Verdict::Welcome(w) => Ok(w),
+        Verdict::Welcome(welcome) => Ok(Linked {
+            welcome,
+            keys: session_keys(secret, &hello, &master_nonce),
+        }),
         Verdict::Refused(why) => Err(HandshakeError::Refused(why)),
     }
 }
@@ -239,19 +273,29 @@ pub fn accept<S: Read + Write>(
         write_frame(stream, &Verdict::Refused(why), MAX_HANDSHAKE_FRAME)?;
         return Err(HandshakeError::Authentication);
     }
-    Ok(Accepted { role: hello.role })
+    Ok(Accepted {
+        keys: session_keys(secret, &hello, &master_nonce),
+        role: hello.role,
+    })
 }
 
 /// A peer that proved the secret.
 #[derive(Debug)]
 pub struct Accepted {
     pub role: Role,
+    /// The keys every later message is sealed with.
+    pub keys: SessionKeys,
 }
 
 impl Accepted {
-    pub fn welcome<W: Write>(self, stream: &mut W, welcome: Welcome) -> Result<Role, FrameError> {
+    /// Welcomes the peer; the link's keys.
+    pub fn welcome<W: Write>(
+        self,
+        stream: &mut W,
+        welcome: Welcome,
+    ) -> Result<SessionKeys, FrameError> {
         write_frame(stream, &Verdict::Welcome(welcome), MAX_HANDSHAKE_FRAME)?;
-        Ok(self.role)
+        Ok(self.keys)
     }
 
     pub fn refuse<W: Write>(self, stream: &mut W, why: &str) -> Result<(), FrameError> {
@@ -282,13 +326,20 @@ mod tests {
         master_secret: &'static [u8],
         node_secret: &'static [u8],
         node_cluster: &str,
-    ) -> (Result<Role, String>, Result<Welcome, HandshakeError>) {
+    ) -> (
+        Result<(Role, SessionKeys), String>,
+        Result<Linked, HandshakeError>,
+    ) {
         let l = TcpListener::bind("127.0.0.1:0").unwrap();
         let addr = l.local_addr().unwrap();
         let master = std::thread::spawn(move || {
             let (mut s, _) = l.accept().unwrap();
             match accept(&mut s, "cave", master_secret) {
-                Ok(a) => a.welcome(&mut s, welcome()).map_err(|e| e.to_string()),
+                Ok(a) => {
+                    let role = a.role.clone();
+                    let keys = a.welcome(&mut s, welcome()).map_err(|e| e.to_string())?;
+                    Ok((role, keys))
+                }
                 Err(e) => Err(e.to_string()),
             }
         });
@@ -306,13 +357,35 @@ mod tests {
     #[test]
     fn the_right_secret_is_welcomed_both_ways() {
         let (m, n) = pair(b"s3cret", b"s3cret", "cave");
+        let (role, master_keys) = m.unwrap();
         assert_eq!(
-            m.unwrap(),
+            role,
             Role::Node {
                 wall: "front".into()
             }
         );
-        assert_eq!(n.unwrap(), welcome());
+        let linked = n.unwrap();
+        assert_eq!(linked.welcome, welcome());
+        // Both sides derived the same link keys: what one seals the other opens.
+        let (mut node_send, mut node_recv) = linked.keys.connector();
+        let (mut master_send, mut master_recv) = master_keys.acceptor();
+        let up = node_send.seal(&"ready", 64).unwrap();
+        assert_eq!(master_recv.open::<String>(&up[4..]).unwrap(), "ready");
+        let down = master_send.seal(&"swap", 64).unwrap();
+        assert_eq!(node_recv.open::<String>(&down[4..]).unwrap(), "swap");
+    }
+
+    #[test]
+    fn every_link_has_its_own_keys() {
+        let (m1, _) = pair(b"s3cret", b"s3cret", "cave");
+        let (_, n2) = pair(b"s3cret", b"s3cret", "cave");
+        let (mut send, _) = n2.unwrap().keys.connector();
+        let (_, mut recv) = m1.unwrap().1.acceptor();
+        let msg = send.seal(&1u8, 64).unwrap();
+        assert!(
+            recv.open::<u8>(&msg[4..]).is_err(),
+            "a message of another link"
+        );
     }
 
     #[test]

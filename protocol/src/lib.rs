@@ -3,7 +3,9 @@
 //! allocation. Bulk data travels as packed fixed-size little-endian records.
 //!
 //! - [`frame`]: framing, sync and async, with its errors.
-//! - [`handshake`]: the cluster's preamble and mutual HMAC authentication.
+//! - [`handshake`]: the cluster's preamble and mutual HMAC authentication, on every port;
+//! - [`session`]: the messages after it, sealed (HMAC per message, numbered: no injection,
+//!   no replay).
 //! - [`cluster`]: master ↔ render node messages (frame state, ready, swap).
 //! - [`holodeck`]: holodeck server ↔ worker messages (hello, ray packets, sample packets).
 
@@ -11,5 +13,6 @@ pub mod cluster;
 pub mod frame;
 pub mod handshake;
 pub mod holodeck;
+pub mod session;
 
 pub use frame::{FrameError, MAX_FRAME_BYTES};

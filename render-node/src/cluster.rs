@@ -9,8 +9,8 @@ use std::time::{Duration, Instant};
 use glam::DMat4;
 use holocave_cave::Wall;
 use holocave_protocol::cluster::{FrameState, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats};
-use holocave_protocol::frame::{read_frame, write_frame};
 use holocave_protocol::handshake::{self, Role, Welcome};
+use holocave_protocol::session::Sealer;
 
 use crate::{DisplayProcess, EyeView};
 
@@ -38,6 +38,7 @@ pub enum LinkError {
 /// channel, so waiting for the next one has a timeout and never blocks a frame.
 pub struct MasterLink {
     writer: TcpStream,
+    sealer: Sealer,
     messages: Receiver<Result<MasterMsg, String>>,
     pub welcome: Welcome,
 }
@@ -59,12 +60,13 @@ impl MasterLink {
         let role = Role::Node {
             wall: wall.to_owned(),
         };
-        let welcome = handshake::connect(&mut stream, cluster, role, secret).map_err(|source| {
+        let linked = handshake::connect(&mut stream, cluster, role, secret).map_err(|source| {
             LinkError::Handshake {
                 addr: addr.to_owned(),
                 source,
             }
         })?;
+        let (sealer, mut opener) = linked.keys.connector();
         let _ = stream.set_read_timeout(None);
         let mut reader = stream
             .try_clone()
@@ -74,7 +76,8 @@ impl MasterLink {
             .name("master link".into())
             .spawn(move || {
                 loop {
-                    let msg = read_frame::<_, MasterMsg>(&mut reader, MAX_CLUSTER_FRAME)
+                    let msg = opener
+                        .read::<_, MasterMsg>(&mut reader, MAX_CLUSTER_FRAME)
                         .map_err(|e| e.to_string());
                     let end = msg.is_err();
                     if tx.send(msg).is_err() || end {
@@ -85,8 +88,9 @@ impl MasterLink {
             .map_err(|e| LinkError::Lost(e.to_string()))?;
         Ok(MasterLink {
             writer: stream,
+            sealer,
             messages,
-            welcome,
+            welcome: linked.welcome,
         })
     }
 
@@ -110,12 +114,13 @@ impl MasterLink {
 
     /// Tells the master that `frame` is drawn.
     pub fn ready(&mut self, frame: u64, stats: NodeStats) -> Result<(), LinkError> {
-        write_frame(
-            &mut self.writer,
-            &NodeMsg::Ready { frame, stats },
-            MAX_CLUSTER_FRAME,
-        )
-        .map_err(|e| LinkError::Lost(e.to_string()))
+        self.sealer
+            .write(
+                &mut self.writer,
+                &NodeMsg::Ready { frame, stats },
+                MAX_CLUSTER_FRAME,
+            )
+            .map_err(|e| LinkError::Lost(e.to_string()))
     }
 }
 

@@ -165,7 +165,7 @@ pub fn print_summary(s: &Summary) {
     }
     if let Some((wall, frames, by)) = pacer_since(&s.pace, &Default::default()) {
         println!(
-            "  pace set by wall {wall} (last ready on {frames} of {} frames, {:.1} ms after the next); ran at {:.1} Hz",
+            "  pace set by wall {wall} (last ready on {frames} of {} frames, {:.1} ms after the next); paced to {:.1} Hz at the end",
             s.frames,
             ms(by),
             1.0 / s.paced_period.as_secs_f64().max(1e-9)
