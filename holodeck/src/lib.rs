@@ -4,6 +4,7 @@
 //! killed at any instant; a server keeps recently used beams in memory, serves requests and
 //! feeds ray packets to worker threads and TCP worker processes.
 
+pub mod auth;
 pub mod beam_index;
 pub mod cache;
 pub mod cave_section;

@@ -10,7 +10,10 @@ use std::net::{TcpStream, ToSocketAddrs};
 
 pub use crate::file::DistanceKind;
 use glam::Vec3;
-use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
+
+use crate::auth::{self, Credentials};
+use holocave_protocol::frame::{FrameError, MAX_FRAME_BYTES};
+use holocave_protocol::handshake::Role;
 use holocave_protocol::holodeck::{
     PROTOCOL_VERSION, RayPacket, RecordError, SamplePacket, ServerMsg, WorkerHello, WorkerMsg,
 };
@@ -74,6 +77,11 @@ pub enum WorkerError {
     },
     #[error("holodeck server {addr}: {source}")]
     Frame { addr: String, source: FrameError },
+    #[error("holodeck server {addr}: {source}")]
+    Handshake {
+        addr: String,
+        source: holocave_protocol::handshake::HandshakeError,
+    },
     #[error("holodeck server {addr} sent {what} where {expected} was expected")]
     Unexpected {
         addr: String,
@@ -105,16 +113,18 @@ pub struct WorkerReport {
     pub rays: u64,
 }
 
-/// A worker process's loop: connects to `addr`, says hello, then traces every ray packet
-/// it receives and sends the results back, until the server says goodbye or closes.
+/// A worker process's loop: connects to `addr`, proves `credentials`, says hello, then
+/// traces every ray packet it receives and sends the results back, until the server says
+/// goodbye or closes.
 pub fn run_remote(
     addr: &str,
+    credentials: &Credentials,
     name: &str,
     scene: &str,
     source: &dyn SampleSource,
 ) -> Result<WorkerReport, WorkerError> {
     let a = addr.to_string();
-    let conn = addr
+    let mut conn = addr
         .to_socket_addrs()
         .and_then(|mut it| it.next().ok_or_else(|| std::io::Error::other("no address")))
         .and_then(TcpStream::connect)
@@ -123,6 +133,13 @@ pub fn run_remote(
             source,
         })?;
     conn.set_nodelay(true).ok();
+    let (mut sealer, mut opener) =
+        auth::connect(&mut conn, credentials, Role::Worker).map_err(|source| {
+            WorkerError::Handshake {
+                addr: a.clone(),
+                source,
+            }
+        })?;
     let frame_err = |source| WorkerError::Frame {
         addr: a.clone(),
         source,
@@ -134,10 +151,12 @@ pub fn run_remote(
         name: name.into(),
         scene: scene.into(),
     });
-    frame::write_frame(&mut wr, &hello, MAX_FRAME_BYTES).map_err(frame_err)?;
+    sealer
+        .write(&mut wr, &hello, MAX_FRAME_BYTES)
+        .map_err(frame_err)?;
     wr.flush().map_err(|e| frame_err(e.into()))?;
     let mut report = WorkerReport::default();
-    match frame::read_frame(&mut rd, MAX_FRAME_BYTES).map_err(frame_err)? {
+    match opener.read(&mut rd, MAX_FRAME_BYTES).map_err(frame_err)? {
         ServerMsg::Welcome(w) => {
             report.worker_id = w.worker_id;
             report.server_scene = w.scene;
@@ -153,7 +172,7 @@ pub fn run_remote(
         ServerMsg::Bye => return Ok(report),
     }
     loop {
-        match frame::read_frame(&mut rd, MAX_FRAME_BYTES) {
+        match opener.read(&mut rd, MAX_FRAME_BYTES) {
             Ok(ServerMsg::Rays(p)) => {
                 let out = trace_packet(source, &p, report.distance).map_err(|source| {
                     WorkerError::Records {
@@ -163,7 +182,8 @@ pub fn run_remote(
                 })?;
                 report.packets += 1;
                 report.rays += p.len() as u64;
-                let sent = frame::write_frame(&mut wr, &WorkerMsg::Samples(out), MAX_FRAME_BYTES)
+                let sent = sealer
+                    .write(&mut wr, &WorkerMsg::Samples(out), MAX_FRAME_BYTES)
                     .and_then(|()| wr.flush().map_err(FrameError::from));
                 match sent {
                     Ok(()) => {}

@@ -10,6 +10,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
+use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::beam_index::BeamKey;
 use holocave_holodeck::display::{DisplayClient, EyeRequest};
 use holocave_holodeck::distance_code::DistanceCode;
@@ -44,11 +45,22 @@ fn section() -> Section {
     .unwrap()
 }
 
+/// The credentials every peer of these tests proves.
+fn credentials() -> Credentials {
+    Credentials {
+        cluster: "test".into(),
+        secret: b"display-test-secret".to_vec(),
+    }
+}
+
 fn options(threads: usize, listener: Option<TcpListener>) -> RunOptions {
     RunOptions {
         threads,
         source: Some(Arc::new(Analytic)),
-        listener,
+        listener: listener.map(|listener| Port {
+            listener,
+            credentials: credentials(),
+        }),
         scene: "analytic".into(),
         commit_every: Duration::from_millis(500),
         stop: Arc::new(AtomicBool::new(false)),
@@ -139,7 +151,7 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
     let running = interactive_on_loopback(&path, 2);
     let addr = running.local_addr().unwrap();
 
-    let tcp = DisplayClient::connect(addr, 3).unwrap();
+    let tcp = DisplayClient::connect(addr, 3, &credentials()).unwrap();
     assert_eq!(
         tcp.sections(),
         &[section()],
@@ -260,7 +272,7 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
     assert_eq!(server.stats().samples, total, "every sample was committed");
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let running = start(server, options(0, Some(listener))).unwrap();
-    let tcp = DisplayClient::connect(running.local_addr().unwrap(), 3).unwrap();
+    let tcp = DisplayClient::connect(running.local_addr().unwrap(), 3, &credentials()).unwrap();
     tcp.request(EyeRequest {
         slot: 0,
         eye: None,

@@ -8,13 +8,15 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use glam::DVec3;
+use holocave_holodeck::auth::{self, Credentials, Port};
 use holocave_holodeck::distance_code::DistanceCode;
 use holocave_holodeck::file::DISTANCE_SETTING;
 use holocave_holodeck::run::{RunOptions, run};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult, run_remote};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
-use holocave_protocol::frame::{MAX_FRAME_BYTES, read_frame, write_frame};
+use holocave_protocol::frame::MAX_FRAME_BYTES;
+use holocave_protocol::handshake::Role;
 use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, WorkerHello, WorkerMsg};
 
 /// Radiance from the direction; everything at first-hit distance 2 and virtual distance 3.
@@ -32,6 +34,14 @@ impl SampleSource for Analytic {
                 distance: d,
             })
             .collect()
+    }
+}
+
+/// The credentials every peer of this test proves.
+fn credentials() -> Credentials {
+    Credentials {
+        cluster: "test".into(),
+        secret: b"workers-test-secret".to_vec(),
     }
 }
 
@@ -67,7 +77,13 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
         .map(|i| {
             let a = addr.clone();
             std::thread::spawn(move || {
-                run_remote(&a, &format!("remote-{i}"), "analytic", &Analytic)
+                run_remote(
+                    &a,
+                    &credentials(),
+                    &format!("remote-{i}"),
+                    "analytic",
+                    &Analytic,
+                )
             })
         })
         .collect();
@@ -75,25 +91,29 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
     let a = addr.clone();
     let dying = std::thread::spawn(move || {
         let mut c = std::net::TcpStream::connect(&a).unwrap();
+        let (mut sealer, mut opener) = auth::connect(&mut c, &credentials(), Role::Worker).unwrap();
         let hello = WorkerMsg::Hello(WorkerHello {
             protocol: PROTOCOL_VERSION,
             name: "dying".into(),
             scene: "analytic".into(),
         });
-        write_frame(&mut c, &hello, MAX_FRAME_BYTES).unwrap();
+        sealer.write(&mut c, &hello, MAX_FRAME_BYTES).unwrap();
         assert!(matches!(
-            read_frame(&mut c, MAX_FRAME_BYTES).unwrap(),
+            opener.read(&mut c, MAX_FRAME_BYTES).unwrap(),
             ServerMsg::Welcome(_)
         ));
         assert!(matches!(
-            read_frame(&mut c, MAX_FRAME_BYTES).unwrap(),
+            opener.read(&mut c, MAX_FRAME_BYTES).unwrap(),
             ServerMsg::Rays(_)
         ));
     });
     let opts = RunOptions {
         threads: 2,
         source: Some(Arc::new(Analytic)),
-        listener: Some(listener),
+        listener: Some(Port {
+            listener,
+            credentials: credentials(),
+        }),
         scene: "analytic".into(),
         commit_every: Duration::from_millis(300),
         stop: Arc::new(AtomicBool::new(false)),

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use holocave_cave::{Eye, Wall};
+use holocave_holodeck::auth::Credentials;
 use holocave_protocol::cluster::FrameState;
 use holocave_tracer::Tracer;
 
@@ -55,20 +56,22 @@ pub struct DisplayMaker {
     display_id: u32,
     /// The master's address: a holodeck on an unspecified address (0.0.0.0) is there.
     master_ip: Option<IpAddr>,
+    /// What the holodeck server asks of its displays: the cluster's name and secret.
+    credentials: Credentials,
 }
 
 impl DisplayMaker {
-    /// Displays of `wall` at `size` pixels per eye asking for `samples` per eye and frame,
+    /// Displays of the member's wall at `size` pixels per eye asking for `samples` per eye and frame,
     /// tracing locally with `tracer` when there is no holodeck. `display_id` names the
     /// wall at the holodeck (its place in the config, which every node reads alike).
     pub fn new(
-        wall: &Wall,
+        member: &Membership,
         display_id: u32,
         size: (u32, u32),
         samples: u32,
         tracer: Arc<Tracer>,
-        master: &str,
     ) -> DisplayMaker {
+        let wall = &member.wall;
         DisplayMaker {
             size,
             eyes: Eye::for_mode(wall.stereo).len(),
@@ -79,11 +82,16 @@ impl DisplayMaker {
                 .bytes()
                 .fold(1u64, |h, b| h.wrapping_mul(31) ^ u64::from(b)),
             display_id,
-            master_ip: master
+            master_ip: member
+                .master
                 .to_socket_addrs()
                 .ok()
                 .and_then(|mut a| a.next())
                 .map(|a| a.ip()),
+            credentials: Credentials {
+                cluster: member.cluster.clone(),
+                secret: member.secret.clone(),
+            },
         }
     }
 
@@ -101,7 +109,8 @@ impl DisplayMaker {
             return Ok((None, local(cache)));
         };
         let connected = self.resolve(addr).and_then(|a| {
-            HolodeckSource::connect(a, self.display_id).map_err(|e| format!("{a}: {e}"))
+            HolodeckSource::connect(a, self.display_id, &self.credentials)
+                .map_err(|e| format!("{a}: {e}"))
         });
         Ok(match connected {
             Ok(source) => {

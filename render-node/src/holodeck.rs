@@ -33,6 +33,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use glam::{DVec3, Vec2};
+use holocave_holodeck::auth::Credentials;
 use holocave_holodeck::beam_index::BeamKey;
 use holocave_holodeck::cache::BeamMap;
 use holocave_holodeck::display::{DisplayClient, DisplayError, EyeRequest};
@@ -102,9 +103,13 @@ pub struct HolodeckSource {
 impl HolodeckSource {
     /// Connects to a holodeck server over TCP as display `display` (the wall's number; its
     /// eyes are slots of it), with default options.
-    pub fn connect(addr: SocketAddr, display: u32) -> Result<HolodeckSource, DisplayError> {
+    pub fn connect(
+        addr: SocketAddr,
+        display: u32,
+        credentials: &Credentials,
+    ) -> Result<HolodeckSource, DisplayError> {
         Ok(Self::new(
-            DisplayClient::connect(addr, display)?,
+            DisplayClient::connect(addr, display, credentials)?,
             HolodeckOptions::default(),
             u64::from(display),
         ))

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::{DVec3, Vec2, Vec3};
+use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::run::{RunOptions, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult};
@@ -19,12 +20,7 @@ use holocave_tracer::view::WallView;
 struct Plane;
 
 impl SampleSource for Plane {
-    fn trace(
-        &self,
-        rays: &[SourceRay],
-        _seed: u64,
-        _distance: DistanceKind,
-    ) -> Vec<SourceResult> {
+    fn trace(&self, rays: &[SourceRay], _seed: u64, _distance: DistanceKind) -> Vec<SourceResult> {
         rays.iter()
             .map(|&SourceRay { origin: o, dir: d }| {
                 if d.z >= 0.0 {
@@ -65,6 +61,13 @@ fn eye_view(eye: Vec3) -> EyeView {
     .expect("the eye is in front of the wall")
 }
 
+fn credentials() -> Credentials {
+    Credentials {
+        cluster: "test".into(),
+        secret: b"source-test-secret".to_vec(),
+    }
+}
+
 #[test]
 fn tcp_holodeck_source_turns_requests_into_samples_at_the_right_pixels() {
     let dir = tempfile::tempdir().unwrap();
@@ -88,14 +91,18 @@ fn tcp_holodeck_source_turns_requests_into_samples_at_the_right_pixels() {
         RunOptions {
             threads: 2,
             source: Some(Arc::new(Plane)),
-            listener: Some(TcpListener::bind("127.0.0.1:0").unwrap()),
+            listener: Some(Port {
+                listener: TcpListener::bind("127.0.0.1:0").unwrap(),
+                credentials: credentials(),
+            }),
             scene: "plane".into(),
             commit_every: Duration::from_secs(60),
             stop: Default::default(),
         },
     )
     .unwrap();
-    let mut source = HolodeckSource::connect(running.local_addr().unwrap(), 2).unwrap();
+    let mut source =
+        HolodeckSource::connect(running.local_addr().unwrap(), 2, &credentials()).unwrap();
     assert!(source.is_connected());
     let views = [
         eye_view(Vec3::new(-0.032, 0.1, 0.3)),

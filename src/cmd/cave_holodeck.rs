@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use holocave_cave::Cave;
 use holocave_holodeck::HoloFile;
+use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::cave_section::CaveSection;
 use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
 use holocave_holodeck::run::{RunOptions, Running, start};
@@ -118,14 +119,14 @@ fn announce(path: &Path, file: &HoloFile) {
 
 /// Starts the holodeck's server for displays: `threads` tracer threads in this process
 /// tracing `scene` (needed only when `threads > 0`; named `name` for TCP workers), and
-/// TCP workers and displays accepted on `listener`. It commits every 5 s;
+/// TCP workers and displays that prove its credentials accepted on `listener`. It commits every 5 s;
 /// [`Running::stop`] commits the rest.
 pub fn serve(
     file: HoloFile,
     threads: usize,
     scene: Option<Arc<Scene>>,
     name: String,
-    listener: Option<TcpListener>,
+    listener: Option<Port>,
 ) -> Result<Running> {
     let source = scene.map(|s| {
         Arc::new(HolodeckTracer(Tracer::new(s, TraceSettings::default()))) as Arc<dyn SampleSource>
@@ -157,13 +158,14 @@ pub struct Hosted {
 }
 
 /// Opens or creates the holodeck `path` for `cave` and serves it on `listen` with
-/// `threads` tracer threads in this process (workers may add more from any host).
+/// `threads` tracer threads in this process (workers proving `credentials` may add more
+/// from any host).
 pub fn host(
     path: &Path,
     cave: &Cave,
     scene_path: &Path,
     threads: usize,
-    listen: &str,
+    (listen, credentials): (&str, Credentials),
     made_by: &str,
 ) -> Result<Hosted> {
     // The scene is needed to cut a new file's section and for tracer threads; a master
@@ -182,7 +184,11 @@ pub fn host(
     let listener =
         TcpListener::bind(listen).with_context(|| format!("holodeck: listening on {listen}"))?;
     let addr = listener.local_addr()?;
-    let running = serve(file, threads, scene, scene_name(scene_path), Some(listener))?;
+    let port = Port {
+        listener,
+        credentials,
+    };
+    let running = serve(file, threads, scene, scene_name(scene_path), Some(port))?;
     Ok(Hosted {
         running,
         addr,

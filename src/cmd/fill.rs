@@ -13,6 +13,7 @@ use std::time::Duration;
 use anyhow::{Context, bail};
 use clap::Args;
 use glam::DVec3;
+use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
 use holocave_holodeck::run::{RunOptions, run as run_server};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
@@ -123,13 +124,23 @@ fn make_sections(args: &FillArgs, scene: &Scene) -> anyhow::Result<Vec<Section>>
         .collect()
 }
 
-fn spawn_workers(n: usize, addr: &str, scene: &PathBuf) -> anyhow::Result<Vec<Child>> {
+fn spawn_workers(
+    n: usize,
+    addr: &str,
+    scene: &PathBuf,
+    credentials: &Credentials,
+) -> anyhow::Result<Vec<Child>> {
     let exe = std::env::current_exe().context("finding the holocave executable")?;
     (0..n)
         .map(|_| {
             Command::new(&exe)
                 .args(["worker", "--server", addr, "--scene"])
                 .arg(scene)
+                .args(["--cluster", &credentials.cluster])
+                .env(
+                    super::credentials::SECRET_VAR,
+                    super::credentials::secret_text(credentials),
+                )
                 .spawn()
                 .context("starting a worker process")
         })
@@ -213,17 +224,27 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         (None, true) => Some("127.0.0.1:0".to_string()),
         (None, false) => None,
     };
+    // Workers prove the cluster's secret: HOLOCAVE_SECRET, or a fresh one that only this
+    // fill's own worker processes are given.
+    let credentials = super::credentials::fresh(super::credentials::DEFAULT_CLUSTER)?;
     let listener = listen
-        .map(|a| TcpListener::bind(&a).with_context(|| format!("listening on {a}")))
+        .map(|a| {
+            let listener = TcpListener::bind(&a).with_context(|| format!("listening on {a}"))?;
+            anyhow::Ok(Port {
+                listener,
+                credentials: credentials.clone(),
+            })
+        })
         .transpose()?;
     let mut children = Vec::new();
     let (threads, source) = if args.worker_processes {
         let addr = listener
             .as_ref()
             .expect("bound above")
+            .listener
             .local_addr()?
             .to_string();
-        children = spawn_workers(args.workers, &addr, &args.scene)?;
+        children = spawn_workers(args.workers, &addr, &args.scene, &credentials)?;
         (0, None)
     } else {
         let src: Arc<dyn holocave_holodeck::worker::SampleSource> =

@@ -9,6 +9,7 @@ use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
 use glam::{DVec3, Vec3};
 use holocave_holodeck::HoloFile;
+use holocave_holodeck::auth::Port;
 use holocave_holodeck::file::check::{check, holds, salvage};
 use holocave_holodeck::file::info::Info;
 use holocave_holodeck::file::optimize::optimize;
@@ -199,6 +200,10 @@ pub struct ServeArgs {
     /// --holodeck-server ADDR`): trace what their eyes ask for, not the whole volume.
     #[arg(long)]
     pub interactive: bool,
+    /// The cluster's name; its shared secret, which every worker and display must prove,
+    /// comes from HOLOCAVE_SECRET.
+    #[arg(long, default_value = super::credentials::DEFAULT_CLUSTER)]
+    pub cluster: String,
 }
 
 pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
@@ -263,6 +268,7 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
         }
         HolodeckCommand::View(a) => run_view(a)?,
         HolodeckCommand::Serve(a) => {
+            let credentials = super::credentials::from_env(&a.cluster)?;
             let h = HoloFile::open_rw(&a.file)?;
             let scene = h.settings().get("scene").cloned().unwrap_or_default();
             let listener = TcpListener::bind(&a.listen)
@@ -286,7 +292,10 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
             let opts = RunOptions {
                 threads: 0,
                 source: None,
-                listener: Some(listener),
+                listener: Some(Port {
+                    listener,
+                    credentials,
+                }),
                 scene,
                 commit_every: Duration::from_secs(5),
                 stop: super::interrupt::ctrl_c_flag(),

@@ -8,6 +8,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, anyhow};
 use clap::Args;
 use holocave_cave::{Cave, load_cave};
+use holocave_holodeck::auth::Credentials;
 use holocave_master::cluster::{MasterOptions, Summary, pacer_since, quantile, run as run_master};
 use holocave_master::head::{Clock, Head};
 use holocave_tracking::source::SourceSpec;
@@ -69,7 +70,12 @@ pub struct HolodeckArgs {
 
 impl HolodeckArgs {
     /// Starts the hosted holodeck, if any, and says where the nodes find theirs.
-    pub fn start(&self, cave: &Cave, made_by: &str) -> Result<(Option<Hosted>, Option<String>)> {
+    pub fn start(
+        &self,
+        cave: &Cave,
+        credentials: Credentials,
+        made_by: &str,
+    ) -> Result<(Option<Hosted>, Option<String>)> {
         let Some(path) = &self.holodeck else {
             return Ok((None, self.holodeck_server.clone()));
         };
@@ -81,7 +87,8 @@ impl HolodeckArgs {
             .holodeck_listen
             .as_ref()
             .unwrap_or(&cave.cluster.holodeck);
-        let hosted = host(path, cave, scene, self.tracer_threads, listen, made_by)?;
+        let port = (listen.as_str(), credentials);
+        let hosted = host(path, cave, scene, self.tracer_threads, port, made_by)?;
         let addr = hosted.addr.to_string();
         Ok((Some(hosted), Some(addr)))
     }
@@ -201,21 +208,19 @@ pub fn run(args: MasterArgs) -> Result<()> {
             args.wait_for_walls
         );
     }
-    let secret = cave
-        .secret()
-        .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
+    let credentials = super::credentials::of_cave(&cave, &args.config)?;
     let addr = args.listen.clone().unwrap_or(cave.cluster.master.clone());
     let listener = TcpListener::bind(&addr).with_context(|| format!("listening on {addr}"))?;
     println!("master listening on {}", listener.local_addr()?);
     // Tests and scripts read the address from the first line.
     std::io::Write::flush(&mut std::io::stdout())?;
     let head = args.head.open(&cave)?;
-    let (hosted, holodeck) = args.holodeck.start(&cave, "master")?;
+    let (hosted, holodeck) = args.holodeck.start(&cave, credentials.clone(), "master")?;
     let summary = run_master(
         &cave,
         head,
         listener,
-        secret,
+        credentials.secret,
         MasterOptions {
             clock: args.head.clock(),
             frames: args.frames,

@@ -15,6 +15,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use clap::Args;
 use glam::{Quat, Vec3};
 use holocave_cave::{Cave, Eye, Wall, load_cave};
+use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
 use holocave_protocol::cluster::FrameState;
@@ -221,7 +222,14 @@ fn standalone(
             let listener = args
                 .listen
                 .as_ref()
-                .map(|a| TcpListener::bind(a).with_context(|| format!("--listen {a}")))
+                .map(|a| {
+                    let listener = TcpListener::bind(a).with_context(|| format!("--listen {a}"))?;
+                    let credentials = super::credentials::of_cave(cave, &args.config)?;
+                    anyhow::Ok(Port {
+                        listener,
+                        credentials,
+                    })
+                })
                 .transpose()?;
             let name = super::worker::scene_name(&args.scene);
             let running = cave_holodeck::serve(file, workers, Some(scene.clone()), name, listener)?;
@@ -338,7 +346,6 @@ fn in_cluster(
         .secret()
         .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
     let (_, tracer) = load_tracer(&args.scene)?;
-    let maker = DisplayMaker::new(&wall, display_id, size, samples, tracer, master);
     let eyes = Eye::for_mode(wall.stereo);
     let mut tone = tone_mapper(&args.tone)?;
     let dir = args.out.join(&wall.name);
@@ -373,6 +380,7 @@ fn in_cluster(
         give_up_after: args.seconds.map(Duration::from_secs_f64),
         slow_by: Duration::from_millis(args.slow_ms),
     };
+    let maker = DisplayMaker::new(&member, display_id, size, samples, tracer);
     let (counters, reason) = cluster_node::run(&member, &maker, &mut present)?;
     println!(
         "wall {:?}: {} frames presented, {} skipped; master: {reason}",

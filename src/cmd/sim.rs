@@ -15,9 +15,9 @@ use clap::Args;
 use holocave_cave::{Cave, Eye, load_cave};
 use holocave_master::cluster::{MasterOptions, run as run_master};
 use holocave_render_node::mosaic::cave_mosaic;
-use rand::TryRngCore;
 
 use super::cave_holodeck::{Hosted, host};
+use super::credentials;
 use super::master::{HeadArgs, print_summary};
 use super::node::eye_name;
 
@@ -119,12 +119,9 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             args.head.tracker = Some("synthetic:walk".into());
         }
     }
-    // A fresh secret for this run; the nodes get it through their environment.
-    let mut key = [0u8; 16];
-    rand::rngs::OsRng
-        .try_fill_bytes(&mut key)
-        .map_err(|e| anyhow::anyhow!("reading the operating system's random source: {e}"))?;
-    let secret: String = key.iter().map(|b| format!("{b:02x}")).collect();
+    // A fresh secret for this run; the nodes and workers get it through their environment.
+    let credentials = credentials::fresh(&cave.cluster.id)?;
+    let secret = credentials::secret_text(&credentials);
     let listener = TcpListener::bind("127.0.0.1:0").context("listening on loopback")?;
     let addr = listener.local_addr()?.to_string();
     std::fs::create_dir_all(&args.out)
@@ -149,7 +146,8 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .holodeck
             .clone()
             .unwrap_or_else(|| args.out.join(format!("{stem}.hdk")));
-        Some(host(&path, &cave, &args.scene, 0, "127.0.0.1:0", "sim")?)
+        let port = ("127.0.0.1:0", credentials.clone());
+        Some(host(&path, &cave, &args.scene, 0, port, "sim")?)
     };
     let mut children = Children(Vec::new());
     if let Some(h) = &hosted {
@@ -157,6 +155,8 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             let log = std::fs::File::create(args.out.join(format!("worker{i}.log")))?;
             let child = Command::new(&exe)
                 .args(["worker", "--server", &h.addr.to_string()])
+                .args(["--cluster", &cave.cluster.id])
+                .env(credentials::SECRET_VAR, &secret)
                 .arg("--scene")
                 .arg(&args.scene)
                 .stdout(log.try_clone()?)
@@ -189,7 +189,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
                 "--every",
                 &args.every.to_string(),
             ])
-            .env("HOLOCAVE_SECRET", &secret)
+            .env(credentials::SECRET_VAR, &secret)
             // Four nodes share this machine's cores: one tracing thread each.
             .env("RAYON_NUM_THREADS", "1")
             .stdout(log.try_clone()?)

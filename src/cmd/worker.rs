@@ -1,6 +1,6 @@
 //! `holocave worker --server HOST:PORT --scene S`: a holodeck worker process. It loads the
-//! scene, connects to the holodeck server and traces the ray packets it is sent until the
-//! server says goodbye.
+//! scene, connects to the holodeck server (proving the cluster's secret, from
+//! `HOLOCAVE_SECRET`) and traces the ray packets it is sent until the server says goodbye.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -20,6 +20,9 @@ pub struct WorkerArgs {
     /// The scene to trace (the one the holodeck was made with).
     #[arg(long)]
     pub scene: PathBuf,
+    /// The cluster's name; its shared secret comes from HOLOCAVE_SECRET.
+    #[arg(long, default_value = super::credentials::DEFAULT_CLUSTER)]
+    pub cluster: String,
 }
 
 /// Loads a scene and makes its sample generator.
@@ -41,9 +44,16 @@ pub fn scene_name(scene: &Path) -> String {
 }
 
 pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
+    let credentials = super::credentials::from_env(&args.cluster)?;
     let source = load_source(&args.scene)?;
     let name = format!("pid {}", std::process::id());
-    let report = run_remote(&args.server, &name, &scene_name(&args.scene), &source)?;
+    let report = run_remote(
+        &args.server,
+        &credentials,
+        &name,
+        &scene_name(&args.scene),
+        &source,
+    )?;
     tracing::info!(
         "worker {} done: {} packets, {} rays ({} distance)",
         report.worker_id,

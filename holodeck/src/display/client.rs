@@ -12,13 +12,15 @@ use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
+use holocave_protocol::frame::{FrameError, MAX_FRAME_BYTES};
+use holocave_protocol::handshake::{HandshakeError, Role};
 use holocave_protocol::holodeck::{
     DisplayHello, DisplayWelcome, PROTOCOL_VERSION, ServerMsg, WorkerMsg,
 };
 
 use super::wire::{self, sections_from_wire, unpack};
 use super::{Arrival, EyeRequest};
+use crate::auth::{self, Credentials};
 use crate::section::Section;
 
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +34,11 @@ pub enum DisplayError {
     Frame {
         addr: SocketAddr,
         source: FrameError,
+    },
+    #[error("holodeck server {addr}: {source}")]
+    Handshake {
+        addr: SocketAddr,
+        source: HandshakeError,
     },
     #[error("holodeck server: {0}")]
     Protocol(String),
@@ -85,29 +92,37 @@ impl DisplayClient {
     }
 
     /// Connects to the holodeck server at `addr` as display `display` (the wall's number;
-    /// its eyes are slots of it). Blocks only for the handshake (at most 10 s).
-    pub fn connect(addr: SocketAddr, display: u32) -> Result<DisplayClient, DisplayError> {
+    /// its eyes are slots of it), proving `credentials`. Blocks only for the handshake (at
+    /// most 10 s).
+    pub fn connect(
+        addr: SocketAddr,
+        display: u32,
+        credentials: &Credentials,
+    ) -> Result<DisplayClient, DisplayError> {
         let err = |source| DisplayError::Connect { addr, source };
         let ferr = |source| DisplayError::Frame { addr, source };
-        let sock = TcpStream::connect_timeout(&addr, Duration::from_secs(10)).map_err(err)?;
+        let mut sock = TcpStream::connect_timeout(&addr, Duration::from_secs(10)).map_err(err)?;
         sock.set_nodelay(true).ok();
         sock.set_read_timeout(Some(Duration::from_secs(10)))
             .map_err(err)?;
+        let (mut sealer, mut opener) = auth::connect(&mut sock, credentials, Role::Display)
+            .map_err(|e| DisplayError::Handshake { addr, source: e })?;
         let mut w = BufWriter::new(sock.try_clone().map_err(err)?);
         let host = std::env::var("HOSTNAME").unwrap_or_else(|_| "display".into());
-        frame::write_frame(
-            &mut w,
-            &WorkerMsg::DisplayHello(DisplayHello {
-                protocol: PROTOCOL_VERSION,
-                display,
-                name: format!("{host} display {display}"),
-            }),
-            MAX_FRAME_BYTES,
-        )
-        .map_err(ferr)?;
+        sealer
+            .write(
+                &mut w,
+                &WorkerMsg::DisplayHello(DisplayHello {
+                    protocol: PROTOCOL_VERSION,
+                    display,
+                    name: format!("{host} display {display}"),
+                }),
+                MAX_FRAME_BYTES,
+            )
+            .map_err(ferr)?;
         w.flush().map_err(|e| ferr(e.into()))?;
         let mut r = BufReader::new(sock.try_clone().map_err(err)?);
-        let welcome: DisplayWelcome = match frame::read_frame(&mut r, MAX_FRAME_BYTES) {
+        let welcome: DisplayWelcome = match opener.read(&mut r, MAX_FRAME_BYTES) {
             Ok(ServerMsg::DisplayWelcome(w)) => w,
             Ok(other) => {
                 return Err(DisplayError::Protocol(format!(
@@ -133,7 +148,7 @@ impl DisplayClient {
                 .name("holodeck display reader".into())
                 .spawn(move || {
                     loop {
-                        match frame::read_frame::<_, ServerMsg>(&mut r, MAX_FRAME_BYTES) {
+                        match opener.read::<_, ServerMsg>(&mut r, MAX_FRAME_BYTES) {
                             Ok(ServerMsg::Beams(b)) => match unpack(&b) {
                                 Ok(v) => {
                                     if atx.send(Arc::new(v)).is_err() {
@@ -170,9 +185,9 @@ impl DisplayClient {
                 .spawn(move || {
                     while let Ok(req) = rx.recv() {
                         let m = wire::request_message(req);
-                        let sent =
-                            frame::write_frame(&mut w, &WorkerMsg::Request(m), MAX_FRAME_BYTES)
-                                .and_then(|()| w.flush().map_err(FrameError::from));
+                        let sent = sealer
+                            .write(&mut w, &WorkerMsg::Request(m), MAX_FRAME_BYTES)
+                            .and_then(|()| w.flush().map_err(FrameError::from));
                         if let Err(e) = sent {
                             tracing::warn!("holodeck server {addr}: {e}");
                             break;

@@ -7,13 +7,12 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Duration;
 
-use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
+use holocave_protocol::frame::{FrameError, MAX_FRAME_BYTES};
 use holocave_protocol::holodeck::{DisplayHello, PROTOCOL_VERSION, ServerMsg, WorkerMsg};
-use tokio::io::{AsyncWriteExt, BufWriter};
-use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
+use tokio::io::AsyncWriteExt;
 
 use super::{Arrival, wire};
-use crate::run::listener::{ConnError, reader};
+use crate::run::listener::{ConnError, Link, reader};
 use crate::run::state::State;
 
 /// Largest sample batch sent to a TCP display in one message.
@@ -24,9 +23,14 @@ const MAX_QUEUED_SAMPLES: usize = 32 << 20;
 pub(crate) async fn serve(
     st: &Arc<State>,
     hello: DisplayHello,
-    rd: OwnedReadHalf,
-    mut wr: BufWriter<OwnedWriteHalf>,
+    link: Link,
 ) -> Result<(), ConnError> {
+    let Link {
+        rd,
+        mut wr,
+        mut sealer,
+        opener,
+    } = link;
     if hello.protocol != PROTOCOL_VERSION {
         return Err(ConnError::Protocol(format!(
             "display protocol {} (this server speaks {PROTOCOL_VERSION})",
@@ -52,19 +56,22 @@ pub(crate) async fn serve(
         (wire::welcome(&s, &st.scene), token)
     };
     tracing::info!("display {} ({}) joined", hello.display, hello.name);
-    let (reader, mut requests) = reader(rd);
+    let (reader, mut requests) = reader(rd, opener);
     let session = async {
-        frame::write_frame_async(
-            &mut wr,
-            &ServerMsg::DisplayWelcome(welcome),
-            MAX_FRAME_BYTES,
-        )
-        .await?;
+        sealer
+            .write_async(
+                &mut wr,
+                &ServerMsg::DisplayWelcome(welcome),
+                MAX_FRAME_BYTES,
+            )
+            .await?;
         wr.flush().await.map_err(FrameError::from)?;
         let mut tick = tokio::time::interval(Duration::from_millis(200));
         loop {
             if st.stopping() {
-                let _ = frame::write_frame_async(&mut wr, &ServerMsg::Bye, MAX_FRAME_BYTES).await;
+                let _ = sealer
+                    .write_async(&mut wr, &ServerMsg::Bye, MAX_FRAME_BYTES)
+                    .await;
                 let _ = wr.flush().await;
                 break Ok(());
             }
@@ -86,7 +93,7 @@ pub(crate) async fn serve(
                     }
                     let n: usize = all.iter().map(|b| b.samples.len()).sum();
                     for b in wire::pack(&all, DISPLAY_BATCH_BYTES) {
-                        frame::write_frame_async(&mut wr, &ServerMsg::Beams(b), MAX_FRAME_BYTES).await?;
+                        sealer.write_async(&mut wr, &ServerMsg::Beams(b), MAX_FRAME_BYTES).await?;
                     }
                     wr.flush().await.map_err(FrameError::from)?;
                     queued.fetch_sub(n, Ordering::SeqCst);

@@ -1,16 +1,21 @@
-//! The TCP listener (tokio): accepts workers and displays on one port and tells them apart
-//! by their hello; each connection runs as a task until it ends or the run stops.
+//! The TCP listener (tokio): accepts workers and displays on one port, each after the
+//! cluster handshake ([`crate::auth`]; a peer without the secret is refused and logged),
+//! tells them apart by their (sealed) hello, and runs each connection as a task until it
+//! ends or the run stops.
 
 use std::net::{SocketAddr, TcpListener};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
-use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
+use holocave_protocol::frame::{FrameError, MAX_FRAME_BYTES};
+use holocave_protocol::handshake::Role;
 use holocave_protocol::holodeck::WorkerMsg;
+use holocave_protocol::session::Opener;
 use tokio::io::BufWriter;
 
 use super::state::State;
+use crate::auth::{self, Credentials};
 use crate::display;
 
 /// Why a connection ended badly.
@@ -30,11 +35,13 @@ pub(crate) fn runtime() -> std::io::Result<tokio::runtime::Runtime> {
         .build()
 }
 
-/// Accepts connections on `listener` in `rt`; returns its address.
+/// Accepts connections on `listener` in `rt` from peers that prove `credentials`; returns
+/// its address.
 pub(crate) fn listen(
     rt: &tokio::runtime::Runtime,
     state: &Arc<State>,
     listener: TcpListener,
+    credentials: Credentials,
 ) -> Option<SocketAddr> {
     listener.set_nonblocking(true).ok();
     let addr = listener.local_addr().ok();
@@ -47,12 +54,16 @@ pub(crate) fn listen(
         }
     };
     let st = state.clone();
+    let credentials = Arc::new(credentials);
     rt.spawn(async move {
+        let mut next_id = 0u64;
         while let Ok((sock, peer)) = listener.accept().await {
-            let st = st.clone();
+            let (st, credentials) = (st.clone(), credentials.clone());
+            next_id += 1;
+            let id = next_id;
             st.connections.fetch_add(1, Ordering::SeqCst);
             tokio::spawn(async move {
-                if let Err(e) = serve_connection(&st, sock).await {
+                if let Err(e) = serve_connection(&st, sock, &credentials, id).await {
                     tracing::warn!("{peer}: {e}");
                 }
                 st.connections.fetch_sub(1, Ordering::SeqCst);
@@ -62,27 +73,66 @@ pub(crate) fn listen(
     addr
 }
 
-async fn serve_connection(st: &Arc<State>, sock: tokio::net::TcpStream) -> Result<(), ConnError> {
+async fn serve_connection(
+    st: &Arc<State>,
+    sock: tokio::net::TcpStream,
+    credentials: &Arc<Credentials>,
+    id: u64,
+) -> Result<(), ConnError> {
     sock.set_nodelay(true).ok();
+    // The handshake is blocking and short (bounded by its timeouts): on a blocking thread.
+    let mut std = sock.into_std().map_err(FrameError::from)?;
+    std.set_nonblocking(false).map_err(FrameError::from)?;
+    let creds = credentials.clone();
+    let shaken = tokio::task::spawn_blocking(move || {
+        auth::accept(&mut std, &creds, id).map(|(role, sealer, opener)| (std, role, sealer, opener))
+    })
+    .await
+    .map_err(|e| ConnError::Protocol(format!("handshake task: {e}")))?;
+    let (std, role, sealer, mut opener) =
+        shaken.map_err(|why| ConnError::Protocol(format!("refused: {why}")))?;
+    std.set_nonblocking(true).map_err(FrameError::from)?;
+    let sock = tokio::net::TcpStream::from_std(std).map_err(FrameError::from)?;
     let (mut rd, wr) = sock.into_split();
     let wr = BufWriter::new(wr);
     let hello = tokio::time::timeout(
         Duration::from_secs(30),
-        frame::read_frame_async::<_, WorkerMsg>(&mut rd, MAX_FRAME_BYTES),
+        opener.read_async::<_, WorkerMsg>(&mut rd, MAX_FRAME_BYTES),
     )
     .await
     .map_err(|_| ConnError::Protocol("no hello within 30 s".into()))??;
-    match hello {
-        WorkerMsg::Hello(hello) => super::worker_session::serve(st, hello, rd, wr).await,
-        WorkerMsg::DisplayHello(hello) => display::session::serve(st, hello, rd, wr).await,
-        _ => Err(ConnError::Protocol("first message was not a hello".into())),
+    let link = Link {
+        rd,
+        wr,
+        sealer,
+        opener,
+    };
+    match (hello, role) {
+        (WorkerMsg::Hello(hello), Role::Worker) => {
+            super::worker_session::serve(st, hello, link).await
+        }
+        (WorkerMsg::DisplayHello(hello), Role::Display) => {
+            display::session::serve(st, hello, link).await
+        }
+        (_, role) => Err(ConnError::Protocol(format!(
+            "a {role}'s first message was not its hello"
+        ))),
     }
 }
 
-/// Reads frames on a task of its own, so a peer blocked writing never waits on us; the
-/// receiver ends after the first error.
+/// An authenticated connection: its halves and the link's sealer and opener.
+pub(crate) struct Link {
+    pub(crate) rd: tokio::net::tcp::OwnedReadHalf,
+    pub(crate) wr: BufWriter<tokio::net::tcp::OwnedWriteHalf>,
+    pub(crate) sealer: holocave_protocol::session::Sealer,
+    pub(crate) opener: Opener,
+}
+
+/// Reads sealed messages on a task of its own, so a peer blocked writing never waits on
+/// us; the receiver ends after the first error (a forged message included).
 pub(crate) fn reader(
     mut rd: tokio::net::tcp::OwnedReadHalf,
+    mut opener: Opener,
 ) -> (
     tokio::task::JoinHandle<()>,
     tokio::sync::mpsc::UnboundedReceiver<Result<WorkerMsg, FrameError>>,
@@ -90,7 +140,9 @@ pub(crate) fn reader(
     let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
     let task = tokio::spawn(async move {
         loop {
-            let m = frame::read_frame_async::<_, WorkerMsg>(&mut rd, MAX_FRAME_BYTES).await;
+            let m = opener
+                .read_async::<_, WorkerMsg>(&mut rd, MAX_FRAME_BYTES)
+                .await;
             let end = m.is_err();
             if tx.send(m).is_err() || end {
                 break;

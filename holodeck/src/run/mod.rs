@@ -15,7 +15,7 @@ pub(crate) mod state;
 pub(crate) mod threads;
 pub(crate) mod worker_session;
 
-use std::net::{SocketAddr, TcpListener};
+use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Weak};
 use std::thread::JoinHandle;
@@ -23,6 +23,7 @@ use std::time::{Duration, Instant};
 
 use state::State;
 
+use crate::auth::Port;
 use crate::display::{DisplayClient, DisplayTally};
 use crate::server::{Server, ServerError, Stats};
 use crate::worker::SampleSource;
@@ -32,8 +33,8 @@ pub struct RunOptions {
     /// In-process worker threads (need `source`).
     pub threads: usize,
     pub source: Option<Arc<dyn SampleSource>>,
-    /// Accept TCP workers here.
-    pub listener: Option<TcpListener>,
+    /// Accept TCP workers and displays here, from peers that prove its credentials.
+    pub listener: Option<Port>,
     /// The scene name sent to TCP workers in the welcome.
     pub scene: String,
     /// Commit this often.
@@ -233,7 +234,9 @@ pub fn start(server: Server, opts: RunOptions) -> Result<Running, ServerError> {
             source: e,
         })
     })?;
-    let addr = opts.listener.and_then(|l| listener::listen(&rt, &state, l));
+    let addr = opts
+        .listener
+        .and_then(|p| listener::listen(&rt, &state, p.listener, p.credentials));
     let committer = commits::spawn(&state, opts.commit_every);
     Ok(Running {
         state: Some(state),

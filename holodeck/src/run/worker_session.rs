@@ -5,22 +5,20 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use holocave_protocol::frame::{self, FrameError, MAX_FRAME_BYTES};
+use holocave_protocol::frame::{FrameError, MAX_FRAME_BYTES};
 use holocave_protocol::holodeck::{
     PROTOCOL_VERSION, ServerMsg, WorkerHello, WorkerMsg, WorkerWelcome,
 };
-use tokio::io::{AsyncWriteExt, BufWriter};
-use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
+use tokio::io::AsyncWriteExt;
 
-use super::listener::{ConnError, reader};
+use super::listener::{ConnError, Link, reader};
 use super::state::State;
 use crate::server::WorkerId;
 
 pub(crate) async fn serve(
     st: &Arc<State>,
     hello: WorkerHello,
-    rd: OwnedReadHalf,
-    mut wr: BufWriter<OwnedWriteHalf>,
+    link: Link,
 ) -> Result<(), ConnError> {
     let scene = st.scene.as_str();
     if hello.protocol != PROTOCOL_VERSION {
@@ -38,36 +36,44 @@ pub(crate) async fn serve(
     }
     let id: WorkerId = st.lock().add_worker();
     tracing::info!("worker {id} ({}) joined", hello.name);
-    let res = session(st, id, rd, &mut wr).await;
+    let res = session(st, id, link).await;
     st.lock().remove_worker(id);
     tracing::info!("worker {id} left");
     res
 }
 
-async fn session(
-    st: &Arc<State>,
-    id: WorkerId,
-    rd: OwnedReadHalf,
-    wr: &mut BufWriter<OwnedWriteHalf>,
-) -> Result<(), ConnError> {
+async fn session(st: &Arc<State>, id: WorkerId, link: Link) -> Result<(), ConnError> {
+    let Link {
+        rd,
+        mut wr,
+        mut sealer,
+        opener,
+    } = link;
+    let wr = &mut wr;
     let welcome = WorkerWelcome {
         worker_id: id,
         scene: st.scene.clone(),
         distance: st.distance.into(),
     };
-    frame::write_frame_async(wr, &ServerMsg::Welcome(welcome), MAX_FRAME_BYTES).await?;
+    sealer
+        .write_async(wr, &ServerMsg::Welcome(welcome), MAX_FRAME_BYTES)
+        .await?;
     wr.flush().await.map_err(FrameError::from)?;
-    let (reader, mut rx) = reader(rd);
+    let (reader, mut rx) = reader(rd, opener);
     let mut tick = tokio::time::interval(Duration::from_millis(200));
     let result = loop {
         if st.stopping() {
-            let _ = frame::write_frame_async(wr, &ServerMsg::Bye, MAX_FRAME_BYTES).await;
+            let _ = sealer
+                .write_async(wr, &ServerMsg::Bye, MAX_FRAME_BYTES)
+                .await;
             let _ = wr.flush().await;
             break Ok(());
         }
         let packets = st.lock().next_packets(id, st.now());
         for p in packets {
-            frame::write_frame_async(wr, &ServerMsg::Rays(p), MAX_FRAME_BYTES).await?;
+            sealer
+                .write_async(wr, &ServerMsg::Rays(p), MAX_FRAME_BYTES)
+                .await?;
         }
         wr.flush().await.map_err(FrameError::from)?;
         tokio::select! {

@@ -1,0 +1,221 @@
+//! The holodeck's port takes only peers that prove the cluster's secret, and only sealed
+//! messages from them: a worker or display with the wrong secret, a peer that skips the
+//! handshake, random bytes, truncated and oversized frames, an unsealed (injected) message
+//! on an authenticated link and a replayed sealed one are all refused — and not one of
+//! their samples reaches the file (checked against a copy taken before, as
+//! `holodeck check --holds` does).
+
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use glam::DVec3;
+use holocave_holodeck::auth::{self, Credentials, Port};
+use holocave_holodeck::display::DisplayClient;
+use holocave_holodeck::file::DISTANCE_SETTING;
+use holocave_holodeck::file::check::holds;
+use holocave_holodeck::run::{RunOptions, run, start};
+use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_holodeck::worker::{
+    DistanceKind, SampleSource, SourceRay, SourceResult, WorkerError, run_remote, trace_packet,
+};
+use holocave_holodeck::{HoloFile, Section, ViewClass};
+use holocave_protocol::frame::{MAX_FRAME_BYTES, encode};
+use holocave_protocol::handshake::{HandshakeError, Role};
+use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, WorkerHello, WorkerMsg};
+
+struct Analytic;
+
+impl SampleSource for Analytic {
+    fn trace(&self, rays: &[SourceRay], _seed: u64, _distance: DistanceKind) -> Vec<SourceResult> {
+        rays.iter()
+            .map(|r| SourceResult {
+                radiance: r.dir.abs().to_array(),
+                distance: 3.0,
+            })
+            .collect()
+    }
+}
+
+fn credentials(secret: &[u8]) -> Credentials {
+    Credentials {
+        cluster: "test".into(),
+        secret: secret.to_vec(),
+    }
+}
+
+const SECRET: &[u8] = b"auth-test-secret";
+
+fn options(threads: usize, listener: Option<TcpListener>) -> RunOptions {
+    RunOptions {
+        threads,
+        source: Some(Arc::new(Analytic)),
+        listener: listener.map(|listener| Port {
+            listener,
+            credentials: credentials(SECRET),
+        }),
+        scene: "analytic".into(),
+        commit_every: Duration::from_millis(200),
+        stop: Arc::new(AtomicBool::new(false)),
+    }
+}
+
+/// An honest worker's link, after the handshake and hello: the stream and its keys.
+fn honest_worker(
+    addr: &str,
+) -> (
+    TcpStream,
+    holocave_protocol::session::Sealer,
+    holocave_protocol::session::Opener,
+) {
+    let mut c = TcpStream::connect(addr).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let (mut sealer, mut opener) =
+        auth::connect(&mut c, &credentials(SECRET), Role::Worker).unwrap();
+    let hello = WorkerMsg::Hello(WorkerHello {
+        protocol: PROTOCOL_VERSION,
+        name: "honest".into(),
+        scene: "analytic".into(),
+    });
+    sealer.write(&mut c, &hello, MAX_FRAME_BYTES).unwrap();
+    assert!(matches!(
+        opener.read(&mut c, MAX_FRAME_BYTES).unwrap(),
+        ServerMsg::Welcome(_)
+    ));
+    (c, sealer, opener)
+}
+
+/// Reads until the server closes the connection (it refused what it was sent).
+fn closed_by_server(c: &mut TcpStream) -> bool {
+    c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let mut rest = Vec::new();
+    // A close, or a reset when it hung up on bytes it had not read; not a time-out.
+    match c.read_to_end(&mut rest) {
+        Ok(_) => true,
+        Err(e) => !matches!(
+            e.kind(),
+            std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+        ),
+    }
+}
+
+#[test]
+fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unchanged() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.hdk");
+    let section = Section::new(
+        DVec3::ZERO,
+        [DVec3::X, DVec3::Y, DVec3::Z],
+        [3, 3, 3],
+        ViewClass::Interior,
+    )
+    .unwrap();
+    let settings = [(DISTANCE_SETTING.to_string(), "virtual".to_string())].into();
+    HoloFile::create(&path, vec![section], settings).unwrap();
+    // Some samples first, by worker threads, committed.
+    let server = Server::new(
+        HoloFile::open_rw(&path).unwrap(),
+        Mode::Batch,
+        ServerConfig::default(),
+    );
+    run(server, options(1, None), |p| p.stats.samples >= 2000).unwrap();
+    let before = dir.path().join("before.hdk");
+    std::fs::copy(&path, &before).unwrap();
+    let stored = HoloFile::open(&before).unwrap().total_samples();
+    assert!(stored >= 2000);
+
+    // The port, with no tracer threads: only TCP workers could add samples.
+    let server = Server::new(
+        HoloFile::open_rw(&path).unwrap(),
+        Mode::Batch,
+        ServerConfig::default(),
+    );
+    let running = start(
+        server,
+        options(0, Some(TcpListener::bind("127.0.0.1:0").unwrap())),
+    )
+    .unwrap();
+    let addr = running.local_addr().unwrap();
+    let a = addr.to_string();
+
+    // A worker and a display with the wrong secret.
+    let wrong = credentials(b"a guess");
+    let w = run_remote(&a, &wrong, "intruder", "analytic", &Analytic);
+    assert!(
+        matches!(
+            w,
+            Err(WorkerError::Handshake {
+                source: HandshakeError::Authentication,
+                ..
+            })
+        ),
+        "{w:?}"
+    );
+    let d = DisplayClient::connect(addr, 7, &wrong);
+    assert!(d.is_err(), "a display with the wrong secret was let in");
+
+    // No handshake at all: a worker's hello as the first bytes; then random bytes, an
+    // oversized length and a truncated frame.
+    let hello = WorkerMsg::Hello(WorkerHello {
+        protocol: PROTOCOL_VERSION,
+        name: "no handshake".into(),
+        scene: "analytic".into(),
+    });
+    let mut rng = 0x2545_F491_4F6C_DD1Du64;
+    let mut random = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        rng.to_le_bytes()
+    };
+    let noise: Vec<u8> = (0..512).flat_map(|_| random()).collect();
+    for bad in [
+        encode(&hello, MAX_FRAME_BYTES).unwrap(),
+        noise,
+        u32::MAX.to_le_bytes().to_vec(),
+        [&200u32.to_le_bytes()[..], &[7u8; 20]].concat(),
+    ] {
+        let mut c = TcpStream::connect(addr).unwrap();
+        let _ = c.write_all(&bad);
+        assert!(closed_by_server(&mut c));
+    }
+
+    // An authenticated link that sends an unsealed (injected) sample packet for the rays
+    // it was given: refused, the link dropped.
+    let (mut c, _, mut opener) = honest_worker(&a);
+    let ServerMsg::Rays(p) = opener.read(&mut c, MAX_FRAME_BYTES).unwrap() else {
+        panic!("expected rays");
+    };
+    let samples = trace_packet(&Analytic, &p, DistanceKind::Virtual).unwrap();
+    c.write_all(&encode(&WorkerMsg::Samples(samples), MAX_FRAME_BYTES).unwrap())
+        .unwrap();
+    assert!(closed_by_server(&mut c));
+
+    // A sealed sample packet sent twice: the first is an honest worker's and is kept, the
+    // replay is refused.
+    let (mut c, mut sealer, mut opener) = honest_worker(&a);
+    let ServerMsg::Rays(p) = opener.read(&mut c, MAX_FRAME_BYTES).unwrap() else {
+        panic!("expected rays");
+    };
+    let honest = p.len() as u64;
+    let samples = trace_packet(&Analytic, &p, DistanceKind::Virtual).unwrap();
+    let sealed = sealer
+        .seal(&WorkerMsg::Samples(samples), MAX_FRAME_BYTES)
+        .unwrap();
+    c.write_all(&sealed).unwrap();
+    c.write_all(&sealed).unwrap();
+    assert!(closed_by_server(&mut c));
+
+    let server = running.stop().unwrap();
+    drop(server);
+    let report = holds(&path, &before).unwrap();
+    assert!(report.holds_all(), "{report:?}");
+    let now = HoloFile::open(&path).unwrap().total_samples();
+    assert_eq!(
+        now,
+        stored + honest,
+        "only the honest packet was added ({stored} before, {honest} honest)"
+    );
+}
