@@ -813,6 +813,7 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
         Command::new(env!("CARGO_BIN_EXE_holocave"))
             .current_dir(root())
             .args(["worker", "--server", &holodeck, "--scene", SCENE])
+            .env("HOLOCAVE_SECRET", SECRET)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -909,6 +910,7 @@ fn a_node_whose_holodeck_dies_goes_on_tracing_locally() {
             "127.0.0.1:0",
         ])
         .arg(&hdk)
+        .env("HOLOCAVE_SECRET", SECRET)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
