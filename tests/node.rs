@@ -129,9 +129,9 @@ fn standalone_headless_node_writes_both_eyes_per_frame() {
             "frame 0 eye {e}: drawn before any sample, yet lit"
         );
     }
-    for e in 0..2 {
-        let first = lit(&images[1][e]);
-        let last = lit(&images[FRAMES as usize - 1][e]);
+    let last_frame = &images[FRAMES as usize - 1];
+    for (e, (one, end)) in images[1].iter().zip(last_frame).enumerate() {
+        let (first, last) = (lit(one), lit(end));
         assert!(first > 0.0, "eye {e}: frame 1 is black");
         // The lit box fills about a fifth of this view (21% seen at frame 7; the rest is
         // the black of rays that escaped), the first frame's 48 samples and their
@@ -144,17 +144,17 @@ fn standalone_headless_node_writes_both_eyes_per_frame() {
         );
     }
     // Every frame shows something new (more samples, a moving head), and the eyes differ.
-    for f in 1..FRAMES as usize {
-        for e in 0..2 {
+    for (f, pair) in images.windows(2).enumerate().map(|(i, w)| (i + 1, w)) {
+        for (e, (now, before)) in pair[1].iter().zip(&pair[0]).enumerate() {
             assert_ne!(
-                images[f][e].pixels,
-                images[f - 1][e].pixels,
+                now.pixels,
+                before.pixels,
                 "eye {e}: frame {f} repeats frame {}",
                 f - 1
             );
         }
         assert_ne!(
-            images[f][0].pixels, images[f][1].pixels,
+            pair[1][0].pixels, pair[1][1].pixels,
             "frame {f}: both eyes show the same picture"
         );
     }
