@@ -1,5 +1,6 @@
 //! The swap barrier's round trip on loopback: the master sends a frame state to four
-//! nodes, each answers Ready at once (no drawing), the master sends Swap. The time from
+//! nodes, each answers Ready at once (no drawing), the master sends Swap; every message
+//! sealed (HMAC-SHA256 per message, as on every cluster link). The time from
 //! sending the state to sending Swap is the barrier's cost. Goal (issue 6, after VR
 //! Juggler's software swap lock): p99 ≤ 100 µs.
 //!
@@ -18,7 +19,6 @@ use holocave_cave::{Cave, parse_cave};
 use holocave_master::cluster::{MasterOptions, Summary, quantile, run};
 use holocave_master::head::{Clock, Head};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats};
-use holocave_protocol::frame::{read_frame, write_frame};
 use holocave_protocol::handshake::{Role, connect};
 
 const SECRET: &[u8] = b"bench";
@@ -42,16 +42,17 @@ fn cave() -> Cave {
 fn echo_node(addr: String, wall: String) {
     let mut s = TcpStream::connect(&addr).unwrap();
     s.set_nodelay(true).unwrap();
-    connect(&mut s, "holocave", Role::Node { wall }, SECRET).unwrap();
+    let linked = connect(&mut s, "holocave", Role::Node { wall }, SECRET).unwrap();
+    let (mut sealer, mut opener) = linked.keys.connector();
     let mut w = s.try_clone().unwrap();
     loop {
-        match read_frame::<_, MasterMsg>(&mut s, MAX_CLUSTER_FRAME) {
+        match opener.read::<_, MasterMsg>(&mut s, MAX_CLUSTER_FRAME) {
             Ok(MasterMsg::Frame(f)) => {
                 let ready = NodeMsg::Ready {
                     frame: f.frame,
                     stats: NodeStats::default(),
                 };
-                if write_frame(&mut w, &ready, MAX_CLUSTER_FRAME).is_err() {
+                if sealer.write(&mut w, &ready, MAX_CLUSTER_FRAME).is_err() {
                     return;
                 }
             }
