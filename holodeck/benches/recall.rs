@@ -4,6 +4,7 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
+use holocave_holodeck::beam_index::BeamKey;
 use holocave_holodeck::cache::BeamCache;
 use holocave_holodeck::sample::Sample;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
@@ -61,7 +62,7 @@ fn recall(c: &mut Criterion) {
     });
     let mut cache = BeamCache::new(HoloFile::open(&path).unwrap(), 1 << 30);
     for beam in 0..beams {
-        cache.get((0, beam)).unwrap();
+        cache.get(BeamKey::new(0, beam)).unwrap();
     }
     // Copied out, as the server does when it sends a beam to a display.
     g.bench_function("memory_cache", |b| {
@@ -69,7 +70,7 @@ fn recall(c: &mut Criterion) {
             let mut acc = 0u64;
             for beam in 0..beams {
                 samples.clear();
-                samples.extend_from_slice(cache.get((0, beam)).unwrap());
+                samples.extend_from_slice(cache.get(BeamKey::new(0, beam)).unwrap());
                 acc += u64::from(samples[samples.len() - 1].dist);
             }
             acc

@@ -3,8 +3,22 @@
 //! exit cell among the cells not on the entry wall, so every index below the count is a
 //! beam and the count is `N = 2W²D² + 2W²H² + 2D²H² + 8W²DH + 8WD²H + 8WDH²`.
 
-/// Identifies a beam: (section, beam).
-pub type BeamKey = (u16, u32);
+/// Identifies a beam in the holodeck: the section it belongs to and its number within that
+/// section's [`BeamIndex`]. Ordered by section, then beam.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct BeamKey {
+    /// The section's number.
+    pub section: u16,
+    /// The beam's number within the section.
+    pub beam: u32,
+}
+
+impl BeamKey {
+    /// The key of beam `beam` of section `section`.
+    pub const fn new(section: u16, beam: u32) -> Self {
+        Self { section, beam }
+    }
+}
 
 /// A cell on one wall: the wall number (0..6) and the cell's row along the wall's two axes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -131,7 +131,7 @@ impl BeamCache {
     pub fn count(&self, key: BeamKey) -> u32 {
         match self.beams.get(&key) {
             Some(e) => e.count(),
-            None => self.file.count(usize::from(key.0), key.1),
+            None => self.file.count(usize::from(key.section), key.beam),
         }
     }
 
@@ -154,7 +154,7 @@ impl BeamCache {
         }
         let mut samples = Vec::new();
         self.file
-            .read_beam(usize::from(key.0), key.1, &mut samples)?;
+            .read_beam(usize::from(key.section), key.beam, &mut samples)?;
         match self.beams.get_mut(&key) {
             Some(e) => {
                 let before = e.bytes();
@@ -188,7 +188,7 @@ impl BeamCache {
     /// Adds new samples to a beam (without reading it).
     pub fn add(&mut self, key: BeamKey, new: &[Sample]) -> Result<(), FileError> {
         if !self.beams.contains_key(&key) {
-            let stored = self.file.count(usize::from(key.0), key.1);
+            let stored = self.file.count(usize::from(key.section), key.beam);
             let e = Entry {
                 samples: Vec::new(),
                 stored,
@@ -239,7 +239,7 @@ impl BeamCache {
         if n == 0 {
             return Ok(());
         }
-        let (s, b) = (usize::from(key.0), key.1);
+        let (s, b) = (usize::from(key.section), key.beam);
         if e.whole {
             self.file.write_beam(s, b, &e.samples)?;
         } else {
@@ -301,13 +301,13 @@ mod tests {
         let mut c = BeamCache::new(h, 3 * (20 * SAMPLE_BYTES + ENTRY_OVERHEAD) + 100);
         for round in 0..20u32 {
             for b in 0..10u32 {
-                c.add((0, b), &[s(round * 100 + b)]).unwrap();
+                c.add(BeamKey::new(0, b), &[s(round * 100 + b)]).unwrap();
                 assert!(c.used() <= c.budget || c.len() == 1);
             }
         }
         assert!(c.len() < 10, "beams were evicted");
         for b in 0..10u32 {
-            assert_eq!(c.count((0, b)), 20);
+            assert_eq!(c.count(BeamKey::new(0, b)), 20);
         }
         c.flush().unwrap();
         drop(c);
@@ -335,20 +335,31 @@ mod tests {
         let one = 4 * SAMPLE_BYTES + ENTRY_OVERHEAD;
         let mut c = BeamCache::new(h, 3 * one);
         for b in 0..3 {
-            c.add((0, b), &[s(b)]).unwrap();
+            c.add(BeamKey::new(0, b), &[s(b)]).unwrap();
         }
         // Many uses of beams 0 and 2 (stale queue entries pile up and are compacted).
         for i in 0..5000 {
-            c.get((0, 2 * (i % 2))).unwrap();
+            c.get(BeamKey::new(0, 2 * (i % 2))).unwrap();
         }
-        c.add((0, 3), &[s(3)]).unwrap();
-        assert!(!c.contains((0, 1)), "beam 1 was the least recently used");
-        assert!(c.contains((0, 0)) && c.contains((0, 2)) && c.contains((0, 3)));
+        c.add(BeamKey::new(0, 3), &[s(3)]).unwrap();
+        assert!(
+            !c.contains(BeamKey::new(0, 1)),
+            "beam 1 was the least recently used"
+        );
+        assert!(
+            c.contains(BeamKey::new(0, 0))
+                && c.contains(BeamKey::new(0, 2))
+                && c.contains(BeamKey::new(0, 3))
+        );
         assert!(c.lru.len() <= 4 * c.len() + 1024);
-        c.get((0, 0)).unwrap();
-        c.add((0, 4), &[s(4)]).unwrap();
-        assert!(!c.contains((0, 2)) && c.contains((0, 0)));
-        assert_eq!(c.count((0, 1)), 1, "written back, counted from the file");
+        c.get(BeamKey::new(0, 0)).unwrap();
+        c.add(BeamKey::new(0, 4), &[s(4)]).unwrap();
+        assert!(!c.contains(BeamKey::new(0, 2)) && c.contains(BeamKey::new(0, 0)));
+        assert_eq!(
+            c.count(BeamKey::new(0, 1)),
+            1,
+            "written back, counted from the file"
+        );
     }
 
     #[test]
@@ -370,24 +381,25 @@ mod tests {
         h.commit().unwrap();
         let mut c = BeamCache::new(h, 1 << 20);
         for b in 0..4 {
-            c.add((0, b), &[s(5000 + b), s(6000 + b)]).unwrap();
+            c.add(BeamKey::new(0, b), &[s(5000 + b), s(6000 + b)])
+                .unwrap();
         }
-        assert_eq!(c.count((0, 2)), 1002);
+        assert_eq!(c.count(BeamKey::new(0, 2)), 1002);
         assert!(
             c.used() < 4 * (100 * SAMPLE_BYTES + ENTRY_OVERHEAD),
             "{}",
             c.used()
         );
         // A reader sees the whole beam, stored samples first.
-        let got = c.get((0, 1)).unwrap().to_vec();
+        let got = c.get(BeamKey::new(0, 1)).unwrap().to_vec();
         assert_eq!(got.len(), 1002);
         assert_eq!(&got[..1000], &old[..]);
         assert_eq!(got[1000..], [s(5001), s(6001)]);
-        c.add((0, 1), &[s(7001)]).unwrap();
-        c.add((0, 3), &[s(7003)]).unwrap();
+        c.add(BeamKey::new(0, 1), &[s(7001)]).unwrap();
+        c.add(BeamKey::new(0, 3), &[s(7003)]).unwrap();
         c.flush().unwrap();
-        c.add((0, 3), &[s(8003)]).unwrap();
-        assert_eq!(c.count((0, 3)), 1004);
+        c.add(BeamKey::new(0, 3), &[s(8003)]).unwrap();
+        assert_eq!(c.count(BeamKey::new(0, 3)), 1004);
         drop(c.into_file().unwrap());
         let h = HoloFile::open(&p).unwrap();
         for (b, tail) in [

@@ -111,13 +111,17 @@ mod tests {
         let have = RefCell::new(BeamMap::<BeamKey, u32>::default());
         let get = |k| *have.borrow().get(&k).unwrap_or(&0);
         let mut r = RequestList::default();
-        let wanted: BeamMap<BeamKey, f64> = [((0, 1), 10.0), ((0, 2), 30.0), ((1, 0), 60.0)]
-            .into_iter()
-            .collect();
-        have.borrow_mut().insert((1, 0), 30);
+        let wanted: BeamMap<BeamKey, f64> = [
+            (BeamKey::new(0, 1), 10.0),
+            (BeamKey::new(0, 2), 30.0),
+            (BeamKey::new(1, 0), 60.0),
+        ]
+        .into_iter()
+        .collect();
+        have.borrow_mut().insert(BeamKey::new(1, 0), 30);
         r.set(wanted.clone(), get);
         let (k, ratio) = r.pop(get, f64::INFINITY).unwrap();
-        assert_eq!((k, ratio), ((0, 1), 0.0));
+        assert_eq!((k, ratio), (BeamKey::new(0, 1), 0.0));
         // Assign one sample at a time, 100 times: ratios end within one sample of equal.
         *have.borrow_mut().entry(k).or_default() += 1;
         r.requeue(k, get(k));

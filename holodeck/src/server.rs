@@ -216,7 +216,7 @@ impl Server {
         let mut w = BeamMap::default();
         for (si, s) in self.cache.file().sections().iter().enumerate() {
             for b in 0..s.beam_count() {
-                w.insert((si as u16, b), s.beam_volume(b, 2));
+                w.insert(BeamKey::new(si as u16, b), s.beam_volume(b, 2));
             }
         }
         let mean = w.values().sum::<f64>() / w.len().max(1) as f64;
@@ -337,7 +337,7 @@ impl Server {
             let n = (want.max(1.0) as usize)
                 .min(self.config.max_bundle as usize)
                 .min(size - n_rays);
-            let section = &self.cache.file().sections()[usize::from(key.0)];
+            let section = &self.cache.file().sections()[usize::from(key.section)];
             // Several displays (both eyes of a stereo wall) may want a beam: each bundle
             // passes near one of their eyes, drawn in proportion to what each wants.
             let eye = match self.eyes.get(&key) {
@@ -355,13 +355,13 @@ impl Server {
                 _ => None,
             };
             let codes = match eye {
-                Some(eye) => proximity::near_eye(section, key.1, eye, n, &mut self.rng).0,
+                Some(eye) => proximity::near_eye(section, key.beam, eye, n, &mut self.rng).0,
                 None => proximity::uniform(n, &mut self.rng),
             };
             let mut offsets = Vec::with_capacity(n);
             for &(e, x) in &codes {
                 let r = section
-                    .trace_ray(key.1, e, x)
+                    .trace_ray(key.beam, e, x)
                     .expect("requested beams exist");
                 rays.push(r.origin.as_vec3().to_array(), r.dir.as_vec3().to_array());
                 offsets.push(r.offset);
@@ -442,7 +442,7 @@ impl Server {
         let mut out = Vec::with_capacity(packet.bundles.len());
         let mut it = results.into_iter();
         for b in packet.bundles {
-            let code = self.codes[usize::from(b.key.0)];
+            let code = self.codes[usize::from(b.key.section)];
             let samples: Vec<Sample> = b
                 .codes
                 .iter()
@@ -484,17 +484,17 @@ impl Server {
         wanted: Vec<(BeamKey, f64)>,
         eye: Option<EyeSphere>,
     ) -> Result<(), ServerError> {
-        for &((s, b), _) in &wanted {
+        for &(key, _) in &wanted {
             let ok = self
                 .cache
                 .file()
                 .sections()
-                .get(usize::from(s))
-                .is_some_and(|sec| b < sec.beam_count());
+                .get(usize::from(key.section))
+                .is_some_and(|sec| key.beam < sec.beam_count());
             if !ok {
                 return Err(ServerError::NoBeam {
-                    section: s,
-                    beam: b,
+                    section: key.section,
+                    beam: key.beam,
                 });
             }
         }
@@ -518,7 +518,10 @@ impl Server {
         have.sort_by_key(|&k| {
             (
                 !self.cache.contains(k),
-                self.cache.file().count(usize::from(k.0), k.1).min(1),
+                self.cache
+                    .file()
+                    .count(usize::from(k.section), k.beam)
+                    .min(1),
                 self.file_offset(k),
             )
         });
@@ -538,7 +541,7 @@ impl Server {
     fn file_offset(&self, k: BeamKey) -> u64 {
         self.cache
             .file()
-            .entry(usize::from(k.0), k.1)
+            .entry(usize::from(k.section), k.beam)
             .map_or(0, |e| e.offset)
     }
 
@@ -717,10 +720,15 @@ mod tests {
             pos: DVec3::new(1.0, 0.5, 0.5),
             radius: 0.2,
         };
-        srv.set_requests(0, vec![((0, 3), 10.0), ((0, 4), 5.0)], Some(eye))
+        srv.set_requests(
+            0,
+            vec![(BeamKey::new(0, 3), 10.0), (BeamKey::new(0, 4), 5.0)],
+            Some(eye),
+        )
+        .unwrap();
+        srv.set_requests(1, vec![(BeamKey::new(0, 3), 30.0)], None)
             .unwrap();
-        srv.set_requests(1, vec![((0, 3), 30.0)], None).unwrap();
-        assert_eq!(srv.requests.wanted((0, 3)), 30.0);
+        assert_eq!(srv.requests.wanted(BeamKey::new(0, 3)), 30.0);
         let mut t = 0.0;
         loop {
             let pk = srv.next_packets(w, t);
@@ -732,27 +740,38 @@ mod tests {
                 srv.complete(w, &answer(&p), t).unwrap();
             }
         }
-        assert_eq!(srv.cache.count((0, 3)), 30);
-        assert_eq!(srv.cache.count((0, 4)), 5);
+        assert_eq!(srv.cache.count(BeamKey::new(0, 3)), 30);
+        assert_eq!(srv.cache.count(BeamKey::new(0, 4)), 5);
         // What is stored is there at once, from any index on.
-        srv.set_requests(2, vec![((0, 4), 5.0), ((0, 3), 1.0)], None)
+        srv.set_requests(
+            2,
+            vec![(BeamKey::new(0, 4), 5.0), (BeamKey::new(0, 3), 1.0)],
+            None,
+        )
+        .unwrap();
+        let got = srv
+            .stored_samples([BeamKey::new(0, 4), BeamKey::new(0, 3)], |_| 0)
             .unwrap();
-        let got = srv.stored_samples([(0, 4), (0, 3)], |_| 0).unwrap();
         assert_eq!(got.iter().map(|b| b.samples.len()).sum::<usize>(), 35);
         let rest = srv
-            .stored_samples([(0, 4), (0, 3)], |k| if k == (0, 3) { 25 } else { 5 })
+            .stored_samples([BeamKey::new(0, 4), BeamKey::new(0, 3)], |k| {
+                if k == BeamKey::new(0, 3) { 25 } else { 5 }
+            })
             .unwrap();
         assert_eq!(rest.len(), 1);
         assert_eq!(
             rest[0].samples,
-            got.iter().find(|b| b.key == (0, 3)).unwrap().samples[25..]
+            got.iter()
+                .find(|b| b.key == BeamKey::new(0, 3))
+                .unwrap()
+                .samples[25..]
         );
         assert!(
-            srv.set_requests(2, vec![((0, 1 << 30), 1.0)], None)
+            srv.set_requests(2, vec![(BeamKey::new(0, 1 << 30), 1.0)], None)
                 .is_err()
         );
         srv.remove_display(0);
         srv.remove_display(1);
-        assert_eq!(srv.requests.wanted((0, 3)), 1.0);
+        assert_eq!(srv.requests.wanted(BeamKey::new(0, 3)), 1.0);
     }
 }

@@ -77,8 +77,8 @@ fn wanted(s: &Section, eye: DVec3) -> Vec<(BeamKey, f64)> {
         DVec3::new(0.0, -1.0, 0.2),
     ] {
         let c = s.crossing(eye, d).unwrap();
-        if !out.iter().any(|w| w.0 == (0, c.beam)) {
-            out.push(((0, c.beam), 50.0));
+        if !out.iter().any(|w| w.0 == BeamKey::new(0, c.beam)) {
+            out.push((BeamKey::new(0, c.beam), 50.0));
         }
     }
     out
@@ -183,7 +183,7 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
     let (mut near, mut total) = (0, 0);
     for (k, v) in &got {
         for smp in v {
-            let ws = WorldSample::decode(s, &code, k.1, smp).unwrap();
+            let ws = WorldSample::decode(s, &code, k.beam, smp).unwrap();
             assert!((ws.point(0.0) - ws.exit).length() > 0.0);
             total += 1;
             near += usize::from(ws.miss(eye) <= 0.05 + 1e-3);

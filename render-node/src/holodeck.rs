@@ -269,7 +269,7 @@ impl Worker {
         let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
         self.sections.iter().enumerate().find_map(|(i, s)| {
             let c = s.crossing(o, d)?;
-            (c.t_exit > 0.0).then_some((i as u16, c.beam))
+            (c.t_exit > 0.0).then_some(BeamKey::new(i as u16, c.beam))
         })
     }
 
@@ -337,12 +337,12 @@ impl Worker {
             for b in a.iter() {
                 *self.have.entry(b.key).or_default() += b.samples.len() as u32;
                 received += b.samples.len() as u64;
-                let Some(section) = self.sections.get(usize::from(b.key.0)) else {
+                let Some(section) = self.sections.get(usize::from(b.key.section)) else {
                     continue;
                 };
-                let code = &self.codes[usize::from(b.key.0)];
+                let code = &self.codes[usize::from(b.key.section)];
                 for s in &b.samples {
-                    let Some(l) = self.land(section, code, b.key.1, s) else {
+                    let Some(l) = self.land(section, code, b.key.beam, s) else {
                         continue;
                     };
                     used += 1;

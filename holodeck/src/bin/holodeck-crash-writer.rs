@@ -9,6 +9,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use holocave_holodeck::HoloFile;
+use holocave_holodeck::beam_index::BeamKey;
 use holocave_holodeck::cache::BeamCache;
 use holocave_holodeck::sample::Sample;
 use rand::rngs::SmallRng;
@@ -48,11 +49,11 @@ fn main() {
     loop {
         for _ in 0..rng.random_range(1..12) {
             let beam = rng.random_range(0..beams);
-            let have = cache.count((0, beam));
+            let have = cache.count(BeamKey::new(0, beam));
             let new: Vec<Sample> = (0..rng.random_range(1..6))
                 .map(|i| expected(beam, have + i))
                 .collect();
-            cache.add((0, beam), &new).expect("add");
+            cache.add(BeamKey::new(0, beam), &new).expect("add");
             changed.insert(beam, have + new.len() as u32);
         }
         let seq = cache.flush().expect("commit");

@@ -7,6 +7,7 @@ use holocave_protocol::holodeck::{
 };
 
 use super::{DisplayError, EyeRequest};
+use crate::beam_index::BeamKey;
 use crate::proximity::EyeSphere;
 use crate::sample::Sample;
 use crate::section::{Section, ViewClass};
@@ -59,7 +60,7 @@ pub fn pack(beams: &[BeamSamples], max_bytes: usize) -> Vec<BeamBatch> {
             Sample::write_all(chunk, &mut rec);
             out.last_mut()
                 .expect("never empty")
-                .push(b.key.0, b.key.1, &rec);
+                .push(b.key.section, b.key.beam, &rec);
         }
     }
     out.retain(|b| !b.is_empty());
@@ -75,7 +76,7 @@ pub fn unpack(batch: &BeamBatch) -> Result<Vec<BeamSamples>, RecordError> {
             let mut samples = Vec::new();
             Sample::read_all(rec, &mut samples);
             BeamSamples {
-                key: (s, b),
+                key: BeamKey::new(s, b),
                 samples,
             }
         })
@@ -90,8 +91,8 @@ pub fn request_message(req: EyeRequest) -> BeamRequest {
         radius: req.eye.map_or(0.0, |e| e.radius),
         wanted: Vec::with_capacity(req.wanted.len() * 10),
     };
-    for ((s, b), n) in req.wanted {
-        m.push(s, b, n as f32);
+    for (k, n) in req.wanted {
+        m.push(k.section, k.beam, n as f32);
     }
     m
 }
@@ -108,7 +109,7 @@ pub fn eye_request(m: &BeamRequest) -> Result<EyeRequest, RecordError> {
             .beams()?
             .into_iter()
             .filter(|r| r.2.is_finite() && r.2 > 0.0)
-            .map(|(s, b, n)| ((s, b), f64::from(n)))
+            .map(|(s, b, n)| (BeamKey::new(s, b), f64::from(n)))
             .collect(),
     })
 }
@@ -136,11 +137,11 @@ mod tests {
         };
         let beams = vec![
             BeamSamples {
-                key: (0, 5),
+                key: BeamKey::new(0, 5),
                 samples: (0..50).map(s).collect(),
             },
             BeamSamples {
-                key: (1, 7),
+                key: BeamKey::new(1, 7),
                 samples: (0..3).map(s).collect(),
             },
         ];

@@ -13,6 +13,7 @@ use rand::{Rng, SeedableRng};
 
 use super::HoloFile;
 use super::check::check;
+use crate::beam_index::BeamKey;
 use crate::cache::BeamCache;
 use crate::sample::Sample;
 use crate::section::{Section, ViewClass};
@@ -108,11 +109,11 @@ fn a_power_cut_after_any_write_loses_nothing_committed() {
     for _ in 0..100 {
         for _ in 0..rng.random_range(1..12) {
             let beam = rng.random_range(0..beams);
-            let have = cache.count((0, beam));
+            let have = cache.count(BeamKey::new(0, beam));
             let new: Vec<Sample> = (0..rng.random_range(1..6))
                 .map(|i| expected(beam, have + i))
                 .collect();
-            cache.add((0, beam), &new).unwrap();
+            cache.add(BeamKey::new(0, beam), &new).unwrap();
             counts.insert(beam, have + new.len() as u32);
             look(seq, &committed);
         }
