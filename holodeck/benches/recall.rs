@@ -6,7 +6,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
 use holocave_holodeck::beam_index::BeamKey;
 use holocave_holodeck::cache::BeamCache;
-use holocave_holodeck::sample::Sample;
+use holocave_holodeck::sample::PackedSample;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 
 const PER_BEAM: u32 = 64;
@@ -23,8 +23,8 @@ fn build(path: &std::path::Path) -> (u32, u64) {
     let mut h = HoloFile::create(path, vec![s], Default::default()).unwrap();
     let mut total = 0;
     for b in 0..beams {
-        let v: Vec<Sample> = (0..PER_BEAM)
-            .map(|i| Sample {
+        let v: Vec<PackedSample> = (0..PER_BEAM)
+            .map(|i| PackedSample {
                 rgbe: [b as u8, i as u8, 7, 130],
                 entry: [i as u8, 3],
                 exit: [5, b as u8],
@@ -54,7 +54,7 @@ fn recall(c: &mut Criterion) {
             for beam in 0..beams {
                 h.read_beam_bytes(0, beam, &mut buf).unwrap();
                 samples.clear();
-                Sample::read_all(&buf, &mut samples);
+                PackedSample::read_all(&buf, &mut samples);
                 acc += u64::from(samples[samples.len() - 1].dist);
             }
             acc

@@ -13,7 +13,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use crate::beam_index::BeamKey;
 use crate::file::{FileError, HoloFile};
-use crate::sample::{SAMPLE_BYTES, Sample};
+use crate::sample::{PackedSample, SAMPLE_BYTES};
 
 /// A fast hasher for beam keys and other small integers (the multiply-rotate of rustc's
 /// FxHasher): the server looks beams up several times per ray bundle, and SipHash cost more
@@ -52,7 +52,7 @@ const ENTRY_OVERHEAD: usize = 64;
 
 struct Entry {
     /// All the beam's samples if `whole`, otherwise only those after the `stored` ones.
-    samples: Vec<Sample>,
+    samples: Vec<PackedSample>,
     /// How many samples the file holds (the first ones of the beam).
     stored: u32,
     whole: bool,
@@ -178,7 +178,7 @@ impl BeamCache {
     }
 
     /// A beam's samples (loaded from the file if needed).
-    pub fn get(&mut self, key: BeamKey) -> Result<&[Sample], FileError> {
+    pub fn get(&mut self, key: BeamKey) -> Result<&[PackedSample], FileError> {
         self.load(key)?;
         self.touch(key);
         self.evict(Some(key))?;
@@ -186,7 +186,7 @@ impl BeamCache {
     }
 
     /// Adds new samples to a beam (without reading it).
-    pub fn add(&mut self, key: BeamKey, new: &[Sample]) -> Result<(), FileError> {
+    pub fn add(&mut self, key: BeamKey, new: &[PackedSample]) -> Result<(), FileError> {
         if !self.beams.contains_key(&key) {
             let stored = self.file.count(usize::from(key.section), key.beam);
             let e = Entry {
@@ -278,8 +278,8 @@ mod tests {
     use crate::section::{Section, ViewClass};
     use glam::DVec3;
 
-    fn s(i: u32) -> Sample {
-        Sample {
+    fn s(i: u32) -> PackedSample {
+        PackedSample {
             dist: i as u16,
             ..Default::default()
         }
@@ -374,7 +374,7 @@ mod tests {
         )
         .unwrap();
         let mut h = HoloFile::create(&p, vec![sec], Default::default()).unwrap();
-        let old: Vec<Sample> = (0..1000).map(s).collect();
+        let old: Vec<PackedSample> = (0..1000).map(s).collect();
         for b in 0..4 {
             h.write_beam(0, b, &old).unwrap();
         }

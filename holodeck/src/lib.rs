@@ -22,5 +22,5 @@ pub mod view;
 pub mod worker;
 
 pub use file::{FileError, HoloFile};
-pub use sample::Sample;
+pub use sample::PackedSample;
 pub use section::{Section, ViewClass};

@@ -8,9 +8,9 @@ use crate::rgbe::Rgbe;
 /// Bytes per sample record.
 pub const SAMPLE_BYTES: usize = 10;
 
-/// One stored ray sample.
+/// One stored ray sample: the paper's packed 10-byte record.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
-pub struct Sample {
+pub struct PackedSample {
     /// Radiance, RGBE.
     pub rgbe: Rgbe,
     /// Position within the entry cell, 1/256 of the cell per step, per wall axis.
@@ -21,7 +21,7 @@ pub struct Sample {
     pub dist: u16,
 }
 
-impl Sample {
+impl PackedSample {
     /// The record as stored.
     pub fn to_bytes(&self) -> [u8; SAMPLE_BYTES] {
         let d = self.dist.to_le_bytes();
@@ -50,7 +50,7 @@ impl Sample {
     }
 
     /// Appends the records of `samples` to `out`.
-    pub fn write_all(samples: &[Sample], out: &mut Vec<u8>) {
+    pub fn write_all(samples: &[PackedSample], out: &mut Vec<u8>) {
         out.reserve(samples.len() * SAMPLE_BYTES);
         for s in samples {
             out.extend_from_slice(&s.to_bytes());
@@ -59,12 +59,12 @@ impl Sample {
 
     /// Parses consecutive records (`bytes.len()` must be a multiple of 10; a trailing
     /// partial record is ignored, callers check lengths first).
-    pub fn read_all(bytes: &[u8], out: &mut Vec<Sample>) {
+    pub fn read_all(bytes: &[u8], out: &mut Vec<PackedSample>) {
         out.reserve(bytes.len() / SAMPLE_BYTES);
         out.extend(
-            bytes
-                .chunks_exact(SAMPLE_BYTES)
-                .map(|c| Sample::from_bytes(c.try_into().expect("chunks_exact gives 10 bytes"))),
+            bytes.chunks_exact(SAMPLE_BYTES).map(|c| {
+                PackedSample::from_bytes(c.try_into().expect("chunks_exact gives 10 bytes"))
+            }),
         );
     }
 }
@@ -77,20 +77,20 @@ mod tests {
     proptest! {
         #[test]
         fn bytes_round_trip(rgbe in any::<[u8; 4]>(), entry in any::<[u8; 2]>(), exit in any::<[u8; 2]>(), dist in any::<u16>()) {
-            let s = Sample { rgbe, entry, exit, dist };
-            prop_assert_eq!(Sample::from_bytes(&s.to_bytes()), s);
+            let s = PackedSample { rgbe, entry, exit, dist };
+            prop_assert_eq!(PackedSample::from_bytes(&s.to_bytes()), s);
             let mut v = Vec::new();
-            Sample::write_all(&[s, s], &mut v);
+            PackedSample::write_all(&[s, s], &mut v);
             prop_assert_eq!(v.len(), 20);
             let mut back = Vec::new();
-            Sample::read_all(&v, &mut back);
+            PackedSample::read_all(&v, &mut back);
             prop_assert_eq!(back, vec![s, s]);
         }
     }
 
     #[test]
     fn layout_is_little_endian() {
-        let s = Sample {
+        let s = PackedSample {
             rgbe: [1, 2, 3, 4],
             entry: [5, 6],
             exit: [7, 8],

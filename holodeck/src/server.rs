@@ -26,7 +26,7 @@ use crate::distance_code::DistanceCode;
 use crate::file::{FileError, HoloFile};
 use crate::proximity::{self, EyeSphere, RayCode};
 use crate::rgbe;
-use crate::sample::Sample;
+use crate::sample::PackedSample;
 
 /// A worker's number.
 pub type WorkerId = u64;
@@ -103,7 +103,7 @@ pub enum ServerError {
 #[derive(Clone, Debug, PartialEq)]
 pub struct BeamSamples {
     pub key: BeamKey,
-    pub samples: Vec<Sample>,
+    pub samples: Vec<PackedSample>,
 }
 
 /// Running totals.
@@ -443,12 +443,12 @@ impl Server {
         let mut it = results.into_iter();
         for b in packet.bundles {
             let code = self.codes[usize::from(b.key.section)];
-            let samples: Vec<Sample> = b
+            let samples: Vec<PackedSample> = b
                 .codes
                 .iter()
                 .zip(&b.offsets)
                 .zip(it.by_ref())
-                .map(|((&(entry, exit), &off), (rad, d))| Sample {
+                .map(|((&(entry, exit), &off), (rad, d))| PackedSample {
                     rgbe: rgbe::encode(rad),
                     entry,
                     exit,

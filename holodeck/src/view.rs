@@ -17,7 +17,7 @@ use glam::DVec3;
 use crate::distance_code::DistanceCode;
 use crate::file::{FileError, HoloFile};
 use crate::rgbe;
-use crate::sample::Sample;
+use crate::sample::PackedSample;
 
 /// An off-axis view: an eye and a screen rectangle given by its lower-left `pa`,
 /// lower-right `pb` and upper-left `pc` corners (perpendicular edges), as a CAVE wall.
@@ -149,7 +149,7 @@ impl WorldSample {
         section: &crate::Section,
         code: &DistanceCode,
         beam: u32,
-        s: &Sample,
+        s: &PackedSample,
     ) -> Option<WorldSample> {
         let (entry, exit) = section.sample_points(beam, s.entry, s.exit)?;
         let dir = (exit - entry).normalize_or_zero();

@@ -11,14 +11,14 @@ use std::time::Duration;
 
 use glam::DVec3;
 use holocave_holodeck::file::check::check;
-use holocave_holodeck::sample::Sample;
+use holocave_holodeck::sample::PackedSample;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
 /// Must match the writer's.
-fn expected(beam: u32, index: u32) -> Sample {
-    Sample {
+fn expected(beam: u32, index: u32) -> PackedSample {
+    PackedSample {
         rgbe: [
             beam as u8,
             (beam >> 8) as u8,

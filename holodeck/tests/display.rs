@@ -19,7 +19,7 @@ use holocave_holodeck::run::{RunOptions, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::view::WorldSample;
 use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult};
-use holocave_holodeck::{HoloFile, Sample, Section, ViewClass};
+use holocave_holodeck::{HoloFile, PackedSample, Section, ViewClass};
 
 /// Radiance from the direction, everything 2 m along the ray.
 struct Analytic;
@@ -87,8 +87,8 @@ fn wanted(s: &Section, eye: DVec3) -> Vec<(BeamKey, f64)> {
 /// Collects until `enough` holds for the per-beam samples received, or 20 s pass.
 fn receive(
     c: &DisplayClient,
-    got: &mut HashMap<BeamKey, Vec<Sample>>,
-    enough: impl Fn(&HashMap<BeamKey, Vec<Sample>>) -> bool,
+    got: &mut HashMap<BeamKey, Vec<PackedSample>>,
+    enough: impl Fn(&HashMap<BeamKey, Vec<PackedSample>>) -> bool,
 ) -> bool {
     let t = Instant::now();
     while t.elapsed() < Duration::from_secs(20) {
@@ -112,10 +112,11 @@ fn assert_each_sample_once(
     running: &holocave_holodeck::run::Running,
     c: &DisplayClient,
     id: u32,
-    got: &mut HashMap<BeamKey, Vec<Sample>>,
+    got: &mut HashMap<BeamKey, Vec<PackedSample>>,
 ) {
     let given = running.display_tally(id).samples;
-    let count = |g: &HashMap<BeamKey, Vec<Sample>>| g.values().map(|v| v.len() as u64).sum::<u64>();
+    let count =
+        |g: &HashMap<BeamKey, Vec<PackedSample>>| g.values().map(|v| v.len() as u64).sum::<u64>();
     assert!(
         receive(c, got, |g| count(g) >= given),
         "display {id} was given {given} samples and received {}",
@@ -169,7 +170,7 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
         wanted: want.clone(),
     });
     let mut got = HashMap::new();
-    let all_there = |g: &HashMap<BeamKey, Vec<Sample>>| {
+    let all_there = |g: &HashMap<BeamKey, Vec<PackedSample>>| {
         want.iter()
             .all(|(k, n)| g.get(k).is_some_and(|v| v.len() as f64 >= *n))
     };
@@ -236,7 +237,7 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
         }),
         wanted: more.clone(),
     });
-    let enough = |g: &HashMap<BeamKey, Vec<Sample>>| {
+    let enough = |g: &HashMap<BeamKey, Vec<PackedSample>>| {
         more.iter()
             .all(|(k, n)| g.get(k).is_some_and(|v| v.len() as f64 >= *n))
     };

@@ -40,7 +40,7 @@ use holocave_holodeck::display::{DisplayClient, DisplayError, EyeRequest};
 use holocave_holodeck::distance_code::DistanceCode;
 use holocave_holodeck::proximity::EyeSphere;
 use holocave_holodeck::view::WorldSample;
-use holocave_holodeck::{Sample, Section};
+use holocave_holodeck::{PackedSample, Section};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 
 use crate::EyeView;
@@ -427,7 +427,7 @@ impl Worker {
         section: &Section,
         code: &DistanceCode,
         beam: u32,
-        s: &Sample,
+        s: &PackedSample,
     ) -> Option<Landed> {
         let ws = WorldSample::decode(section, code, beam, s)?;
         let mut best: Option<Landed> = None;

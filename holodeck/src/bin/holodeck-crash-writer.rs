@@ -11,13 +11,13 @@ use std::path::PathBuf;
 use holocave_holodeck::HoloFile;
 use holocave_holodeck::beam_index::BeamKey;
 use holocave_holodeck::cache::BeamCache;
-use holocave_holodeck::sample::Sample;
+use holocave_holodeck::sample::PackedSample;
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
 /// The sample the writer stores at `index` of `beam` (shared with the test).
-fn expected(beam: u32, index: u32) -> Sample {
-    Sample {
+fn expected(beam: u32, index: u32) -> PackedSample {
+    PackedSample {
         rgbe: [
             beam as u8,
             (beam >> 8) as u8,
@@ -50,7 +50,7 @@ fn main() {
         for _ in 0..rng.random_range(1..12) {
             let beam = rng.random_range(0..beams);
             let have = cache.count(BeamKey::new(0, beam));
-            let new: Vec<Sample> = (0..rng.random_range(1..6))
+            let new: Vec<PackedSample> = (0..rng.random_range(1..6))
                 .map(|i| expected(beam, have + i))
                 .collect();
             cache.add(BeamKey::new(0, beam), &new).expect("add");

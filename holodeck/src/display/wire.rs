@@ -9,7 +9,7 @@ use holocave_protocol::holodeck::{
 use super::{DisplayError, EyeRequest};
 use crate::beam_index::BeamKey;
 use crate::proximity::EyeSphere;
-use crate::sample::Sample;
+use crate::sample::PackedSample;
 use crate::section::{Section, ViewClass};
 use crate::server::{BeamSamples, Server};
 
@@ -57,7 +57,7 @@ pub fn pack(beams: &[BeamSamples], max_bytes: usize) -> Vec<BeamBatch> {
                 out.push(BeamBatch::default());
             }
             rec.clear();
-            Sample::write_all(chunk, &mut rec);
+            PackedSample::write_all(chunk, &mut rec);
             out.last_mut()
                 .expect("never empty")
                 .push(b.key.section, b.key.beam, &rec);
@@ -74,7 +74,7 @@ pub fn unpack(batch: &BeamBatch) -> Result<Vec<BeamSamples>, RecordError> {
         .into_iter()
         .map(|(s, b, rec)| {
             let mut samples = Vec::new();
-            Sample::read_all(rec, &mut samples);
+            PackedSample::read_all(rec, &mut samples);
             BeamSamples {
                 key: BeamKey::new(s, b),
                 samples,
@@ -129,7 +129,7 @@ mod tests {
 
     #[test]
     fn packing_splits_big_beams_and_round_trips() {
-        let s = |i: u8| Sample {
+        let s = |i: u8| PackedSample {
             rgbe: [i, 1, 2, 128],
             entry: [i, i],
             exit: [3, 4],
@@ -148,13 +148,13 @@ mod tests {
         let packed = pack(&beams, 200);
         assert!(packed.len() >= 3);
         assert!(packed.iter().all(|b| b.len_bytes() <= 200 + 10));
-        let mut back: Vec<(BeamKey, Sample)> = Vec::new();
+        let mut back: Vec<(BeamKey, PackedSample)> = Vec::new();
         for b in &packed {
             for bs in unpack(b).unwrap() {
                 back.extend(bs.samples.iter().map(|x| (bs.key, *x)));
             }
         }
-        let want: Vec<(BeamKey, Sample)> = beams
+        let want: Vec<(BeamKey, PackedSample)> = beams
             .iter()
             .flat_map(|b| b.samples.iter().map(move |x| (b.key, *x)))
             .collect();

@@ -179,7 +179,7 @@ pub fn holds(path: &Path, old: &Path) -> Result<HoldsReport, FileError> {
 mod tests {
     use super::*;
     use crate::file::format::SLOT_BYTES;
-    use crate::sample::Sample;
+    use crate::sample::PackedSample;
     use crate::section::{Section, ViewClass};
     use glam::DVec3;
     use std::os::unix::fs::FileExt;
@@ -194,8 +194,8 @@ mod tests {
         .unwrap();
         let mut h = HoloFile::create(path, vec![s], Default::default()).unwrap();
         for b in 0..20 {
-            let v: Vec<Sample> = (0..(b + 1))
-                .map(|i| Sample {
+            let v: Vec<PackedSample> = (0..(b + 1))
+                .map(|i| PackedSample {
                     dist: i as u16,
                     ..Default::default()
                 })
@@ -272,7 +272,7 @@ mod tests {
         let mut h = make(&p);
         let old = dir.path().join("old.hdk");
         std::fs::copy(&p, &old).unwrap();
-        let more = [Sample {
+        let more = [PackedSample {
             dist: 999,
             ..Default::default()
         }];
@@ -289,7 +289,7 @@ mod tests {
         );
         // The other way round, beam 3 is short; a changed sample is counted.
         assert_eq!(holds(&old, &p).unwrap().beams_short, 1);
-        let mut v: Vec<Sample> = Vec::new();
+        let mut v: Vec<PackedSample> = Vec::new();
         h.read_beam(0, 5, &mut v).unwrap();
         drop(h);
         let c = dir.path().join("c.hdk");
@@ -300,7 +300,7 @@ mod tests {
         )
         .unwrap();
         for b in 0..20 {
-            let mut s: Vec<Sample> = Vec::new();
+            let mut s: Vec<PackedSample> = Vec::new();
             HoloFile::open(&p).unwrap().read_beam(0, b, &mut s).unwrap();
             if b == 5 {
                 s[2].dist ^= 1;

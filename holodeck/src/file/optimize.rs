@@ -67,7 +67,7 @@ pub fn optimize(path: &Path) -> Result<OptimizeReport, FileError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sample::Sample;
+    use crate::sample::PackedSample;
     use crate::section::{Section, ViewClass};
     use glam::DVec3;
 
@@ -83,7 +83,7 @@ mod tests {
         )
         .unwrap();
         let mut h = HoloFile::create(&p, vec![s], Default::default()).unwrap();
-        let sample = |i: u32| Sample {
+        let sample = |i: u32| PackedSample {
             dist: i as u16,
             ..Default::default()
         };
@@ -94,7 +94,7 @@ mod tests {
             }
             h.commit().unwrap();
         }
-        let before: Vec<Vec<Sample>> = (0..40)
+        let before: Vec<Vec<PackedSample>> = (0..40)
             .map(|b| {
                 let mut v = Vec::new();
                 h.read_beam(0, b * 7, &mut v).unwrap();

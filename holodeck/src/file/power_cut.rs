@@ -15,12 +15,12 @@ use super::HoloFile;
 use super::check::check;
 use crate::beam_index::BeamKey;
 use crate::cache::BeamCache;
-use crate::sample::Sample;
+use crate::sample::PackedSample;
 use crate::section::{Section, ViewClass};
 
 /// The sample stored at `index` of `beam`.
-fn expected(beam: u32, index: u32) -> Sample {
-    Sample {
+fn expected(beam: u32, index: u32) -> PackedSample {
+    PackedSample {
         rgbe: [
             beam as u8,
             (beam >> 8) as u8,
@@ -110,7 +110,7 @@ fn a_power_cut_after_any_write_loses_nothing_committed() {
         for _ in 0..rng.random_range(1..12) {
             let beam = rng.random_range(0..beams);
             let have = cache.count(BeamKey::new(0, beam));
-            let new: Vec<Sample> = (0..rng.random_range(1..6))
+            let new: Vec<PackedSample> = (0..rng.random_range(1..6))
                 .map(|i| expected(beam, have + i))
                 .collect();
             cache.add(BeamKey::new(0, beam), &new).unwrap();

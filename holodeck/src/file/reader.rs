@@ -16,7 +16,7 @@ use super::format::{
 };
 use super::free_list::FreeList;
 use super::{Damage, FileError, HoloFile};
-use crate::sample::{SAMPLE_BYTES, Sample};
+use crate::sample::{PackedSample, SAMPLE_BYTES};
 
 impl HoloFile {
     /// Opens for reading.
@@ -298,11 +298,11 @@ impl HoloFile {
         &self,
         section: usize,
         beam: u32,
-        out: &mut Vec<Sample>,
+        out: &mut Vec<PackedSample>,
     ) -> Result<(), FileError> {
         let mut buf = Vec::new();
         self.read_beam_bytes(section, beam, &mut buf)?;
-        Sample::read_all(&buf, out);
+        PackedSample::read_all(&buf, out);
         debug_assert_eq!(buf.len() % SAMPLE_BYTES, 0);
         Ok(())
     }

@@ -18,7 +18,7 @@ use super::format::{
 };
 use super::free_list::FreeList;
 use super::{FileError, HoloFile};
-use crate::sample::{SAMPLE_BYTES, Sample};
+use crate::sample::{PackedSample, SAMPLE_BYTES};
 use crate::section::Section;
 
 /// The temporary name a new or rewritten file is built under before its atomic rename.
@@ -154,7 +154,7 @@ impl HoloFile {
         &mut self,
         section: usize,
         beam: u32,
-        samples: &[Sample],
+        samples: &[PackedSample],
     ) -> Result<(), FileError> {
         self.check_writable()?;
         let old = self.entry(section, beam)?;
@@ -176,7 +176,7 @@ impl HoloFile {
         &mut self,
         section: usize,
         beam: u32,
-        new: &[Sample],
+        new: &[PackedSample],
     ) -> Result<(), FileError> {
         self.check_writable()?;
         let old = self.entry(section, beam)?;
@@ -190,8 +190,8 @@ impl HoloFile {
         section: usize,
         beam: u32,
         old: DirEntry,
-        new: &[Sample],
-        all: Option<&[Sample]>,
+        new: &[PackedSample],
+        all: Option<&[PackedSample]>,
     ) -> Result<(), FileError> {
         if new.is_empty() {
             return Ok(());
@@ -206,7 +206,7 @@ impl HoloFile {
             });
         };
         let mut new_bytes = Vec::new();
-        Sample::write_all(new, &mut new_bytes);
+        PackedSample::write_all(new, &mut new_bytes);
         let add = new_bytes.len() as u64;
         let old_ext = old.extent();
         let in_place = have > 0
@@ -235,7 +235,7 @@ impl HoloFile {
         } else {
             let mut bytes = Vec::with_capacity(count as usize * SAMPLE_BYTES);
             match all {
-                Some(all) => Sample::write_all(all, &mut bytes),
+                Some(all) => PackedSample::write_all(all, &mut bytes),
                 None => {
                     self.read_beam_bytes(section, beam, &mut bytes)?;
                     bytes.extend_from_slice(&new_bytes);
@@ -370,9 +370,9 @@ mod tests {
         .unwrap()
     }
 
-    fn samples(n: usize, tag: u8) -> Vec<Sample> {
+    fn samples(n: usize, tag: u8) -> Vec<PackedSample> {
         (0..n)
-            .map(|i| Sample {
+            .map(|i| PackedSample {
                 rgbe: [tag, i as u8, 0, 128],
                 entry: [1, 2],
                 exit: [3, 4],
