@@ -11,7 +11,7 @@ use crate::bsdf::Bsdf;
 use crate::frame::Frame;
 use crate::lights::{LightSample, Lights};
 use crate::sampling::{is_positive_finite, power_heuristic};
-use crate::{Sample, TraceSettings};
+use crate::{TraceSettings, TracedRay};
 
 /// How far a new ray starts off its surface, along the face normal: relative to the
 /// magnitude of the coordinates, so it stays above float spacing anywhere in the scene.
@@ -133,14 +133,14 @@ impl Path<'_> {
 /// or one that passes the scene by and sees only the sky), or the ray to trace, moved up
 /// to the scene, and the distance that move skipped.
 pub enum PathStart {
-    Done(Sample),
+    Done(TracedRay),
     Trace { ray: Ray, skipped: f64 },
 }
 
 /// The start of the path along `ray` (no random numbers are drawn here, and no ray is
 /// traced: the first hit may be found for many paths at once).
 pub fn start_path(scene: &Scene, lights: &Lights, ray: &Ray) -> PathStart {
-    let sample = Sample::NONE;
+    let sample = TracedRay::NONE;
     // A unit direction is used exactly as given: renormalising it would turn it by up to
     // an ulp (6e-8 rad), which shifts the line by 0.6 mm 10 km away. Others are scaled
     // by their largest component before normalising, so that a finite direction whose
@@ -173,7 +173,7 @@ pub fn start_path(scene: &Scene, lights: &Lights, ray: &Ray) -> PathStart {
                 throughput: Vec3::ONE,
             };
             path.add_environment(dir, None);
-            PathStart::Done(Sample {
+            PathStart::Done(TracedRay {
                 radiance: finish(path.radiance),
                 ..sample
             })
@@ -188,7 +188,7 @@ pub fn trace_path(
     settings: &TraceSettings,
     ray: &Ray,
     rng: &mut Pcg32,
-) -> Sample {
+) -> TracedRay {
     match start_path(scene, lights, ray) {
         PathStart::Done(sample) => sample,
         PathStart::Trace { ray, skipped } => {
@@ -207,8 +207,8 @@ pub fn finish_path(
     skipped: f64,
     first_hit: Option<Hit>,
     rng: &mut Pcg32,
-) -> Sample {
-    let mut sample = Sample::NONE;
+) -> TracedRay {
+    let mut sample = TracedRay::NONE;
     let mut path = Path {
         scene,
         lights,

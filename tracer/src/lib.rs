@@ -30,9 +30,9 @@ use rayon::prelude::*;
 use crate::integrator::PathStart;
 use crate::lights::Lights;
 
-/// What the tracer answers for one ray.
+/// What the tracer answers for one ray: the radiance along it and its hit distances.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sample {
+pub struct TracedRay {
     /// Linear RGB radiance arriving along the ray (towards its origin). Never NaN or Inf.
     pub radiance: [f32; 3],
     /// Distance along the ray to the first hit; infinite if the ray escapes.
@@ -42,10 +42,10 @@ pub struct Sample {
     pub virtual_distance: f32,
 }
 
-impl Sample {
-    /// The sample of a ray that cannot be traced (zero, NaN or infinite direction or
+impl TracedRay {
+    /// The answer for a ray that cannot be traced (zero, NaN or infinite direction or
     /// origin): no radiance, nothing hit.
-    pub const NONE: Sample = Sample {
+    pub const NONE: TracedRay = TracedRay {
         radiance: [0.0; 3],
         distance: f32::INFINITY,
         virtual_distance: f32::INFINITY,
@@ -107,8 +107,8 @@ impl Tracer {
     /// One sample per ray, on all cores. The result depends only on the rays and `seed`.
     /// Rays next to each other should be coherent (neighbouring pixels, one beam): their
     /// first hits are found together (see [`Scene::closest_hits`]).
-    pub fn trace(&self, rays: &[Ray], seed: u64) -> Vec<Sample> {
-        let mut out = vec![Sample::NONE; rays.len()];
+    pub fn trace(&self, rays: &[Ray], seed: u64) -> Vec<TracedRay> {
+        let mut out = vec![TracedRay::NONE; rays.len()];
         out.par_chunks_mut(BATCH)
             .zip(rays.par_chunks(BATCH))
             .enumerate()
@@ -117,8 +117,8 @@ impl Tracer {
     }
 
     /// As [`Tracer::trace`], on the calling thread only (for workers that own a core).
-    pub fn trace_serial(&self, rays: &[Ray], seed: u64) -> Vec<Sample> {
-        let mut out = vec![Sample::NONE; rays.len()];
+    pub fn trace_serial(&self, rays: &[Ray], seed: u64) -> Vec<TracedRay> {
+        let mut out = vec![TracedRay::NONE; rays.len()];
         for (c, (out, rays)) in out.chunks_mut(BATCH).zip(rays.chunks(BATCH)).enumerate() {
             self.trace_batch(rays, seed, c * BATCH, out);
         }
@@ -127,7 +127,7 @@ impl Tracer {
 
     /// Rays `first..` of a batch traced with `seed`: the first hits of the rays that reach
     /// the scene found in packets, then each path on its own.
-    fn trace_batch(&self, rays: &[Ray], seed: u64, first: usize, out: &mut [Sample]) {
+    fn trace_batch(&self, rays: &[Ray], seed: u64, first: usize, out: &mut [TracedRay]) {
         let (scene, lights) = (&*self.scene, &self.lights);
         let starts: Vec<PathStart> = rays
             .iter()
@@ -162,7 +162,7 @@ impl Tracer {
     }
 
     /// The sample of ray `index` of a batch traced with `seed`.
-    pub fn trace_one(&self, ray: &Ray, seed: u64, index: u64) -> Sample {
+    pub fn trace_one(&self, ray: &Ray, seed: u64, index: u64) -> TracedRay {
         let mut rng = ray_rng(seed, index);
         integrator::trace_path(&self.scene, &self.lights, &self.settings, ray, &mut rng)
     }

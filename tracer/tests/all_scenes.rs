@@ -29,7 +29,7 @@ use std::time::Instant;
 use common::*;
 use glam::Vec3;
 use holocave_scene::{LoadOptions, Ray, Scene};
-use holocave_tracer::{Sample, Tracer};
+use holocave_tracer::{TracedRay, Tracer};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
@@ -59,7 +59,7 @@ fn rays_for(scene: &Scene, n: usize, rng: &mut Pcg32) -> Vec<Ray> {
         .collect()
 }
 
-fn check(s: &Sample, ray: &Ray, scene: &str) {
+fn check(s: &TracedRay, ray: &Ray, scene: &str) {
     assert!(
         s.radiance.iter().all(|c| c.is_finite() && *c >= 0.0)
             && s.distance >= 0.0

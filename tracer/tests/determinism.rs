@@ -9,11 +9,11 @@ use glam::Vec3;
 use holocave_scene::Ray;
 use holocave_tracer::render::render;
 use holocave_tracer::view::WallView;
-use holocave_tracer::{Sample, Tracer};
+use holocave_tracer::{TracedRay, Tracer};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-fn bits(s: &[Sample]) -> Vec<[u32; 5]> {
+fn bits(s: &[TracedRay]) -> Vec<[u32; 5]> {
     s.iter()
         .map(|s| {
             [

@@ -33,7 +33,7 @@ fn interior_rays(lo: Vec3, hi: Vec3, margin: f32, n: usize, seed: u64) -> Vec<Ra
         .collect()
 }
 
-fn stats_of(samples: &[holocave_tracer::Sample]) -> Stats {
+fn stats_of(samples: &[holocave_tracer::TracedRay]) -> Stats {
     let mut s = Stats::default();
     for x in samples {
         assert!(x.radiance.iter().all(|c| c.is_finite() && *c >= 0.0));

@@ -8,12 +8,12 @@ mod common;
 use common::*;
 use glam::Vec3;
 use holocave_scene::Ray;
-use holocave_tracer::{Sample, Tracer};
+use holocave_tracer::{TracedRay, Tracer};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-fn assert_sane(s: &Sample, what: &str) {
+fn assert_sane(s: &TracedRay, what: &str) {
     assert!(
         s.radiance.iter().all(|c| c.is_finite() && *c >= 0.0),
         "{what}: {s:?}"
@@ -22,7 +22,7 @@ fn assert_sane(s: &Sample, what: &str) {
     assert!(s.virtual_distance >= s.distance, "{what}: {s:?}");
 }
 
-fn stats(samples: &[Sample]) -> Stats {
+fn stats(samples: &[TracedRay]) -> Stats {
     let mut st = Stats::default();
     samples.iter().for_each(|s| st.add(Vec3::from(s.radiance)));
     st
