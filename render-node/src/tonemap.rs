@@ -159,8 +159,10 @@ impl Mapping {
                         let lw = log_min + (b as f32 + 0.5) * db;
                         let p = 0.5 * (cdf[b] + cdf[b + 1]);
                         let ld = ldmin + (ldmax - ldmin) * p;
-                        let ratio = 10f32.powf(log_tvi(lw) - log_tvi(ld));
-                        ratio * total * db * 10f32.powf(ld) / ((ldmax - ldmin) * 10f32.powf(lw))
+                        // dLd/dLw ≤ tvi(Ld)/tvi(Lw), with dLd/dLw of the histogram
+                        // mapping = (Ld/Lw)·f(b)·(ldmax − ldmin)/(T·Δb).
+                        let ratio = 10f32.powf(log_tvi(ld) - log_tvi(lw));
+                        ratio * total * db * 10f32.powf(lw) / ((ldmax - ldmin) * 10f32.powf(ld))
                     }
                 };
                 if hist[b] > ceiling {
