@@ -700,6 +700,12 @@ fn replay_sends_the_same_frame_states_bit_for_bit() {
     let tracker = if log.exists() {
         format!("file:{}", log.display())
     } else {
+        // CI sets HOLOCAVE_REQUIRE_SHARED=1: there, a missing trace is a failure.
+        assert!(
+            std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
+            "HOLOCAVE_REQUIRE_SHARED=1 and {} is absent",
+            log.display()
+        );
         eprintln!("{} absent: replaying a synthetic shake", log.display());
         "synthetic:shake".to_owned()
     };
