@@ -5,62 +5,28 @@
 //! their samples reaches the file (checked against a copy taken before, as
 //! `holodeck check --holds` does).
 
+mod common;
+
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
+use common::{Analytic, credentials, credentials_with, options};
 use glam::DVec3;
-use holocave_holodeck::auth::{self, Credentials, Port};
+use holocave_holodeck::auth;
 use holocave_holodeck::display::DisplayClient;
 use holocave_holodeck::file::DISTANCE_SETTING;
 use holocave_holodeck::file::check::holds;
-use holocave_holodeck::run::{RunOptions, run, start};
+use holocave_holodeck::run::{run, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::{
-    DistanceKind, SampleSource, SourceRay, SourceResult, WorkerError, run_remote, trace_packet,
-};
+use holocave_holodeck::worker::{DistanceKind, WorkerError, run_remote, trace_packet};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_protocol::frame::{MAX_FRAME_BYTES, encode};
 use holocave_protocol::handshake::{HandshakeError, Role};
 use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, WorkerHello, WorkerMsg};
 
-struct Analytic;
-
-impl SampleSource for Analytic {
-    fn trace(&self, rays: &[SourceRay], _seed: u64, _distance: DistanceKind) -> Vec<SourceResult> {
-        rays.iter()
-            .map(|r| SourceResult {
-                radiance: r.dir.abs().to_array(),
-                distance: 3.0,
-            })
-            .collect()
-    }
-}
-
-fn credentials(secret: &[u8]) -> Credentials {
-    Credentials {
-        cluster: "test".into(),
-        secret: secret.to_vec(),
-    }
-}
-
-const SECRET: &[u8] = b"auth-test-secret";
-
-fn options(threads: usize, listener: Option<TcpListener>) -> RunOptions {
-    RunOptions {
-        threads,
-        source: Some(Arc::new(Analytic)),
-        listener: listener.map(|listener| Port {
-            listener,
-            credentials: credentials(SECRET),
-        }),
-        scene: "analytic".into(),
-        commit_every: Duration::from_millis(200),
-        stop: Arc::new(AtomicBool::new(false)),
-    }
-}
+/// How often the tests' servers commit.
+const COMMIT: Duration = Duration::from_millis(200);
 
 /// An honest worker's link, after the handshake and hello: the stream and its keys.
 fn honest_worker(
@@ -72,8 +38,7 @@ fn honest_worker(
 ) {
     let mut c = TcpStream::connect(addr).unwrap();
     c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
-    let (mut sealer, mut opener) =
-        auth::connect(&mut c, &credentials(SECRET), Role::Worker).unwrap();
+    let (mut sealer, mut opener) = auth::connect(&mut c, &credentials(), Role::Worker).unwrap();
     let hello = WorkerMsg::Hello(WorkerHello {
         protocol: PROTOCOL_VERSION,
         name: "honest".into(),
@@ -120,7 +85,10 @@ fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unch
         Mode::Batch,
         ServerConfig::default(),
     );
-    run(server, options(1, None), |p| p.stats.samples >= 2000).unwrap();
+    run(server, options(1, None, COMMIT), |p| {
+        p.stats.samples >= 2000
+    })
+    .unwrap();
     let before = dir.path().join("before.hdk");
     std::fs::copy(&path, &before).unwrap();
     let stored = HoloFile::open(&before).unwrap().total_samples();
@@ -134,14 +102,14 @@ fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unch
     );
     let running = start(
         server,
-        options(0, Some(TcpListener::bind("127.0.0.1:0").unwrap())),
+        options(0, Some(TcpListener::bind("127.0.0.1:0").unwrap()), COMMIT),
     )
     .unwrap();
     let addr = running.local_addr().unwrap();
     let a = addr.to_string();
 
     // A worker and a display with the wrong secret.
-    let wrong = credentials(b"a guess");
+    let wrong = credentials_with(b"a guess");
     let w = run_remote(&a, &wrong, "intruder", "analytic", &Analytic);
     assert!(
         matches!(

@@ -5,35 +5,20 @@
 
 use std::collections::HashMap;
 use std::net::TcpListener;
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
+mod common;
+
+use common::{credentials, options};
 use glam::DVec3;
-use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::beam_index::BeamKey;
 use holocave_holodeck::display::{DisplayClient, EyeRequest};
 use holocave_holodeck::distance_code::DistanceCode;
 use holocave_holodeck::proximity::EyeSphere;
-use holocave_holodeck::run::{RunOptions, start};
+use holocave_holodeck::run::start;
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::view::WorldSample;
-use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult};
 use holocave_holodeck::{HoloFile, PackedSample, Section, ViewClass};
-
-/// Radiance from the direction, everything 2 m along the ray.
-struct Analytic;
-
-impl SampleSource for Analytic {
-    fn trace(&self, rays: &[SourceRay], _seed: u64, _distance: DistanceKind) -> Vec<SourceResult> {
-        rays.iter()
-            .map(|r| SourceResult {
-                radiance: r.dir.abs().to_array(),
-                distance: 2.0,
-            })
-            .collect()
-    }
-}
 
 fn section() -> Section {
     Section::new(
@@ -43,28 +28,6 @@ fn section() -> Section {
         ViewClass::Interior,
     )
     .unwrap()
-}
-
-/// The credentials every peer of these tests proves.
-fn credentials() -> Credentials {
-    Credentials {
-        cluster: "test".into(),
-        secret: b"display-test-secret".to_vec(),
-    }
-}
-
-fn options(threads: usize, listener: Option<TcpListener>) -> RunOptions {
-    RunOptions {
-        threads,
-        source: Some(Arc::new(Analytic)),
-        listener: listener.map(|listener| Port {
-            listener,
-            credentials: credentials(),
-        }),
-        scene: "analytic".into(),
-        commit_every: Duration::from_millis(500),
-        stop: Arc::new(AtomicBool::new(false)),
-    }
 }
 
 /// The beams the lines of sight from `eye` along a few directions cross, 50 samples each.
@@ -142,7 +105,11 @@ fn interactive_on_loopback(
         ServerConfig::default(),
     );
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    start(server, options(threads, Some(listener))).unwrap()
+    start(
+        server,
+        options(threads, Some(listener), Duration::from_millis(500)),
+    )
+    .unwrap()
 }
 
 #[test]
@@ -272,7 +239,11 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
     );
     assert_eq!(server.stats().samples, total, "every sample was committed");
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    let running = start(server, options(0, Some(listener))).unwrap();
+    let running = start(
+        server,
+        options(0, Some(listener), Duration::from_millis(500)),
+    )
+    .unwrap();
     let tcp = DisplayClient::connect(running.local_addr().unwrap(), 3, &credentials()).unwrap();
     tcp.request(EyeRequest {
         slot: 0,

@@ -2,48 +2,23 @@
 //! filling one holodeck together; a worker that dies mid-packet loses only that packet,
 //! which another worker computes. Every worker is asked for the distance the file records.
 
+mod common;
+
 use std::net::TcpListener;
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
+use common::{Analytic, credentials, options};
 use glam::DVec3;
-use holocave_holodeck::auth::{self, Credentials, Port};
+use holocave_holodeck::auth;
 use holocave_holodeck::distance_code::DistanceCode;
 use holocave_holodeck::file::DISTANCE_SETTING;
-use holocave_holodeck::run::{RunOptions, run};
+use holocave_holodeck::run::run;
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult, run_remote};
+use holocave_holodeck::worker::{DistanceKind, run_remote};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_protocol::frame::MAX_FRAME_BYTES;
 use holocave_protocol::handshake::Role;
 use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, WorkerHello, WorkerMsg};
-
-/// Radiance from the direction; everything at first-hit distance 2 and virtual distance 3.
-struct Analytic;
-
-impl SampleSource for Analytic {
-    fn trace(&self, rays: &[SourceRay], _seed: u64, distance: DistanceKind) -> Vec<SourceResult> {
-        let d = match distance {
-            DistanceKind::FirstHit => 2.0,
-            DistanceKind::Virtual => 3.0,
-        };
-        rays.iter()
-            .map(|r| SourceResult {
-                radiance: r.dir.abs().to_array(),
-                distance: d,
-            })
-            .collect()
-    }
-}
-
-/// The credentials every peer of this test proves.
-fn credentials() -> Credentials {
-    Credentials {
-        cluster: "test".into(),
-        secret: b"workers-test-secret".to_vec(),
-    }
-}
 
 #[test]
 fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
@@ -107,17 +82,7 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
             ServerMsg::Rays(_)
         ));
     });
-    let opts = RunOptions {
-        threads: 2,
-        source: Some(Arc::new(Analytic)),
-        listener: Some(Port {
-            listener,
-            credentials: credentials(),
-        }),
-        scene: "analytic".into(),
-        commit_every: Duration::from_millis(300),
-        stop: Arc::new(AtomicBool::new(false)),
-    };
+    let opts = options(2, Some(listener), Duration::from_millis(300));
     // The analytic source returns millions of samples a second on one core: even at a
     // hundredth of that (with a commit on top), the fill is done by this deadline.
     const SAMPLES: u64 = 200_000;
