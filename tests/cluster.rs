@@ -167,26 +167,57 @@ fn strictly_increasing(v: &[u64]) -> bool {
     v.windows(2).all(|w| w[0] < w[1])
 }
 
-#[test]
-fn four_nodes_present_the_same_frames_in_the_same_order() {
-    let out = scratch("lockstep");
-    let frames = 60;
+/// Runs the master for `frames` frames with a node per wall (started with `extra(wall)`
+/// arguments) to the end; the master's summary and every wall's presented frames, after
+/// checking that every wall showed exactly the same frames (frame lock).
+fn lockstep_run(
+    name: &str,
+    frames: u64,
+    extra: impl Fn(&str) -> Vec<String>,
+) -> (String, Vec<Vec<u64>>) {
+    let out = scratch(name);
     let (m, addr, mut stdout) = master(
         &["--frames", &frames.to_string(), "--wait-for-walls", "60"],
         SECRET,
     );
-    let nodes: Vec<Proc> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
+    let nodes: Vec<Proc> = WALLS
+        .iter()
+        .map(|w| {
+            let args = extra(w);
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            node_with(&addr, w, &out, SECRET, &args)
+        })
+        .collect();
     let (status, err) = m.finish(Duration::from_secs(120));
     assert!(status.success(), "master failed: {err}");
     let mut summary = String::new();
     stdout.read_to_string(&mut summary).unwrap();
+    println!("{summary}");
     for n in nodes {
         let (status, err) = n.finish(Duration::from_secs(30));
         assert!(status.success(), "a node failed: {err}");
     }
     let logs: Vec<Vec<u64>> = WALLS.iter().map(|w| presented(&out, w)).collect();
+    for (wall, log) in WALLS.iter().zip(&logs) {
+        assert_eq!(
+            log, &logs[0],
+            "{wall} and {} showed different frames",
+            WALLS[0]
+        );
+    }
+    let _ = std::fs::remove_dir_all(&out);
+    (summary, logs)
+}
+
+#[test]
+fn four_nodes_present_the_same_frames_in_the_same_order() {
+    let frames = 60;
+    // Frame lock: every wall shows exactly the same frames (the first frame holds every
+    // node; no node is slow enough to be declared out).
+    let (summary, logs) = lockstep_run("lockstep", frames, |_| {
+        vec!["--every".into(), "1000000".into()]
+    });
     let counts = swapped_per_wall(&summary);
-    println!("{summary}");
     for (wall, log) in WALLS.iter().zip(&logs) {
         println!(
             "{wall:6} presented {} frames: {:?}…",
@@ -205,16 +236,6 @@ fn four_nodes_present_the_same_frames_in_the_same_order() {
         assert_eq!(log.len() as u64, *swapped, "{wall}");
         assert!(log.iter().all(|&f| f < frames));
     }
-    // Frame lock: every wall shows exactly the same frames (the first frame holds every
-    // node; no node is slow enough to be declared out).
-    for (wall, log) in WALLS.iter().zip(&logs) {
-        assert_eq!(
-            log, &logs[0],
-            "{wall} and {} showed different frames",
-            WALLS[0]
-        );
-    }
-    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// A wall made slow on purpose: each frame of the left node takes 120 ms more, far beyond
@@ -223,42 +244,17 @@ const SLOW_MS: u64 = 120;
 
 #[test]
 fn a_slow_wall_holds_every_wall_on_the_same_frames_and_sets_the_pace() {
-    let out = scratch("slow");
     let frames = 30;
-    let (m, addr, mut stdout) = master(
-        &["--frames", &frames.to_string(), "--wait-for-walls", "60"],
-        SECRET,
-    );
-    let nodes: Vec<Proc> = WALLS
-        .iter()
-        .map(|&w| {
-            let slow = if w == "left" { SLOW_MS } else { 0 };
-            node_with(&addr, w, &out, SECRET, &["--slow-ms", &slow.to_string()])
-        })
-        .collect();
-    let (status, err) = m.finish(Duration::from_secs(120));
-    assert!(status.success(), "master failed: {err}");
-    let mut summary = String::new();
-    stdout.read_to_string(&mut summary).unwrap();
-    println!("{summary}");
-    for n in nodes {
-        let (status, err) = n.finish(Duration::from_secs(30));
-        assert!(status.success(), "a node failed: {err}");
-    }
-    let logs: Vec<Vec<u64>> = WALLS.iter().map(|w| presented(&out, w)).collect();
+    let (summary, logs) = lockstep_run("slow", frames, |w| {
+        let slow = if w == "left" { SLOW_MS } else { 0 };
+        vec!["--slow-ms".into(), slow.to_string()]
+    });
     assert_eq!(
         logs[0].len() as u64,
         frames,
         "every frame shown: {:?}",
         logs[0]
     );
-    for (wall, log) in WALLS.iter().zip(&logs) {
-        assert_eq!(
-            log, &logs[0],
-            "{wall} and {} showed different frames",
-            WALLS[0]
-        );
-    }
     for (wall, _, outs) in swapped_per_wall(&summary) {
         assert_eq!(outs, 0, "{wall} was declared out:\n{summary}");
     }
@@ -266,7 +262,6 @@ fn a_slow_wall_holds_every_wall_on_the_same_frames_and_sets_the_pace() {
         summary.contains("pace set by wall left"),
         "the slow wall sets the pace:\n{summary}"
     );
-    let _ = std::fs::remove_dir_all(&out);
 }
 
 #[test]
