@@ -32,11 +32,11 @@ mod insert;
 #[path = "shaders/project.rs"]
 mod project;
 
-use age::{Age, AgeBuffers};
-use dither::{Dither, DitherBuffers};
-use filter::{Filter, FilterBuffers};
-use insert::{Insert, InsertBuffers};
-use project::{Project, ProjectBuffers};
+use age::Age;
+use dither::Dither;
+use filter::Filter;
+use insert::Insert;
+use project::Project;
 
 /// Points per replacement group (the oldest of a group is replaced, groups round robin).
 pub const GROUP_SIZE: u32 = 8;
@@ -330,50 +330,21 @@ impl RenderCache {
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 });
-                let project_bg = passes.project.bind_group(
-                    &gpu,
-                    &ProjectBuffers {
-                        params: &params,
-                        points: &points,
-                        depth: &depth,
-                        key: &key,
-                        visible: &visible,
-                        counters: &counters,
-                    },
-                );
+                let project_bg = passes
+                    .project
+                    .bind_group(&gpu, [&params, &points, &depth, &key, &visible, &counters]);
                 let filter_bg = passes.filter.bind_group(
                     &gpu,
-                    &FilterBuffers {
-                        params: &params,
-                        points: &points,
-                        depth: &depth,
-                        key: &key,
-                        culled: &culled,
-                        color: &color,
-                        priority: &priority,
-                        counters: &counters,
-                    },
+                    [
+                        &params, &points, &depth, &key, &culled, &color, &priority, &counters,
+                    ],
                 );
-                let dither_bg = passes.dither.bind_group(
-                    &gpu,
-                    &DitherBuffers {
-                        params: &params,
-                        priority: &priority,
-                        counters: &counters,
-                        chosen: &chosen,
-                        chosen_img: &chosen_img,
-                    },
-                );
-                let insert_bg = passes.insert.bind_group(
-                    &gpu,
-                    &InsertBuffers {
-                        params: &insert_params,
-                        points: &points,
-                        samples: &samples,
-                        key: &key,
-                        matched: &matched,
-                    },
-                );
+                let dither_bg = passes
+                    .dither
+                    .bind_group(&gpu, [&params, &priority, &counters, &chosen, &chosen_img]);
+                let insert_bg = passes
+                    .insert
+                    .bind_group(&gpu, [&insert_params, &points, &samples, &key, &matched]);
                 EyeBuffers {
                     width,
                     height,
@@ -391,14 +362,9 @@ impl RenderCache {
                 }
             })
             .collect();
-        let age_bg = passes.age.bind_group(
-            &gpu,
-            &AgeBuffers {
-                params: &eyes[0].params,
-                points: &points,
-                visible: &visible,
-            },
-        );
+        let age_bg = passes
+            .age
+            .bind_group(&gpu, [&eyes[0].params, &points, &visible]);
         RenderCache {
             gpu,
             capacity,

@@ -245,3 +245,40 @@ impl Gpu {
         data
     }
 }
+
+/// One WGSL compute shader as its passes use it: the bind group layout of its bindings
+/// and a pipeline for each of its `N` entry points.
+pub struct ComputePass<const N: usize> {
+    label: &'static str,
+    layout: wgpu::BindGroupLayout,
+    /// In the order of the entry points given.
+    pub pipelines: [wgpu::ComputePipeline; N],
+}
+
+impl<const N: usize> ComputePass<N> {
+    /// The shader `source` (prefixed with `common.wgsl`) with `bindings` in binding order
+    /// and pipelines for `entries`.
+    pub fn new(
+        gpu: &Gpu,
+        label: &'static str,
+        source: &str,
+        bindings: &[Binding],
+        entries: [&str; N],
+    ) -> Self {
+        let layout = gpu.layout(label, bindings);
+        let pipelines = gpu
+            .pipelines(label, source, &layout, &entries)
+            .try_into()
+            .unwrap_or_else(|_| unreachable!("one pipeline per entry point"));
+        ComputePass {
+            label,
+            layout,
+            pipelines,
+        }
+    }
+
+    /// A bind group of `buffers`, in binding order.
+    pub fn bind_group(&self, gpu: &Gpu, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+        gpu.bind_group(self.label, &self.layout, buffers)
+    }
+}

@@ -1,43 +1,37 @@
 //! Aging (`age.wgsl`): every point grows older each frame, faster when no eye saw it.
 
-use crate::gpu::{Binding, Gpu};
+use crate::gpu::{Binding, ComputePass, Gpu};
 
 use super::Recorder;
 
 /// `@workgroup_size` of the shader's entry point.
 const WORKGROUP: u32 = 256;
 
-/// The buffers aging binds, in binding order.
-pub(super) struct AgeBuffers<'a> {
-    pub params: &'a wgpu::Buffer,
-    pub points: &'a wgpu::Buffer,
-    pub visible: &'a wgpu::Buffer,
-}
-
-/// The age pipeline and its bind group layout.
-pub(super) struct Age {
-    layout: wgpu::BindGroupLayout,
-    age: wgpu::ComputePipeline,
-}
+/// The age pipeline.
+pub(super) struct Age(ComputePass<1>);
 
 impl Age {
     pub(super) fn new(gpu: &Gpu) -> Age {
         use Binding::{Storage, Uniform};
         let rw = Storage { read_only: false };
-        let layout = gpu.layout("age", &[Uniform, rw, rw]);
-        let [age] = gpu
-            .pipelines("age", include_str!("age.wgsl"), &layout, &["age"])
-            .try_into()
-            .unwrap_or_else(|_| unreachable!("one entry point, one pipeline"));
-        Age { layout, age }
+        let source = include_str!("age.wgsl");
+        Age(ComputePass::new(
+            gpu,
+            "age",
+            source,
+            &[Uniform, rw, rw],
+            ["age"],
+        ))
     }
 
-    pub(super) fn bind_group(&self, gpu: &Gpu, b: &AgeBuffers) -> wgpu::BindGroup {
-        gpu.bind_group("age", &self.layout, &[b.params, b.points, b.visible])
+    /// A bind group of `[params, points, visible]`, in binding order.
+    pub(super) fn bind_group(&self, gpu: &Gpu, buffers: [&wgpu::Buffer; 3]) -> wgpu::BindGroup {
+        self.0.bind_group(gpu, &buffers)
     }
 
     /// Ages `points` points.
     pub(super) fn age(&self, r: &mut Recorder, bg: &wgpu::BindGroup, points: u32) {
-        r.pass(&self.age, bg, points, WORKGROUP);
+        let [age] = &self.0.pipelines;
+        r.pass(age, bg, points, WORKGROUP);
     }
 }
