@@ -12,9 +12,9 @@ use holocave_holodeck::{HoloFile, Section, ViewClass};
 const PER_BEAM: u32 = 64;
 
 fn build(path: &std::path::Path) -> (u32, u64) {
-    let s = Section::new(
+    let s = Section::axis_aligned(
         DVec3::ZERO,
-        [DVec3::X * 4.0, DVec3::Y * 3.0, DVec3::Z * 5.0],
+        DVec3::new(4.0, 3.0, 5.0),
         [5, 4, 6],
         ViewClass::Interior,
     )

@@ -289,13 +289,8 @@ mod tests {
     fn lru_write_back_keeps_every_sample() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.hdk");
-        let sec = Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [2, 2, 2],
-            ViewClass::Interior,
-        )
-        .unwrap();
+        let sec =
+            Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap();
         let h = HoloFile::create(&p, vec![sec], Default::default()).unwrap();
         // Room for about three beams of 20 samples.
         let mut c = BeamCache::new(h, 3 * (20 * SAMPLE_BYTES + ENTRY_OVERHEAD) + 100);
@@ -323,13 +318,8 @@ mod tests {
     fn the_least_recently_used_beam_goes_first() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.hdk");
-        let sec = Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [2, 2, 2],
-            ViewClass::Interior,
-        )
-        .unwrap();
+        let sec =
+            Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap();
         let h = HoloFile::create(&p, vec![sec], Default::default()).unwrap();
         // A one-sample beam holds a vector of capacity 4.
         let one = 4 * SAMPLE_BYTES + ENTRY_OVERHEAD;
@@ -366,13 +356,8 @@ mod tests {
     fn adding_to_stored_beams_keeps_only_the_new_samples_in_memory() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.hdk");
-        let sec = Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [2, 2, 2],
-            ViewClass::Interior,
-        )
-        .unwrap();
+        let sec =
+            Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap();
         let mut h = HoloFile::create(&p, vec![sec], Default::default()).unwrap();
         let old: Vec<PackedSample> = (0..1000).map(s).collect();
         for b in 0..4 {

@@ -273,9 +273,9 @@ mod tests {
 
     #[test]
     fn rays_pass_near_the_eye_or_fall_back() {
-        let s = Section::new(
+        let s = Section::axis_aligned(
             DVec3::ZERO,
-            [DVec3::X * 4.0, DVec3::Y * 3.0, DVec3::Z * 5.0],
+            DVec3::new(4.0, 3.0, 5.0),
             [4, 3, 5],
             ViewClass::Interior,
         )
@@ -321,13 +321,8 @@ mod tests {
 
     #[test]
     fn eye_inside_cone_apex_or_far_away() {
-        let s = Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [2, 2, 2],
-            ViewClass::Interior,
-        )
-        .unwrap();
+        let s =
+            Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap();
         let mut rng = SmallRng::seed_from_u64(2);
         // A sphere enclosing the section: every ray qualifies, none falls back.
         let big = EyeSphere {

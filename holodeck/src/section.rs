@@ -158,6 +158,22 @@ impl Section {
         Self::new(origin, edges, best, class)
     }
 
+    /// The axis-aligned box from `lo` to `hi`, with `grid` cells per axis.
+    pub fn axis_aligned(
+        lo: DVec3,
+        hi: DVec3,
+        grid: [u32; 3],
+        class: ViewClass,
+    ) -> Result<Section, SectionError> {
+        let d = hi - lo;
+        Section::new(
+            lo,
+            [DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z],
+            grid,
+            class,
+        )
+    }
+
     /// A section with the default grid (about [`DEFAULT_TARGET_BEAMS`] beams).
     pub fn with_default_grid(
         origin: DVec3,
@@ -473,13 +489,8 @@ mod tests {
 
     #[test]
     fn grazing_and_wall_rays() {
-        let s = Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [4, 4, 4],
-            ViewClass::Interior,
-        )
-        .unwrap();
+        let s =
+            Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [4, 4, 4], ViewClass::Interior).unwrap();
         // Along a wall (in the plane x = 0), along an edge, through a corner.
         for (o, d) in [
             (DVec3::new(0.0, -1.0, 0.3), DVec3::Y),
@@ -534,16 +545,11 @@ mod tests {
             ViewClass::Interior,
         );
         assert!(matches!(z, Err(SectionError::Degenerate(_))));
-        let g = Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [2, 0, 2],
-            ViewClass::Interior,
-        );
+        let g = Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 0, 2], ViewClass::Interior);
         assert!(matches!(g, Err(SectionError::EmptyGrid(_))));
-        let big = Section::new(
+        let big = Section::axis_aligned(
             DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
+            DVec3::ONE,
             [200, 200, 200],
             ViewClass::Interior,
         );
@@ -553,9 +559,9 @@ mod tests {
     #[test]
     fn beam_volumes_sum_to_crofton_total() {
         // Σ over beams of ∫∫ cos cos / r dA dA → 4π V as the grid (or quadrature) refines.
-        let s = Section::new(
+        let s = Section::axis_aligned(
             DVec3::ZERO,
-            [DVec3::X * 2.0, DVec3::Y, DVec3::Z * 1.5],
+            DVec3::new(2.0, 1.0, 1.5),
             [6, 3, 5],
             ViewClass::Interior,
         )
@@ -576,13 +582,8 @@ mod tests {
 
     #[test]
     fn trace_rays_follow_the_view_class() {
-        let mut s = Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [2, 2, 2],
-            ViewClass::Interior,
-        )
-        .unwrap();
+        let mut s =
+            Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap();
         let b = s.crossing(DVec3::new(0.3, 0.4, -1.0), DVec3::Z).unwrap();
         let r = s.trace_ray(b.beam, b.entry, b.exit).unwrap();
         assert!(

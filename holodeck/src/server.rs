@@ -589,9 +589,9 @@ mod tests {
     fn server(mode: Mode) -> (tempfile::TempDir, Server) {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.hdk");
-        let s = Section::new(
+        let s = Section::axis_aligned(
             DVec3::ZERO,
-            [DVec3::X * 2.0, DVec3::Y, DVec3::Z],
+            DVec3::new(2.0, 1.0, 1.0),
             [3, 2, 2],
             ViewClass::Interior,
         )

@@ -70,13 +70,8 @@ fn closed_by_server(c: &mut TcpStream) -> bool {
 fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unchanged() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("a.hdk");
-    let section = Section::new(
-        DVec3::ZERO,
-        [DVec3::X, DVec3::Y, DVec3::Z],
-        [3, 3, 3],
-        ViewClass::Interior,
-    )
-    .unwrap();
+    let section =
+        Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [3, 3, 3], ViewClass::Interior).unwrap();
     let settings = [(DISTANCE_SETTING.to_string(), "virtual".to_string())].into();
     HoloFile::create(&path, vec![section], settings).unwrap();
     // Some samples first, by worker threads, committed.

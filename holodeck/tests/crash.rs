@@ -36,13 +36,7 @@ fn sigkill_at_random_moments_loses_nothing_flushed() {
     const KILLS: usize = 60;
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("crash.hdk");
-    let s = Section::new(
-        DVec3::ZERO,
-        [DVec3::X, DVec3::Y, DVec3::Z],
-        [2, 2, 2],
-        ViewClass::Interior,
-    )
-    .unwrap();
+    let s = Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap();
     HoloFile::create(&path, vec![s], Default::default()).unwrap();
     let mut rng = SmallRng::seed_from_u64(3);
     let mut reported: HashMap<u32, u32> = HashMap::new();

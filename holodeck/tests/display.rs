@@ -21,9 +21,9 @@ use holocave_holodeck::view::WorldSample;
 use holocave_holodeck::{HoloFile, PackedSample, Section, ViewClass};
 
 fn section() -> Section {
-    Section::new(
+    Section::axis_aligned(
         DVec3::ZERO,
-        [DVec3::X * 2.0, DVec3::Y * 2.0, DVec3::Z * 2.0],
+        DVec3::new(2.0, 2.0, 2.0),
         [4, 4, 4],
         ViewClass::Interior,
     )

@@ -24,13 +24,7 @@ use holocave_protocol::holodeck::{PROTOCOL_VERSION, ServerMsg, WorkerHello, Work
 fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("w.hdk");
-    let s = Section::new(
-        DVec3::ZERO,
-        [DVec3::X, DVec3::Y, DVec3::Z],
-        [3, 3, 3],
-        ViewClass::Interior,
-    )
-    .unwrap();
+    let s = Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [3, 3, 3], ViewClass::Interior).unwrap();
     HoloFile::create(
         &path,
         vec![s],

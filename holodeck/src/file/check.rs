@@ -185,13 +185,8 @@ mod tests {
     use std::os::unix::fs::FileExt;
 
     fn make(path: &Path) -> HoloFile {
-        let s = Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [2, 2, 2],
-            ViewClass::Interior,
-        )
-        .unwrap();
+        let s =
+            Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap();
         let mut h = HoloFile::create(path, vec![s], Default::default()).unwrap();
         for b in 0..20 {
             let v: Vec<PackedSample> = (0..(b + 1))

@@ -75,13 +75,8 @@ mod tests {
     fn optimize_orders_beams_and_removes_fragments() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.hdk");
-        let s = Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [2, 2, 2],
-            ViewClass::Interior,
-        )
-        .unwrap();
+        let s =
+            Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap();
         let mut h = HoloFile::create(&p, vec![s], Default::default()).unwrap();
         let sample = |i: u32| PackedSample {
             dist: i as u16,

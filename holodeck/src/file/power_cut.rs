@@ -80,13 +80,7 @@ fn damage(
 fn a_power_cut_after_any_write_loses_nothing_committed() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.hdk");
-    let s = Section::new(
-        DVec3::ZERO,
-        [DVec3::X, DVec3::Y, DVec3::Z],
-        [2, 2, 2],
-        ViewClass::Interior,
-    )
-    .unwrap();
+    let s = Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap();
     HoloFile::create(&path, vec![s], Default::default()).unwrap();
     let mut h = HoloFile::open_rw(&path).unwrap();
     let journal = h.file.journal();

@@ -361,13 +361,7 @@ mod tests {
     use glam::DVec3;
 
     fn section() -> Section {
-        Section::new(
-            DVec3::ZERO,
-            [DVec3::X, DVec3::Y, DVec3::Z],
-            [2, 2, 2],
-            ViewClass::Interior,
-        )
-        .unwrap()
+        Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [2, 2, 2], ViewClass::Interior).unwrap()
     }
 
     fn samples(n: usize, tag: u8) -> Vec<PackedSample> {
