@@ -44,6 +44,9 @@ enum Command {
     /// Run a render node: one wall's display process (GPU render cache), in stereo, in a
     /// cluster (--master) or by itself (--standalone).
     Node(cmd::node::NodeArgs),
+    /// Run time against error: replay a head trace through one wall with every display
+    /// method at the same ray budget, against converged references.
+    Compare(cmd::compare::CompareArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -67,5 +70,6 @@ fn main() -> anyhow::Result<()> {
         Command::Fill(a) => cmd::fill::run(a),
         Command::Worker(a) => cmd::worker::run(a),
         Command::Node(a) => cmd::node::run(a),
+        Command::Compare(a) => cmd::compare::run(a),
     }
 }

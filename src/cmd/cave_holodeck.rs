@@ -2,7 +2,6 @@
 //! section around the walls), and its server in interactive mode, shared by `node
 //! --holodeck` (one wall by itself), `master --holodeck` (the cluster's server) and `sim`.
 
-use std::collections::BTreeMap;
 use std::net::{SocketAddr, TcpListener};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -13,15 +12,13 @@ use holocave_cave::Cave;
 use holocave_holodeck::HoloFile;
 use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::cave_section::CaveSection;
-use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
+use holocave_holodeck::file::DistanceKind;
 use holocave_holodeck::run::{RunOptions, Running, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::SampleSource;
 use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::holodeck::HolodeckTracer;
+use holocave_tracer::holodeck::{HolodeckTracer, file_settings, scene_name};
 use holocave_tracer::{TraceSettings, Tracer};
-
-use super::worker::scene_name;
 
 /// Opens the holodeck at `path`, or creates it for `cave` with `scene` (loaded from
 /// `scene_path`) if it does not exist. `made_by` names the command in its settings.
@@ -84,21 +81,7 @@ fn create(
         );
     }
     let section = cs.section;
-    let settings = BTreeMap::from([
-        ("scene".to_string(), scene_name(scene_path)),
-        (
-            "generator".to_string(),
-            "holocave-tracer, default TraceSettings".to_string(),
-        ),
-        (
-            DISTANCE_SETTING.to_string(),
-            DistanceKind::Virtual.name().to_string(),
-        ),
-        (
-            "created-by".to_string(),
-            format!("holocave {made_by} {}", env!("CARGO_PKG_VERSION")),
-        ),
-    ]);
+    let settings = file_settings(&scene_name(scene_path), DistanceKind::Virtual, made_by);
     let h = HoloFile::create(path, vec![section], settings)?;
     announce(path, &h);
     Ok(h)

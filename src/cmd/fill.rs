@@ -3,7 +3,6 @@
 //! and running again continues where it left off: the file holds every committed sample,
 //! and the batch order is recomputed from the counts.
 
-use std::collections::BTreeMap;
 use std::net::TcpListener;
 use std::path::PathBuf;
 use std::process::{Child, Command};
@@ -14,15 +13,17 @@ use anyhow::{Context, bail};
 use clap::Args;
 use glam::DVec3;
 use holocave_holodeck::auth::{Credentials, Port};
-use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
+use holocave_holodeck::file::DistanceKind;
 use holocave_holodeck::run::{RunOptions, run as run_server};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_scene::empty_box::{Aabb, triangles_inside};
 use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::holodeck::file_settings;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::worker::{load_source, scene_name};
+use super::worker::load_source;
+use holocave_tracer::holodeck::scene_name;
 
 #[derive(Args)]
 pub struct FillArgs {
@@ -182,18 +183,7 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         let scene = Scene::load(&args.scene, &LoadOptions::default())
             .with_context(|| format!("loading scene {}", args.scene.display()))?;
         let sections = make_sections(&args, &scene)?;
-        let settings = BTreeMap::from([
-            ("scene".to_string(), name.clone()),
-            (
-                "generator".to_string(),
-                "holocave-tracer, default TraceSettings".to_string(),
-            ),
-            (DISTANCE_SETTING.to_string(), distance.name().to_string()),
-            (
-                "created-by".to_string(),
-                format!("holocave {}", env!("CARGO_PKG_VERSION")),
-            ),
-        ]);
+        let settings = file_settings(&name, distance, "fill");
         HoloFile::create(&args.holodeck, sections, settings)?
     };
     for (i, s) in file.sections().iter().enumerate() {

@@ -2,6 +2,7 @@
 
 pub mod cave;
 pub mod cave_holodeck;
+pub mod compare;
 pub mod credentials;
 pub mod fill;
 pub mod holodeck;

@@ -231,7 +231,7 @@ fn standalone(
                     })
                 })
                 .transpose()?;
-            let name = super::worker::scene_name(&args.scene);
+            let name = holocave_tracer::holodeck::scene_name(&args.scene);
             let running = cave_holodeck::serve(file, workers, Some(scene.clone()), name, listener)?;
             let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
             holodeck = Some(running);

@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::Args;
 use holocave_holodeck::worker::run_remote;
 use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::holodeck::HolodeckTracer;
+use holocave_tracer::holodeck::{HolodeckTracer, scene_name};
 use holocave_tracer::{TraceSettings, Tracer};
 
 #[derive(Args)]
@@ -33,14 +33,6 @@ pub fn load_source(scene: &Path) -> anyhow::Result<HolodeckTracer> {
         Arc::new(s),
         TraceSettings::default(),
     )))
-}
-
-/// The scene's name as recorded in holodeck settings and checked between server and workers.
-pub fn scene_name(scene: &Path) -> String {
-    scene.file_name().map_or_else(
-        || scene.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
 }
 
 pub fn run(args: WorkerArgs) -> anyhow::Result<()> {

@@ -1,7 +1,9 @@
 //! The path tracer as the holodeck's sample generator ([`HolodeckTracer`]), used by
 //! `holocave worker`, the hosted holodeck's tracer threads and the fill bench.
 
-use holocave_holodeck::file::DistanceKind;
+use std::collections::BTreeMap;
+
+use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
 use holocave_holodeck::worker::{SampleSource, SourceRay, SourceResult};
 use holocave_scene::Ray;
 
@@ -28,4 +30,35 @@ impl SampleSource for HolodeckTracer {
             })
             .collect()
     }
+}
+
+/// A scene's name as holodeck files record it and servers check their workers against: the
+/// scene file's name.
+pub fn scene_name(scene: &std::path::Path) -> String {
+    scene.file_name().map_or_else(
+        || scene.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// The settings a new holodeck file filled by [`HolodeckTracer`] records: the scene's
+/// name (checked against every worker's), the generator, the distance it stores, and the
+/// command that made it (`made_by`, e.g. `fill` or `sim`).
+pub fn file_settings(
+    scene: &str,
+    distance: DistanceKind,
+    made_by: &str,
+) -> BTreeMap<String, String> {
+    BTreeMap::from([
+        ("scene".to_string(), scene.to_string()),
+        (
+            "generator".to_string(),
+            "holocave-tracer, default TraceSettings".to_string(),
+        ),
+        (DISTANCE_SETTING.to_string(), distance.name().to_string()),
+        (
+            "created-by".to_string(),
+            format!("holocave {made_by} {}", env!("CARGO_PKG_VERSION")),
+        ),
+    ])
 }

@@ -1,0 +1,184 @@
+//! The ways of drawing a wall that are compared, each given the same ray budget per eye
+//! and frame, and what each keeps between frames.
+
+use std::sync::Arc;
+
+use holocave_holodeck::run::Running;
+use holocave_render_node::{DisplayProcess, EyeView};
+use holocave_tracer::Tracer;
+use holocave_tracer::film::Image;
+use holocave_tracer::render::render;
+use holocave_tracer::view::WallView;
+
+/// A display method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Path tracing from scratch every frame at the budget: a renderer with no cache.
+    Trace,
+    /// The same, averaged over frames while the view stays put, reset when it moves.
+    Accumulate,
+    /// The render cache fed by the tracer (the budget is its samples per eye and frame).
+    Cache,
+    /// The render cache fed by a holodeck in this process, its tracer threads on the same
+    /// cores (cold: a new file; warm: a file from an earlier run).
+    Holodeck,
+}
+
+impl Method {
+    pub const ALL: [Method; 4] = [
+        Method::Trace,
+        Method::Accumulate,
+        Method::Cache,
+        Method::Holodeck,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Trace => "trace",
+            Method::Accumulate => "accumulate",
+            Method::Cache => "cache",
+            Method::Holodeck => "holodeck",
+        }
+    }
+
+    /// A method by its name; the error lists the names.
+    pub fn parse(s: &str) -> Result<Method, String> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+                format!(
+                    "{s:?} is not a method (methods: {}; vlf and vlf+holodeck come with the VLF)",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
+/// A frame as a method drew it: one image per eye and the rays it traced for it.
+pub struct Drawn {
+    pub images: Vec<Image>,
+    pub rays: u64,
+}
+
+/// Paths per pixel that spend `budget` rays on a `width`×`height` eye (at least one: a
+/// path tracer cannot trace part of a path per pixel).
+pub fn spp_for(budget: u32, width: u32, height: u32) -> u32 {
+    (budget / (width * height).max(1)).max(1)
+}
+
+/// A method's state over a replay.
+pub enum Drawer {
+    Trace {
+        tracer: Arc<Tracer>,
+        spp: u32,
+    },
+    Accumulate {
+        tracer: Arc<Tracer>,
+        spp: u32,
+        /// Per eye: the view accumulated, the sum of its frames and how many.
+        sums: Vec<Option<(WallView, Image, u32)>>,
+    },
+    Cache(DisplayProcess),
+    Holodeck {
+        display: DisplayProcess,
+        server: Running,
+        added_before: u64,
+    },
+}
+
+impl Drawer {
+    /// Draws frame `frame` of `views` (one per eye).
+    pub fn draw(&mut self, views: &[EyeView], frame: u64) -> Drawn {
+        match self {
+            Drawer::Trace { tracer, spp } => {
+                let images: Vec<Image> = views
+                    .iter()
+                    .enumerate()
+                    .map(|(e, v)| render(tracer, &v.wall, *spp, seed(frame, e), &|| {}))
+                    .collect();
+                let rays = traced(&images, *spp);
+                Drawn { images, rays }
+            }
+            Drawer::Accumulate { tracer, spp, sums } => {
+                sums.resize_with(views.len(), || None);
+                let mut images = Vec::with_capacity(views.len());
+                for (e, (v, slot)) in views.iter().zip(sums.iter_mut()).enumerate() {
+                    let fresh = render(tracer, &v.wall, *spp, seed(frame, e), &|| {});
+                    let (sum, n) = match slot.take() {
+                        Some((w, mut sum, n)) if w == v.wall => {
+                            sum.pixels
+                                .iter_mut()
+                                .zip(&fresh.pixels)
+                                .for_each(|(s, f)| *s += *f);
+                            (sum, n + 1)
+                        }
+                        _ => (fresh, 1),
+                    };
+                    let mut mean = sum.clone();
+                    mean.pixels.iter_mut().for_each(|p| *p /= n as f32);
+                    images.push(mean);
+                    *slot = Some((v.wall, sum, n));
+                }
+                let rays = traced(&images, *spp);
+                Drawn { images, rays }
+            }
+            Drawer::Cache(display) => {
+                let report = display.frame(views, false);
+                let images = (0..views.len()).map(|e| display.cache.image(e)).collect();
+                Drawn {
+                    images,
+                    rays: report.inserted as u64,
+                }
+            }
+            Drawer::Holodeck {
+                display,
+                server,
+                added_before,
+            } => {
+                display.frame(views, false);
+                let added = server.stats().added;
+                let rays = added - *added_before;
+                *added_before = added;
+                let images = (0..views.len()).map(|e| display.cache.image(e)).collect();
+                Drawn { images, rays }
+            }
+        }
+    }
+}
+
+/// The rays of `spp` paths per pixel of `images` (first segments: a path's bounces are
+/// the tracer's business, as for every method).
+fn traced(images: &[Image], spp: u32) -> u64 {
+    images
+        .iter()
+        .map(|i| u64::from(i.width * i.height) * u64::from(spp))
+        .sum()
+}
+
+/// The seed of an eye's frame: every frame and eye draws fresh paths.
+fn seed(frame: u64, eye: usize) -> u64 {
+    frame.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (eye as u64 + 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn methods_parse_by_name_and_a_wrong_one_lists_them() {
+        for m in Method::ALL {
+            assert_eq!(Method::parse(m.name()), Ok(m));
+        }
+        let e = Method::parse("vlf").unwrap_err();
+        assert!(e.contains("trace, accumulate, cache, holodeck"), "{e}");
+    }
+
+    #[test]
+    fn the_budget_buys_whole_paths_per_pixel() {
+        assert_eq!(spp_for(64 * 48, 64, 48), 1);
+        assert_eq!(spp_for(4 * 64 * 48, 64, 48), 4);
+        assert_eq!(spp_for(100, 64, 48), 1);
+    }
+}

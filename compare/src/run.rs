@@ -1,0 +1,364 @@
+//! The replay: the head trace's poses → each frame's eye views of the wall (the CAVE's
+//! frusta) → every method in turn over the whole trace (one after another, so no method's
+//! background work runs during another's frames) → every `every`-th frame and the last,
+//! each eye's image against its reference → the rows, files and plot.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+use holocave_cave::{Cave, Eye, Wall, wall_frusta};
+use holocave_holodeck::HoloFile;
+use holocave_holodeck::cave_section::CaveSection;
+use holocave_holodeck::file::DistanceKind;
+use holocave_holodeck::run::{RunOptions, start};
+use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_render_node::{
+    DisplayProcess, EyeView, Gpu, HolodeckOptions, HolodeckSource, PixelTracer, RenderCache,
+    RenderNodeError,
+};
+use holocave_scene::Scene;
+use holocave_tracer::film::FilmError;
+use holocave_tracer::holodeck::{HolodeckTracer, file_settings, scene_name};
+use holocave_tracer::view::WallView;
+use holocave_tracer::{TraceSettings, Tracer};
+use holocave_tracking::Pose;
+
+use crate::method::{Drawer, Method, spp_for};
+use crate::reference::References;
+use crate::report::{self, Row, Summary};
+
+/// Why a comparison could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    #[error("no methods to compare")]
+    NoMethods,
+    #[error("the head trace gives no frame: it has no samples")]
+    NoFrames,
+    #[error(
+        "the head trace does not fit the CAVE: from wall {wall:?} {faults} of {frames} frames \
+         have no view (the eye on, behind or too near the wall; try --recenter)"
+    )]
+    OutsideCave {
+        wall: String,
+        faults: usize,
+        frames: usize,
+    },
+    #[error(transparent)]
+    Gpu(#[from] RenderNodeError),
+    #[error("the holodeck: {0}")]
+    Holodeck(String),
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Film(#[from] FilmError),
+    #[error("plotting: {0}")]
+    Plot(String),
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CompareError + '_ {
+    move |source| CompareError::Io {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
+/// How to compare.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub methods: Vec<Method>,
+    /// The frame clock: frame k shows the head at k / fps.
+    pub fps: f64,
+    /// Rays per eye and frame for every method.
+    pub budget: u32,
+    /// Measure every `every`-th frame (and the last).
+    pub every: u64,
+    /// Each eye's image size.
+    pub size: (u32, u32),
+    /// Paths per pixel of the references.
+    pub reference_spp: u32,
+    /// Output folder.
+    pub out: PathBuf,
+    /// The holodeck method's file: drawn from as it is (warm) if it exists, else created
+    /// (cold); `None`: a new file in `out`, replaced every run.
+    pub holodeck: Option<PathBuf>,
+}
+
+/// What is compared: a wall of a CAVE in a scene.
+pub struct Compare<'a> {
+    pub cave: &'a Cave,
+    pub wall: &'a Wall,
+    pub scene: Arc<Scene>,
+    /// The scene's file (its name goes into a new holodeck; its bytes key the references).
+    pub scene_path: &'a Path,
+}
+
+/// What a comparison produced.
+pub struct Outcome {
+    pub rows: Vec<Row>,
+    pub summaries: Vec<Summary>,
+    pub reference_noise: f64,
+    pub frames: u64,
+}
+
+impl Compare<'_> {
+    /// Each frame's eye views for the head poses (one pose per frame); a frame whose eye
+    /// faults keeps the last good views.
+    fn views(&self, poses: &[Pose], size: (u32, u32)) -> Result<Vec<Vec<EyeView>>, CompareError> {
+        let eyes = Eye::for_mode(self.wall.stereo);
+        let mut out: Vec<Vec<EyeView>> = Vec::with_capacity(poses.len());
+        let mut faults = 0;
+        for pose in poses {
+            match wall_frusta(self.cave, self.wall, pose, eyes) {
+                Ok(f) => out.push(
+                    f.iter()
+                        .map(|(_, f)| EyeView::new(f, self.wall, &self.cave.room_to_scene, size))
+                        .collect(),
+                ),
+                Err(_) => {
+                    faults += 1;
+                    if let Some(last) = out.last().cloned() {
+                        out.push(last);
+                    }
+                }
+            }
+        }
+        // More than a tenth of the frames without a view of their own: not this CAVE's trace.
+        if faults * 10 > poses.len() || out.len() < poses.len() {
+            return Err(CompareError::OutsideCave {
+                wall: self.wall.name.clone(),
+                faults,
+                frames: poses.len(),
+            });
+        }
+        Ok(out)
+    }
+
+    /// A method's drawer, its state fresh.
+    fn drawer(&self, method: Method, s: &Settings, eyes: usize) -> Result<Drawer, CompareError> {
+        let tracer = Arc::new(Tracer::new(self.scene.clone(), TraceSettings::default()));
+        let spp = spp_for(s.budget, s.size.0, s.size.1);
+        let cache = || -> Result<RenderCache, CompareError> {
+            Ok(RenderCache::for_wall(Gpu::new()?, s.size, eyes, s.budget))
+        };
+        Ok(match method {
+            Method::Trace => Drawer::Trace { tracer, spp },
+            Method::Accumulate => Drawer::Accumulate {
+                tracer,
+                spp,
+                sums: Vec::new(),
+            },
+            Method::Cache => Drawer::Cache(DisplayProcess::new(
+                cache()?,
+                PixelTracer::new(tracer, 1),
+                s.budget,
+            )),
+            Method::Holodeck => {
+                let file = self.holodeck_file(s)?;
+                let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+                let source =
+                    HolodeckTracer(Tracer::new(self.scene.clone(), TraceSettings::default()));
+                let server = Server::new(file, Mode::Interactive, ServerConfig::interactive());
+                let running = start(
+                    server,
+                    RunOptions {
+                        threads,
+                        source: Some(Arc::new(source)),
+                        listener: None,
+                        scene: scene_name(self.scene_path),
+                        commit_every: Duration::from_secs(5),
+                        stop: Arc::new(AtomicBool::new(false)),
+                    },
+                )
+                .map_err(|e| CompareError::Holodeck(e.to_string()))?;
+                let added_before = running.stats().added;
+                let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
+                Drawer::Holodeck {
+                    display: DisplayProcess::holodeck(cache()?, source, s.budget),
+                    server: running,
+                    added_before,
+                }
+            }
+        })
+    }
+
+    /// The holodeck method's file: the given one if it exists (warm), else a new one for
+    /// this CAVE (cold).
+    fn holodeck_file(&self, s: &Settings) -> Result<HoloFile, CompareError> {
+        let hd = |e: &dyn std::fmt::Display| CompareError::Holodeck(e.to_string());
+        let path = match &s.holodeck {
+            Some(p) if p.exists() => return HoloFile::open_rw(p).map_err(|e| hd(&e)),
+            Some(p) => p.clone(),
+            None => {
+                let p = s.out.join("holodeck.hdk");
+                if p.exists() {
+                    std::fs::remove_file(&p).map_err(io(&p))?;
+                }
+                p
+            }
+        };
+        let section = CaveSection::new(self.cave, &self.scene).map_err(|e| hd(&e))?;
+        let settings = file_settings(
+            &scene_name(self.scene_path),
+            DistanceKind::Virtual,
+            "compare",
+        );
+        HoloFile::create(&path, vec![section.section], settings).map_err(|e| hd(&e))
+    }
+
+    /// Replays `poses` (one per frame) through every method; writes `error_time.csv`,
+    /// `views.csv`, `summary.md`, `error_time.svg` and the measured frames' images to
+    /// `s.out`. `progress` hears (method, frames done, frames).
+    pub fn run(
+        &self,
+        s: &Settings,
+        poses: &[Pose],
+        progress: &mut dyn FnMut(Method, u64, u64),
+    ) -> Result<Outcome, CompareError> {
+        if s.methods.is_empty() {
+            return Err(CompareError::NoMethods);
+        }
+        if poses.is_empty() {
+            return Err(CompareError::NoFrames);
+        }
+        std::fs::create_dir_all(&s.out).map_err(io(&s.out))?;
+        let views = self.views(poses, s.size)?;
+        let frames = views.len() as u64;
+        let measured = |f: u64| f.is_multiple_of(s.every.max(1)) || f + 1 == frames;
+        let speed: Vec<f64> = (0..poses.len())
+            .map(|f| {
+                let prev = poses[f.saturating_sub(1)].position;
+                f64::from(poses[f].position.distance(prev)) * s.fps
+            })
+            .collect();
+        let scene_key = References::scene_key(self.scene_path).map_err(io(self.scene_path))?;
+        let reference_tracer = Tracer::new(self.scene.clone(), TraceSettings::default());
+        let refs = References {
+            tracer: &reference_tracer,
+            spp: s.reference_spp,
+            dir: s.out.join("refs"),
+            scene_key,
+        };
+        let reference_noise = refs.noise(&views[0][0].wall)?;
+        let mut rows = Vec::new();
+        let mut frame_times = Vec::new();
+        for &method in &s.methods {
+            let mut drawer = self.drawer(method, s, views[0].len())?;
+            let dir = s.out.join("frames").join(method.name());
+            std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+            let (mut seconds, mut rays) = (0.0, 0u64);
+            let mut times = Vec::with_capacity(views.len());
+            for (f, eyes) in views.iter().enumerate() {
+                let f = f as u64;
+                let t = Instant::now();
+                let drawn = drawer.draw(eyes, f);
+                let dt = t.elapsed();
+                seconds += dt.as_secs_f64();
+                rays += drawn.rays;
+                times.push(dt);
+                progress(method, f + 1, frames);
+                if !measured(f) {
+                    continue;
+                }
+                let (mut rel, mut sq) = (0.0, 0.0);
+                for (e, (img, view)) in drawn.images.iter().zip(eyes).enumerate() {
+                    let reference = refs.get(&view.wall)?;
+                    rel += img.relative_mse(&reference);
+                    sq += mean_squared_error(img, &reference);
+                    img.write_exr(&dir.join(format!("{f:05}-{e}.exr")))?;
+                }
+                let n = drawn.images.len().max(1) as f64;
+                rows.push(Row {
+                    method: method.name(),
+                    frame: f,
+                    seconds,
+                    rays,
+                    rel_mse: rel / n,
+                    rmse: (sq / n).sqrt(),
+                    frame_time: dt,
+                    head_speed: speed[f as usize],
+                });
+            }
+            if let Drawer::Holodeck {
+                display, server, ..
+            } = drawer
+            {
+                drop(display);
+                server
+                    .stop()
+                    .map_err(|e| CompareError::Holodeck(e.to_string()))?;
+            }
+            frame_times.push((method.name(), times));
+        }
+        let measured_views: Vec<(u64, usize, WallView)> = views
+            .iter()
+            .enumerate()
+            .filter(|(f, _)| measured(*f as u64))
+            .flat_map(|(f, eyes)| {
+                eyes.iter()
+                    .enumerate()
+                    .map(move |(e, v)| (f as u64, e, v.wall))
+            })
+            .collect();
+        let summaries = report::summarize(&rows, &frame_times);
+        let write = |name: &str, r: std::io::Result<()>| r.map_err(io(&s.out.join(name)));
+        write(
+            "error_time.csv",
+            report::write_csv(&s.out.join("error_time.csv"), &rows),
+        )?;
+        write(
+            "views.csv",
+            report::write_views(&s.out.join("views.csv"), &measured_views),
+        )?;
+        let heading = format!(
+            "Run time against error: wall {:?}, {frames} frames at {} Hz, {} rays per eye and frame",
+            self.wall.name, s.fps, s.budget
+        );
+        let md = report::summary_markdown(&summaries, reference_noise, &heading);
+        write("summary.md", std::fs::write(s.out.join("summary.md"), md))?;
+        let names: Vec<&'static str> = s.methods.iter().map(|m| m.name()).collect();
+        report::plot(&s.out.join("error_time.svg"), &rows, &names).map_err(CompareError::Plot)?;
+        Ok(Outcome {
+            rows,
+            summaries,
+            reference_noise,
+            frames,
+        })
+    }
+}
+
+/// The mean over pixels and channels of `(a − b)²`.
+fn mean_squared_error(a: &holocave_tracer::film::Image, b: &holocave_tracer::film::Image) -> f64 {
+    let sum: f64 = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(x, y)| f64::from((*x - *y).length_squared()))
+        .sum();
+    sum / (3 * a.pixels.len().max(1)) as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use holocave_tracer::film::Image;
+
+    #[test]
+    fn errors_of_hand_made_images() {
+        // Reference: black and grey 0.5; image: 0.1 over black, exactly 0.5 over grey.
+        let mut reference = Image::new(2, 1);
+        reference.pixels = vec![Vec3::ZERO, Vec3::splat(0.5)];
+        let mut img = Image::new(2, 1);
+        img.pixels = vec![Vec3::splat(0.1), Vec3::splat(0.5)];
+        // (0.1² / (0 + 0.01)) = 1 on each channel of the first pixel, 0 on the second.
+        assert!((img.relative_mse(&reference) - 0.5).abs() < 1e-6);
+        // 0.01 on three of six channels.
+        assert!((mean_squared_error(&img, &reference) - 0.005).abs() < 1e-9);
+        assert_eq!(mean_squared_error(&reference, &reference), 0.0);
+    }
+}

@@ -1,0 +1,136 @@
+//! A short comparison end to end: the Cornell box through the front wall of
+//! `configs/cave4-cornell.toml`, a few frames of a still head, tiny images. Every output
+//! file is written, and path tracing with the references' own budget is as far from a
+//! reference as two references are from each other.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use glam::Quat;
+use holocave_cave::load_cave;
+use holocave_compare::{Compare, Method, Settings};
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracking::Pose;
+
+fn root() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+}
+
+#[test]
+fn trace_at_the_references_budget_reaches_its_reference_and_every_file_is_written() {
+    let cave = load_cave(&root().join("configs/cave4-cornell.toml")).unwrap();
+    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
+    let scene_path = root().join("scenes/cornell.gltf");
+    let scene = Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap());
+    let dir = tempfile::tempdir().unwrap();
+    let size = (16, 12);
+    const REFERENCE_SPP: u32 = 64;
+    let settings = Settings {
+        methods: vec![Method::Trace],
+        fps: 30.0,
+        // The references' own budget: every pixel gets as many paths as a reference's.
+        budget: size.0 * size.1 * REFERENCE_SPP,
+        every: 2,
+        size,
+        reference_spp: REFERENCE_SPP,
+        out: dir.path().to_path_buf(),
+        holodeck: None,
+    };
+    let poses = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 5];
+    let compare = Compare {
+        cave: &cave,
+        wall,
+        scene,
+        scene_path: &scene_path,
+    };
+    let outcome = compare.run(&settings, &poses, &mut |_, _, _| {}).unwrap();
+    // Frames 0, 2, 4 measured.
+    assert_eq!(outcome.rows.len(), 3);
+    // Two independent estimates at the same path count: their expected relative MSE is
+    // twice the reference's own (`reference_noise` is half of two references' error);
+    // 4× allows for the spread of a 16×12 image's mean.
+    for r in &outcome.rows {
+        assert!(
+            r.rel_mse <= 4.0 * outcome.reference_noise,
+            "frame {}: {:.3e} against the references' own {:.3e}",
+            r.frame,
+            r.rel_mse,
+            outcome.reference_noise
+        );
+    }
+    for name in [
+        "error_time.csv",
+        "error_time.svg",
+        "summary.md",
+        "views.csv",
+    ] {
+        let p = dir.path().join(name);
+        assert!(
+            std::fs::metadata(&p).is_ok_and(|m| m.len() > 0),
+            "{} missing or empty",
+            p.display()
+        );
+    }
+    let csv = std::fs::read_to_string(dir.path().join("error_time.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 4, "a header and three rows:\n{csv}");
+    let views = std::fs::read_to_string(dir.path().join("views.csv")).unwrap();
+    assert_eq!(
+        views.lines().count(),
+        7,
+        "a header and 3 frames × 2 eyes:\n{views}"
+    );
+    for f in [0, 2, 4] {
+        for e in 0..2 {
+            let p = dir.path().join(format!("frames/trace/{f:05}-{e}.exr"));
+            assert!(p.exists(), "{}", p.display());
+        }
+    }
+    assert!(dir.path().join("refs").read_dir().unwrap().count() >= 2);
+    // A second run reuses the references.
+    let before = std::fs::read_dir(dir.path().join("refs")).unwrap().count();
+    compare.run(&settings, &poses, &mut |_, _, _| {}).unwrap();
+    assert_eq!(
+        std::fs::read_dir(dir.path().join("refs")).unwrap().count(),
+        before
+    );
+}
+
+#[test]
+fn a_trace_outside_the_cave_and_an_empty_method_list_are_named() {
+    let cave = load_cave(&root().join("configs/cave4-cornell.toml")).unwrap();
+    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
+    let scene_path = root().join("scenes/cornell.gltf");
+    let scene = Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap());
+    let dir = tempfile::tempdir().unwrap();
+    let mut settings = Settings {
+        methods: vec![],
+        fps: 30.0,
+        budget: 64,
+        every: 1,
+        size: (8, 8),
+        reference_spp: 4,
+        out: dir.path().to_path_buf(),
+        holodeck: None,
+    };
+    let compare = Compare {
+        cave: &cave,
+        wall,
+        scene,
+        scene_path: &scene_path,
+    };
+    let inside = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 3];
+    let e = compare
+        .run(&settings, &inside, &mut |_, _, _| {})
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("no methods"), "{e}");
+    settings.methods = vec![Method::Trace];
+    // Ten metres behind the front wall.
+    let behind = wall.pa - wall.normal * 10.0;
+    let outside = vec![Pose::new(behind.as_vec3(), Quat::IDENTITY); 3];
+    let e = compare
+        .run(&settings, &outside, &mut |_, _, _| {})
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("does not fit the CAVE"), "{e}");
+}

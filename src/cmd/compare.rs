@@ -1,0 +1,187 @@
+//! `holocave compare`: run time against error. A head trace replayed through one wall by
+//! every display method with the same ray budget (`holocave_compare`); this module opens
+//! the config, the scene and the tracker, shows progress and prints the summary.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use holocave_cave::load_cave;
+use holocave_compare::{Compare, Method, Settings};
+use holocave_master::head::Clock;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::master::open_head;
+
+#[derive(Args)]
+pub struct CompareArgs {
+    /// The scene (glTF).
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// A daylight file for the scene.
+    #[arg(long)]
+    pub daylight: Option<PathBuf>,
+    /// The CAVE config (TOML).
+    #[arg(long)]
+    pub config: PathBuf,
+    /// The wall to compare on (its name in the config).
+    #[arg(long)]
+    pub wall: String,
+    /// The head trace (file:PATH, synthetic:NAME); default: the config's source.
+    #[arg(long)]
+    pub tracker: Option<String>,
+    /// Move the trace's first position to the room's inside point.
+    #[arg(long)]
+    pub recenter: bool,
+    /// Seconds of the trace to replay.
+    #[arg(long, default_value_t = 10.0)]
+    pub seconds: f64,
+    /// The frame clock (Hz).
+    #[arg(long, default_value_t = 30.0)]
+    pub fps: f64,
+    /// Methods, comma-separated: trace, accumulate, cache, holodeck.
+    #[arg(
+        long,
+        default_value = "trace,accumulate,cache,holodeck",
+        value_delimiter = ','
+    )]
+    pub methods: Vec<String>,
+    /// Rays per eye and frame for every method (default: one per pixel).
+    #[arg(long)]
+    pub budget: Option<u32>,
+    /// Measure every K-th frame (and the last) against its reference.
+    #[arg(long, default_value_t = 15)]
+    pub every: u64,
+    /// Each eye's image size, WxH (default: an eighth of the wall's pixels).
+    #[arg(long, value_parser = super::parse::size)]
+    pub size: Option<(u32, u32)>,
+    /// Paths per pixel of the converged references.
+    #[arg(long, default_value_t = 1024)]
+    pub reference_spp: u32,
+    /// The holodeck method's file: drawn from as it is (warm) if it exists, else made
+    /// (cold). Default: a new file in --out every run.
+    #[arg(long)]
+    pub holodeck: Option<PathBuf>,
+    /// Output folder.
+    #[arg(long, default_value = "out/compare")]
+    pub out: PathBuf,
+}
+
+pub fn run(args: CompareArgs) -> Result<()> {
+    let methods = args
+        .methods
+        .iter()
+        .filter(|m| !m.trim().is_empty())
+        .map(|m| Method::parse(m.trim()).map_err(anyhow::Error::msg))
+        .collect::<Result<Vec<_>>>()
+        .context("--methods")?;
+    if methods.is_empty() {
+        bail!("--methods: no methods given (trace, accumulate, cache, holodeck)");
+    }
+    if !(args.fps > 0.0 && args.fps <= 1000.0) {
+        bail!("--fps {}: not a frame rate (0 to 1000 Hz)", args.fps);
+    }
+    if !(args.seconds > 0.0 && args.seconds < 1e5) {
+        bail!("--seconds {}: must be positive", args.seconds);
+    }
+    let cave = load_cave(&args.config)?;
+    let wall = cave
+        .walls
+        .iter()
+        .find(|w| w.name == args.wall)
+        .with_context(|| {
+            let names: Vec<&str> = cave.walls.iter().map(|w| w.name.as_str()).collect();
+            format!(
+                "{}: no wall {:?} (walls: {})",
+                args.config.display(),
+                args.wall,
+                names.join(", ")
+            )
+        })?;
+    let size = args
+        .size
+        .unwrap_or(((wall.pixels[0] / 8).max(8), (wall.pixels[1] / 8).max(8)));
+    let scene = Arc::new(super::render::load_scene(
+        &args.scene,
+        args.daylight.clone(),
+        false,
+    )?);
+    let mut head = open_head(
+        &cave,
+        args.tracker.as_deref(),
+        Clock::Replay,
+        false,
+        args.recenter,
+    )?;
+    let frames = (args.seconds * args.fps).round().max(1.0) as u64;
+    let poses: Vec<_> = (0..frames)
+        .map(|k| {
+            let ns = Duration::from_secs_f64(k as f64 / args.fps).as_nanos() as u64;
+            head.advance(ns);
+            head.pose_at(ns).0
+        })
+        .collect();
+    let settings = Settings {
+        methods: methods.clone(),
+        fps: args.fps,
+        budget: args.budget.unwrap_or(size.0 * size.1),
+        every: args.every.max(1),
+        size,
+        reference_spp: args.reference_spp.max(1),
+        out: args.out.clone(),
+        holodeck: args.holodeck.clone(),
+    };
+    let compare = Compare {
+        cave: &cave,
+        wall,
+        scene,
+        scene_path: &args.scene,
+    };
+    println!(
+        "comparing {} on wall {:?}: {frames} frames at {} Hz, {}x{} per eye, {} rays per eye and frame, references at {} spp",
+        methods
+            .iter()
+            .map(|m| m.name())
+            .collect::<Vec<_>>()
+            .join(", "),
+        wall.name,
+        args.fps,
+        size.0,
+        size.1,
+        settings.budget,
+        settings.reference_spp
+    );
+    let bar = ProgressBar::new(frames * methods.len() as u64).with_style(
+        ProgressStyle::with_template(
+            "{msg:12} [{bar:40}] {pos}/{len} frames, {elapsed} (eta {eta})",
+        )
+        .expect("a valid template"),
+    );
+    let done_before = |m: Method| methods.iter().position(|x| *x == m).unwrap_or(0) as u64 * frames;
+    let outcome = compare.run(&settings, &poses, &mut |m, f, _| {
+        bar.set_message(m.name());
+        bar.set_position(done_before(m) + f);
+    })?;
+    bar.finish_and_clear();
+    println!(
+        "{} frames; references' own relative MSE {:.2e}",
+        outcome.frames, outcome.reference_noise
+    );
+    for s in &outcome.summaries {
+        println!(
+            "  {:10}: time-averaged relative MSE {:.3e}, at the end {:.3e}, frame p50 {:.1} ms, p99 {:.1} ms",
+            s.method,
+            s.time_averaged,
+            s.at_end,
+            s.frame_p50.as_secs_f64() * 1e3,
+            s.frame_p99.as_secs_f64() * 1e3
+        );
+    }
+    println!(
+        "written: {0}/error_time.csv, {0}/error_time.svg, {0}/summary.md, {0}/views.csv, {0}/frames/",
+        args.out.display()
+    );
+    Ok(())
+}
