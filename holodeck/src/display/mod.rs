@@ -6,14 +6,12 @@
 //! - [`hub`]: the subscribed displays and the rule that each sample is sent once (what
 //!   each display has of each beam), over what the [`Server`](crate::server::Server)
 //!   offers: the merged requests and the stored samples of a beam from an index on.
-//! - [`session`]: a display over TCP, on the server's side.
 //! - [`client`]: [`DisplayClient`], a display's link to the server, the same in the
 //!   server's process ([`crate::run::Running::display`]) and over TCP.
 //! - [`wire`]: requests, sections and sample batches as the protocol carries them.
 
 pub mod client;
 pub mod hub;
-pub(crate) mod session;
 pub mod wire;
 
 use std::sync::Arc;

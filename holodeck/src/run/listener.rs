@@ -16,7 +16,6 @@ use tokio::io::BufWriter;
 
 use super::state::State;
 use crate::auth::{self, Credentials};
-use crate::display;
 
 /// Why a connection ended badly.
 #[derive(Debug, thiserror::Error)]
@@ -112,7 +111,7 @@ async fn serve_connection(
             super::worker_session::serve(st, hello, link).await
         }
         (WorkerMsg::DisplayHello(hello), Role::Display) => {
-            display::session::serve(st, hello, link).await
+            super::display_session::serve(st, hello, link).await
         }
         (_, role) => Err(ConnError::Protocol(format!(
             "a {role}'s first message was not its hello"

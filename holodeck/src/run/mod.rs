@@ -10,6 +10,7 @@
 //! stops when the caller's [`RunOptions::stop`] flag is set (the binary sets it on Ctrl-C).
 
 pub(crate) mod commits;
+pub(crate) mod display_session;
 pub(crate) mod listener;
 pub(crate) mod state;
 pub(crate) mod threads;

@@ -1,6 +1,6 @@
 //! A display over TCP, on the server's side: the welcome (scene and sections), then its
 //! requests served as they come and its samples (the stored ones answering a request, the
-//! new ones workers return; which ones is the [`Hub`](super::Hub)'s rule) written as they
+//! new ones workers return; which ones is the [`Hub`](crate::display::Hub)'s rule) written as they
 //! are produced. A display that stops reading is dropped with its requests.
 
 use std::sync::Arc;
@@ -11,9 +11,9 @@ use holocave_protocol::frame::{FrameError, MAX_FRAME_BYTES};
 use holocave_protocol::holodeck::{DisplayHello, PROTOCOL_VERSION, ServerMsg, WorkerMsg};
 use tokio::io::AsyncWriteExt;
 
-use super::{Arrival, wire};
-use crate::run::listener::{ConnError, Link, reader};
-use crate::run::state::State;
+use super::listener::{ConnError, Link, reader};
+use super::state::State;
+use crate::display::{Arrival, wire};
 
 /// Largest sample batch sent to a TCP display in one message.
 const DISPLAY_BATCH_BYTES: usize = 1 << 20;
