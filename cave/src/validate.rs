@@ -126,6 +126,15 @@ impl Cave {
         Ok(())
     }
 
+    /// Scales the room by `scale` in the scene and moves it by `offset` (scene metres):
+    /// `room_to_scene` becomes `offset + scale × room_to_scene` (for stress tests of
+    /// numerical range, with the scene scaled and moved the same way).
+    pub fn place_in_scene(&mut self, scale: f64, offset: DVec3) {
+        self.room_to_scene = DMat4::from_translation(offset)
+            * DMat4::from_scale(DVec3::splat(scale))
+            * self.room_to_scene;
+    }
+
     /// The frame period of the master's clock.
     pub fn frame_period(&self) -> std::time::Duration {
         std::time::Duration::from_secs_f64(1.0 / self.cluster.rate_hz)

@@ -12,17 +12,19 @@ use holocave_scene::empty_box::{Aabb, empty_box};
 
 use crate::section::{Section, SectionError, ViewClass};
 
-/// Surfaces are kept at least this far (scene metres) outside a CAVE's section.
-pub const SURFACE_GAP: f64 = 0.01;
+/// Surfaces are kept outside a CAVE's section by at least this fraction of the CAVE's
+/// size (its box's largest edge in the scene): 1 cm for a 3 m CAVE. Relative, so a CAVE
+/// placed in a scene at another scale keeps the same margin.
+pub const SURFACE_GAP: f64 = 1.0 / 300.0;
 
 /// Why a CAVE has no holodeck section.
 #[derive(Debug, thiserror::Error)]
 pub enum CaveSectionError {
     #[error(
-        "the scene has a surface within {SURFACE_GAP} m of the CAVE's inside point \
+        "the scene has a surface within {gap:.3e} m of the CAVE's inside point \
          {inside:.3} (scene coordinates): no holodeck section fits around the viewer"
     )]
-    NoRoom { inside: DVec3 },
+    NoRoom { inside: DVec3, gap: f64 },
     #[error("the CAVE's section: {0}")]
     Section(#[from] SectionError),
 }
@@ -42,8 +44,9 @@ impl CaveSection {
     pub fn new(cave: &Cave, scene: &Scene) -> Result<CaveSection, CaveSectionError> {
         let walls_box = walls_box(cave);
         let inside = cave.room_to_scene.transform_point3(cave.inside);
-        let cut = empty_box(scene, walls_box, inside, SURFACE_GAP)
-            .ok_or(CaveSectionError::NoRoom { inside })?;
+        let gap = SURFACE_GAP * (walls_box.hi - walls_box.lo).max_element();
+        let cut = empty_box(scene, walls_box, inside, gap)
+            .ok_or(CaveSectionError::NoRoom { inside, gap })?;
         let d = cut.hi - cut.lo;
         let section = Section::with_default_grid(
             cut.lo,
@@ -122,5 +125,28 @@ mod tests {
         );
         assert!(s.was_cut(), "{:?}", s.cut);
         assert_eq!(triangles_inside(&scene, &s.cut), 0);
+    }
+
+    #[test]
+    fn a_cave_and_scene_scaled_together_get_the_same_section_scaled() {
+        // The stress runs of `holocave compare --scale`: the margin is relative, so a
+        // millimetre-sized CAVE in a millimetre-sized room gets a section too.
+        let at_scale = |scale: f64| {
+            let mut cave = load_cave(&project_file("configs/cave4.toml")).unwrap();
+            cave.place_in_scene(scale, DVec3::ZERO);
+            let scene = Scene::load(&project_file("scenes/room.gltf"), &LoadOptions::default())
+                .unwrap()
+                .transformed(scale as f32, glam::Vec3::ZERO)
+                .unwrap();
+            CaveSection::new(&cave, &scene).unwrap().cut
+        };
+        let one = at_scale(1.0);
+        for scale in [1e-3, 1e4] {
+            let s = at_scale(scale);
+            for (a, b) in [(s.lo, one.lo), (s.hi, one.hi)] {
+                let err = (a / scale - b).abs().max_element();
+                assert!(err < 1e-4, "at scale {scale}: {a} against {b} (×{scale})");
+            }
+        }
     }
 }

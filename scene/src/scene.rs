@@ -48,6 +48,42 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The same scene scaled by `scale` about the origin and then moved by `offset` (for
+    /// stress tests of numerical range). Radiance is unchanged: emission, the sky and the
+    /// sun stay as they are; a point or spot light's intensity grows by `scale²`, so the
+    /// irradiance it gives the scaled surfaces is the same, and its range by `scale`.
+    pub fn transformed(self, scale: f32, offset: Vec3) -> Result<Scene, SceneError> {
+        let at = |p: Vec3| p * scale + offset;
+        let parts = SceneParts {
+            name: self.name.clone(),
+            positions: self.positions.iter().map(|t| t.map(at)).collect(),
+            shading: self.shading,
+            materials: self.materials,
+            textures: self.textures,
+            lights: self
+                .lights
+                .into_iter()
+                .map(|l| PunctualLight {
+                    position: at(l.position),
+                    intensity: l.intensity * scale * scale,
+                    range: l.range.map(|r| r * scale),
+                    ..l
+                })
+                .collect(),
+            cameras: self
+                .cameras
+                .into_iter()
+                .map(|c| NamedCamera {
+                    position: at(c.position),
+                    ..c
+                })
+                .collect(),
+            daylight: self.daylight,
+            warnings: self.warnings,
+        };
+        Scene::from_parts(parts, Path::new(&self.name))
+    }
+
     /// Builds a scene from its parts: drops degenerate triangles (one warning with the
     /// count) and builds the BVH. `source` names the input in errors.
     pub fn from_parts(mut parts: SceneParts, source: &Path) -> Result<Scene, SceneError> {

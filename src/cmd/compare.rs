@@ -64,6 +64,12 @@ pub struct CompareArgs {
     /// (cold). Default: a new file in --out every run.
     #[arg(long)]
     pub holodeck: Option<PathBuf>,
+    /// Stress test: scale the scene and the CAVE by S (about the scene's origin)…
+    #[arg(long, default_value_t = 1.0)]
+    pub scale: f64,
+    /// …and move both by X,Y,Z metres.
+    #[arg(long, value_parser = super::parse::vec3, allow_hyphen_values = true)]
+    pub offset: Option<glam::Vec3>,
     /// Output folder.
     #[arg(long, default_value = "out/compare")]
     pub out: PathBuf,
@@ -86,7 +92,13 @@ pub fn run(args: CompareArgs) -> Result<()> {
     if !(args.seconds > 0.0 && args.seconds < 1e5) {
         bail!("--seconds {}: must be positive", args.seconds);
     }
-    let cave = load_cave(&args.config)?;
+    if !(args.scale > 0.0 && args.scale.is_finite()) {
+        bail!("--scale {}: must be a positive factor", args.scale);
+    }
+    let mut cave = load_cave(&args.config)?;
+    let offset = args.offset.unwrap_or_default();
+    cave.place_in_scene(args.scale, offset.as_dvec3());
+    let cave = cave;
     let wall = cave
         .walls
         .iter()
@@ -103,11 +115,12 @@ pub fn run(args: CompareArgs) -> Result<()> {
     let size = args
         .size
         .unwrap_or(((wall.pixels[0] / 8).max(8), (wall.pixels[1] / 8).max(8)));
-    let scene = Arc::new(super::render::load_scene(
-        &args.scene,
-        args.daylight.clone(),
-        false,
-    )?);
+    let scene = super::render::load_scene(&args.scene, args.daylight.clone(), false)?;
+    let scene = Arc::new(
+        scene
+            .transformed(args.scale as f32, offset)
+            .with_context(|| format!("{} scaled and moved", args.scene.display()))?,
+    );
     let mut head = open_head(
         &cave,
         args.tracker.as_deref(),
