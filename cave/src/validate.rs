@@ -118,7 +118,23 @@ fn check_rate(hz: f64) -> Result<(), String> {
     }
 }
 
+/// A dead-node timeout in (0, 10 000] ms.
+fn check_dead_node_ms(ms: f64) -> Result<(), String> {
+    if ms > 0.0 && ms <= 10_000.0 {
+        Ok(())
+    } else {
+        Err(format!("{ms} must be positive and at most 10 s"))
+    }
+}
+
 impl Cave {
+    /// Declares a node out after `ms` milliseconds instead of the config's timeout.
+    pub fn set_dead_node_ms(&mut self, ms: f64) -> Result<(), String> {
+        check_dead_node_ms(ms)?;
+        self.cluster.dead_node_ms = ms;
+        Ok(())
+    }
+
     /// Runs the master's clock at `hz` instead of the config's rate.
     pub fn set_rate(&mut self, hz: f64) -> Result<(), String> {
         check_rate(hz)?;
@@ -313,11 +329,8 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
     if let Err(e) = check_rate(c.rate_hz) {
         problems.push(format!("cluster.rate_hz: {e}"));
     }
-    if !(c.dead_node_ms > 0.0 && c.dead_node_ms <= 10_000.0) {
-        problems.push(format!(
-            "cluster.dead_node_ms: {} must be positive and at most 10 s",
-            c.dead_node_ms
-        ));
+    if let Err(e) = check_dead_node_ms(c.dead_node_ms) {
+        problems.push(format!("cluster.dead_node_ms: {e}"));
     }
     if c.master.parse::<std::net::SocketAddr>().is_err() && !c.master.contains(':') {
         problems.push(format!("cluster.master: {:?} is not HOST:PORT", c.master));

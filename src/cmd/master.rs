@@ -37,6 +37,9 @@ pub struct MasterArgs {
     /// Frame rate (default: the config's cluster.rate_hz).
     #[arg(long)]
     pub rate: Option<f64>,
+    /// The dead-node timeout in milliseconds (default: the config's cluster.dead_node_ms).
+    #[arg(long)]
+    pub dead_node_ms: Option<f64>,
     /// Before the first frame, wait up to this many seconds for a node of every wall.
     #[arg(long, default_value_t = 0.0)]
     pub wait_for_walls: f64,
@@ -201,6 +204,10 @@ pub fn run(args: MasterArgs) -> Result<()> {
     if let Some(r) = args.rate {
         cave.set_rate(r)
             .map_err(|e| anyhow::anyhow!("--rate {e}"))?;
+    }
+    if let Some(ms) = args.dead_node_ms {
+        cave.set_dead_node_ms(ms)
+            .map_err(|e| anyhow::anyhow!("--dead-node-ms {e}"))?;
     }
     if !(args.wait_for_walls >= 0.0 && args.wait_for_walls < 1e6) {
         anyhow::bail!(
