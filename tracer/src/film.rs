@@ -125,11 +125,42 @@ impl Image {
         }
         sum / (3 * self.pixels.len().max(1)) as f64
     }
+
+    /// Mean squared error against `reference`: the mean over pixels and channels of
+    /// `(a − b)²` (its square root is the RMSE).
+    pub fn mean_squared_error(&self, reference: &Image) -> f64 {
+        assert_eq!(
+            (self.width, self.height),
+            (reference.width, reference.height),
+            "image sizes differ"
+        );
+        let sum: f64 = self
+            .pixels
+            .iter()
+            .zip(&reference.pixels)
+            .map(|(a, b)| f64::from((*a - *b).length_squared()))
+            .sum();
+        sum / (3 * self.pixels.len().max(1)) as f64
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn errors_of_hand_made_images() {
+        // Reference: black and grey 0.5; image: 0.1 over black, exactly 0.5 over grey.
+        let mut reference = Image::new(2, 1);
+        reference.pixels = vec![Vec3::ZERO, Vec3::splat(0.5)];
+        let mut img = Image::new(2, 1);
+        img.pixels = vec![Vec3::splat(0.1), Vec3::splat(0.5)];
+        // 0.1² / (0 + 0.01) = 1 on each channel of the first pixel, 0 on the second.
+        assert!((img.relative_mse(&reference) - 0.5).abs() < 1e-6);
+        // 0.01 on three of six channels.
+        assert!((img.mean_squared_error(&reference) - 0.005).abs() < 1e-9);
+        assert_eq!(reference.mean_squared_error(&reference), 0.0);
+    }
 
     #[test]
     fn exr_round_trip_is_half_precise() {
