@@ -44,6 +44,9 @@ enum Command {
     /// Run a render node: one wall's display process (GPU render cache), in stereo, in a
     /// cluster (--master) or by itself (--standalone).
     Node(cmd::node::NodeArgs),
+    /// Bake, inspect, check or view a scene's Virtual Light Field.
+    #[command(subcommand)]
+    Vlf(cmd::vlf::VlfCommand),
     /// Run time against error: replay a head trace through one wall with every display
     /// method at the same ray budget, against converged references.
     Compare(cmd::compare::CompareArgs),
@@ -71,5 +74,6 @@ fn main() -> anyhow::Result<()> {
         Command::Worker(a) => cmd::worker::run(a),
         Command::Node(a) => cmd::node::run(a),
         Command::Compare(a) => cmd::compare::run(a),
+        Command::Vlf(c) => cmd::vlf::run(c),
     }
 }

@@ -290,6 +290,48 @@ impl Bvh {
         best.map(|(slot, t, u, v)| self.hit(slot, t, u, v))
     }
 
+    /// Every hit with `t < tmax`, nearest first, one per triangle (a triangle split over
+    /// several leaves is reported once). The light field follows whole lines through the
+    /// scene and needs each surface a line crosses, not only the first.
+    pub fn all_hits(&self, ray: &Ray, tmax: f32, hits: &mut Vec<Hit>) {
+        hits.clear();
+        let Some((origin, dir)) = usable(ray, tmax) else {
+            return;
+        };
+        if self.nodes.is_empty() {
+            return;
+        }
+        let box_ray = BoxRay::new(origin, safe_inverse(dir));
+        self.with_stack(|stack| {
+            let mut len = 1;
+            stack[0].child = Child::node(0);
+            while len > 0 {
+                len -= 1;
+                let child = stack[len].child;
+                if let Some(index) = child.as_node() {
+                    let (mut mask, _) = self.nodes[index].intersect(&box_ray, tmax);
+                    while mask != 0 {
+                        let slot = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack[len].child = self.nodes[index].children[slot];
+                        len += 1;
+                    }
+                } else {
+                    for slot in child.leaf_slots() {
+                        let (t, u, v) = self.triangles[slot].intersect(origin, dir, tmax);
+                        if t < tmax {
+                            hits.push(self.hit(slot, t, u, v));
+                        }
+                    }
+                }
+            }
+        });
+        hits.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
+        hits.dedup_by_key(|h| h.triangle);
+        // A triangle in several leaves can appear apart from its copy when another hit
+        // lies at the same distance; the sort by (t, triangle) keeps copies adjacent.
+    }
+
     /// True when something lies on the ray before `tmax`.
     pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
         let Some((origin, dir)) = usable(ray, tmax) else {
@@ -438,6 +480,54 @@ mod tests {
             let ray = Ray::new(Vec3::new(0.5, 0.5, 1.0), dir);
             assert!(bvh.closest_hit(&ray, f32::INFINITY).is_none());
             assert!(!bvh.occluded(&ray, f32::INFINITY));
+        }
+    }
+
+    #[test]
+    fn all_hits_equal_brute_force_in_order() {
+        // Stacked quads at z = 0, -1, ..., -5 plus tilted triangles: every crossing is
+        // found, nearest first, and agrees with testing each triangle on its own.
+        let mut tris = Vec::new();
+        for k in 0..6 {
+            for t in quad() {
+                tris.push(t.map(|p| p + Vec3::new(0.0, 0.0, -(k as f32))));
+            }
+        }
+        tris.push([
+            Vec3::new(-1.0, -1.0, -0.5),
+            Vec3::new(2.0, -1.0, -2.5),
+            Vec3::new(0.5, 2.0, -1.5),
+        ]);
+        let bvh = Bvh::build(&tris);
+        let single: Vec<Bvh> = tris.iter().map(|t| Bvh::build(&[*t])).collect();
+        let mut hits = Vec::new();
+        for i in 0..500u32 {
+            let k = i as f32 * 0.618_034;
+            let o = Vec3::new(0.5 + 0.45 * k.sin(), 0.5 + 0.45 * (1.3 * k).cos(), 1.0);
+            let d = Vec3::new(0.05 * (2.1 * k).sin(), 0.05 * (0.7 * k).cos(), -1.0).normalize();
+            let ray = Ray::new(o, d);
+            let tmax = if i % 5 == 0 { 3.2 } else { f32::INFINITY };
+            bvh.all_hits(&ray, tmax, &mut hits);
+            let mut expected: Vec<(u32, f32)> = single
+                .iter()
+                .enumerate()
+                .filter_map(|(j, b)| b.closest_hit(&ray, tmax).map(|h| (j as u32, h.t)))
+                .collect();
+            expected.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            // Two triangles of one quad share a diagonal: a ray through it may be
+            // reported by either, so compare the distances, and the triangles elsewhere.
+            assert_eq!(
+                hits.len(),
+                expected.len(),
+                "ray {i}: {hits:?} vs {expected:?}"
+            );
+            for (h, (tri, t)) in hits.iter().zip(&expected) {
+                assert!((h.t - t).abs() <= 1e-5 * (1.0 + t), "ray {i}");
+                if (h.t - t).abs() > 1e-6 {
+                    assert_eq!(h.triangle, *tri, "ray {i}");
+                }
+            }
+            assert!(hits.windows(2).all(|w| w[0].t <= w[1].t));
         }
     }
 }

@@ -168,6 +168,11 @@ impl Scene {
         self.bvh.closest_hits(rays, tmax)
     }
 
+    /// Every hit before `tmax`, nearest first, into `hits` (cleared first).
+    pub fn all_hits(&self, ray: &Ray, tmax: f32, hits: &mut Vec<Hit>) {
+        self.bvh.all_hits(ray, tmax, hits)
+    }
+
     /// Whether anything lies on the ray before `tmax`.
     pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
         self.bvh.occluded(ray, tmax)

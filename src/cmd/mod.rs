@@ -14,4 +14,5 @@ pub mod render;
 pub mod scene;
 pub mod sim;
 pub mod tracking;
+pub mod vlf;
 pub mod worker;

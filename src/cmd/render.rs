@@ -51,10 +51,17 @@ pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Resul
     Scene::load(path, &opts).with_context(|| format!("loading scene {}", path.display()))
 }
 
-pub fn run(args: RenderArgs) -> Result<()> {
-    let scene = load_scene(&args.scene, args.daylight.clone(), args.strict)?;
-    let (width, height) = args.size;
-    let (eye, [pa, pb, pc]) = match (&args.camera, args.eye, args.wall) {
+/// The view `--camera`, or `--eye` and `--wall`, give at `size` (the flags of `render`
+/// and `vlf view`).
+pub fn wall_view(
+    scene: &Scene,
+    scene_path: &Path,
+    camera: &Option<String>,
+    eye: Option<Vec3>,
+    wall: Option<[Vec3; 3]>,
+    (width, height): (u32, u32),
+) -> Result<WallView> {
+    let (eye, [pa, pb, pc]) = match (camera, eye, wall) {
         (Some(name), _, _) => {
             let cam = scene
                 .cameras
@@ -64,7 +71,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
                     let names: Vec<_> = scene.cameras.iter().map(|c| c.name.as_str()).collect();
                     format!(
                         "{} has no camera {name:?} (it has {names:?})",
-                        args.scene.display()
+                        scene_path.display()
                     )
                 })?;
             (cam.position, cam.screen(width as f32 / height as f32))
@@ -72,14 +79,27 @@ pub fn run(args: RenderArgs) -> Result<()> {
         (None, Some(eye), Some(wall)) => (eye, wall),
         _ => bail!("give --eye and --wall, or --camera"),
     };
-    let view = WallView {
+    Ok(WallView {
         eye,
         pa,
         pb,
         pc,
         width,
         height,
-    };
+    })
+}
+
+pub fn run(args: RenderArgs) -> Result<()> {
+    let scene = load_scene(&args.scene, args.daylight.clone(), args.strict)?;
+    let (width, height) = args.size;
+    let view = wall_view(
+        &scene,
+        &args.scene,
+        &args.camera,
+        args.eye,
+        args.wall,
+        args.size,
+    )?;
     let tracer = Tracer::new(Arc::new(scene), TraceSettings::default());
     let bar = ProgressBar::new(u64::from(height)).with_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} rows, {elapsed} (eta {eta})")

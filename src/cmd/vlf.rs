@@ -1,0 +1,361 @@
+//! `holocave vlf`: bake a scene's Virtual Light Field, inspect and check the file, and
+//! draw a view from it.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use glam::Vec3;
+use holocave_scene::Scene;
+use holocave_vlf::bake::{Settings, Stage, State, tail};
+use holocave_vlf::file::{VlfFile, fingerprint};
+use holocave_vlf::{Visibility, layout};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::render::{load_scene, wall_view};
+
+#[derive(Subcommand)]
+pub enum VlfCommand {
+    /// Bake a scene's light field into a .vlf file (resumes a killed bake of the same file).
+    Bake(BakeArgs),
+    /// Print what a .vlf file holds.
+    Info { file: PathBuf },
+    /// Check a .vlf file's chunks and checksums (and, with --scene, that it fits the scene).
+    Check {
+        file: PathBuf,
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        #[arg(long)]
+        daylight: Option<PathBuf>,
+    },
+    /// Draw one view from the light field alone (EXR + PNG), with `render`'s view flags.
+    View(ViewArgs),
+}
+
+#[derive(Args)]
+pub struct BakeArgs {
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Daylight file (default: <scene>.daylight.toml beside the scene, if present).
+    #[arg(long)]
+    pub daylight: Option<PathBuf>,
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Directions over the sphere (rounded up to a geodesic sphere: 42, 92, 162, 252, 362,
+    /// 492, 642, 812, 1002, …).
+    #[arg(long, default_value_t = Settings::default().directions)]
+    pub directions: usize,
+    /// Lines across each parallel subfield (N of the N × N grid).
+    #[arg(long, default_value_t = Settings::default().resolution)]
+    pub resolution: u32,
+    /// Element size in scene units (default: the lines' spacing).
+    #[arg(long)]
+    pub element_size: Option<f32>,
+    /// Next-event samples per element for small lights and the sun.
+    #[arg(long, default_value_t = Settings::default().direct_samples)]
+    pub direct_samples: u32,
+    /// Stop when the light still to propagate is below this fraction of the
+    /// inter-reflected light.
+    #[arg(long, default_value_t = Settings::default().tolerance)]
+    pub tolerance: f64,
+    /// Threads (default: all cores).
+    #[arg(long)]
+    pub workers: Option<usize>,
+}
+
+#[derive(Args)]
+pub struct ViewArgs {
+    pub file: PathBuf,
+    #[arg(long)]
+    pub scene: PathBuf,
+    #[arg(long)]
+    pub daylight: Option<PathBuf>,
+    #[arg(long, value_parser = super::parse::vec3, allow_hyphen_values = true)]
+    pub eye: Option<Vec3>,
+    #[arg(long, value_parser = super::parse::wall, allow_hyphen_values = true)]
+    pub wall: Option<[Vec3; 3]>,
+    #[arg(long, conflicts_with_all = ["eye", "wall"])]
+    pub camera: Option<String>,
+    #[arg(long, default_value = "512x512", value_parser = super::parse::size)]
+    pub size: (u32, u32),
+    /// Lookups per pixel along each axis (k × k, antialiasing).
+    #[arg(long, default_value_t = 2)]
+    pub aa: u32,
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A converged render of the same view (EXR): print the relative MSE against it.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+}
+
+pub fn run(c: VlfCommand) -> Result<()> {
+    match c {
+        VlfCommand::Bake(a) => bake(a),
+        VlfCommand::Info { file } => info(&file),
+        VlfCommand::Check {
+            file,
+            scene,
+            daylight,
+        } => check(&file, scene.as_deref(), daylight),
+        VlfCommand::View(a) => view(a),
+    }
+}
+
+/// Bakes (or finishes baking) `out` for `scene`; shared by `vlf bake` and `sim`.
+pub fn bake_file(scene: &Scene, settings: &Settings, out: &Path, quiet: bool) -> Result<VlfFile> {
+    let resume = if out.exists() {
+        let f = VlfFile::read_for(out, scene)?;
+        if f.settings != *settings {
+            bail!(
+                "{} was baked with other settings ({:?}); remove it or give the same settings",
+                out.display(),
+                f.settings
+            );
+        }
+        if f.state.converged {
+            return Ok(f);
+        }
+        eprintln!(
+            "resuming {} after bounce {} (residual {:.2e})",
+            out.display(),
+            f.state.bounces,
+            f.state.residual()
+        );
+        Some(f.state)
+    } else {
+        None
+    };
+    let element_size = layout(scene, settings).element_size;
+    let style =
+        ProgressStyle::with_template("{msg:12} [{bar:40}] {pos}/{len} {elapsed} (eta {eta})")
+            .expect("static template")
+            .progress_chars("=> ");
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(1)
+    }
+    .with_style(style);
+    let progress = |s: Stage| match s {
+        Stage::Visibility { done, total } => {
+            bar.set_message("visibility");
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        }
+        Stage::Direct { done, total } => {
+            bar.set_message("direct");
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        }
+        Stage::Bounce { bounce, residual } => {
+            bar.set_message(format!("bounce {bounce}"));
+            bar.set_length(u64::from(settings.max_bounces));
+            bar.set_position(u64::from(bounce));
+            bar.println(format!("bounce {bounce}: residual {residual:.3e}"));
+        }
+    };
+    let name = scene.name.clone();
+    let fp = fingerprint(scene);
+    let interrupted = super::interrupt::ctrl_c_flag();
+    let mut save = |state: &State| -> Result<()> {
+        VlfFile {
+            scene: name.clone(),
+            fingerprint: fp,
+            settings: *settings,
+            element_size,
+            state: state.clone(),
+        }
+        .write(out)?;
+        if interrupted.load(Ordering::Relaxed) {
+            bail!(
+                "interrupted; {} keeps bounce {} (run again to resume)",
+                out.display(),
+                state.bounces
+            );
+        }
+        Ok(())
+    };
+    let (state, stats) = holocave_vlf::bake(scene, settings, resume, &progress, &mut save)?;
+    bar.finish_and_clear();
+    if !quiet {
+        println!(
+            "{} directions ({} subfields of {}²), {} lines cast, {} stored with {} crossings and {} links; {} elements ({:.2} MB while propagating)",
+            stats.directions,
+            stats.subfields,
+            settings.resolution,
+            stats.lines_cast,
+            stats.lines_stored,
+            stats.crossings,
+            stats.links,
+            stats.elements,
+            stats.memory as f64 / 1e6
+        );
+        println!(
+            "visibility {:.1} s, direct {:.1} s, propagation {:.1} s; {} bounces, residual {:.2e} of the light that arrived, tail {:.2e} of the inter-reflected light",
+            stats.visibility.as_secs_f64(),
+            stats.direct.as_secs_f64(),
+            stats.propagation.as_secs_f64(),
+            state.bounces,
+            state.residual(),
+            state.tail()
+        );
+    }
+    Ok(VlfFile {
+        scene: name,
+        fingerprint: fp,
+        settings: *settings,
+        element_size,
+        state,
+    })
+}
+
+fn bake(a: BakeArgs) -> Result<()> {
+    if let Some(n) = a.workers {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build_global()
+            .context("setting the number of bake threads")?;
+    }
+    let scene = load_scene(&a.scene, a.daylight, false)?;
+    let settings = Settings {
+        directions: a.directions,
+        resolution: a.resolution,
+        element_size: a.element_size,
+        direct_samples: a.direct_samples,
+        tolerance: a.tolerance,
+        ..Settings::default()
+    };
+    if settings.resolution == 0 || settings.resolution > 4096 {
+        bail!("--resolution {}: give 1 to 4096 lines", settings.resolution);
+    }
+    if settings
+        .element_size
+        .is_some_and(|s| !(s > 0.0 && s.is_finite()))
+    {
+        bail!("--element-size must be a positive length");
+    }
+    let start = std::time::Instant::now();
+    bake_file(&scene, &settings, &a.out, false)?;
+    println!(
+        "wrote {} ({:.1} s)",
+        a.out.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn info(file: &Path) -> Result<()> {
+    let f = VlfFile::read(file)?;
+    let s = &f.settings;
+    println!("{}", file.display());
+    println!(
+        "  scene        {} (fingerprint {:016x})",
+        f.scene, f.fingerprint
+    );
+    println!(
+        "  settings     {} directions, {}² lines per subfield, element size {:.4}, {} direct samples, tolerance {:.1e}",
+        s.directions, s.resolution, f.element_size, s.direct_samples, s.tolerance
+    );
+    println!("  elements     {}", f.state.irradiance.len());
+    println!(
+        "  bounces      {} ({}), residual {:.3e}, tail {:.3e}",
+        f.state.bounces,
+        if f.state.converged {
+            "converged"
+        } else {
+            "not finished: `vlf bake` resumes it"
+        },
+        f.state.residual(),
+        tail(&f.state.residuals)
+    );
+    let r: Vec<String> = f
+        .state
+        .residuals
+        .iter()
+        .map(|r| format!("{r:.2e}"))
+        .collect();
+    println!("  per bounce   {}", r.join(" "));
+    Ok(())
+}
+
+fn check(file: &Path, scene: Option<&Path>, daylight: Option<PathBuf>) -> Result<()> {
+    let f = VlfFile::read(file)?;
+    if let Some(scene) = scene {
+        let scene = load_scene(scene, daylight, false)?;
+        let f = VlfFile::read_for(file, &scene)?;
+        let count = layout(&scene, &f.settings).count;
+        if count != f.state.irradiance.len() {
+            bail!(
+                "{}: {} elements, but the scene's layout at these settings has {count}",
+                file.display(),
+                f.state.irradiance.len()
+            );
+        }
+    }
+    let bad = f
+        .state
+        .irradiance
+        .iter()
+        .flatten()
+        .filter(|x| !x.is_finite() || **x < 0.0)
+        .count();
+    if bad > 0 {
+        bail!(
+            "{}: {bad} irradiance values are negative or not finite",
+            file.display()
+        );
+    }
+    println!(
+        "{}: ok ({} elements, {} bounces)",
+        file.display(),
+        f.state.irradiance.len(),
+        f.state.bounces
+    );
+    Ok(())
+}
+
+fn view(a: ViewArgs) -> Result<()> {
+    let scene = load_scene(&a.scene, a.daylight.clone(), false)?;
+    let f = VlfFile::read_for(&a.file, &scene)?;
+    let elements = layout(&scene, &f.settings);
+    if elements.count != f.state.irradiance.len() {
+        bail!(
+            "{}: element count does not match the scene's layout",
+            a.file.display()
+        );
+    }
+    let view = wall_view(&scene, &a.scene, &a.camera, a.eye, a.wall, a.size)?;
+    let start = std::time::Instant::now();
+    let image = Visibility::new(&scene, &elements).render(&view, &f.state.irradiance, a.aa);
+    let secs = start.elapsed().as_secs_f64();
+    image.write_exr(&a.out)?;
+    let png = a.out.with_extension("png");
+    image.write_png(&png, image.auto_exposure())?;
+    println!(
+        "wrote {} and {} ({:.2} s)",
+        a.out.display(),
+        png.display(),
+        secs
+    );
+    if let Some(r) = &a.reference {
+        let reference = holocave_tracer::film::Image::read_exr(r)
+            .with_context(|| format!("reading reference {}", r.display()))?;
+        if (reference.width, reference.height) != (image.width, image.height) {
+            bail!(
+                "{} is {}x{}, the view {}x{}",
+                r.display(),
+                reference.width,
+                reference.height,
+                image.width,
+                image.height
+            );
+        }
+        println!(
+            "relative MSE against {}: {:.5}",
+            r.display(),
+            image.relative_mse(&reference)
+        );
+    }
+    Ok(())
+}

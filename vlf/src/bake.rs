@@ -1,0 +1,306 @@
+//! A bake: the visibility pass (every subfield's lines), direct light, then bounces until
+//! the light not yet propagated is below the tolerance. After every bounce the caller
+//! gets the state to save, so a killed bake resumes from its last completed bounce (the
+//! visibility pass and direct light are deterministic and are simply done again).
+
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use holocave_scene::{Hit, Scene};
+use holocave_tracer::lights::Lights;
+use rayon::prelude::*;
+
+use crate::direct::direct_irradiance;
+use crate::directions::Directions;
+use crate::elements::Elements;
+use crate::propagate::{bounce, flux};
+use crate::subfield::{Grid, Sphere, Subfield, cast};
+use crate::surface::{diffuse_albedo, seen};
+
+/// What a bake is asked for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Directions over the sphere (rounded up to a geodesic sphere: 12, 42, 92, 162,
+    /// 252, 362, 492, 642, …); the subfields are half as many.
+    pub directions: usize,
+    /// Lines across each subfield (`N`; the grid is `N × N`).
+    pub resolution: u32,
+    /// Element size in scene units; `None`: the lines' spacing (`2R / N`).
+    pub element_size: Option<f32>,
+    /// Next-event samples per element for the direct light.
+    pub direct_samples: u32,
+    /// Stop when the light not yet propagated is below this fraction of the
+    /// inter-reflected light propagated so far (see [`tail`]).
+    pub tolerance: f64,
+    pub max_bounces: u32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            directions: 642,
+            resolution: 128,
+            element_size: None,
+            direct_samples: 64,
+            tolerance: 1e-3,
+            max_bounces: 200,
+        }
+    }
+}
+
+/// Where a bake stands after a bounce: everything needed to draw it, or to go on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State {
+    /// Bounces propagated so far (0: direct light only).
+    pub bounces: u32,
+    /// Irradiance of every element: all bounces so far.
+    pub irradiance: Vec<[f32; 3]>,
+    /// Radiance the last bounce sends out (what the next bounce propagates).
+    pub last: Vec<[f32; 3]>,
+    /// The flux (luminance) that first reached the surfaces: direct light, the sky along
+    /// the lines, what delta surfaces show.
+    pub arrived: f64,
+    /// The flux each bounce sent out, relative to `arrived`; the last is the residual.
+    pub residuals: Vec<f64>,
+    pub converged: bool,
+}
+
+impl State {
+    /// The light the last bounce sent out, relative to the light that first arrived.
+    pub fn residual(&self) -> f64 {
+        self.residuals.last().copied().unwrap_or(1.0)
+    }
+
+    /// The estimated light still to propagate (see [`tail`]).
+    pub fn tail(&self) -> f64 {
+        tail(&self.residuals)
+    }
+}
+
+/// What a bake reports as it goes.
+#[derive(Clone, Copy, Debug)]
+pub enum Stage {
+    Visibility { done: usize, total: usize },
+    Direct { done: usize, total: usize },
+    Bounce { bounce: u32, residual: f64 },
+}
+
+/// The cost of a bake.
+#[derive(Clone, Debug, Default)]
+pub struct Stats {
+    pub directions: usize,
+    pub subfields: usize,
+    pub lines_cast: u64,
+    pub lines_stored: u64,
+    pub crossings: u64,
+    pub links: u64,
+    pub elements: usize,
+    /// Bytes held while propagating (lines, links, element arrays).
+    pub memory: u64,
+    pub visibility: Duration,
+    pub direct: Duration,
+    pub propagation: Duration,
+}
+
+/// The light not yet propagated after the last bounce, as a fraction of the
+/// inter-reflected light propagated so far (bounces 1…k): the bounces fall off
+/// geometrically by `q = r_k / r_{k−1}`, so what is left is `r_k q / (1 − q)`. Measured
+/// against inter-reflected light rather than all light that arrived, so that sunlit
+/// outer walls that reflect into the void do not make an interior's tail look small.
+/// Infinite until two bounces are known.
+pub fn tail(residuals: &[f64]) -> f64 {
+    let k = residuals.len();
+    if k < 3 {
+        return f64::INFINITY;
+    }
+    let (r, prev) = (residuals[k - 1], residuals[k - 2]);
+    if r <= 0.0 {
+        return 0.0;
+    }
+    let q = r / prev;
+    if q >= 1.0 {
+        return f64::INFINITY;
+    }
+    let propagated: f64 = residuals[1..].iter().sum();
+    r * q / (1.0 - q) / propagated
+}
+
+/// The element layout of a bake of `scene` with `settings`.
+pub fn layout(scene: &Scene, settings: &Settings) -> Elements {
+    let sphere = Sphere::of(scene);
+    let size = settings
+        .element_size
+        .unwrap_or(2.0 * sphere.radius / settings.resolution.max(1) as f32);
+    Elements::new(scene, size)
+}
+
+/// The sky and sun as seen looking along `dir`.
+pub fn environment(lights: &Lights) -> impl Fn(Vec3) -> Vec3 + Sync + '_ {
+    move |dir: Vec3| {
+        let sky = lights.sky.as_ref().map_or(Vec3::ZERO, |s| s.radiance(dir));
+        let sun = lights.sun_along(dir).map_or(Vec3::ZERO, |(l, _)| l);
+        sky + sun
+    }
+}
+
+/// Bakes `scene`, from `resume` if given. `save` is called after each bounce.
+pub fn bake<E>(
+    scene: &Scene,
+    settings: &Settings,
+    resume: Option<State>,
+    progress: &(dyn Fn(Stage) + Sync),
+    save: &mut dyn FnMut(&State) -> Result<(), E>,
+) -> Result<(State, Stats), E> {
+    let lights = Lights::new(scene);
+    let env = environment(&lights);
+    let directions = Directions::at_least(settings.directions);
+    let sphere = Sphere::of(scene);
+    let elements = layout(scene, settings);
+    let mut stats = Stats {
+        directions: directions.len(),
+        subfields: directions.lines.len(),
+        elements: elements.count,
+        ..Stats::default()
+    };
+
+    // Visibility: every line of every subfield.
+    let start = Instant::now();
+    let total = directions.lines.len();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let subfields: Vec<Subfield> = directions
+        .lines
+        .par_iter()
+        .enumerate()
+        .map(|(k, d)| {
+            let grid = Grid::new(*d, k as u32, sphere, settings.resolution.max(1));
+            let s = cast(scene, &elements, &grid, &env);
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(Stage::Visibility { done: n, total });
+            s
+        })
+        .collect();
+    stats.visibility = start.elapsed();
+    let spacing = 2.0 * sphere.radius / settings.resolution.max(1) as f32;
+    let weight: Vec<f32> = directions
+        .pair
+        .iter()
+        .map(|[a, _]| directions.solid_angle[*a as usize] * spacing * spacing)
+        .collect();
+    let ends: Vec<(Vec3, Vec3)> = directions
+        .lines
+        .iter()
+        .map(|d| (env(-*d), env(*d)))
+        .collect();
+    for s in &subfields {
+        stats.lines_cast += u64::from(s.lines_cast);
+        stats.lines_stored += s.line_start.len() as u64 - 1;
+        stats.crossings += s.crossings.len() as u64;
+        stats.links += s.links.len() as u64;
+    }
+
+    // The elements' albedo, and which of them need light at all.
+    let (area, centre) = elements.areas_and_centres(scene);
+    let albedo: Vec<Vec3> = centre
+        .par_iter()
+        .map(|&(t, u, v)| {
+            let s = seen(
+                scene,
+                Hit {
+                    triangle: t,
+                    t: 0.0,
+                    u,
+                    v,
+                },
+                Vec3::ZERO,
+            );
+            if s.delta {
+                Vec3::ZERO
+            } else {
+                diffuse_albedo(&s.params)
+            }
+        })
+        .collect();
+    let needed: Vec<bool> = albedo.iter().map(|a| a.max_element() > 0.0).collect();
+    stats.memory = stats.crossings * 8
+        + stats.links * 28
+        + (stats.lines_stored + stats.subfields as u64) * 4
+        + elements.count as u64 * (4 + 12 * 4);
+
+    let reflect = |e: &[[f32; 3]]| -> Vec<[f32; 3]> {
+        e.iter()
+            .zip(&albedo)
+            .map(|(e, a)| (Vec3::from(*e) * *a * std::f32::consts::FRAC_1_PI).to_array())
+            .collect()
+    };
+    let mut state = match resume {
+        Some(s) => s,
+        None => {
+            let start = Instant::now();
+            let tris = elements.triangles.len();
+            let done = std::sync::atomic::AtomicUsize::new(0);
+            let direct = direct_irradiance(
+                scene,
+                &lights,
+                &elements,
+                &needed,
+                settings.direct_samples,
+                &|| {
+                    let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                    if n % 64 == 0 || n == tris {
+                        progress(Stage::Direct {
+                            done: n,
+                            total: tris,
+                        });
+                    }
+                },
+            );
+            stats.direct = start.elapsed();
+            let start = Instant::now();
+            // The first bounce: the sky along the lines and what delta surfaces show.
+            let zero = vec![[0f32; 3]; elements.count];
+            let lines = bounce(&subfields, &weight, &ends, &area, &zero, true);
+            let irradiance: Vec<[f32; 3]> = direct
+                .iter()
+                .zip(&lines)
+                .map(|(a, b)| (Vec3::from(*a) + Vec3::from(*b)).to_array())
+                .collect();
+            let arrived = flux(&irradiance, &area) / std::f64::consts::PI;
+            let last = reflect(&irradiance);
+            let first = flux(&last, &area) / arrived.max(f64::MIN_POSITIVE);
+            stats.propagation += start.elapsed();
+            let s = State {
+                bounces: 0,
+                irradiance,
+                last,
+                arrived,
+                residuals: vec![first],
+                converged: false,
+            };
+            save(&s)?;
+            s
+        }
+    };
+    let start = Instant::now();
+    while !state.converged {
+        if tail(&state.residuals) < settings.tolerance || state.bounces >= settings.max_bounces {
+            state.converged = true;
+            save(&state)?;
+            break;
+        }
+        let got = bounce(&subfields, &weight, &ends, &area, &state.last, false);
+        for (e, g) in state.irradiance.iter_mut().zip(&got) {
+            *e = (Vec3::from(*e) + Vec3::from(*g)).to_array();
+        }
+        state.last = reflect(&got);
+        state.bounces += 1;
+        let r = flux(&state.last, &area) / state.arrived.max(f64::MIN_POSITIVE);
+        state.residuals.push(r);
+        progress(Stage::Bounce {
+            bounce: state.bounces,
+            residual: r,
+        });
+        save(&state)?;
+    }
+    stats.propagation += start.elapsed();
+    Ok((state, stats))
+}

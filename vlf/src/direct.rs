@@ -1,0 +1,131 @@
+//! Direct light from the lights that are far smaller than the direction spacing — area
+//! emitters, punctual lights and the sun — by next-event estimation with the tracer's
+//! light sampling: `samples` stratified points in each element, one sample of each kind
+//! of light and one shadow ray per point. The sky is not sampled here: it is as large as
+//! the sphere of directions, and the lines carry it (`propagate`).
+
+use glam::{Vec2, Vec3};
+use holocave_scene::{Hit, Ray, Scene};
+use holocave_tracer::lights::{LightSample, Lights};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+use rayon::prelude::*;
+
+use crate::elements::{Elements, cell_index};
+use crate::surface::leave;
+
+/// The irradiance one light sample gives the point `p` on the side with normal `ns`.
+fn irradiance_from(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3, ns: Vec3) -> Vec3 {
+    let cos = ns.dot(ls.wi);
+    if cos <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let origin = leave(p, ng, ls.wi);
+    let (dir, tmax) = if ls.dist.is_finite() {
+        let target = p + ls.wi * ls.dist;
+        let d = target - origin;
+        let len = d.length();
+        let margin = 1e-4 * (1.0 + target.abs().max_element());
+        (d / len, (len - margin).max(0.0))
+    } else {
+        (ls.wi, f32::INFINITY)
+    };
+    if !dir.is_finite() || scene.occluded(&Ray::new(origin, dir), tmax) {
+        return Vec3::ZERO;
+    }
+    ls.contribution * cos
+}
+
+/// The direct irradiance of every element whose `needed` flag is set (others get zero),
+/// with `samples` points each. Deterministic: each element has its own random stream.
+pub fn direct_irradiance(
+    scene: &Scene,
+    lights: &Lights,
+    elements: &Elements,
+    needed: &[bool],
+    samples: u32,
+    on_triangle: &(dyn Fn() + Sync),
+) -> Vec<[f32; 3]> {
+    let mut out = vec![[0f32; 3]; elements.count];
+    let per_triangle: Vec<Vec<(u32, [f32; 3])>> = elements
+        .triangles
+        .par_iter()
+        .enumerate()
+        .map(|(t, cells)| {
+            let mut found = Vec::new();
+            let r = cells.res;
+            for side in 0..2u32 {
+                for j in 0..r {
+                    for i in 0..r - j {
+                        let e = cells.base(side) + cell_index(i, j, r);
+                        if !needed[e as usize] {
+                            continue;
+                        }
+                        let e_irr =
+                            element_direct(scene, lights, t as u32, side, (i, j, r), e, samples);
+                        found.push((e, e_irr.to_array()));
+                    }
+                }
+            }
+            on_triangle();
+            found
+        })
+        .collect();
+    for list in per_triangle {
+        for (e, v) in list {
+            out[e as usize] = v;
+        }
+    }
+    out
+}
+
+fn element_direct(
+    scene: &Scene,
+    lights: &Lights,
+    t: u32,
+    side: u32,
+    (i, j, r): (u32, u32, u32),
+    e: u32,
+    samples: u32,
+) -> Vec3 {
+    let mut rng = Pcg32::seed_from_u64(u64::from(e).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x5EED);
+    let k = (samples as f32).sqrt().ceil().max(1.0) as u32;
+    let diagonal = i + j == r - 1;
+    let mut sum = Vec3::ZERO;
+    for s in 0..samples {
+        let (mut a, mut b) = (
+            ((s % k) as f32 + rng.random::<f32>()) / k as f32,
+            ((s / k % k) as f32 + rng.random::<f32>()) / k as f32,
+        );
+        if diagonal && a + b > 1.0 {
+            (a, b) = (1.0 - a, 1.0 - b);
+        }
+        let (u, v) = ((i as f32 + a) / r as f32, (j as f32 + b) / r as f32);
+        let sp = scene.surface(&Hit {
+            triangle: t,
+            t: 0.0,
+            u,
+            v,
+        });
+        let ng = sp.geometric_normal;
+        let ns = if side == 0 { ng } else { -ng };
+        let p = sp.position;
+        if lights.has_area() {
+            let uc = rng.random();
+            let u2 = Vec2::new(rng.random(), rng.random());
+            if let Some(ls) = lights.sample_area(scene, p, uc, u2) {
+                sum += irradiance_from(scene, &ls, p, ng, ns);
+            }
+        }
+        for l in 0..lights.punctual.len() {
+            if let Some(ls) = lights.sample_punctual(l, p) {
+                sum += irradiance_from(scene, &ls, p, ng, ns);
+            }
+        }
+        let u2 = Vec2::new(rng.random(), rng.random());
+        if let Some(ls) = lights.sample_sun(u2) {
+            sum += irradiance_from(scene, &ls, p, ng, ns);
+        }
+    }
+    sum / samples.max(1) as f32
+}

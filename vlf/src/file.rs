@@ -1,0 +1,389 @@
+//! The `.vlf` file, with the holodeck file's conventions: little-endian, a magic number
+//! and a version, then checksummed chunks (tag, length, CRC-32, payload). It records the
+//! fingerprint of the scene it was baked for and is written to a temporary file, synced
+//! and renamed, so a file on disk is always a whole bake state. A bake saves it after
+//! every bounce; a killed bake resumes from it.
+//!
+//! Chunks: `META` (scene, settings, element count, bounces, residuals), `IRRA` (the
+//! irradiance of every element, 3 × f32), `LAST` (the radiance of the last bounce, what
+//! a resumed bake propagates next).
+
+use std::fs::{self, File};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use holocave_scene::Scene;
+
+use crate::bake::{Settings, State};
+
+const MAGIC: &[u8; 8] = b"HOLOVLF\0";
+const VERSION: u32 = 1;
+const HEADER: usize = 16;
+const CHUNK_HEADER: usize = 16;
+
+#[derive(Debug, thiserror::Error)]
+pub enum VlfError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a VLF file (bad magic number)")]
+    NotVlf { path: PathBuf },
+    #[error("{path}: VLF file version {found}, this build reads version {VERSION}")]
+    Version { path: PathBuf, found: u32 },
+    #[error("{path}: truncated in chunk {chunk} at byte {offset}")]
+    Truncated {
+        path: PathBuf,
+        chunk: String,
+        offset: u64,
+    },
+    #[error("{path}: chunk {chunk} at byte {offset} is damaged (checksum mismatch)")]
+    Checksum {
+        path: PathBuf,
+        chunk: String,
+        offset: u64,
+    },
+    #[error("{path}: chunk {chunk} at byte {offset}: {what}")]
+    Malformed {
+        path: PathBuf,
+        chunk: String,
+        offset: u64,
+        what: String,
+    },
+    #[error(
+        "{path}: baked for scene {baked_for} (fingerprint {baked:016x}), not for {scene} (fingerprint {wanted:016x})"
+    )]
+    WrongScene {
+        path: PathBuf,
+        baked_for: String,
+        baked: u64,
+        scene: String,
+        wanted: u64,
+    },
+}
+
+/// A baked (or partly baked) light field as stored.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VlfFile {
+    pub scene: String,
+    pub fingerprint: u64,
+    pub settings: Settings,
+    /// The element size used (the settings' or the default one).
+    pub element_size: f32,
+    pub state: State,
+}
+
+/// A fingerprint of everything a bake depends on: geometry, materials, lights, daylight
+/// (FNV-1a, 64 bits).
+pub fn fingerprint(scene: &Scene) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for b in bytes {
+            h ^= u64::from(*b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    for t in 0..scene.triangle_count() as u32 {
+        for p in scene.triangle(t) {
+            for c in p.to_array() {
+                eat(&c.to_le_bytes());
+            }
+        }
+        eat(&scene.triangle_shading(t).material.to_le_bytes());
+    }
+    eat(format!(
+        "{:?}{:?}{:?}",
+        scene.materials, scene.lights, scene.daylight
+    )
+    .as_bytes());
+    for t in &scene.textures {
+        eat(t.name.as_bytes());
+    }
+    h
+}
+
+fn put_f32s(out: &mut Vec<u8>, v: &[[f32; 3]]) {
+    out.reserve(v.len() * 12);
+    for x in v.iter().flatten() {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+}
+
+impl VlfFile {
+    fn meta(&self) -> Vec<u8> {
+        let mut m = Vec::new();
+        m.extend_from_slice(&self.fingerprint.to_le_bytes());
+        m.extend_from_slice(&(self.scene.len() as u32).to_le_bytes());
+        m.extend_from_slice(self.scene.as_bytes());
+        let s = &self.settings;
+        m.extend_from_slice(&(s.directions as u32).to_le_bytes());
+        m.extend_from_slice(&s.resolution.to_le_bytes());
+        m.extend_from_slice(&s.element_size.unwrap_or(0.0).to_le_bytes());
+        m.extend_from_slice(&self.element_size.to_le_bytes());
+        m.extend_from_slice(&s.direct_samples.to_le_bytes());
+        m.extend_from_slice(&s.tolerance.to_le_bytes());
+        m.extend_from_slice(&s.max_bounces.to_le_bytes());
+        let st = &self.state;
+        m.extend_from_slice(&(st.irradiance.len() as u64).to_le_bytes());
+        m.extend_from_slice(&st.bounces.to_le_bytes());
+        m.push(u8::from(st.converged));
+        m.extend_from_slice(&st.arrived.to_le_bytes());
+        m.extend_from_slice(&(st.residuals.len() as u32).to_le_bytes());
+        for r in &st.residuals {
+            m.extend_from_slice(&r.to_le_bytes());
+        }
+        m
+    }
+
+    /// Writes the file: a temporary file beside `path`, synced, then renamed over it.
+    pub fn write(&self, path: &Path) -> Result<(), VlfError> {
+        let io = |source| VlfError::Io {
+            path: path.into(),
+            source,
+        };
+        let mut bytes = Vec::new();
+        bytes.extend_from_slice(MAGIC);
+        bytes.extend_from_slice(&VERSION.to_le_bytes());
+        bytes.extend_from_slice(&3u32.to_le_bytes());
+        let mut irra = Vec::new();
+        put_f32s(&mut irra, &self.state.irradiance);
+        let mut last = Vec::new();
+        put_f32s(&mut last, &self.state.last);
+        for (tag, payload) in [(b"META", self.meta()), (b"IRRA", irra), (b"LAST", last)] {
+            bytes.extend_from_slice(tag);
+            bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+            bytes.extend_from_slice(&crc32fast::hash(&payload).to_le_bytes());
+            bytes.extend_from_slice(&payload);
+        }
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(".tmp");
+        let tmp = PathBuf::from(tmp);
+        let mut f = File::create(&tmp).map_err(io)?;
+        f.write_all(&bytes).map_err(io)?;
+        f.sync_all().map_err(io)?;
+        drop(f);
+        fs::rename(&tmp, path).map_err(io)?;
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
+            && let Ok(d) = File::open(dir)
+        {
+            let _ = d.sync_all();
+        }
+        Ok(())
+    }
+
+    /// Reads and checks a file (magic, version, every chunk's length and checksum, and
+    /// that the arrays have the element count the metadata states).
+    pub fn read(path: &Path) -> Result<VlfFile, VlfError> {
+        let bytes = fs::read(path).map_err(|source| VlfError::Io {
+            path: path.into(),
+            source,
+        })?;
+        Reader {
+            path,
+            bytes: &bytes,
+        }
+        .file()
+    }
+
+    /// Reads a file and checks that it was baked for `scene`.
+    pub fn read_for(path: &Path, scene: &Scene) -> Result<VlfFile, VlfError> {
+        let f = VlfFile::read(path)?;
+        let wanted = fingerprint(scene);
+        if f.fingerprint != wanted {
+            return Err(VlfError::WrongScene {
+                path: path.into(),
+                baked_for: f.scene,
+                baked: f.fingerprint,
+                scene: scene.name.clone(),
+                wanted,
+            });
+        }
+        Ok(f)
+    }
+}
+
+struct Reader<'a> {
+    path: &'a Path,
+    bytes: &'a [u8],
+}
+
+/// Reads fields from one chunk's payload, naming the chunk and offset on failure.
+struct Fields<'a> {
+    path: &'a Path,
+    chunk: &'static str,
+    data: &'a [u8],
+    at: usize,
+    base: usize,
+}
+
+impl Fields<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8], VlfError> {
+        if self.data.len() - self.at < n {
+            return Err(VlfError::Malformed {
+                path: self.path.into(),
+                chunk: self.chunk.into(),
+                offset: (self.base + self.at) as u64,
+                what: format!("{n} more bytes expected"),
+            });
+        }
+        self.at += n;
+        Ok(&self.data[self.at - n..self.at])
+    }
+    fn u32(&mut self) -> Result<u32, VlfError> {
+        Ok(u32::from_le_bytes(
+            self.take(4)?.try_into().unwrap_or_default(),
+        ))
+    }
+    fn u64(&mut self) -> Result<u64, VlfError> {
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().unwrap_or_default(),
+        ))
+    }
+    fn f32(&mut self) -> Result<f32, VlfError> {
+        Ok(f32::from_le_bytes(
+            self.take(4)?.try_into().unwrap_or_default(),
+        ))
+    }
+    fn f64(&mut self) -> Result<f64, VlfError> {
+        Ok(f64::from_le_bytes(
+            self.take(8)?.try_into().unwrap_or_default(),
+        ))
+    }
+}
+
+impl Reader<'_> {
+    fn chunk(&self, at: &mut usize, tag: &'static str) -> Result<(&[u8], usize), VlfError> {
+        let truncated = |offset: usize| VlfError::Truncated {
+            path: self.path.into(),
+            chunk: tag.into(),
+            offset: offset as u64,
+        };
+        let start = *at;
+        let head = self
+            .bytes
+            .get(start..start + CHUNK_HEADER)
+            .ok_or(truncated(start))?;
+        if &head[..4] != tag.as_bytes() {
+            return Err(VlfError::Malformed {
+                path: self.path.into(),
+                chunk: tag.into(),
+                offset: start as u64,
+                what: format!(
+                    "expected chunk {tag}, found {:?}",
+                    String::from_utf8_lossy(&head[..4])
+                ),
+            });
+        }
+        let len = u64::from_le_bytes(head[4..12].try_into().unwrap_or_default());
+        let crc = u32::from_le_bytes(head[12..16].try_into().unwrap_or_default());
+        let body = start + CHUNK_HEADER;
+        let end = usize::try_from(len).ok().and_then(|l| body.checked_add(l));
+        let payload = end
+            .and_then(|end| self.bytes.get(body..end))
+            .ok_or(truncated(self.bytes.len()))?;
+        if crc32fast::hash(payload) != crc {
+            return Err(VlfError::Checksum {
+                path: self.path.into(),
+                chunk: tag.into(),
+                offset: start as u64,
+            });
+        }
+        *at = body + payload.len();
+        Ok((payload, body))
+    }
+
+    fn array(
+        &self,
+        at: &mut usize,
+        tag: &'static str,
+        count: u64,
+    ) -> Result<Vec<[f32; 3]>, VlfError> {
+        let (p, base) = self.chunk(at, tag)?;
+        if p.len() as u64 != count * 12 {
+            return Err(VlfError::Malformed {
+                path: self.path.into(),
+                chunk: tag.into(),
+                offset: base as u64,
+                what: format!("{} bytes for {count} elements (12 each)", p.len()),
+            });
+        }
+        Ok(p.chunks_exact(12)
+            .map(|c| {
+                let f = |i: usize| {
+                    f32::from_le_bytes(c[i * 4..i * 4 + 4].try_into().unwrap_or_default())
+                };
+                [f(0), f(1), f(2)]
+            })
+            .collect())
+    }
+
+    fn file(&self) -> Result<VlfFile, VlfError> {
+        let path = self.path;
+        if self.bytes.len() < HEADER || &self.bytes[..8] != MAGIC {
+            if self.bytes.len() < HEADER && MAGIC.starts_with(self.bytes) {
+                return Err(VlfError::Truncated {
+                    path: path.into(),
+                    chunk: "header".into(),
+                    offset: self.bytes.len() as u64,
+                });
+            }
+            return Err(VlfError::NotVlf { path: path.into() });
+        }
+        let version = u32::from_le_bytes(self.bytes[8..12].try_into().unwrap_or_default());
+        if version != VERSION {
+            return Err(VlfError::Version {
+                path: path.into(),
+                found: version,
+            });
+        }
+        let mut at = HEADER;
+        let (meta, base) = self.chunk(&mut at, "META")?;
+        let mut m = Fields {
+            path,
+            chunk: "META",
+            data: meta,
+            at: 0,
+            base,
+        };
+        let fingerprint = m.u64()?;
+        let name_len = m.u32()? as usize;
+        let scene = String::from_utf8_lossy(m.take(name_len)?).into_owned();
+        let directions = m.u32()? as usize;
+        let resolution = m.u32()?;
+        let size = m.f32()?;
+        let element_size = m.f32()?;
+        let direct_samples = m.u32()?;
+        let tolerance = m.f64()?;
+        let max_bounces = m.u32()?;
+        let count = m.u64()?;
+        let bounces = m.u32()?;
+        let converged = m.take(1)?[0] != 0;
+        let arrived = m.f64()?;
+        let n = m.u32()? as usize;
+        let residuals = (0..n).map(|_| m.f64()).collect::<Result<Vec<_>, _>>()?;
+        let irradiance = self.array(&mut at, "IRRA", count)?;
+        let last = self.array(&mut at, "LAST", count)?;
+        Ok(VlfFile {
+            scene,
+            fingerprint,
+            settings: Settings {
+                directions,
+                resolution,
+                element_size: (size > 0.0).then_some(size),
+                direct_samples,
+                tolerance,
+                max_bounces,
+            },
+            element_size,
+            state: State {
+                bounces,
+                irradiance,
+                last,
+                arrived,
+                residuals,
+                converged,
+            },
+        })
+    }
+}
