@@ -551,6 +551,7 @@ fn fake_master_accept(l: &TcpListener) -> (TcpStream, Sealer, Opener) {
                 node_id: 1,
                 rate_hz: RATE,
                 holodeck: None,
+                vlf: None,
             },
         )
         .unwrap();
@@ -671,6 +672,7 @@ fn garbage_from_the_master_makes_a_node_reconnect_and_serve_the_honest_master() 
             .unwrap()
         {
             NodeMsg::Ready { frame: f, .. } => assert_eq!(f, frame),
+            other => panic!("frame {frame}: {other:?} instead of Ready"),
         }
         sealer
             .write(&mut s, &MasterMsg::Swap { frame }, MAX_CLUSTER_FRAME)

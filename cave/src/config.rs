@@ -165,4 +165,7 @@ pub struct WallConfig {
     pub stereo: StereoMode,
     /// The render node that drives it.
     pub node: String,
+    /// Its windows (`[[wall.window]]`); none: one in the stereo mode's default layout.
+    #[serde(default, rename = "window", skip_serializing_if = "Vec::is_empty")]
+    pub windows: Vec<crate::window::WindowConfig>,
 }

@@ -9,7 +9,9 @@
 pub mod config;
 pub mod frustum;
 pub mod validate;
+pub mod window;
 
 pub use config::CaveFile;
 pub use frustum::{CaveFrusta, Eye, Frustum, FrustumFault, eye_position, off_axis, wall_frusta};
 pub use validate::{Cave, ConfigError, MIN_EYE_DISTANCE, Wall, load_cave, parse_cave};
+pub use window::{Fullscreen, Layout, Monitor, PresentMode, WindowSettings};

@@ -48,6 +48,8 @@ pub struct Wall {
     pub pixels: [u32; 2],
     pub stereo: StereoMode,
     pub node: String,
+    /// Where and how the wall is shown when its node opens windows.
+    pub windows: Vec<crate::window::WindowSettings>,
 }
 
 impl Wall {
@@ -77,6 +79,7 @@ impl Wall {
             pixels,
             stereo,
             node: node.to_owned(),
+            windows: vec![crate::window::WindowSettings::for_stereo(stereo)],
         }
     }
 
@@ -280,13 +283,14 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
             ));
             continue;
         }
-        let wall = Wall::new(
+        let mut wall = Wall::new(
             &w.name,
             [pa, pb, pc],
             [w.pixels[0].max(0) as u32, w.pixels[1].max(0) as u32],
             w.stereo,
             &w.node,
         );
+        wall.windows = crate::window::check_windows(&at, w.stereo, &w.windows, &mut problems);
         let d = wall.distance(inside);
         if d <= 0.0 {
             problems.push(format!(

@@ -87,6 +87,7 @@ fn cluster(frames: u64) -> Summary {
             seconds: None,
             stop_at_end_of_log: false,
             holodeck: None,
+            vlf: None,
             states_log: None,
             status_every: Duration::from_secs(3600),
             stop: Arc::new(AtomicBool::new(false)),

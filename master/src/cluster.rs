@@ -51,6 +51,8 @@ pub struct MasterOptions {
     pub stop_at_end_of_log: bool,
     /// The holodeck server's address for displays, told to every node.
     pub holodeck: Option<String>,
+    /// The light field file the walls draw under their samples, told to every node.
+    pub vlf: Option<String>,
     /// Append every frame state (as its wire frame) to this file.
     pub states_log: Option<PathBuf>,
     /// Print a status line this often.
@@ -281,6 +283,15 @@ impl Master<'_> {
                     self.arrivals.push((id, Instant::now()));
                 }
                 self.barrier.ready(id, frame, stats);
+            }
+            Event::Msg {
+                id,
+                msg: NodeMsg::Leaving { reason },
+            } => {
+                if let Some(l) = self.links.remove(&id) {
+                    tracing::info!("node {id} (wall {:?}) leaves: {reason}", l.wall);
+                }
+                self.forget(id);
             }
             Event::Left { id, why } => {
                 if let Some(l) = self.links.remove(&id) {
@@ -553,6 +564,7 @@ async fn run_frames(
             node_id: 0,
             rate_hz: cave.cluster.rate_hz,
             holodeck: opts.holodeck.clone(),
+            vlf: opts.vlf.clone(),
         },
         next_id: AtomicU64::new(1),
         handshakes: AtomicUsize::new(0),

@@ -105,4 +105,6 @@ pub enum MasterMsg {
 pub enum NodeMsg {
     /// The frame is drawn and waits for Swap.
     Ready { frame: u64, stats: NodeStats },
+    /// The node is going away (its window was closed): no longer wait for it.
+    Leaving { reason: String },
 }

@@ -85,6 +85,9 @@ pub struct Welcome {
     pub rate_hz: f64,
     /// Where the holodeck server takes displays, if the master runs one.
     pub holodeck: Option<String>,
+    /// The baked light field the walls draw under their samples (a path every node
+    /// reads), if the master names one.
+    pub vlf: Option<String>,
 }
 
 /// An authenticated link, as the connecting side sees it after the handshake.
@@ -317,6 +320,7 @@ mod tests {
             node_id: 7,
             rate_hz: 60.0,
             holodeck: None,
+            vlf: None,
         }
     }
 

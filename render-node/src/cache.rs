@@ -20,6 +20,7 @@ use holocave_tracer::film::Image;
 
 use crate::EyeView;
 use crate::gpu::Gpu;
+use holocave_vlf::Lookup;
 
 #[path = "shaders/age.rs"]
 mod age;
@@ -31,12 +32,15 @@ mod filter;
 mod insert;
 #[path = "shaders/project.rs"]
 mod project;
+#[path = "shaders/vlf.rs"]
+mod vlf;
 
 use age::Age;
 use dither::Dither;
 use filter::Filter;
 use insert::Insert;
 use project::Project;
+use vlf::VlfPass;
 
 /// Points per replacement group (the oldest of a group is replaced, groups round robin).
 pub const GROUP_SIZE: u32 = 8;
@@ -167,6 +171,7 @@ struct EyeBuffers {
     width: u32,
     height: u32,
     params: wgpu::Buffer,
+    key: wgpu::Buffer,
     color: wgpu::Buffer,
     priority: wgpu::Buffer,
     chosen_img: wgpu::Buffer,
@@ -186,6 +191,44 @@ struct Passes {
     dither: Dither,
     insert: Insert,
     age: Age,
+    vlf: VlfPass,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct VlfParams {
+    width: u32,
+    height: u32,
+    index_bits: u32,
+    prior: f32,
+}
+
+/// A pixel's light-field lookup as the GPU reads it (`Lookup` in `shaders/vlf.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuLookup {
+    base: u32,
+    res: u32,
+    uv_weight_emitted: [f32; 8],
+}
+
+impl From<&Lookup> for GpuLookup {
+    fn from(l: &Lookup) -> Self {
+        let [wr, wg, wb] = l.weight;
+        let [er, eg, eb] = l.emitted;
+        GpuLookup {
+            base: l.base,
+            res: l.res.max(1),
+            uv_weight_emitted: [l.u, l.v, wr, wg, wb, er, eg, eb],
+        }
+    }
+}
+
+/// The Virtual Light Field on the GPU: the baked irradiance, and per eye its lookups.
+struct VlfBuffers {
+    /// Kept alive for the bind groups.
+    _irradiance: wgpu::Buffer,
+    eyes: Vec<(wgpu::Buffer, wgpu::Buffer, wgpu::BindGroup)>,
 }
 
 /// The render cache of one render node: points shared by its eyes, images per eye.
@@ -206,6 +249,7 @@ pub struct RenderCache {
     age_bg: wgpu::BindGroup,
     eyes: Vec<EyeBuffers>,
     passes: Passes,
+    vlf: Option<VlfBuffers>,
 }
 
 fn groups(n: u32, size: u32) -> u32 {
@@ -309,6 +353,7 @@ impl RenderCache {
             dither: Dither::new(&gpu),
             insert: Insert::new(&gpu),
             age: Age::new(&gpu),
+            vlf: VlfPass::new(&gpu),
         };
 
         let eyes: Vec<EyeBuffers> = eyes
@@ -349,6 +394,7 @@ impl RenderCache {
                     width,
                     height,
                     params,
+                    key,
                     color,
                     priority,
                     chosen_img,
@@ -380,7 +426,94 @@ impl RenderCache {
             age_bg,
             eyes,
             passes,
+            vlf: None,
         }
+    }
+
+    /// Draws a Virtual Light Field under the cache's samples from now on: `irradiance` of
+    /// every element (from a `.vlf` file), worth `prior` samples in each pixel (see
+    /// `shaders/vlf.wgsl`). Each frame needs every eye's lookups ([`Self::set_lookups`]).
+    pub fn set_vlf(&mut self, irradiance: &[[f32; 3]], prior: f32) {
+        let flat: &[f32] = bytemuck::cast_slice(irradiance);
+        let data: &[f32] = if flat.is_empty() { &[0.0; 3] } else { flat };
+        let irr = self
+            .gpu
+            .storage_init("vlf irradiance", bytemuck::cast_slice(data));
+        let eyes = self
+            .eyes
+            .iter()
+            .map(|e| {
+                let n = u64::from(e.width) * u64::from(e.height);
+                let params = self
+                    .gpu
+                    .uniform("vlf params", std::mem::size_of::<VlfParams>() as u64);
+                let p = VlfParams {
+                    width: e.width,
+                    height: e.height,
+                    index_bits: self.index_bits,
+                    prior,
+                };
+                self.gpu
+                    .queue
+                    .write_buffer(&params, 0, bytemuck::bytes_of(&p));
+                let lookups = self
+                    .gpu
+                    .storage("vlf lookups", std::mem::size_of::<GpuLookup>() as u64 * n);
+                let bg = self.passes.vlf.bind_group(
+                    &self.gpu,
+                    [
+                        &params,
+                        &lookups,
+                        &irr,
+                        &self.points,
+                        &e.key,
+                        &e.color,
+                        &e.priority,
+                        &e.counters,
+                    ],
+                );
+                (params, lookups, bg)
+            })
+            .collect();
+        self.vlf = Some(VlfBuffers {
+            _irradiance: irr,
+            eyes,
+        });
+    }
+
+    /// Whether a light field is drawn under the samples.
+    pub fn has_vlf(&self) -> bool {
+        self.vlf.is_some()
+    }
+
+    /// What each pixel of eye `eye` sees of the light field this frame (one per pixel,
+    /// rows from the top). Does nothing without [`Self::set_vlf`].
+    pub fn set_lookups(&mut self, eye: usize, lookups: &[Lookup]) {
+        let Some(v) = &self.vlf else { return };
+        let e = &self.eyes[eye];
+        assert_eq!(
+            lookups.len(),
+            (e.width * e.height) as usize,
+            "one lookup per pixel"
+        );
+        let gpu: Vec<GpuLookup> = lookups.iter().map(GpuLookup::from).collect();
+        self.gpu
+            .queue
+            .write_buffer(&v.eyes[eye].1, 0, bytemuck::cast_slice(&gpu));
+    }
+
+    /// The light field alone in eye `eye` (its lookups shaded on the GPU): the shader's
+    /// side of the CPU/GPU comparison, and a picture of the base itself. Overwrites the
+    /// eye's image until the next [`Self::draw`].
+    pub fn vlf_image(&mut self, eye: usize) -> Option<Image> {
+        let v = self.vlf.as_ref()?;
+        let e = &self.eyes[eye];
+        let mut r = Recorder::new(&self.gpu, false);
+        self.passes
+            .vlf
+            .lookup(&mut r, &v.eyes[eye].2, e.width * e.height);
+        r.submit();
+        Some(self.image(eye))
     }
 
     pub fn gpu(&self) -> &Gpu {
@@ -430,7 +563,7 @@ impl RenderCache {
         }
         let p = &self.passes;
         let mut r = Recorder::new(&self.gpu, timed);
-        for e in &self.eyes {
+        for (i, e) in self.eyes.iter().enumerate() {
             let n = e.width * e.height;
             p.project.clear(&mut r, &e.project_bg, n);
             r.step(&mut times.clear);
@@ -439,6 +572,9 @@ impl RenderCache {
             p.filter.cull(&mut r, &e.filter_bg, n);
             r.step(&mut times.depth_cull);
             p.filter.interpolate(&mut r, &e.filter_bg, n);
+            if let Some(v) = &self.vlf {
+                p.vlf.blend(&mut r, &v.eyes[i].2, n);
+            }
             r.step(&mut times.interpolation_priority);
             p.dither.dither(&mut r, &e.dither_bg, e.width, e.height);
             r.step(&mut times.dither);
@@ -493,6 +629,12 @@ impl RenderCache {
             self.passes.insert.insert(&mut r, bg, chunk.len() as u32);
             r.submit();
         }
+    }
+
+    /// The buffer holding eye `eye`'s image on the GPU (`vec4<f32>` per pixel, row by row
+    /// from the top: linear radiance and coverage), for drawing it into a window.
+    pub fn color_buffer(&self, eye: usize) -> &wgpu::Buffer {
+        &self.eyes[eye].color
     }
 
     /// The image eye `eye` shows (linear radiance; holes black).

@@ -112,6 +112,19 @@ impl MasterLink {
         }
     }
 
+    /// Tells the master this node is going away (so it is not waited for).
+    pub fn leaving(&mut self, reason: &str) -> Result<(), LinkError> {
+        self.sealer
+            .write(
+                &mut self.writer,
+                &NodeMsg::Leaving {
+                    reason: reason.to_owned(),
+                },
+                MAX_CLUSTER_FRAME,
+            )
+            .map_err(|e| LinkError::Lost(e.to_string()))
+    }
+
     /// Tells the master that `frame` is drawn.
     pub fn ready(&mut self, frame: u64, stats: NodeStats) -> Result<(), LinkError> {
         self.sealer
@@ -137,6 +150,32 @@ pub fn eye_views(state: &FrameState, wall: &Wall, size: (u32, u32)) -> Option<Ve
     )
 }
 
+/// What a node does with the frames it draws. Headless, `show` writes a swapped frame (a
+/// closure is one); a window `prepare`s each frame before Ready (draws it into the surface
+/// and waits for the GPU), `show`s it on Swap (present), and `abandon`s it when a newer
+/// frame state comes first.
+pub trait Presentation {
+    /// After drawing, before Ready.
+    fn prepare(&mut self, _state: &FrameState, _display: &mut DisplayProcess) {}
+    /// On the frame's Swap.
+    fn show(&mut self, state: &FrameState, display: &mut DisplayProcess) -> Result<(), String>;
+    /// The prepared frame will not be swapped.
+    fn abandon(&mut self, _state: &FrameState) {}
+    /// The user asked the node to stop (a window closed): `Some(reason)`.
+    fn closed(&self) -> Option<String> {
+        None
+    }
+}
+
+impl<F> Presentation for F
+where
+    F: FnMut(&FrameState, &mut DisplayProcess) -> Result<(), String>,
+{
+    fn show(&mut self, state: &FrameState, display: &mut DisplayProcess) -> Result<(), String> {
+        self(state, display)
+    }
+}
+
 /// What the node has done so far (kept across reconnections).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NodeCounters {
@@ -155,6 +194,8 @@ pub enum Ended {
     /// The display's holodeck server went away (the master link is still up): the caller
     /// makes a new display and follows on.
     SourceLost,
+    /// The user closed the node (its window); the master has been told.
+    Closed(String),
 }
 
 /// Follows the master's frames until it shuts down or the link fails. `present` shows a
@@ -168,11 +209,15 @@ pub fn follow(
     size: (u32, u32),
     slow_by: Duration,
     counters: &mut NodeCounters,
-    present: &mut dyn FnMut(&FrameState, &mut DisplayProcess) -> Result<(), String>,
+    present: &mut dyn Presentation,
 ) -> Ended {
     let mut next: Option<FrameState> = None;
     let mut stats = NodeStats::default();
     loop {
+        if let Some(reason) = present.closed() {
+            let _ = link.leaving(&reason);
+            return Ended::Closed(reason);
+        }
         let mut state = match next.take() {
             Some(s) => s,
             None => match link.recv(Duration::from_secs(1)) {
@@ -211,6 +256,7 @@ pub fn follow(
         if !slow_by.is_zero() {
             std::thread::sleep(slow_by);
         }
+        present.prepare(&state, display);
         stats.draw_us = t.elapsed().as_micros().min(u32::MAX as u128) as u32;
         stats.samples = report.inserted.min(u32::MAX as usize) as u32;
         stats.presented = counters.presented;
@@ -223,21 +269,34 @@ pub fn follow(
         loop {
             match link.recv(Duration::from_secs(1)) {
                 Ok(Some(MasterMsg::Swap { frame })) if frame == state.frame => {
-                    if let Err(e) = present(&state, display) {
+                    if let Err(e) = present.show(&state, display) {
                         tracing::error!("frame {}: {e}", state.frame);
                     }
                     counters.presented += 1;
                     counters.last_presented = Some(frame);
                     break;
                 }
-                Ok(Some(MasterMsg::Swap { .. })) | Ok(None) => {}
+                Ok(Some(MasterMsg::Swap { .. })) | Ok(None) => {
+                    if let Some(reason) = present.closed() {
+                        present.abandon(&state);
+                        let _ = link.leaving(&reason);
+                        return Ended::Closed(reason);
+                    }
+                }
                 Ok(Some(MasterMsg::Frame(s))) => {
                     counters.skipped += 1;
+                    present.abandon(&state);
                     next = Some(s);
                     break;
                 }
-                Ok(Some(MasterMsg::Shutdown { reason })) => return Ended::Shutdown(reason),
-                Err(e) => return Ended::Lost(e),
+                Ok(Some(MasterMsg::Shutdown { reason })) => {
+                    present.abandon(&state);
+                    return Ended::Shutdown(reason);
+                }
+                Err(e) => {
+                    present.abandon(&state);
+                    return Ended::Lost(e);
+                }
             }
         }
     }

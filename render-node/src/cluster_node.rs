@@ -6,16 +6,19 @@
 //! a wall that shows something beats a black one.
 
 use std::net::{IpAddr, SocketAddr, ToSocketAddrs};
-use std::sync::Arc;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use holocave_cave::{Eye, Wall};
 use holocave_holodeck::auth::Credentials;
-use holocave_protocol::cluster::FrameState;
+use holocave_scene::Scene;
 use holocave_tracer::Tracer;
 
-use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, follow};
-use crate::{DisplayProcess, Gpu, HolodeckSource, PixelTracer, RenderCache, RenderNodeError};
+use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
+use crate::{
+    DisplayProcess, Gpu, HolodeckSource, PixelTracer, RenderCache, RenderNodeError, VlfBase,
+};
 
 /// Pause between attempts to reach the master.
 const RETRY: Duration = Duration::from_millis(100);
@@ -58,6 +61,43 @@ pub struct DisplayMaker {
     master_ip: Option<IpAddr>,
     /// What the holodeck server asks of its displays: the cluster's name and secret.
     credentials: Credentials,
+    /// The device to draw on (the windows' one); `None`: a new one per display.
+    gpu: Option<Gpu>,
+    /// The light field to draw under the samples: the node's own file, else the one the
+    /// master names (read once per path).
+    vlf: Option<VlfChoice>,
+}
+
+struct VlfChoice {
+    scene: Arc<Scene>,
+    own: Option<PathBuf>,
+    prior: f32,
+    loaded: Mutex<Option<(PathBuf, Arc<VlfBase>)>>,
+}
+
+impl VlfChoice {
+    /// The light field to draw given what the master names; `None` when there is none or
+    /// it cannot be read (said in the log: the wall then shows its samples alone).
+    fn base(&self, named: Option<&str>) -> Option<Arc<VlfBase>> {
+        let path = self.own.clone().or_else(|| named.map(PathBuf::from))?;
+        let mut loaded = self.loaded.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((p, b)) = loaded.as_ref()
+            && *p == path
+        {
+            return Some(b.clone());
+        }
+        match VlfBase::open(&path, self.scene.clone()) {
+            Ok(b) => {
+                let b = Arc::new(b);
+                *loaded = Some((path, b.clone()));
+                Some(b)
+            }
+            Err(e) => {
+                tracing::error!("{e}; this wall draws its samples without the light field");
+                None
+            }
+        }
+    }
 }
 
 impl DisplayMaker {
@@ -92,15 +132,56 @@ impl DisplayMaker {
                 cluster: member.cluster.clone(),
                 secret: member.secret.clone(),
             },
+            gpu: None,
+            vlf: None,
         }
+    }
+
+    /// Draws a light field under the samples: `own` if given, else the one the master
+    /// names; it must have been baked for `scene`.
+    pub fn with_vlf(mut self, scene: Arc<Scene>, own: Option<PathBuf>, prior: f32) -> DisplayMaker {
+        self.vlf = Some(VlfChoice {
+            scene,
+            own,
+            prior,
+            loaded: Mutex::new(None),
+        });
+        self
+    }
+
+    /// Draws on `gpu` (the device that presents to the node's windows).
+    pub fn with_gpu(mut self, gpu: Gpu) -> DisplayMaker {
+        self.gpu = Some(gpu);
+        self
     }
 
     /// The display, and the holodeck address it draws from (`None`: tracing locally).
     fn display(
         &self,
         holodeck: Option<&str>,
+        vlf: Option<&str>,
     ) -> Result<(Option<String>, DisplayProcess), RenderNodeError> {
-        let cache = RenderCache::for_wall(Gpu::new()?, self.size, self.eyes, self.samples);
+        let (using, display) = self.sampled_display(holodeck)?;
+        let base = self
+            .vlf
+            .as_ref()
+            .and_then(|c| Some((c.base(vlf)?, c.prior)));
+        Ok(match base {
+            Some((b, prior)) => (using, display.with_vlf(b, prior)),
+            None => (using, display),
+        })
+    }
+
+    /// The display without a light field, and the holodeck address it draws from.
+    fn sampled_display(
+        &self,
+        holodeck: Option<&str>,
+    ) -> Result<(Option<String>, DisplayProcess), RenderNodeError> {
+        let gpu = match &self.gpu {
+            Some(g) => g.clone(),
+            None => Gpu::new()?,
+        };
+        let cache = RenderCache::for_wall(gpu, self.size, self.eyes, self.samples);
         let local = |cache| {
             let source = PixelTracer::new(self.tracer.clone(), self.seed);
             DisplayProcess::threaded(cache, source, self.samples)
@@ -145,7 +226,7 @@ impl DisplayMaker {
 pub fn run(
     member: &Membership,
     maker: &DisplayMaker,
-    present: &mut dyn FnMut(&FrameState, &mut DisplayProcess) -> Result<(), String>,
+    present: &mut dyn Presentation,
 ) -> Result<(NodeCounters, String), NodeError> {
     let wall = &member.wall;
     // The display and the holodeck it draws from (`None`: tracing locally).
@@ -195,7 +276,7 @@ pub fn run(
                 Some((using, d)) if using == wanted && !d.source_lost() => (using, d),
                 old => {
                     drop(old);
-                    maker.display(wanted.as_deref())?
+                    maker.display(wanted.as_deref(), link.welcome.vlf.as_deref())?
                 }
             };
             let display = &mut display.insert(made).1;
@@ -213,6 +294,7 @@ pub fn run(
                     wall.name
                 ),
                 Ended::Shutdown(reason) => return Ok((counters, reason)),
+                Ended::Closed(reason) => return Ok((counters, format!("left: {reason}"))),
                 Ended::Lost(e) => {
                     tracing::warn!("wall {:?}: {e}; reconnecting", wall.name);
                     since = Instant::now();

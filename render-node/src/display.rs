@@ -2,6 +2,7 @@
 //! pixels, have them traced, insert the samples; and the files a headless node writes.
 
 use std::path::Path;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use holocave_tracer::film::Image;
@@ -9,7 +10,7 @@ use holocave_tracer::film::Image;
 use crate::cache::{RenderCache, StepTimes};
 use crate::holodeck::HolodeckSource;
 use crate::source::{PixelTracer, TracerThread};
-use crate::{EyeView, RenderNodeError};
+use crate::{EyeView, RenderNodeError, VlfBase};
 
 /// What one frame did.
 #[derive(Clone, Debug, Default)]
@@ -26,6 +27,8 @@ pub struct FrameReport {
     pub insert: Duration,
     /// Per-step times (only when timed).
     pub steps: StepTimes,
+    /// The light field's visibility: one ray cast per pixel of every eye (zero without one).
+    pub vlf: Duration,
 }
 
 /// Where a display process gets its samples.
@@ -46,6 +49,7 @@ pub struct DisplayProcess {
     /// Samples asked for per eye and frame.
     pub samples_per_eye: u32,
     exposure: Option<f32>,
+    vlf: Option<Arc<VlfBase>>,
 }
 
 impl DisplayProcess {
@@ -62,6 +66,7 @@ impl DisplayProcess {
             sampler: Sampler::Inline(source),
             samples_per_eye,
             exposure: None,
+            vlf: None,
         }
     }
 
@@ -74,6 +79,7 @@ impl DisplayProcess {
             sampler: Sampler::Thread(TracerThread::spawn(source, eyes)),
             samples_per_eye,
             exposure: None,
+            vlf: None,
         }
     }
 
@@ -84,7 +90,20 @@ impl DisplayProcess {
             sampler: Sampler::Holodeck(source),
             samples_per_eye,
             exposure: None,
+            vlf: None,
         }
+    }
+
+    /// Draws the light field `base` under the samples from now on, worth `prior` samples
+    /// per pixel (see `shaders/vlf.wgsl`).
+    pub fn with_vlf(mut self, base: Arc<VlfBase>, prior: f32) -> Self {
+        self.cache.set_vlf(base.irradiance(), prior);
+        self.vlf = Some(base);
+        self
+    }
+
+    pub fn vlf(&self) -> Option<&VlfBase> {
+        self.vlf.as_deref()
     }
 
     /// One frame: draw every eye and choose its pixels; inline, trace and insert them (the
@@ -106,6 +125,13 @@ impl DisplayProcess {
             }
         }
         report.insert += start.elapsed();
+        if let Some(base) = &self.vlf {
+            let t = Instant::now();
+            for (eye, view) in views.iter().enumerate() {
+                self.cache.set_lookups(eye, &base.lookups(view));
+            }
+            report.vlf = t.elapsed();
+        }
         let t = Instant::now();
         let targets = vec![self.samples_per_eye; views.len()];
         let chosen = self.cache.draw(views, &targets, timed, &mut report.steps);

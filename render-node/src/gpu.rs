@@ -9,9 +9,11 @@ use wgpu::util::DeviceExt;
 use crate::RenderNodeError;
 
 /// A device and its queue, on whichever adapter exists (a real GPU, or Mesa's lavapipe
-/// or llvmpipe on machines without one).
+/// or llvmpipe on machines without one). Cloning shares the same device.
+#[derive(Clone)]
 pub struct Gpu {
-    _instance: wgpu::Instance,
+    pub(crate) instance: wgpu::Instance,
+    pub(crate) raw_adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     /// Adapter name, backend and driver, for logs and benchmark tables.
@@ -58,6 +60,14 @@ impl Gpu {
             }
         }
         let (instance, adapter) = found.ok_or(RenderNodeError::NoAdapter(last_error))?;
+        Gpu::from_adapter(instance, adapter)
+    }
+
+    /// A device on `adapter` of `instance` (which made the surfaces it will present to).
+    pub(crate) fn from_adapter(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+    ) -> Result<Gpu, RenderNodeError> {
         let info = adapter.get_info();
         let name = format!(
             "{} ({:?}, {} {})",
@@ -78,7 +88,8 @@ impl Gpu {
         .map_err(|e| RenderNodeError::Device(e.to_string()))?;
         tracing::info!("render node GPU: {name}");
         Ok(Gpu {
-            _instance: instance,
+            instance,
+            raw_adapter: adapter,
             device,
             queue,
             adapter: name,

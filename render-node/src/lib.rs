@@ -11,7 +11,12 @@
 //! - [`cluster`]: the node's link to the master and the frame cycle (ready, swap);
 //! - [`cluster_node`]: joining, reconnecting, and the display for the named holodeck;
 //! - [`standalone`]: one wall by itself, on its own clock and head poses;
-//! - [`mosaic`]: the unfolded CAVE as one picture.
+//! - [`mosaic`]: the unfolded CAVE as one picture;
+//! - [`vlf`]: the Virtual Light Field under the cache (visibility per pixel; shading and
+//!   blending on the GPU in `shaders/vlf.wgsl`);
+//! - [`window`]: the node's windows (winit) and their GPU device;
+//! - [`present`]: drawing a wall into a window (layout, tone mapping on the GPU) and
+//!   presenting it, split into prepare / show / abandon for swap lock.
 
 pub mod cache;
 pub mod cluster;
@@ -20,10 +25,13 @@ pub mod display;
 pub mod gpu;
 pub mod holodeck;
 pub mod mosaic;
+pub mod present;
 pub mod source;
 pub mod standalone;
 pub mod tonemap;
 pub mod view;
+pub mod vlf;
+pub mod window;
 
 pub use cache::{NewSample, RenderCache, StepTimes};
 pub use display::{DisplayProcess, FrameReport, Sampler};
@@ -32,6 +40,7 @@ pub use holodeck::{HolodeckOptions, HolodeckSource};
 pub use source::{PixelTracer, TracerThread};
 pub use tonemap::{ToneMapper, ToneMode};
 pub use view::EyeView;
+pub use vlf::VlfBase;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RenderNodeError {
@@ -41,4 +50,6 @@ pub enum RenderNodeError {
     Device(String),
     #[error("writing {path}: {message}")]
     Write { path: String, message: String },
+    #[error("light field {0}")]
+    Vlf(String),
 }

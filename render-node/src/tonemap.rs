@@ -206,6 +206,43 @@ impl Mapping {
     }
 }
 
+/// A mapping as a shader applies it (`shaders/tonemap.wgsl`): the same curve as
+/// [`Mapping::display_luminance`], in numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToneCurve {
+    /// Linear (`log_scale`) instead of the histogram's cumulative distribution (`cdf`).
+    pub linear: bool,
+    pub log_min: f32,
+    pub log_max: f32,
+    pub log_scale: f32,
+    /// The cumulative distribution at each bin's lower edge (`BINS + 1` entries).
+    pub cdf: [f32; BINS + 1],
+}
+
+/// Bins of the log-luminance histogram.
+pub const TONE_BINS: usize = BINS;
+
+impl Mapping {
+    /// The curve in the numbers a shader takes.
+    pub fn curve(&self) -> ToneCurve {
+        let mut c = ToneCurve {
+            linear: false,
+            log_min: self.log_min,
+            log_max: self.log_max,
+            log_scale: 0.0,
+            cdf: [0.0; BINS + 1],
+        };
+        match &self.curve {
+            Curve::Linear { log_scale } => {
+                c.linear = true;
+                c.log_scale = *log_scale;
+            }
+            Curve::Histogram(cdf) => c.cdf.copy_from_slice(cdf),
+        }
+        c
+    }
+}
+
 /// Tone mapping held between recomputations.
 #[derive(Clone, Debug)]
 pub struct ToneMapper {
@@ -244,6 +281,12 @@ impl ToneMapper {
             return true;
         }
         false
+    }
+
+    /// The current mapping's curve for a shader (`None`: no mapping yet; the picture is
+    /// black).
+    pub fn curve(&self) -> Option<ToneCurve> {
+        self.mapping.as_ref().map(Mapping::curve)
     }
 
     /// The 8-bit sRGB picture of `image` under the current mapping (black without one).

@@ -47,6 +47,17 @@ pub fn run(cmd: CaveCommand) -> Result<()> {
             w.distance(cave.inside)
         );
     }
+    println!("\nwindows (holocave node --window):");
+    for w in &cave.walls {
+        for (k, win) in w.windows.iter().enumerate() {
+            let (x, y) = win.window_size((w.pixels[0], w.pixels[1]));
+            println!(
+                "{:<9} window {k}: {} ({x}x{y} at the wall's pixels)",
+                w.name,
+                win.describe()
+            );
+        }
+    }
     let head = Pose::new(cave.inside.as_vec3(), Quat::IDENTITY);
     let mut frusta = CaveFrusta::new(&cave);
     frusta.update(&cave, &head);

@@ -34,6 +34,10 @@ pub struct MasterArgs {
     /// Append every frame state, as sent, to this file.
     #[arg(long)]
     pub states: Option<PathBuf>,
+    /// A baked light field (`holocave vlf bake`) the walls draw under their samples: its
+    /// path is told to every node, which reads it there.
+    #[arg(long)]
+    pub vlf: Option<PathBuf>,
     /// Frame rate (default: the config's cluster.rate_hz).
     #[arg(long)]
     pub rate: Option<f64>,
@@ -234,6 +238,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
             seconds: args.seconds,
             stop_at_end_of_log: false,
             holodeck,
+            vlf: args.vlf.as_ref().map(|p| p.display().to_string()),
             states_log: args.states.clone(),
             status_every: Duration::from_secs(1),
             stop: super::interrupt::ctrl_c_flag(),

@@ -15,4 +15,5 @@ pub mod scene;
 pub mod sim;
 pub mod tracking;
 pub mod vlf;
+pub mod window;
 pub mod worker;

@@ -9,6 +9,7 @@ use std::io::Write;
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow, bail};
@@ -22,9 +23,10 @@ use holocave_protocol::cluster::FrameState;
 use holocave_render_node::cluster_node::{self, DisplayMaker, Membership};
 use holocave_render_node::display::contact_sheet;
 use holocave_render_node::standalone::{self, Schedule};
+use holocave_render_node::window::Screens;
 use holocave_render_node::{
     DisplayProcess, Gpu, HolodeckOptions, HolodeckSource, PixelTracer, RenderCache, Sampler,
-    ToneMapper, ToneMode,
+    ToneMapper, ToneMode, VlfBase,
 };
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
@@ -32,6 +34,7 @@ use holocave_tracking::Pose;
 
 use super::cave_holodeck;
 use super::master::open_head;
+use super::window::{ClusterWindows, WindowOutput};
 
 #[derive(Args)]
 pub struct NodeArgs {
@@ -59,6 +62,14 @@ pub struct NodeArgs {
     /// Tracer threads of the in-process holodeck server (default: the cores).
     #[arg(long)]
     pub(crate) workers: Option<usize>,
+    /// Draw this baked light field (`holocave vlf bake`) under the samples: every pixel
+    /// shows it until exact samples refine it. In a cluster the master's file is used
+    /// unless this is given.
+    #[arg(long)]
+    pub(crate) vlf: Option<PathBuf>,
+    /// How many samples the light field is worth in a pixel (0: the samples alone).
+    #[arg(long, default_value_t = holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES)]
+    pub(crate) vlf_prior: f32,
     /// Also accept holodeck workers and displays on this address (with --holodeck).
     #[arg(long)]
     pub(crate) listen: Option<String>,
@@ -76,9 +87,11 @@ pub struct NodeArgs {
     /// Hold the head still at X,Y,Z (room coordinates), looking at -Z.
     #[arg(long, value_parser = super::parse::vec3)]
     pub(crate) still: Option<Vec3>,
-    /// Write images instead of opening a window (the only mode so far).
+    /// Write images (the default; `--window` shows the wall instead).
     #[arg(long)]
     pub(crate) headless: bool,
+    #[command(flatten)]
+    pub(crate) window: super::window::WindowArgs,
     /// Output folder: images go to DIR/<wall>/<frame>-<eye>.exr and .png.
     #[arg(long, default_value = "out/node")]
     pub(crate) out: PathBuf,
@@ -126,8 +139,8 @@ pub(crate) fn eye_name(eye: Eye) -> &'static str {
 }
 
 pub fn run(args: NodeArgs) -> Result<()> {
-    if !args.headless {
-        bail!("only --headless is supported: the windowed display is not built yet");
+    if args.master.is_none() && !args.standalone {
+        bail!("say how the node runs: --standalone, or --master HOST:PORT to join a cluster");
     }
     let cave = load_cave(&args.config)?;
     // The wall's display id at the holodeck is its place in the config (every node reads
@@ -150,16 +163,31 @@ pub fn run(args: NodeArgs) -> Result<()> {
                     .join(", ")
             )
         })?;
+    // `--layout` and `--window-*` for this run; a standalone wall draws the layout's eyes.
+    let wall = args.window.wall_for_run(&wall, args.master.is_none())?;
     let size = args.size.unwrap_or((wall.pixels[0], wall.pixels[1]));
     let samples = args
         .samples
         .unwrap_or_else(|| RenderCache::default_samples(size));
+    if args.window.window {
+        let specs = args.window.specs(&wall, size);
+        return holocave_render_node::window::run(&specs, |mut screens| match &args.master {
+            Some(master) => in_cluster(
+                &args,
+                master,
+                cave,
+                wall,
+                display_id,
+                size,
+                samples,
+                Some(&mut screens),
+            ),
+            None => standalone(&args, &cave, &wall, size, samples, Some(&mut screens)),
+        })?;
+    }
     match &args.master {
-        Some(master) => in_cluster(&args, master, cave, wall, display_id, size, samples),
-        None if args.standalone => standalone(&args, &cave, &wall, size, samples),
-        None => {
-            bail!("say how the node runs: --standalone, or --master HOST:PORT to join a cluster")
-        }
+        Some(master) => in_cluster(&args, master, cave, wall, display_id, size, samples, None),
+        None => standalone(&args, &cave, &wall, size, samples, None),
     }
 }
 
@@ -178,6 +206,7 @@ fn standalone(
     wall: &Wall,
     size: (u32, u32),
     samples: u32,
+    screens: Option<&mut Screens>,
 ) -> Result<()> {
     if args.frames.is_none() && args.seconds.is_none() {
         bail!("say when to stop: --frames N or --seconds S");
@@ -211,7 +240,11 @@ fn standalone(
         (None, p) => Pose::new(p.unwrap_or(Vec3::ZERO), Quat::IDENTITY),
     };
 
-    let cache = RenderCache::for_wall(Gpu::new()?, size, eyes.len(), samples);
+    let gpu = match &screens {
+        Some(s) => s.gpu.clone(),
+        None => Gpu::new()?,
+    };
+    let cache = RenderCache::for_wall(gpu, size, eyes.len(), samples);
     let mut holodeck = None;
     let mut display = match &args.holodeck {
         Some(path) => {
@@ -246,6 +279,10 @@ fn standalone(
             }
         }
     };
+    if let Some(path) = &args.vlf {
+        let base = VlfBase::open(path, scene.clone())?;
+        display = display.with_vlf(Arc::new(base), args.vlf_prior);
+    }
     println!(
         "wall {:?}: {} eye(s) at {}x{}, {} points, {samples} samples per eye and frame, GPU {}",
         wall.name,
@@ -257,6 +294,10 @@ fn standalone(
     );
 
     let mut tone = tone_mapper(&args.tone)?;
+    let closed = screens.as_ref().map(|s| s.closed_flag());
+    let mut output = screens
+        .map(|s| WindowOutput::new(s, wall, tone.clone(), args.window.present_log.as_deref()))
+        .transpose()?;
     let dir = args.out.join(&wall.name);
     let schedule = Schedule {
         frames: args.frames,
@@ -264,10 +305,17 @@ fn standalone(
         fps: args.fps,
         every: args.every,
     };
-    let stopping = || holodeck.as_ref().is_some_and(Running::stopping);
-    let mut present = |frame: u64, display: &mut DisplayProcess| {
-        write_images(&dir, frame, eyes, display, &mut tone, args.debug_images)
-            .map_err(|e| format!("{e:#}"))
+    let stopping = || {
+        holodeck.as_ref().is_some_and(Running::stopping)
+            || closed.as_ref().is_some_and(|c| c.load(Ordering::Acquire))
+    };
+    let mut present = |frame: u64, display: &mut DisplayProcess| match &mut output {
+        Some(o) => {
+            o.prepare(display);
+            o.show(frame).map(|_| ())
+        }
+        None => write_images(&dir, frame, eyes, display, &mut tone, args.debug_images)
+            .map_err(|e| format!("{e:#}")),
     };
     let totals = standalone::run(
         &mut display,
@@ -280,6 +328,20 @@ fn standalone(
         &mut present,
     )
     .map_err(|e| anyhow!(e))?;
+    if let Some(o) = &mut output {
+        let last = totals.frames.saturating_sub(1);
+        if args.window.linger > 0.0 && !o.screens.closed() {
+            // Tests wait for this line before taking a screenshot.
+            println!(
+                "lingering: frame {last} on screen for {} s",
+                args.window.linger
+            );
+            let _ = std::io::stdout().flush();
+            o.linger(&display, args.window.linger, args.fps, last);
+        }
+        print!("{}", o.summary());
+    }
+    drop(output);
     let holo_counts = match &display.sampler {
         Sampler::Holodeck(h) => Some(h.counts()),
         _ => None,
@@ -316,7 +378,11 @@ fn standalone(
         },
         ms(totals.insert),
         totals.inserted as f64 / n,
-        dir.display()
+        if args.window.window {
+            "windows".to_owned()
+        } else {
+            dir.display().to_string()
+        }
     );
     Ok(())
 }
@@ -341,11 +407,12 @@ fn in_cluster(
     display_id: u32,
     size: (u32, u32),
     samples: u32,
+    screens: Option<&mut Screens>,
 ) -> Result<()> {
     let secret = cave
         .secret()
         .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
-    let (_, tracer) = load_tracer(&args.scene)?;
+    let (scene, tracer) = load_tracer(&args.scene)?;
     let eyes = Eye::for_mode(wall.stereo);
     let mut tone = tone_mapper(&args.tone)?;
     let dir = args.out.join(&wall.name);
@@ -357,9 +424,10 @@ fn in_cluster(
         .open(&log_path)
         .with_context(|| format!("opening {}", log_path.display()))?;
     let every = args.every.max(1);
+    let windowed = screens.is_some();
     let mut present = |state: &FrameState, display: &mut DisplayProcess| -> Result<(), String> {
         writeln!(log, "{}", state.frame).map_err(|e| format!("{}: {e}", log_path.display()))?;
-        if state.frame.is_multiple_of(every) {
+        if !windowed && state.frame.is_multiple_of(every) {
             write_images(
                 &dir,
                 state.frame,
@@ -380,8 +448,30 @@ fn in_cluster(
         give_up_after: args.seconds.map(Duration::from_secs_f64),
         slow_by: Duration::from_millis(args.slow_ms),
     };
-    let maker = DisplayMaker::new(&member, display_id, size, samples, tracer);
-    let (counters, reason) = cluster_node::run(&member, &maker, &mut present)?;
+    let mut maker = DisplayMaker::new(&member, display_id, size, samples, tracer).with_vlf(
+        scene,
+        args.vlf.clone(),
+        args.vlf_prior,
+    );
+    let (counters, reason) = match screens {
+        Some(screens) => {
+            maker = maker.with_gpu(screens.gpu.clone());
+            let output = WindowOutput::new(
+                screens,
+                &member.wall,
+                tone_mapper(&args.tone)?,
+                args.window.present_log.as_deref(),
+            )?;
+            let mut windows = ClusterWindows {
+                output,
+                then: present,
+            };
+            let ended = cluster_node::run(&member, &maker, &mut windows)?;
+            print!("{}", windows.output.summary());
+            ended
+        }
+        None => cluster_node::run(&member, &maker, &mut present)?,
+    };
     println!(
         "wall {:?}: {} frames presented, {} skipped; master: {reason}",
         member.wall.name, counters.presented, counters.skipped

@@ -61,6 +61,13 @@ pub struct SimArgs {
     /// Worker processes tracing for the holodeck.
     #[arg(long, default_value_t = 2)]
     pub workers: usize,
+    /// The light field the walls draw under their samples, baked when missing and kept
+    /// between runs (default: DIR/<scene>.vlf, baked with default settings).
+    #[arg(long)]
+    pub vlf: Option<PathBuf>,
+    /// No light field: the walls show the render cache alone.
+    #[arg(long, conflicts_with = "vlf")]
+    pub no_vlf: bool,
 }
 
 /// Child processes that are killed if the simulation stops early.
@@ -135,6 +142,34 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         args.head.tracker.as_deref().unwrap_or("?"),
         args.out.display()
     );
+    let vlf = if args.no_vlf {
+        None
+    } else {
+        let stem = args
+            .scene
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let path = args
+            .vlf
+            .clone()
+            .unwrap_or_else(|| args.out.join(format!("{stem}.vlf")));
+        let scene = super::render::load_scene(&args.scene, None, false)?;
+        let settings = holocave_vlf::Settings::default();
+        let fresh = !path.exists();
+        if fresh {
+            println!(
+                "baking the light field {} (once; kept for later runs)",
+                path.display()
+            );
+        }
+        let start = Instant::now();
+        super::vlf::bake_file(&scene, &settings, &path, false)
+            .with_context(|| format!("the light field {}", path.display()))?;
+        if fresh {
+            println!("baked in {:.1} s", start.elapsed().as_secs_f64());
+        }
+        Some(path)
+    };
     let hosted = if args.no_holodeck {
         None
     } else {
@@ -211,6 +246,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             seconds: None,
             stop_at_end_of_log: false,
             holodeck: hosted.as_ref().map(|h| h.addr.to_string()),
+            vlf: vlf.as_ref().map(|p| p.display().to_string()),
             states_log: Some(args.out.join("states.bin")),
             status_every: Duration::from_secs(1),
             stop: super::interrupt::ctrl_c_flag(),

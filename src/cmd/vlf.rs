@@ -327,7 +327,11 @@ fn view(a: ViewArgs) -> Result<()> {
     }
     let view = wall_view(&scene, &a.scene, &a.camera, a.eye, a.wall, a.size)?;
     let start = std::time::Instant::now();
-    let image = Visibility::new(&scene, &elements).render(&view, &f.state.irradiance, a.aa);
+    let image = Visibility::new(std::sync::Arc::new(scene), elements).render(
+        &view,
+        &f.state.irradiance,
+        a.aa,
+    );
     let secs = start.elapsed().as_secs_f64();
     image.write_exr(&a.out)?;
     let png = a.out.with_extension("png");

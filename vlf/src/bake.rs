@@ -143,6 +143,14 @@ pub fn environment(lights: &Lights) -> impl Fn(Vec3) -> Vec3 + Sync + '_ {
     }
 }
 
+/// The sky alone looking along `dir`: what a line brings in from outside the scene (the
+/// sun's disk, far smaller than the direction spacing, comes by next-event estimation;
+/// a line that happened to point into it would carry it over a whole direction's
+/// solid angle).
+fn sky(lights: &Lights, dir: Vec3) -> Vec3 {
+    lights.sky.as_ref().map_or(Vec3::ZERO, |s| s.radiance(dir))
+}
+
 /// Bakes `scene`, from `resume` if given. `save` is called after each bounce.
 pub fn bake<E>(
     scene: &Scene,
@@ -189,7 +197,7 @@ pub fn bake<E>(
     let ends: Vec<(Vec3, Vec3)> = directions
         .lines
         .iter()
-        .map(|d| (env(-*d), env(*d)))
+        .map(|d| (sky(&lights, -*d), sky(&lights, *d)))
         .collect();
     for s in &subfields {
         stats.lines_cast += u64::from(s.lines_cast);

@@ -9,6 +9,8 @@
 //! [`crate::elements::interpolate`]. The render node does the second step on the GPU
 //! (`render-node/src/shaders/vlf.wgsl`), [`shade`] on the CPU.
 
+use std::sync::Arc;
+
 use glam::{Vec2, Vec3};
 use holocave_scene::{Ray, Scene};
 use holocave_tracer::film::Image;
@@ -49,25 +51,30 @@ impl Lookup {
 }
 
 /// The scene's side of drawing: the element layout and the light the eye sees directly.
-pub struct Visibility<'a> {
-    scene: &'a Scene,
-    elements: &'a Elements,
+pub struct Visibility {
+    scene: Arc<Scene>,
+    elements: Elements,
     lights: Lights,
 }
 
-impl<'a> Visibility<'a> {
-    pub fn new(scene: &'a Scene, elements: &'a Elements) -> Self {
+impl Visibility {
+    pub fn new(scene: Arc<Scene>, elements: Elements) -> Self {
+        let lights = Lights::new(&scene);
         Visibility {
             scene,
             elements,
-            lights: Lights::new(scene),
+            lights,
         }
+    }
+
+    pub fn elements(&self) -> &Elements {
+        &self.elements
     }
 
     /// What `ray` sees.
     pub fn lookup(&self, ray: Ray) -> Lookup {
         let env = environment(&self.lights);
-        let chain = follow(self.scene, ray, &env);
+        let chain = follow(&self.scene, ray, &env);
         let Some((s, r)) = chain.end else {
             return Lookup {
                 emitted: chain.emitted.to_array(),

@@ -1,0 +1,330 @@
+//! Presenting a wall in a window, split for swap lock: [`Presenter::prepare`] acquires the
+//! surface texture, draws the eyes into it (layout and tone mapping on the GPU,
+//! `shaders/tonemap.wgsl`), submits and waits for the GPU — all before the node says
+//! Ready; [`Presenter::show`] presents it when the master's Swap comes;
+//! [`Presenter::abandon`] drops it when a newer frame state comes first.
+//!
+//! A lost or outdated surface is reconfigured and that frame skipped; a timeout or an
+//! occluded window skips the frame; a resize (the window's size, as the event loop last
+//! saw it) reconfigures the surface before the next frame. None of these is an error.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use holocave_cave::{Eye, PresentMode, WindowSettings};
+
+use crate::RenderCache;
+use crate::gpu::Gpu;
+use crate::tonemap::ToneCurve;
+
+#[path = "shaders/tonemap.rs"]
+mod screen;
+
+use screen::ScreenPass;
+
+/// A window's size as the event loop last saw it (width in the high half), shared with
+/// the thread that draws.
+#[derive(Clone, Debug, Default)]
+pub struct SharedSize(Arc<AtomicU64>);
+
+impl SharedSize {
+    pub fn new(w: u32, h: u32) -> SharedSize {
+        let s = SharedSize::default();
+        s.set(w, h);
+        s
+    }
+
+    pub fn set(&self, w: u32, h: u32) {
+        self.0
+            .store((u64::from(w) << 32) | u64::from(h), Ordering::Release);
+    }
+
+    pub fn get(&self) -> (u32, u32) {
+        let v = self.0.load(Ordering::Acquire);
+        ((v >> 32) as u32, v as u32)
+    }
+}
+
+/// What [`Presenter::prepare`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Prepared {
+    /// A frame is drawn and waits for [`Presenter::show`].
+    Ready,
+    /// No frame this time (the reason is logged); the next prepare tries again.
+    Skipped(Skip),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Skip {
+    /// The window has no area (minimised).
+    Empty,
+    Timeout,
+    Occluded,
+    /// The surface was outdated or lost and has been reconfigured.
+    Reconfigured,
+    Validation,
+}
+
+/// Time spent presenting, summed over frames.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PresentTimes {
+    /// Frames drawn into the surface.
+    pub prepared: u64,
+    /// Frames presented.
+    pub shown: u64,
+    pub skipped: u64,
+    pub abandoned: u64,
+    /// Acquiring the surface texture.
+    pub acquire: Duration,
+    /// Recording, submitting and waiting for the draw into the surface.
+    pub draw: Duration,
+    /// The present call.
+    pub present: Duration,
+}
+
+/// One window's surface and the pass that draws a wall into it.
+pub struct Presenter {
+    gpu: Gpu,
+    /// Kept so the surface's window outlives it.
+    surface: wgpu::Surface<'static>,
+    remake: SurfaceMaker,
+    config: wgpu::SurfaceConfiguration,
+    pass: ScreenPass,
+    pub settings: WindowSettings,
+    size: SharedSize,
+    pending: Option<wgpu::SurfaceTexture>,
+    /// Reconfigure before the next acquire (suboptimal texture).
+    stale: bool,
+    pub times: PresentTimes,
+}
+
+impl std::fmt::Debug for Presenter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Presenter")
+            .field("settings", &self.settings)
+            .field("size", &(self.config.width, self.config.height))
+            .finish_non_exhaustive()
+    }
+}
+
+/// Gives the window again, to make a new surface when the old one is lost.
+pub type SurfaceMaker = Box<dyn Fn() -> wgpu::SurfaceTarget<'static> + Send + Sync>;
+
+impl Presenter {
+    /// A presenter on `surface` (made by `gpu`'s instance) of a window whose size
+    /// `size` tracks; `remake` gives its window again when the surface is lost.
+    pub fn new(
+        gpu: &Gpu,
+        surface: wgpu::Surface<'static>,
+        remake: SurfaceMaker,
+        settings: WindowSettings,
+        size: SharedSize,
+    ) -> Result<Presenter, String> {
+        let caps = surface.get_capabilities(&gpu.raw_adapter);
+        // A plain 8-bit format (the shader encodes sRGB as the CPU tone mapper does);
+        // an sRGB one if that is all there is (the hardware encodes).
+        let format = [
+            wgpu::TextureFormat::Bgra8Unorm,
+            wgpu::TextureFormat::Rgba8Unorm,
+        ]
+        .into_iter()
+        .find(|f| caps.formats.contains(f))
+        .or_else(|| caps.formats.first().copied())
+        .ok_or("the GPU cannot present to this window (no surface formats)")?;
+        let wanted = match settings.present_mode {
+            PresentMode::Fifo => wgpu::PresentMode::Fifo,
+            PresentMode::Mailbox => wgpu::PresentMode::Mailbox,
+            PresentMode::Immediate => wgpu::PresentMode::Immediate,
+        };
+        let present_mode = if caps.present_modes.contains(&wanted) {
+            wanted
+        } else {
+            tracing::warn!(
+                "present mode {} is not offered by this surface ({:?}); using fifo",
+                settings.present_mode.name(),
+                caps.present_modes
+            );
+            wgpu::PresentMode::Fifo
+        };
+        let (w, h) = size.get();
+        let config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            color_space: Default::default(),
+            width: w.max(1),
+            height: h.max(1),
+            present_mode,
+            // One frame in flight: the swap-locked frame is the one shown next.
+            desired_maximum_frame_latency: 1,
+            alpha_mode: caps
+                .alpha_modes
+                .first()
+                .copied()
+                .unwrap_or(wgpu::CompositeAlphaMode::Auto),
+            view_formats: vec![],
+        };
+        surface.configure(&gpu.device, &config);
+        tracing::info!(
+            "window surface {w}x{h}, {format:?}, {present_mode:?}, layout {}",
+            settings.layout.name()
+        );
+        Ok(Presenter {
+            gpu: gpu.clone(),
+            surface,
+            remake,
+            pass: ScreenPass::new(gpu, format),
+            config,
+            settings,
+            size,
+            pending: None,
+            stale: false,
+            times: PresentTimes::default(),
+        })
+    }
+
+    /// The surface's size now.
+    pub fn surface_size(&self) -> (u32, u32) {
+        (self.config.width, self.config.height)
+    }
+
+    fn reconfigure(&mut self) {
+        let (w, h) = self.size.get();
+        if w > 0 && h > 0 {
+            self.config.width = w;
+            self.config.height = h;
+        }
+        self.surface.configure(&self.gpu.device, &self.config);
+        self.stale = false;
+    }
+
+    /// Makes the surface anew for the same window (after [`wgpu::CurrentSurfaceTexture::Lost`]).
+    fn recreate(&mut self) {
+        match self.gpu.instance.create_surface((self.remake)()) {
+            Ok(s) => self.surface = s,
+            Err(e) => tracing::error!("recreating the lost surface: {e}"),
+        }
+        self.reconfigure();
+    }
+
+    /// Draws `eyes` of `cache` (its eye indices of the layout's first and second eye,
+    /// see [`layout_eyes`]) into the next surface texture under `curve`, submits and waits
+    /// for the GPU. A frame prepared before and not shown is abandoned first.
+    pub fn prepare(
+        &mut self,
+        cache: &RenderCache,
+        eyes: [usize; 2],
+        curve: Option<&ToneCurve>,
+    ) -> Prepared {
+        self.abandon();
+        let (w, h) = self.size.get();
+        if w == 0 || h == 0 {
+            self.times.skipped += 1;
+            return Prepared::Skipped(Skip::Empty);
+        }
+        if self.stale || (w, h) != (self.config.width, self.config.height) {
+            self.reconfigure();
+        }
+        let t = Instant::now();
+        let texture = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t) => t,
+            wgpu::CurrentSurfaceTexture::Suboptimal(t) => {
+                self.stale = true;
+                t
+            }
+            other => {
+                self.times.skipped += 1;
+                self.times.acquire += t.elapsed();
+                let skip = match other {
+                    wgpu::CurrentSurfaceTexture::Timeout => Skip::Timeout,
+                    wgpu::CurrentSurfaceTexture::Occluded => Skip::Occluded,
+                    wgpu::CurrentSurfaceTexture::Outdated => {
+                        self.reconfigure();
+                        Skip::Reconfigured
+                    }
+                    wgpu::CurrentSurfaceTexture::Lost => {
+                        self.recreate();
+                        Skip::Reconfigured
+                    }
+                    _ => Skip::Validation,
+                };
+                tracing::debug!("surface: {skip:?}; frame skipped");
+                return Prepared::Skipped(skip);
+            }
+        };
+        self.times.acquire += t.elapsed();
+        let t = Instant::now();
+        let view = texture.texture.create_view(&Default::default());
+        let mut enc = self
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("present"),
+            });
+        self.pass.draw(
+            &self.gpu,
+            &mut enc,
+            &view,
+            (self.config.width, self.config.height),
+            &self.settings,
+            [cache.color_buffer(eyes[0]), cache.color_buffer(eyes[1])],
+            cache.eye_size(eyes[0]),
+            curve,
+        );
+        self.gpu.queue.submit([enc.finish()]);
+        self.gpu.wait();
+        self.times.draw += t.elapsed();
+        self.times.prepared += 1;
+        self.pending = Some(texture);
+        Prepared::Ready
+    }
+
+    /// True while a prepared frame waits to be shown.
+    pub fn has_pending(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// Presents the prepared frame (nothing if none is prepared). True when presented.
+    pub fn show(&mut self) -> bool {
+        let Some(texture) = self.pending.take() else {
+            return false;
+        };
+        let t = Instant::now();
+        self.gpu.queue.present(texture);
+        self.times.present += t.elapsed();
+        self.times.shown += 1;
+        true
+    }
+
+    /// Drops the prepared frame without showing it.
+    pub fn abandon(&mut self) {
+        if self.pending.take().is_some() {
+            self.times.abandoned += 1;
+        }
+    }
+}
+
+/// The cache's eye indices of the layout's first and second eye (the same twice for a
+/// one-eye layout; swapped with `swap_eyes`); an error naming the missing eye when the
+/// wall does not draw it.
+pub fn layout_eyes(settings: &WindowSettings, drawn: &[Eye]) -> Result<[usize; 2], String> {
+    let index = |e: &Eye| {
+        drawn.iter().position(|d| d == e).ok_or_else(|| {
+            format!(
+                "layout {} shows the {e:?} eye, which this wall does not draw (it draws {drawn:?})",
+                settings.layout.name()
+            )
+        })
+    };
+    let wanted = settings.layout.eyes();
+    let first = index(&wanted[0])?;
+    let second = match wanted.get(1) {
+        Some(e) => index(e)?,
+        None => first,
+    };
+    Ok(if settings.swap_eyes {
+        [second, first]
+    } else {
+        [first, second]
+    })
+}

@@ -1,0 +1,113 @@
+// Per eye, per pixel: the Virtual Light Field under the render cache's exact samples
+// (papers/vlf-in-the-cave.md §4, pass 5). Each pixel's lookup (what the eye sees there,
+// found by the node's own ray cast: render_node::vlf) is shaded from the baked
+// irradiance, exactly as holocave_vlf::view::shade_one does on the CPU, then blended
+// with what the cache shows: the light field is a prior worth `prior` samples,
+//   shown = (prior · V + n · C) / (prior + n),
+// with n the samples behind the cache's value (its point's count, discounted by age;
+// half a sample for an interpolated pixel, none for an empty one). Where the two
+// disagree most, the priority image asks for samples first.
+
+struct Lookup {
+    base: u32,
+    res: u32,
+    u: f32,
+    v: f32,
+    wr: f32, wg: f32, wb: f32,
+    er: f32, eg: f32, eb: f32,
+}
+
+struct VlfParams {
+    width: u32,
+    height: u32,
+    index_bits: u32,
+    // The light field's worth in samples (0: the cache alone).
+    prior: f32,
+}
+
+@group(0) @binding(0) var<uniform> V: VlfParams;
+@group(0) @binding(1) var<storage, read> lookups: array<Lookup>;
+@group(0) @binding(2) var<storage, read> irradiance: array<f32>;
+@group(0) @binding(3) var<storage, read> points: array<Point>;
+@group(0) @binding(4) var<storage, read> key_img: array<u32>;
+@group(0) @binding(5) var<storage, read_write> color: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> priority: array<f32>;
+@group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>>;
+
+const NONE: u32 = 0xffffffffu;
+// A point's samples count half after this many frames without a new one.
+const STALE_FRAMES: f32 = 64.0;
+// Priority added where the light field and the samples differ by this relative amount.
+const DISAGREE_SCALE: f32 = 0.5;
+// Fixed-point scale of the priority sum (as filter.wgsl).
+const SUM_SCALE: f32 = 256.0;
+
+fn cell_index(i0: u32, j0: u32, r: u32) -> u32 {
+    let i = min(i0, r - 1u);
+    let j = min(j0, r - 1u - i);
+    return j * r - j * (max(j, 1u) - 1u) / 2u + i;
+}
+
+fn irr(e: u32) -> vec3<f32> {
+    return vec3<f32>(irradiance[3u * e], irradiance[3u * e + 1u], irradiance[3u * e + 2u]);
+}
+
+// holocave_vlf::elements::interpolate
+fn interpolate(base: u32, r: u32, u: f32, v: f32) -> vec3<f32> {
+    let rf = f32(r);
+    let x = max(u * rf - 0.5, 0.0);
+    let y = max(v * rf - 0.5, 0.0);
+    let i0 = min(u32(x), r - 1u);
+    let j0 = min(u32(y), r - 1u);
+    let i1 = min(i0 + 1u, r - 1u);
+    let j1 = min(j0 + 1u, r - 1u);
+    let fx = clamp(x - f32(i0), 0.0, 1.0);
+    let fy = clamp(y - f32(j0), 0.0, 1.0);
+    let bottom = irr(base + cell_index(i0, j0, r)) * (1.0 - fx) + irr(base + cell_index(i1, j0, r)) * fx;
+    let top = irr(base + cell_index(i0, j1, r)) * (1.0 - fx) + irr(base + cell_index(i1, j1, r)) * fx;
+    return bottom * (1.0 - fy) + top * fy;
+}
+
+fn shade(l: Lookup) -> vec3<f32> {
+    var c = vec3<f32>(l.er, l.eg, l.eb);
+    if (l.base != NONE) {
+        c += vec3<f32>(l.wr, l.wg, l.wb) * interpolate(l.base, l.res, l.u, l.v);
+    }
+    return c;
+}
+
+// The light field alone (for tests and `vlf` output): writes V into `color`.
+@compute @workgroup_size(256)
+fn lookup(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= V.width * V.height) {
+        return;
+    }
+    color[i] = vec4<f32>(shade(lookups[i]), 1.0);
+}
+
+@compute @workgroup_size(256)
+fn blend(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= V.width * V.height) {
+        return;
+    }
+    let vlf = shade(lookups[i]);
+    let c = color[i];
+    var n = 0.0;
+    if (c.w >= 1.0) {
+        let p = points[key_index(key_img[i], V.index_bits)];
+        n = p.rad.w * STALE_FRAMES / (STALE_FRAMES + p.pos.w);
+    } else if (c.w > 0.0) {
+        n = 0.5;
+    }
+    let shown = (V.prior * vlf + n * c.xyz) / max(V.prior + n, 1.0e-6);
+    color[i] = vec4<f32>(shown, c.w);
+    if (c.w > 0.0) {
+        let lum = vec3<f32>(0.2126, 0.7152, 0.0722);
+        let d = abs(dot(c.xyz - vlf, lum)) / (dot(vlf, lum) + 0.05);
+        let extra = DISAGREE_SCALE * min(d, 1.0);
+        priority[i] += extra;
+        atomicAdd(&counters[0], u32(extra * SUM_SCALE + 0.5));
+    }
+}

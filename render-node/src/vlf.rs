@@ -1,0 +1,62 @@
+//! The Virtual Light Field as a render node draws it (`papers/vlf-in-the-cave.md` §4):
+//! the baked irradiance of a `.vlf` file goes to the GPU once; every frame the node casts
+//! one ray per pixel of each eye (visibility, continued through mirrors and glass:
+//! `holocave_vlf::view`) and the GPU shades each pixel's lookup and blends it under the
+//! render cache's exact samples (`shaders/vlf.wgsl`, through [`crate::RenderCache`]).
+
+use std::path::Path;
+use std::sync::Arc;
+
+use holocave_scene::Scene;
+use holocave_vlf::file::VlfFile;
+use holocave_vlf::{Lookup, Visibility, layout};
+
+use crate::{EyeView, RenderNodeError};
+
+/// How many samples the light field is worth in a pixel unless told: about the ratio of
+/// one path sample's squared error to the light field's in a typical pixel (medians over
+/// the Cornell box's front view: 0.069 against 0.001; see README, "The VLF under the
+/// render cache").
+pub const DEFAULT_PRIOR_SAMPLES: f32 = 64.0;
+
+/// A baked light field and the scene it was baked for.
+pub struct VlfBase {
+    visibility: Visibility,
+    irradiance: Vec<[f32; 3]>,
+}
+
+impl VlfBase {
+    /// Opens `path`, refusing a file baked for another scene or with another layout.
+    pub fn open(path: &Path, scene: Arc<Scene>) -> Result<VlfBase, RenderNodeError> {
+        let bad = |e: String| RenderNodeError::Vlf(format!("{}: {e}", path.display()));
+        let f = VlfFile::read_for(path, &scene).map_err(|e| RenderNodeError::Vlf(e.to_string()))?;
+        let elements = layout(&scene, &f.settings);
+        if elements.count != f.state.irradiance.len() {
+            return Err(bad(format!(
+                "{} elements, but the scene's layout at its settings has {}",
+                f.state.irradiance.len(),
+                elements.count
+            )));
+        }
+        if !f.state.converged {
+            tracing::warn!(
+                "{}: bake not finished ({} bounces); drawing what it has",
+                path.display(),
+                f.state.bounces
+            );
+        }
+        Ok(VlfBase {
+            visibility: Visibility::new(scene, elements),
+            irradiance: f.state.irradiance,
+        })
+    }
+
+    pub fn irradiance(&self) -> &[[f32; 3]] {
+        &self.irradiance
+    }
+
+    /// What each pixel of `view` sees (the node's own ray casts, on all cores).
+    pub fn lookups(&self, view: &EyeView) -> Vec<Lookup> {
+        self.visibility.pixels(&view.wall)
+    }
+}

@@ -1,0 +1,195 @@
+//! An Xvfb X server of a test's own, and screenshots of its windows (`xwd`).
+//!
+//! Windowed runs of the binary happen under it as subprocesses (winit wants the main
+//! thread). Without Xvfb or xwd a test skips with a message, except where
+//! HOLOCAVE_REQUIRE_SHARED=1 (CI), where it fails.
+
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader, Read};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// A running Xvfb; killed when dropped.
+pub struct Xvfb {
+    child: Child,
+    /// `:N`.
+    pub display: String,
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn on_path(program: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|paths| std::env::split_paths(&paths).any(|d| d.join(program).is_file()))
+}
+
+impl Xvfb {
+    /// Starts Xvfb on a free display (it picks one and tells us: `-displayfd`), with one
+    /// `width`x`height` 24-bit screen. `None` (after saying why) where Xvfb or xwd is
+    /// missing and HOLOCAVE_REQUIRE_SHARED is not 1.
+    pub fn start(width: u32, height: u32) -> Option<Xvfb> {
+        let missing: Vec<&str> = ["Xvfb", "xwd"]
+            .into_iter()
+            .filter(|p| !on_path(p))
+            .collect();
+        if !missing.is_empty() {
+            assert!(
+                std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
+                "HOLOCAVE_REQUIRE_SHARED=1 and {missing:?} not found (apt-get install xvfb x11-apps)"
+            );
+            eprintln!("skipping: {missing:?} not found (apt-get install xvfb x11-apps)");
+            return None;
+        }
+        let mut child = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-nolisten", "tcp", "-screen", "0"])
+            .arg(format!("{width}x{height}x24"))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .stdin(Stdio::null())
+            .spawn()
+            .expect("starting Xvfb");
+        // Xvfb writes the display number once it accepts connections.
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().expect("Xvfb's stdout"))
+            .read_line(&mut line)
+            .expect("reading Xvfb's display number");
+        let n: u32 = line
+            .trim()
+            .parse()
+            .unwrap_or_else(|_| panic!("Xvfb gave no display number (got {line:?})"));
+        Some(Xvfb {
+            child,
+            display: format!(":{n}"),
+        })
+    }
+
+    /// A screenshot of the window named `name`, or the reason there is none.
+    pub fn screenshot(&self, name: &str) -> Result<image::RgbImage, String> {
+        let out = Command::new("xwd")
+            .args(["-silent", "-display", &self.display, "-name", name])
+            .output()
+            .map_err(|e| format!("running xwd: {e}"))?;
+        if !out.status.success() {
+            return Err(format!(
+                "xwd -name {name:?}: {}",
+                String::from_utf8_lossy(&out.stderr).trim()
+            ));
+        }
+        parse_xwd(&out.stdout)
+    }
+}
+
+/// A 24-bit TrueColor XWD file (as `xwd` writes it) as an RGB image.
+pub fn parse_xwd(data: &[u8]) -> Result<image::RgbImage, String> {
+    if data.len() < 100 {
+        return Err(format!("XWD file of {} bytes: no header", data.len()));
+    }
+    let field = |i: usize| u32::from_be_bytes(data[i * 4..i * 4 + 4].try_into().unwrap());
+    let header_size = field(0) as usize;
+    let (format, width, height) = (field(2), field(4), field(5));
+    let byte_order = field(7);
+    let bits_per_pixel = field(11);
+    let bytes_per_line = field(12) as usize;
+    let masks = [field(14), field(15), field(16)];
+    let ncolors = field(19) as usize;
+    if format != 2 || bits_per_pixel != 32 {
+        return Err(format!(
+            "XWD: pixmap format {format}, {bits_per_pixel} bits per pixel (expected ZPixmap, 32)"
+        ));
+    }
+    let start = header_size + ncolors * 12;
+    let need = start + bytes_per_line * height as usize;
+    if data.len() < need {
+        return Err(format!(
+            "XWD: {} bytes, {need} needed for {width}x{height}",
+            data.len()
+        ));
+    }
+    let channel = |v: u32, mask: u32| ((v & mask) >> mask.trailing_zeros()) as u8;
+    let mut img = image::RgbImage::new(width, height);
+    for y in 0..height as usize {
+        for x in 0..width as usize {
+            let o = start + y * bytes_per_line + x * 4;
+            let b: [u8; 4] = data[o..o + 4].try_into().unwrap();
+            let v = if byte_order == 0 {
+                u32::from_le_bytes(b)
+            } else {
+                u32::from_be_bytes(b)
+            };
+            img.put_pixel(
+                x as u32,
+                y as u32,
+                image::Rgb([
+                    channel(v, masks[0]),
+                    channel(v, masks[1]),
+                    channel(v, masks[2]),
+                ]),
+            );
+        }
+    }
+    Ok(img)
+}
+
+/// The largest difference of any channel of any pixel (`None`: the sizes differ).
+pub fn max_difference(a: &image::RgbImage, b: &image::RgbImage) -> Option<u8> {
+    if a.dimensions() != b.dimensions() {
+        return None;
+    }
+    Some(
+        a.pixels()
+            .zip(b.pixels())
+            .flat_map(|(p, q)| (0..3).map(move |c| p[c].abs_diff(q[c])))
+            .max()
+            .unwrap_or(0),
+    )
+}
+
+/// Reads `child`'s stdout line by line until one contains `marker` (true) or it ends or
+/// `limit` passes (false); the lines read so far are returned too.
+pub fn wait_for_line(child: &mut Child, marker: &str, limit: Duration) -> (bool, String) {
+    let stdout = child.stdout.take().expect("piped stdout");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut r = BufReader::new(stdout);
+        loop {
+            let mut line = String::new();
+            match r.read_line(&mut line) {
+                Ok(0) | Err(_) => return,
+                Ok(_) => {
+                    if tx.send(line).is_err() {
+                        return;
+                    }
+                }
+            }
+        }
+    });
+    let end = Instant::now() + limit;
+    let mut seen = String::new();
+    while let Some(left) = end.checked_duration_since(Instant::now()) {
+        match rx.recv_timeout(left) {
+            Ok(line) => {
+                seen += &line;
+                if line.contains(marker) {
+                    return (true, seen);
+                }
+            }
+            Err(_) => break,
+        }
+    }
+    (false, seen)
+}
+
+/// Everything left on `child`'s stderr (after it exits).
+pub fn stderr_of(child: &mut Child) -> String {
+    let mut s = String::new();
+    if let Some(mut e) = child.stderr.take() {
+        let _ = e.read_to_string(&mut s);
+    }
+    s
+}

@@ -1,0 +1,116 @@
+//! Scenes and helpers shared by the VLF's integration tests.
+
+#![allow(dead_code)]
+
+use std::convert::Infallible;
+use std::path::Path;
+
+use glam::{Vec2, Vec3, Vec4};
+use holocave_scene::{Material, PunctualKind, PunctualLight, Scene, SceneParts, TriangleShading};
+use holocave_vlf::{Settings, State, Stats, bake};
+
+/// A pure Lambert material (no specular layer, not metallic) with albedo `rho`, emitting
+/// radiance `emission` from its front side.
+pub fn lambert(name: &str, rho: f32, emission: Vec3) -> Material {
+    Material {
+        name: name.into(),
+        base_color: Vec4::new(rho, rho, rho, 1.0),
+        metallic: 0.0,
+        roughness: 1.0,
+        specular: 0.0,
+        emissive: emission,
+        ..Material::default()
+    }
+}
+
+/// The quad `o, o + a, o + a + b, o + b` as two triangles whose right angle is at their
+/// first vertex, so each triangle's elements are squares of side `|a| / r` (for `|a| =
+/// |b|`). The front faces along `a × b`.
+pub fn quad(o: Vec3, a: Vec3, b: Vec3) -> [[Vec3; 3]; 2] {
+    [[o, o + a, o + b], [o + a + b, o + b, o + a]]
+}
+
+/// A scene of `(triangle, material)` pairs.
+pub fn scene(
+    name: &str,
+    triangles: &[([Vec3; 3], u32)],
+    materials: Vec<Material>,
+    lights: Vec<PunctualLight>,
+) -> Scene {
+    let parts = SceneParts {
+        name: name.into(),
+        positions: triangles.iter().map(|(t, _)| *t).collect(),
+        shading: triangles
+            .iter()
+            .map(|&(_, material)| TriangleShading {
+                normals: None,
+                uvs: [Vec2::ZERO; 3],
+                material,
+            })
+            .collect(),
+        materials,
+        lights,
+        ..SceneParts::default()
+    };
+    Scene::from_parts(parts, Path::new(name)).expect("a valid test scene")
+}
+
+/// The cube `[0, side]³`, every face facing inwards, all of one material.
+pub fn closed_box(name: &str, side: f32, material: Material) -> Scene {
+    let mut tris = Vec::new();
+    for axis in 0..3 {
+        let mut a = Vec3::ZERO;
+        let mut b = Vec3::ZERO;
+        a[(axis + 1) % 3] = side;
+        b[(axis + 2) % 3] = side;
+        // a × b points along +axis: the face at 0 faces inwards as it is, the face at
+        // `side` with a and b swapped.
+        let mut far = Vec3::ZERO;
+        far[axis] = side;
+        for q in [quad(Vec3::ZERO, a, b), quad(far, b, a)] {
+            for t in q {
+                tris.push((t, 0));
+            }
+        }
+    }
+    scene(name, &tris, vec![material], vec![])
+}
+
+/// A point light (`KHR_lights_punctual`) of radiant intensity `intensity` at `position`.
+pub fn point_light(position: Vec3, intensity: f32) -> PunctualLight {
+    PunctualLight {
+        name: "point".into(),
+        kind: PunctualKind::Point,
+        position,
+        direction: Vec3::NEG_Y,
+        intensity: Vec3::splat(intensity),
+        range: None,
+    }
+}
+
+/// A bake with no progress and no saving.
+pub fn bake_quiet(scene: &Scene, settings: &Settings) -> (State, Stats) {
+    match bake::<Infallible>(scene, settings, None, &|_| {}, &mut |_| Ok(())) {
+        Ok(r) => r,
+        Err(e) => match e {},
+    }
+}
+
+/// Asserts two states are equal bit for bit (`==` on floats would let `0.0 == -0.0` and
+/// fail on NaN).
+pub fn assert_same_bits(a: &State, b: &State, what: &str) {
+    let bits = |v: &[[f32; 3]]| -> Vec<u32> { v.iter().flatten().map(|x| x.to_bits()).collect() };
+    assert_eq!(a.bounces, b.bounces, "{what}: bounces");
+    assert_eq!(a.converged, b.converged, "{what}: converged");
+    assert_eq!(a.arrived.to_bits(), b.arrived.to_bits(), "{what}: arrived");
+    let r = |s: &State| -> Vec<u64> { s.residuals.iter().map(|x| x.to_bits()).collect() };
+    assert_eq!(r(a), r(b), "{what}: residuals");
+    assert!(
+        bits(&a.irradiance) == bits(&b.irradiance),
+        "{what}: irradiance differs"
+    );
+    assert!(
+        bits(&a.last) == bits(&b.last),
+        "{what}: last bounce's radiance differs"
+    );
+}
