@@ -399,6 +399,7 @@ fn tone_mapper(name: &str) -> Result<Option<ToneMapper>> {
 
 /// `--master`: follows the cluster's frames, appending every presented frame's number to
 /// `DIR/<wall>/presented.log` and writing its images every `--every` frames.
+#[allow(clippy::too_many_arguments)]
 fn in_cluster(
     args: &NodeArgs,
     master: &str,
