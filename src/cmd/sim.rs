@@ -68,6 +68,8 @@ pub struct SimArgs {
     /// No light field: the walls show the render cache alone.
     #[arg(long, conflicts_with = "vlf")]
     pub no_vlf: bool,
+    #[command(flatten)]
+    pub windows: super::window::SimWindowArgs,
 }
 
 /// Child processes that are killed if the simulation stops early.
@@ -202,16 +204,26 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             children.0.push((format!("worker {i}"), child));
         }
     }
+    let size = |p: u32| ((f64::from(p) * args.scale).round() as u32).max(8);
+    let placed = super::window::unfolded_windows(
+        &cave
+            .walls
+            .iter()
+            .map(|w| (w.name.clone(), (size(w.pixels[0]), size(w.pixels[1]))))
+            .collect::<Vec<_>>(),
+        args.windows.screen,
+    );
     for wall in &cave.walls {
         let dir = args.out.join(&wall.name);
         std::fs::create_dir_all(&dir)?;
-        // A fresh presented.log per run.
+        // A fresh presented.log (and present-times.log) per run.
         let _ = std::fs::remove_file(dir.join("presented.log"));
+        let _ = std::fs::remove_file(dir.join("present-times.log"));
         let log = std::fs::File::create(dir.join("node.log"))?;
-        let size = |p: u32| ((f64::from(p) * args.scale).round() as u32).max(8);
         let child = Command::new(&exe)
             .arg("node")
-            .args(["--master", &addr, "--wall", &wall.name, "--headless"])
+            .args(["--master", &addr, "--wall", &wall.name])
+            .args(args.windows.node_args(&placed, wall, &args.out))
             .arg("--config")
             .arg(&args.config)
             .arg("--scene")
@@ -281,6 +293,26 @@ pub fn run(mut args: SimArgs) -> Result<()> {
                 );
             }
         }
+    }
+    if args.windows.window {
+        let logs: Vec<(String, PathBuf)> = cave
+            .walls
+            .iter()
+            .map(|w| {
+                let p = args.out.join(&w.name).join("present-times.log");
+                (w.name.clone(), p)
+            })
+            .collect();
+        let skew = super::window::present_skew(&logs)?;
+        let q = |p: f64| super::window::quantile(&skew, p).unwrap_or(f64::NAN);
+        println!(
+            "present skew between the walls' windows over {} frames: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+            skew.len(),
+            q(0.5),
+            q(0.99),
+            q(1.0)
+        );
+        return Ok(());
     }
     let every = args.every.max(1);
     let written: Vec<u64> = all.into_iter().filter(|f| f % every == 0).collect();

@@ -267,3 +267,204 @@ impl<'a> WindowOutput<'a> {
         s
     }
 }
+
+/// `holocave sim --window`: each wall's node opens its window, the windows laid out as the
+/// unfolded CAVE (left | front | right, the floor under the front wall; other walls in a
+/// row below) and scaled to fit the screen.
+#[derive(Args, Clone, Debug, Default)]
+pub struct SimWindowArgs {
+    /// Show every wall live in a window of its own (needs DISPLAY) instead of writing images.
+    #[arg(long)]
+    pub window: bool,
+    /// The layout of every wall's window (default: the first eye the wall draws).
+    #[arg(long, value_parser = parse_layout)]
+    pub layout: Option<Layout>,
+    /// The screen the windows are laid out to fit, WxH pixels.
+    #[arg(long, value_parser = super::parse::size, default_value = "1280x1024")]
+    pub screen: (u32, u32),
+}
+
+/// Where each wall's window goes: `(wall, position, size)` for walls whose eye images are
+/// `sizes[wall]`, in the unfolded CAVE scaled by the largest factor that fits `screen`.
+pub fn unfolded_windows(
+    walls: &[(String, (u32, u32))],
+    screen: (u32, u32),
+) -> Vec<(String, [i32; 2], (u32, u32))> {
+    let get = |n: &str| walls.iter().find(|(w, _)| w == n).map(|(_, s)| *s);
+    let front = get("front").unwrap_or((1, 1));
+    let left = get("left").unwrap_or((0, front.1));
+    let right = get("right").unwrap_or((0, front.1));
+    let floor = get("floor").unwrap_or((0, 0));
+    let top = left.1.max(front.1).max(right.1);
+    let middle = front.0.max(floor.0);
+    // Walls with other names: a row under the floor.
+    let others: Vec<&(String, (u32, u32))> = walls
+        .iter()
+        .filter(|(w, _)| !["front", "left", "right", "floor"].contains(&w.as_str()))
+        .collect();
+    let others_w: u32 = others.iter().map(|(_, s)| s.0).sum();
+    let others_h = others.iter().map(|(_, s)| s.1).max().unwrap_or(0);
+    let width = (left.0 + middle + right.0).max(others_w).max(1);
+    let height = (top + floor.1 + others_h).max(1);
+    let zoom =
+        (f64::from(screen.0) / f64::from(width)).min(f64::from(screen.1) / f64::from(height));
+    let z = |v: u32| (f64::from(v) * zoom).floor() as i32;
+    let sz = |(w, h): (u32, u32)| {
+        (
+            ((f64::from(w) * zoom) as u32).max(1),
+            ((f64::from(h) * zoom) as u32).max(1),
+        )
+    };
+    let mut out = Vec::new();
+    for (name, size) in walls {
+        let pos = match name.as_str() {
+            "left" => [0, z(top - size.1)],
+            "front" => [z(left.0), z(top - size.1)],
+            "right" => [z(left.0 + middle), z(top - size.1)],
+            "floor" => [z(left.0), z(top)],
+            _ => {
+                let before: u32 = others
+                    .iter()
+                    .take_while(|(w, _)| w != name)
+                    .map(|(_, s)| s.0)
+                    .sum();
+                [z(before), z(top + floor.1)]
+            }
+        };
+        out.push((name.clone(), pos, sz(*size)));
+    }
+    out
+}
+
+impl SimWindowArgs {
+    /// The node's arguments for `wall` (eye images of `size`): its window placed in the
+    /// unfolded CAVE, its present times logged to `DIR/<wall>/present-times.log`; or
+    /// `--headless`.
+    pub fn node_args(
+        &self,
+        placed: &[(String, [i32; 2], (u32, u32))],
+        wall: &Wall,
+        out: &Path,
+    ) -> Vec<String> {
+        if !self.window {
+            return vec!["--headless".to_owned()];
+        }
+        let layout = self
+            .layout
+            .unwrap_or_else(|| match Eye::for_mode(wall.stereo)[0] {
+                Eye::Left => Layout::Left,
+                Eye::Right => Layout::Right,
+                Eye::Centre => Layout::Mono,
+            });
+        let mut a = vec![
+            "--window".to_owned(),
+            "--layout".to_owned(),
+            layout.name().to_owned(),
+            "--present-log".to_owned(),
+            out.join(&wall.name)
+                .join("present-times.log")
+                .display()
+                .to_string(),
+        ];
+        if let Some((_, [x, y], (w, h))) = placed.iter().find(|(n, _, _)| *n == wall.name) {
+            a.extend([
+                "--window-pos".to_owned(),
+                format!("{x},{y}"),
+                "--window-size".to_owned(),
+                format!("{w}x{h}"),
+            ]);
+        }
+        a
+    }
+}
+
+/// The skew between the walls' presents of each frame that every wall presented: the
+/// spread (latest − earliest present time, ms) per frame, from each wall's present log.
+pub fn present_skew(logs: &[(String, std::path::PathBuf)]) -> Result<Vec<f64>> {
+    use std::collections::BTreeMap;
+    let mut by_frame: BTreeMap<u64, Vec<u128>> = BTreeMap::new();
+    for (wall, path) in logs {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("wall {wall}: reading {}", path.display()))?;
+        let mut seen = std::collections::BTreeSet::new();
+        for line in text.lines() {
+            let mut parts = line.split_whitespace();
+            let (Some(f), Some(ns)) = (parts.next(), parts.next()) else {
+                bail!("{}: {line:?} is not \"FRAME NS\"", path.display());
+            };
+            let (f, ns): (u64, u128) = (
+                f.parse()
+                    .with_context(|| format!("{}: frame {f:?}", path.display()))?,
+                ns.parse()
+                    .with_context(|| format!("{}: time {ns:?}", path.display()))?,
+            );
+            // The first present of a frame (a lingering window shows it again).
+            if seen.insert(f) {
+                by_frame.entry(f).or_default().push(ns);
+            }
+        }
+    }
+    Ok(by_frame
+        .values()
+        .filter(|t| t.len() == logs.len())
+        .map(|t| {
+            let (lo, hi) = (t.iter().min().unwrap(), t.iter().max().unwrap());
+            (hi - lo) as f64 / 1e6
+        })
+        .collect())
+}
+
+/// The `q` quantile (0..=1) of `values` (nearest rank); `None` when empty.
+pub fn quantile(values: &[f64], q: f64) -> Option<f64> {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len().max(1)) - 1;
+    v.get(i).copied()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_unfolded_cave_fits_the_screen_with_walls_where_the_room_unfolds() {
+        let walls: Vec<(String, (u32, u32))> = [
+            ("front", (128, 96)),
+            ("left", (128, 96)),
+            ("right", (128, 96)),
+            ("floor", (128, 128)),
+        ]
+        .map(|(n, s)| (n.to_owned(), s))
+        .to_vec();
+        let placed = unfolded_windows(&walls, (1280, 1024));
+        let at = |n: &str| placed.iter().find(|(w, _, _)| w == n).unwrap().clone();
+        // 384 x 224 eye pixels; 1280 / 384 = 3.33 < 1024 / 224 = 4.57.
+        let (_, p, s) = at("left");
+        assert_eq!((p, s), ([0, 0], (426, 320)));
+        let (_, p, _) = at("front");
+        assert_eq!(p, [426, 0]);
+        let (_, p, _) = at("right");
+        assert_eq!(p, [853, 0]);
+        let (_, p, s) = at("floor");
+        assert_eq!((p, s), ([426, 320], (426, 426)));
+        for (_, [x, y], (w, h)) in &placed {
+            assert!(*x as u32 + w <= 1280 && *y as u32 + h <= 1024);
+        }
+    }
+
+    #[test]
+    fn skew_is_the_spread_of_each_frames_first_presents() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a");
+        let b = dir.path().join("b");
+        std::fs::write(&a, "1 1000000\n2 2000000\n2 9000000\n3 3000000\n").unwrap();
+        std::fs::write(&b, "1 1500000\n2 2000000\n").unwrap();
+        let skew = present_skew(&[("a".into(), a.clone()), ("b".into(), b)]).unwrap();
+        assert_eq!(skew, vec![0.5, 0.0], "frame 3 is not on every wall");
+        assert_eq!(quantile(&skew, 0.5), Some(0.0));
+        assert_eq!(quantile(&skew, 0.99), Some(0.5));
+        std::fs::write(&a, "1 x\n").unwrap();
+        let e = present_skew(&[("a".into(), a)]).unwrap_err();
+        assert!(format!("{e:#}").contains("time \"x\""), "{e:#}");
+    }
+}
