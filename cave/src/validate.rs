@@ -400,6 +400,22 @@ mod tests {
             TrackingParams::default(),
             "the config carries the tuned defaults"
         );
+        // The windows: a squeezed side-by-side projector, a rear-projected wall, and
+        // passive stereo with a projector per eye.
+        use crate::window::{Fullscreen, Layout, Monitor};
+        let front = &cave.walls[0].windows;
+        assert_eq!(front.len(), 1);
+        assert_eq!(front[0].layout, Layout::SideBySide);
+        assert!(front[0].squeezed);
+        assert_eq!(front[0].fullscreen, Fullscreen::Borderless);
+        assert_eq!(front[0].window_size((1024, 768)), (1024, 768));
+        assert!(cave.walls[2].windows[0].flip_x);
+        let floor = &cave.walls[3].windows;
+        assert_eq!(
+            floor.iter().map(|w| w.layout).collect::<Vec<_>>(),
+            [Layout::Left, Layout::Right]
+        );
+        assert_eq!(floor[1].monitor, Some(Monitor::Index(1)));
         let desk = load_cave(&config("desk.toml")).unwrap();
         assert_eq!(desk.walls.len(), 1);
     }
