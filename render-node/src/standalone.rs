@@ -43,6 +43,8 @@ pub struct Totals {
     pub trace: Duration,
     pub insert: Duration,
     pub inserted: usize,
+    /// Summed over frames: the light field's visibility (ray casts per pixel).
+    pub vlf: Duration,
 }
 
 /// Runs `wall` of `cave` at `size` pixels per eye until the schedule ends or `stop` says
@@ -85,6 +87,7 @@ pub fn run(
         totals.trace += report.trace;
         totals.insert += report.insert;
         totals.inserted += report.inserted;
+        totals.vlf += report.vlf;
         let last = schedule.frames.is_some_and(|n| frame + 1 == n);
         if frame.is_multiple_of(schedule.every.max(1)) || last {
             present(frame, display)?;

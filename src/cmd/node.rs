@@ -364,9 +364,10 @@ fn standalone(
     let n = totals.frames.max(1) as f64;
     let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
     println!(
-        "{} frames in {:.2} s; per frame: draw + choose {:.2} ms, trace {:.2} ms{}, insert {:.2} ms, {:.0} samples inserted; images in {}",
+        "{} frames in {:.2} s; per frame: light field visibility {:.2} ms, draw + choose {:.2} ms, trace {:.2} ms{}, insert {:.2} ms, {:.0} samples inserted; images in {}",
         totals.frames,
         totals.elapsed.as_secs_f64(),
+        ms(totals.vlf),
         ms(totals.draw),
         ms(totals.trace),
         if args.holodeck.is_some() {

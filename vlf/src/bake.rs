@@ -25,7 +25,8 @@ pub struct Settings {
     pub directions: usize,
     /// Lines across each subfield (`N`; the grid is `N × N`).
     pub resolution: u32,
-    /// Element size in scene units; `None`: the lines' spacing (`2R / N`).
+    /// Element size in scene units; `None`: twice the lines' spacing (`4R / N`), so
+    /// that about four lines of each direction land on an element facing it.
     pub element_size: Option<f32>,
     /// Next-event samples per element for the direct light.
     pub direct_samples: u32,
@@ -39,7 +40,7 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             directions: 642,
-            resolution: 128,
+            resolution: 256,
             element_size: None,
             direct_samples: 64,
             tolerance: 1e-3,
@@ -130,7 +131,7 @@ pub fn layout(scene: &Scene, settings: &Settings) -> Elements {
     let sphere = Sphere::of(scene);
     let size = settings
         .element_size
-        .unwrap_or(2.0 * sphere.radius / settings.resolution.max(1) as f32);
+        .unwrap_or(4.0 * sphere.radius / settings.resolution.max(1) as f32);
     Elements::new(scene, size)
 }
 

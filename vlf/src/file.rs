@@ -20,6 +20,8 @@ const MAGIC: &[u8; 8] = b"HOLOVLF\0";
 const VERSION: u32 = 1;
 const HEADER: usize = 16;
 const CHUNK_HEADER: usize = 16;
+/// Chunks in a file: META, IRRA, LAST.
+const CHUNKS: u32 = 3;
 
 #[derive(Debug, thiserror::Error)]
 pub enum VlfError {
@@ -145,7 +147,7 @@ impl VlfFile {
         let mut bytes = Vec::new();
         bytes.extend_from_slice(MAGIC);
         bytes.extend_from_slice(&VERSION.to_le_bytes());
-        bytes.extend_from_slice(&3u32.to_le_bytes());
+        bytes.extend_from_slice(&CHUNKS.to_le_bytes());
         let mut irra = Vec::new();
         put_f32s(&mut irra, &self.state.irradiance);
         let mut last = Vec::new();
@@ -321,7 +323,9 @@ impl Reader<'_> {
     fn file(&self) -> Result<VlfFile, VlfError> {
         let path = self.path;
         if self.bytes.len() < HEADER || &self.bytes[..8] != MAGIC {
-            if self.bytes.len() < HEADER && MAGIC.starts_with(self.bytes) {
+            // Cut inside the magic number or inside the version and chunk count after it.
+            let cut_header = MAGIC.starts_with(self.bytes) || self.bytes.starts_with(MAGIC);
+            if self.bytes.len() < HEADER && cut_header {
                 return Err(VlfError::Truncated {
                     path: path.into(),
                     chunk: "header".into(),
@@ -335,6 +339,15 @@ impl Reader<'_> {
             return Err(VlfError::Version {
                 path: path.into(),
                 found: version,
+            });
+        }
+        let chunks = u32::from_le_bytes(self.bytes[12..16].try_into().unwrap_or_default());
+        if chunks != CHUNKS {
+            return Err(VlfError::Malformed {
+                path: path.into(),
+                chunk: "header".into(),
+                offset: 12,
+                what: format!("{chunks} chunks, version {VERSION} has {CHUNKS}"),
             });
         }
         let mut at = HEADER;
@@ -364,6 +377,14 @@ impl Reader<'_> {
         let residuals = (0..n).map(|_| m.f64()).collect::<Result<Vec<_>, _>>()?;
         let irradiance = self.array(&mut at, "IRRA", count)?;
         let last = self.array(&mut at, "LAST", count)?;
+        if at != self.bytes.len() {
+            return Err(VlfError::Malformed {
+                path: path.into(),
+                chunk: "LAST".into(),
+                offset: at as u64,
+                what: format!("{} bytes after the last chunk", self.bytes.len() - at),
+            });
+        }
         Ok(VlfFile {
             scene,
             fingerprint,

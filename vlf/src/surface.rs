@@ -116,14 +116,34 @@ pub struct Chain {
 }
 
 pub fn follow(scene: &Scene, ray: Ray, environment: &dyn Fn(Vec3) -> Vec3) -> Chain {
-    walk(scene, ray, environment, MAX_DELTA_DEPTH)
+    walk(scene, ray, None, environment, MAX_DELTA_DEPTH)
 }
 
-fn walk(scene: &Scene, mut ray: Ray, environment: &dyn Fn(Vec3) -> Vec3, depth: u32) -> Chain {
+/// As [`follow`], with the ray's first hit already found (eye rays are cast in packets).
+pub fn follow_from(
+    scene: &Scene,
+    ray: Ray,
+    first: Option<Hit>,
+    environment: &dyn Fn(Vec3) -> Vec3,
+) -> Chain {
+    walk(scene, ray, Some(first), environment, MAX_DELTA_DEPTH)
+}
+
+fn walk(
+    scene: &Scene,
+    mut ray: Ray,
+    mut first: Option<Option<Hit>>,
+    environment: &dyn Fn(Vec3) -> Vec3,
+    depth: u32,
+) -> Chain {
     let mut weight = Vec3::ONE;
     let mut emitted = Vec3::ZERO;
     for level in 0..=depth {
-        let Some(hit) = scene.closest_hit(&ray, f32::INFINITY) else {
+        let hit = match first.take() {
+            Some(h) => h,
+            None => scene.closest_hit(&ray, f32::INFINITY),
+        };
+        let Some(hit) = hit else {
             emitted += weight * environment(ray.dir);
             return Chain {
                 end: None,
@@ -151,6 +171,7 @@ fn walk(scene: &Scene, mut ray: Ray, environment: &dyn Fn(Vec3) -> Vec3, depth: 
             let side = walk(
                 scene,
                 Ray::new(leave(s.position, s.normal, wj), wj),
+                None,
                 environment,
                 (depth - level - 1) / 2,
             );

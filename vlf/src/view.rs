@@ -12,6 +12,7 @@
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
+use holocave_scene::bvh::PACKET;
 use holocave_scene::{Ray, Scene};
 use holocave_tracer::film::Image;
 use holocave_tracer::lights::Lights;
@@ -20,7 +21,7 @@ use rayon::prelude::*;
 
 use crate::bake::environment;
 use crate::elements::{Elements, interpolate};
-use crate::surface::{diffuse_albedo, follow, side_facing};
+use crate::surface::{Chain, diffuse_albedo, follow, follow_from, side_facing};
 
 /// What one pixel (or one ray) sees of the light field.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,7 +75,10 @@ impl Visibility {
     /// What `ray` sees.
     pub fn lookup(&self, ray: Ray) -> Lookup {
         let env = environment(&self.lights);
-        let chain = follow(&self.scene, ray, &env);
+        self.lookup_chain(follow(&self.scene, ray, &env))
+    }
+
+    fn lookup_chain(&self, chain: Chain) -> Lookup {
         let Some((s, r)) = chain.end else {
             return Lookup {
                 emitted: chain.emitted.to_array(),
@@ -94,16 +98,24 @@ impl Visibility {
         }
     }
 
-    /// One lookup per pixel of `view`, through the pixel's centre, rows from the top.
+    /// One lookup per pixel of `view`, through the pixel's centre, rows from the top. The
+    /// first hits are found in packets of neighbouring pixels (coherent rays).
     pub fn pixels(&self, view: &WallView) -> Vec<Lookup> {
         let w = view.width as usize;
-        (0..view.width as usize * view.height as usize)
-            .into_par_iter()
-            .map(|i| {
-                let (x, y) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
-                self.lookup(view.ray(Vec2::new(x, y)))
-            })
-            .collect()
+        let n = w * view.height as usize;
+        let env = environment(&self.lights);
+        let chunk = 8 * PACKET;
+        let mut out = vec![Lookup::NONE; n];
+        out.par_chunks_mut(chunk).enumerate().for_each(|(c, out)| {
+            let rays: Vec<Ray> = (c * chunk..(c * chunk + out.len()))
+                .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
+                .collect();
+            let hits = self.scene.closest_hits(&rays, f32::INFINITY);
+            for ((o, ray), hit) in out.iter_mut().zip(rays).zip(hits) {
+                *o = self.lookup_chain(follow_from(&self.scene, ray, hit, &env));
+            }
+        });
+        out
     }
 
     /// `view` drawn from the light field with `k × k` lookups per pixel (an antialiased

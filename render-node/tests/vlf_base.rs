@@ -1,0 +1,167 @@
+//! The Virtual Light Field under the render cache (issue 14): the GPU's lookup equals the
+//! CPU's; a cold start shows the lit scene from its first frame (not black), close to the
+//! converged image; and a still viewer still converges to the path-traced image.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache, VlfBase};
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::view::WallView;
+use holocave_tracer::{TraceSettings, Tracer, render::render};
+use holocave_vlf::file::{VlfFile, fingerprint};
+use holocave_vlf::{Settings, layout, view::shade};
+
+fn cornell() -> Arc<Scene> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    Arc::new(
+        Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default())
+            .expect("load the Cornell box"),
+    )
+}
+
+/// The README's view: the front wall of a CAVE framing the box.
+fn wall(size: u32) -> WallView {
+    WallView {
+        eye: Vec3::new(0.0, 1.0, 3.4),
+        pa: Vec3::new(-1.0, 0.0, 1.2),
+        pb: Vec3::new(1.0, 0.0, 1.2),
+        pc: Vec3::new(-1.0, 2.0, 1.2),
+        width: size,
+        height: size,
+    }
+}
+
+/// Bakes `scene` with `settings` into a file in `dir` and opens it as a node does.
+fn baked(scene: &Arc<Scene>, settings: &Settings, dir: &std::path::Path) -> VlfBase {
+    let path = dir.join("cornell.vlf");
+    let (state, _) = holocave_vlf::bake(scene, settings, None, &|_| {}, &mut |_| Ok::<(), ()>(()))
+        .expect("bake");
+    VlfFile {
+        scene: scene.name.clone(),
+        fingerprint: fingerprint(scene),
+        settings: *settings,
+        element_size: layout(scene, settings).element_size,
+        state,
+    }
+    .write(&path)
+    .expect("write the light field");
+    VlfBase::open(&path, scene.clone()).expect("open the light field")
+}
+
+#[test]
+fn the_gpu_lookup_equals_the_cpu_lookup() {
+    let scene = cornell();
+    let dir = tempfile::tempdir().unwrap();
+    let settings = Settings {
+        directions: 92,
+        resolution: 64,
+        ..Settings::default()
+    };
+    let base = baked(&scene, &settings, dir.path());
+    let size = 48;
+    let view = EyeView::looking_at(wall(size), 0.05).unwrap();
+    let lookups = base.lookups(&view);
+    let cpu = shade(&lookups, base.irradiance());
+
+    let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
+    let n = size * size;
+    let mut cache = RenderCache::new(gpu, &[(size, size)], n, n);
+    cache.set_vlf(base.irradiance(), 64.0);
+    cache.set_lookups(0, &lookups);
+    let image = cache.vlf_image(0).expect("a light field is set");
+    // The same f32 operations in the same order on both sides; a GPU may fuse a
+    // multiply-add, which changes the last bits: a few ulps of the value.
+    let mut worst = 0f32;
+    for (g, c) in image.pixels.iter().zip(&cpu) {
+        let tol = 1e-5 * c.abs().max_element() + 1e-7;
+        worst = worst.max(((*g - *c).abs().max_element() - tol).max(0.0));
+        assert!(
+            (*g - *c).abs().max_element() <= tol,
+            "GPU {g} against CPU {c}"
+        );
+    }
+    assert!(cpu.iter().any(|c| c.max_element() > 0.0), "the view is lit");
+    eprintln!(
+        "GPU and CPU lookups agree on {} pixels (excess {worst})",
+        cpu.len()
+    );
+}
+
+/// The first frame of a cold start is within 0.02 of the converged image (instead of
+/// black), and a still viewer then converges to the path-traced reference: the light
+/// field is a prior worth k samples, so the samples take over as they accumulate.
+#[test]
+fn a_cold_start_shows_the_light_field_and_a_still_viewer_converges() {
+    const SIZE: u32 = 64;
+    const FIRST_FRAME: f64 = 0.02;
+    const TARGET: f64 = 0.01;
+    const TIME_LIMIT: Duration = Duration::from_secs(120);
+    let scene = cornell();
+    let tracer = Arc::new(Tracer::new(scene.clone(), TraceSettings::default()));
+    let wall = wall(SIZE);
+    let t = Instant::now();
+    let reference = render(&tracer, &wall, 4096, 7, &|| {});
+    eprintln!("reference: 4096 spp in {:.1} s", t.elapsed().as_secs_f64());
+    let dir = tempfile::tempdir().unwrap();
+    let t = Instant::now();
+    // Half the default resolution (a quarter of the lines): a quarter of the bake time.
+    let settings = Settings {
+        resolution: 128,
+        ..Settings::default()
+    };
+    let base = baked(&scene, &settings, dir.path());
+    eprintln!(
+        "bake (642 directions, 128 lines): {:.1} s",
+        t.elapsed().as_secs_f64()
+    );
+
+    let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
+    let n = SIZE * SIZE;
+    let cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n + n / 4, n);
+    let mut display = DisplayProcess::new(cache, PixelTracer::new(tracer, 1), n / 16).with_vlf(
+        Arc::new(base),
+        holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES,
+    );
+    let view = EyeView::looking_at(wall, 0.05).unwrap();
+
+    display.frame(&[view], false);
+    let first = display.cache.image(0).relative_mse(&reference);
+    eprintln!("first frame: relative MSE {first:.5}");
+    assert!(
+        first < FIRST_FRAME,
+        "the first frame of a cold start is {first:.5} from the reference (needs < {FIRST_FRAME})"
+    );
+
+    // More samples per frame now, as the still-viewer test does.
+    display.samples_per_eye = n;
+    let start = Instant::now();
+    let mut frame = 1u32;
+    let mut err = first;
+    while start.elapsed() < TIME_LIMIT {
+        display.frame(&[view], false);
+        frame += 1;
+        if frame.is_multiple_of(16) {
+            err = display.cache.image(0).relative_mse(&reference);
+            eprintln!(
+                "frame {frame}: {:.1} s, relative MSE {err:.5}",
+                start.elapsed().as_secs_f64()
+            );
+            if err < TARGET.min(first * 0.5) {
+                break;
+            }
+        }
+    }
+    if let Ok(dir) = std::env::var("HOLOCAVE_TEST_OUT") {
+        let dir = PathBuf::from(dir);
+        let exposure = reference.auto_exposure();
+        let img = display.cache.image(0);
+        holocave_render_node::display::write_image(&dir, "vlf-still", &img, exposure).unwrap();
+    }
+    assert!(
+        err < TARGET.min(first * 0.5),
+        "relative MSE {err:.5} after {frame} frames; needs below {TARGET} and half the first frame's {first:.5}"
+    );
+}
