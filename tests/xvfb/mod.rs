@@ -193,3 +193,69 @@ pub fn stderr_of(child: &mut Child) -> String {
     }
     s
 }
+
+/// Window-manager requests to this X server (x11rb), as a user's window manager would
+/// send them: find a window by name, resize it, ask it to close.
+pub struct WindowManager {
+    conn: x11rb::rust_connection::RustConnection,
+    root: u32,
+}
+
+impl WindowManager {
+    pub fn connect(x: &Xvfb) -> WindowManager {
+        use x11rb::connection::Connection;
+        let (conn, screen) = x11rb::connect(Some(&x.display)).expect("connecting to Xvfb");
+        let root = conn.setup().roots[screen].root;
+        WindowManager { conn, root }
+    }
+
+    /// The top-level window whose WM_NAME is `name`.
+    pub fn find(&self, name: &str) -> Option<u32> {
+        use x11rb::protocol::xproto::{AtomEnum, ConnectionExt};
+        let tree = self.conn.query_tree(self.root).ok()?.reply().ok()?;
+        tree.children.into_iter().find(|&w| {
+            self.conn
+                .get_property(false, w, AtomEnum::WM_NAME, AtomEnum::ANY, 0, 256)
+                .ok()
+                .and_then(|c| c.reply().ok())
+                .is_some_and(|p| p.value == name.as_bytes())
+        })
+    }
+
+    /// Resizes the window named `name` to `w`x`h` pixels.
+    pub fn resize(&self, name: &str, w: u32, h: u32) {
+        use x11rb::connection::Connection;
+        use x11rb::protocol::xproto::{ConfigureWindowAux, ConnectionExt};
+        let win = self
+            .find(name)
+            .unwrap_or_else(|| panic!("no window {name:?}"));
+        self.conn
+            .configure_window(win, &ConfigureWindowAux::new().width(w).height(h))
+            .expect("resizing");
+        self.conn.flush().expect("flushing");
+    }
+
+    /// Asks the window named `name` to close (WM_DELETE_WINDOW, what a window manager sends
+    /// when the user closes a window).
+    pub fn close(&self, name: &str) {
+        use x11rb::connection::Connection;
+        use x11rb::protocol::xproto::{ClientMessageEvent, ConnectionExt, EventMask};
+        let win = self
+            .find(name)
+            .unwrap_or_else(|| panic!("no window {name:?}"));
+        let atom = |n: &[u8]| {
+            self.conn
+                .intern_atom(false, n)
+                .expect("interning")
+                .reply()
+                .expect("an atom")
+                .atom
+        };
+        let (protocols, delete) = (atom(b"WM_PROTOCOLS"), atom(b"WM_DELETE_WINDOW"));
+        let event = ClientMessageEvent::new(32, win, protocols, [delete, 0, 0, 0, 0]);
+        self.conn
+            .send_event(false, win, EventMask::NO_EVENT, event)
+            .expect("sending WM_DELETE_WINDOW");
+        self.conn.flush().expect("flushing");
+    }
+}
