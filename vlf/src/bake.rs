@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use crate::direct::direct_irradiance;
 use crate::directions::Directions;
-use crate::elements::Elements;
+use crate::elements::{Elements, cell_index};
 use crate::propagate::{bounce, flux};
 use crate::subfield::{Grid, Sphere, Subfield, cast};
 use crate::surface::{diffuse_albedo, seen};
@@ -126,6 +126,51 @@ pub fn tail(residuals: &[f64]) -> f64 {
     r * q / (1.0 - q) / propagated
 }
 
+/// The drawn irradiance: the direct light as it is (sharp shadows), the rest — the sky
+/// along the lines and every bounce, which is smooth in nature but carries the lines'
+/// sampling noise — averaged over each element's 3 × 3 neighbourhood of cells on its
+/// triangle side (weighted by area).
+pub fn smooth_indirect(
+    elements: &Elements,
+    area: &[f32],
+    direct: &[[f32; 3]],
+    total: &[[f32; 3]],
+) -> Vec<[f32; 3]> {
+    let indirect: Vec<Vec3> = total
+        .iter()
+        .zip(direct)
+        .map(|(t, d)| Vec3::from(*t) - Vec3::from(*d))
+        .collect();
+    let mut out = total.to_vec();
+    for cells in &elements.triangles {
+        let r = cells.res as i64;
+        for side in 0..2 {
+            let base = cells.base(side);
+            for j in 0..r {
+                for i in 0..r - j {
+                    let (mut sum, mut w) = (Vec3::ZERO, 0.0);
+                    for dj in -1..=1 {
+                        for di in -1..=1 {
+                            let (ii, jj) = (i + di, j + dj);
+                            if ii < 0 || jj < 0 || ii + jj > r - 1 {
+                                continue;
+                            }
+                            let e = (base + cell_index(ii as u32, jj as u32, r as u32)) as usize;
+                            sum += indirect[e] * area[e];
+                            w += area[e];
+                        }
+                    }
+                    let e = (base + cell_index(i as u32, j as u32, r as u32)) as usize;
+                    if w > 0.0 {
+                        out[e] = (Vec3::from(direct[e]) + sum / w).to_array();
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
 /// The element layout of a bake of `scene` with `settings`.
 pub fn layout(scene: &Scene, settings: &Settings) -> Elements {
     let sphere = Sphere::of(scene);
@@ -181,7 +226,8 @@ pub fn bake<E>(
         .par_iter()
         .enumerate()
         .map(|(k, d)| {
-            let grid = Grid::new(*d, k as u32, sphere, settings.resolution.max(1));
+            let omega = directions.solid_angle[directions.pair[k][0] as usize];
+            let grid = Grid::new(*d, k as u32, sphere, settings.resolution.max(1), omega);
             let s = cast(scene, &elements, &grid, &env);
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress(Stage::Visibility { done: n, total });
@@ -241,29 +287,31 @@ pub fn bake<E>(
             .map(|(e, a)| (Vec3::from(*e) * *a * std::f32::consts::FRAC_1_PI).to_array())
             .collect()
     };
+    // Direct light: computed again on resume (deterministic), since the last step
+    // smooths the rest of the light and leaves it sharp.
+    let start = Instant::now();
+    let tris = elements.triangles.len();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let direct = direct_irradiance(
+        scene,
+        &lights,
+        &elements,
+        &needed,
+        settings.direct_samples,
+        &|| {
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            if n.is_multiple_of(64) || n == tris {
+                progress(Stage::Direct {
+                    done: n,
+                    total: tris,
+                });
+            }
+        },
+    );
+    stats.direct = start.elapsed();
     let mut state = match resume {
         Some(s) => s,
         None => {
-            let start = Instant::now();
-            let tris = elements.triangles.len();
-            let done = std::sync::atomic::AtomicUsize::new(0);
-            let direct = direct_irradiance(
-                scene,
-                &lights,
-                &elements,
-                &needed,
-                settings.direct_samples,
-                &|| {
-                    let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                    if n % 64 == 0 || n == tris {
-                        progress(Stage::Direct {
-                            done: n,
-                            total: tris,
-                        });
-                    }
-                },
-            );
-            stats.direct = start.elapsed();
             let start = Instant::now();
             // The first bounce: the sky along the lines and what delta surfaces show.
             let zero = vec![[0f32; 3]; elements.count];
@@ -293,6 +341,7 @@ pub fn bake<E>(
     while !state.converged {
         if tail(&state.residuals) < settings.tolerance || state.bounces >= settings.max_bounces {
             state.converged = true;
+            state.irradiance = smooth_indirect(&elements, &area, &direct, &state.irradiance);
             save(&state)?;
             break;
         }

@@ -106,12 +106,9 @@ impl Directions {
                 let (i, j) = (i as f64 / f as f64, j as f64 / f as f64);
                 a * (1.0 - i - j) + b * i + c * j
             };
-            let mut grid = vec![vec![0usize; f + 1]; f + 1];
-            for i in 0..=f {
-                for j in 0..=f - i {
-                    grid[i][j] = vertex(at(i, j), &mut points);
-                }
-            }
+            let grid: Vec<Vec<usize>> = (0..=f)
+                .map(|i| (0..=f - i).map(|j| vertex(at(i, j), &mut points)).collect())
+                .collect();
             for i in 0..f {
                 for j in 0..f - i {
                     triangles.push([grid[i][j], grid[i + 1][j], grid[i][j + 1]]);
@@ -173,17 +170,21 @@ mod tests {
 
     #[test]
     fn counts_solid_angles_and_pairs() {
-        for f in [1, 2, 5, 10] {
+        for f in [1, 2, 5, 10, 40] {
             let d = Directions::geodesic(f);
             assert_eq!(d.len(), 10 * f * f + 2);
             let total: f64 = d.solid_angle.iter().map(|&s| s as f64).sum();
             assert!((total - 4.0 * PI).abs() < 1e-4, "f {f}: {total}");
-            // Even: no direction stands for more than twice another's share.
+            // Even, to within what projecting the icosahedron's flat faces onto the sphere
+            // allows: a face at distance d = 0.795 from the centre is seen 1/d³ = 1.99
+            // times more steeply at its middle than at its corners, and the twelve corner
+            // directions have five triangles around them instead of six, so the shares
+            // tend to a ratio of 1.99 × 6/5 = 2.39 as f grows (2.1 at f = 10).
             let (lo, hi) = d
                 .solid_angle
                 .iter()
                 .fold((f32::MAX, 0f32), |(lo, hi), &s| (lo.min(s), hi.max(s)));
-            assert!(hi / lo < 2.0, "f {f}: {lo}..{hi}");
+            assert!(hi / lo < 2.4, "f {f}: {lo}..{hi}");
             assert_eq!(d.lines.len() * 2, d.len());
             for (l, [a, b]) in d.lines.iter().zip(&d.pair) {
                 assert_eq!(*l, d.dirs[*a as usize]);
@@ -199,5 +200,33 @@ mod tests {
         assert_eq!(Directions::at_least(1).len(), 12);
         assert_eq!(Directions::at_least(42).len(), 42);
         assert_eq!(Directions::at_least(43).len(), 92);
+    }
+
+    /// The cosine-weighted solid angle the directions give a surface, `Σ_{ω·n>0} Δω ω·n`,
+    /// is the factor every propagated bounce carries; it should be `π`. The cosine lobe
+    /// has a kink at the horizon, so the quadrature is second order in the spacing: its
+    /// error falls as `1/f²`. At `f = 2` it is 3.4 % at worst, hence the bound `0.15/f²`
+    /// (0.94 % for 162 directions, 0.23 % for 642), over normals spread on the sphere.
+    #[test]
+    fn cosine_weighted_solid_angle_is_pi_to_second_order() {
+        for f in [2usize, 4, 8] {
+            let d = Directions::geodesic(f);
+            let mut worst = 0f64;
+            for k in 0..500 {
+                let y = 1.0 - 2.0 * (k as f32 + 0.5) / 500.0;
+                let r = (1.0 - y * y).sqrt();
+                let phi = k as f32 * 2.399_963;
+                let n = Vec3::new(r * phi.cos(), y, r * phi.sin());
+                let s: f64 = d
+                    .dirs
+                    .iter()
+                    .zip(&d.solid_angle)
+                    .map(|(w, a)| f64::from(*a) * f64::from(w.dot(n).max(0.0)))
+                    .sum();
+                worst = worst.max((s / PI - 1.0).abs());
+            }
+            let bound = 0.15 / (f * f) as f64;
+            assert!(worst < bound, "f {f}: {worst:.5} above {bound:.5}");
+        }
     }
 }

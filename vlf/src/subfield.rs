@@ -9,9 +9,10 @@
 //! refracted ray exactly (so mirrors are sharp, not blurred by the direction spacing).
 //!
 //! Lines that cross nothing are not stored: a direction whose lines miss the scene costs
-//! nothing after the visibility pass. Each subfield's lines are offset by their own
-//! sub-cell jitter, so the aliasing of one direction's grid becomes noise that the other
-//! directions average out rather than a pattern they repeat.
+//! nothing after the visibility pass. Each line lies at its own random place within its
+//! cell of the grid (a jittered grid, different in every subfield): a regular lattice of
+//! lines aliases against the elements into moiré streaks along the direction; jittered,
+//! the aliasing becomes noise that the other directions average out.
 
 use glam::Vec3;
 use holocave_scene::{Hit, Ray, Scene};
@@ -70,7 +71,7 @@ impl Sphere {
 
 /// A number in [0, 1) from a subfield's index and a salt (SplitMix64).
 fn jitter(index: u32, salt: u64) -> f32 {
-    let mut z = u64::from(index).wrapping_add(salt.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    let mut z = ((u64::from(index) << 40) ^ salt).wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
@@ -83,31 +84,46 @@ pub struct Grid {
     pub sphere: Sphere,
     pub n: u32,
     pub spacing: f32,
-    offset: (f32, f32),
+    /// Tangent of the angle by which a line may lean from the subfield's direction.
+    pub lean: f32,
+    index: u32,
 }
 
 impl Grid {
-    pub fn new(d: Vec3, index: u32, sphere: Sphere, n: u32) -> Grid {
+    /// The grid of direction `d`, whose lines lean from it by up to the angular radius
+    /// of the `solid_angle` it stands for.
+    pub fn new(d: Vec3, index: u32, sphere: Sphere, n: u32, solid_angle: f32) -> Grid {
         Grid {
             frame: Frame::new(d),
             sphere,
             n,
             spacing: 2.0 * sphere.radius / n as f32,
-            offset: (jitter(index, 1), jitter(index, 2)),
+            lean: (solid_angle / std::f32::consts::PI).sqrt().tan(),
+            index,
         }
     }
 
     /// Line `(i, j)` as a ray entering the sphere, or `None` outside the sphere's disc.
     pub fn line(&self, i: u32, j: u32) -> Option<Ray> {
         let r = self.sphere.radius;
-        let x = -r + (i as f32 + self.offset.0) * self.spacing;
-        let y = -r + (j as f32 + self.offset.1) * self.spacing;
+        // Each line at its own random place in its cell (a jittered grid).
+        let cell = u64::from(j) * u64::from(self.n) + u64::from(i);
+        let salt = cell.wrapping_mul(4).wrapping_add(1);
+        let x = -r + (i as f32 + jitter(self.index, salt)) * self.spacing;
+        let y = -r + (j as f32 + jitter(self.index, salt + 1)) * self.spacing;
         if x * x + y * y > r * r {
             return None;
         }
+        // ... and with its own direction within the direction's cone (uniform over the
+        // disc of tangents): a small bright patch seen along one exact direction would
+        // light a sharp stripe, its projection; leaning lines blur the stripes into noise
+        // that other directions average out.
+        let (u, v) = (jitter(self.index, salt + 2), jitter(self.index, salt + 3));
+        let (rho, phi) = (self.lean * u.sqrt(), std::f32::consts::TAU * v);
         let f = &self.frame;
-        let origin = self.sphere.centre + f.t * x + f.b * y - f.n * (r * 1.01);
-        Some(Ray::new(origin, f.n))
+        let dir = (f.n + f.t * (rho * phi.cos()) + f.b * (rho * phi.sin())).normalize();
+        let through = self.sphere.centre + f.t * x + f.b * y;
+        Some(Ray::new(through - dir * (r * 1.01), dir))
     }
 }
 
@@ -120,13 +136,13 @@ pub fn cast(
     environment: &dyn Fn(Vec3) -> Vec3,
 ) -> Subfield {
     let mut out = Subfield::default();
-    let d = grid.frame.n;
-    let tmax = grid.sphere.radius * 2.02;
+    let tmax = grid.sphere.radius * 2.1;
     let mut hits: Vec<Hit> = Vec::new();
     out.line_start.push(0);
     for j in 0..grid.n {
         for i in 0..grid.n {
             let Some(ray) = grid.line(i, j) else { continue };
+            let d = ray.dir;
             out.lines_cast += 1;
             scene.all_hits(&ray, tmax, &mut hits);
             let first = out.crossings.len();

@@ -67,12 +67,15 @@ pub fn side_facing(normal: Vec3, dir: Vec3) -> u32 {
     u32::from(normal.dot(dir) > 0.0)
 }
 
+/// A direction a delta surface sends light on, with the weight it carries.
+pub type Branch = (Vec3, Vec3);
+
 /// The directions a delta surface sends a ray arriving along `dir` on, with the weight
 /// each carries: the stronger branch first. Glass both reflects and refracts; the light
 /// field follows the stronger branch to a diffuse surface, and the weaker one only for
 /// the light it shows directly (a lamp's highlight on a glass sphere, the sky in a
 /// window's reflection), so each pixel and line needs one lookup.
-pub fn delta_step(s: &Seen, dir: Vec3) -> Option<((Vec3, Vec3), Option<(Vec3, Vec3)>)> {
+pub fn delta_step(s: &Seen, dir: Vec3) -> Option<(Branch, Option<Branch>)> {
     let p = &s.params;
     let n = s.shading_normal;
     let wo = -dir;
