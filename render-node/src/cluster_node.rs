@@ -140,12 +140,18 @@ impl DisplayMaker {
     /// Draws a light field under the samples: `own` if given, else the one the master
     /// names; it must have been baked for `scene`.
     pub fn with_vlf(mut self, scene: Arc<Scene>, own: Option<PathBuf>, prior: f32) -> DisplayMaker {
-        self.vlf = Some(VlfChoice {
+        let choice = VlfChoice {
             scene,
             own,
             prior,
             loaded: Mutex::new(None),
-        });
+        };
+        // The node's own file is read now, before it joins: reading it after the welcome
+        // would hold up the cluster's first frames.
+        if choice.own.is_some() {
+            choice.base(None);
+        }
+        self.vlf = Some(choice);
         self
     }
 

@@ -236,6 +236,12 @@ pub fn run(mut args: SimArgs) -> Result<()> {
                 "--every",
                 &args.every.to_string(),
             ])
+            // The light field the master names, read before joining (a node reading it
+            // after the welcome would hold up the first frames).
+            .args(
+                vlf.iter()
+                    .flat_map(|p| [std::ffi::OsStr::new("--vlf"), p.as_os_str()]),
+            )
             .env(credentials::SECRET_VAR, &secret)
             // Four nodes share this machine's cores: one tracing thread each.
             .env("RAYON_NUM_THREADS", "1")
