@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use holocave_holodeck::run::Running;
-use holocave_render_node::{DisplayProcess, EyeView};
+use holocave_render_node::{DisplayProcess, EyeView, RenderCache, VlfBase};
 use holocave_tracer::Tracer;
 use holocave_tracer::film::Image;
 use holocave_tracer::render::render;
@@ -22,14 +22,21 @@ pub enum Method {
     /// The render cache fed by a holodeck in this process, its tracer threads on the same
     /// cores (cold: a new file; warm: a file from an earlier run).
     Holodeck,
+    /// The Virtual Light Field alone, drawn as a render node draws it (one lookup per
+    /// pixel, shaded on the GPU): no paths traced at all.
+    Vlf,
+    /// The whole system: the holodeck's samples in the render cache over the light field.
+    VlfHolodeck,
 }
 
 impl Method {
-    pub const ALL: [Method; 4] = [
+    pub const ALL: [Method; 6] = [
         Method::Trace,
         Method::Accumulate,
         Method::Cache,
         Method::Holodeck,
+        Method::Vlf,
+        Method::VlfHolodeck,
     ];
 
     pub fn name(self) -> &'static str {
@@ -38,7 +45,14 @@ impl Method {
             Method::Accumulate => "accumulate",
             Method::Cache => "cache",
             Method::Holodeck => "holodeck",
+            Method::Vlf => "vlf",
+            Method::VlfHolodeck => "vlf+holodeck",
         }
+    }
+
+    /// Whether the method draws a baked light field.
+    pub fn needs_vlf(self) -> bool {
+        matches!(self, Method::Vlf | Method::VlfHolodeck)
     }
 
     /// A method by its name; the error lists the names.
@@ -48,10 +62,7 @@ impl Method {
             .find(|m| m.name() == s)
             .ok_or_else(|| {
                 let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
-                format!(
-                    "{s:?} is not a method (methods: {}; vlf and vlf+holodeck come with the VLF)",
-                    names.join(", ")
-                )
+                format!("{s:?} is not a method (methods: {})", names.join(", "))
             })
     }
 }
@@ -81,6 +92,11 @@ pub enum Drawer {
         sums: Vec<Option<(WallView, Image, u32)>>,
     },
     Cache(DisplayProcess),
+    /// The light field alone: a render cache used only for its light-field pass.
+    Vlf {
+        cache: RenderCache,
+        base: Arc<VlfBase>,
+    },
     Holodeck {
         display: DisplayProcess,
         server: Running,
@@ -123,6 +139,17 @@ impl Drawer {
                 }
                 let rays = traced(&images, *spp);
                 Drawn { images, rays }
+            }
+            Drawer::Vlf { cache, base } => {
+                let images = views
+                    .iter()
+                    .enumerate()
+                    .map(|(e, v)| {
+                        cache.set_lookups(e, &base.lookups(v));
+                        cache.vlf_image(e).unwrap_or_else(|| Image::new(1, 1))
+                    })
+                    .collect();
+                Drawn { images, rays: 0 }
             }
             Drawer::Cache(display) => {
                 let report = display.frame(views, false);
@@ -171,8 +198,11 @@ mod tests {
         for m in Method::ALL {
             assert_eq!(Method::parse(m.name()), Ok(m));
         }
-        let e = Method::parse("vlf").unwrap_err();
-        assert!(e.contains("trace, accumulate, cache, holodeck"), "{e}");
+        let e = Method::parse("vlf-alone").unwrap_err();
+        assert!(
+            e.contains("trace, accumulate, cache, holodeck, vlf, vlf+holodeck"),
+            "{e}"
+        );
     }
 
     #[test]

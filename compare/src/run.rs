@@ -16,7 +16,7 @@ use holocave_holodeck::run::{RunOptions, start};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_render_node::{
     DisplayProcess, EyeView, Gpu, HolodeckOptions, HolodeckSource, PixelTracer, RenderCache,
-    RenderNodeError,
+    RenderNodeError, VlfBase,
 };
 use holocave_scene::Scene;
 use holocave_tracer::film::FilmError;
@@ -58,6 +58,8 @@ pub enum CompareError {
     Film(#[from] FilmError),
     #[error("plotting: {0}")]
     Plot(String),
+    #[error("the methods vlf and vlf+holodeck need a baked light field (--vlf F.vlf)")]
+    NoVlf,
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CompareError + '_ {
@@ -86,6 +88,9 @@ pub struct Settings {
     /// The holodeck method's file: drawn from as it is (warm) if it exists, else created
     /// (cold); `None`: a new file in `out`, replaced every run.
     pub holodeck: Option<PathBuf>,
+    /// The baked light field of the vlf methods (`holocave vlf bake`), and what it is
+    /// worth in samples under the holodeck's.
+    pub vlf: Option<(PathBuf, f32)>,
 }
 
 /// What is compared: a wall of a CAVE in a scene.
@@ -157,7 +162,13 @@ impl Compare<'_> {
                 PixelTracer::new(tracer, 1),
                 s.budget,
             )),
-            Method::Holodeck => {
+            Method::Vlf => {
+                let mut cache = cache()?;
+                let base = self.vlf_base(s)?;
+                cache.set_vlf(base.irradiance(), 0.0);
+                Drawer::Vlf { cache, base }
+            }
+            Method::Holodeck | Method::VlfHolodeck => {
                 let file = self.holodeck_file(s)?;
                 let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
                 let source =
@@ -177,13 +188,24 @@ impl Compare<'_> {
                 .map_err(|e| CompareError::Holodeck(e.to_string()))?;
                 let added_before = running.stats().added;
                 let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
+                let mut display = DisplayProcess::holodeck(cache()?, source, s.budget);
+                if method == Method::VlfHolodeck {
+                    let prior = s.vlf.as_ref().map_or(0.0, |v| v.1);
+                    display = display.with_vlf(self.vlf_base(s)?, prior);
+                }
                 Drawer::Holodeck {
-                    display: DisplayProcess::holodeck(cache()?, source, s.budget),
+                    display,
                     server: running,
                     added_before,
                 }
             }
         })
+    }
+
+    /// The light field of the vlf methods, opened for this scene.
+    fn vlf_base(&self, s: &Settings) -> Result<Arc<VlfBase>, CompareError> {
+        let (path, _) = s.vlf.as_ref().ok_or(CompareError::NoVlf)?;
+        Ok(Arc::new(VlfBase::open(path, self.scene.clone())?))
     }
 
     /// The holodeck method's file: the given one if it exists (warm), else a new one for

@@ -35,6 +35,7 @@ fn trace_at_the_references_budget_reaches_its_reference_and_every_file_is_writte
         reference_spp: REFERENCE_SPP,
         out: dir.path().to_path_buf(),
         holodeck: None,
+        vlf: None,
     };
     let poses = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 5];
     let compare = Compare {
@@ -111,6 +112,7 @@ fn a_trace_outside_the_cave_and_an_empty_method_list_are_named() {
         reference_spp: 4,
         out: dir.path().to_path_buf(),
         holodeck: None,
+        vlf: None,
     };
     let compare = Compare {
         cave: &cave,

@@ -10,6 +10,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec2, Vec3};
 use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
 use holocave_tracer::view::WallView;
+use holocave_vlf::Lookup;
 
 fn views(w: u32, h: u32) -> Vec<EyeView> {
     [-0.032f32, 0.032]
@@ -31,7 +32,25 @@ fn views(w: u32, h: u32) -> Vec<EyeView> {
         .collect()
 }
 
-fn bench_size(c: &mut Criterion, w: u32, h: u32) {
+/// A light field's worth of lookups for `n` pixels over `elements` elements: scattered
+/// over the atlas (the worst case for the shader's reads), every pixel a diffuse one.
+fn lookups(n: u32, elements: u32) -> Vec<Lookup> {
+    (0..n)
+        .map(|i| {
+            let h = i.wrapping_mul(2_654_435_761);
+            Lookup {
+                base: h % (elements - 64),
+                res: 8,
+                u: (i % 97) as f32 / 97.0 * 0.5,
+                v: (i % 89) as f32 / 89.0 * 0.5,
+                weight: [0.2; 3],
+                emitted: [0.0; 3],
+            }
+        })
+        .collect()
+}
+
+fn bench_size(c: &mut Criterion, w: u32, h: u32, vlf: bool) {
     let gpu = match Gpu::new() {
         Ok(g) => g,
         Err(e) => {
@@ -44,6 +63,15 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32) {
     let budget = n / 16;
     let mut cache = RenderCache::new(gpu, &[(w, h), (w, h)], 2 * n * 5 / 4, budget * 2);
     let vs = views(w, h);
+    if vlf {
+        // A million elements, as a room's atlas at fine settings.
+        let elements = 1 << 20;
+        cache.set_vlf(&vec![[1.0, 0.5, 0.25]; elements as usize], 256.0);
+        for e in 0..2 {
+            cache.set_lookups(e, &lookups(n, elements));
+        }
+    }
+    let tag = if vlf { " with the light field" } else { "" };
     // Fill: a room-like depth field (a box 1.5 m around the eye) seen from each eye.
     cache.draw(&vs, &[0, 0], false, &mut StepTimes::default());
     for (e, v) in vs.iter().enumerate() {
@@ -61,7 +89,7 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32) {
     }
     let mut steps = StepTimes::default();
     let mut frames = 0u32;
-    let mut group = c.benchmark_group(format!("display/{w}x{h} stereo"));
+    let mut group = c.benchmark_group(format!("display/{w}x{h} stereo{tag}"));
     group.sample_size(10);
     group.measurement_time(Duration::from_secs(10));
     group.bench_function("frame (all steps, one submit)", |b| {
@@ -76,13 +104,14 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32) {
     group.finish();
     let ms = |d: Duration| d.as_secs_f64() * 1e3 / f64::from(frames.max(1));
     eprintln!(
-        "\n{w}x{h} per eye, 2 eyes, {adapter}: per frame over {frames} timed frames (ms)\n\
+        "\n{w}x{h} per eye, 2 eyes{tag}, {adapter}: per frame over {frames} timed frames (ms)\n\
          clear {:.2} | projection {:.2} | depth cull {:.2} | interpolation+priority {:.2} | \
-         dither {:.2} | aging {:.2} | chosen read-back {:.2} | total {:.2}\n",
+         light field {:.2} | dither {:.2} | aging {:.2} | chosen read-back {:.2} | total {:.2}\n",
         ms(steps.clear),
         ms(steps.projection),
         ms(steps.depth_cull),
         ms(steps.interpolation_priority),
+        ms(steps.vlf),
         ms(steps.dither),
         ms(steps.aging),
         ms(steps.readback),
@@ -91,8 +120,9 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32) {
 }
 
 fn display(c: &mut Criterion) {
-    bench_size(c, 512, 512);
-    bench_size(c, 1024, 768);
+    bench_size(c, 512, 512, false);
+    bench_size(c, 1024, 768, false);
+    bench_size(c, 1024, 768, true);
 }
 
 criterion_group!(benches, display);

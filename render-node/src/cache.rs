@@ -149,6 +149,8 @@ pub struct StepTimes {
     pub depth_cull: Duration,
     /// Interpolation and the priority image (one pass).
     pub interpolation_priority: Duration,
+    /// The light field's lookup and blend (one pass; zero without a light field).
+    pub vlf: Duration,
     pub dither: Duration,
     pub aging: Duration,
     /// Copying the chosen pixels back to the CPU.
@@ -161,6 +163,7 @@ impl StepTimes {
             + self.projection
             + self.depth_cull
             + self.interpolation_priority
+            + self.vlf
             + self.dither
             + self.aging
             + self.readback
@@ -572,10 +575,11 @@ impl RenderCache {
             p.filter.cull(&mut r, &e.filter_bg, n);
             r.step(&mut times.depth_cull);
             p.filter.interpolate(&mut r, &e.filter_bg, n);
+            r.step(&mut times.interpolation_priority);
             if let Some(v) = &self.vlf {
                 p.vlf.blend(&mut r, &v.eyes[i].2, n);
+                r.step(&mut times.vlf);
             }
-            r.step(&mut times.interpolation_priority);
             p.dither.dither(&mut r, &e.dither_bg, e.width, e.height);
             r.step(&mut times.dither);
         }

@@ -41,13 +41,17 @@ pub struct CompareArgs {
     /// The frame clock (Hz).
     #[arg(long, default_value_t = 30.0)]
     pub fps: f64,
-    /// Methods, comma-separated: trace, accumulate, cache, holodeck.
+    /// Methods, comma-separated: trace, accumulate, cache, holodeck, vlf, vlf+holodeck.
     #[arg(
         long,
-        default_value = "trace,accumulate,cache,holodeck",
+        default_value = "trace,accumulate,cache,holodeck,vlf,vlf+holodeck",
         value_delimiter = ','
     )]
     pub methods: Vec<String>,
+    /// The light field of the vlf methods (default: DIR/<scene>.vlf, baked with default
+    /// settings for the scene as compared — scaled and moved — when missing).
+    #[arg(long)]
+    pub vlf: Option<PathBuf>,
     /// Rays per eye and frame for every method (default: one per pixel).
     #[arg(long)]
     pub budget: Option<u32>,
@@ -84,7 +88,9 @@ pub fn run(args: CompareArgs) -> Result<()> {
         .collect::<Result<Vec<_>>>()
         .context("--methods")?;
     if methods.is_empty() {
-        bail!("--methods: no methods given (trace, accumulate, cache, holodeck)");
+        bail!(
+            "--methods: no methods given (trace, accumulate, cache, holodeck, vlf, vlf+holodeck)"
+        );
     }
     if !(args.fps > 0.0 && args.fps <= 1000.0) {
         bail!("--fps {}: not a frame rate (0 to 1000 Hz)", args.fps);
@@ -145,7 +151,27 @@ pub fn run(args: CompareArgs) -> Result<()> {
         reference_spp: args.reference_spp.max(1),
         out: args.out.clone(),
         holodeck: args.holodeck.clone(),
+        vlf: None,
     };
+    let mut settings = settings;
+    if methods.iter().any(|m| m.needs_vlf()) {
+        let stem = args
+            .scene
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let path = args
+            .vlf
+            .clone()
+            .unwrap_or_else(|| args.out.join(format!("{stem}.vlf")));
+        std::fs::create_dir_all(&args.out)
+            .with_context(|| format!("creating {}", args.out.display()))?;
+        if !path.exists() {
+            println!("baking the light field {}", path.display());
+        }
+        super::vlf::bake_file(&scene, &holocave_vlf::Settings::default(), &path, true)
+            .with_context(|| format!("the light field {}", path.display()))?;
+        settings.vlf = Some((path, holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES));
+    }
     let compare = Compare {
         cave: &cave,
         wall,

@@ -1,0 +1,61 @@
+//! The light field's per-pixel visibility as a render node runs it every frame: one eye
+//! ray per pixel (first hits in packets), continued through mirrors and glass, into a
+//! lookup. On one thread (as each node of `holocave sim`) and on all cores, at the sim's
+//! wall size and at 1024×768, on the Cornell box (mirror and glass) and the room.
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Duration;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use glam::Vec3;
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::view::WallView;
+use holocave_vlf::{Settings, Visibility, layout};
+
+fn scene(name: &str) -> Arc<Scene> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes")
+        .join(name);
+    Arc::new(Scene::load(&path, &LoadOptions::default()).expect("scene"))
+}
+
+fn view(eye: Vec3, z: f32, width: u32, height: u32) -> WallView {
+    WallView {
+        eye,
+        pa: Vec3::new(-1.5, 0.0, z),
+        pb: Vec3::new(1.5, 0.0, z),
+        pc: Vec3::new(-1.5, 3.0, z),
+        width,
+        height,
+    }
+}
+
+fn visibility(c: &mut Criterion) {
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a pool");
+    for (name, eye, z) in [
+        ("cornell.gltf", Vec3::new(0.0, 1.0, 3.4), 1.2),
+        ("room.gltf", Vec3::new(0.0, 1.6, 0.5), -1.5),
+    ] {
+        let scene = scene(name);
+        // The layout depends on the settings only through the element size.
+        let vis = Visibility::new(scene.clone(), layout(&scene, &Settings::default()));
+        let mut group = c.benchmark_group(format!("vlf visibility/{name}"));
+        group.sample_size(10);
+        group.measurement_time(Duration::from_secs(5));
+        for (w, h) in [(128, 96), (1024, 768)] {
+            let v = view(eye, z, w, h);
+            group.bench_function(format!("{w}x{h}, one thread"), |b| {
+                b.iter(|| one.install(|| vis.pixels(&v)))
+            });
+            group.bench_function(format!("{w}x{h}, all cores"), |b| b.iter(|| vis.pixels(&v)));
+        }
+        group.finish();
+    }
+}
+
+criterion_group!(benches, visibility);
+criterion_main!(benches);
