@@ -75,7 +75,10 @@ fn a_point_light_gives_i_cos_over_d_squared() {
     let sigma_half = g * s * ((samples - k) / (6.0 * k * k) + k / 2.0).sqrt() / samples;
     let square = h2 * s * s / 12.0 + 4.0 * sigma_square;
     let half = h2 * s * s / 18.0 + 4.0 * sigma_half;
-    eprintln!("s {s:.4}, tolerance {square:.4} (square cells), {half:.4} (half cells); peak {:.1}", I / (H * H));
+    eprintln!(
+        "s {s:.4}, tolerance {square:.4} (square cells), {half:.4} (half cells); peak {:.1}",
+        I / (H * H)
+    );
 
     let (_, centre) = elements.areas_and_centres(&scene);
     let mut worst = 0f32;

@@ -1,0 +1,306 @@
+//! The `.vlf` file: a written bake reads back equal; a truncated, damaged or wrong-scene
+//! file is an error of the matching kind that names the file (and the chunk and offset
+//! where there is one), never a panic and never invented data.
+
+mod common;
+
+use std::path::Path;
+
+use glam::Vec3;
+use holocave_scene::Scene;
+use holocave_vlf::file::fingerprint;
+use holocave_vlf::{Settings, VlfError, VlfFile, layout};
+
+fn settings() -> Settings {
+    Settings {
+        directions: 12,
+        resolution: 16,
+        element_size: Some(0.25),
+        direct_samples: 4,
+        tolerance: 1e-2,
+        max_bounces: 50,
+    }
+}
+
+fn furnace(name: &str, rho: f32) -> Scene {
+    common::closed_box(name, 1.0, common::lambert("glowing", rho, Vec3::ONE))
+}
+
+fn baked(scene: &Scene) -> VlfFile {
+    let settings = settings();
+    let (state, _) = common::bake_quiet(scene, &settings);
+    VlfFile {
+        scene: scene.name.clone(),
+        fingerprint: fingerprint(scene),
+        settings,
+        element_size: layout(scene, &settings).element_size,
+        state,
+    }
+}
+
+/// The chunks of a file as written: (tag, offset of its header, payload length).
+fn chunks(bytes: &[u8]) -> Vec<(String, usize, usize)> {
+    let mut at = 16;
+    let mut out = Vec::new();
+    while at < bytes.len() {
+        let tag = String::from_utf8_lossy(&bytes[at..at + 4]).into_owned();
+        let len = u64::from_le_bytes(bytes[at + 4..at + 12].try_into().unwrap()) as usize;
+        out.push((tag, at, len));
+        at += 16 + len;
+    }
+    assert_eq!(at, bytes.len());
+    out
+}
+
+fn read_bytes(
+    dir: &Path,
+    name: &str,
+    bytes: &[u8],
+) -> (std::path::PathBuf, Result<VlfFile, VlfError>) {
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    let r = VlfFile::read(&path);
+    (path, r)
+}
+
+/// The error's message names the file.
+fn names_file(e: &VlfError, path: &Path) {
+    let m = e.to_string();
+    assert!(
+        m.contains(&path.display().to_string()),
+        "{m:?} does not name {}",
+        path.display()
+    );
+}
+
+#[test]
+fn a_bake_reads_back_equal() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = furnace("box", 0.5);
+    let f = baked(&scene);
+    assert!(f.state.converged && f.state.bounces > 2);
+    let path = dir.path().join("box.vlf");
+    f.write(&path).unwrap();
+    // Written through a temporary file that is renamed away.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, vec![std::ffi::OsString::from("box.vlf")]);
+    let back = VlfFile::read(&path).unwrap();
+    assert_eq!(back, f);
+    common::assert_same_bits(&back.state, &f.state, "read back");
+    assert_eq!(VlfFile::read_for(&path, &scene).unwrap(), f);
+
+    // Written again over an existing file, a different state replaces it whole.
+    let mut g = f.clone();
+    g.state.bounces = 1;
+    g.state.residuals.truncate(2);
+    g.state.converged = false;
+    g.write(&path).unwrap();
+    assert_eq!(VlfFile::read(&path).unwrap(), g);
+
+    // A file that is not there, and a directory that is not there.
+    let missing = dir.path().join("missing.vlf");
+    let e = VlfFile::read(&missing).unwrap_err();
+    assert!(matches!(e, VlfError::Io { .. }), "{e:?}");
+    names_file(&e, &missing);
+    let nowhere = dir.path().join("no/such/dir/box.vlf");
+    let e = f.write(&nowhere).unwrap_err();
+    assert!(matches!(e, VlfError::Io { .. }), "{e:?}");
+    names_file(&e, &nowhere);
+}
+
+#[test]
+fn a_truncated_file_names_the_chunk_and_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = baked(&furnace("box", 0.5));
+    let path = dir.path().join("whole.vlf");
+    f.write(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let chunks = chunks(&bytes);
+    assert_eq!(
+        chunks.iter().map(|c| c.0.as_str()).collect::<Vec<_>>(),
+        ["META", "IRRA", "LAST"]
+    );
+    // Cuts in the header (in the magic number, in the version and count after it), and in
+    // each chunk's header, at its payload's start, in its payload and at its last byte.
+    let mut cuts = vec![(0, "header"), (5, "header"), (8, "header"), (12, "header")];
+    for (tag, at, len) in &chunks {
+        for cut in [*at, at + 7, at + 16, at + 16 + len / 2, at + 16 + len - 1] {
+            cuts.push((cut, tag.as_str()));
+        }
+    }
+    for (cut, chunk) in cuts {
+        let (p, r) = read_bytes(dir.path(), &format!("cut{cut}.vlf"), &bytes[..cut]);
+        let e = r.expect_err(&format!("cut at {cut}"));
+        names_file(&e, &p);
+        let VlfError::Truncated {
+            chunk: got, offset, ..
+        } = &e
+        else {
+            panic!("cut at {cut}: {e:?}");
+        };
+        assert_eq!(got, chunk, "cut at {cut}: {e}");
+        // Where the chunk's header is missing the offset is the chunk's start; where its
+        // payload is, the end of what is there.
+        let start = chunks.iter().find(|c| c.0 == chunk).map_or(0, |c| c.1);
+        let expect = if chunk == "header" || cut >= start + 16 {
+            cut
+        } else {
+            start
+        };
+        assert_eq!(*offset, expect as u64, "cut at {cut}: {e}");
+        assert!(e.to_string().contains(chunk) && e.to_string().contains(&expect.to_string()));
+    }
+}
+
+#[test]
+fn a_damaged_byte_names_the_chunk() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = baked(&furnace("box", 0.5));
+    let path = dir.path().join("whole.vlf");
+    f.write(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let flip = |at: usize| {
+        let mut b = bytes.clone();
+        b[at] ^= 0x10;
+        read_bytes(dir.path(), &format!("flip{at}.vlf"), &b)
+    };
+
+    // The magic number and the version.
+    for at in [0, 7] {
+        let (p, r) = flip(at);
+        let e = r.unwrap_err();
+        assert!(matches!(e, VlfError::NotVlf { .. }), "byte {at}: {e:?}");
+        names_file(&e, &p);
+    }
+    let (p, r) = flip(8);
+    let e = r.unwrap_err();
+    assert!(matches!(e, VlfError::Version { found: 17, .. }), "{e:?}");
+    names_file(&e, &p);
+
+    // The chunk count.
+    let (p, r) = flip(12);
+    let e = r.unwrap_err();
+    names_file(&e, &p);
+    assert!(
+        matches!(&e, VlfError::Malformed { chunk, offset: 12, .. } if chunk == "header"),
+        "{e:?}"
+    );
+    // Bytes after the last chunk (a file appended to, or two writes run together).
+    let mut longer = bytes.clone();
+    longer.extend_from_slice(b"more");
+    let (p, r) = read_bytes(dir.path(), "longer.vlf", &longer);
+    let e = r.unwrap_err();
+    names_file(&e, &p);
+    assert!(
+        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "LAST" && *offset == bytes.len() as u64),
+        "{e:?}"
+    );
+
+    for (tag, at, len) in chunks(&bytes) {
+        // Anywhere in the payload, or in the checksum itself: a checksum mismatch at the
+        // chunk's start.
+        for b in [at + 12, at + 16, at + 16 + len / 2, at + 16 + len - 1] {
+            let (p, r) = flip(b);
+            let e = r.unwrap_err();
+            names_file(&e, &p);
+            match &e {
+                VlfError::Checksum { chunk, offset, .. } => {
+                    assert_eq!(
+                        (chunk.as_str(), *offset),
+                        (tag.as_str(), at as u64),
+                        "byte {b}"
+                    );
+                    assert!(e.to_string().contains(&format!("chunk {tag} at byte {at}")));
+                }
+                _ => panic!("byte {b} of {tag}: {e:?}"),
+            }
+        }
+        // The tag: not the chunk expected there.
+        let (p, r) = flip(at);
+        let e = r.unwrap_err();
+        names_file(&e, &p);
+        assert!(
+            matches!(&e, VlfError::Malformed { chunk, offset, .. } if *chunk == tag && *offset == at as u64),
+            "tag of {tag}: {e:?}"
+        );
+        // The length's high byte: the payload would run past the end of the file.
+        let (p, r) = flip(at + 11);
+        let e = r.unwrap_err();
+        names_file(&e, &p);
+        assert!(
+            matches!(&e, VlfError::Truncated { chunk, .. } if *chunk == tag),
+            "length of {tag}: {e:?}"
+        );
+        // The length's low byte, shorter: the chunk's checksum (or, for the last chunk,
+        // the checksum too: the payload read is not the one summed).
+        let (p, r) = flip(at + 4);
+        let e = r.unwrap_err();
+        names_file(&e, &p);
+        assert!(
+            matches!(&e, VlfError::Checksum { chunk, .. } | VlfError::Truncated { chunk, .. } if *chunk == tag),
+            "length of {tag}: {e:?}"
+        );
+    }
+}
+
+#[test]
+fn arrays_that_do_not_match_the_element_count_are_refused() {
+    // A chunk whose checksum is right but whose length disagrees with the element count
+    // in META: the reader must not make up or drop elements.
+    let dir = tempfile::tempdir().unwrap();
+    let f = baked(&furnace("box", 0.5));
+    let path = dir.path().join("whole.vlf");
+    f.write(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let chunks = chunks(&bytes);
+    let (_, irra, len) = chunks[1].clone();
+    let mut b = bytes[..irra].to_vec();
+    let payload = &bytes[irra + 16..irra + 16 + len - 12];
+    b.extend_from_slice(b"IRRA");
+    b.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    b.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
+    b.extend_from_slice(payload);
+    b.extend_from_slice(&bytes[irra + 16 + len..]);
+    let (p, r) = read_bytes(dir.path(), "short.vlf", &b);
+    let e = r.unwrap_err();
+    names_file(&e, &p);
+    assert!(
+        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "IRRA" && *offset == (irra + 16) as u64),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn a_file_baked_for_another_scene_is_refused_naming_both() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = furnace("grey box", 0.5);
+    let path = dir.path().join("grey.vlf");
+    baked(&scene).write(&path).unwrap();
+    // The same geometry with another albedo: another scene for the light field.
+    let other = furnace("pale box", 0.6);
+    assert_ne!(fingerprint(&scene), fingerprint(&other));
+    let e = VlfFile::read_for(&path, &other).unwrap_err();
+    names_file(&e, &path);
+    let VlfError::WrongScene {
+        baked_for,
+        scene: s,
+        baked,
+        wanted,
+        ..
+    } = &e
+    else {
+        panic!("{e:?}");
+    };
+    assert_eq!((baked_for.as_str(), s.as_str()), ("grey box", "pale box"));
+    assert_eq!(
+        (*baked, *wanted),
+        (fingerprint(&scene), fingerprint(&other))
+    );
+    let m = e.to_string();
+    assert!(m.contains("grey box") && m.contains("pale box"), "{m}");
+    // And it still reads for its own scene.
+    assert!(VlfFile::read_for(&path, &scene).is_ok());
+}
