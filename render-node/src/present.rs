@@ -18,8 +18,12 @@ use crate::RenderCache;
 use crate::gpu::Gpu;
 use crate::tonemap::ToneCurve;
 
+#[path = "shaders/luminance.rs"]
+mod luminance;
 #[path = "shaders/tonemap.rs"]
 mod screen;
+
+pub use luminance::Histogrammer;
 
 use screen::ScreenPass;
 

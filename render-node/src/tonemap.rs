@@ -77,9 +77,24 @@ pub fn log_tvi(log_la: f32) -> f32 {
     }
 }
 
-impl Mapping {
-    /// The histogram adjustment of `image` (None when it has nothing above black).
-    pub fn new(image: &Image, mode: ToneMode) -> Option<Mapping> {
+/// What a mapping is made from: the histogram of an image's log10 world luminance
+/// (cd/m²) over the pixels above black, in [`BINS`] bins from `log_min` to `log_max`.
+/// Made on the CPU from an image ([`LogHistogram::of_image`]) or on the GPU from the
+/// image where it lies (`present::Histogrammer`), so a window's frame never leaves the GPU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogHistogram {
+    pub log_min: f32,
+    /// At least `log_min + 1e-3`.
+    pub log_max: f32,
+    pub log_mean: f32,
+    /// Pixels counted (above black and finite).
+    pub count: u64,
+    pub bins: Vec<f32>,
+}
+
+impl LogHistogram {
+    /// The histogram of `image` (None when it has nothing above black).
+    pub fn of_image(image: &Image) -> Option<LogHistogram> {
         let logs: Vec<f32> = image
             .pixels
             .iter()
@@ -98,11 +113,36 @@ impl Mapping {
             .max(log_min + 1e-3);
         let log_mean = logs.iter().sum::<f32>() / logs.len() as f32;
         let db = (log_max - log_min) / BINS as f32;
-        let mut hist = vec![0.0f32; BINS];
+        let mut bins = vec![0.0f32; BINS];
         for &l in &logs {
             let b = (((l - log_min) / db) as usize).min(BINS - 1);
-            hist[b] += 1.0;
+            bins[b] += 1.0;
         }
+        Some(LogHistogram {
+            log_min,
+            log_max,
+            log_mean,
+            count: logs.len() as u64,
+            bins,
+        })
+    }
+}
+
+impl Mapping {
+    /// The histogram adjustment of `image` (None when it has nothing above black).
+    pub fn new(image: &Image, mode: ToneMode) -> Option<Mapping> {
+        LogHistogram::of_image(image).and_then(|h| Mapping::from_histogram(&h, mode))
+    }
+
+    /// The histogram adjustment for a histogram of `BINS` bins (None when it is empty
+    /// or has another number of bins).
+    pub fn from_histogram(h: &LogHistogram, mode: ToneMode) -> Option<Mapping> {
+        if h.count == 0 || h.bins.len() != BINS {
+            return None;
+        }
+        let (log_min, log_max, log_mean) = (h.log_min, h.log_max, h.log_mean);
+        let db = (log_max - log_min) / BINS as f32;
+        let mut hist = h.bins.clone();
         let (ldmin, ldmax) = (LD_MIN.log10(), LD_MAX.log10());
         let total0: f32 = hist.iter().sum();
         let linear = |fits: bool| {
@@ -276,6 +316,25 @@ impl ToneMapper {
         };
         if (force || stale)
             && let Some(m) = Mapping::new(image, self.mode)
+        {
+            self.mapping = Some(m);
+            return true;
+        }
+        false
+    }
+
+    /// [`ToneMapper::update`] from an image's histogram (`None`: nothing above black, the
+    /// mapping is kept).
+    pub fn update_from(&mut self, h: Option<&LogHistogram>, force: bool) -> bool {
+        let Some(h) = h.filter(|h| h.count > 0) else {
+            return false;
+        };
+        let stale = match &self.mapping {
+            None => true,
+            Some(m) => (h.log_mean - m.log_mean).abs() > 2f32.log10(),
+        };
+        if (force || stale)
+            && let Some(m) = Mapping::from_histogram(h, self.mode)
         {
             self.mapping = Some(m);
             return true;
