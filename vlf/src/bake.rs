@@ -126,16 +126,17 @@ pub fn tail(residuals: &[f64]) -> f64 {
     r * q / (1.0 - q) / propagated
 }
 
-/// The drawn irradiance: the direct light as it is (sharp shadows), the rest — the sky
-/// along the lines and every bounce, which is smooth in nature but carries the lines'
-/// sampling noise — averaged over each element's 3 × 3 neighbourhood of cells on its
-/// triangle side (weighted by area).
+/// The drawn irradiance: the light that arrived first (`first`: direct light with its
+/// sharp shadows, the sky through openings, caustics) as it is; the inter-reflected rest,
+/// smooth in nature but carrying the lines' sampling noise, averaged over each element's
+/// 3 × 3 neighbourhood of cells on its triangle side (a tent, weighted by area).
 pub fn smooth_indirect(
     elements: &Elements,
     area: &[f32],
-    direct: &[[f32; 3]],
+    first: &[[f32; 3]],
     total: &[[f32; 3]],
 ) -> Vec<[f32; 3]> {
+    let direct = first;
     let indirect: Vec<Vec3> = total
         .iter()
         .zip(direct)
@@ -156,8 +157,11 @@ pub fn smooth_indirect(
                                 continue;
                             }
                             let e = (base + cell_index(ii as u32, jj as u32, r as u32)) as usize;
-                            sum += indirect[e] * area[e];
-                            w += area[e];
+                            // A tent: 4 at the centre, 2 at the sides, 1 at the corners.
+                            let tent = f32::from(2u8 >> di.unsigned_abs())
+                                * f32::from(2u8 >> dj.unsigned_abs());
+                            sum += indirect[e] * area[e] * tent;
+                            w += area[e] * tent;
                         }
                     }
                     let e = (base + cell_index(i as u32, j as u32, r as u32)) as usize;
@@ -197,7 +201,82 @@ fn sky(lights: &Lights, dir: Vec3) -> Vec3 {
     lights.sky.as_ref().map_or(Vec3::ZERO, |s| s.radiance(dir))
 }
 
-/// Bakes `scene`, from `resume` if given. `save` is called after each bounce.
+/// Casts the subfields of one bake: the same on every thread and in every worker
+/// process, so a subfield is the same whoever casts it.
+pub struct Caster<'a> {
+    scene: &'a Scene,
+    settings: Settings,
+    pub directions: Directions,
+    sphere: Sphere,
+    pub elements: Elements,
+    lights: Lights,
+}
+
+impl<'a> Caster<'a> {
+    pub fn new(scene: &'a Scene, settings: &Settings) -> Caster<'a> {
+        Caster {
+            scene,
+            settings: *settings,
+            directions: Directions::at_least(settings.directions),
+            sphere: Sphere::of(scene),
+            elements: layout(scene, settings),
+            lights: Lights::new(scene),
+        }
+    }
+
+    /// How many subfields there are.
+    pub fn count(&self) -> usize {
+        self.directions.lines.len()
+    }
+
+    /// The grid of subfield `k`.
+    pub fn grid(&self, k: usize) -> Grid {
+        let d = self.directions.lines[k];
+        let omega = self.directions.solid_angle[self.directions.pair[k][0] as usize];
+        Grid::new(
+            d,
+            k as u32,
+            self.sphere,
+            self.settings.resolution.max(1),
+            omega,
+        )
+    }
+
+    /// Subfield `k`: its lines and their crossings.
+    pub fn cast(&self, k: usize) -> Subfield {
+        cast(
+            self.scene,
+            &self.elements,
+            &self.grid(k),
+            &environment(&self.lights),
+        )
+    }
+}
+
+/// Who casts the subfields: this process's threads, and workers in other processes.
+pub trait Casting: Sync {
+    /// Every subfield of `caster`, in order, reporting each one done through `done`.
+    fn cast_all(&self, caster: &Caster, done: &(dyn Fn() + Sync)) -> Vec<Subfield>;
+}
+
+/// This process's threads (rayon's pool) only.
+pub struct Threads;
+
+impl Casting for Threads {
+    fn cast_all(&self, caster: &Caster, done: &(dyn Fn() + Sync)) -> Vec<Subfield> {
+        (0..caster.count())
+            .into_par_iter()
+            .map(|k| {
+                let s = caster.cast(k);
+                done();
+                s
+            })
+            .collect()
+    }
+}
+
+/// Bakes `scene` on this process's threads, from `resume` if given. `save` is called
+/// after each bounce.
 pub fn bake<E>(
     scene: &Scene,
     settings: &Settings,
@@ -205,41 +284,42 @@ pub fn bake<E>(
     progress: &(dyn Fn(Stage) + Sync),
     save: &mut dyn FnMut(&State) -> Result<(), E>,
 ) -> Result<(State, Stats), E> {
+    bake_with(scene, settings, resume, &Threads, progress, save)
+}
+
+/// Bakes `scene` with the subfields cast by `casting`, from `resume` if given. `save` is
+/// called after each bounce. The result does not depend on who cast what.
+pub fn bake_with<E>(
+    scene: &Scene,
+    settings: &Settings,
+    resume: Option<State>,
+    casting: &dyn Casting,
+    progress: &(dyn Fn(Stage) + Sync),
+    save: &mut dyn FnMut(&State) -> Result<(), E>,
+) -> Result<(State, Stats), E> {
     let lights = Lights::new(scene);
-    let env = environment(&lights);
-    let directions = Directions::at_least(settings.directions);
-    let sphere = Sphere::of(scene);
-    let elements = layout(scene, settings);
+    let caster = Caster::new(scene, settings);
     let mut stats = Stats {
-        directions: directions.len(),
-        subfields: directions.lines.len(),
-        elements: elements.count,
+        directions: caster.directions.len(),
+        subfields: caster.count(),
+        elements: caster.elements.count,
         ..Stats::default()
     };
 
     // Visibility: every line of every subfield.
     let start = Instant::now();
-    let total = directions.lines.len();
+    let total = caster.count();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let subfields: Vec<Subfield> = directions
-        .lines
-        .par_iter()
-        .enumerate()
-        .map(|(k, d)| {
-            let omega = directions.solid_angle[directions.pair[k][0] as usize];
-            let grid = Grid::new(*d, k as u32, sphere, settings.resolution.max(1), omega);
-            let s = cast(scene, &elements, &grid, &env);
-            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            progress(Stage::Visibility { done: n, total });
-            s
-        })
-        .collect();
+    let subfields = casting.cast_all(&caster, &|| {
+        let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        progress(Stage::Visibility { done: n, total });
+    });
     stats.visibility = start.elapsed();
-    let spacing = 2.0 * sphere.radius / settings.resolution.max(1) as f32;
-    let weight: Vec<f32> = directions
-        .pair
-        .iter()
-        .map(|[a, _]| directions.solid_angle[*a as usize] * spacing * spacing)
+    let (directions, elements) = (&caster.directions, &caster.elements);
+    let weight: Vec<f32> = (0..caster.count())
+        .map(|k| {
+            directions.solid_angle[directions.pair[k][0] as usize] * caster.grid(k).cross_section()
+        })
         .collect();
     let ends: Vec<(Vec3, Vec3)> = directions
         .lines
@@ -287,15 +367,14 @@ pub fn bake<E>(
             .map(|(e, a)| (Vec3::from(*e) * *a * std::f32::consts::FRAC_1_PI).to_array())
             .collect()
     };
-    // Direct light: computed again on resume (deterministic), since the last step
-    // smooths the rest of the light and leaves it sharp.
+    // Direct light (computed again on resume: see below).
     let start = Instant::now();
     let tris = elements.triangles.len();
     let done = std::sync::atomic::AtomicUsize::new(0);
     let direct = direct_irradiance(
         scene,
         &lights,
-        &elements,
+        elements,
         &needed,
         settings.direct_samples,
         &|| {
@@ -309,28 +388,30 @@ pub fn bake<E>(
         },
     );
     stats.direct = start.elapsed();
+    // The light that arrives first: direct light, the sky along the lines, what delta
+    // surfaces show (caustics). Computed again on resume (deterministic): the last step
+    // keeps it sharp and smooths only the inter-reflected light.
+    let start = Instant::now();
+    let zero = vec![[0f32; 3]; elements.count];
+    let lines = bounce(&subfields, &weight, &ends, &area, &zero, true);
+    let first: Vec<[f32; 3]> = direct
+        .iter()
+        .zip(&lines)
+        .map(|(a, b)| (Vec3::from(*a) + Vec3::from(*b)).to_array())
+        .collect();
+    stats.propagation += start.elapsed();
     let mut state = match resume {
         Some(s) => s,
         None => {
-            let start = Instant::now();
-            // The first bounce: the sky along the lines and what delta surfaces show.
-            let zero = vec![[0f32; 3]; elements.count];
-            let lines = bounce(&subfields, &weight, &ends, &area, &zero, true);
-            let irradiance: Vec<[f32; 3]> = direct
-                .iter()
-                .zip(&lines)
-                .map(|(a, b)| (Vec3::from(*a) + Vec3::from(*b)).to_array())
-                .collect();
-            let arrived = flux(&irradiance, &area) / std::f64::consts::PI;
-            let last = reflect(&irradiance);
-            let first = flux(&last, &area) / arrived.max(f64::MIN_POSITIVE);
-            stats.propagation += start.elapsed();
+            let arrived = flux(&first, &area) / std::f64::consts::PI;
+            let last = reflect(&first);
+            let residual = flux(&last, &area) / arrived.max(f64::MIN_POSITIVE);
             let s = State {
                 bounces: 0,
-                irradiance,
+                irradiance: first.clone(),
                 last,
                 arrived,
-                residuals: vec![first],
+                residuals: vec![residual],
                 converged: false,
             };
             save(&s)?;
@@ -341,7 +422,7 @@ pub fn bake<E>(
     while !state.converged {
         if tail(&state.residuals) < settings.tolerance || state.bounces >= settings.max_bounces {
             state.converged = true;
-            state.irradiance = smooth_indirect(&elements, &area, &direct, &state.irradiance);
+            state.irradiance = smooth_indirect(elements, &area, &first, &state.irradiance);
             save(&state)?;
             break;
         }

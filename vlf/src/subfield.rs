@@ -90,6 +90,20 @@ pub struct Grid {
 }
 
 impl Grid {
+    /// The cross-section a line stands for, on average: lines `spacing` apart across the
+    /// subfield's direction, leaning by `α`, are `spacing² cos α` apart across their own;
+    /// with the tangent of `α` uniform over a disc of radius `T`, the mean of `cos α` is
+    /// `2(√(1 + T²) − 1)/T²`.
+    pub fn cross_section(&self) -> f32 {
+        let t2 = self.lean * self.lean;
+        let mean_cos = if t2 > 0.0 {
+            2.0 * ((1.0 + t2).sqrt() - 1.0) / t2
+        } else {
+            1.0
+        };
+        self.spacing * self.spacing * mean_cos
+    }
+
     /// The grid of direction `d`, whose lines lean from it by up to the angular radius
     /// of the `solid_angle` it stands for.
     pub fn new(d: Vec3, index: u32, sphere: Sphere, n: u32, solid_angle: f32) -> Grid {
