@@ -259,3 +259,43 @@ impl WindowManager {
         self.conn.flush().expect("flushing");
     }
 }
+
+impl WindowManager {
+    /// Presses and releases Esc in the window named `name` (focus given to it, the key sent
+    /// through XTEST like a real keyboard's).
+    pub fn press_escape(&self, name: &str) {
+        use x11rb::connection::Connection;
+        use x11rb::protocol::xproto::{
+            ConnectionExt, InputFocus, KEY_PRESS_EVENT, KEY_RELEASE_EVENT,
+        };
+        use x11rb::protocol::xtest::ConnectionExt as _;
+        const ESCAPE: u32 = 0xff1b;
+        let win = self
+            .find(name)
+            .unwrap_or_else(|| panic!("no window {name:?}"));
+        let setup = self.conn.setup();
+        let (min, max) = (setup.min_keycode, setup.max_keycode);
+        let map = self
+            .conn
+            .get_keyboard_mapping(min, max - min + 1)
+            .expect("asking for the keyboard mapping")
+            .reply()
+            .expect("the keyboard mapping");
+        let per = usize::from(map.keysyms_per_keycode).max(1);
+        let code = map
+            .keysyms
+            .chunks(per)
+            .position(|syms| syms.contains(&ESCAPE))
+            .map(|i| min + i as u8)
+            .expect("a keycode for Escape");
+        self.conn
+            .set_input_focus(InputFocus::PARENT, win, x11rb::CURRENT_TIME)
+            .expect("focusing");
+        for kind in [KEY_PRESS_EVENT, KEY_RELEASE_EVENT] {
+            self.conn
+                .xtest_fake_input(kind, code, x11rb::CURRENT_TIME, self.root, 0, 0, 0)
+                .expect("XTEST");
+        }
+        self.conn.flush().expect("flushing");
+    }
+}
