@@ -168,8 +168,14 @@ pub fn run(args: CompareArgs) -> Result<()> {
         if !path.exists() {
             println!("baking the light field {}", path.display());
         }
-        super::vlf::bake_file(&scene, &holocave_vlf::Settings::default(), &path, true)
-            .with_context(|| format!("the light field {}", path.display()))?;
+        super::vlf::bake_file(
+            &scene,
+            &holocave_vlf::Settings::default(),
+            &path,
+            true,
+            &holocave_vlf::Threads,
+        )
+        .with_context(|| format!("the light field {}", path.display()))?;
         settings.vlf = Some((path, holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES));
     }
     let compare = Compare {

@@ -165,7 +165,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             );
         }
         let start = Instant::now();
-        super::vlf::bake_file(&scene, &settings, &path, false)
+        super::vlf::bake_file(&scene, &settings, &path, false, &holocave_vlf::Threads)
             .with_context(|| format!("the light field {}", path.display()))?;
         if fresh {
             println!("baked in {:.1} s", start.elapsed().as_secs_f64());

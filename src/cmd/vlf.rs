@@ -10,7 +10,8 @@ use glam::Vec3;
 use holocave_scene::Scene;
 use holocave_vlf::bake::{Settings, Stage, State, tail};
 use holocave_vlf::file::{VlfFile, fingerprint};
-use holocave_vlf::{Visibility, layout};
+use holocave_vlf::remote::Workers;
+use holocave_vlf::{Casting, Threads, Visibility, layout};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::render::{load_scene, wall_view};
@@ -49,7 +50,7 @@ pub struct BakeArgs {
     /// Lines across each parallel subfield (N of the N × N grid).
     #[arg(long, default_value_t = Settings::default().resolution)]
     pub resolution: u32,
-    /// Element size in scene units (default: the lines' spacing).
+    /// Element size in scene units (default: twice the lines' spacing).
     #[arg(long)]
     pub element_size: Option<f32>,
     /// Next-event samples per element for small lights and the sun.
@@ -59,9 +60,17 @@ pub struct BakeArgs {
     /// inter-reflected light.
     #[arg(long, default_value_t = Settings::default().tolerance)]
     pub tolerance: f64,
-    /// Threads (default: all cores).
+    /// Threads of this process (default: all cores); 0 with --listen: only the worker
+    /// processes cast lines.
     #[arg(long)]
     pub workers: Option<usize>,
+    /// Also hand subfields out to `holocave worker --vlf` processes connecting here
+    /// (the cluster's secret from HOLOCAVE_SECRET); the result is the same bit for bit.
+    #[arg(long)]
+    pub listen: Option<String>,
+    /// The cluster's name (for --listen).
+    #[arg(long, default_value = super::credentials::DEFAULT_CLUSTER)]
+    pub cluster: String,
 }
 
 #[derive(Args)]
@@ -103,7 +112,13 @@ pub fn run(c: VlfCommand) -> Result<()> {
 }
 
 /// Bakes (or finishes baking) `out` for `scene`; shared by `vlf bake` and `sim`.
-pub fn bake_file(scene: &Scene, settings: &Settings, out: &Path, quiet: bool) -> Result<VlfFile> {
+pub fn bake_file(
+    scene: &Scene,
+    settings: &Settings,
+    out: &Path,
+    quiet: bool,
+    casting: &dyn Casting,
+) -> Result<VlfFile> {
     let resume = if out.exists() {
         let f = VlfFile::read_for(out, scene)?;
         if f.settings != *settings {
@@ -176,7 +191,8 @@ pub fn bake_file(scene: &Scene, settings: &Settings, out: &Path, quiet: bool) ->
         }
         Ok(())
     };
-    let (state, stats) = holocave_vlf::bake(scene, settings, resume, &progress, &mut save)?;
+    let (state, stats) =
+        holocave_vlf::bake_with(scene, settings, resume, casting, &progress, &mut save)?;
     bar.finish_and_clear();
     if !quiet {
         println!(
@@ -217,6 +233,9 @@ fn bake(a: BakeArgs) -> Result<()> {
             .build_global()
             .context("setting the number of bake threads")?;
     }
+    if a.workers == Some(0) && a.listen.is_none() {
+        bail!("--workers 0 leaves nobody to bake: give --listen ADDR for worker processes");
+    }
     let scene = load_scene(&a.scene, a.daylight, false)?;
     let settings = Settings {
         directions: a.directions,
@@ -236,7 +255,26 @@ fn bake(a: BakeArgs) -> Result<()> {
         bail!("--element-size must be a positive length");
     }
     let start = std::time::Instant::now();
-    bake_file(&scene, &settings, &a.out, false)?;
+    match &a.listen {
+        Some(addr) => {
+            let credentials = super::credentials::from_env(&a.cluster)?;
+            let listener =
+                std::net::TcpListener::bind(addr).with_context(|| format!("--listen {addr}"))?;
+            println!("accepting bake workers on {}", listener.local_addr()?);
+            let workers = Workers {
+                listener,
+                cluster: credentials.cluster,
+                secret: credentials.secret,
+                local: a.workers != Some(0),
+                fingerprint: fingerprint(&scene),
+                settings,
+            };
+            bake_file(&scene, &settings, &a.out, false, &workers)?;
+        }
+        None => {
+            bake_file(&scene, &settings, &a.out, false, &Threads)?;
+        }
+    }
     println!(
         "wrote {} ({:.1} s)",
         a.out.display(),

@@ -23,6 +23,12 @@ pub struct WorkerArgs {
     /// The cluster's name; its shared secret comes from HOLOCAVE_SECRET.
     #[arg(long, default_value = super::credentials::DEFAULT_CLUSTER)]
     pub cluster: String,
+    /// Work for a light-field bake (`holocave vlf bake --listen`) instead of a holodeck.
+    #[arg(long)]
+    pub vlf: bool,
+    /// Daylight file of the scene (default: <scene>.daylight.toml beside it, if present).
+    #[arg(long)]
+    pub daylight: Option<PathBuf>,
 }
 
 /// Loads a scene and makes its sample generator.
@@ -37,6 +43,18 @@ pub fn load_source(scene: &Path) -> anyhow::Result<HolodeckTracer> {
 
 pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
     let credentials = super::credentials::from_env(&args.cluster)?;
+    if args.vlf {
+        let scene = super::render::load_scene(&args.scene, args.daylight.clone(), false)?;
+        let cast = holocave_vlf::remote::work(
+            &args.server,
+            &credentials.cluster,
+            &credentials.secret,
+            &scene,
+        )
+        .with_context(|| format!("light-field bake at {}", args.server))?;
+        tracing::info!("bake worker done: {cast} subfields cast");
+        return Ok(());
+    }
     let source = load_source(&args.scene)?;
     let name = format!("pid {}", std::process::id());
     let report = run_remote(

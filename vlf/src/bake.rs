@@ -356,6 +356,19 @@ pub fn bake_with<E>(
         })
         .collect();
     let needed: Vec<bool> = albedo.iter().map(|a| a.max_element() > 0.0).collect();
+    // The area a line's light is spread over: an element's, but never less than a
+    // quarter of a line's cross-section. An element much smaller than a line (a chain
+    // link, a leaf) is hit by a line in few directions, each bringing `h²/A` times its
+    // radiance; two such elements facing each other along one line pass light back and
+    // forth with a gain of `(ρ Δω h² / π A)²` per round trip, above 1 for small enough
+    // `A`, and the series diverges (Sponza did). Clamped, such elements get less light
+    // than they should (the render cache's samples correct them), and the series
+    // converges.
+    let least = (0..caster.count())
+        .map(|k| caster.grid(k).cross_section())
+        .fold(f32::INFINITY, f32::min)
+        * 0.25;
+    let receiving: Vec<f32> = area.iter().map(|a| a.max(least)).collect();
     stats.memory = stats.crossings * 8
         + stats.links * 28
         + (stats.lines_stored + stats.subfields as u64) * 4
@@ -393,7 +406,7 @@ pub fn bake_with<E>(
     // keeps it sharp and smooths only the inter-reflected light.
     let start = Instant::now();
     let zero = vec![[0f32; 3]; elements.count];
-    let lines = bounce(&subfields, &weight, &ends, &area, &zero, true);
+    let lines = bounce(&subfields, &weight, &ends, &receiving, &zero, true);
     let first: Vec<[f32; 3]> = direct
         .iter()
         .zip(&lines)
@@ -426,7 +439,7 @@ pub fn bake_with<E>(
             save(&state)?;
             break;
         }
-        let got = bounce(&subfields, &weight, &ends, &area, &state.last, false);
+        let got = bounce(&subfields, &weight, &ends, &receiving, &state.last, false);
         for (e, g) in state.irradiance.iter_mut().zip(&got) {
             *e = (Vec3::from(*e) + Vec3::from(*g)).to_array();
         }
@@ -434,6 +447,20 @@ pub fn bake_with<E>(
         state.bounces += 1;
         let r = flux(&state.last, &area) / state.arrived.max(f64::MIN_POSITIVE);
         state.residuals.push(r);
+        // With albedos at most 1 a bounce cannot send out more light than the bounce
+        // before it: if one does, the estimate has come apart (say so, keep what there is).
+        if !r.is_finite()
+            || (state.residuals.len() > 2 && r > state.residuals[state.residuals.len() - 2] * 1.5)
+        {
+            tracing::error!(
+                "bounce {}: the light sent out grew ({:?}); propagation stopped",
+                state.bounces,
+                &state.residuals[state.residuals.len().saturating_sub(3)..]
+            );
+            state.converged = true;
+            save(&state)?;
+            break;
+        }
         progress(Stage::Bounce {
             bounce: state.bounces,
             residual: r,

@@ -14,6 +14,7 @@
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
 //! - [`bake`]: the whole bake, its stopping rule and its checkpoints;
 //! - [`file`]: the `.vlf` file;
+//! - [`remote`]: bake workers in other processes (subfields handed out as work);
 //! - [`view`]: per-pixel visibility and the lookup (the render node does the lookup on
 //!   the GPU).
 //!
@@ -29,11 +30,12 @@ pub mod directions;
 pub mod elements;
 pub mod file;
 pub mod propagate;
+pub mod remote;
 pub mod subfield;
 pub mod surface;
 pub mod view;
 
-pub use bake::{Settings, Stage, State, Stats, bake, layout};
+pub use bake::{Caster, Casting, Settings, Stage, State, Stats, Threads, bake, bake_with, layout};
 pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};

@@ -1,0 +1,110 @@
+//! `holocave vlf bake` end to end: the same light field, bit for bit, from the bake's own
+//! threads and from `holocave worker --vlf` processes that the bake hands subfields to;
+//! workers with a wrong secret or another scene are refused and the bake goes on.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+const SECRET: &str = "vlf-bake-test-secret";
+
+fn exe() -> &'static str {
+    env!("CARGO_BIN_EXE_holocave")
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Small settings: a bake of the Cornell box (mirror and glass: links too) in a second.
+const SETTINGS: [&str; 4] = ["--directions", "42", "--resolution", "32"];
+
+fn bake_args(out: &Path) -> Command {
+    let mut c = Command::new(exe());
+    c.current_dir(root())
+        .args(["vlf", "bake", "--scene", "scenes/cornell.gltf"])
+        .args(SETTINGS)
+        .arg("--out")
+        .arg(out)
+        .env("HOLOCAVE_SECRET", SECRET);
+    c
+}
+
+fn worker(addr: &str, scene: &str, secret: &str) -> Child {
+    Command::new(exe())
+        .current_dir(root())
+        .args(["worker", "--vlf", "--server", addr, "--scene", scene])
+        .env("HOLOCAVE_SECRET", secret)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start a worker")
+}
+
+#[test]
+fn worker_processes_bake_the_same_light_field_as_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let threads = dir.path().join("threads.vlf");
+    let status = bake_args(&threads).stdout(Stdio::null()).status().unwrap();
+    assert!(status.success());
+
+    // Only worker processes cast lines (--workers 0): two good ones, one with a wrong
+    // secret and one with another scene, which must be refused.
+    let remote = dir.path().join("remote.vlf");
+    let mut bake = bake_args(&remote)
+        .args(["--listen", "127.0.0.1:0", "--workers", "0"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(bake.stdout.take().unwrap()).lines();
+    let addr = loop {
+        let line = lines
+            .next()
+            .expect("the bake says where it listens")
+            .unwrap();
+        if let Some(a) = line.strip_prefix("accepting bake workers on ") {
+            break a.to_owned();
+        }
+    };
+    // The refused ones first, each to its end: the bake cannot finish without a good
+    // worker, so they meet a bake that is listening.
+    for (name, scene, secret) in [
+        ("wrong secret", "scenes/cornell.gltf", "not the secret"),
+        ("other scene", "scenes/room.gltf", SECRET),
+    ] {
+        let out = worker(&addr, scene, secret).wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success(),
+            "a worker with the {name} was not refused"
+        );
+        assert!(
+            err.contains("handshake") || err.contains("the bake refused this worker"),
+            "{name}: {err}"
+        );
+    }
+    let good = [
+        worker(&addr, "scenes/cornell.gltf", SECRET),
+        worker(&addr, "scenes/cornell.gltf", SECRET),
+    ];
+    for l in lines.by_ref() {
+        let _ = l;
+    }
+    assert!(
+        bake.wait().unwrap().success(),
+        "the bake with workers failed"
+    );
+    for w in good {
+        let out = w.wait_with_output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let a = std::fs::read(&threads).unwrap();
+    let b = std::fs::read(&remote).unwrap();
+    assert_eq!(a.len(), b.len());
+    assert!(a == b, "the light fields differ");
+}
