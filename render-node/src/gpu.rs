@@ -81,6 +81,9 @@ impl Gpu {
                 max_storage_buffers_per_shader_stage: limits.max_storage_buffers_per_shader_stage,
                 max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
                 max_buffer_size: limits.max_buffer_size,
+                // Windows as large as the adapter can present (a projector's 4K mode, two
+                // eyes side by side); the downlevel default is 2048.
+                max_texture_dimension_2d: limits.max_texture_dimension_2d,
                 ..wgpu::Limits::downlevel_defaults()
             },
             ..Default::default()

@@ -90,7 +90,7 @@ pub struct PresentTimes {
 /// One window's surface and the pass that draws a wall into it.
 pub struct Presenter {
     gpu: Gpu,
-    /// Kept so the surface's window outlives it.
+    /// The window's surface (`remake` holds the window, so it outlives the surface).
     surface: wgpu::Surface<'static>,
     remake: SurfaceMaker,
     config: wgpu::SurfaceConfiguration,
@@ -100,6 +100,8 @@ pub struct Presenter {
     pending: Option<wgpu::SurfaceTexture>,
     /// Reconfigure before the next acquire (suboptimal texture).
     stale: bool,
+    /// The window size the surface was last configured for.
+    requested: (u32, u32),
     pub times: PresentTimes,
 }
 
@@ -151,13 +153,14 @@ impl Presenter {
             );
             wgpu::PresentMode::Fifo
         };
-        let (w, h) = size.get();
+        let requested = size.get();
+        let (w, h) = fit(gpu, requested.0.max(1), requested.1.max(1));
         let config = wgpu::SurfaceConfiguration {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
             format,
             color_space: Default::default(),
-            width: w.max(1),
-            height: h.max(1),
+            width: w,
+            height: h,
             present_mode,
             // One frame in flight: the swap-locked frame is the one shown next.
             desired_maximum_frame_latency: 1,
@@ -183,6 +186,7 @@ impl Presenter {
             size,
             pending: None,
             stale: false,
+            requested,
             times: PresentTimes::default(),
         })
     }
@@ -195,8 +199,8 @@ impl Presenter {
     fn reconfigure(&mut self) {
         let (w, h) = self.size.get();
         if w > 0 && h > 0 {
-            self.config.width = w;
-            self.config.height = h;
+            (self.config.width, self.config.height) = fit(&self.gpu, w, h);
+            self.requested = (w, h);
         }
         self.surface.configure(&self.gpu.device, &self.config);
         self.stale = false;
@@ -226,7 +230,7 @@ impl Presenter {
             self.times.skipped += 1;
             return Prepared::Skipped(Skip::Empty);
         }
-        if self.stale || (w, h) != (self.config.width, self.config.height) {
+        if self.stale || (w, h) != self.requested {
             self.reconfigure();
         }
         let t = Instant::now();
@@ -306,6 +310,20 @@ impl Presenter {
             self.times.abandoned += 1;
         }
     }
+}
+
+/// A window size the device can present: larger sides are clamped to its largest texture
+/// (the picture then covers part of the window; configuring larger would be an error).
+fn fit(gpu: &Gpu, w: u32, h: u32) -> (u32, u32) {
+    let max = gpu.device.limits().max_texture_dimension_2d;
+    if w > max || h > max {
+        tracing::warn!(
+            "a {w}x{h} window is larger than this GPU's {max}-pixel textures; drawing {}x{}",
+            w.min(max),
+            h.min(max)
+        );
+    }
+    (w.min(max), h.min(max))
 }
 
 /// The cache's eye indices of the layout's first and second eye (the same twice for a
