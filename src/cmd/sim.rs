@@ -117,6 +117,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     let mut cave = load_cave(&args.config)?;
     cave.set_rate(args.rate)
         .map_err(|e| anyhow::anyhow!("--rate {e}"))?;
+    args.windows.check()?;
     if !(args.scale > 0.0 && args.scale <= 1.0) {
         bail!("--scale {}: expected a fraction in (0, 1]", args.scale);
     }

@@ -355,6 +355,17 @@ pub fn unfolded_windows(
 }
 
 impl SimWindowArgs {
+    /// With `--window`, an X display must be named (the nodes would otherwise fail one by
+    /// one while the master waits for them).
+    pub fn check(&self) -> Result<()> {
+        if self.window && std::env::var_os("DISPLAY").is_none_or(|d| d.is_empty()) {
+            bail!(
+                "--window needs an X display and DISPLAY is not set (without one: Xvfb :1 -screen 0 1280x1024x24 & DISPLAY=:1 holocave sim --window)"
+            );
+        }
+        Ok(())
+    }
+
     /// The node's arguments for `wall` (eye images of `size`): its window placed in the
     /// unfolded CAVE, its present times logged to `DIR/<wall>/present-times.log`; or
     /// `--headless`.
