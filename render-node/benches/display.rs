@@ -1,5 +1,5 @@
 //! Display-process time per frame, split by step, at 512×512 and 1024×768 per eye, both
-//! eyes, on whatever adapter wgpu finds (Mesa's lavapipe on machines without a GPU). The
+//! eyes (and at 1024×768 with the room's light field under the cache), on whatever adapter wgpu finds (Mesa's lavapipe on machines without a GPU). The
 //! cache holds 1.25 points per pixel of both eyes, filled with one point per pixel seen
 //! from each eye; each frame chooses 1/16 of the pixels per eye. Per-step figures come from
 //! submitting each step alone and waiting for it, so they include one submit and wait each.
@@ -32,22 +32,19 @@ fn views(w: u32, h: u32) -> Vec<EyeView> {
         .collect()
 }
 
-/// A light field's worth of lookups for `n` pixels over `elements` elements: scattered
-/// over the atlas (the worst case for the shader's reads), every pixel a diffuse one.
-fn lookups(n: u32, elements: u32) -> Vec<Lookup> {
-    (0..n)
-        .map(|i| {
-            let h = i.wrapping_mul(2_654_435_761);
-            Lookup {
-                base: h % (elements - 64),
-                res: 8,
-                u: (i % 97) as f32 / 97.0 * 0.5,
-                v: (i % 89) as f32 / 89.0 * 0.5,
-                weight: [0.2; 3],
-                emitted: [0.0; 3],
-            }
-        })
-        .collect()
+/// The room's light field as a node draws it: the default bake's element layout (the
+/// irradiance values do not change the cost) and each eye's lookups from the node's own
+/// ray casts, so the shader reads the atlas as coherently as it does in use.
+fn room_lookups(views: &[EyeView]) -> (usize, Vec<Vec<Lookup>>) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
+    let scene = std::sync::Arc::new(
+        holocave_scene::Scene::load(&path, &holocave_scene::LoadOptions::default())
+            .expect("the room"),
+    );
+    let elements = holocave_vlf::layout(&scene, &holocave_vlf::Settings::default());
+    let count = elements.count;
+    let vis = holocave_vlf::Visibility::new(scene, elements);
+    (count, views.iter().map(|v| vis.pixels(&v.wall)).collect())
 }
 
 fn bench_size(c: &mut Criterion, w: u32, h: u32, vlf: bool) {
@@ -64,11 +61,10 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32, vlf: bool) {
     let mut cache = RenderCache::new(gpu, &[(w, h), (w, h)], 2 * n * 5 / 4, budget * 2);
     let vs = views(w, h);
     if vlf {
-        // A million elements, as a room's atlas at fine settings.
-        let elements = 1 << 20;
-        cache.set_vlf(&vec![[1.0, 0.5, 0.25]; elements as usize], 256.0);
-        for e in 0..2 {
-            cache.set_lookups(e, &lookups(n, elements));
+        let (count, lookups) = room_lookups(&vs);
+        cache.set_vlf(&vec![[1.0, 0.5, 0.25]; count], 256.0);
+        for (e, l) in lookups.iter().enumerate() {
+            cache.set_lookups(e, l);
         }
     }
     let tag = if vlf { " with the light field" } else { "" };
