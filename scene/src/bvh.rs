@@ -290,6 +290,40 @@ impl Bvh {
         best.map(|(slot, t, u, v)| self.hit(slot, t, u, v))
     }
 
+    /// Visits every leaf slot whose triangle's box the ray enters before `tmax`, in no
+    /// particular order, until `leaf(slot)` returns true (then returns true).
+    #[inline(always)]
+    fn walk_any_order(
+        &self,
+        box_ray: &BoxRay,
+        tmax: f32,
+        mut leaf: impl FnMut(usize) -> bool,
+    ) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        self.with_stack(|stack| {
+            let mut len = 1;
+            stack[0].child = Child::node(0);
+            while len > 0 {
+                len -= 1;
+                let child = stack[len].child;
+                if let Some(index) = child.as_node() {
+                    let (mut mask, _) = self.nodes[index].intersect(box_ray, tmax);
+                    while mask != 0 {
+                        let slot = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack[len].child = self.nodes[index].children[slot];
+                        len += 1;
+                    }
+                } else if child.leaf_slots().any(&mut leaf) {
+                    return true;
+                }
+            }
+            false
+        })
+    }
+
     /// Every hit with `t < tmax`, nearest first, one per triangle (a triangle split over
     /// several leaves is reported once). The light field follows whole lines through the
     /// scene and needs each surface a line crosses, not only the first.
@@ -298,74 +332,28 @@ impl Bvh {
         let Some((origin, dir)) = usable(ray, tmax) else {
             return;
         };
-        if self.nodes.is_empty() {
-            return;
-        }
         let box_ray = BoxRay::new(origin, safe_inverse(dir));
-        self.with_stack(|stack| {
-            let mut len = 1;
-            stack[0].child = Child::node(0);
-            while len > 0 {
-                len -= 1;
-                let child = stack[len].child;
-                if let Some(index) = child.as_node() {
-                    let (mut mask, _) = self.nodes[index].intersect(&box_ray, tmax);
-                    while mask != 0 {
-                        let slot = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        stack[len].child = self.nodes[index].children[slot];
-                        len += 1;
-                    }
-                } else {
-                    for slot in child.leaf_slots() {
-                        let (t, u, v) = self.triangles[slot].intersect(origin, dir, tmax);
-                        if t < tmax {
-                            hits.push(self.hit(slot, t, u, v));
-                        }
-                    }
-                }
+        self.walk_any_order(&box_ray, tmax, |slot| {
+            let (t, u, v) = self.triangles[slot].intersect(origin, dir, tmax);
+            if t < tmax {
+                hits.push(self.hit(slot, t, u, v));
             }
+            false
         });
+        // Sorted by (t, triangle), the copies of a triangle split over leaves are adjacent.
         hits.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
         hits.dedup_by_key(|h| h.triangle);
-        // A triangle in several leaves can appear apart from its copy when another hit
-        // lies at the same distance; the sort by (t, triangle) keeps copies adjacent.
     }
 
-    /// True when something lies on the ray before `tmax`.
+    /// True when something lies on the ray before `tmax` (any hit ends the query, so the
+    /// order of children does not matter).
     pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
         let Some((origin, dir)) = usable(ray, tmax) else {
             return false;
         };
         let box_ray = BoxRay::new(origin, safe_inverse(dir));
-        if self.nodes.is_empty() {
-            return false;
-        }
-        self.with_stack(|stack| {
-            let mut len = 0;
-            stack[0].child = Child::node(0);
-            len += 1;
-            while len > 0 {
-                len -= 1;
-                let child = stack[len].child;
-                if let Some(index) = child.as_node() {
-                    // Any hit ends the query, so the order of children does not matter.
-                    let (mut mask, _) = self.nodes[index].intersect(&box_ray, tmax);
-                    while mask != 0 {
-                        let slot = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        stack[len].child = self.nodes[index].children[slot];
-                        len += 1;
-                    }
-                } else {
-                    for slot in child.leaf_slots() {
-                        if self.triangles[slot].intersect(origin, dir, tmax).0 < tmax {
-                            return true;
-                        }
-                    }
-                }
-            }
-            false
+        self.walk_any_order(&box_ray, tmax, |slot| {
+            self.triangles[slot].intersect(origin, dir, tmax).0 < tmax
         })
     }
 }

@@ -155,27 +155,9 @@ pub fn run(args: CompareArgs) -> Result<()> {
     };
     let mut settings = settings;
     if methods.iter().any(|m| m.needs_vlf()) {
-        let stem = args
-            .scene
-            .file_stem()
-            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-        let path = args
-            .vlf
-            .clone()
-            .unwrap_or_else(|| args.out.join(format!("{stem}.vlf")));
-        std::fs::create_dir_all(&args.out)
-            .with_context(|| format!("creating {}", args.out.display()))?;
-        if !path.exists() {
-            println!("baking the light field {}", path.display());
-        }
-        super::vlf::bake_file(
-            &scene,
-            &holocave_vlf::Settings::default(),
-            &path,
-            true,
-            &holocave_vlf::Threads,
-        )
-        .with_context(|| format!("the light field {}", path.display()))?;
+        let path =
+            (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
+        let path = super::vlf::baked_default(&scene, &path)?;
         settings.vlf = Some((path, holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES));
     }
     let compare = Compare {

@@ -17,3 +17,16 @@ pub mod tracking;
 pub mod vlf;
 pub mod window;
 pub mod worker;
+
+/// `DIR/<scene's stem>.<ext>`: where a command keeps a scene's holodeck or light field
+/// unless told.
+pub fn kept_beside(
+    out: &std::path::Path,
+    scene: &std::path::Path,
+    ext: &str,
+) -> std::path::PathBuf {
+    let stem = scene
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    out.join(format!("{stem}.{ext}"))
+}

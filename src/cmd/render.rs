@@ -12,11 +12,10 @@ use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
 use indicatif::{ProgressBar, ProgressStyle};
 
+/// Which view of a scene: an eye and a wall, or a glTF camera; and the image size (the
+/// flags of `render` and `vlf view`).
 #[derive(Args)]
-pub struct RenderArgs {
-    /// The scene (glTF 2.0: .gltf or .glb).
-    #[arg(long)]
-    pub scene: PathBuf,
+pub struct ViewFlags {
     /// Eye position X,Y,Z in scene metres.
     #[arg(long, value_parser = super::parse::vec3, allow_hyphen_values = true)]
     pub eye: Option<Vec3>,
@@ -29,6 +28,15 @@ pub struct RenderArgs {
     /// Image size WxH in pixels.
     #[arg(long, default_value = "512x512", value_parser = super::parse::size)]
     pub size: (u32, u32),
+}
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// The scene (glTF 2.0: .gltf or .glb).
+    #[arg(long)]
+    pub scene: PathBuf,
+    #[command(flatten)]
+    pub view: ViewFlags,
     /// Path samples per pixel.
     #[arg(long, default_value_t = 64)]
     pub spp: u32,
@@ -51,16 +59,10 @@ pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Resul
     Scene::load(path, &opts).with_context(|| format!("loading scene {}", path.display()))
 }
 
-/// The view `--camera`, or `--eye` and `--wall`, give at `size` (the flags of `render`
-/// and `vlf view`).
-pub fn wall_view(
-    scene: &Scene,
-    scene_path: &Path,
-    camera: &Option<String>,
-    eye: Option<Vec3>,
-    wall: Option<[Vec3; 3]>,
-    (width, height): (u32, u32),
-) -> Result<WallView> {
+/// The view the flags give.
+pub fn wall_view(scene: &Scene, scene_path: &Path, flags: &ViewFlags) -> Result<WallView> {
+    let (width, height) = flags.size;
+    let (camera, eye, wall) = (&flags.camera, flags.eye, flags.wall);
     let (eye, [pa, pb, pc]) = match (camera, eye, wall) {
         (Some(name), _, _) => {
             let cam = scene
@@ -91,15 +93,8 @@ pub fn wall_view(
 
 pub fn run(args: RenderArgs) -> Result<()> {
     let scene = load_scene(&args.scene, args.daylight.clone(), args.strict)?;
-    let (width, height) = args.size;
-    let view = wall_view(
-        &scene,
-        &args.scene,
-        &args.camera,
-        args.eye,
-        args.wall,
-        args.size,
-    )?;
+    let (width, height) = args.view.size;
+    let view = wall_view(&scene, &args.scene, &args.view)?;
     let tracer = Tracer::new(Arc::new(scene), TraceSettings::default());
     let bar = ProgressBar::new(u64::from(height)).with_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} rows, {elapsed} (eta {eta})")

@@ -148,42 +148,16 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     let vlf = if args.no_vlf {
         None
     } else {
-        let stem = args
-            .scene
-            .file_stem()
-            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-        let path = args
-            .vlf
-            .clone()
-            .unwrap_or_else(|| args.out.join(format!("{stem}.vlf")));
+        let path =
+            (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
         let scene = super::render::load_scene(&args.scene, None, false)?;
-        let settings = holocave_vlf::Settings::default();
-        let fresh = !path.exists();
-        if fresh {
-            println!(
-                "baking the light field {} (once; kept for later runs)",
-                path.display()
-            );
-        }
-        let start = Instant::now();
-        super::vlf::bake_file(&scene, &settings, &path, false, &holocave_vlf::Threads)
-            .with_context(|| format!("the light field {}", path.display()))?;
-        if fresh {
-            println!("baked in {:.1} s", start.elapsed().as_secs_f64());
-        }
-        Some(path)
+        Some(super::vlf::baked_default(&scene, &path)?)
     };
     let hosted = if args.no_holodeck {
         None
     } else {
-        let stem = args
-            .scene
-            .file_stem()
-            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-        let path = args
-            .holodeck
-            .clone()
-            .unwrap_or_else(|| args.out.join(format!("{stem}.hdk")));
+        let path = (args.holodeck.clone())
+            .unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "hdk"));
         let port = ("127.0.0.1:0", credentials.clone());
         Some(host(&path, &cave, &args.scene, 0, port, "sim")?)
     };

@@ -6,7 +6,6 @@ use std::sync::atomic::Ordering;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
-use glam::Vec3;
 use holocave_scene::Scene;
 use holocave_vlf::bake::{Settings, Stage, State, tail};
 use holocave_vlf::file::{VlfFile, fingerprint};
@@ -14,7 +13,7 @@ use holocave_vlf::remote::Workers;
 use holocave_vlf::{Casting, Threads, Visibility, layout};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::render::{load_scene, wall_view};
+use super::render::{ViewFlags, load_scene, wall_view};
 
 #[derive(Subcommand)]
 pub enum VlfCommand {
@@ -80,14 +79,8 @@ pub struct ViewArgs {
     pub scene: PathBuf,
     #[arg(long)]
     pub daylight: Option<PathBuf>,
-    #[arg(long, value_parser = super::parse::vec3, allow_hyphen_values = true)]
-    pub eye: Option<Vec3>,
-    #[arg(long, value_parser = super::parse::wall, allow_hyphen_values = true)]
-    pub wall: Option<[Vec3; 3]>,
-    #[arg(long, conflicts_with_all = ["eye", "wall"])]
-    pub camera: Option<String>,
-    #[arg(long, default_value = "512x512", value_parser = super::parse::size)]
-    pub size: (u32, u32),
+    #[command(flatten)]
+    pub view: ViewFlags,
     /// Lookups per pixel along each axis (k × k, antialiasing).
     #[arg(long, default_value_t = 2)]
     pub aa: u32,
@@ -224,6 +217,28 @@ pub fn bake_file(
         element_size,
         state,
     })
+}
+
+/// The light field at `path`, baked with default settings for `scene` if it is missing
+/// or unfinished (and kept), for `sim` and `compare`.
+pub fn baked_default(scene: &Scene, path: &Path) -> Result<PathBuf> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let fresh = !path.exists();
+    if fresh {
+        println!(
+            "baking the light field {} (once; kept for later runs)",
+            path.display()
+        );
+    }
+    let start = std::time::Instant::now();
+    bake_file(scene, &Settings::default(), path, true, &Threads)
+        .with_context(|| format!("the light field {}", path.display()))?;
+    if fresh {
+        println!("baked in {:.1} s", start.elapsed().as_secs_f64());
+    }
+    Ok(path.to_owned())
 }
 
 fn bake(a: BakeArgs) -> Result<()> {
@@ -363,7 +378,7 @@ fn view(a: ViewArgs) -> Result<()> {
             a.file.display()
         );
     }
-    let view = wall_view(&scene, &a.scene, &a.camera, a.eye, a.wall, a.size)?;
+    let view = wall_view(&scene, &a.scene, &a.view)?;
     let start = std::time::Instant::now();
     let image = Visibility::new(std::sync::Arc::new(scene), elements).render(
         &view,
