@@ -8,9 +8,11 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use holocave_cave::load_cave;
+use holocave_cave::{Cave, Wall, load_cave};
 use holocave_compare::{Compare, Method, Settings};
 use holocave_master::head::Clock;
+use holocave_scene::Scene;
+use holocave_tracking::Pose;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::master::open_head;
@@ -26,7 +28,8 @@ pub struct CompareArgs {
     /// The CAVE config (TOML).
     #[arg(long)]
     pub config: PathBuf,
-    /// The wall to compare on (its name in the config).
+    /// The wall to compare on (its name in the config), or `all`: every wall in turn, each
+    /// in DIR/<wall>/.
     #[arg(long)]
     pub wall: String,
     /// The head trace (file:PATH, synthetic:NAME); default: the config's source.
@@ -105,22 +108,24 @@ pub fn run(args: CompareArgs) -> Result<()> {
     let offset = args.offset.unwrap_or_default();
     cave.place_in_scene(args.scale, offset.as_dvec3());
     let cave = cave;
-    let wall = cave
-        .walls
-        .iter()
-        .find(|w| w.name == args.wall)
-        .with_context(|| {
-            let names: Vec<&str> = cave.walls.iter().map(|w| w.name.as_str()).collect();
-            format!(
-                "{}: no wall {:?} (walls: {})",
-                args.config.display(),
-                args.wall,
-                names.join(", ")
-            )
-        })?;
-    let size = args
-        .size
-        .unwrap_or(((wall.pixels[0] / 8).max(8), (wall.pixels[1] / 8).max(8)));
+    let walls: Vec<&Wall> = if args.wall == "all" {
+        cave.walls.iter().collect()
+    } else {
+        vec![
+            cave.walls
+                .iter()
+                .find(|w| w.name == args.wall)
+                .with_context(|| {
+                    let names: Vec<&str> = cave.walls.iter().map(|w| w.name.as_str()).collect();
+                    format!(
+                        "{}: no wall {:?} (walls: {})",
+                        args.config.display(),
+                        args.wall,
+                        names.join(", ")
+                    )
+                })?,
+        ]
+    };
     let scene = super::render::load_scene(&args.scene, args.daylight.clone(), false)?;
     let scene = Arc::new(
         scene
@@ -142,26 +147,63 @@ pub fn run(args: CompareArgs) -> Result<()> {
             head.pose_at(ns).0
         })
         .collect();
+    let vlf = if methods.iter().any(|m| m.needs_vlf()) {
+        let path =
+            (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
+        let path = super::vlf::baked_default(&scene, &path)?;
+        Some((path, holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES))
+    } else {
+        None
+    };
+    for wall in walls {
+        let out = if args.wall == "all" {
+            args.out.join(&wall.name)
+        } else {
+            args.out.clone()
+        };
+        compare_wall(
+            &args,
+            &cave,
+            wall,
+            scene.clone(),
+            &methods,
+            &poses,
+            vlf.clone(),
+            out,
+        )?;
+    }
+    Ok(())
+}
+
+/// Runs the comparison on one wall into `out` and prints its summary.
+#[allow(clippy::too_many_arguments)]
+fn compare_wall(
+    args: &CompareArgs,
+    cave: &Cave,
+    wall: &Wall,
+    scene: Arc<Scene>,
+    methods: &[Method],
+    poses: &[Pose],
+    vlf: Option<(PathBuf, f32)>,
+    out: PathBuf,
+) -> Result<()> {
+    let frames = poses.len() as u64;
+    let size = args
+        .size
+        .unwrap_or(((wall.pixels[0] / 8).max(8), (wall.pixels[1] / 8).max(8)));
     let settings = Settings {
-        methods: methods.clone(),
+        methods: methods.to_vec(),
         fps: args.fps,
         budget: args.budget.unwrap_or(size.0 * size.1),
         every: args.every.max(1),
         size,
         reference_spp: args.reference_spp.max(1),
-        out: args.out.clone(),
+        out: out.clone(),
         holodeck: args.holodeck.clone(),
-        vlf: None,
+        vlf,
     };
-    let mut settings = settings;
-    if methods.iter().any(|m| m.needs_vlf()) {
-        let path =
-            (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
-        let path = super::vlf::baked_default(&scene, &path)?;
-        settings.vlf = Some((path, holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES));
-    }
     let compare = Compare {
-        cave: &cave,
+        cave,
         wall,
         scene,
         scene_path: &args.scene,
@@ -187,7 +229,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
         .expect("a valid template"),
     );
     let done_before = |m: Method| methods.iter().position(|x| *x == m).unwrap_or(0) as u64 * frames;
-    let outcome = compare.run(&settings, &poses, &mut |m, f, _| {
+    let outcome = compare.run(&settings, poses, &mut |m, f, _| {
         bar.set_message(m.name());
         bar.set_position(done_before(m) + f);
     })?;
@@ -208,7 +250,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
     }
     println!(
         "written: {0}/error_time.csv, {0}/error_time.svg, {0}/summary.md, {0}/views.csv, {0}/frames/",
-        args.out.display()
+        out.display()
     );
     Ok(())
 }
