@@ -150,17 +150,7 @@ fn run_view(a: ViewArgs) -> anyhow::Result<()> {
     );
     let mut exposure = image.auto_exposure();
     if let Some(r) = &a.reference {
-        let reference = Image::read_exr(r)?;
-        if (reference.width, reference.height) != (image.width, image.height) {
-            bail!(
-                "{} is {}x{}, the view {}x{}",
-                r.display(),
-                reference.width,
-                reference.height,
-                image.width,
-                image.height
-            );
-        }
+        let reference = super::render::read_reference(r, &image)?;
         exposure = reference.auto_exposure();
         let mean = |i: &Image| i.pixels.iter().sum::<Vec3>() / i.pixels.len() as f32;
         let (m, mr) = (mean(&image), mean(&reference));

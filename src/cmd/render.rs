@@ -59,6 +59,26 @@ pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Resul
     Scene::load(path, &opts).with_context(|| format!("loading scene {}", path.display()))
 }
 
+/// A converged render to compare `image` with: read from `path`, the same size.
+pub fn read_reference(
+    path: &Path,
+    image: &holocave_tracer::film::Image,
+) -> Result<holocave_tracer::film::Image> {
+    let reference = holocave_tracer::film::Image::read_exr(path)
+        .with_context(|| format!("reading reference {}", path.display()))?;
+    if (reference.width, reference.height) != (image.width, image.height) {
+        bail!(
+            "{} is {}x{}, the view {}x{}",
+            path.display(),
+            reference.width,
+            reference.height,
+            image.width,
+            image.height
+        );
+    }
+    Ok(reference)
+}
+
 /// The view the flags give.
 pub fn wall_view(scene: &Scene, scene_path: &Path, flags: &ViewFlags) -> Result<WallView> {
     let (width, height) = flags.size;

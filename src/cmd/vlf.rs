@@ -396,18 +396,7 @@ fn view(a: ViewArgs) -> Result<()> {
         secs
     );
     if let Some(r) = &a.reference {
-        let reference = holocave_tracer::film::Image::read_exr(r)
-            .with_context(|| format!("reading reference {}", r.display()))?;
-        if (reference.width, reference.height) != (image.width, image.height) {
-            bail!(
-                "{} is {}x{}, the view {}x{}",
-                r.display(),
-                reference.width,
-                reference.height,
-                image.width,
-                image.height
-            );
-        }
+        let reference = super::render::read_reference(r, &image)?;
         println!(
             "relative MSE against {}: {:.5}",
             r.display(),

@@ -32,9 +32,8 @@ use std::time::Instant;
 use glam::Vec2;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
-use holocave_tracer::render::render;
 use holocave_tracer::view::WallView;
-use holocave_tracer::{TraceSettings, Tracer};
+
 use holocave_vlf::{Settings, Visibility, layout};
 
 const SIZE: u32 = 48;
@@ -87,19 +86,8 @@ fn errors_fall(spp: u32, settings: &[(usize, u32)]) {
         })
         .collect();
     assert!(glass.iter().filter(|g| **g).count() > 50);
-    let tracer = Tracer::new(scene.clone(), TraceSettings::default());
     let start = Instant::now();
-    let a = render(&tracer, &view, spp, 1, &|| {});
-    let b = render(&tracer, &view, spp, 2, &|| {});
-    let mut reference = Image::new(SIZE, SIZE);
-    for (r, (a, b)) in reference
-        .pixels
-        .iter_mut()
-        .zip(a.pixels.iter().zip(&b.pixels))
-    {
-        *r = (*a + *b) * 0.5;
-    }
-    let noise = a.relative_mse(&b) / 4.0;
+    let (reference, noise, [a, b]) = common::two_seed_reference(&scene, &view, spp);
     let glass_noise = relative_mse_over(&a, &b, &glass) / 4.0;
     eprintln!(
         "reference: 2 × {spp} spp in {:.1} s, its noise n̂ = {noise:.5}",

@@ -15,10 +15,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::film::Image;
-use holocave_tracer::render::render;
 use holocave_tracer::view::WallView;
-use holocave_tracer::{TraceSettings, Tracer};
 use holocave_vlf::{Settings, Visibility, layout};
 
 const SIZE: u32 = 32;
@@ -39,18 +36,7 @@ fn room_error_falls_with_directions_and_lines() {
         width: SIZE,
         height: SIZE,
     };
-    let tracer = Tracer::new(scene.clone(), TraceSettings::default());
-    let a = render(&tracer, &view, SPP, 1, &|| {});
-    let b = render(&tracer, &view, SPP, 2, &|| {});
-    let mut reference = Image::new(SIZE, SIZE);
-    for (r, (a, b)) in reference
-        .pixels
-        .iter_mut()
-        .zip(a.pixels.iter().zip(&b.pixels))
-    {
-        *r = (*a + *b) * 0.5;
-    }
-    let noise = a.relative_mse(&b) / 4.0;
+    let (reference, noise, _) = common::two_seed_reference(&scene, &view, SPP);
     eprintln!("reference: 2 × {SPP} spp, its own error n̂ = {noise:.5}");
 
     let mut own = Vec::new();

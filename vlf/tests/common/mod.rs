@@ -114,3 +114,27 @@ pub fn assert_same_bits(a: &State, b: &State, what: &str) {
         "{what}: last bounce's radiance differs"
     );
 }
+
+/// A converged reference of `view`: the mean of two path-traced renders of `spp` paths
+/// with different seeds, its own relative MSE (a quarter of the two renders' against each
+/// other), and the two renders.
+pub fn two_seed_reference(
+    scene: &std::sync::Arc<Scene>,
+    view: &holocave_tracer::view::WallView,
+    spp: u32,
+) -> (
+    holocave_tracer::film::Image,
+    f64,
+    [holocave_tracer::film::Image; 2],
+) {
+    let tracer =
+        holocave_tracer::Tracer::new(scene.clone(), holocave_tracer::TraceSettings::default());
+    let a = holocave_tracer::render::render(&tracer, view, spp, 1, &|| {});
+    let b = holocave_tracer::render::render(&tracer, view, spp, 2, &|| {});
+    let mut mean = holocave_tracer::film::Image::new(view.width, view.height);
+    for (r, (a, b)) in mean.pixels.iter_mut().zip(a.pixels.iter().zip(&b.pixels)) {
+        *r = (*a + *b) * 0.5;
+    }
+    let noise = a.relative_mse(&b) / 4.0;
+    (mean, noise, [a, b])
+}
