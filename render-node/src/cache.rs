@@ -206,27 +206,6 @@ struct VlfParams {
     prior: f32,
 }
 
-/// A pixel's light-field lookup as the GPU reads it (`Lookup` in `shaders/vlf.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct GpuLookup {
-    base: u32,
-    res: u32,
-    uv_weight_emitted: [f32; 8],
-}
-
-impl From<&Lookup> for GpuLookup {
-    fn from(l: &Lookup) -> Self {
-        let [wr, wg, wb] = l.weight;
-        let [er, eg, eb] = l.emitted;
-        GpuLookup {
-            base: l.base,
-            res: l.res.max(1),
-            uv_weight_emitted: [l.u, l.v, wr, wg, wb, er, eg, eb],
-        }
-    }
-}
-
 /// The Virtual Light Field on the GPU: the baked irradiance, and per eye its lookups.
 struct VlfBuffers {
     /// Kept alive for the bind groups.
@@ -461,7 +440,7 @@ impl RenderCache {
                     .write_buffer(&params, 0, bytemuck::bytes_of(&p));
                 let lookups = self
                     .gpu
-                    .storage("vlf lookups", std::mem::size_of::<GpuLookup>() as u64 * n);
+                    .storage("vlf lookups", std::mem::size_of::<Lookup>() as u64 * n);
                 let bg = self.passes.vlf.bind_group(
                     &self.gpu,
                     [
@@ -484,11 +463,6 @@ impl RenderCache {
         });
     }
 
-    /// Whether a light field is drawn under the samples.
-    pub fn has_vlf(&self) -> bool {
-        self.vlf.is_some()
-    }
-
     /// What each pixel of eye `eye` sees of the light field this frame (one per pixel,
     /// rows from the top). Does nothing without [`Self::set_vlf`].
     pub fn set_lookups(&mut self, eye: usize, lookups: &[Lookup]) {
@@ -499,10 +473,9 @@ impl RenderCache {
             (e.width * e.height) as usize,
             "one lookup per pixel"
         );
-        let gpu: Vec<GpuLookup> = lookups.iter().map(GpuLookup::from).collect();
         self.gpu
             .queue
-            .write_buffer(&v.eyes[eye].1, 0, bytemuck::cast_slice(&gpu));
+            .write_buffer(&v.eyes[eye].1, 0, bytemuck::cast_slice(lookups));
     }
 
     /// The light field alone in eye `eye` (its lookups shaded on the GPU): the shader's

@@ -102,10 +102,6 @@ impl DisplayProcess {
         self
     }
 
-    pub fn vlf(&self) -> Option<&VlfBase> {
-        self.vlf.as_deref()
-    }
-
     /// One frame: draw every eye and choose its pixels; inline, trace and insert them (the
     /// samples appear in the next frame); threaded, insert the batches that have arrived
     /// and send this frame's pixels for every eye whose last batch is back; from a

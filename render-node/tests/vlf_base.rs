@@ -74,20 +74,15 @@ fn the_gpu_lookup_equals_the_cpu_lookup() {
     let image = cache.vlf_image(0).expect("a light field is set");
     // The same f32 operations in the same order on both sides; a GPU may fuse a
     // multiply-add, which changes the last bits: a few ulps of the value.
-    let mut worst = 0f32;
     for (g, c) in image.pixels.iter().zip(&cpu) {
         let tol = 1e-5 * c.abs().max_element() + 1e-7;
-        worst = worst.max(((*g - *c).abs().max_element() - tol).max(0.0));
         assert!(
             (*g - *c).abs().max_element() <= tol,
             "GPU {g} against CPU {c}"
         );
     }
     assert!(cpu.iter().any(|c| c.max_element() > 0.0), "the view is lit");
-    eprintln!(
-        "GPU and CPU lookups agree on {} pixels (excess {worst})",
-        cpu.len()
-    );
+    eprintln!("GPU and CPU lookups agree on {} pixels", cpu.len());
 }
 
 /// The first frame of a cold start is within 0.02 of the converged image (instead of

@@ -134,7 +134,7 @@ pub fn bake_file(
     } else {
         None
     };
-    let element_size = layout(scene, settings).element_size;
+    let element_size = holocave_vlf::bake::element_size(scene, settings);
     let style =
         ProgressStyle::with_template("{msg:12} [{bar:40}] {pos}/{len} {elapsed} (eta {eta})")
             .expect("static template")

@@ -136,10 +136,9 @@ pub fn smooth_indirect(
     first: &[[f32; 3]],
     total: &[[f32; 3]],
 ) -> Vec<[f32; 3]> {
-    let direct = first;
     let indirect: Vec<Vec3> = total
         .iter()
-        .zip(direct)
+        .zip(first)
         .map(|(t, d)| Vec3::from(*t) - Vec3::from(*d))
         .collect();
     let mut out = total.to_vec();
@@ -166,7 +165,7 @@ pub fn smooth_indirect(
                     }
                     let e = (base + cell_index(i as u32, j as u32, r as u32)) as usize;
                     if w > 0.0 {
-                        out[e] = (Vec3::from(direct[e]) + sum / w).to_array();
+                        out[e] = (Vec3::from(first[e]) + sum / w).to_array();
                     }
                 }
             }
@@ -177,11 +176,15 @@ pub fn smooth_indirect(
 
 /// The element layout of a bake of `scene` with `settings`.
 pub fn layout(scene: &Scene, settings: &Settings) -> Elements {
+    Elements::new(scene, element_size(scene, settings))
+}
+
+/// The element size of a bake: the settings', or twice the lines' spacing.
+pub fn element_size(scene: &Scene, settings: &Settings) -> f32 {
     let sphere = Sphere::of(scene);
-    let size = settings
+    settings
         .element_size
-        .unwrap_or(4.0 * sphere.radius / settings.resolution.max(1) as f32);
-    Elements::new(scene, size)
+        .unwrap_or(4.0 * sphere.radius / settings.resolution.max(1) as f32)
 }
 
 /// The sky and sun as seen looking along `dir`.
@@ -316,10 +319,13 @@ pub fn bake_with<E>(
     });
     stats.visibility = start.elapsed();
     let (directions, elements) = (&caster.directions, &caster.elements);
-    let weight: Vec<f32> = (0..caster.count())
-        .map(|k| {
-            directions.solid_angle[directions.pair[k][0] as usize] * caster.grid(k).cross_section()
-        })
+    let cross: Vec<f32> = (0..caster.count())
+        .map(|k| caster.grid(k).cross_section())
+        .collect();
+    let weight: Vec<f32> = cross
+        .iter()
+        .zip(&directions.pair)
+        .map(|(c, [a, _])| directions.solid_angle[*a as usize] * c)
         .collect();
     let ends: Vec<(Vec3, Vec3)> = directions
         .lines
@@ -364,10 +370,7 @@ pub fn bake_with<E>(
     // `A`, and the series diverges (Sponza did). Clamped, such elements get less light
     // than they should (the render cache's samples correct them), and the series
     // converges.
-    let least = (0..caster.count())
-        .map(|k| caster.grid(k).cross_section())
-        .fold(f32::INFINITY, f32::min)
-        * 0.25;
+    let least = cross.iter().copied().fold(f32::INFINITY, f32::min) * 0.25;
     let receiving: Vec<f32> = area.iter().map(|a| a.max(least)).collect();
     stats.memory = stats.crossings * 8
         + stats.links * 28

@@ -153,14 +153,6 @@ impl Directions {
     pub fn is_empty(&self) -> bool {
         self.dirs.is_empty()
     }
-
-    /// The largest angle between a direction and its nearest neighbour (radians): the
-    /// angular resolution of the light field.
-    pub fn spacing(&self) -> f32 {
-        let n = self.dirs.len() as f32;
-        // Equal areas 4π/n, each roughly a disc: radius √(4/n); the spacing is twice it.
-        2.0 * (4.0 / n).sqrt()
-    }
 }
 
 #[cfg(test)]

@@ -24,7 +24,9 @@ use crate::elements::{Elements, interpolate};
 use crate::surface::{Chain, diffuse_albedo, follow, follow_from, side_facing};
 
 /// What one pixel (or one ray) sees of the light field.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Laid out as the render node's shader reads it (`Lookup` in
+/// `render-node/src/shaders/vlf.wgsl`): uploaded as it is.
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct Lookup {
     /// First element of the side seen; `u32::MAX` when no diffuse surface is seen.
@@ -66,10 +68,6 @@ impl Visibility {
             elements,
             lights,
         }
-    }
-
-    pub fn elements(&self) -> &Elements {
-        &self.elements
     }
 
     /// What `ray` sees.
