@@ -1,0 +1,107 @@
+#!/usr/bin/env bash
+# Ray rates on Sponza, holocave's BVH beside a peer kernel (tinybvh) on the very same rays.
+#
+#   benches/peer_rays.sh [RUNS]
+#
+# 1. `cargo bench -p holocave-scene --bench ray_sets` measures holocave (criterion) and, with
+#    HOLOCAVE_RAY_DUMP, writes the triangles, the primary / shadow / diffuse ray sets and
+#    holocave's answers to target/peer/rays/.
+# 2. tinybvh (single header, fetched at a pinned commit into target/peer/tinybvh; never part
+#    of the project) and benches/peer/tinybvh_rays.cpp are compiled with
+#    g++ -std=c++17 -O3 -march=native (so BVH8_CPU where the CPU has AVX2); the harness builds
+#    the BVH over the same triangles (BuildHQ, and the plain Build for reference), traces
+#    each set one ray at a time on one thread and on two (halves), best of RUNS (default
+#    10), and checks its answers against holocave's.
+# 3. One table: Mrays/s per ray set. holocave's figure is criterion's best sample (as
+#    tinybvh's is its best run); its median is printed beside it.
+#
+# TINYBVH_GIT overrides where tinybvh is fetched from (a URL or a local clone / mirror).
+# Not part of `cargo test`. Run it on an otherwise idle machine: both sides are timed.
+set -euo pipefail
+
+root=$(cd "$(dirname "$0")/.." && pwd)
+runs=${1:-10}
+TINYBVH_COMMIT=4735685f64d8b2bb0ad2c6c4643f291bf58774ad # main, 2026-02-13, version 1.6.7
+TINYBVH_GIT=${TINYBVH_GIT:-https://github.com/jbikker/tinybvh.git}
+target=${CARGO_TARGET_DIR:-$root/target}
+work=$root/target/peer
+mkdir -p "$work"
+
+# --- tinybvh at the pinned commit -------------------------------------------------------
+src=$work/tinybvh
+if [ "$(git -C "$src" rev-parse HEAD 2>/dev/null || true)" != "$TINYBVH_COMMIT" ]; then
+    rm -rf "$src"
+    git init -q "$src"
+    if ! git -C "$src" fetch -q --depth 1 "$TINYBVH_GIT" "$TINYBVH_COMMIT" 2>/dev/null; then
+        git -C "$src" fetch -q "$TINYBVH_GIT" '+refs/heads/*:refs/remotes/origin/*'
+    fi
+    git -C "$src" -c advice.detachedHead=false checkout -q "$TINYBVH_COMMIT"
+fi
+echo "tinybvh $(git -C "$src" rev-parse --short HEAD) from $TINYBVH_GIT"
+
+harness=$work/tinybvh_rays
+cpp=$root/benches/peer/tinybvh_rays.cpp
+if [ ! -x "$harness" ] || [ "$cpp" -nt "$harness" ] || [ "$src/tiny_bvh.h" -nt "$harness" ]; then
+    echo "compiling the harness: g++ -std=c++17 -O3 -march=native"
+    g++ -std=c++17 -O3 -march=native -w -I"$src" -o "$harness" "$cpp" -lpthread
+fi
+
+# --- holocave: criterion, and the ray sets for the peer -------------------------------------
+rays=$work/rays
+(cd "$root" && HOLOCAVE_RAY_DUMP=$rays cargo bench -p holocave-scene --bench ray_sets -- sponza_rays) 2>&1 |
+    grep -E "ray_sets bench|^sponza_rays|thrpt:" || true
+if [ ! -f "$rays/primary.rays" ]; then
+    echo "no ray sets written (Sponza absent?); nothing to compare" >&2
+    exit 1
+fi
+
+# --- tinybvh on the same rays ------------------------------------------------------------
+peer_hq=$("$harness" "$rays" "$runs" hq)
+echo "$peer_hq"
+peer_plain=$("$harness" "$rays" "$runs" plain)
+echo "$peer_plain" | grep -v '^agree'
+
+# --- the table -------------------------------------------------------------------------
+PEER_HQ=$peer_hq PEER_PLAIN=$peer_plain CRITERION=$target/criterion/sponza_rays python3 - <<'EOF'
+import json, os, statistics
+
+def peer(text):
+    rates = {}
+    for line in text.splitlines():
+        f = line.split()
+        if f and f[0] == "rate":
+            rates[(f[1], int(f[2]))] = float(f[3])
+    return rates
+
+hq, plain = peer(os.environ["PEER_HQ"]), peer(os.environ["PEER_PLAIN"])
+crit = os.environ["CRITERION"]
+
+def ours(name):
+    d = os.path.join(crit, name, "new")
+    try:
+        s = json.load(open(os.path.join(d, "sample.json")))
+        b = json.load(open(os.path.join(d, "benchmark.json")))
+    except FileNotFoundError:
+        return None
+    n = b["throughput"]["Elements"]
+    per = [t / i for t, i in zip(s["times"], s["iters"])]  # ns per iteration
+    return n / min(per) * 1e3, n / statistics.median(per) * 1e3  # Mrays/s: best, median
+
+def cell(v):
+    return "—" if v is None else f"{v:.2f}"
+
+print()
+print("Mrays/s, Sponza (holocave: best sample, median in brackets; tinybvh: best run)")
+print()
+print("| ray set | holocave 1 core | holocave 2 cores | tinybvh 1 core | tinybvh 2 cores "
+      "| holocave / tinybvh, 1 core | tinybvh 1 core, plain Build |")
+print("|---|---|---|---|---|---|---|")
+for name in ["primary", "shadow", "diffuse", "primary_packets"]:
+    o1, o2 = ours(f"{name}_1t"), ours(f"{name}_2t")
+    p1, p2 = hq.get((name, 1)), hq.get((name, 2))
+    fmt = lambda o: "—" if o is None else f"{o[0]:.2f} ({o[1]:.2f})"
+    ratio = f"{o1[0] / p1:.2f}" if o1 and p1 else "—"
+    label = "primary, 4×4 packets (holocave only)" if name == "primary_packets" else name
+    print(f"| {label} | {fmt(o1)} | {fmt(o2)} | {cell(p1)} | {cell(p2)} | {ratio} "
+          f"| {cell(plain.get((name, 1)))} |")
+EOF
