@@ -6,17 +6,20 @@
 # 1. `cargo bench -p holocave-scene --bench ray_sets` measures holocave (criterion) and, with
 #    HOLOCAVE_RAY_DUMP, writes the triangles, the primary / shadow / diffuse ray sets and
 #    holocave's answers to target/peer/rays/.
-# 2. tinybvh (single header, fetched at a pinned commit into target/peer/tinybvh; never part
-#    of the project) and benches/peer/tinybvh_rays.cpp are compiled with
-#    g++ -std=c++17 -O3 -march=native (so BVH8_CPU where the CPU has AVX2); the harness builds
-#    the BVH over the same triangles (BuildHQ, and the plain Build for reference), traces
-#    each set one ray at a time on one thread and on two (halves), best of RUNS (default
-#    10), and checks its answers against holocave's.
+# 2. tinybvh (its single header, fetched at a pinned commit into target/peer/tinybvh-<commit>;
+#    never part of the project) and benches/peer/tinybvh_rays.cpp are compiled with
+#    g++ -std=c++17 -O3 -march=native (so BVH8_CPU where the CPU has AVX2); the harness
+#    builds its BVH over the same triangles (BuildHQ, and the plain Build for reference),
+#    traces each set one ray at a time on one thread and on two (alternate chunks of 4096
+#    rays), best of RUNS (default 10), and checks its answers against holocave's.
 # 3. One table: Mrays/s per ray set. holocave's figure is criterion's best sample (as
 #    tinybvh's is its best run); its median is printed beside it.
 #
-# TINYBVH_GIT overrides where tinybvh is fetched from (a URL or a local clone / mirror).
-# Not part of `cargo test`. Run it on an otherwise idle machine: both sides are timed.
+# TINYBVH_GIT overrides where tinybvh's header is fetched from (a github.com URL or a local
+# clone / mirror).
+# With HOLOCAVE_NATIVE_TARGET=DIR, holocave's one-core figures are measured a second time from
+# a build with RUSTFLAGS="-C target-cpu=native" in that cargo target directory (an extra
+# column: how much of the gap is the instruction set). Not part of `cargo test`. Run it on an otherwise idle machine: both sides are timed.
 set -euo pipefail
 
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -27,17 +30,23 @@ target=${CARGO_TARGET_DIR:-$root/target}
 work=$root/target/peer
 mkdir -p "$work"
 
-# --- tinybvh at the pinned commit -------------------------------------------------------
-src=$work/tinybvh
-if [ "$(git -C "$src" rev-parse HEAD 2>/dev/null || true)" != "$TINYBVH_COMMIT" ]; then
-    rm -rf "$src"
-    git init -q "$src"
-    if ! git -C "$src" fetch -q --depth 1 "$TINYBVH_GIT" "$TINYBVH_COMMIT" 2>/dev/null; then
-        git -C "$src" fetch -q "$TINYBVH_GIT" '+refs/heads/*:refs/remotes/origin/*'
+# --- tinybvh at the pinned commit (only its header is needed) --------------------------------
+src=$work/tinybvh-$TINYBVH_COMMIT
+if [ ! -s "$src/tiny_bvh.h" ]; then
+    mkdir -p "$src"
+    if [ -d "$TINYBVH_GIT" ]; then
+        git -C "$TINYBVH_GIT" show "$TINYBVH_COMMIT:tiny_bvh.h" >"$src/tiny_bvh.h.part"
+    elif [[ "$TINYBVH_GIT" == https://github.com/* ]]; then
+        repo=${TINYBVH_GIT#https://github.com/}
+        curl -fsSL "https://raw.githubusercontent.com/${repo%.git}/$TINYBVH_COMMIT/tiny_bvh.h" \
+            -o "$src/tiny_bvh.h.part"
+    else
+        echo "TINYBVH_GIT must be a local clone or a github.com URL" >&2
+        exit 1
     fi
-    git -C "$src" -c advice.detachedHead=false checkout -q "$TINYBVH_COMMIT"
+    mv "$src/tiny_bvh.h.part" "$src/tiny_bvh.h"
 fi
-echo "tinybvh $(git -C "$src" rev-parse --short HEAD) from $TINYBVH_GIT"
+echo "tinybvh ${TINYBVH_COMMIT:0:7} from $TINYBVH_GIT"
 
 harness=$work/tinybvh_rays
 cpp=$root/benches/peer/tinybvh_rays.cpp
@@ -50,6 +59,11 @@ fi
 rays=$work/rays
 (cd "$root" && HOLOCAVE_RAY_DUMP=$rays cargo bench -p holocave-scene --bench ray_sets -- sponza_rays) 2>&1 |
     grep -E "ray_sets bench|^sponza_rays|thrpt:" || true
+if [ -n "${HOLOCAVE_NATIVE_TARGET:-}" ]; then
+    (cd "$root" && CARGO_TARGET_DIR=$HOLOCAVE_NATIVE_TARGET RUSTFLAGS="-C target-cpu=native" \
+        cargo bench -p holocave-scene --bench ray_sets -- 'sponza_rays/.*_1t') 2>&1 |
+        grep -E "^sponza_rays|thrpt:" | sed 's/^/target-cpu=native: /' || true
+fi
 if [ ! -f "$rays/primary.rays" ]; then
     echo "no ray sets written (Sponza absent?); nothing to compare" >&2
     exit 1
@@ -62,7 +76,8 @@ peer_plain=$("$harness" "$rays" "$runs" plain)
 echo "$peer_plain" | grep -v '^agree'
 
 # --- the table -------------------------------------------------------------------------
-PEER_HQ=$peer_hq PEER_PLAIN=$peer_plain CRITERION=$target/criterion/sponza_rays python3 - <<'EOF'
+PEER_HQ=$peer_hq PEER_PLAIN=$peer_plain CRITERION=$target/criterion/sponza_rays \
+    NATIVE=${HOLOCAVE_NATIVE_TARGET:+$HOLOCAVE_NATIVE_TARGET/criterion/sponza_rays} python3 - <<'EOF'
 import json, os, statistics
 
 def peer(text):
@@ -74,9 +89,9 @@ def peer(text):
     return rates
 
 hq, plain = peer(os.environ["PEER_HQ"]), peer(os.environ["PEER_PLAIN"])
-crit = os.environ["CRITERION"]
+crit, native = os.environ["CRITERION"], os.environ.get("NATIVE")
 
-def ours(name):
+def ours(name, crit=crit):
     d = os.path.join(crit, name, "new")
     try:
         s = json.load(open(os.path.join(d, "sample.json")))
@@ -93,9 +108,10 @@ def cell(v):
 print()
 print("Mrays/s, Sponza (holocave: best sample, median in brackets; tinybvh: best run)")
 print()
+extra = " holocave 1 core, target-cpu=native |" if native else ""
 print("| ray set | holocave 1 core | holocave 2 cores | tinybvh 1 core | tinybvh 2 cores "
-      "| holocave / tinybvh, 1 core | tinybvh 1 core, plain Build |")
-print("|---|---|---|---|---|---|---|")
+      "| holocave / tinybvh, 1 core | tinybvh 1 core, plain Build |" + extra)
+print("|---|---|---|---|---|---|---|" + ("---|" if native else ""))
 for name in ["primary", "shadow", "diffuse", "primary_packets"]:
     o1, o2 = ours(f"{name}_1t"), ours(f"{name}_2t")
     p1, p2 = hq.get((name, 1)), hq.get((name, 2))
@@ -103,5 +119,6 @@ for name in ["primary", "shadow", "diffuse", "primary_packets"]:
     ratio = f"{o1[0] / p1:.2f}" if o1 and p1 else "—"
     label = "primary, 4×4 packets (holocave only)" if name == "primary_packets" else name
     print(f"| {label} | {fmt(o1)} | {fmt(o2)} | {cell(p1)} | {cell(p2)} | {ratio} "
-          f"| {cell(plain.get((name, 1)))} |")
+          f"| {cell(plain.get((name, 1)))} |"
+          + (f" {fmt(ours(f'{name}_1t', native))} |" if native else ""))
 EOF

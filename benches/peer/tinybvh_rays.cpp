@@ -1,6 +1,6 @@
 // The peer kernel for scene/benches/ray_sets.rs: tinybvh traces the ray sets that bench
-// wrote (HOLOCAVE_RAY_DUMP=DIR), one ray at a time, on one thread and on two (the set split
-// in halves), best of RUNS, and checks its answers against holocave's.
+// wrote (HOLOCAVE_RAY_DUMP=DIR), one ray at a time, on one thread and on two (alternate
+// chunks of 4096 rays each), best of RUNS, and checks its answers against holocave's.
 //
 // Built and run by benches/peer_rays.sh, which fetches tinybvh (tiny_bvh.h) at a pinned
 // commit; this file is the harness only.
@@ -55,8 +55,12 @@ static double now()
 
 enum Query { CLOSEST, OCCLUDED };
 
+// Rays per chunk when two threads share a set (as in ray_sets.rs): thread k takes chunks
+// k, k + step, ...
+static const size_t CHUNK = 4096;
+
 // Traces rays[begin, end); answers: hit distance (closest, +inf for a miss) or 1/0.
-static void trace(const PeerBVH& bvh, Query q, Ray* rays, float* answer, size_t begin, size_t end)
+static void trace_range(const PeerBVH& bvh, Query q, Ray* rays, float* answer, size_t begin, size_t end)
 {
 	if (q == CLOSEST)
 	{
@@ -70,6 +74,13 @@ static void trace(const PeerBVH& bvh, Query q, Ray* rays, float* answer, size_t 
 	{
 		for (size_t i = begin; i < end; i++) answer[i] = bvh.IsOccluded( rays[i] ) ? 1.0f : 0.0f;
 	}
+}
+
+// Traces chunks first, first + step, ... of n rays.
+static void trace(const PeerBVH* bvh, Query q, Ray* rays, float* answer, size_t n, size_t first, size_t step)
+{
+	for (size_t begin = first * CHUNK; begin < n; begin += step * CHUNK)
+		trace_range( *bvh, q, rays, answer, begin, std::min( n, begin + CHUNK ) );
 }
 
 int main(int argc, char** argv)
@@ -113,11 +124,11 @@ int main(int argc, char** argv)
 			{
 				memcpy( (void*)rays.data(), fresh.data(), n * sizeof( Ray ) );
 				const double start = now();
-				if (threads == 1) trace( bvh, set.q, rays.data(), answer.data(), 0, n );
+				if (threads == 1) trace_range( bvh, set.q, rays.data(), answer.data(), 0, n );
 				else
 				{
-					std::thread other( trace, std::cref( bvh ), set.q, rays.data(), answer.data(), (size_t)n / 2, (size_t)n );
-					trace( bvh, set.q, rays.data(), answer.data(), 0, n / 2 );
+					std::thread other( trace, &bvh, set.q, rays.data(), answer.data(), (size_t)n, (size_t)1, (size_t)2 );
+					trace( &bvh, set.q, rays.data(), answer.data(), n, 0, 2 );
 					other.join();
 				}
 				best = std::min( best, now() - start );

@@ -9,8 +9,9 @@
 //! - **diffuse**: from every primary hit, a cosine-distributed direction about the face
 //!   normal on the side the camera sees (a fixed hash of the pixel picks it); closest hit.
 //!
-//! The sets are deterministic. "2 cores" splits a set in halves, one per thread (the
-//! calling thread and one scoped thread). Criterion reports rays/s as elements/s.
+//! The sets are deterministic. "2 cores" deals a set out to two threads (the calling
+//! thread and one scoped thread) in alternate chunks of 4096 rays. Criterion reports
+//! rays/s as elements/s.
 //!
 //! `cargo bench -p holocave-scene --bench ray_sets`. With `HOLOCAVE_RAY_DUMP=DIR` the
 //! bench first writes the world-space triangles, the three ray sets and our answers to
@@ -169,16 +170,20 @@ fn dump(scene: &Scene, sets: &RaySets, dir: &Path) {
     );
 }
 
-/// `f` over the rays on the calling thread alone, or split in halves over it and one
+/// Rays per chunk when two threads share a set: thread `k` takes chunks `k`, `k + 2`, …,
+/// so both get rays from every part of the image (a multiple of the packet size).
+const CHUNK: usize = 4096;
+
+/// `f` over the rays on the calling thread alone, or over alternate chunks on it and one
 /// more thread.
 fn run_split(rays: &[Ray], threads: usize, f: impl Fn(&[Ray]) -> f32 + Sync) -> f32 {
     if threads == 1 {
         return f(rays);
     }
-    let (a, b) = rays.split_at(rays.len() / 2);
+    let share = |k: usize| rays.chunks(CHUNK).skip(k).step_by(2).map(&f).sum::<f32>();
     std::thread::scope(|s| {
-        let other = s.spawn(|| f(b));
-        f(a) + other.join().expect("bench thread panicked")
+        let other = s.spawn(|| share(1));
+        share(0) + other.join().expect("bench thread panicked")
     })
 }
 
