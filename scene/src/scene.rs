@@ -31,11 +31,31 @@ pub struct SurfacePoint {
     pub flat: bool,
 }
 
+/// A triangle's unit face normal, and whether its vertex normals all equal it (see
+/// [`SurfacePoint::flat`]).
+#[derive(Clone, Copy, Debug)]
+struct Face {
+    normal: Vec3,
+    flat: bool,
+}
+
+impl Face {
+    fn new(p: &[Vec3; 3], s: &TriangleShading) -> Self {
+        let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+        let flat = s
+            .normals
+            .is_none_or(|n| n.iter().all(|n| n.dot(normal) > 0.99999));
+        Self { normal, flat }
+    }
+}
+
 /// A loaded scene.
 pub struct Scene {
     pub name: String,
     positions: Vec<[Vec3; 3]>,
     shading: Vec<TriangleShading>,
+    /// Per triangle, what every hit on it needs and its vertices fix: computed once.
+    faces: Vec<Face>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub lights: Vec<PunctualLight>,
@@ -121,10 +141,16 @@ impl Scene {
             hi = hi.max(*p);
         }
         let bvh = Bvh::build(&keep_pos);
+        let faces = keep_pos
+            .iter()
+            .zip(&keep_shading)
+            .map(|(p, s)| Face::new(p, s))
+            .collect();
         Ok(Scene {
             name: parts.name,
             positions: keep_pos,
             shading: keep_shading,
+            faces,
             materials: parts.materials,
             textures: parts.textures,
             lights: parts.lights,
@@ -182,22 +208,20 @@ impl Scene {
     pub fn surface(&self, hit: &Hit) -> SurfacePoint {
         let p = &self.positions[hit.triangle as usize];
         let s = &self.shading[hit.triangle as usize];
+        let Face { normal: ng, flat } = self.faces[hit.triangle as usize];
         let w = Vec3::new(1.0 - hit.u - hit.v, hit.u, hit.v);
-        let ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-        let (ns, flat) = match &s.normals {
+        let ns = match &s.normals {
             Some(n) => {
                 let ns = (n[0] * w.x + n[1] * w.y + n[2] * w.z).normalize_or_zero();
-                let flat = n.iter().all(|n| n.dot(ng) > 0.99999);
-                let ns = if ns == Vec3::ZERO {
+                if ns == Vec3::ZERO {
                     ng
                 } else if ns.dot(ng) < 0.0 {
                     -ns
                 } else {
                     ns
-                };
-                (ns, flat)
+                }
             }
-            None => (ng, true),
+            None => ng,
         };
         let uv = s.uvs[0] * w.x + s.uvs[1] * w.y + s.uvs[2] * w.z;
         SurfacePoint {

@@ -118,27 +118,36 @@ impl Bsdf {
             let s = wo.z.signum();
             let (o, i) = (wo * Vec3::new(1.0, 1.0, s), wi * Vec3::new(1.0, 1.0, s));
             if i.z > 0.0 {
-                let h = (o + i).normalize();
-                if self.metal > 0.0 && !self.smooth {
+                // The half vector only for the microfacet lobes that exist here.
+                let metal = self.metal > 0.0 && !self.smooth;
+                let layer = self.dielectric > 0.0 && self.spec_on && !self.smooth;
+                let h = if metal || layer {
+                    (o + i).normalize()
+                } else {
+                    Vec3::ZERO
+                };
+                if metal {
                     let fr = fresnel::schlick(self.base, Vec3::ONE, o.dot(h));
                     f += self.metal * fr * self.ggx.d(h) * self.ggx.g2(o, i) / (4.0 * o.z * i.z);
                     pdf += self.metal * self.ggx.visible_pdf(o, h) / (4.0 * o.dot(h));
                 }
                 if self.dielectric > 0.0 {
                     let ps = self.spec_probability(o.z);
-                    if self.spec_on && !self.smooth {
+                    if layer {
                         let fr = fresnel::schlick(self.spec_f0, self.spec_f90, o.dot(h));
                         f += self.dielectric * fr * self.ggx.d(h) * self.ggx.g2(o, i)
                             / (4.0 * o.z * i.z);
                         pdf += self.dielectric * ps * self.ggx.visible_pdf(o, h) / (4.0 * o.dot(h));
                     }
-                    let fo = fresnel::schlick(self.spec_f0, self.spec_f90, o.z);
-                    let fi = fresnel::schlick(self.spec_f0, self.spec_f90, i.z);
-                    f += self.dielectric
-                        * self.base
-                        * FRAC_1_PI
-                        * (Vec3::ONE - fo)
-                        * (Vec3::ONE - fi);
+                    // Without a specular layer (F0 = F90 = 0) the base is plain Lambert.
+                    let lambert = self.dielectric * self.base * FRAC_1_PI;
+                    f += if self.spec_on {
+                        let fo = fresnel::schlick(self.spec_f0, self.spec_f90, o.z);
+                        let fi = fresnel::schlick(self.spec_f0, self.spec_f90, i.z);
+                        lambert * (Vec3::ONE - fo) * (Vec3::ONE - fi)
+                    } else {
+                        lambert
+                    };
                     pdf += self.dielectric * (1.0 - ps) * cosine_hemisphere_pdf(i.z);
                 }
             }

@@ -256,7 +256,7 @@ pub fn finish_path(
         // Emission, weighted against the light sampling that could have chosen it.
         if params.emission.max_element() > 0.0 && (ng.dot(wo) > 0.0 || material.double_sided) {
             let w = prev_pdf.map_or(1.0, |p| {
-                power_heuristic(p, lights.area_pdf(scene, &hit, ng, ray.dir))
+                power_heuristic(p, lights.area_pdf(&hit, ng, ray.dir))
             });
             path.radiance += path.throughput * params.emission * w;
         }
@@ -310,6 +310,10 @@ fn finish(l: Vec3) -> [f32; 3] {
 /// when it is inside or within 8 scene sizes of the bounds), or `None` when the ray
 /// misses the bounds altogether.
 fn enter_bounds(origin: Vec3, dir: Vec3, lo: Vec3, hi: Vec3) -> Option<(Vec3, f64)> {
+    // Most rays start inside (every bounce, every eye in a CAVE): kept as they are.
+    if origin.cmpge(lo).all() && origin.cmple(hi).all() {
+        return Some((origin, 0.0));
+    }
     let extent = f64::from((hi - lo).max_element());
     let margin = 1e-3 * (1.0 + extent);
     let (o, d) = (origin.as_dvec3(), dir.as_dvec3());

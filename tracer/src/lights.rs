@@ -25,10 +25,53 @@ pub struct LightSample {
 
 /// Emissive triangles chosen in proportion to their power.
 struct AreaLights {
-    triangles: Vec<u32>,
+    triangles: Vec<AreaLight>,
     choose: Distribution,
     /// For each scene triangle, its index in `triangles` (`u32::MAX` if not emissive).
     index_of: Vec<u32>,
+}
+
+/// What sampling a point on one emissive triangle needs, gathered once: a light sample
+/// then reads one record instead of the scene's triangle, shading and material tables.
+struct AreaLight {
+    triangle: u32,
+    vertices: [Vec3; 3],
+    normal: Vec3,
+    area: f32,
+    material: u32,
+    double_sided: bool,
+    /// The emitted radiance when it is the same everywhere (no emissive texture).
+    uniform_emission: Option<Vec3>,
+}
+
+impl AreaLight {
+    fn new(scene: &Scene, triangle: u32) -> Self {
+        let vertices = *scene.triangle(triangle);
+        let material = scene.triangle_shading(triangle).material;
+        let m = &scene.materials[material as usize];
+        Self {
+            triangle,
+            vertices,
+            normal: (vertices[1] - vertices[0])
+                .cross(vertices[2] - vertices[0])
+                .normalize(),
+            area: scene.triangle_area(triangle),
+            material,
+            double_sided: m.double_sided,
+            uniform_emission: m.emissive_texture.is_none().then_some(m.emissive),
+        }
+    }
+
+    /// Emitted radiance at barycentrics `w` (the texture read only when there is one).
+    fn emission(&self, scene: &Scene, w: Vec3) -> Vec3 {
+        self.uniform_emission.unwrap_or_else(|| {
+            let uvs = scene.triangle_shading(self.triangle).uvs;
+            let uv = uvs[0] * w.x + uvs[1] * w.y + uvs[2] * w.z;
+            scene.materials[self.material as usize]
+                .params(&scene.textures, uv)
+                .emission
+        })
+    }
 }
 
 /// The sky's radiance as a grid in (θ from +Y, φ): cells chosen by their power, a
@@ -140,14 +183,14 @@ impl Lights {
             let m = &scene.materials[scene.triangle_shading(t).material as usize];
             if m.is_emissive() {
                 let sides = if m.double_sided { 2.0 } else { 1.0 };
-                triangles.push(t);
+                triangles.push(AreaLight::new(scene, t));
                 power.push(scene.triangle_area(t) * luminance(m.emissive).max(1e-6) * sides * PI);
             }
         }
         let area = Distribution::new(&power).map(|choose| {
             let mut index_of = vec![u32::MAX; scene.triangle_count()];
-            for (k, &t) in triangles.iter().enumerate() {
-                index_of[t as usize] = k as u32;
+            for (k, light) in triangles.iter().enumerate() {
+                index_of[light.triangle as usize] = k as u32;
             }
             AreaLights {
                 triangles,
@@ -173,7 +216,7 @@ impl Lights {
 
     /// Solid-angle pdf with which [`Lights::sample_area`] picks the point `hit` seen from
     /// a distance `t` along unit `dir`, for MIS against BSDF sampling.
-    pub fn area_pdf(&self, scene: &Scene, hit: &Hit, normal: Vec3, dir: Vec3) -> f32 {
+    pub fn area_pdf(&self, hit: &Hit, normal: Vec3, dir: Vec3) -> f32 {
         let Some(a) = &self.area else { return 0.0 };
         let k = a.index_of[hit.triangle as usize];
         if k == u32::MAX {
@@ -183,35 +226,30 @@ impl Lights {
         if cos <= 0.0 {
             return 0.0;
         }
-        a.choose.probability(k as usize) / scene.triangle_area(hit.triangle) * hit.t * hit.t / cos
+        a.choose.probability(k as usize) / a.triangles[k as usize].area * hit.t * hit.t / cos
     }
 
     /// A point on an emissive triangle, seen from `p`.
     pub fn sample_area(&self, scene: &Scene, p: Vec3, uc: f32, u: Vec2) -> Option<LightSample> {
         let a = self.area.as_ref()?;
         let k = a.choose.sample(uc);
-        let tri = a.triangles[k];
+        let light = &a.triangles[k];
         let (bu, bv) = uniform_triangle(u);
-        let sp = scene.surface(&Hit {
-            triangle: tri,
-            t: 0.0,
-            u: bu,
-            v: bv,
-        });
-        let to = sp.position - p;
+        let w = Vec3::new(1.0 - bu - bv, bu, bv);
+        let [p0, p1, p2] = light.vertices;
+        let to = p0 * w.x + p1 * w.y + p2 * w.z - p;
         let d2 = to.length_squared();
         if !is_positive_finite(d2) {
             return None;
         }
         let dist = d2.sqrt();
         let wi = to / dist;
-        let m = &scene.materials[sp.material as usize];
-        let cos_l = -sp.geometric_normal.dot(wi);
-        if cos_l <= 0.0 && !m.double_sided || cos_l == 0.0 {
+        let cos_l = -light.normal.dot(wi);
+        if cos_l <= 0.0 && !light.double_sided || cos_l == 0.0 {
             return None;
         }
-        let le = m.params(&scene.textures, sp.uv).emission;
-        let pdf = a.choose.probability(k) / scene.triangle_area(tri) * d2 / cos_l.abs();
+        let le = light.emission(scene, w);
+        let pdf = a.choose.probability(k) / light.area * d2 / cos_l.abs();
         if !is_positive_finite(pdf) {
             return None;
         }
