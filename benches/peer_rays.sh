@@ -12,8 +12,10 @@
 #    builds its BVH over the same triangles (BuildHQ, and the plain Build for reference),
 #    traces each set one ray at a time on one thread and on two (alternate chunks of 4096
 #    rays), best of RUNS (default 10), and checks its answers against holocave's.
-# 3. One table: Mrays/s per ray set. holocave's figure is criterion's best sample (as
-#    tinybvh's is its best run); its median is printed beside it.
+# 3. Two tables, Mrays/s per ray set: by wall clock, and per CPU-second (the process's CPU
+#    time, which other processes' load on a shared machine does not lower by taking turns on
+#    the cores). holocave's figure is criterion's best sample (as tinybvh's is its best
+#    run); its median is printed beside it.
 #
 # TINYBVH_GIT overrides where tinybvh's header is fetched from (a github.com URL or a local
 # clone / mirror).
@@ -61,7 +63,7 @@ rays=$work/rays
     grep -E "ray_sets bench|^sponza_rays|thrpt:" || true
 if [ -n "${HOLOCAVE_NATIVE_TARGET:-}" ]; then
     (cd "$root" && CARGO_TARGET_DIR=$HOLOCAVE_NATIVE_TARGET RUSTFLAGS="-C target-cpu=native" \
-        cargo bench -p holocave-scene --bench ray_sets -- 'sponza_rays/.*_1t') 2>&1 |
+        cargo bench -p holocave-scene --bench ray_sets -- 'sponza_rays.*/.*_1t') 2>&1 |
         grep -E "^sponza_rays|thrpt:" | sed 's/^/target-cpu=native: /' || true
 fi
 if [ ! -f "$rays/primary.rays" ]; then
@@ -75,28 +77,27 @@ echo "$peer_hq"
 peer_plain=$("$harness" "$rays" "$runs" plain)
 echo "$peer_plain" | grep -v '^agree'
 
-# --- the table -------------------------------------------------------------------------
-PEER_HQ=$peer_hq PEER_PLAIN=$peer_plain CRITERION=$target/criterion/sponza_rays \
-    NATIVE=${HOLOCAVE_NATIVE_TARGET:+$HOLOCAVE_NATIVE_TARGET/criterion/sponza_rays} python3 - <<'EOF'
+# --- the tables ------------------------------------------------------------------------
+PEER_HQ=$peer_hq PEER_PLAIN=$peer_plain CRITERION=$target/criterion \
+    NATIVE=${HOLOCAVE_NATIVE_TARGET:+$HOLOCAVE_NATIVE_TARGET/criterion} python3 - <<'EOF'
 import json, os, statistics
 
-def peer(text):
+def peer(text, kind):
     rates = {}
     for line in text.splitlines():
         f = line.split()
-        if f and f[0] == "rate":
+        if f and f[0] == kind:
             rates[(f[1], int(f[2]))] = float(f[3])
     return rates
 
-hq, plain = peer(os.environ["PEER_HQ"]), peer(os.environ["PEER_PLAIN"])
 crit, native = os.environ["CRITERION"], os.environ.get("NATIVE")
 
-def ours(name, crit=crit):
-    d = os.path.join(crit, name, "new")
+def ours(root, group, name):
+    d = os.path.join(root, group, name, "new")
     try:
         s = json.load(open(os.path.join(d, "sample.json")))
         b = json.load(open(os.path.join(d, "benchmark.json")))
-    except FileNotFoundError:
+    except (FileNotFoundError, TypeError):
         return None
     n = b["throughput"]["Elements"]
     per = [t / i for t, i in zip(s["times"], s["iters"])]  # ns per iteration
@@ -105,20 +106,32 @@ def ours(name, crit=crit):
 def cell(v):
     return "—" if v is None else f"{v:.2f}"
 
-print()
-print("Mrays/s, Sponza (holocave: best sample, median in brackets; tinybvh: best run)")
-print()
-extra = " holocave 1 core, target-cpu=native |" if native else ""
-print("| ray set | holocave 1 core | holocave 2 cores | tinybvh 1 core | tinybvh 2 cores "
-      "| holocave / tinybvh, 1 core | tinybvh 1 core, plain Build |" + extra)
-print("|---|---|---|---|---|---|---|" + ("---|" if native else ""))
-for name in ["primary", "shadow", "diffuse", "primary_packets"]:
-    o1, o2 = ours(f"{name}_1t"), ours(f"{name}_2t")
-    p1, p2 = hq.get((name, 1)), hq.get((name, 2))
-    fmt = lambda o: "—" if o is None else f"{o[0]:.2f} ({o[1]:.2f})"
-    ratio = f"{o1[0] / p1:.2f}" if o1 and p1 else "—"
-    label = "primary, 4×4 packets (holocave only)" if name == "primary_packets" else name
-    print(f"| {label} | {fmt(o1)} | {fmt(o2)} | {cell(p1)} | {cell(p2)} | {ratio} "
-          f"| {cell(plain.get((name, 1)))} |"
-          + (f" {fmt(ours(f'{name}_1t', native))} |" if native else ""))
+def fmt(o):
+    return "—" if o is None else f"{o[0]:.2f} ({o[1]:.2f})"
+
+for kind, group, title, cols in [
+    ("rate", "sponza_rays", "Mrays/s, wall clock", ("1 core", "2 cores")),
+    ("cpurate", "sponza_rays_cpu", "Mrays per CPU-second (process CPU time, both threads summed)",
+     ("1 thread", "2 threads")),
+]:
+    hq = peer(os.environ["PEER_HQ"], kind)
+    plain = peer(os.environ["PEER_PLAIN"], kind)
+    print()
+    print(f"{title}, Sponza; holocave: criterion's best sample (median); tinybvh: best run")
+    print()
+    extra = f" holocave {cols[0]}, target-cpu=native |" if native else ""
+    print(f"| ray set | holocave {cols[0]} | holocave {cols[1]} | tinybvh {cols[0]} "
+          f"| tinybvh {cols[1]} | holocave / tinybvh, {cols[0]} "
+          f"| tinybvh {cols[0]}, plain Build |" + extra)
+    print("|---|---|---|---|---|---|---|" + ("---|" if native else ""))
+    for name in ["primary", "shadow", "diffuse", "primary_packets"]:
+        o1, o2 = ours(crit, group, f"{name}_1t"), ours(crit, group, f"{name}_2t")
+        p1, p2 = hq.get((name, 1)), hq.get((name, 2))
+        ratio = f"{o1[0] / p1:.2f}" if o1 and p1 else "—"
+        label = "primary, 4×4 packets (holocave only)" if name == "primary_packets" else name
+        row = (f"| {label} | {fmt(o1)} | {fmt(o2)} | {cell(p1)} | {cell(p2)} | {ratio} "
+               f"| {cell(plain.get((name, 1)))} |")
+        if native:
+            row += f" {fmt(ours(native, group, f'{name}_1t'))} |"
+        print(row)
 EOF

@@ -13,6 +13,10 @@
 //! thread and one scoped thread) in alternate chunks of 4096 rays. Criterion reports
 //! rays/s as elements/s.
 //!
+//! Group `sponza_rays` times wall-clock; group `sponza_rays_cpu` the same work by the
+//! process's CPU time (both threads summed), i.e. rays per CPU-second: a per-core rate that
+//! other processes' load on a shared machine does not lower by taking turns on the cores.
+//!
 //! `cargo bench -p holocave-scene --bench ray_sets`. With `HOLOCAVE_RAY_DUMP=DIR` the
 //! bench first writes the world-space triangles, the three ray sets and our answers to
 //! them into DIR (see [`dump`]), so that another kernel (`benches/peer_rays.sh`) traces
@@ -187,6 +191,18 @@ fn run_split(rays: &[Ray], threads: usize, f: impl Fn(&[Ray]) -> f32 + Sync) -> 
     })
 }
 
+/// CPU time this process has used, all threads.
+fn process_cpu_time() -> Duration {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec for the call to write.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime(CLOCK_PROCESS_CPUTIME_ID) failed");
+    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+}
+
 fn ray_rates(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes/sponza/Sponza.gltf");
     if !path.exists() {
@@ -238,12 +254,6 @@ fn ray_rates(c: &mut Criterion) {
         hits.iter().flatten().map(|h| h.t).sum::<f32>()
     };
 
-    let mut group = c.benchmark_group("sponza_rays");
-    group
-        .sampling_mode(SamplingMode::Flat)
-        .sample_size(10)
-        .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(4));
     type Query<'a> = &'a (dyn Fn(&[Ray]) -> f32 + Sync);
     let benches: [(&str, &Vec<Ray>, Query); 4] = [
         ("primary", &sets.primary, &closest),
@@ -251,15 +261,38 @@ fn ray_rates(c: &mut Criterion) {
         ("diffuse", &sets.diffuse, &closest),
         ("primary_packets", &sets.primary_tiled, &packets),
     ];
-    for (name, rays, query) in benches {
-        group.throughput(Throughput::Elements(rays.len() as u64));
-        for threads in [1, 2] {
-            group.bench_function(format!("{name}_{threads}t"), |b| {
-                b.iter(|| black_box(run_split(black_box(rays), threads, query)))
-            });
+    for cpu_time in [false, true] {
+        let mut group = c.benchmark_group(if cpu_time {
+            "sponza_rays_cpu"
+        } else {
+            "sponza_rays"
+        });
+        group
+            .sampling_mode(SamplingMode::Flat)
+            .sample_size(10)
+            .warm_up_time(Duration::from_secs(1))
+            .measurement_time(Duration::from_secs(4));
+        for (name, rays, query) in benches {
+            group.throughput(Throughput::Elements(rays.len() as u64));
+            for threads in [1, 2] {
+                let run = || black_box(run_split(black_box(rays), threads, query));
+                group.bench_function(format!("{name}_{threads}t"), |b| {
+                    if cpu_time {
+                        b.iter_custom(|iters| {
+                            let start = process_cpu_time();
+                            for _ in 0..iters {
+                                run();
+                            }
+                            process_cpu_time() - start
+                        })
+                    } else {
+                        b.iter(run)
+                    }
+                });
+            }
         }
+        group.finish();
     }
-    group.finish();
 }
 
 criterion_group!(benches, ray_rates);
