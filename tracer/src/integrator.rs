@@ -1,6 +1,6 @@
-//! The path tracer: one path per ray, next-event estimation with multiple importance
-//! sampling (power heuristic) against BSDF sampling, Russian roulette, and the virtual
-//! distance through flat mirrors and flat glass.
+//! The path tracer: one path per ray, next-event estimation (direct, and through flat
+//! mirrors) with multiple importance sampling (power heuristic) against BSDF sampling,
+//! Russian roulette, and the virtual distance through flat mirrors and flat glass.
 
 use glam::{Vec2, Vec3};
 use holocave_scene::{Hit, Ray, Scene};
@@ -10,6 +10,7 @@ use rand_pcg::Pcg32;
 use crate::bsdf::Bsdf;
 use crate::frame::Frame;
 use crate::lights::{LightSample, Lights};
+use crate::mirrors::ViaMirror;
 use crate::sampling::{is_positive_finite, power_heuristic};
 use crate::{TraceSettings, TracedRay};
 
@@ -96,6 +97,12 @@ impl Path<'_> {
         if lights.has_area() {
             let uc = rng.random();
             if let Some(ls) = lights.sample_area(self.scene, p, uc, u2(rng)) {
+                self.add_light(ls, frame, bsdf, wo, p, ng);
+            }
+        }
+        if lights.has_mirrors() {
+            let (um, uc) = (rng.random(), rng.random());
+            if let Some(ls) = lights.sample_via_mirror(self.scene, p, um, uc, u2(rng)) {
                 self.add_light(ls, frame, bsdf, wo, p, ng);
             }
         }
@@ -217,6 +224,9 @@ pub fn finish_path(
     };
     // `None` while the path has only seen delta lobes since its last light sample.
     let mut prev_pdf: Option<f32> = None;
+    // Set while the path has gone from a non-delta vertex over one flat mirror, the one
+    // delta path that light sampling through mirrors also finds.
+    let mut via_mirror: Option<ViaMirror> = None;
     // Virtual distance so far, while the path is still looking through flat deltas.
     let mut virtual_so_far = Some(0.0f32);
     let mut first_hit = Some(first_hit);
@@ -255,9 +265,14 @@ pub fn finish_path(
 
         // Emission, weighted against the light sampling that could have chosen it.
         if params.emission.max_element() > 0.0 && (ng.dot(wo) > 0.0 || material.double_sided) {
-            let w = prev_pdf.map_or(1.0, |p| {
-                power_heuristic(p, lights.area_pdf(&hit, ng, ray.dir))
-            });
+            let w = match (prev_pdf, via_mirror) {
+                (Some(p), _) => power_heuristic(p, lights.area_pdf(&hit, ng, ray.dir)),
+                (None, Some(via)) => power_heuristic(
+                    via.bsdf_pdf,
+                    lights.mirror_pdf(&via, hit.triangle, ng, ray.dir, hit.t),
+                ),
+                (None, None) => 1.0,
+            };
             path.radiance += path.throughput * params.emission * w;
         }
 
@@ -278,6 +293,14 @@ pub fn finish_path(
         if !path.throughput.is_finite() || path.throughput.max_element() <= 0.0 {
             break;
         }
+        via_mirror = match (bs.delta, prev_pdf) {
+            (true, Some(bsdf_pdf)) => lights.mirror_index(hit.triangle).map(|mirror| ViaMirror {
+                bsdf_pdf,
+                mirror,
+                distance: hit.t,
+            }),
+            _ => None,
+        };
         prev_pdf = (!bs.delta).then_some(bs.pdf);
 
         if depth + 1 >= settings.roulette_depth {

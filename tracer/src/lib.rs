@@ -4,7 +4,8 @@
 //!
 //! - [`integrator`]: the path tracer (NEE + MIS, Russian roulette, virtual distance);
 //! - [`bsdf`], [`microfacet`], [`fresnel`]: glTF's metallic-roughness scattering;
-//! - [`lights`]: what next-event estimation samples;
+//! - [`lights`]: what next-event estimation samples, and [`mirrors`]: the same through
+//!   flat mirrors;
 //! - [`view`] and [`film`]: off-axis wall views and the images they make.
 
 pub mod bsdf;
@@ -15,6 +16,7 @@ pub mod holodeck;
 pub mod integrator;
 pub mod lights;
 pub mod microfacet;
+pub mod mirrors;
 pub mod render;
 pub mod sampling;
 pub mod view;

@@ -8,6 +8,7 @@ use holocave_scene::{Hit, PunctualKind, PunctualLight, Scene, Sky, Sun};
 use std::f32::consts::PI;
 
 use crate::frame::Frame;
+use crate::mirrors::Mirrors;
 use crate::sampling::{Distribution, is_positive_finite, uniform_cone, uniform_triangle};
 
 /// A direction towards a light, as seen from a shading point.
@@ -21,6 +22,25 @@ pub struct LightSample {
     pub contribution: Vec3,
     /// Solid-angle pdf for MIS; `INFINITY` for delta lights.
     pub pdf: f32,
+}
+
+/// A point sampled on an emissive triangle, with its area density.
+pub struct LightPoint<'a> {
+    pub position: Vec3,
+    /// The triangle's unit face normal (its emitting side, unless double-sided).
+    pub normal: Vec3,
+    pub double_sided: bool,
+    /// Probability per unit area of having picked this point.
+    pub density: f32,
+    light: &'a AreaLight,
+    barycentrics: Vec3,
+}
+
+impl LightPoint<'_> {
+    /// The radiance the point emits (the same towards every direction it emits into).
+    pub fn emission(&self, scene: &Scene) -> Vec3 {
+        self.light.emission(scene, self.barycentrics)
+    }
 }
 
 /// Emissive triangles chosen in proportion to their power.
@@ -170,6 +190,8 @@ impl SkySampler {
 /// Everything next-event estimation can aim at.
 pub struct Lights {
     area: Option<AreaLights>,
+    /// Flat mirrors that area lights are sampled through (only with area lights).
+    pub(crate) mirrors: Option<Mirrors>,
     pub punctual: Vec<PunctualLight>,
     pub sun: Option<Sun>,
     pub sky: Option<SkySampler>,
@@ -198,8 +220,10 @@ impl Lights {
                 index_of,
             }
         });
+        let mirrors = area.as_ref().and_then(|_| Mirrors::new(scene));
         Self {
             area,
+            mirrors,
             punctual: scene.lights.clone(),
             sun: scene.daylight.sun.clone(),
             sky: scene.daylight.sky.as_ref().and_then(SkySampler::new),
@@ -210,6 +234,16 @@ impl Lights {
         self.area.is_some()
     }
 
+    /// Whether light is also sampled through flat mirrors ([`crate::mirrors`]).
+    pub fn has_mirrors(&self) -> bool {
+        self.mirrors.is_some()
+    }
+
+    /// The mirror index of scene triangle `triangle`, when light is sampled through it.
+    pub fn mirror_index(&self, triangle: u32) -> Option<u32> {
+        self.mirrors.as_ref()?.index_of(triangle)
+    }
+
     pub fn is_empty(&self) -> bool {
         self.area.is_none() && self.punctual.is_empty() && self.sun.is_none() && self.sky.is_none()
     }
@@ -217,39 +251,29 @@ impl Lights {
     /// Solid-angle pdf with which [`Lights::sample_area`] picks the point `hit` seen from
     /// a distance `t` along unit `dir`, for MIS against BSDF sampling.
     pub fn area_pdf(&self, hit: &Hit, normal: Vec3, dir: Vec3) -> f32 {
-        let Some(a) = &self.area else { return 0.0 };
-        let k = a.index_of[hit.triangle as usize];
-        if k == u32::MAX {
-            return 0.0;
-        }
         let cos = normal.dot(dir).abs();
         if cos <= 0.0 {
             return 0.0;
         }
-        a.choose.probability(k as usize) / a.triangles[k as usize].area * hit.t * hit.t / cos
+        self.area_density(hit.triangle) * hit.t * hit.t / cos
     }
 
     /// A point on an emissive triangle, seen from `p`.
     pub fn sample_area(&self, scene: &Scene, p: Vec3, uc: f32, u: Vec2) -> Option<LightSample> {
-        let a = self.area.as_ref()?;
-        let k = a.choose.sample(uc);
-        let light = &a.triangles[k];
-        let (bu, bv) = uniform_triangle(u);
-        let w = Vec3::new(1.0 - bu - bv, bu, bv);
-        let [p0, p1, p2] = light.vertices;
-        let to = p0 * w.x + p1 * w.y + p2 * w.z - p;
+        let y = self.sample_area_point(uc, u)?;
+        let to = y.position - p;
         let d2 = to.length_squared();
         if !is_positive_finite(d2) {
             return None;
         }
         let dist = d2.sqrt();
         let wi = to / dist;
-        let cos_l = -light.normal.dot(wi);
-        if cos_l <= 0.0 && !light.double_sided || cos_l == 0.0 {
+        let cos_l = -y.normal.dot(wi);
+        if cos_l <= 0.0 && !y.double_sided || cos_l == 0.0 {
             return None;
         }
-        let le = light.emission(scene, w);
-        let pdf = a.choose.probability(k) / light.area * d2 / cos_l.abs();
+        let le = y.emission(scene);
+        let pdf = y.density * d2 / cos_l.abs();
         if !is_positive_finite(pdf) {
             return None;
         }
@@ -259,6 +283,35 @@ impl Lights {
             contribution: le / pdf,
             pdf,
         })
+    }
+
+    /// A point on an emissive triangle: the triangle by power (`uc`), the point uniform
+    /// on it (`u`).
+    pub fn sample_area_point(&self, uc: f32, u: Vec2) -> Option<LightPoint<'_>> {
+        let a = self.area.as_ref()?;
+        let k = a.choose.sample(uc);
+        let light = &a.triangles[k];
+        let (bu, bv) = uniform_triangle(u);
+        let w = Vec3::new(1.0 - bu - bv, bu, bv);
+        let [p0, p1, p2] = light.vertices;
+        Some(LightPoint {
+            position: p0 * w.x + p1 * w.y + p2 * w.z,
+            normal: light.normal,
+            double_sided: light.double_sided,
+            density: a.choose.probability(k) / light.area,
+            light,
+            barycentrics: w,
+        })
+    }
+
+    /// The area density with which [`Lights::sample_area_point`] picks a point of scene
+    /// triangle `triangle` (zero for one that does not emit).
+    pub fn area_density(&self, triangle: u32) -> f32 {
+        let Some(a) = &self.area else { return 0.0 };
+        match a.index_of[triangle as usize] {
+            u32::MAX => 0.0,
+            k => a.choose.probability(k as usize) / a.triangles[k as usize].area,
+        }
     }
 
     /// Light from punctual light `i` at `p`.
