@@ -165,7 +165,7 @@ impl Compare<'_> {
             Method::Vlf => {
                 let mut cache = cache()?;
                 let base = self.vlf_base(s)?;
-                cache.set_vlf(base.irradiance(), 0.0);
+                cache.set_vlf(base.values(), 0.0);
                 Drawer::Vlf { cache, base }
             }
             Method::Holodeck | Method::VlfHolodeck => {

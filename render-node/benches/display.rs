@@ -41,9 +41,8 @@ fn room_lookups(views: &[EyeView]) -> (usize, Vec<Vec<Lookup>>) {
         holocave_scene::Scene::load(&path, &holocave_scene::LoadOptions::default())
             .expect("the room"),
     );
-    let elements = holocave_vlf::layout(&scene, &holocave_vlf::Settings::default());
-    let count = elements.count;
-    let vis = holocave_vlf::Visibility::new(scene, elements);
+    let vis = holocave_vlf::Visibility::of(scene, &holocave_vlf::Settings::default());
+    let count = vis.elements().count + vis.tiles().len();
     (count, views.iter().map(|v| vis.pixels(&v.wall)).collect())
 }
 

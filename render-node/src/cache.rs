@@ -412,11 +412,12 @@ impl RenderCache {
         }
     }
 
-    /// Draws a Virtual Light Field under the cache's samples from now on: `irradiance` of
-    /// every element (from a `.vlf` file), worth `prior` samples in each pixel (see
+    /// Draws a Virtual Light Field under the cache's samples from now on: `values`, the
+    /// irradiance of every element then the radiance of every glossy tile's bins (from a
+    /// `.vlf` file: `holocave_vlf::State::values`), worth `prior` samples in each pixel (see
     /// `shaders/vlf.wgsl`). Each frame needs every eye's lookups ([`Self::set_lookups`]).
-    pub fn set_vlf(&mut self, irradiance: &[[f32; 3]], prior: f32) {
-        let flat: &[f32] = bytemuck::cast_slice(irradiance);
+    pub fn set_vlf(&mut self, values: &[[f32; 3]], prior: f32) {
+        let flat: &[f32] = bytemuck::cast_slice(values);
         let data: &[f32] = if flat.is_empty() { &[0.0; 3] } else { flat };
         let irr = self
             .gpu

@@ -97,7 +97,7 @@ impl DisplayProcess {
     /// Draws the light field `base` under the samples from now on, worth `prior` samples
     /// per pixel (see `shaders/vlf.wgsl`).
     pub fn with_vlf(mut self, base: Arc<VlfBase>, prior: f32) -> Self {
-        self.cache.set_vlf(base.irradiance(), prior);
+        self.cache.set_vlf(base.values(), prior);
         self.vlf = Some(base);
         self
     }

@@ -1,5 +1,5 @@
 //! The Virtual Light Field as a render node draws it (`papers/vlf-in-the-cave.md` §4):
-//! the baked irradiance of a `.vlf` file goes to the GPU once; every frame the node casts
+//! the baked irradiance of a `.vlf` file, and its glossy tiles' radiance, go to the GPU once; every frame the node casts
 //! one ray per pixel of each eye (visibility, continued through mirrors and glass:
 //! `holocave_vlf::view`) and the GPU shades each pixel's lookup and blends it under the
 //! render cache's exact samples (`shaders/vlf.wgsl`, through [`crate::RenderCache`]).
@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use holocave_scene::Scene;
 use holocave_vlf::file::VlfFile;
-use holocave_vlf::{Lookup, Visibility, layout};
+use holocave_vlf::{Lookup, Visibility, layout, tiles};
 
 use crate::{EyeView, RenderNodeError};
 
@@ -26,7 +26,8 @@ pub const DEFAULT_PRIOR_SAMPLES: f32 = 256.0;
 /// A baked light field and the scene it was baked for.
 pub struct VlfBase {
     visibility: Visibility,
-    irradiance: Vec<[f32; 3]>,
+    /// The elements' irradiance, then the tiles' radiance (what the lookups read).
+    values: Vec<[f32; 3]>,
 }
 
 impl VlfBase {
@@ -42,6 +43,14 @@ impl VlfBase {
                 elements.count
             )));
         }
+        let tiles = tiles(&scene, &f.settings, &elements);
+        if tiles.len() != f.state.tiles.len() {
+            return Err(bad(format!(
+                "{} tile values, but the scene's glossy surfaces at its settings have {}",
+                f.state.tiles.len(),
+                tiles.len()
+            )));
+        }
         if !f.state.converged {
             tracing::warn!(
                 "{}: bake not finished ({} bounces); drawing what it has",
@@ -50,13 +59,14 @@ impl VlfBase {
             );
         }
         Ok(VlfBase {
-            visibility: Visibility::new(scene, elements),
-            irradiance: f.state.irradiance,
+            values: f.state.values(),
+            visibility: Visibility::new(scene, elements, tiles),
         })
     }
 
-    pub fn irradiance(&self) -> &[[f32; 3]] {
-        &self.irradiance
+    /// What the lookups read: the elements' irradiance, then the glossy tiles' radiance.
+    pub fn values(&self) -> &[[f32; 3]] {
+        &self.values
     }
 
     /// What each pixel of `view` sees (the node's own ray casts, on all cores).

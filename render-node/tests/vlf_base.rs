@@ -14,12 +14,14 @@ use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_vlf::file::{VlfFile, fingerprint};
 use holocave_vlf::{Settings, layout, view::shade};
 
-fn cornell() -> Arc<Scene> {
+fn cornell_scene() -> Scene {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    Arc::new(
-        Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default())
-            .expect("load the Cornell box"),
-    )
+    Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default())
+        .expect("load the Cornell box")
+}
+
+fn cornell() -> Arc<Scene> {
+    Arc::new(cornell_scene())
 }
 
 /// The README's view: the front wall of a CAVE framing the box.
@@ -51,38 +53,64 @@ fn baked(scene: &Arc<Scene>, settings: &Settings, dir: &std::path::Path) -> VlfB
     VlfBase::open(&path, scene.clone()).expect("open the light field")
 }
 
+/// The Cornell box with its white walls made a glossy metal (GGX α = 0.09): most of the
+/// view is drawn from directional radiance tiles.
+fn glossy_cornell() -> Arc<Scene> {
+    let mut scene = cornell_scene();
+    let white = scene
+        .materials
+        .iter()
+        .position(|m| m.name == "white")
+        .expect("the white walls");
+    scene.materials[white].metallic = 1.0;
+    scene.materials[white].roughness = 0.3;
+    Arc::new(scene)
+}
+
 #[test]
 fn the_gpu_lookup_equals_the_cpu_lookup() {
-    let scene = cornell();
-    let dir = tempfile::tempdir().unwrap();
-    let settings = Settings {
-        directions: 92,
-        resolution: 64,
-        ..Settings::default()
-    };
-    let base = baked(&scene, &settings, dir.path());
-    let size = 48;
-    let view = EyeView::looking_at(wall(size), 0.05).unwrap();
-    let lookups = base.lookups(&view);
-    let cpu = shade(&lookups, base.irradiance());
-
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
-    let n = size * size;
-    let mut cache = RenderCache::new(gpu, &[(size, size)], n, n);
-    cache.set_vlf(base.irradiance(), 64.0);
-    cache.set_lookups(0, &lookups);
-    let image = cache.vlf_image(0).expect("a light field is set");
-    // The same f32 operations in the same order on both sides; a GPU may fuse a
-    // multiply-add, which changes the last bits: a few ulps of the value.
-    for (g, c) in image.pixels.iter().zip(&cpu) {
-        let tol = 1e-5 * c.abs().max_element() + 1e-7;
-        assert!(
-            (*g - *c).abs().max_element() <= tol,
-            "GPU {g} against CPU {c}"
+    // The box as it is (diffuse elements, the mirror and glass followed), and with glossy
+    // walls (tiles read in the direction towards the eye).
+    for (name, scene) in [("cornell", cornell()), ("glossy cornell", glossy_cornell())] {
+        let dir = tempfile::tempdir().unwrap();
+        let settings = Settings {
+            directions: 92,
+            resolution: 64,
+            ..Settings::default()
+        };
+        let base = baked(&scene, &settings, dir.path());
+        let size = 48;
+        let view = EyeView::looking_at(wall(size), 0.05).unwrap();
+        let lookups = base.lookups(&view);
+        let cpu = shade(&lookups, base.values());
+        let glossy = lookups.iter().filter(|l| l.tile != u32::MAX).count();
+        if name == "cornell" {
+            assert_eq!(glossy, 0, "no tiles in the plain box");
+        } else {
+            assert!(glossy > lookups.len() / 4, "{glossy} glossy pixels");
+        }
+
+        let n = size * size;
+        let mut cache = RenderCache::new(gpu.clone(), &[(size, size)], n, n);
+        cache.set_vlf(base.values(), 64.0);
+        cache.set_lookups(0, &lookups);
+        let image = cache.vlf_image(0).expect("a light field is set");
+        // The same f32 operations in the same order on both sides; a GPU may fuse a
+        // multiply-add, which changes the last bits: a few ulps of the value.
+        for (g, c) in image.pixels.iter().zip(&cpu) {
+            let tol = 1e-5 * c.abs().max_element() + 1e-7;
+            assert!(
+                (*g - *c).abs().max_element() <= tol,
+                "{name}: GPU {g} against CPU {c}"
+            );
+        }
+        assert!(cpu.iter().any(|c| c.max_element() > 0.0), "the view is lit");
+        eprintln!(
+            "{name}: GPU and CPU lookups agree on {} pixels ({glossy} from glossy tiles)",
+            cpu.len()
         );
     }
-    assert!(cpu.iter().any(|c| c.max_element() > 0.0), "the view is lit");
-    eprintln!("GPU and CPU lookups agree on {} pixels", cpu.len());
 }
 
 /// The first frame of a cold start is within 0.02 of the converged image (instead of

@@ -10,7 +10,7 @@ use holocave_scene::Scene;
 use holocave_vlf::bake::{Settings, Stage, State, tail};
 use holocave_vlf::file::{VlfFile, fingerprint};
 use holocave_vlf::remote::Workers;
-use holocave_vlf::{Casting, Threads, Visibility, layout};
+use holocave_vlf::{Casting, Threads, Visibility, layout, tiles};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::render::{ViewFlags, load_scene, wall_view};
@@ -59,6 +59,13 @@ pub struct BakeArgs {
     /// inter-reflected light.
     #[arg(long, default_value_t = Settings::default().tolerance)]
     pub tolerance: f64,
+    /// Surfaces whose GGX alpha (roughness squared) is below this get directional
+    /// radiance tiles (glossy); rougher ones are drawn as diffuse. 0: no tiles.
+    #[arg(long, default_value_t = Settings::default().glossy_alpha)]
+    pub glossy_alpha: f32,
+    /// Bins along each side of a glossy tile (k x k over the hemisphere).
+    #[arg(long, default_value_t = Settings::default().tile_bins)]
+    pub tile_bins: u32,
     /// Threads of this process (default: all cores); 0 with --listen: only the worker
     /// processes cast lines.
     #[arg(long)]
@@ -189,7 +196,7 @@ pub fn bake_file(
     bar.finish_and_clear();
     if !quiet {
         println!(
-            "{} directions ({} subfields of {}²), {} lines cast, {} stored with {} crossings and {} links; {} elements ({:.2} MB while propagating)",
+            "{} directions ({} subfields of {}²), {} lines cast, {} stored with {} crossings and {} links; {} elements, {} glossy tiles of {}² bins ({:.2} MB); {:.2} MB while propagating",
             stats.directions,
             stats.subfields,
             settings.resolution,
@@ -198,6 +205,9 @@ pub fn bake_file(
             stats.crossings,
             stats.links,
             stats.elements,
+            stats.tiles,
+            settings.tile_bins,
+            stats.tile_memory as f64 / 1e6,
             stats.memory as f64 / 1e6
         );
         println!(
@@ -224,6 +234,11 @@ pub fn bake_file(
 pub fn baked_default(scene: &Scene, path: &Path) -> Result<PathBuf> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    // A file from an older build's format (before the glossy tiles) is baked again.
+    if let Err(e @ holocave_vlf::VlfError::Version { .. }) = VlfFile::read(path) {
+        println!("{e}: baking it again");
+        std::fs::remove_file(path).with_context(|| format!("removing {}", path.display()))?;
     }
     let fresh = !path.exists();
     if fresh {
@@ -258,8 +273,16 @@ fn bake(a: BakeArgs) -> Result<()> {
         element_size: a.element_size,
         direct_samples: a.direct_samples,
         tolerance: a.tolerance,
+        glossy_alpha: a.glossy_alpha,
+        tile_bins: a.tile_bins,
         ..Settings::default()
     };
+    if !(0.0..=1.0).contains(&settings.glossy_alpha) {
+        bail!("--glossy-alpha {}: give 0 to 1", settings.glossy_alpha);
+    }
+    if settings.tile_bins == 0 || settings.tile_bins > 64 {
+        bail!("--tile-bins {}: give 1 to 64", settings.tile_bins);
+    }
     if settings.resolution == 0 || settings.resolution > 4096 {
         bail!("--resolution {}: give 1 to 4096 lines", settings.resolution);
     }
@@ -311,6 +334,14 @@ fn info(file: &Path) -> Result<()> {
         s.directions, s.resolution, f.element_size, s.direct_samples, s.tolerance
     );
     println!("  elements     {}", f.state.irradiance.len());
+    let per_tile = (s.tile_bins * s.tile_bins).max(1) as usize;
+    println!(
+        "  glossy tiles {} of {}² bins ({:.2} MB), for GGX alpha below {}",
+        f.state.tiles.len() / per_tile,
+        s.tile_bins,
+        (f.state.tiles.len() * 12) as f64 / 1e6,
+        s.glossy_alpha
+    );
     println!(
         "  bounces      {} ({}), residual {:.3e}, tail {:.3e}",
         f.state.bounces,
@@ -337,7 +368,8 @@ fn check(file: &Path, scene: Option<&Path>, daylight: Option<PathBuf>) -> Result
     if let Some(scene) = scene {
         let scene = load_scene(scene, daylight, false)?;
         let f = VlfFile::read_for(file, &scene)?;
-        let count = layout(&scene, &f.settings).count;
+        let elements = layout(&scene, &f.settings);
+        let count = elements.count;
         if count != f.state.irradiance.len() {
             bail!(
                 "{}: {} elements, but the scene's layout at these settings has {count}",
@@ -345,17 +377,26 @@ fn check(file: &Path, scene: Option<&Path>, daylight: Option<PathBuf>) -> Result
                 f.state.irradiance.len()
             );
         }
+        let tile_values = tiles(&scene, &f.settings, &elements).len();
+        if tile_values != f.state.tiles.len() {
+            bail!(
+                "{}: {} tile values, but the scene's glossy surfaces at these settings have {tile_values}",
+                file.display(),
+                f.state.tiles.len()
+            );
+        }
     }
     let bad = f
         .state
         .irradiance
         .iter()
+        .chain(&f.state.tiles)
         .flatten()
         .filter(|x| !x.is_finite() || **x < 0.0)
         .count();
     if bad > 0 {
         bail!(
-            "{}: {bad} irradiance values are negative or not finite",
+            "{}: {bad} irradiance or tile values are negative or not finite",
             file.display()
         );
     }
@@ -372,17 +413,18 @@ fn view(a: ViewArgs) -> Result<()> {
     let scene = load_scene(&a.scene, a.daylight.clone(), false)?;
     let f = VlfFile::read_for(&a.file, &scene)?;
     let elements = layout(&scene, &f.settings);
-    if elements.count != f.state.irradiance.len() {
+    let tiles = tiles(&scene, &f.settings, &elements);
+    if elements.count != f.state.irradiance.len() || tiles.len() != f.state.tiles.len() {
         bail!(
-            "{}: element count does not match the scene's layout",
+            "{}: element or tile count does not match the scene's layout",
             a.file.display()
         );
     }
     let view = wall_view(&scene, &a.scene, &a.view)?;
     let start = std::time::Instant::now();
-    let image = Visibility::new(std::sync::Arc::new(scene), elements).render(
+    let image = Visibility::new(std::sync::Arc::new(scene), elements, tiles).render(
         &view,
-        &f.state.irradiance,
+        &f.state.values(),
         a.aa,
     );
     let secs = start.elapsed().as_secs_f64();

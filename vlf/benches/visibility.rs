@@ -11,7 +11,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use glam::Vec3;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
-use holocave_vlf::{Settings, Visibility, layout};
+use holocave_vlf::{Settings, Visibility};
 
 fn scene(name: &str) -> Arc<Scene> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -42,7 +42,7 @@ fn visibility(c: &mut Criterion) {
     ] {
         let scene = scene(name);
         // The layout depends on the settings only through the element size.
-        let vis = Visibility::new(scene.clone(), layout(&scene, &Settings::default()));
+        let vis = Visibility::of(scene.clone(), &Settings::default());
         let mut group = c.benchmark_group(format!("vlf visibility/{name}"));
         group.sample_size(10);
         group.measurement_time(Duration::from_secs(5));

@@ -13,9 +13,10 @@ use rayon::prelude::*;
 use crate::direct::direct_irradiance;
 use crate::directions::Directions;
 use crate::elements::{Elements, cell_index};
-use crate::propagate::{bounce, flux};
+use crate::propagate::{Lines, Sending, bounce, flux};
 use crate::subfield::{Grid, Sphere, Subfield, cast};
 use crate::surface::{diffuse_albedo, seen};
+use crate::tiles::Tiles;
 
 /// What a bake is asked for.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,6 +35,27 @@ pub struct Settings {
     /// inter-reflected light propagated so far (see [`tail`]).
     pub tolerance: f64,
     pub max_bounces: u32,
+    /// Surfaces with a GGX lobe whose `α` (roughness²) is below this are glossy and get
+    /// directional radiance tiles (`tiles`); rougher ones are diffuse elements. 0: none.
+    /// The default, 0.5 (roughness 0.71), gives tiles to every lobe that differs clearly
+    /// from a diffuse one: at `α = 0.5` a metal's reflected radiance still varies by more
+    /// than a factor 3 between normal and grazing views.
+    pub glossy_alpha: f32,
+    /// Bins along each side of a tile (`k`: `k × k` over the hemisphere, each about
+    /// `√(2π)/k` radians across: 18° for 8).
+    pub tile_bins: u32,
+}
+
+impl Settings {
+    /// The number of directions a bake uses for `directions` asked (the geodesic sphere
+    /// [`Directions::at_least`] gives).
+    pub fn rounded_directions(directions: usize) -> usize {
+        let mut f = 1usize;
+        while 10 * f * f + 2 < directions {
+            f += 1;
+        }
+        10 * f * f + 2
+    }
 }
 
 impl Default for Settings {
@@ -45,6 +67,8 @@ impl Default for Settings {
             direct_samples: 64,
             tolerance: 1e-3,
             max_bounces: 200,
+            glossy_alpha: 0.5,
+            tile_bins: 8,
         }
     }
 }
@@ -56,8 +80,15 @@ pub struct State {
     pub bounces: u32,
     /// Irradiance of every element: all bounces so far.
     pub irradiance: Vec<[f32; 3]>,
-    /// Radiance the last bounce sends out (what the next bounce propagates).
+    /// Radiance the last bounce sends out (what the next bounce propagates); for an
+    /// element with a tile, the radiosity its tile's last bounce amounts to
+    /// ([`Tiles::radiosity`]).
     pub last: Vec<[f32; 3]>,
+    /// The glossy tiles' radiance (`tiles × k²` bins, tile after tile): all bounces so
+    /// far. Empty when the scene has no glossy surfaces.
+    pub tiles: Vec<[f32; 3]>,
+    /// The tiles' radiance of the last bounce (what the next bounce propagates).
+    pub tiles_last: Vec<[f32; 3]>,
     /// The flux (luminance) that first reached the surfaces: direct light, the sky along
     /// the lines, what delta surfaces show.
     pub arrived: f64,
@@ -67,6 +98,12 @@ pub struct State {
 }
 
 impl State {
+    /// What the lookups read ([`crate::view::shade_one`], the render node's shader): the
+    /// elements' irradiance, then the tiles' radiance.
+    pub fn values(&self) -> Vec<[f32; 3]> {
+        [self.irradiance.as_slice(), self.tiles.as_slice()].concat()
+    }
+
     /// The light the last bounce sent out, relative to the light that first arrived.
     pub fn residual(&self) -> f64 {
         self.residuals.last().copied().unwrap_or(1.0)
@@ -96,7 +133,11 @@ pub struct Stats {
     pub crossings: u64,
     pub links: u64,
     pub elements: usize,
-    /// Bytes held while propagating (lines, links, element arrays).
+    /// Glossy element sides with a directional radiance tile.
+    pub tiles: usize,
+    /// Bytes the tiles take in the file and on the GPU (`tiles × k² × 12`).
+    pub tile_memory: u64,
+    /// Bytes held while propagating (lines, links, element arrays, tiles).
     pub memory: u64,
     pub visibility: Duration,
     pub direct: Duration,
@@ -177,6 +218,11 @@ pub fn smooth_indirect(
 /// The element layout of a bake of `scene` with `settings`.
 pub fn layout(scene: &Scene, settings: &Settings) -> Elements {
     Elements::new(scene, element_size(scene, settings))
+}
+
+/// The glossy tiles of a bake of `scene` with `settings`, on its element layout.
+pub fn tiles(scene: &Scene, settings: &Settings, elements: &Elements) -> Tiles {
+    Tiles::new(scene, elements, settings)
 }
 
 /// The element size of a bake: the settings', or twice the lines' spacing.
@@ -339,11 +385,13 @@ pub fn bake_with<E>(
         stats.links += s.links.len() as u64;
     }
 
-    // The elements' albedo, and which of them need light at all.
+    // The elements' albedo, and which of them need light at all; the glossy tiles.
     let (area, centre) = elements.areas_and_centres(scene);
+    let tiles = Tiles::new(scene, elements, settings);
     let albedo: Vec<Vec3> = centre
         .par_iter()
-        .map(|&(t, u, v)| {
+        .enumerate()
+        .map(|(e, &(t, u, v))| {
             let s = seen(
                 scene,
                 Hit {
@@ -356,6 +404,9 @@ pub fn bake_with<E>(
             );
             if s.delta {
                 Vec3::ZERO
+            } else if tiles.of(e as u32).is_some() {
+                // Reflects through its tile; marked as needing light.
+                Vec3::ONE
             } else {
                 diffuse_albedo(&s.params)
             }
@@ -372,27 +423,44 @@ pub fn bake_with<E>(
     // converges.
     let least = cross.iter().copied().fold(f32::INFINITY, f32::min) * 0.25;
     let receiving: Vec<f32> = area.iter().map(|a| a.max(least)).collect();
+    stats.tiles = tiles.tiles.len();
+    stats.tile_memory = tiles.len() as u64 * 12;
     stats.memory = stats.crossings * 8
-        + stats.links * 28
+        + stats.links * 40
         + (stats.lines_stored + stats.subfields as u64) * 4
-        + elements.count as u64 * (4 + 12 * 4);
+        + elements.count as u64 * (4 + 12 * 4)
+        + if tiles.is_empty() {
+            0
+        } else {
+            elements.count as u64 * 4 + stats.tiles as u64 * 120 + stats.tile_memory * 4
+        };
 
-    let reflect = |e: &[[f32; 3]]| -> Vec<[f32; 3]> {
-        e.iter()
+    // What a bounce's irradiance sends out: `ρ/π E` from diffuse elements, and from an
+    // element with a tile the radiosity of its tile's bins (only for the stopping rule:
+    // lines read the tile itself).
+    let reflect = |e: &[[f32; 3]], bins: &[[f32; 3]]| -> Vec<[f32; 3]> {
+        let mut out: Vec<[f32; 3]> = e
+            .iter()
             .zip(&albedo)
             .map(|(e, a)| (Vec3::from(*e) * *a * std::f32::consts::FRAC_1_PI).to_array())
-            .collect()
+            .collect();
+        for (g, t) in tiles.tiles.iter().enumerate() {
+            let k = tiles.per_tile();
+            out[t.element as usize] = tiles.radiosity(&bins[g * k..(g + 1) * k]).to_array();
+        }
+        out
     };
     // Direct light (computed again on resume: see below).
     let start = Instant::now();
     let tris = elements.triangles.len();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let direct = direct_irradiance(
+    let (direct, direct_tiles) = direct_irradiance(
         scene,
         &lights,
         elements,
         &needed,
         settings.direct_samples,
+        &tiles,
         &|| {
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             if n.is_multiple_of(64) || n == tris {
@@ -408,24 +476,46 @@ pub fn bake_with<E>(
     // surfaces show (caustics). Computed again on resume (deterministic): the last step
     // keeps it sharp and smooths only the inter-reflected light.
     let start = Instant::now();
+    let line_dirs = &directions.lines;
+    let lines = Lines {
+        subfields: &subfields,
+        dirs: line_dirs,
+        weight: &weight,
+        ends: &ends,
+        area: &receiving,
+        tiles: &tiles,
+    };
     let zero = vec![[0f32; 3]; elements.count];
-    let lines = bounce(&subfields, &weight, &ends, &receiving, &zero, true);
-    let first: Vec<[f32; 3]> = direct
-        .iter()
-        .zip(&lines)
-        .map(|(a, b)| (Vec3::from(*a) + Vec3::from(*b)).to_array())
-        .collect();
+    let zero_tiles = vec![[0f32; 3]; tiles.len()];
+    let got = bounce(
+        &lines,
+        Sending {
+            radiance: &zero,
+            tiles: &zero_tiles,
+            first_bounce: true,
+        },
+    );
+    let add = |a: &[[f32; 3]], b: &[[f32; 3]]| -> Vec<[f32; 3]> {
+        a.iter()
+            .zip(b)
+            .map(|(a, b)| (Vec3::from(*a) + Vec3::from(*b)).to_array())
+            .collect()
+    };
+    let first = add(&direct, &got.irradiance);
+    let first_tiles = add(&direct_tiles, &got.tiles);
     stats.propagation += start.elapsed();
     let mut state = match resume {
         Some(s) => s,
         None => {
             let arrived = flux(&first, &area) / std::f64::consts::PI;
-            let last = reflect(&first);
+            let last = reflect(&first, &first_tiles);
             let residual = flux(&last, &area) / arrived.max(f64::MIN_POSITIVE);
             let s = State {
                 bounces: 0,
                 irradiance: first.clone(),
                 last,
+                tiles: first_tiles.clone(),
+                tiles_last: first_tiles,
                 arrived,
                 residuals: vec![residual],
                 converged: false,
@@ -442,11 +532,18 @@ pub fn bake_with<E>(
             save(&state)?;
             break;
         }
-        let got = bounce(&subfields, &weight, &ends, &receiving, &state.last, false);
-        for (e, g) in state.irradiance.iter_mut().zip(&got) {
-            *e = (Vec3::from(*e) + Vec3::from(*g)).to_array();
-        }
-        state.last = reflect(&got);
+        let got = bounce(
+            &lines,
+            Sending {
+                radiance: &state.last,
+                tiles: &state.tiles_last,
+                first_bounce: false,
+            },
+        );
+        state.irradiance = add(&state.irradiance, &got.irradiance);
+        state.tiles = add(&state.tiles, &got.tiles);
+        state.last = reflect(&got.irradiance, &got.tiles);
+        state.tiles_last = got.tiles;
         state.bounces += 1;
         let r = flux(&state.last, &area) / state.arrived.max(f64::MIN_POSITIVE);
         state.residuals.push(r);

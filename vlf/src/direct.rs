@@ -2,7 +2,8 @@
 //! emitters, punctual lights and the sun — by next-event estimation with the tracer's
 //! light sampling: `samples` stratified points in each element, one sample of each kind
 //! of light and one shadow ray per point. The sky is not sampled here: it is as large as
-//! the sphere of directions, and the lines carry it (`propagate`).
+//! the sphere of directions, and the lines carry it (`propagate`). A glossy element's
+//! samples also go into its tile: each adds `f(ω_b, ω_i) E_i / samples` to every bin.
 
 use glam::{Vec2, Vec3};
 use holocave_scene::{Hit, Ray, Scene};
@@ -13,9 +14,10 @@ use rayon::prelude::*;
 
 use crate::elements::{Elements, cell_index};
 use crate::surface::leave;
+use crate::tiles::Tiles;
 
 /// The irradiance one light sample gives the point `p` on the side with normal `ns`.
-fn irradiance_from(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3, ns: Vec3) -> Vec3 {
+pub fn irradiance_from(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3, ns: Vec3) -> Vec3 {
     let cos = ns.dot(ls.wi);
     if cos <= 0.0 {
         return Vec3::ZERO;
@@ -36,18 +38,24 @@ fn irradiance_from(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3, ns: Vec3)
     ls.contribution * cos
 }
 
+/// What direct light gives one element: its irradiance, and its tile's bins if glossy.
+type Found = (u32, [f32; 3], Vec<Vec3>);
+
 /// The direct irradiance of every element whose `needed` flag is set (others get zero),
-/// with `samples` points each. Deterministic: each element has its own random stream.
+/// with `samples` points each, and the radiance it gives every glossy tile (`tiles`).
+/// Deterministic: each element has its own random stream.
 pub fn direct_irradiance(
     scene: &Scene,
     lights: &Lights,
     elements: &Elements,
     needed: &[bool],
     samples: u32,
+    tiles: &Tiles,
     on_triangle: &(dyn Fn() + Sync),
-) -> Vec<[f32; 3]> {
+) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
     let mut out = vec![[0f32; 3]; elements.count];
-    let per_triangle: Vec<Vec<(u32, [f32; 3])>> = elements
+    let mut tile_out = vec![[0f32; 3]; tiles.len()];
+    let per_triangle: Vec<Vec<Found>> = elements
         .triangles
         .par_iter()
         .enumerate()
@@ -61,9 +69,20 @@ pub fn direct_irradiance(
                         if !needed[e as usize] {
                             continue;
                         }
-                        let e_irr =
-                            element_direct(scene, lights, t as u32, side, (i, j, r), e, samples);
-                        found.push((e, e_irr.to_array()));
+                        let g = tiles.of(e);
+                        let mut bins =
+                            vec![Vec3::ZERO; if g.is_some() { tiles.per_tile() } else { 0 }];
+                        let glossy = g.map(|g| (tiles, g, bins.as_mut_slice()));
+                        let e_irr = element_direct(
+                            scene,
+                            lights,
+                            (t as u32, side),
+                            (i, j, r),
+                            e,
+                            samples,
+                            glossy,
+                        );
+                        found.push((e, e_irr.to_array(), bins));
                     }
                 }
             }
@@ -71,22 +90,29 @@ pub fn direct_irradiance(
             found
         })
         .collect();
+    let k = tiles.per_tile();
     for list in per_triangle {
-        for (e, v) in list {
+        for (e, v, bins) in list {
             out[e as usize] = v;
+            if let Some(g) = tiles.of(e) {
+                let at = g as usize * k;
+                for (o, b) in tile_out[at..at + k].iter_mut().zip(bins) {
+                    *o = b.to_array();
+                }
+            }
         }
     }
-    out
+    (out, tile_out)
 }
 
 fn element_direct(
     scene: &Scene,
     lights: &Lights,
-    t: u32,
-    side: u32,
+    (t, side): (u32, u32),
     (i, j, r): (u32, u32, u32),
     e: u32,
     samples: u32,
+    mut glossy: Option<(&Tiles, u32, &mut [Vec3])>,
 ) -> Vec3 {
     let mut rng = Pcg32::seed_from_u64(u64::from(e).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x5EED);
     let k = (samples as f32).sqrt().ceil().max(1.0) as u32;
@@ -110,21 +136,30 @@ fn element_direct(
         let ng = sp.geometric_normal;
         let ns = if side == 0 { ng } else { -ng };
         let p = sp.position;
+        let mut add = |ls: &LightSample| {
+            let e = irradiance_from(scene, ls, p, ng, ns);
+            sum += e;
+            if let Some((tiles, g, bins)) = glossy.as_mut()
+                && e.max_element() > 0.0
+            {
+                tiles.accumulate(*g, ls.wi, e / samples.max(1) as f32, bins);
+            }
+        };
         if lights.has_area() {
             let uc = rng.random();
             let u2 = Vec2::new(rng.random(), rng.random());
             if let Some(ls) = lights.sample_area(scene, p, uc, u2) {
-                sum += irradiance_from(scene, &ls, p, ng, ns);
+                add(&ls);
             }
         }
         for l in 0..lights.punctual.len() {
             if let Some(ls) = lights.sample_punctual(l, p) {
-                sum += irradiance_from(scene, &ls, p, ng, ns);
+                add(&ls);
             }
         }
         let u2 = Vec2::new(rng.random(), rng.random());
         if let Some(ls) = lights.sample_sun(u2) {
-            sum += irradiance_from(scene, &ls, p, ng, ns);
+            add(&ls);
         }
     }
     sum / samples.max(1) as f32

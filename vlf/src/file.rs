@@ -4,9 +4,14 @@
 //! and renamed, so a file on disk is always a whole bake state. A bake saves it after
 //! every bounce; a killed bake resumes from it.
 //!
-//! Chunks: `META` (scene, settings, element count, bounces, residuals), `IRRA` (the
-//! irradiance of every element, 3 × f32), `LAST` (the radiance of the last bounce, what
-//! a resumed bake propagates next).
+//! Chunks: `META` (scene, settings — the glossy threshold and tile bins among them —,
+//! element count, tile entry count, bounces, residuals), `IRRA` (the irradiance of every
+//! element, 3 × f32), `LAST` (the radiance of the last bounce, what a resumed bake
+//! propagates next), `TILE` (the glossy tiles' radiance, `tiles × k²` bins of 3 × f32;
+//! empty without glossy surfaces) and `TLST` (the tiles' last bounce).
+//!
+//! Version 2 added the glossy tiles (the threshold and bins in `META`, `TILE`, `TLST`);
+//! a version 1 file is refused (bake it again).
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -17,11 +22,11 @@ use holocave_scene::Scene;
 use crate::bake::{Settings, State};
 
 const MAGIC: &[u8; 8] = b"HOLOVLF\0";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 const HEADER: usize = 16;
 const CHUNK_HEADER: usize = 16;
-/// Chunks in a file: META, IRRA, LAST.
-const CHUNKS: u32 = 3;
+/// Chunks in a file: META, IRRA, LAST, TILE, TLST.
+const CHUNKS: u32 = 5;
 
 #[derive(Debug, thiserror::Error)]
 pub enum VlfError {
@@ -32,7 +37,7 @@ pub enum VlfError {
     },
     #[error("{path}: not a VLF file (bad magic number)")]
     NotVlf { path: PathBuf },
-    #[error("{path}: VLF file version {found}, this build reads version {VERSION}")]
+    #[error("{path}: VLF file version {found}, this build reads version {VERSION} (bake it again)")]
     Version { path: PathBuf, found: u32 },
     #[error("{path}: truncated in chunk {chunk} at byte {offset}")]
     Truncated {
@@ -126,8 +131,11 @@ impl VlfFile {
         m.extend_from_slice(&s.direct_samples.to_le_bytes());
         m.extend_from_slice(&s.tolerance.to_le_bytes());
         m.extend_from_slice(&s.max_bounces.to_le_bytes());
+        m.extend_from_slice(&s.glossy_alpha.to_le_bytes());
+        m.extend_from_slice(&s.tile_bins.to_le_bytes());
         let st = &self.state;
         m.extend_from_slice(&(st.irradiance.len() as u64).to_le_bytes());
+        m.extend_from_slice(&(st.tiles.len() as u64).to_le_bytes());
         m.extend_from_slice(&st.bounces.to_le_bytes());
         m.push(u8::from(st.converged));
         m.extend_from_slice(&st.arrived.to_le_bytes());
@@ -152,7 +160,17 @@ impl VlfFile {
         put_f32s(&mut irra, &self.state.irradiance);
         let mut last = Vec::new();
         put_f32s(&mut last, &self.state.last);
-        for (tag, payload) in [(b"META", self.meta()), (b"IRRA", irra), (b"LAST", last)] {
+        let mut tile = Vec::new();
+        put_f32s(&mut tile, &self.state.tiles);
+        let mut tlst = Vec::new();
+        put_f32s(&mut tlst, &self.state.tiles_last);
+        for (tag, payload) in [
+            (b"META", self.meta()),
+            (b"IRRA", irra),
+            (b"LAST", last),
+            (b"TILE", tile),
+            (b"TLST", tlst),
+        ] {
             bytes.extend_from_slice(tag);
             bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
             bytes.extend_from_slice(&crc32fast::hash(&payload).to_le_bytes());
@@ -307,7 +325,7 @@ impl Reader<'_> {
                 path: self.path.into(),
                 chunk: tag.into(),
                 offset: base as u64,
-                what: format!("{} bytes for {count} elements (12 each)", p.len()),
+                what: format!("{} bytes for {count} values (12 each)", p.len()),
             });
         }
         Ok(p.chunks_exact(12)
@@ -369,7 +387,10 @@ impl Reader<'_> {
         let direct_samples = m.u32()?;
         let tolerance = m.f64()?;
         let max_bounces = m.u32()?;
+        let glossy_alpha = m.f32()?;
+        let tile_bins = m.u32()?;
         let count = m.u64()?;
+        let tile_count = m.u64()?;
         let bounces = m.u32()?;
         let converged = m.take(1)?[0] != 0;
         let arrived = m.f64()?;
@@ -377,10 +398,12 @@ impl Reader<'_> {
         let residuals = (0..n).map(|_| m.f64()).collect::<Result<Vec<_>, _>>()?;
         let irradiance = self.array(&mut at, "IRRA", count)?;
         let last = self.array(&mut at, "LAST", count)?;
+        let tiles = self.array(&mut at, "TILE", tile_count)?;
+        let tiles_last = self.array(&mut at, "TLST", tile_count)?;
         if at != self.bytes.len() {
             return Err(VlfError::Malformed {
                 path: path.into(),
-                chunk: "LAST".into(),
+                chunk: "TLST".into(),
                 offset: at as u64,
                 what: format!("{} bytes after the last chunk", self.bytes.len() - at),
             });
@@ -395,12 +418,16 @@ impl Reader<'_> {
                 direct_samples,
                 tolerance,
                 max_bounces,
+                glossy_alpha,
+                tile_bins,
             },
             element_size,
             state: State {
                 bounces,
                 irradiance,
                 last,
+                tiles,
+                tiles_last,
                 arrived,
                 residuals,
                 converged,

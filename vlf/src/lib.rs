@@ -8,8 +8,11 @@
 //!   the scene's bounding sphere — and every surface each line crosses (the scene's
 //!   all-hits query);
 //! - [`elements`]: the irradiance atlas, each triangle side cut into elements;
-//! - [`surface`]: how a material is treated (diffuse element, or a delta surface followed
-//!   exactly);
+//! - [`surface`]: how a material is treated (diffuse element, glossy element with a
+//!   tile, or a delta surface followed exactly);
+//! - [`octahedral`]: the hemisphere of directions above a surface as `k × k` bins;
+//! - [`tiles`]: directional radiance tiles for glossy surfaces (which surfaces, how an
+//!   element maps to its tile, the BSDF integrated into the bins);
 //! - [`direct`]: small emitters, punctual lights and the sun by next-event estimation;
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
 //! - [`bake`]: the whole bake, its stopping rule and its checkpoints;
@@ -20,23 +23,37 @@
 //!
 //! What differs from the paper: mirrors and smooth glass are followed exactly (by eye rays
 //! and by the lines that cross them) instead of being stored as directional radiance
-//! tiles `L_s(ω, s, t, u, v, p)`, and glossy surfaces are drawn as diffuse with their
-//! albedo. So a scene has no directional tiles at all, and its lines are not grouped
-//! into tiles: each line keeps its own crossings.
+//! tiles `L_s(ω, s, t, u, v, p)`. Glossy surfaces — a GGX lobe with `α` below the bake's
+//! [`Settings::glossy_alpha`] (0.5 unless told), not a delta and not transmitting — get
+//! the paper's directional radiance, but per element rather than per subfield tile: each
+//! glossy element side stores its outgoing radiance over the hemisphere of its shading
+//! normal in `k × k` bins ([`Settings::tile_bins`], 8 unless told), which glossy
+//! receivers fill with the tracer's BSDF from every line and next-event sample that
+//! reaches them, glossy senders read in each line's direction, and the lookup reads in the
+//! direction towards the eye. Lobes narrower than the bins or the line directions are
+//! widened to [`tiles::alpha_floor`] (blurred highlights, not aliased ones). Rougher
+//! surfaces are drawn as diffuse with their albedo; a scene without glossy surfaces has no
+//! tiles at all. The lines are not grouped into the paper's tiles: each line keeps its own
+//! crossings.
 
 pub mod bake;
 pub mod direct;
 pub mod directions;
 pub mod elements;
 pub mod file;
+pub mod octahedral;
 pub mod propagate;
 pub mod remote;
 pub mod subfield;
 pub mod surface;
+pub mod tiles;
 pub mod view;
 
-pub use bake::{Caster, Casting, Settings, Stage, State, Stats, Threads, bake, bake_with, layout};
+pub use bake::{
+    Caster, Casting, Settings, Stage, State, Stats, Threads, bake, bake_with, layout, tiles,
+};
 pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
+pub use tiles::Tiles;
 pub use view::{Lookup, Visibility};

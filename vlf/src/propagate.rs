@@ -15,14 +15,22 @@
 //! light seen through delta surfaces; the light of small emitters and the sun comes by
 //! next-event estimation (`direct`), added before.
 //!
+//! A glossy receiver (`tiles`) takes each line's `L · Δω h² / A_e` as `dE` arriving from
+//! the line's direction and adds `f(ω_b, ω_i) dE` to every bin `b` of its tile, with the
+//! tracer's BSDF; a glossy sender sends along a line the radiance its tile holds in the
+//! line's direction (bilinear between bins), where a diffuse one sends `B`.
+//!
 //! The sums are made in the same order whatever the number of threads: subfields are
 //! processed in parallel in fixed chunks, and their contributions added in subfield
-//! order, so a bake is bit-identical on any machine.
+//! order, so a bake is bit-identical on any machine. The light arriving at glossy tiles
+//! is sorted by tile (stably: in subfield order within a tile) and each tile's arrivals
+//! summed in that order, tiles in parallel.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::subfield::{Crossing, DELTA, Link, Subfield};
+use crate::tiles::Tiles;
 
 /// Subfields whose contributions are gathered in parallel before being added in order.
 const CHUNK: usize = 16;
@@ -30,91 +38,188 @@ const CHUNK: usize = 16;
 /// The light one line brings to one element, per unit of `Δω h² / A_e`.
 type Contribution = (u32, Vec3);
 
-/// What a side of a crossing sends along its line.
-fn outgoing(side: u32, links: &[Link], radiance: &[[f32; 3]], first_bounce: bool) -> Vec3 {
-    let at = |e: u32| {
-        if e == u32::MAX {
-            Vec3::ZERO
-        } else {
-            Vec3::from(radiance[e as usize])
-        }
-    };
-    if side & DELTA != 0 {
-        let l = &links[(side & !DELTA) as usize];
-        let emitted = if first_bounce { l.emitted } else { Vec3::ZERO };
-        l.weight * at(l.element) + emitted
+/// The light one line brings to a glossy tile: the tile, whether it travels along `−d`
+/// (so it arrives from `+d`), and the radiance.
+type Arrival = (u32, bool, Vec3);
+
+/// The lines of a bake and their weights: everything a bounce needs besides the radiance.
+pub struct Lines<'a> {
+    pub subfields: &'a [Subfield],
+    /// Each subfield's orientation `d` (its lines run along `+d` and `−d`).
+    pub dirs: &'a [Vec3],
+    /// Each subfield's `Δω h²`.
+    pub weight: &'a [f32],
+    /// Each subfield's sky light entering along `+d` and along `−d` (first bounce only).
+    pub ends: &'a [(Vec3, Vec3)],
+    /// The area each element's light is spread over.
+    pub area: &'a [f32],
+    pub tiles: &'a Tiles,
+}
+
+/// What the previous bounce sends out: diffuse elements' radiance `B` and the glossy
+/// tiles' bins.
+#[derive(Clone, Copy)]
+pub struct Sending<'a> {
+    pub radiance: &'a [[f32; 3]],
+    pub tiles: &'a [[f32; 3]],
+    pub first_bounce: bool,
+}
+
+/// What one bounce brings: every element's irradiance, every tile's radiance.
+pub struct Received {
+    pub irradiance: Vec<[f32; 3]>,
+    pub tiles: Vec<[f32; 3]>,
+}
+
+/// What element `e` sends along `dir`.
+fn out_of(e: u32, dir: Vec3, tiles: &Tiles, sending: &Sending) -> Vec3 {
+    if e == u32::MAX {
+        Vec3::ZERO
+    } else if let Some(g) = tiles.of(e) {
+        tiles.radiance(sending.tiles, g, dir)
     } else {
-        at(side)
+        Vec3::from(sending.radiance[e as usize])
     }
 }
 
-/// The lines of one subfield passing `radiance` one step, both ways. `ends` is the sky
-/// light entering along `+d` and along `−d` (first bounce only).
+/// What a side of a crossing sends along its line, in direction `dir`.
+fn outgoing(side: u32, dir: Vec3, links: &[Link], tiles: &Tiles, sending: &Sending) -> Vec3 {
+    if side & DELTA != 0 {
+        let l = &links[(side & !DELTA) as usize];
+        let emitted = if sending.first_bounce {
+            l.emitted
+        } else {
+            Vec3::ZERO
+        };
+        l.weight * out_of(l.element, l.toward, tiles, sending) + emitted
+    } else {
+        out_of(side, dir, tiles, sending)
+    }
+}
+
+/// The lines of one subfield (orientation `d`) passing the light one step, both ways.
+/// `ends` is the sky light entering along `+d` and along `−d` (first bounce only).
 fn gather(
     s: &Subfield,
-    radiance: &[[f32; 3]],
-    first_bounce: bool,
+    d: Vec3,
+    tiles: &Tiles,
+    sending: &Sending,
     ends: (Vec3, Vec3),
     out: &mut Vec<Contribution>,
+    glossy: &mut Vec<Arrival>,
 ) {
     for w in s.line_start.windows(2) {
         let line: &[Crossing] = &s.crossings[w[0] as usize..w[1] as usize];
-        let mut receive = |side: u32, l: Vec3| {
+        let mut receive = |side: u32, backwards: bool, l: Vec3| {
             if side & DELTA == 0 && l.max_element() > 0.0 {
                 out.push((side, l));
+                if let Some(g) = tiles.of(side) {
+                    glossy.push((g, backwards, l));
+                }
             }
         };
-        if first_bounce {
-            receive(line[0].minus, ends.0);
-            receive(line[line.len() - 1].plus, ends.1);
+        if sending.first_bounce {
+            receive(line[0].minus, false, ends.0);
+            receive(line[line.len() - 1].plus, true, ends.1);
         }
         for pair in line.windows(2) {
             // Along +d: from the first's plus side to the second's minus side; and back.
             receive(
                 pair[1].minus,
-                outgoing(pair[0].plus, &s.links, radiance, first_bounce),
+                false,
+                outgoing(pair[0].plus, d, &s.links, tiles, sending),
             );
             receive(
                 pair[0].plus,
-                outgoing(pair[1].minus, &s.links, radiance, first_bounce),
+                true,
+                outgoing(pair[1].minus, -d, &s.links, tiles, sending),
             );
         }
     }
 }
 
-/// One bounce over all subfields: the irradiance each element receives from `radiance`.
-/// `weight[k]` is subfield `k`'s `Δω h²`, `ends[k]` its sky light (see [`gather`]).
-pub fn bounce(
-    subfields: &[Subfield],
-    weight: &[f32],
-    ends: &[(Vec3, Vec3)],
-    area: &[f32],
-    radiance: &[[f32; 3]],
-    first_bounce: bool,
-) -> Vec<[f32; 3]> {
-    let mut irradiance = vec![Vec3::ZERO; area.len()];
-    for (c, chunk) in subfields.chunks(CHUNK).enumerate() {
-        let parts: Vec<Vec<Contribution>> = chunk
+/// One bounce over all subfields: the irradiance each element receives from `sending`,
+/// and the radiance each glossy tile makes of it.
+pub fn bounce(lines: &Lines, sending: Sending) -> Received {
+    let tiles = lines.tiles;
+    let bins = tiles.per_tile();
+    let mut irradiance = vec![Vec3::ZERO; lines.area.len()];
+    let mut tile_sum = vec![Vec3::ZERO; tiles.len()];
+    for (c, chunk) in lines.subfields.chunks(CHUNK).enumerate() {
+        let parts: Vec<(Vec<Contribution>, Vec<Arrival>)> = chunk
             .par_iter()
             .enumerate()
             .map(|(i, s)| {
-                let mut out = Vec::new();
-                gather(s, radiance, first_bounce, ends[c * CHUNK + i], &mut out);
-                out
+                let k = c * CHUNK + i;
+                let (mut out, mut glossy) = (Vec::new(), Vec::new());
+                gather(
+                    s,
+                    lines.dirs[k],
+                    tiles,
+                    &sending,
+                    lines.ends[k],
+                    &mut out,
+                    &mut glossy,
+                );
+                (out, glossy)
             })
             .collect();
-        for (i, part) in parts.iter().enumerate() {
-            let w = weight[c * CHUNK + i];
+        let mut arrivals: Vec<(u32, Vec3, Vec3)> = Vec::new();
+        for (i, (part, glossy)) in parts.iter().enumerate() {
+            let k = c * CHUNK + i;
+            let w = lines.weight[k];
             for &(e, l) in part {
                 irradiance[e as usize] += l * w;
             }
+            for &(g, backwards, l) in glossy {
+                // Light travelling along +d arrives from −d.
+                let from = if backwards {
+                    lines.dirs[k]
+                } else {
+                    -lines.dirs[k]
+                };
+                arrivals.push((g, from, l * w));
+            }
+        }
+        if arrivals.is_empty() {
+            continue;
+        }
+        // Stable: within a tile, the arrivals stay in subfield order.
+        arrivals.sort_by_key(|a| a.0);
+        let runs: Vec<&[(u32, Vec3, Vec3)]> = arrivals.chunk_by(|a, b| a.0 == b.0).collect();
+        let sums: Vec<Vec<Vec3>> = runs
+            .par_iter()
+            .map(|run| {
+                let mut sum = vec![Vec3::ZERO; bins];
+                for &(g, from, de) in *run {
+                    tiles.accumulate(g, from, de, &mut sum);
+                }
+                sum
+            })
+            .collect();
+        for (run, sum) in runs.iter().zip(sums) {
+            let g = run[0].0 as usize;
+            for (t, s) in tile_sum[g * bins..(g + 1) * bins].iter_mut().zip(sum) {
+                *t += s;
+            }
         }
     }
-    irradiance
-        .iter()
-        .zip(area)
-        .map(|(e, a)| (*e / *a).to_array())
-        .collect()
+    let tiles_out = tile_sum
+        .chunks(bins.max(1))
+        .zip(&tiles.tiles)
+        .flat_map(|(t, g)| {
+            let a = lines.area[g.element as usize];
+            t.iter().map(move |l| (*l / a).to_array())
+        })
+        .collect();
+    Received {
+        irradiance: irradiance
+            .iter()
+            .zip(lines.area)
+            .map(|(e, a)| (*e / *a).to_array())
+            .collect(),
+        tiles: tiles_out,
+    }
 }
 
 /// The flux leaving all elements with radiance `b`: `Σ π B A` (luminance).

@@ -53,6 +53,8 @@ struct WireSettings {
     direct_samples: u32,
     tolerance: f64,
     max_bounces: u32,
+    glossy_alpha: f32,
+    tile_bins: u32,
 }
 
 impl From<&Settings> for WireSettings {
@@ -64,6 +66,8 @@ impl From<&Settings> for WireSettings {
             direct_samples: s.direct_samples,
             tolerance: s.tolerance,
             max_bounces: s.max_bounces,
+            glossy_alpha: s.glossy_alpha,
+            tile_bins: s.tile_bins,
         }
     }
 }
@@ -77,9 +81,14 @@ impl From<WireSettings> for Settings {
             direct_samples: s.direct_samples,
             tolerance: s.tolerance,
             max_bounces: s.max_bounces,
+            glossy_alpha: s.glossy_alpha,
+            tile_bins: s.tile_bins,
         }
     }
 }
+
+/// A link on the wire: element, weight, emitted, the direction it leaves the element.
+type WireLink = (u32, [f32; 3], [f32; 3], [f32; 3]);
 
 #[derive(Serialize, Deserialize)]
 enum ToWorker {
@@ -106,7 +115,7 @@ enum FromWorker {
         lines_cast: u32,
         line_start: Vec<u32>,
         crossings: Vec<[u32; 2]>,
-        links: Vec<(u32, [f32; 3], [f32; 3])>,
+        links: Vec<WireLink>,
     },
 }
 
@@ -119,7 +128,14 @@ fn to_wire(index: usize, s: Subfield) -> FromWorker {
         links: s
             .links
             .iter()
-            .map(|l| (l.element, l.weight.to_array(), l.emitted.to_array()))
+            .map(|l| {
+                (
+                    l.element,
+                    l.weight.to_array(),
+                    l.emitted.to_array(),
+                    l.toward.to_array(),
+                )
+            })
             .collect(),
     }
 }
@@ -130,15 +146,16 @@ fn from_wire(
     lines_cast: u32,
     line_start: Vec<u32>,
     crossings: Vec<[u32; 2]>,
-    links: Vec<(u32, [f32; 3], [f32; 3])>,
+    links: Vec<WireLink>,
     elements: usize,
 ) -> Result<Subfield, String> {
     let links: Vec<Link> = links
         .into_iter()
-        .map(|(element, w, e)| Link {
+        .map(|(element, w, e, toward)| Link {
             element,
             weight: Vec3::from(w),
             emitted: Vec3::from(e),
+            toward: Vec3::from(toward),
         })
         .collect();
     let ok_side = |side: u32| {

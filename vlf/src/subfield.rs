@@ -32,13 +32,15 @@ pub struct Crossing {
 }
 
 /// What a delta surface sends along a line: `weight ×` the outgoing radiance of
-/// `element` (none: `u32::MAX`), plus `emitted` (emitters, the sky and the sun seen
-/// through the delta surfaces; first bounce only).
+/// `element` (none: `u32::MAX`) in direction `toward` (the way the light leaves it, back
+/// along the followed ray: what a glossy element's tile is read in), plus `emitted`
+/// (emitters, the sky and the sun seen through the delta surfaces; first bounce only).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Link {
     pub element: u32,
     pub weight: Vec3,
     pub emitted: Vec3,
+    pub toward: Vec3,
 }
 
 /// One direction's lines.
@@ -179,7 +181,7 @@ pub fn cast(
                             arriving,
                         );
                         let chain = follow(scene, probe, environment);
-                        let (element, emitted) = match chain.end {
+                        let (element, emitted, toward) = match chain.end {
                             Some((end, r)) => (
                                 elements.element(
                                     end.hit.triangle,
@@ -188,13 +190,15 @@ pub fn cast(
                                     end.hit.v,
                                 ),
                                 chain.emitted + chain.weight * end.emitted,
+                                -r.dir,
                             ),
-                            None => (u32::MAX, chain.emitted),
+                            None => (u32::MAX, chain.emitted, Vec3::ZERO),
                         };
                         out.links.push(Link {
                             element,
                             weight: chain.weight,
                             emitted,
+                            toward,
                         });
                         DELTA | (out.links.len() as u32 - 1)
                     };

@@ -1,11 +1,13 @@
 //! How the light field treats a surface: a **diffuse** element (Lambertian, with the
-//! albedo the material reflects in all), or a **delta** surface (a perfect mirror or
-//! smooth glass), through which lines and eye rays continue exactly.
+//! albedo the material reflects in all), a **glossy** element (a GGX lobe with `α` below
+//! the bake's threshold: its outgoing radiance over directions is kept in a directional
+//! radiance tile, `tiles`), or a **delta** surface (a perfect mirror or smooth glass),
+//! through which lines and eye rays continue exactly.
 //!
-//! Glossy materials are drawn as diffuse with their whole albedo: the energy they reflect
-//! is right, their highlights are missing (the render cache's exact samples add them where
-//! a viewer looks). The paper's directional radiance tiles for glossy surfaces are not
-//! built; see the crate documentation.
+//! Non-delta materials rougher than the threshold, rough glass, and a mix of a delta lobe
+//! with a diffuse one (a half-metallic mirror) are drawn as diffuse with their whole
+//! albedo: the energy they reflect is right, their view dependence is missing (the render
+//! cache's exact samples add it where a viewer looks).
 
 use glam::Vec3;
 use holocave_scene::{Hit, Ray, Scene, SurfaceParams};

@@ -6,8 +6,13 @@
 //!
 //! Visibility gives each pixel a [`Lookup`]; the radiance is then
 //! `emitted + weight · E(base, res, u, v)` with `E` the baked irradiance interpolated by
-//! [`crate::elements::interpolate`]. The render node does the second step on the GPU
-//! (`render-node/src/shaders/vlf.wgsl`), [`shade`] on the CPU.
+//! [`crate::elements::interpolate`], or, where the eye sees a glossy element,
+//! `emitted + weight · L(tile, x, y)` with `L` its tile's radiance interpolated between
+//! bins ([`crate::octahedral::interpolate`]) in the direction towards the eye
+//! ([`Tiles::view_coords`]). The render node does the second step on the GPU
+//! (`render-node/src/shaders/vlf.wgsl`), [`shade`] on the CPU; both read one array of
+//! values, the elements' irradiance followed by the tiles' radiance
+//! ([`crate::State::values`]).
 
 use std::sync::Arc;
 
@@ -21,7 +26,9 @@ use rayon::prelude::*;
 
 use crate::bake::environment;
 use crate::elements::{Elements, interpolate};
+use crate::octahedral;
 use crate::surface::{Chain, diffuse_albedo, follow, follow_from, side_facing};
+use crate::tiles::Tiles;
 
 /// What one pixel (or one ray) sees of the light field.
 /// Laid out as the render node's shader reads it (`Lookup` in
@@ -40,6 +47,14 @@ pub struct Lookup {
     pub weight: [f32; 3],
     /// Light reaching the eye along the way: emitters, the sky, the sun.
     pub emitted: [f32; 3],
+    /// First entry of the glossy tile seen (its bins follow); `u32::MAX` when none. Then
+    /// `weight` is what delta surfaces on the way let through, and `base` is `u32::MAX`.
+    pub tile: u32,
+    /// The tile's bins along each side (`k`).
+    pub bins: u32,
+    /// Map coordinates in the tile of the direction towards the eye (`[0, k]²`).
+    pub x: f32,
+    pub y: f32,
 }
 
 impl Lookup {
@@ -50,6 +65,10 @@ impl Lookup {
         v: 0.0,
         weight: [0.0; 3],
         emitted: [0.0; 3],
+        tile: u32::MAX,
+        bins: 1,
+        x: 0.0,
+        y: 0.0,
     };
 }
 
@@ -57,17 +76,36 @@ impl Lookup {
 pub struct Visibility {
     scene: Arc<Scene>,
     elements: Elements,
+    tiles: Tiles,
     lights: Lights,
 }
 
 impl Visibility {
-    pub fn new(scene: Arc<Scene>, elements: Elements) -> Self {
+    pub fn new(scene: Arc<Scene>, elements: Elements, tiles: Tiles) -> Self {
         let lights = Lights::new(&scene);
         Visibility {
             scene,
             elements,
+            tiles,
             lights,
         }
+    }
+
+    /// The visibility of a bake of `scene` with `settings`: its element layout and tiles.
+    pub fn of(scene: Arc<Scene>, settings: &crate::Settings) -> Self {
+        let elements = crate::layout(&scene, settings);
+        let tiles = crate::tiles(&scene, settings, &elements);
+        Visibility::new(scene, elements, tiles)
+    }
+
+    /// The element layout.
+    pub fn elements(&self) -> &Elements {
+        &self.elements
+    }
+
+    /// The glossy tiles (none for a scene without glossy surfaces).
+    pub fn tiles(&self) -> &Tiles {
+        &self.tiles
     }
 
     /// What `ray` sees.
@@ -85,6 +123,23 @@ impl Visibility {
         };
         let cells = self.elements.triangles[s.hit.triangle as usize];
         let side = side_facing(s.normal, r.dir);
+        let emitted = (chain.emitted + chain.weight * s.emitted).to_array();
+        let element = self
+            .elements
+            .element(s.hit.triangle, side, s.hit.u, s.hit.v);
+        if let Some(g) = self.tiles.of(element) {
+            let (x, y) = self.tiles.view_coords(g, r.dir, s.shading_normal);
+            let k = self.tiles.bins;
+            return Lookup {
+                weight: chain.weight.to_array(),
+                emitted,
+                tile: self.tiles.elements + g * k * k,
+                bins: k,
+                x,
+                y,
+                ..Lookup::NONE
+            };
+        }
         Lookup {
             base: cells.base(side),
             res: cells.res,
@@ -92,7 +147,8 @@ impl Visibility {
             v: s.hit.v,
             weight: (chain.weight * diffuse_albedo(&s.params) * std::f32::consts::FRAC_1_PI)
                 .to_array(),
-            emitted: (chain.emitted + chain.weight * s.emitted).to_array(),
+            emitted,
+            ..Lookup::NONE
         }
     }
 
@@ -118,7 +174,8 @@ impl Visibility {
 
     /// `view` drawn from the light field with `k × k` lookups per pixel (an antialiased
     /// image for comparison with a path-traced one; the render node uses one).
-    pub fn render(&self, view: &WallView, irradiance: &[[f32; 3]], k: u32) -> Image {
+    /// `values`: the elements' irradiance, then the tiles' radiance ([`crate::State::values`]).
+    pub fn render(&self, view: &WallView, values: &[[f32; 3]], k: u32) -> Image {
         let k = k.max(1);
         let mut image = Image::new(view.width, view.height);
         let w = view.width as usize;
@@ -130,7 +187,7 @@ impl Visibility {
                     ((s % k) as f32 + 0.5) / k as f32,
                     ((s / k) as f32 + 0.5) / k as f32,
                 );
-                sum += shade_one(&self.lookup(view.ray(Vec2::new(x, y) + o)), irradiance);
+                sum += shade_one(&self.lookup(view.ray(Vec2::new(x, y) + o)), values);
             }
             *px = sum / (k * k) as f32;
         });
@@ -138,16 +195,20 @@ impl Visibility {
     }
 }
 
-/// The radiance of one lookup.
-pub fn shade_one(l: &Lookup, irradiance: &[[f32; 3]]) -> Vec3 {
+/// The radiance of one lookup; `values`: the elements' irradiance, then the tiles'
+/// radiance.
+pub fn shade_one(l: &Lookup, values: &[[f32; 3]]) -> Vec3 {
     let mut c = Vec3::from(l.emitted);
     if l.base != u32::MAX {
-        c += Vec3::from(l.weight) * interpolate(irradiance, l.base, l.res, l.u, l.v);
+        c += Vec3::from(l.weight) * interpolate(values, l.base, l.res, l.u, l.v);
+    }
+    if l.tile != u32::MAX {
+        c += Vec3::from(l.weight) * octahedral::interpolate(values, l.tile, l.bins, l.x, l.y);
     }
     c
 }
 
 /// The radiance of every lookup (the CPU twin of the render node's shader).
-pub fn shade(lookups: &[Lookup], irradiance: &[[f32; 3]]) -> Vec<Vec3> {
-    lookups.iter().map(|l| shade_one(l, irradiance)).collect()
+pub fn shade(lookups: &[Lookup], values: &[[f32; 3]]) -> Vec<Vec3> {
+    lookups.iter().map(|l| shade_one(l, values)).collect()
 }

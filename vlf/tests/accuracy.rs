@@ -34,7 +34,7 @@ use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
 use holocave_tracer::view::WallView;
 
-use holocave_vlf::{Settings, Visibility, layout};
+use holocave_vlf::{Settings, Visibility};
 
 const SIZE: u32 = 48;
 /// Lookups per pixel along each axis: the pixel's mean, as the path tracer's is.
@@ -106,8 +106,8 @@ fn errors_fall(spp: u32, settings: &[(usize, u32)]) {
         let (state, stats) = common::bake_quiet(&scene, &s);
         let bake = start.elapsed().as_secs_f64();
         assert!(state.converged && state.tail() < s.tolerance);
-        let vis = Visibility::new(scene.clone(), layout(&scene, &s));
-        let image = vis.render(&view, &state.irradiance, AA);
+        let vis = Visibility::of(scene.clone(), &s);
+        let image = vis.render(&view, &state.values(), AA);
         let measured = image.relative_mse(&reference);
         floor = relative_mse_over(&image, &reference, &glass) - glass_noise;
         eprintln!(

@@ -45,6 +45,7 @@ fn a_point_light_gives_i_cos_over_d_squared() {
         direct_samples: 64,
         tolerance: 1e-3,
         max_bounces: 200,
+        ..Settings::default()
     };
     let (state, _) = common::bake_quiet(&scene, &settings);
     assert!(state.converged);
@@ -119,7 +120,8 @@ fn a_point_light_gives_i_cos_over_d_squared() {
     // (s²/8)(|f_xx| + |f_yy|) ≤ H2 s²/4 = 0.037 to the elements' own error.
     let interp = square + h2 * s * s / 4.0;
     let eye = Vec3::new(0.3, 2.5, -0.2);
-    let vis = Visibility::new(scene.clone(), elements);
+    let vis = Visibility::of(scene.clone(), &settings);
+    let values = state.values();
     for (x, z) in [
         (0.1, 0.1),
         (0.5, 0.5),
@@ -134,7 +136,7 @@ fn a_point_light_gives_i_cos_over_d_squared() {
         let p = Vec3::new(x, 0.0, z);
         assert!((x + z).abs() / 2f32.sqrt() >= 1.5 * s && HALF - x.abs().max(z.abs()) >= 1.5 * s);
         let ray = Ray::new(eye, (p - eye).normalize());
-        let l = shade_one(&vis.lookup(ray), &state.irradiance);
+        let l = shade_one(&vis.lookup(ray), &values);
         let want = RHO / std::f32::consts::PI * exact(p, light);
         let tol = RHO / std::f32::consts::PI * interp;
         assert!(

@@ -19,6 +19,7 @@ fn settings() -> Settings {
         direct_samples: 4,
         tolerance: 1e-2,
         max_bounces: 50,
+        ..Settings::default()
     }
 }
 
@@ -121,13 +122,19 @@ fn a_truncated_file_names_the_chunk_and_offset() {
     let chunks = chunks(&bytes);
     assert_eq!(
         chunks.iter().map(|c| c.0.as_str()).collect::<Vec<_>>(),
-        ["META", "IRRA", "LAST"]
+        ["META", "IRRA", "LAST", "TILE", "TLST"]
     );
     // Cuts in the header (in the magic number, in the version and count after it), and in
     // each chunk's header, at its payload's start, in its payload and at its last byte.
     let mut cuts = vec![(0, "header"), (5, "header"), (8, "header"), (12, "header")];
     for (tag, at, len) in &chunks {
-        for cut in [*at, at + 7, at + 16, at + 16 + len / 2, at + 16 + len - 1] {
+        // (An empty chunk, the tiles of a scene without glossy surfaces, only in its header.)
+        let inside = if *len > 0 {
+            vec![at + 16, at + 16 + len / 2, at + 16 + len - 1]
+        } else {
+            vec![at + 15]
+        };
+        for cut in [*at, at + 7].into_iter().chain(inside) {
             cuts.push((cut, tag.as_str()));
         }
     }
@@ -177,7 +184,15 @@ fn a_damaged_byte_names_the_chunk() {
     }
     let (p, r) = flip(8);
     let e = r.unwrap_err();
-    assert!(matches!(e, VlfError::Version { found: 17, .. }), "{e:?}");
+    assert!(matches!(e, VlfError::Version { found: 18, .. }), "{e:?}");
+    names_file(&e, &p);
+    // A version 1 file (before the glossy tiles) is refused, saying to bake it again.
+    let mut old = bytes.clone();
+    old[8..12].copy_from_slice(&1u32.to_le_bytes());
+    let (p, r) = read_bytes(dir.path(), "old.vlf", &old);
+    let e = r.unwrap_err();
+    assert!(matches!(e, VlfError::Version { found: 1, .. }), "{e:?}");
+    assert!(e.to_string().contains("bake it again"), "{e}");
     names_file(&e, &p);
 
     // The chunk count.
@@ -195,14 +210,19 @@ fn a_damaged_byte_names_the_chunk() {
     let e = r.unwrap_err();
     names_file(&e, &p);
     assert!(
-        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "LAST" && *offset == bytes.len() as u64),
+        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "TLST" && *offset == bytes.len() as u64),
         "{e:?}"
     );
 
     for (tag, at, len) in chunks(&bytes) {
         // Anywhere in the payload, or in the checksum itself: a checksum mismatch at the
         // chunk's start.
-        for b in [at + 12, at + 16, at + 16 + len / 2, at + 16 + len - 1] {
+        let payload = if len > 0 {
+            vec![at + 16, at + 16 + len / 2, at + 16 + len - 1]
+        } else {
+            vec![]
+        };
+        for b in std::iter::once(at + 12).chain(payload) {
             let (p, r) = flip(b);
             let e = r.unwrap_err();
             names_file(&e, &p);
@@ -303,4 +323,88 @@ fn a_file_baked_for_another_scene_is_refused_naming_both() {
     assert!(m.contains("grey box") && m.contains("pale box"), "{m}");
     // And it still reads for its own scene.
     assert!(VlfFile::read_for(&path, &scene).is_ok());
+}
+
+/// A closed box of a glowing glossy metal (GGX α = 0.25): every inner side has a tile.
+fn glossy_box() -> Scene {
+    let metal = holocave_scene::Material {
+        name: "glossy".into(),
+        base_color: glam::Vec4::new(0.8, 0.7, 0.6, 1.0),
+        metallic: 1.0,
+        roughness: 0.5,
+        emissive: Vec3::splat(0.5),
+        ..holocave_scene::Material::default()
+    };
+    common::closed_box("glossy box", 1.0, metal)
+}
+
+#[test]
+fn glossy_tiles_read_back_equal_and_damage_in_them_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = glossy_box();
+    let f = baked(&scene);
+    let settings = settings();
+    let elements = layout(&scene, &settings);
+    let tiles = holocave_vlf::tiles(&scene, &settings, &elements);
+    // The box's inner sides (the fronts; the material is one-sided).
+    assert_eq!(tiles.tiles.len(), elements.count / 2);
+    assert_eq!(f.state.tiles.len(), tiles.len());
+    assert!(f.state.tiles.iter().flatten().any(|&x| x > 0.0));
+    let path = dir.path().join("glossy.vlf");
+    f.write(&path).unwrap();
+    let back = VlfFile::read_for(&path, &scene).unwrap();
+    assert_eq!(back, f);
+    common::assert_same_bits(&back.state, &f.state, "read back");
+    let tb = |s: &holocave_vlf::State| -> Vec<u32> {
+        s.tiles
+            .iter()
+            .chain(&s.tiles_last)
+            .flatten()
+            .map(|x| x.to_bits())
+            .collect()
+    };
+    assert_eq!(tb(&back.state), tb(&f.state));
+    assert_eq!(
+        (back.settings.glossy_alpha, back.settings.tile_bins),
+        (settings.glossy_alpha, settings.tile_bins)
+    );
+
+    let bytes = std::fs::read(&path).unwrap();
+    let chunks = chunks(&bytes);
+    for (tag, at, len) in chunks.iter().skip(3) {
+        assert_eq!(*len, tiles.len() * 12, "{tag}");
+        // A damaged byte in the payload: that chunk's checksum.
+        let mut b = bytes.clone();
+        b[at + 16 + len / 2] ^= 0x10;
+        let (p, r) = read_bytes(dir.path(), &format!("flip{tag}.vlf"), &b);
+        let e = r.unwrap_err();
+        names_file(&e, &p);
+        assert!(
+            matches!(&e, VlfError::Checksum { chunk, offset, .. } if chunk == tag && *offset == *at as u64),
+            "{e:?}"
+        );
+        // Cut inside it: truncated there.
+        let cut = at + 16 + len / 3;
+        let (_, r) = read_bytes(dir.path(), &format!("cut{tag}.vlf"), &bytes[..cut]);
+        let e = r.unwrap_err();
+        assert!(
+            matches!(&e, VlfError::Truncated { chunk, offset, .. } if chunk == tag && *offset == cut as u64),
+            "{e:?}"
+        );
+    }
+    // A TILE chunk one bin short (with a right checksum) does not fit META's count.
+    let (_, tile, len) = chunks[3].clone();
+    let mut b = bytes[..tile].to_vec();
+    let payload = &bytes[tile + 16..tile + 16 + len - 12];
+    b.extend_from_slice(b"TILE");
+    b.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    b.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
+    b.extend_from_slice(payload);
+    b.extend_from_slice(&bytes[tile + 16 + len..]);
+    let (_, r) = read_bytes(dir.path(), "short-tile.vlf", &b);
+    let e = r.unwrap_err();
+    assert!(
+        matches!(&e, VlfError::Malformed { chunk, .. } if chunk == "TILE"),
+        "{e:?}"
+    );
 }

@@ -70,6 +70,7 @@ fn closed_furnace_draws_le_over_one_minus_rho() {
         direct_samples: 1024,
         tolerance: 1e-3,
         max_bounces: 200,
+        ..Settings::default()
     };
     let start = Instant::now();
     let (state, stats) = common::bake_quiet(&scene, &settings);
@@ -138,7 +139,8 @@ fn closed_furnace_draws_le_over_one_minus_rho() {
     let exact = LE / (1.0 - RHO);
     let elements = layout(&scene, &settings);
     let element_size = elements.element_size;
-    let vis = Visibility::new(scene.clone(), elements);
+    let vis = Visibility::of(scene.clone(), &settings);
+    let values = state.values();
     let mut interior = Vec::new();
     let mut seen = HashSet::new();
     let mut all = 0usize;
@@ -154,7 +156,7 @@ fn closed_furnace_draws_le_over_one_minus_rho() {
                 .closest_hit(&ray, f32::INFINITY)
                 .expect("a closed box");
             let lookup = vis.lookup(ray);
-            let l = shade_one(&lookup, &state.irradiance);
+            let l = shade_one(&lookup, &values);
             assert!(
                 l.is_finite() && l.min_element() > 0.0,
                 "ray {ray:?}: radiance {l}"

@@ -16,7 +16,7 @@ use std::sync::Arc;
 use glam::Vec3;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
-use holocave_vlf::{Settings, Visibility, layout};
+use holocave_vlf::{Settings, Visibility};
 
 const SIZE: u32 = 32;
 const SPP: u32 = 1024;
@@ -48,8 +48,7 @@ fn room_error_falls_with_directions_and_lines() {
         };
         let (state, stats) = common::bake_quiet(&scene, &s);
         assert!(state.converged && state.tail() < s.tolerance);
-        let image =
-            Visibility::new(scene.clone(), layout(&scene, &s)).render(&view, &state.irradiance, AA);
+        let image = Visibility::of(scene.clone(), &s).render(&view, &state.values(), AA);
         let measured = image.relative_mse(&reference);
         eprintln!(
             "{:>4} directions {resolution:>4} lines: {} elements, {} bounces, relative MSE {measured:.5}, less n̂ {:.5}",

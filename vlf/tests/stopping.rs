@@ -29,6 +29,8 @@ fn tail_of_a_geometric_series_is_what_is_left() {
         bounces: 2,
         irradiance: vec![],
         last: vec![],
+        tiles: vec![],
+        tiles_last: vec![],
         arrived: 1.0,
         residuals: r[..3].to_vec(),
         converged: false,

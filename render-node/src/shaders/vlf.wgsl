@@ -1,7 +1,9 @@
 // Per eye, per pixel: the Virtual Light Field under the render cache's exact samples
 // (papers/vlf-in-the-cave.md §4, pass 5). Each pixel's lookup (what the eye sees there,
 // found by the node's own ray cast: render_node::vlf) is shaded from the baked
-// irradiance, exactly as holocave_vlf::view::shade_one does on the CPU, then blended
+// irradiance — or, for a glossy surface, from its directional radiance tile in the
+// direction towards the eye — exactly as holocave_vlf::view::shade_one does on the CPU,
+// then blended
 // with what the cache shows: the light field is a prior worth `prior` samples,
 //   shown = (prior · V + n · C) / (prior + n),
 // with n the samples behind the cache's value (its point's count, discounted by age;
@@ -15,6 +17,11 @@ struct Lookup {
     v: f32,
     wr: f32, wg: f32, wb: f32,
     er: f32, eg: f32, eb: f32,
+    // A glossy tile's first bin (NONE: none), its bins per side, the eye's map coordinates.
+    tile: u32,
+    bins: u32,
+    x: f32,
+    y: f32,
 }
 
 struct VlfParams {
@@ -27,6 +34,7 @@ struct VlfParams {
 
 @group(0) @binding(0) var<uniform> V: VlfParams;
 @group(0) @binding(1) var<storage, read> lookups: array<Lookup>;
+// The elements' irradiance, then the glossy tiles' radiance (holocave_vlf::State::values).
 @group(0) @binding(2) var<storage, read> irradiance: array<f32>;
 @group(0) @binding(3) var<storage, read> points: array<Point>;
 @group(0) @binding(4) var<storage, read> key_img: array<u32>;
@@ -68,10 +76,28 @@ fn interpolate(base: u32, r: u32, u: f32, v: f32) -> vec3<f32> {
     return bottom * (1.0 - fy) + top * fy;
 }
 
+// holocave_vlf::octahedral::interpolate: bilinear between the bin centres of a tile.
+fn interpolate_tile(base: u32, k: u32, x0: f32, y0: f32) -> vec3<f32> {
+    let x = max(x0 - 0.5, 0.0);
+    let y = max(y0 - 0.5, 0.0);
+    let i0 = min(u32(x), k - 1u);
+    let j0 = min(u32(y), k - 1u);
+    let i1 = min(i0 + 1u, k - 1u);
+    let j1 = min(j0 + 1u, k - 1u);
+    let fx = clamp(x - f32(i0), 0.0, 1.0);
+    let fy = clamp(y - f32(j0), 0.0, 1.0);
+    let bottom = irr(base + j0 * k + i0) * (1.0 - fx) + irr(base + j0 * k + i1) * fx;
+    let top = irr(base + j1 * k + i0) * (1.0 - fx) + irr(base + j1 * k + i1) * fx;
+    return bottom * (1.0 - fy) + top * fy;
+}
+
 fn shade(l: Lookup) -> vec3<f32> {
     var c = vec3<f32>(l.er, l.eg, l.eb);
     if (l.base != NONE) {
         c += vec3<f32>(l.wr, l.wg, l.wb) * interpolate(l.base, l.res, l.u, l.v);
+    }
+    if (l.tile != NONE) {
+        c += vec3<f32>(l.wr, l.wg, l.wb) * interpolate_tile(l.tile, l.bins, l.x, l.y);
     }
     return c;
 }

@@ -113,6 +113,31 @@ pub fn assert_same_bits(a: &State, b: &State, what: &str) {
         bits(&a.last) == bits(&b.last),
         "{what}: last bounce's radiance differs"
     );
+    assert!(
+        bits(&a.tiles) == bits(&b.tiles),
+        "{what}: glossy tiles differ"
+    );
+    assert!(
+        bits(&a.tiles_last) == bits(&b.tiles_last),
+        "{what}: glossy tiles' last bounce differs"
+    );
+}
+
+/// The Cornell box with its white walls made a glossy metal (GGX α = 0.09): every part
+/// of a bake at work, glossy tiles among them (fed by the area light's next-event samples
+/// and by the lines, read by lines and through the mirror's links).
+pub fn glossy_cornell() -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell.gltf");
+    let mut scene = Scene::load(&path, &holocave_scene::LoadOptions::default()).unwrap();
+    let white = scene
+        .materials
+        .iter()
+        .position(|m| m.name == "white")
+        .expect("the white walls");
+    let m = &mut scene.materials[white];
+    m.metallic = 1.0;
+    m.roughness = 0.3;
+    scene
 }
 
 /// A converged reference of `view`: the mean of two path-traced renders of `spp` paths
