@@ -2,10 +2,12 @@
 # holocave's path tracer against Mitsuba 3 (llvm_ad_rgb, `path`), side by side, on the same
 # machine and cores, at equal samples per pixel, on scenes whose materials map exactly
 # (../shared/tools/mitsuba/README.md): the Cornell box without its glass sphere (Lambert
-# walls, a perfect-mirror box, an area light) and Khronos' EmissiveStrengthTest (Lambert
-# backdrop, five emissive cubes).
+# walls, a perfect-mirror box, an area light) and Khronos' EmissiveStrengthTest (a
+# textured backdrop before five emissive cubes) with its materials made Lambertian
+# (`KHR_materials_specular` factor 0: as shipped they are rough dielectrics, which Mitsuba
+# maps to its Disney `principled`, a different BSDF).
 #
-#   benches/vs_mitsuba.sh                 # SPP=512 REF_SPP=4096 OUT=target/vs_mitsuba
+#   benches/vs_mitsuba.sh                 # SPP=512 REF_SPP=2048 OUT=target/vs_mitsuba
 #
 # For each scene: one converged reference (the mean of a holocave and a Mitsuba render at
 # REF_SPP, different seeds; cached in OUT/refs), then each renderer at SPP, timed as a
@@ -19,7 +21,7 @@ SHARED=${SHARED:-$ROOT/../shared}
 MITSUBA=$SHARED/tools/mitsuba
 OUT=${OUT:-$ROOT/target/vs_mitsuba}
 SPP=${SPP:-512}
-REF_SPP=${REF_SPP:-4096}
+REF_SPP=${REF_SPP:-2048}
 mkdir -p "$OUT/refs" "$OUT/runs"
 
 cd "$ROOT"
@@ -38,11 +40,12 @@ if ! ls /usr/lib/*/libLLVM*.so.1[7-9]* /usr/lib/*/libLLVM*.so.2[0-9]* >/dev/null
     fi
 fi
 
-# The scenes: the generated Cornell box without its glass sphere, and the Khronos one.
+# The scenes, written to OUT/scenes: the generated Cornell box without its glass sphere,
+# and the Khronos scene with Lambertian materials (its buffers and images read in place).
 "$HOLOCAVE" scene generate --out "$OUT/scenes" >/dev/null
-python3 - "$OUT/scenes" <<'EOF'
-import json, sys
-d = sys.argv[1]
+python3 - "$OUT/scenes" "$SHARED/scenes/khronos/EmissiveStrengthTest/EmissiveStrengthTest.gltf" <<'EOF'
+import json, os, sys
+d, khronos = sys.argv[1], sys.argv[2]
 g = json.load(open(f"{d}/cornell.gltf"))
 glass = [i for i, n in enumerate(g["nodes"]) if n.get("name") == "glass sphere"]
 for s in g["scenes"]:
@@ -51,12 +54,20 @@ json.dump(g, open(f"{d}/cornell_noglass.gltf", "w"))
 json.dump({"eye": [0.0, 1.0, 3.4],
            "screen": {"pa": [-1, 0, 1], "pb": [1, 0, 1], "pc": [-1, 2, 1]},
            "width": 256, "height": 256}, open(f"{d}/cornell_noglass.json", "w"))
+g = json.load(open(khronos))
+for m in g["materials"]:
+    m.setdefault("extensions", {})["KHR_materials_specular"] = {"specularFactor": 0.0}
+g["extensionsUsed"] = sorted(set(g.get("extensionsUsed", [])) | {"KHR_materials_specular"})
+for item in g.get("buffers", []) + g.get("images", []):
+    if "uri" in item and not item["uri"].startswith("data:"):
+        item["uri"] = os.path.join(os.path.dirname(khronos), item["uri"])
+json.dump(g, open(f"{d}/emissive_lambert.gltf", "w"))
 EOF
 
 # name | glTF | camera JSON
 SCENES=(
     "cornell-noglass|$OUT/scenes/cornell_noglass.gltf|$OUT/scenes/cornell_noglass.json"
-    "emissive-strength|$SHARED/scenes/khronos/EmissiveStrengthTest/EmissiveStrengthTest.gltf|$MITSUBA/emissive_strength.json"
+    "emissive-lambert|$OUT/scenes/emissive_lambert.gltf|$MITSUBA/emissive_strength.json"
 )
 
 # The camera JSON as holocave's flags: --eye X,Y,Z --wall "PA;PB;PC" --size WxH.

@@ -266,7 +266,7 @@ pub fn finish_path(
         // Emission, weighted against the light sampling that could have chosen it.
         if params.emission.max_element() > 0.0 && (ng.dot(wo) > 0.0 || material.double_sided) {
             let w = match (prev_pdf, via_mirror) {
-                (Some(p), _) => power_heuristic(p, lights.area_pdf(&hit, ng, ray.dir)),
+                (Some(p), _) => power_heuristic(p, lights.area_pdf(&hit, ray.origin, ng, ray.dir)),
                 (None, Some(via)) => power_heuristic(
                     via.bsdf_pdf,
                     lights.mirror_pdf(&via, hit.triangle, ng, ray.dir, hit.t),
@@ -339,6 +339,21 @@ fn enter_bounds(origin: Vec3, dir: Vec3, lo: Vec3, hi: Vec3) -> Option<(Vec3, f6
     }
     let extent = f64::from((hi - lo).max_element());
     let margin = 1e-3 * (1.0 + extent);
+    // An eye outside but near: a test in f32 settles it when the entry is well within the
+    // distance that keeps the origin (its rounding, ~1e-7 relative, cannot change that).
+    // A ray it finds to miss the grown bounds by rounding alone meets no geometry either
+    // way, so keeping it changes only the work, not the sample.
+    let keep = 8.0 * (1.0 + extent);
+    if dir.cmpne(Vec3::ZERO).all() {
+        let (lo32, hi32) = (lo - margin as f32, hi + margin as f32);
+        let inv = dir.recip();
+        let (ta, tb) = ((lo32 - origin) * inv, (hi32 - origin) * inv);
+        let near = ta.min(tb).max_element().max(0.0);
+        let far = ta.max(tb).min_element();
+        if near.is_finite() && far.is_finite() && f64::from(near) < 0.5 * keep {
+            return (near <= far).then_some((origin, 0.0));
+        }
+    }
     let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
     let (lo, hi) = (lo.as_dvec3() - margin, hi.as_dvec3() + margin);
     let (mut t0, mut t1) = (0.0f64, f64::INFINITY);

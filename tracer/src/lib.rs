@@ -4,8 +4,8 @@
 //!
 //! - [`integrator`]: the path tracer (NEE + MIS, Russian roulette, virtual distance);
 //! - [`bsdf`], [`microfacet`], [`fresnel`]: glTF's metallic-roughness scattering;
-//! - [`lights`]: what next-event estimation samples, and [`mirrors`]: the same through
-//!   flat mirrors;
+//! - [`lights`]: what next-event estimation samples ([`light_groups`]: which lamp, by
+//!   place), and [`mirrors`]: the same through flat mirrors;
 //! - [`view`] and [`film`]: off-axis wall views and the images they make.
 
 pub mod bsdf;
@@ -14,6 +14,7 @@ pub mod frame;
 pub mod fresnel;
 pub mod holodeck;
 pub mod integrator;
+pub mod light_groups;
 pub mod lights;
 pub mod microfacet;
 pub mod mirrors;

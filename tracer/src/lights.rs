@@ -8,6 +8,7 @@ use holocave_scene::{Hit, PunctualKind, PunctualLight, Scene, Sky, Sun};
 use std::f32::consts::PI;
 
 use crate::frame::Frame;
+use crate::light_groups::LightGroups;
 use crate::mirrors::Mirrors;
 use crate::sampling::{Distribution, is_positive_finite, uniform_cone, uniform_triangle};
 
@@ -47,6 +48,8 @@ impl LightPoint<'_> {
 struct AreaLights {
     triangles: Vec<AreaLight>,
     choose: Distribution,
+    /// The choice by place, when the lights form several groups ([`LightGroups`]).
+    groups: Option<LightGroups>,
     /// For each scene triangle, its index in `triangles` (`u32::MAX` if not emissive).
     index_of: Vec<u32>,
 }
@@ -91,6 +94,24 @@ impl AreaLight {
                 .params(&scene.textures, uv)
                 .emission
         })
+    }
+}
+
+impl AreaLights {
+    /// The point at `u` on area light `k`, chosen with `probability`.
+    fn point(&self, k: usize, probability: f32, u: Vec2) -> LightPoint<'_> {
+        let light = &self.triangles[k];
+        let (bu, bv) = uniform_triangle(u);
+        let w = Vec3::new(1.0 - bu - bv, bu, bv);
+        let [p0, p1, p2] = light.vertices;
+        LightPoint {
+            position: p0 * w.x + p1 * w.y + p2 * w.z,
+            normal: light.normal,
+            double_sided: light.double_sided,
+            density: probability / light.area,
+            light,
+            barycentrics: w,
+        }
     }
 }
 
@@ -214,7 +235,10 @@ impl Lights {
             for (k, light) in triangles.iter().enumerate() {
                 index_of[light.triangle as usize] = k as u32;
             }
+            let vertices: Vec<[Vec3; 3]> = triangles.iter().map(|l| l.vertices).collect();
+            let material: Vec<u32> = triangles.iter().map(|l| l.material).collect();
             AreaLights {
+                groups: LightGroups::new(&vertices, &material, &power),
                 triangles,
                 choose,
                 index_of,
@@ -248,19 +272,40 @@ impl Lights {
         self.area.is_none() && self.punctual.is_empty() && self.sun.is_none() && self.sky.is_none()
     }
 
-    /// Solid-angle pdf with which [`Lights::sample_area`] picks the point `hit` seen from
-    /// a distance `t` along unit `dir`, for MIS against BSDF sampling.
-    pub fn area_pdf(&self, hit: &Hit, normal: Vec3, dir: Vec3) -> f32 {
+    /// Solid-angle pdf with which [`Lights::sample_area`], at shading point `from`, picks
+    /// the point `hit` seen along unit `dir`, for MIS against BSDF sampling.
+    pub fn area_pdf(&self, hit: &Hit, from: Vec3, normal: Vec3, dir: Vec3) -> f32 {
         let cos = normal.dot(dir).abs();
         if cos <= 0.0 {
             return 0.0;
         }
-        self.area_density(hit.triangle) * hit.t * hit.t / cos
+        let density = match self
+            .area
+            .as_ref()
+            .and_then(|a| Some((a, a.groups.as_ref()?)))
+        {
+            Some((a, groups)) => match a.index_of[hit.triangle as usize] {
+                u32::MAX => 0.0,
+                k => groups.probability(from, k as usize) / a.triangles[k as usize].area,
+            },
+            None => self.area_density(hit.triangle),
+        };
+        density * hit.t * hit.t / cos
     }
 
-    /// A point on an emissive triangle, seen from `p`.
+    /// A point on an emissive triangle, seen from `p`: the triangle chosen for `p` (by
+    /// power, or by power and distance when the lights form groups) with `uc`, the
+    /// point uniform on it with `u`.
     pub fn sample_area(&self, scene: &Scene, p: Vec3, uc: f32, u: Vec2) -> Option<LightSample> {
-        let y = self.sample_area_point(uc, u)?;
+        let a = self.area.as_ref()?;
+        let (k, probability) = match &a.groups {
+            Some(groups) => groups.sample(p, uc)?,
+            None => {
+                let k = a.choose.sample(uc);
+                (k, a.choose.probability(k))
+            }
+        };
+        let y = a.point(k, probability, u);
         let to = y.position - p;
         let d2 = to.length_squared();
         if !is_positive_finite(d2) {
@@ -285,23 +330,12 @@ impl Lights {
         })
     }
 
-    /// A point on an emissive triangle: the triangle by power (`uc`), the point uniform
-    /// on it (`u`).
+    /// A point on an emissive triangle wherever it is wanted: the triangle by power
+    /// (`uc`), the point uniform on it (`u`).
     pub fn sample_area_point(&self, uc: f32, u: Vec2) -> Option<LightPoint<'_>> {
         let a = self.area.as_ref()?;
         let k = a.choose.sample(uc);
-        let light = &a.triangles[k];
-        let (bu, bv) = uniform_triangle(u);
-        let w = Vec3::new(1.0 - bu - bv, bu, bv);
-        let [p0, p1, p2] = light.vertices;
-        Some(LightPoint {
-            position: p0 * w.x + p1 * w.y + p2 * w.z,
-            normal: light.normal,
-            double_sided: light.double_sided,
-            density: a.choose.probability(k) / light.area,
-            light,
-            barycentrics: w,
-        })
+        Some(a.point(k, a.choose.probability(k), u))
     }
 
     /// The area density with which [`Lights::sample_area_point`] picks a point of scene
