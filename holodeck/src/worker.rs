@@ -49,6 +49,24 @@ pub fn trace_packet(
     packet: &RayPacket,
     distance: DistanceKind,
 ) -> Result<SamplePacket, RecordError> {
+    let n = packet.len();
+    Ok(
+        trace_packet_in_parts(source, packet, distance, |_| Some(n))?
+            .expect("one part of the whole packet"),
+    )
+}
+
+/// Traces one packet in parts: `part(left)` says how many of the `left` rays still to
+/// trace to trace next (at least one), or `None` to give the packet up (then the answer
+/// is `None`). The first part is traced with the packet's seed, a part from ray `i > 0`
+/// on with a seed of its own, so a packet traced in one part is [`trace_packet`]'s and
+/// parts never reuse a ray's random numbers.
+pub fn trace_packet_in_parts(
+    source: &dyn SampleSource,
+    packet: &RayPacket,
+    distance: DistanceKind,
+    mut part: impl FnMut(usize) -> Option<usize>,
+) -> Result<Option<SamplePacket>, RecordError> {
     let rays: Vec<SourceRay> = packet
         .rays()?
         .into_iter()
@@ -57,7 +75,26 @@ pub fn trace_packet(
             dir: Vec3::from_array(d),
         })
         .collect();
-    let results = source.trace(&rays, packet.seed, distance);
+    let mut results = Vec::with_capacity(rays.len());
+    while results.len() < rays.len() {
+        let first = results.len();
+        let Some(n) = part(rays.len() - first) else {
+            return Ok(None);
+        };
+        let n = n.clamp(1, rays.len() - first);
+        let seed = if first == 0 {
+            packet.seed
+        } else {
+            packet.seed ^ (first as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        };
+        let traced = source.trace(&rays[first..first + n], seed, distance);
+        let short = traced.len() != n;
+        results.extend(traced);
+        if short {
+            // A source that answers the wrong count: the server refuses the packet.
+            break;
+        }
+    }
     let mut out = SamplePacket {
         id: packet.id,
         results: Vec::with_capacity(results.len() * 16),
@@ -65,7 +102,7 @@ pub fn trace_packet(
     for r in results {
         out.push(r.radiance, r.distance);
     }
-    Ok(out)
+    Ok(Some(out))
 }
 
 #[derive(Debug, thiserror::Error)]

@@ -1,10 +1,13 @@
 //! Worker threads and TCP worker processes (here: threads running the same client loop)
 //! filling one holodeck together; a worker that dies mid-packet loses only that packet,
 //! which another worker computes. Every worker is asked for the distance the file records.
+//! Threads held to a ray allowance trace exactly the rays granted.
 
 mod common;
 
 use std::net::TcpListener;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
 use common::{Analytic, credentials, options};
@@ -12,9 +15,9 @@ use glam::DVec3;
 use holocave_holodeck::auth;
 use holocave_holodeck::distance_code::DistanceCode;
 use holocave_holodeck::file::DISTANCE_SETTING;
-use holocave_holodeck::run::run;
+use holocave_holodeck::run::{RayAllowance, Running, Settled, run, start_held};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::{DistanceKind, run_remote};
+use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult, run_remote};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_protocol::frame::MAX_FRAME_BYTES;
 use holocave_protocol::handshake::Role;
@@ -137,4 +140,102 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
             assert!((got - want).abs() < 1e-3 * want, "{got} vs {want}");
         }
     }
+}
+
+/// Counts the rays it traces and whether any was traced beyond what `allowance` had
+/// granted at the time.
+struct Counted {
+    inner: Analytic,
+    allowance: Arc<RayAllowance>,
+    traced: AtomicU64,
+    over: AtomicBool,
+}
+
+impl SampleSource for Counted {
+    fn trace(&self, rays: &[SourceRay], seed: u64, distance: DistanceKind) -> Vec<SourceResult> {
+        let before = self.traced.fetch_add(rays.len() as u64, Ordering::SeqCst);
+        if before + rays.len() as u64 > self.allowance.totals().granted {
+            self.over.store(true, Ordering::SeqCst);
+        }
+        self.inner.trace(rays, seed, distance)
+    }
+}
+
+fn held_run(mode: Mode, threads: usize) -> (Running, Arc<Counted>, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("held.hdk");
+    let s = Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [3, 3, 3], ViewClass::Interior).unwrap();
+    let settings = [("scene".to_string(), "analytic".to_string())].into();
+    HoloFile::create(&path, vec![s], settings).unwrap();
+    let server = Server::new(
+        HoloFile::open_rw(&path).unwrap(),
+        mode,
+        ServerConfig::default(),
+    );
+    let allowance = Arc::new(RayAllowance::new());
+    let source = Arc::new(Counted {
+        inner: Analytic,
+        allowance: allowance.clone(),
+        traced: AtomicU64::new(0),
+        over: AtomicBool::new(false),
+    });
+    let mut opts = options(threads, None, Duration::from_secs(3600));
+    opts.source = Some(source.clone());
+    (start_held(server, opts, allowance).unwrap(), source, dir)
+}
+
+/// Worker threads held to an allowance trace exactly what is granted, never a ray more,
+/// even when a grant is not a whole number of packets (a batch fill always has work; the
+/// analytic source would trace millions of rays a second if let go).
+#[test]
+fn held_threads_trace_exactly_the_rays_granted() {
+    let (running, source, _dir) = held_run(Mode::Batch, 3);
+    let allowance = running.allowance().unwrap();
+    let mut granted = 0;
+    for grant in [1000, 1, 777, 4096, 65_537, 3] {
+        allowance.grant(grant);
+        granted += grant;
+        assert_eq!(
+            allowance.settle(),
+            Settled {
+                traced: grant,
+                withdrawn: 0
+            }
+        );
+        assert_eq!(source.traced.load(Ordering::SeqCst), granted);
+    }
+    let server = running.stop().unwrap();
+    assert!(
+        !source.over.load(Ordering::SeqCst),
+        "a ray traced beyond the grants"
+    );
+    assert_eq!(source.traced.load(Ordering::SeqCst), granted);
+    // A packet traced in part when the run stopped is not stored: at most one per thread,
+    // each short of a whole packet (at most 65 536 rays).
+    let added = server.stats().added;
+    assert!(
+        added <= granted && granted - added < 3 * 65_536,
+        "{added} stored of {granted} traced"
+    );
+}
+
+/// With nothing to trace (an interactive server no display has asked anything of), a
+/// grant is withdrawn once every thread has asked for work and got none: the holder is
+/// not kept waiting, and the rays are not saved up for later.
+#[test]
+fn a_grant_with_nothing_to_trace_is_withdrawn() {
+    let (running, source, _dir) = held_run(Mode::Interactive, 2);
+    let allowance = running.allowance().unwrap();
+    allowance.grant(500);
+    assert_eq!(
+        allowance.settle(),
+        Settled {
+            traced: 0,
+            withdrawn: 500
+        }
+    );
+    allowance.grant(20);
+    assert_eq!(allowance.settle().withdrawn, 20);
+    running.stop().unwrap();
+    assert_eq!(source.traced.load(Ordering::SeqCst), 0);
 }

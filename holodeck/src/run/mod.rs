@@ -8,7 +8,10 @@
 //! [`start`] runs it in the background and returns a [`Running`] handle (what a render
 //! node embeds); [`run`] runs it until a stop condition (what `holocave fill` does). Either
 //! stops when the caller's [`RunOptions::stop`] flag is set (the binary sets it on Ctrl-C).
+//! [`start_held`] starts it with its worker threads held to a [`RayAllowance`] (what
+//! `holocave compare` does, to give the holodeck the same rays per frame as every method).
 
+pub mod allowance;
 pub(crate) mod commits;
 pub(crate) mod display_session;
 pub(crate) mod listener;
@@ -22,6 +25,7 @@ use std::sync::{Arc, Weak};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+pub use allowance::{RayAllowance, Settled};
 use state::State;
 
 use crate::auth::Port;
@@ -121,6 +125,11 @@ impl Running {
     /// line) without keeping the server alive.
     pub fn monitor(&self) -> Monitor {
         Monitor(Arc::downgrade(self.st()))
+    }
+
+    /// The allowance the worker threads are held to ([`start_held`]).
+    pub fn allowance(&self) -> Option<Arc<RayAllowance>> {
+        self.st().allowance.clone()
     }
 
     /// Commits so far.
@@ -224,7 +233,25 @@ pub fn run(
 /// Starts the server in the background: worker threads, the TCP listener (workers and
 /// displays) and a commit every `opts.commit_every`.
 pub fn start(server: Server, opts: RunOptions) -> Result<Running, ServerError> {
-    let state = Arc::new(State::new(server, opts.stop, opts.scene)?);
+    launch(server, opts, None)
+}
+
+/// As [`start`], with the worker threads tracing only the rays `allowance` grants (see
+/// [`allowance`]); stopping the run stops the allowance.
+pub fn start_held(
+    server: Server,
+    opts: RunOptions,
+    allowance: Arc<RayAllowance>,
+) -> Result<Running, ServerError> {
+    launch(server, opts, Some(allowance))
+}
+
+fn launch(
+    server: Server,
+    opts: RunOptions,
+    allowance: Option<Arc<RayAllowance>>,
+) -> Result<Running, ServerError> {
+    let state = Arc::new(State::new(server, opts.stop, opts.scene, allowance)?);
     let threads = match &opts.source {
         Some(source) => threads::spawn(&state, source, opts.threads),
         None => Vec::new(),

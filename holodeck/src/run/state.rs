@@ -1,6 +1,7 @@
 //! What every thread and task of a running server shares: the [`Server`] and its display
 //! [`Hub`] (locked in that order), the stop flag, the wake-up of idle worker threads, the
-//! clock, and the commit count and first commit error.
+//! clock, the commit count and first commit error, and the ray allowance that holds the
+//! worker threads, if any.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -8,6 +9,7 @@ use std::time::Instant;
 
 use holocave_protocol::holodeck::SamplePacket;
 
+use super::allowance::RayAllowance;
 use crate::display::{EyeRequest, Hub};
 use crate::file::DistanceKind;
 use crate::server::{Server, ServerError, WorkerId};
@@ -28,6 +30,8 @@ pub(crate) struct State {
     /// The first commit error (the run stops on it).
     pub(crate) error: Mutex<Option<ServerError>>,
     pub(crate) scene: String,
+    /// Holds the in-process worker threads to granted rays (`None`: free-running).
+    pub(crate) allowance: Option<Arc<RayAllowance>>,
 }
 
 impl State {
@@ -35,6 +39,7 @@ impl State {
         server: Server,
         stop: Arc<AtomicBool>,
         scene: String,
+        allowance: Option<Arc<RayAllowance>>,
     ) -> Result<Self, ServerError> {
         let distance = server.cache().file().distance_kind()?;
         Ok(State {
@@ -48,6 +53,7 @@ impl State {
             commits: AtomicU64::new(0),
             error: Mutex::new(None),
             scene,
+            allowance,
         })
     }
 
@@ -64,6 +70,9 @@ impl State {
     pub(crate) fn set_stop(&self) {
         self.stop.store(true, Ordering::SeqCst);
         self.wake.notify_all();
+        if let Some(a) = &self.allowance {
+            a.stop();
+        }
     }
 
     pub(crate) fn lock(&self) -> MutexGuard<'_, Server> {
@@ -95,6 +104,9 @@ impl State {
         let (mut s, mut hub) = self.lock_both();
         if let Err(e) = hub.request(&mut s, token, req) {
             tracing::warn!("display request: {e}");
+        }
+        if let Some(a) = &self.allowance {
+            a.work_changed();
         }
         drop(hub);
         drop(s);
