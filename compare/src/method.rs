@@ -2,9 +2,10 @@
 //! and frame, and what each keeps between frames.
 
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
-use holocave_holodeck::run::Running;
-use holocave_render_node::{DisplayProcess, EyeView, RenderCache, VlfBase};
+use holocave_holodeck::run::{RayAllowance, Running};
+use holocave_render_node::{DisplayProcess, EyeView, RenderCache, Sampler, VlfBase};
 use holocave_tracer::Tracer;
 use holocave_tracer::film::Image;
 use holocave_tracer::render::render;
@@ -20,7 +21,9 @@ pub enum Method {
     /// The render cache fed by the tracer (the budget is its samples per eye and frame).
     Cache,
     /// The render cache fed by a holodeck in this process, its tracer threads on the same
-    /// cores (cold: a new file; warm: a file from an earlier run).
+    /// cores and held to the budget: each frame they trace exactly the budget's rays
+    /// (fewer only when the holodeck has nothing left to trace), and the frame waits for
+    /// them (cold: a new file; warm: a file from an earlier run).
     Holodeck,
     /// The Virtual Light Field alone, drawn as a render node draws it (one lookup per
     /// pixel, shaded on the GPU): no paths traced at all.
@@ -71,6 +74,9 @@ impl Method {
 pub struct Drawn {
     pub images: Vec<Image>,
     pub rays: u64,
+    /// Rays of the frame's budget not traced because the method had nothing to trace
+    /// them for (the holodeck methods only; the others spend theirs or have none).
+    pub unspent: u64,
 }
 
 /// Paths per pixel that spend `budget` rays on a `width`×`height` eye (at least one: a
@@ -97,10 +103,15 @@ pub enum Drawer {
         cache: RenderCache,
         base: Arc<VlfBase>,
     },
+    /// The render cache fed by a holodeck whose threads are held to `allowance`.
     Holodeck {
         display: DisplayProcess,
         server: Running,
-        added_before: u64,
+        allowance: Arc<RayAllowance>,
+        /// Rays granted per frame: the budget of every eye.
+        grant: u64,
+        /// Eye requests the server has served for the display so far.
+        requests: u64,
     },
 }
 
@@ -115,7 +126,11 @@ impl Drawer {
                     .map(|(e, v)| render(tracer, &v.wall, *spp, seed(frame, e), &|| {}))
                     .collect();
                 let rays = traced(&images, *spp);
-                Drawn { images, rays }
+                Drawn {
+                    images,
+                    rays,
+                    unspent: 0,
+                }
             }
             Drawer::Accumulate { tracer, spp, sums } => {
                 sums.resize_with(views.len(), || None);
@@ -138,7 +153,11 @@ impl Drawer {
                     *slot = Some((v.wall, sum, n));
                 }
                 let rays = traced(&images, *spp);
-                Drawn { images, rays }
+                Drawn {
+                    images,
+                    rays,
+                    unspent: 0,
+                }
             }
             Drawer::Vlf { cache, base } => {
                 let images = views
@@ -149,7 +168,11 @@ impl Drawer {
                         cache.vlf_image(e).unwrap_or_else(|| Image::new(1, 1))
                     })
                     .collect();
-                Drawn { images, rays: 0 }
+                Drawn {
+                    images,
+                    rays: 0,
+                    unspent: 0,
+                }
             }
             Drawer::Cache(display) => {
                 let report = display.frame(views, false);
@@ -157,23 +180,64 @@ impl Drawer {
                 Drawn {
                     images,
                     rays: report.inserted as u64,
+                    unspent: 0,
                 }
             }
             Drawer::Holodeck {
                 display,
                 server,
-                added_before,
+                allowance,
+                grant,
+                requests,
             } => {
-                display.frame(views, false);
-                let added = server.stats().added;
-                let rays = added - *added_before;
-                *added_before = added;
+                // Draws from the samples that have arrived and hands this frame's pixels to
+                // the display's holodeck thread, which asks the server for their beams.
+                let report = display.frame(views, false);
+                // That request reaches the server before the rays are granted, so they are
+                // traced for it, and a holodeck with nothing to trace is told apart from
+                // one whose request is on its way (one request per eye, unless no pixel
+                // was chosen).
+                if report.chosen.iter().any(|&n| n > 0) {
+                    let want = *requests + views.len() as u64;
+                    let t = Instant::now();
+                    while server.display_tally(0).requests < want {
+                        if t.elapsed() > REQUEST_WAIT {
+                            tracing::warn!(
+                                "frame {frame}: the display's request has not reached the \
+                                 holodeck after {REQUEST_WAIT:?}; granting its rays anyway"
+                            );
+                            break;
+                        }
+                        std::thread::sleep(Duration::from_micros(100));
+                    }
+                }
+                *requests = server.display_tally(0).requests;
+                allowance.grant(*grant);
+                let settled = allowance.settle();
+                // And the display has taken in every sample the server handed it (so the
+                // next frame's request counts them as there), however fast its thread.
+                if let Sampler::Holodeck(h) = &display.sampler {
+                    let handed = server.display_tally(0).samples;
+                    let t = Instant::now();
+                    while h.counts().received < handed && t.elapsed() < REQUEST_WAIT {
+                        std::thread::sleep(Duration::from_micros(100));
+                    }
+                }
                 let images = (0..views.len()).map(|e| display.cache.image(e)).collect();
-                Drawn { images, rays }
+                Drawn {
+                    images,
+                    rays: settled.traced,
+                    unspent: settled.withdrawn,
+                }
             }
         }
     }
 }
+
+/// How long a frame waits for its display's request to reach the holodeck, or for the
+/// display to take in its samples (milliseconds on any machine; only a request or sample
+/// that never comes waits this long).
+const REQUEST_WAIT: Duration = Duration::from_secs(10);
 
 /// The rays of `spp` paths per pixel of `images` (first segments: a path's bounces are
 /// the tracer's business, as for every method).

@@ -160,6 +160,25 @@ pub fn summary_markdown(summaries: &[Summary], reference_noise: f64, heading: &s
     s
 }
 
+/// A line per method that left some of its budget unspent (frames with nothing left to
+/// trace), for the summary; empty when none did.
+pub fn unspent_markdown(frame_rays: &[(&'static str, Vec<(u64, u64)>)]) -> String {
+    let mut s = String::new();
+    for (method, frames) in frame_rays {
+        let short = frames.iter().filter(|f| f.1 > 0).count();
+        let unspent: u64 = frames.iter().map(|f| f.1).sum();
+        if short > 0 {
+            let _ = writeln!(
+                s,
+                "\n{method}: {short} of {} frames had less to trace than the budget \
+                 ({unspent} rays of it unspent).",
+                frames.len()
+            );
+        }
+    }
+    s
+}
+
 /// The plot: relative MSE (log scale) against each method's seconds, and against frame.
 pub fn plot(path: &Path, rows: &[Row], methods: &[&'static str]) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());

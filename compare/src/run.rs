@@ -12,7 +12,7 @@ use holocave_cave::{Cave, Eye, Wall, wall_frusta};
 use holocave_holodeck::HoloFile;
 use holocave_holodeck::cave_section::CaveSection;
 use holocave_holodeck::file::DistanceKind;
-use holocave_holodeck::run::{RunOptions, start};
+use holocave_holodeck::run::{RayAllowance, RunOptions, start_held};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_render_node::{
     DisplayProcess, EyeView, Gpu, HolodeckOptions, HolodeckSource, PixelTracer, RenderCache,
@@ -93,6 +93,19 @@ pub struct Settings {
     pub vlf: Option<(PathBuf, f32)>,
 }
 
+/// The display's holodeck options in a comparison: a request every frame (so what is
+/// traced for a frame does not depend on how fast this machine draws), its demand fading
+/// as fast in trace time as a live node's at `fps` with the default options.
+fn holodeck_options(fps: f64) -> HolodeckOptions {
+    let d = HolodeckOptions::default();
+    let requests_per_fade = d.request_every.as_secs_f64() * fps;
+    HolodeckOptions {
+        request_every: Duration::ZERO,
+        decay: d.decay.powf(1.0 / requests_per_fade.max(1e-9)),
+        ..d
+    }
+}
+
 /// What is compared: a wall of a CAVE in a scene.
 pub struct Compare<'a> {
     pub cave: &'a Cave,
@@ -105,6 +118,9 @@ pub struct Compare<'a> {
 /// What a comparison produced.
 pub struct Outcome {
     pub rows: Vec<Row>,
+    /// Per method, every frame's rays traced and rays of its budget left unspent (the
+    /// holodeck methods: nothing left to trace).
+    pub frame_rays: Vec<(&'static str, Vec<(u64, u64)>)>,
     pub summaries: Vec<Summary>,
     pub reference_noise: f64,
     pub frames: u64,
@@ -174,7 +190,9 @@ impl Compare<'_> {
                 let source =
                     HolodeckTracer(Tracer::new(self.scene.clone(), TraceSettings::default()));
                 let server = Server::new(file, Mode::Interactive, ServerConfig::interactive());
-                let running = start(
+                // The tracer threads trace only what each frame grants: the budget.
+                let allowance = Arc::new(RayAllowance::new());
+                let running = start_held(
                     server,
                     RunOptions {
                         threads,
@@ -184,10 +202,10 @@ impl Compare<'_> {
                         commit_every: Duration::from_secs(5),
                         stop: Arc::new(AtomicBool::new(false)),
                     },
+                    allowance.clone(),
                 )
                 .map_err(|e| CompareError::Holodeck(e.to_string()))?;
-                let added_before = running.stats().added;
-                let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
+                let source = HolodeckSource::new(running.display(0), holodeck_options(s.fps), 1);
                 let mut display = DisplayProcess::holodeck(cache()?, source, s.budget);
                 if method == Method::VlfHolodeck {
                     let prior = s.vlf.as_ref().map_or(0.0, |v| v.1);
@@ -196,7 +214,9 @@ impl Compare<'_> {
                 Drawer::Holodeck {
                     display,
                     server: running,
-                    added_before,
+                    allowance,
+                    grant: u64::from(s.budget) * eyes as u64,
+                    requests: 0,
                 }
             }
         })
@@ -279,12 +299,14 @@ impl Compare<'_> {
         }
         let mut rows = Vec::new();
         let mut frame_times = Vec::new();
+        let mut frame_rays = Vec::new();
         for &method in &s.methods {
             let mut drawer = self.drawer(method, s, views[0].len())?;
             let dir = s.out.join("frames").join(method.name());
             std::fs::create_dir_all(&dir).map_err(io(&dir))?;
             let (mut seconds, mut rays) = (0.0, 0u64);
             let mut times = Vec::with_capacity(views.len());
+            let mut spent = Vec::with_capacity(views.len());
             for (f, eyes) in views.iter().enumerate() {
                 let f = f as u64;
                 let t = Instant::now();
@@ -293,6 +315,7 @@ impl Compare<'_> {
                 seconds += dt.as_secs_f64();
                 rays += drawn.rays;
                 times.push(dt);
+                spent.push((drawn.rays, drawn.unspent));
                 progress(method, f + 1, frames);
                 if !measured(f) {
                     continue;
@@ -325,6 +348,7 @@ impl Compare<'_> {
                     .map_err(|e| CompareError::Holodeck(e.to_string()))?;
             }
             frame_times.push((method.name(), times));
+            frame_rays.push((method.name(), spent));
         }
         let measured_views: Vec<(u64, usize, WallView)> = views
             .iter()
@@ -350,12 +374,14 @@ impl Compare<'_> {
             "Run time against error: wall {:?}, {frames} frames at {} Hz, {} rays per eye and frame",
             self.wall.name, s.fps, s.budget
         );
-        let md = report::summary_markdown(&summaries, reference_noise, &heading);
+        let mut md = report::summary_markdown(&summaries, reference_noise, &heading);
+        md.push_str(&report::unspent_markdown(&frame_rays));
         write("summary.md", std::fs::write(s.out.join("summary.md"), md))?;
         let names: Vec<&'static str> = s.methods.iter().map(|m| m.name()).collect();
         report::plot(&s.out.join("error_time.svg"), &rows, &names).map_err(CompareError::Plot)?;
         Ok(Outcome {
             rows,
+            frame_rays,
             summaries,
             reference_noise,
             frames,

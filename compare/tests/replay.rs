@@ -136,3 +136,69 @@ fn a_trace_outside_the_cave_and_an_empty_method_list_are_named() {
         .unwrap();
     assert!(e.to_string().contains("does not fit the CAVE"), "{e}");
 }
+
+/// The holodeck method is held to the budget: every frame its tracer threads trace the
+/// budget of both eyes — the rays `trace` spends on a frame — and the frame waits for
+/// them, so the count does not depend on how fast this machine is. A frame may leave rays
+/// unspent only when the holodeck had nothing left to trace for the display's requests;
+/// rays are taken from the allowance ray by ray, so there is no rounding to a packet.
+#[test]
+fn the_holodeck_traces_the_budget_of_every_frame() {
+    let cave = load_cave(&root().join("configs/cave4-cornell.toml")).unwrap();
+    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
+    let scene_path = root().join("scenes/cornell.gltf");
+    let scene = Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap());
+    let dir = tempfile::tempdir().unwrap();
+    let size = (16, 12);
+    let settings = Settings {
+        methods: vec![Method::Trace, Method::Holodeck],
+        fps: 30.0,
+        // One path per pixel and eye.
+        budget: size.0 * size.1,
+        every: 4,
+        size,
+        reference_spp: 4,
+        out: dir.path().to_path_buf(),
+        holodeck: None,
+        vlf: None,
+    };
+    // The head walks 2 cm a frame (0.6 m/s) across the CAVE: new views every frame.
+    let poses: Vec<Pose> = (0..12)
+        .map(|f| {
+            let p = cave.inside.as_vec3() + glam::Vec3::new(0.02 * f as f32 - 0.12, 0.0, 0.0);
+            Pose::new(p, Quat::IDENTITY)
+        })
+        .collect();
+    let compare = Compare {
+        cave: &cave,
+        wall,
+        scene,
+        scene_path: &scene_path,
+    };
+    let outcome = compare.run(&settings, &poses, &mut |_, _, _| {}).unwrap();
+    let rays = |m: &str| &outcome.frame_rays.iter().find(|r| r.0 == m).unwrap().1;
+    let grant = 2 * u64::from(settings.budget);
+    for &(traced, unspent) in rays("trace") {
+        assert_eq!((traced, unspent), (grant, 0), "trace spends the budget");
+    }
+    let holodeck = rays("holodeck");
+    eprintln!("holodeck (traced, unspent) per frame: {holodeck:?}");
+    assert_eq!(holodeck.len(), poses.len());
+    for (f, &(traced, unspent)) in holodeck.iter().enumerate() {
+        assert_eq!(
+            traced + unspent,
+            grant,
+            "frame {f}: {traced} traced and {unspent} unspent of {grant}"
+        );
+    }
+    let full = holodeck.iter().filter(|r| r.1 == 0).count();
+    assert!(
+        full + 2 >= holodeck.len(),
+        "all but the first frames have more to trace than the budget: {holodeck:?}"
+    );
+    // The rows' running totals are these frames' rays.
+    for r in outcome.rows.iter().filter(|r| r.method == "holodeck") {
+        let sum: u64 = holodeck[..=r.frame as usize].iter().map(|f| f.0).sum();
+        assert_eq!(r.rays, sum, "frame {}", r.frame);
+    }
+}
