@@ -190,10 +190,19 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
         let sums: Vec<Vec<Vec3>> = runs
             .par_iter()
             .map(|run| {
+                // The lines of one subfield that reach a tile come from one direction: their
+                // light is summed first, and the BSDF evaluated once for it.
                 let mut sum = vec![Vec3::ZERO; bins];
-                for &(g, from, de) in *run {
-                    tiles.accumulate(g, from, de, &mut sum);
+                let g = run[0].0;
+                let (mut from, mut de) = (run[0].1, Vec3::ZERO);
+                for &(_, f, d) in *run {
+                    if f != from {
+                        tiles.accumulate(g, from, de, &mut sum);
+                        (from, de) = (f, Vec3::ZERO);
+                    }
+                    de += d;
                 }
+                tiles.accumulate(g, from, de, &mut sum);
                 sum
             })
             .collect();

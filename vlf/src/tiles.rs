@@ -106,6 +106,18 @@ impl Tiles {
         if settings.glossy_alpha <= 0.0 {
             return Tiles::none(k, count);
         }
+        // No material that can be glossy anywhere (glTF's textures only scale the factors
+        // down): no tiles, and not even a look at the elements.
+        let may_be_glossy = |m: &holocave_scene::Material| {
+            let lobe = m.metallic > 0.0 || m.specular > 0.0;
+            let glass = (1.0 - m.metallic) * m.transmission > 0.0;
+            let smooth = Ggx::is_smooth(m.roughness);
+            let rough = Ggx::from_roughness(m.roughness).alpha >= settings.glossy_alpha;
+            lobe && !glass && !smooth && (!rough || m.metallic_roughness_texture.is_some())
+        };
+        if !scene.materials.iter().any(may_be_glossy) {
+            return Tiles::none(k, count);
+        }
         let floor = alpha_floor(k, Settings::rounded_directions(settings.directions));
         let (_, centre) = elements.areas_and_centres(scene);
         let found: Vec<Option<Glossy>> = centre
