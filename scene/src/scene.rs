@@ -175,6 +175,11 @@ impl Scene {
         &self.positions[i as usize]
     }
 
+    /// Triangle `i`'s unit face normal (counter-clockwise winding is the front).
+    pub fn face_normal(&self, i: u32) -> Vec3 {
+        self.faces[i as usize].normal
+    }
+
     pub fn triangle_shading(&self, i: u32) -> &TriangleShading {
         &self.shading[i as usize]
     }

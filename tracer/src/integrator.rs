@@ -21,6 +21,22 @@ fn offset(p: Vec3, ng: Vec3, towards: Vec3) -> Vec3 {
     p + ng * (eps * ng.dot(towards).signum())
 }
 
+/// Whether nothing blocks the segment from surface point `p` (face normal `ng`) to
+/// `target`. The ray starts just off the surface and is aimed at the target itself from
+/// there, stopping short of it: keeping the direction from `p` would run parallel to the
+/// true segment and cross a light's plane `eps / cos θl` early, so that at grazing angles
+/// (cos θl < 1/2) the light occluded itself.
+pub(crate) fn segment_clear(scene: &Scene, p: Vec3, ng: Vec3, target: Vec3) -> bool {
+    let origin = offset(p, ng, target - p);
+    let d = target - origin;
+    let len = d.length();
+    if !is_positive_finite(len) {
+        return false;
+    }
+    let margin = 1e-4 * (1.0 + target.abs().max_element());
+    !scene.occluded(&Ray::new(origin, d / len), (len - margin).max(0.0))
+}
+
 fn u2(rng: &mut Pcg32) -> Vec2 {
     Vec2::new(rng.random(), rng.random())
 }
@@ -55,24 +71,14 @@ impl Path<'_> {
         if c.max_element() <= 0.0 {
             return;
         }
-        let origin = offset(p, ng, ls.wi);
-        // Aim the shadow ray from the offset origin at the light point itself, and stop
-        // short of it. Keeping `ls.wi` from the offset origin would run parallel to the
-        // true segment and cross a light's plane `eps / cos θl` early: at grazing angles
-        // (cos θl < 1/2) the light then occluded itself.
-        let shadow = if ls.dist.is_finite() {
-            let target = p + ls.wi * ls.dist;
-            let d = target - origin;
-            let len = d.length();
-            if !is_positive_finite(len) {
-                return;
-            }
-            let margin = 1e-4 * (1.0 + target.abs().max_element());
-            (Ray::new(origin, d / len), (len - margin).max(0.0))
+        let clear = if ls.dist.is_finite() {
+            segment_clear(self.scene, p, ng, p + ls.wi * ls.dist)
         } else {
-            (Ray::new(origin, ls.wi), f32::INFINITY)
+            !self
+                .scene
+                .occluded(&Ray::new(offset(p, ng, ls.wi), ls.wi), f32::INFINITY)
         };
-        if self.scene.occluded(&shadow.0, shadow.1) {
+        if !clear {
             return;
         }
         let w = if ls.pdf.is_infinite() {

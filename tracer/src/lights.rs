@@ -75,9 +75,7 @@ impl AreaLight {
         Self {
             triangle,
             vertices,
-            normal: (vertices[1] - vertices[0])
-                .cross(vertices[2] - vertices[0])
-                .normalize(),
+            normal: scene.face_normal(triangle),
             area: scene.triangle_area(triangle),
             material,
             double_sided: m.double_sided,

@@ -18,10 +18,11 @@
 //! so the sum stays unbiased; paths through two mirrors are left to BSDF sampling.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{Hit, Ray, Scene};
+use holocave_scene::{Hit, Scene};
 
 use crate::bsdf::Bsdf;
 use crate::frame::Frame;
+use crate::integrator::segment_clear;
 use crate::lights::{LightSample, Lights};
 use crate::sampling::{Distribution, is_positive_finite};
 
@@ -158,17 +159,8 @@ impl Lights {
         if !is_positive_finite(pdf) {
             return None;
         }
-        // The second segment, mirror to light, checked here (the caller checks the
-        // first): from just off the mirror, aimed at the light point itself and stopping
-        // short of it, as for direct light.
-        let eps = 1e-4 * (1.0 + at.abs().max_element());
-        let start = at + n * (eps * n.dot(light.position - at).signum());
-        let leg = light.position - start;
-        let leg_len = leg.length();
-        let margin = 1e-4 * (1.0 + light.position.abs().max_element());
-        if !is_positive_finite(leg_len)
-            || scene.occluded(&Ray::new(start, leg / leg_len), (leg_len - margin).max(0.0))
-        {
+        // The second segment, mirror to light, checked here (the caller checks the first).
+        if !segment_clear(scene, at, n, light.position) {
             return None;
         }
         Some(LightSample {

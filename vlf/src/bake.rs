@@ -6,7 +6,7 @@
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
-use holocave_scene::{Hit, Scene};
+use holocave_scene::Scene;
 use holocave_tracer::lights::Lights;
 use rayon::prelude::*;
 
@@ -15,7 +15,7 @@ use crate::directions::Directions;
 use crate::elements::{Elements, cell_index};
 use crate::propagate::{Lines, Sending, bounce, flux};
 use crate::subfield::{Grid, Sphere, Subfield, cast};
-use crate::surface::{diffuse_albedo, seen};
+use crate::surface::{diffuse_albedo, seen_at};
 use crate::tiles::Tiles;
 
 /// What a bake is asked for.
@@ -392,16 +392,7 @@ pub fn bake_with<E>(
         .par_iter()
         .enumerate()
         .map(|(e, &(t, u, v))| {
-            let s = seen(
-                scene,
-                Hit {
-                    triangle: t,
-                    t: 0.0,
-                    u,
-                    v,
-                },
-                Vec3::ZERO,
-            );
+            let s = seen_at(scene, t, u, v);
             if s.delta {
                 Vec3::ZERO
             } else if tiles.of(e as u32).is_some() {

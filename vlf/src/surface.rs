@@ -42,6 +42,18 @@ pub struct Seen {
     pub emitted: Vec3,
 }
 
+/// The surface at barycentrics `(u, v)` of `triangle` (an element's centre), seen from
+/// no particular direction (emission counts only on a double-sided emitter's side).
+pub fn seen_at(scene: &Scene, triangle: u32, u: f32, v: f32) -> Seen {
+    let hit = Hit {
+        triangle,
+        t: 0.0,
+        u,
+        v,
+    };
+    seen(scene, hit, Vec3::ZERO)
+}
+
 /// The surface at `hit` seen along `dir`.
 pub fn seen(scene: &Scene, hit: Hit, dir: Vec3) -> Seen {
     let sp = scene.surface(&hit);

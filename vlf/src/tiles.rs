@@ -26,7 +26,7 @@
 //! for 8 bins): the highlights of smoother surfaces are blurred to that width instead.
 
 use glam::Vec3;
-use holocave_scene::{Hit, Scene, SurfaceParams};
+use holocave_scene::{Scene, SurfaceParams};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::frame::Frame;
 use holocave_tracer::microfacet::Ggx;
@@ -35,7 +35,7 @@ use rayon::prelude::*;
 use crate::bake::Settings;
 use crate::elements::Elements;
 use crate::octahedral;
-use crate::surface::seen;
+use crate::surface::seen_at;
 
 /// Marks an element without a tile.
 pub const NONE: u32 = u32::MAX;
@@ -126,16 +126,7 @@ impl Tiles {
             .map(|(e, &(t, u, v))| {
                 let cells = elements.triangles[t as usize];
                 let side = u32::from(e as u32 >= cells.base(1));
-                let s = seen(
-                    scene,
-                    Hit {
-                        triangle: t,
-                        t: 0.0,
-                        u,
-                        v,
-                    },
-                    Vec3::ZERO,
-                );
+                let s = seen_at(scene, t, u, v);
                 let material = &scene.materials[scene.triangle_shading(t).material as usize];
                 if s.delta
                     || !is_glossy(&s.params, settings.glossy_alpha)
