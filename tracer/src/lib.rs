@@ -4,11 +4,12 @@
 //!
 //! - [`integrator`]: the path tracer (NEE + MIS, Russian roulette, virtual distance);
 //! - [`bsdf`], [`microfacet`], [`fresnel`]: glTF's metallic-roughness scattering;
-//! - [`lights`]: what next-event estimation samples ([`light_groups`]: which lamp, by
-//!   place), and [`mirrors`]: the same through flat mirrors;
+//! - [`lights`]: what next-event estimation samples ([`few_lights`] and [`light_groups`]:
+//!   which lamp, by place), and [`mirrors`]: the same through flat mirrors;
 //! - [`view`] and [`film`]: off-axis wall views and the images they make.
 
 pub mod bsdf;
+pub mod few_lights;
 pub mod film;
 pub mod frame;
 pub mod fresnel;

@@ -7,6 +7,7 @@ use glam::{Vec2, Vec3};
 use holocave_scene::{Hit, PunctualKind, PunctualLight, Scene, Sky, Sun};
 use std::f32::consts::PI;
 
+use crate::few_lights::FewLights;
 use crate::frame::Frame;
 use crate::light_groups::LightGroups;
 use crate::mirrors::Mirrors;
@@ -44,14 +45,26 @@ impl LightPoint<'_> {
     }
 }
 
-/// Emissive triangles chosen in proportion to their power.
+/// Emissive triangles, chosen for next-event estimation by place where that pays.
 struct AreaLights {
     triangles: Vec<AreaLight>,
+    /// In proportion to power: wherever light is wanted, and at shading points when
+    /// neither choice by place applies.
     choose: Distribution,
-    /// The choice by place, when the lights form several groups ([`LightGroups`]).
-    groups: Option<LightGroups>,
+    /// The choice at a shading point.
+    by_place: ByPlace,
     /// For each scene triangle, its index in `triangles` (`u32::MAX` if not emissive).
     index_of: Vec<u32>,
+}
+
+/// How a shading point chooses its emissive triangle.
+enum ByPlace {
+    /// Few triangles: each weighed by what it can send to the point ([`FewLights`]).
+    Each(FewLights),
+    /// Several lamps of many triangles: a lamp by power and distance ([`LightGroups`]).
+    Groups(LightGroups),
+    /// By power alone.
+    Power,
 }
 
 /// What sampling a point on one emissive triangle needs, gathered once: a light sample
@@ -234,9 +247,16 @@ impl Lights {
                 index_of[light.triangle as usize] = k as u32;
             }
             let vertices: Vec<[Vec3; 3]> = triangles.iter().map(|l| l.vertices).collect();
+            let normal: Vec<Vec3> = triangles.iter().map(|l| l.normal).collect();
+            let sides: Vec<bool> = triangles.iter().map(|l| l.double_sided).collect();
             let material: Vec<u32> = triangles.iter().map(|l| l.material).collect();
+            let by_place = match FewLights::new(&vertices, &normal, &sides, &power) {
+                Some(each) => ByPlace::Each(each),
+                None => LightGroups::new(&vertices, &material, &power)
+                    .map_or(ByPlace::Power, ByPlace::Groups),
+            };
             AreaLights {
-                groups: LightGroups::new(&vertices, &material, &power),
+                by_place,
                 triangles,
                 choose,
                 index_of,
@@ -277,28 +297,29 @@ impl Lights {
         if cos <= 0.0 {
             return 0.0;
         }
-        let density = match self
-            .area
-            .as_ref()
-            .and_then(|a| Some((a, a.groups.as_ref()?)))
-        {
-            Some((a, groups)) => match a.index_of[hit.triangle as usize] {
-                u32::MAX => 0.0,
-                k => groups.probability(from, k as usize) / a.triangles[k as usize].area,
-            },
-            None => self.area_density(hit.triangle),
+        let Some(a) = &self.area else { return 0.0 };
+        let k = match a.index_of[hit.triangle as usize] {
+            u32::MAX => return 0.0,
+            k => k as usize,
         };
+        let probability = match &a.by_place {
+            ByPlace::Each(each) => each.probability(from, k),
+            ByPlace::Groups(groups) => groups.probability(from, k),
+            ByPlace::Power => a.choose.probability(k),
+        };
+        let density = probability / a.triangles[k].area;
         density * hit.t * hit.t / cos
     }
 
     /// A point on an emissive triangle, seen from `p`: the triangle chosen for `p` (by
-    /// power, or by power and distance when the lights form groups) with `uc`, the
-    /// point uniform on it with `u`.
+    /// power, by power and distance, or by what each triangle can send to `p`: see
+    /// [`ByPlace`]) with `uc`, the point uniform on it with `u`.
     pub fn sample_area(&self, scene: &Scene, p: Vec3, uc: f32, u: Vec2) -> Option<LightSample> {
         let a = self.area.as_ref()?;
-        let (k, probability) = match &a.groups {
-            Some(groups) => groups.sample(p, uc)?,
-            None => {
+        let (k, probability) = match &a.by_place {
+            ByPlace::Each(each) => each.sample(p, uc)?,
+            ByPlace::Groups(groups) => groups.sample(p, uc)?,
+            ByPlace::Power => {
                 let k = a.choose.sample(uc);
                 (k, a.choose.probability(k))
             }
