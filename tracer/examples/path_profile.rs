@@ -139,5 +139,10 @@ fn main() -> Result<(), String> {
             100.0 * var[k] / total_var
         );
     }
+    println!(
+        "per path: mean luminance {total_mean:.5}, variance {total_var:.5} (the vertices' sum), \
+         relative {:.3}",
+        total_var / (total_mean * total_mean)
+    );
     Ok(())
 }
