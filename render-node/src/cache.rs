@@ -510,8 +510,9 @@ impl RenderCache {
     }
 
     /// Draws every eye from the cache, chooses the pixels each eye should sample next
-    /// (about `targets[eye]` of them, at most `max_chosen`), ages the points, and returns
-    /// the chosen pixel indices per eye. With `timed`, adds each step's time to `times`.
+    /// (`targets[eye]` of them, at most `max_chosen` and the eye's pixel count), ages the
+    /// points, and returns the chosen pixel indices per eye. With `timed`, adds each
+    /// step's time to `times`.
     pub fn draw(
         &mut self,
         views: &[EyeView],
@@ -568,14 +569,23 @@ impl RenderCache {
         let chosen = self
             .eyes
             .iter()
-            .map(|e| {
+            .enumerate()
+            .map(|(i, e)| {
                 let bytes = self.gpu.map_read(&e.staging);
                 if bytes.len() < 16 {
                     return Vec::new();
                 }
                 let words: &[u32] = bytemuck::cast_slice(&bytes);
                 let count = (words[1] as usize).min(self.max_chosen as usize);
-                words[4..4 + count].to_vec()
+                let mut chosen = words[4..4 + count].to_vec();
+                let target = targets.get(i).copied().unwrap_or(0).min(self.max_chosen);
+                top_up(
+                    &mut chosen,
+                    target,
+                    e.width * e.height,
+                    self.frame ^ ((i as u32) << 16),
+                );
+                chosen
             })
             .collect();
         r.step(&mut times.readback);
@@ -667,5 +677,72 @@ impl RenderCache {
     pub fn points(&self) -> Vec<GpuPoint> {
         let bytes = self.gpu.read(&self.points, 48 * u64::from(self.capacity));
         bytemuck::cast_slice(&bytes).to_vec()
+    }
+}
+
+/// Adds pixels the dither left out until `chosen` holds `target` of the `pixels` (or all
+/// of them). The dither takes at most one sample per pixel: where a tile's priority asks
+/// for more than its pixels, the excess is lost, and a budget near one sample per pixel
+/// came out about half spent. The sampler can trace the whole budget, so the rest goes to
+/// pixels not yet chosen, spread evenly from a start that moves with `seed`.
+fn top_up(chosen: &mut Vec<u32>, target: u32, pixels: u32, seed: u32) {
+    let target = target.min(pixels) as usize;
+    if chosen.len() >= target {
+        return;
+    }
+    let mut taken = vec![false; pixels as usize];
+    for &p in chosen.iter() {
+        if let Some(t) = taken.get_mut(p as usize) {
+            *t = true;
+        }
+    }
+    // A stride prime to the pixel count visits every pixel once, in a scattered order.
+    let stride = [7919u64, 104_729, 1_299_709]
+        .into_iter()
+        .find(|s| u64::from(pixels) % s != 0)
+        .unwrap_or(1);
+    let n = u64::from(pixels);
+    let start = u64::from(seed.wrapping_mul(0x9E37_79B9)) % n;
+    for k in 0..n {
+        if chosen.len() >= target {
+            break;
+        }
+        let p = ((start + k * stride) % n) as usize;
+        if !taken[p] {
+            taken[p] = true;
+            chosen.push(p as u32);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::top_up;
+
+    /// The dither's choice is kept, the rest of the target is added without repeating a
+    /// pixel, and a target beyond the image takes every pixel once.
+    #[test]
+    fn a_short_choice_is_topped_up_to_the_target_with_new_pixels() {
+        for pixels in [1u32, 7, 12_288, 7919 * 3] {
+            let mut chosen = vec![0, pixels / 2, pixels - 1];
+            chosen.dedup();
+            let before = chosen.clone();
+            let target = pixels.min(1000) * 3 / 4 + 1;
+            top_up(&mut chosen, target, pixels, 5);
+            assert_eq!(chosen.len(), target.max(before.len() as u32) as usize);
+            assert_eq!(chosen[..before.len()], before[..]);
+            let mut sorted = chosen.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            assert_eq!(sorted.len(), chosen.len(), "{pixels}: a pixel chosen twice");
+            assert!(chosen.iter().all(|&p| p < pixels));
+        }
+        let mut all = vec![3];
+        top_up(&mut all, 100, 64, 9);
+        assert_eq!(all.len(), 64);
+        // Enough already: nothing added.
+        let mut enough = vec![1, 2, 3];
+        top_up(&mut enough, 2, 64, 9);
+        assert_eq!(enough, vec![1, 2, 3]);
     }
 }
