@@ -14,6 +14,7 @@ use crate::direct::direct_irradiance;
 use crate::directions::Directions;
 use crate::elements::{Elements, cell_index};
 use crate::propagate::{Lines, Sending, bounce, flux};
+use crate::reflection::Reflection;
 use crate::subfield::{Grid, Sphere, Subfield, cast};
 use crate::surface::{diffuse_albedo, seen_at};
 use crate::tiles::Tiles;
@@ -468,6 +469,7 @@ pub fn bake_with<E>(
     // keeps it sharp and smooths only the inter-reflected light.
     let start = Instant::now();
     let line_dirs = &directions.lines;
+    let reflection = Reflection::new(&tiles);
     let lines = Lines {
         subfields: &subfields,
         dirs: line_dirs,
@@ -475,6 +477,7 @@ pub fn bake_with<E>(
         ends: &ends,
         area: &receiving,
         tiles: &tiles,
+        reflection: &reflection,
     };
     let zero = vec![[0f32; 3]; elements.count];
     let zero_tiles = vec![[0f32; 3]; tiles.len()];

@@ -43,6 +43,7 @@ pub mod elements;
 pub mod file;
 pub mod octahedral;
 pub mod propagate;
+pub mod reflection;
 pub mod remote;
 pub mod subfield;
 pub mod surface;

@@ -77,10 +77,9 @@ pub fn solid_angles(k: u32) -> Vec<f32> {
         .collect()
 }
 
-/// The value at map coordinates `(x, y)` interpolated bilinearly between the four
-/// nearest bin centres of the tile whose first bin is `base` (clamped at the edges).
-/// The render node's shader (`render-node/src/shaders/vlf.wgsl`) does the same.
-pub fn interpolate(values: &[[f32; 3]], base: u32, k: u32, x: f32, y: f32) -> Vec3 {
+/// The four bins nearest map coordinates `(x, y)` and their bilinear weights (summing to
+/// one; clamped at the edges, where neighbours coincide).
+pub fn bilinear(k: u32, (x, y): (f32, f32)) -> [(u32, f32); 4] {
     let (x, y) = ((x - 0.5).max(0.0), (y - 0.5).max(0.0));
     let (i0, j0) = ((x as u32).min(k - 1), (y as u32).min(k - 1));
     let (i1, j1) = ((i0 + 1).min(k - 1), (j0 + 1).min(k - 1));
@@ -88,10 +87,22 @@ pub fn interpolate(values: &[[f32; 3]], base: u32, k: u32, x: f32, y: f32) -> Ve
         (x - i0 as f32).clamp(0.0, 1.0),
         (y - j0 as f32).clamp(0.0, 1.0),
     );
-    let at = |i: u32, j: u32| Vec3::from(values[(base + j * k + i) as usize]);
-    let bottom = at(i0, j0) * (1.0 - fx) + at(i1, j0) * fx;
-    let top = at(i0, j1) * (1.0 - fx) + at(i1, j1) * fx;
-    bottom * (1.0 - fy) + top * fy
+    [
+        (j0 * k + i0, (1.0 - fx) * (1.0 - fy)),
+        (j0 * k + i1, fx * (1.0 - fy)),
+        (j1 * k + i0, (1.0 - fx) * fy),
+        (j1 * k + i1, fx * fy),
+    ]
+}
+
+/// The value at map coordinates `(x, y)` interpolated bilinearly between the four
+/// nearest bin centres of the tile whose first bin is `base` (clamped at the edges).
+/// The render node's shader (`render-node/src/shaders/vlf.wgsl`) does the same.
+pub fn interpolate(values: &[[f32; 3]], base: u32, k: u32, x: f32, y: f32) -> Vec3 {
+    bilinear(k, (x, y))
+        .iter()
+        .map(|&(bin, w)| Vec3::from(values[(base + bin) as usize]) * w)
+        .sum()
 }
 
 #[cfg(test)]

@@ -16,19 +16,20 @@
 //! next-event estimation (`direct`), added before.
 //!
 //! A glossy receiver (`tiles`) takes each line's `L · Δω h² / A_e` as `dE` arriving from
-//! the line's direction and adds `f(ω_b, ω_i) dE` to every bin `b` of its tile, with the
-//! tracer's BSDF; a glossy sender sends along a line the radiance its tile holds in the
+//! the line's direction, shares it bilinearly between the bins nearest that direction,
+//! and once all of a bounce's light has arrived adds `f(ω_b, ω_j) dE_j` from every bin `j`
+//! to every bin `b` of its tile, with the tracer's BSDF; a glossy sender sends along a line the radiance its tile holds in the
 //! line's direction (bilinear between bins), where a diffuse one sends `B`.
 //!
 //! The sums are made in the same order whatever the number of threads: subfields are
-//! processed in parallel in fixed chunks, and their contributions added in subfield
-//! order, so a bake is bit-identical on any machine. The light arriving at glossy tiles
-//! is sorted by tile (stably: in subfield order within a tile) and each tile's arrivals
-//! summed in that order, tiles in parallel.
+//! processed in parallel in fixed chunks, and their contributions (to elements and to the
+//! tiles' binned arrivals) added in subfield order, so a bake is bit-identical on any
+//! machine; the tiles' BSDFs are then applied tile by tile, in parallel.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::reflection::Reflection;
 use crate::subfield::{Crossing, DELTA, Link, Subfield};
 use crate::tiles::Tiles;
 
@@ -54,6 +55,8 @@ pub struct Lines<'a> {
     /// The area each element's light is spread over.
     pub area: &'a [f32],
     pub tiles: &'a Tiles,
+    /// The tiles' BSDFs between bins.
+    pub reflection: &'a Reflection,
 }
 
 /// What the previous bounce sends out: diffuse elements' radiance `B` and the glossy
@@ -144,7 +147,8 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
     let tiles = lines.tiles;
     let bins = tiles.per_tile();
     let mut irradiance = vec![Vec3::ZERO; lines.area.len()];
-    let mut tile_sum = vec![Vec3::ZERO; tiles.len()];
+    // The light arriving at each tile, binned by the direction it comes from.
+    let mut incoming = vec![Vec3::ZERO; tiles.len()];
     for (c, chunk) in lines.subfields.chunks(CHUNK).enumerate() {
         let parts: Vec<(Vec<Contribution>, Vec<Arrival>)> = chunk
             .par_iter()
@@ -164,7 +168,6 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
                 (out, glossy)
             })
             .collect();
-        let mut arrivals: Vec<(u32, Vec3, Vec3)> = Vec::new();
         for (i, (part, glossy)) in parts.iter().enumerate() {
             let k = c * CHUNK + i;
             let w = lines.weight[k];
@@ -178,47 +181,21 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
                 } else {
                     -lines.dirs[k]
                 };
-                arrivals.push((g, from, l * w));
-            }
-        }
-        if arrivals.is_empty() {
-            continue;
-        }
-        // Stable: within a tile, the arrivals stay in subfield order.
-        arrivals.sort_by_key(|a| a.0);
-        let runs: Vec<&[(u32, Vec3, Vec3)]> = arrivals.chunk_by(|a, b| a.0 == b.0).collect();
-        let sums: Vec<Vec<Vec3>> = runs
-            .par_iter()
-            .map(|run| {
-                // The lines of one subfield that reach a tile come from one direction: their
-                // light is summed first, and the BSDF evaluated once for it.
-                let mut sum = vec![Vec3::ZERO; bins];
-                let g = run[0].0;
-                let (mut from, mut de) = (run[0].1, Vec3::ZERO);
-                for &(_, f, d) in *run {
-                    if f != from {
-                        tiles.accumulate(g, from, de, &mut sum);
-                        (from, de) = (f, Vec3::ZERO);
-                    }
-                    de += d;
-                }
-                tiles.accumulate(g, from, de, &mut sum);
-                sum
-            })
-            .collect();
-        for (run, sum) in runs.iter().zip(sums) {
-            let g = run[0].0 as usize;
-            for (t, s) in tile_sum[g * bins..(g + 1) * bins].iter_mut().zip(sum) {
-                *t += s;
+                let g_bins = &mut incoming[g as usize * bins..(g as usize + 1) * bins];
+                lines.reflection.splat(tiles, g, from, l * w, g_bins);
             }
         }
     }
-    let tiles_out = tile_sum
-        .chunks(bins.max(1))
+    // The BSDF applied once per tile to all the light that arrived.
+    let tiles_out = incoming
+        .par_chunks(bins.max(1))
         .zip(&tiles.tiles)
-        .flat_map(|(t, g)| {
-            let a = lines.area[g.element as usize];
-            t.iter().map(move |l| (*l / a).to_array())
+        .enumerate()
+        .flat_map_iter(|(g, (arrived, t))| {
+            let mut out = vec![Vec3::ZERO; bins];
+            lines.reflection.apply(tiles, g as u32, arrived, &mut out);
+            let a = lines.area[t.element as usize];
+            out.into_iter().map(move |l| (l / a).to_array())
         })
         .collect();
     Received {

@@ -47,6 +47,8 @@ pub struct Glossy {
     pub element: u32,
     pub frame: Frame,
     pub bsdf: Bsdf,
+    /// What `bsdf` was made from.
+    pub params: SurfaceParams,
 }
 
 /// The tiles of a scene: which elements have one, and the bins' directions.
@@ -148,6 +150,7 @@ impl Tiles {
                     element: e as u32,
                     frame: Frame::new(n),
                     bsdf: Bsdf::new(&p),
+                    params: p,
                 })
             })
             .collect();
