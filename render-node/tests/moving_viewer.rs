@@ -23,11 +23,6 @@ const SIZE: u32 = 64;
 const FRAMES: u64 = 120;
 const FPS: f64 = 60.0;
 const IPD: f32 = 0.064;
-/// Tiles of the dither's grid on a SIZE×SIZE eye (shifted every frame, so one more each
-/// way). Each tile starts from a random error in [-0.5, 0.5) and hands at most half a
-/// sample on at its end, so an eye's count of chosen pixels is within one per tile of its
-/// budget, and never above it (the cache's `max_chosen`).
-const DITHER_TILES: u32 = (SIZE / 8 + 1) * (SIZE / 8 + 1);
 
 #[test]
 fn moving_viewer_follows_a_recorded_trace() {
@@ -107,14 +102,13 @@ fn follow_a_recorded_trace(check_error: bool) {
         let start = Instant::now();
         let report = display.frame(&views, false);
         worst = worst.max(start.elapsed());
-        // A fixed budget each frame: every eye chooses its budget of pixels (to within the
-        // dither's rounding), and exactly the chosen pixels are traced and inserted.
+        // A fixed budget each frame: every eye chooses exactly its budget of pixels (the
+        // dither's choice, capped at the budget and topped up where it fell short), and
+        // exactly the chosen pixels are traced and inserted.
         for (eye, &c) in report.chosen.iter().enumerate() {
-            let c = c as u32;
-            assert!(
-                c <= budget && c + DITHER_TILES >= budget,
-                "frame {frame} eye {eye}: {c} pixels chosen for a budget of {budget} \
-                 (± {DITHER_TILES})"
+            assert_eq!(
+                c as u32, budget,
+                "frame {frame} eye {eye}: {c} pixels chosen for a budget of {budget}"
             );
         }
         assert_eq!(report.chosen.len(), 2, "frame {frame}: both eyes drawn");
