@@ -35,7 +35,8 @@ const ALBEDO_STEPS: usize = 64;
 const ALBEDO_AZIMUTHS: usize = 8;
 
 pub struct Reflection {
-    /// `k⁴` values per matrix, `[b * k² + j]`.
+    /// `k⁴` values per matrix, column by column: `[j * k² + b]`, so that the bins light
+    /// did not arrive from (most of them, on a small tile) are skipped whole.
     matrices: Vec<Vec3>,
     /// Per matrix, `k²` values: the albedo `Σ_b M[b][j] cos θ_b Δω_b` of light arriving
     /// at bin centre `j`.
@@ -97,17 +98,17 @@ impl Reflection {
                 tiles
                     .centres
                     .iter()
-                    .flat_map(move |wo| tiles.centres.iter().map(move |wi| bsdf.eval(*wo, *wi).0))
+                    .flat_map(move |wi| tiles.centres.iter().map(move |wo| bsdf.eval(*wo, *wi).0))
             })
             .collect();
         let binned_albedo = matrices
-            .chunks_exact(n * n)
-            .flat_map(|m| {
-                (0..n).map(move |j| {
-                    (0..n)
-                        .map(|b| m[b * n + j] * tiles.projected[b])
-                        .sum::<Vec3>()
-                })
+            .chunks_exact(n)
+            .map(|column| {
+                column
+                    .iter()
+                    .zip(&tiles.projected)
+                    .map(|(f, p)| *f * *p)
+                    .sum::<Vec3>()
             })
             .collect();
         let true_albedo = first
@@ -178,8 +179,13 @@ impl Reflection {
             NONE => out.iter_mut().zip(incoming).for_each(|(o, e)| *o += *e),
             m => {
                 let matrix = &self.matrices[m as usize * n * n..(m as usize + 1) * n * n];
-                for (o, row) in out.iter_mut().zip(matrix.chunks_exact(n)) {
-                    *o += row.iter().zip(incoming).map(|(f, e)| *f * *e).sum::<Vec3>();
+                for (column, e) in matrix.chunks_exact(n).zip(incoming) {
+                    if e.max_element() <= 0.0 {
+                        continue;
+                    }
+                    for (o, f) in out.iter_mut().zip(column) {
+                        *o += *f * *e;
+                    }
                 }
             }
         }
