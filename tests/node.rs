@@ -14,9 +14,6 @@ const W: u32 = 32;
 const H: u32 = 24;
 /// Pixels each eye traces per frame: the node's default, a sixteenth of its pixels.
 const BUDGET: u32 = W * H / 16;
-/// Tiles of the dither's 8×8 grid (shifted every frame: one more each way); each rounds
-/// the count of chosen pixels by at most one.
-const DITHER_TILES: u32 = (W / 8 + 1) * (H / 8 + 1);
 
 fn lum(p: Vec3) -> f32 {
     p.dot(Vec3::new(0.2126, 0.7152, 0.0722))
@@ -102,14 +99,14 @@ fn standalone_headless_node_writes_both_eyes_per_frame() {
                 );
             }
             file(frame, eye, "-priority.png");
-            // The pixels chosen this frame: the eye's budget, to within the dither's
-            // rounding.
+            // The pixels chosen this frame: exactly the eye's budget (the render cache
+            // cuts or tops up the dither's choice).
             let chosen = png(&file(frame, eye, "-chosen.png"))
                 .pixels()
                 .filter(|q| q.0 != [0, 0, 0])
                 .count() as u32;
-            assert!(
-                chosen <= BUDGET && chosen + DITHER_TILES >= BUDGET,
+            assert_eq!(
+                chosen, BUDGET,
                 "frame {frame} {eye}: {chosen} pixels chosen for a budget of {BUDGET}"
             );
             eprintln!(

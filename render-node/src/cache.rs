@@ -177,7 +177,8 @@ struct EyeBuffers {
     key: wgpu::Buffer,
     color: wgpu::Buffer,
     priority: wgpu::Buffer,
-    chosen_img: wgpu::Buffer,
+    /// The pixels chosen in the last frame.
+    last_chosen: Vec<u32>,
     counters: wgpu::Buffer,
     chosen: wgpu::Buffer,
     staging: wgpu::Buffer,
@@ -348,7 +349,6 @@ impl RenderCache {
                 let culled = gpu.storage("culled", 16 * n);
                 let color = gpu.storage("color", 16 * n);
                 let priority = gpu.storage("priority", 4 * n);
-                let chosen_img = gpu.storage("chosen image", 4 * n);
                 let counters = gpu.storage("counters", 16);
                 let chosen = gpu.storage("chosen", 4 * u64::from(max_chosen));
                 let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -368,7 +368,7 @@ impl RenderCache {
                 );
                 let dither_bg = passes
                     .dither
-                    .bind_group(&gpu, [&params, &priority, &counters, &chosen, &chosen_img]);
+                    .bind_group(&gpu, [&params, &priority, &counters, &chosen]);
                 let insert_bg = passes
                     .insert
                     .bind_group(&gpu, [&insert_params, &points, &samples, &key, &matched]);
@@ -379,7 +379,7 @@ impl RenderCache {
                     key,
                     color,
                     priority,
-                    chosen_img,
+                    last_chosen: Vec::new(),
                     counters,
                     chosen,
                     staging,
@@ -566,7 +566,7 @@ impl RenderCache {
             enc.copy_buffer_to_buffer(&e.chosen, 0, &e.staging, 16, 4 * u64::from(self.max_chosen));
         }
         r.submit();
-        let chosen = self
+        let chosen: Vec<Vec<u32>> = self
             .eyes
             .iter()
             .enumerate()
@@ -579,7 +579,7 @@ impl RenderCache {
                 let count = (words[1] as usize).min(self.max_chosen as usize);
                 let mut chosen = words[4..4 + count].to_vec();
                 let target = targets.get(i).copied().unwrap_or(0).min(self.max_chosen);
-                top_up(
+                exactly(
                     &mut chosen,
                     target,
                     e.width * e.height,
@@ -588,6 +588,9 @@ impl RenderCache {
                 chosen
             })
             .collect();
+        for (e, c) in self.eyes.iter_mut().zip(&chosen) {
+            e.last_chosen.clone_from(c);
+        }
         r.step(&mut times.readback);
         chosen
     }
@@ -663,12 +666,11 @@ impl RenderCache {
     /// The pixels eye `eye` chose in the last frame (white on black).
     pub fn chosen_image(&self, eye: usize) -> Image {
         let e = &self.eyes[eye];
-        let n = u64::from(e.width) * u64::from(e.height);
-        let bytes = self.gpu.read(&e.chosen_img, 4 * n);
-        let px: &[u32] = bytemuck::cast_slice(&bytes);
         let mut img = Image::new(e.width, e.height);
-        for (d, &s) in img.pixels.iter_mut().zip(px) {
-            *d = Vec3::splat(s as f32);
+        for &p in &e.last_chosen {
+            if let Some(d) = img.pixels.get_mut(p as usize) {
+                *d = Vec3::ONE;
+            }
         }
         img
     }
@@ -680,14 +682,18 @@ impl RenderCache {
     }
 }
 
-/// Adds pixels the dither left out until `chosen` holds `target` of the `pixels` (or all
-/// of them). The dither takes at most one sample per pixel: where a tile's priority asks
-/// for more than its pixels, the excess is lost, and a budget near one sample per pixel
-/// came out about half spent. The sampler can trace the whole budget, so the rest goes to
-/// pixels not yet chosen, spread evenly from a start that moves with `seed`.
-fn top_up(chosen: &mut Vec<u32>, target: u32, pixels: u32, seed: u32) {
+/// Makes the dither's choice exactly `target` of the `pixels` (or all of them), so every
+/// frame spends its budget, no more and no less. The dither's count is the target only
+/// to within its rounding: each 8 × 8 tile starts from a random error and may hand half a
+/// sample on or lose it, so it may choose a few pixels more (the last ones it listed
+/// are dropped) or fewer. And it takes at most one sample per pixel: where a tile's
+/// priority asks for more than its pixels, the excess is lost, and a budget near one
+/// sample per pixel came out about half spent. The rest goes to pixels not yet chosen,
+/// spread evenly from a start that moves with `seed`.
+fn exactly(chosen: &mut Vec<u32>, target: u32, pixels: u32, seed: u32) {
     let target = target.min(pixels) as usize;
     if chosen.len() >= target {
+        chosen.truncate(target);
         return;
     }
     let mut taken = vec![false; pixels as usize];
@@ -717,18 +723,19 @@ fn top_up(chosen: &mut Vec<u32>, target: u32, pixels: u32, seed: u32) {
 
 #[cfg(test)]
 mod tests {
-    use super::top_up;
+    use super::exactly;
 
     /// The dither's choice is kept, the rest of the target is added without repeating a
-    /// pixel, and a target beyond the image takes every pixel once.
+    /// pixel, a target beyond the image takes every pixel once, and a choice over the
+    /// target is cut to it.
     #[test]
-    fn a_short_choice_is_topped_up_to_the_target_with_new_pixels() {
+    fn a_choice_is_made_exactly_the_target_with_new_pixels() {
         for pixels in [1u32, 7, 12_288, 7919 * 3] {
             let mut chosen = vec![0, pixels / 2, pixels - 1];
             chosen.dedup();
             let before = chosen.clone();
             let target = pixels.min(1000) * 3 / 4 + 1;
-            top_up(&mut chosen, target, pixels, 5);
+            exactly(&mut chosen, target, pixels, 5);
             assert_eq!(chosen.len(), target.max(before.len() as u32) as usize);
             assert_eq!(chosen[..before.len()], before[..]);
             let mut sorted = chosen.clone();
@@ -738,11 +745,11 @@ mod tests {
             assert!(chosen.iter().all(|&p| p < pixels));
         }
         let mut all = vec![3];
-        top_up(&mut all, 100, 64, 9);
+        exactly(&mut all, 100, 64, 9);
         assert_eq!(all.len(), 64);
-        // Enough already: nothing added.
-        let mut enough = vec![1, 2, 3];
-        top_up(&mut enough, 2, 64, 9);
-        assert_eq!(enough, vec![1, 2, 3]);
+        // More than enough: cut to the target, first listed kept.
+        let mut over = vec![1, 2, 3];
+        exactly(&mut over, 2, 64, 9);
+        assert_eq!(over, vec![1, 2]);
     }
 }

@@ -169,6 +169,7 @@ fn weight(w: &[Vec4], k: usize) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampling::check_choice;
 
     /// A unit square at height `y` facing down (two triangles), as a lamp.
     fn lamp(y: f32) -> [[Vec3; 3]; 2] {
@@ -193,19 +194,12 @@ mod tests {
         let below = Vec3::new(0.5, 0.0, 0.5);
         let between = Vec3::new(0.5, 2.5, 0.5);
         for p in [below, between] {
-            let total: f32 = (0..4).map(|k| lights.probability(p, k)).sum();
-            assert!((total - 1.0).abs() < 1e-5, "{p}: {total}");
-            let n = 100_000;
-            let mut counts = [0u32; 4];
-            for i in 0..n {
-                let (k, prob) = lights.sample(p, (i as f32 + 0.5) / n as f32).unwrap();
-                assert!((prob - lights.probability(p, k)).abs() < 1e-6);
-                counts[k] += 1;
-            }
-            for (k, c) in counts.iter().enumerate() {
-                let f = *c as f32 / n as f32;
-                assert!((f - lights.probability(p, k)).abs() < 1e-3, "{p} {k}: {f}");
-            }
+            check_choice(
+                4,
+                |u| lights.sample(p, u),
+                |k| lights.probability(p, k),
+                &p.to_string(),
+            );
         }
         // Between the lamps: the lower one's one-sided triangles face away.
         assert_eq!(lights.probability(between, 0), 0.0);

@@ -136,6 +136,7 @@ impl LightGroups {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampling::check_choice;
 
     fn tri(at: Vec3) -> [Vec3; 3] {
         [at, at + Vec3::X * 0.1, at + Vec3::Y * 0.1]
@@ -156,19 +157,12 @@ mod tests {
             Vec3::new(4.0, 0.0, 1.0),
             Vec3::ZERO,
         ] {
-            let total: f32 = (0..3).map(|k| groups.probability(p, k)).sum();
-            assert!((total - 1.0).abs() < 1e-5, "{p}: {total}");
-            let n = 100_000;
-            let mut counts = [0u32; 3];
-            for i in 0..n {
-                let (k, prob) = groups.sample(p, (i as f32 + 0.5) / n as f32).unwrap();
-                assert!((prob - groups.probability(p, k)).abs() < 1e-6);
-                counts[k] += 1;
-            }
-            for (k, c) in counts.iter().enumerate() {
-                let f = *c as f32 / n as f32;
-                assert!((f - groups.probability(p, k)).abs() < 1e-3, "{p} {k}: {f}");
-            }
+            check_choice(
+                3,
+                |u| groups.sample(p, u),
+                |k| groups.probability(p, k),
+                &p.to_string(),
+            );
         }
         let near = Vec3::new(0.5, 1.0, 0.0);
         assert!(groups.probability(near, 0) + groups.probability(near, 1) > 0.9);

@@ -98,6 +98,32 @@ impl Distribution {
     }
 }
 
+/// For the tests of a choice made per shading point (`few_lights`, `light_groups`): the
+/// probabilities of the `count` items sum to one, each sample reports its item's
+/// probability, and 100 000 evenly spread samples land in proportion to them (to 1e-3: the
+/// spacing of the samples, 1e-5, times the few steps a cumulative sum takes).
+#[cfg(test)]
+pub(crate) fn check_choice(
+    count: usize,
+    sample: impl Fn(f32) -> Option<(usize, f32)>,
+    probability: impl Fn(usize) -> f32,
+    at: &str,
+) {
+    let total: f32 = (0..count).map(&probability).sum();
+    assert!((total - 1.0).abs() < 1e-5, "{at}: {total}");
+    let n = 100_000;
+    let mut counts = vec![0u32; count];
+    for i in 0..n {
+        let (k, prob) = sample((i as f32 + 0.5) / n as f32).unwrap();
+        assert!((prob - probability(k)).abs() < 1e-6, "{at} {k}");
+        counts[k] += 1;
+    }
+    for (k, c) in counts.iter().enumerate() {
+        let f = *c as f32 / n as f32;
+        assert!((f - probability(k)).abs() < 1e-3, "{at} {k}: {f}");
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -44,6 +44,18 @@ pub fn centres(k: u32) -> Vec<Vec3> {
         .collect()
 }
 
+/// The direction at the centre of every bin and the bin's cosine-weighted solid angle
+/// `cos θ_b Δω_b` (what a bin's radiance gives as exitance), in index order.
+pub fn centres_and_projected(k: u32) -> (Vec<Vec3>, Vec<f32>) {
+    let centres = centres(k);
+    let projected = solid_angles(k)
+        .iter()
+        .zip(&centres)
+        .map(|(s, c)| s * c.z)
+        .collect();
+    (centres, projected)
+}
+
 /// Solid angle of the spherical triangle `a, b, c` (Van Oosterom–Strackee).
 fn spherical_triangle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let num = a.dot(b.cross(c)).abs();

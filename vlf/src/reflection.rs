@@ -222,12 +222,7 @@ mod tests {
             varnish(0.6, Vec3::new(0.85, 0.85, 0.82)),
         ];
         let normals = [Vec3::Z, Vec3::new(0.3, -0.8, 0.2).normalize(), -Vec3::X];
-        let centres = octahedral::centres(k);
-        let projected = octahedral::solid_angles(k)
-            .iter()
-            .zip(&centres)
-            .map(|(s, c)| s * c.z)
-            .collect();
+        let (centres, projected) = octahedral::centres_and_projected(k);
         Tiles {
             bins: k,
             of_element: vec![0, 1, 2],

@@ -162,12 +162,7 @@ impl Tiles {
         for (g, t) in tiles.iter().enumerate() {
             of_element[t.element as usize] = g as u32;
         }
-        let centres = octahedral::centres(k);
-        let projected = octahedral::solid_angles(k)
-            .iter()
-            .zip(&centres)
-            .map(|(s, c)| s * c.z)
-            .collect();
+        let (centres, projected) = octahedral::centres_and_projected(k);
         Tiles {
             bins: k,
             of_element,
@@ -290,12 +285,7 @@ mod tests {
         let k = 8;
         let floor = alpha_floor(k, 642);
         assert!((floor - 0.2193).abs() < 1e-3, "{floor}");
-        let centres = octahedral::centres(k);
-        let projected: Vec<f32> = octahedral::solid_angles(k)
-            .iter()
-            .zip(&centres)
-            .map(|(s, c)| s * c.z)
-            .collect();
+        let (centres, projected) = octahedral::centres_and_projected(k);
         for alpha in [floor, 0.25, 0.5] {
             let bsdf = Bsdf::new(&metal(alpha.sqrt()));
             for theta in [0.0f32, 0.5, 0.9, 1.2] {

@@ -18,7 +18,7 @@ impl Dither {
     pub(super) fn new(gpu: &Gpu) -> Dither {
         use Binding::{Storage, Uniform};
         let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
-        let bindings = [Uniform, ro, rw, rw, rw];
+        let bindings = [Uniform, ro, rw, rw];
         let source = include_str!("dither.wgsl");
         Dither(ComputePass::new(
             gpu,
@@ -29,8 +29,8 @@ impl Dither {
         ))
     }
 
-    /// A bind group of `[params, priority, counters, chosen, chosen_img]`, in binding order.
-    pub(super) fn bind_group(&self, gpu: &Gpu, buffers: [&wgpu::Buffer; 5]) -> wgpu::BindGroup {
+    /// A bind group of `[params, priority, counters, chosen]`, in binding order.
+    pub(super) fn bind_group(&self, gpu: &Gpu, buffers: [&wgpu::Buffer; 4]) -> wgpu::BindGroup {
         self.0.bind_group(gpu, &buffers)
     }
 

@@ -7,7 +7,6 @@
 @group(0) @binding(1) var<storage, read> priority: array<f32>;
 @group(0) @binding(2) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(3) var<storage, read_write> chosen: array<u32>;
-@group(0) @binding(4) var<storage, read_write> chosen_img: array<u32>;
 
 const TILE: u32 = 8u;
 const SUM_SCALE: f32 = 256.0;
@@ -53,13 +52,11 @@ fn dither(@builtin(global_invocation_id) gid: vec3<u32>) {
             let i = y * P.width + x;
             let v = priority[i] * scale + cur[c + 1u];
             var e = v;
-            chosen_img[i] = 0u;
             if (v >= 0.5) {
                 e = v - 1.0;
                 let slot = atomicAdd(&counters[1], 1u);
                 if (slot < P.max_chosen) {
                     chosen[slot] = i;
-                    chosen_img[i] = 1u;
                 }
             }
             // Floyd–Steinberg weights, mirrored on backward rows; the tile's last row
