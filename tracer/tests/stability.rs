@@ -109,6 +109,55 @@ fn rays_from_ten_kilometres_away_see_what_near_rays_see() {
     assert!(hits > rays.len() / 2, "{hits} hits");
 }
 
+/// The Cornell box and its eye moved together away from the origin (`holocave compare
+/// --offset`): the same rays, moved, see the same light (two-sample test on the means as
+/// above). At `offset` metres along x and z.
+fn a_moved_box_is_lit_as_at_the_origin(offset: f32) {
+    let at_origin = tracer(cornell());
+    let moved = project_path("scenes/cornell.gltf");
+    let moved = holocave_scene::Scene::load(&moved, &Default::default())
+        .and_then(|s| s.transformed(1.0, Vec3::new(offset, 0.0, offset)))
+        .expect("the Cornell box, moved");
+    let moved = Tracer::new(std::sync::Arc::new(moved), Default::default());
+    let eye = Vec3::new(0.0, 1.0, 3.4);
+    let mut rng = Pcg32::seed_from_u64(5);
+    let (mut here, mut there) = (Vec::new(), Vec::new());
+    for _ in 0..100_000 {
+        let t = Vec3::new(
+            -0.95 + 1.9 * rng.random::<f32>(),
+            0.05 + 1.9 * rng.random::<f32>(),
+            1.0,
+        );
+        let d = (t - eye).normalize();
+        here.push(Ray::new(eye, d));
+        there.push(Ray::new(eye + Vec3::new(offset, 0.0, offset), d));
+    }
+    let (a, b) = (at_origin.trace(&here, 1), moved.trace(&there, 2));
+    b.iter().for_each(|s| assert_sane(s, "moved"));
+    assert_same_mean(
+        &stats(&a),
+        &stats(&b),
+        z_for_two_sided(1e-4 / 3.0),
+        &format!("at the origin / {offset} m away"),
+    );
+}
+
+/// A kilometre away (f32 steps of 0.06 mm on the box's vertices): as at the origin.
+#[test]
+fn a_box_a_kilometre_away_is_lit_as_at_the_origin() {
+    a_moved_box_is_lit_as_at_the_origin(1e3);
+}
+
+/// 100 km away the scene's f32 vertices are 8 mm apart: the 0.5 m mirror box's surfaces
+/// shadow themselves and about a quarter of the light is lost (`holocave compare
+/// --offset 1e5,0,1e5`, README "Numerical range"). The tracer would need positions
+/// relative to a local origin (or f64) to pass; kept here, not loosened, until it has.
+#[test]
+#[ignore = "f32 positions 100 km from the origin lose light (README, Numerical range)"]
+fn a_box_a_hundred_kilometres_away_is_lit_as_at_the_origin() {
+    a_moved_box_is_lit_as_at_the_origin(1e5);
+}
+
 /// The Cornell walls are Lambertian, so the radiance leaving a point is the same in
 /// every direction: rays reaching floor points at 89.9° from the normal (0.1° above the
 /// floor) see what rays from straight above see (two-sample test as above). Rays lying
