@@ -168,51 +168,109 @@ pub fn tail(residuals: &[f64]) -> f64 {
     r * q / (1.0 - q) / propagated
 }
 
-/// The drawn irradiance: the light that arrived first (`first`: direct light with its
-/// sharp shadows, the sky through openings, caustics) as it is; the inter-reflected rest,
-/// smooth in nature but carrying the lines' sampling noise, averaged over each element's
-/// 3 × 3 neighbourhood of cells on its triangle side (a tent, weighted by area).
-pub fn smooth_indirect(
-    elements: &Elements,
-    area: &[f32],
-    first: &[[f32; 3]],
-    total: &[[f32; 3]],
-) -> Vec<[f32; 3]> {
-    let indirect: Vec<Vec3> = total
-        .iter()
-        .zip(first)
-        .map(|(t, d)| Vec3::from(*t) - Vec3::from(*d))
-        .collect();
-    let mut out = total.to_vec();
+/// Calls `f(e, neighbourhood)` for every element `e` with the 3 × 3 cells around it on
+/// its triangle side (itself included) and their tent weights: 4 at the centre, 2 at
+/// the sides, 1 at the corners.
+fn neighbourhoods(elements: &Elements, mut f: impl FnMut(usize, &[(usize, f32)])) {
+    let mut around = Vec::with_capacity(9);
     for cells in &elements.triangles {
         let r = cells.res as i64;
         for side in 0..2 {
             let base = cells.base(side);
             for j in 0..r {
                 for i in 0..r - j {
-                    let (mut sum, mut w) = (Vec3::ZERO, 0.0);
-                    for dj in -1..=1 {
-                        for di in -1..=1 {
+                    around.clear();
+                    for dj in -1..=1i64 {
+                        for di in -1..=1i64 {
                             let (ii, jj) = (i + di, j + dj);
                             if ii < 0 || jj < 0 || ii + jj > r - 1 {
                                 continue;
                             }
                             let e = (base + cell_index(ii as u32, jj as u32, r as u32)) as usize;
-                            // A tent: 4 at the centre, 2 at the sides, 1 at the corners.
                             let tent = f32::from(2u8 >> di.unsigned_abs())
                                 * f32::from(2u8 >> dj.unsigned_abs());
-                            sum += indirect[e] * area[e] * tent;
-                            w += area[e] * tent;
+                            around.push((e, tent));
                         }
                     }
-                    let e = (base + cell_index(i as u32, j as u32, r as u32)) as usize;
-                    if w > 0.0 {
-                        out[e] = (Vec3::from(first[e]) + sum / w).to_array();
-                    }
+                    f(
+                        (base + cell_index(i as u32, j as u32, r as u32)) as usize,
+                        &around,
+                    );
                 }
             }
         }
     }
+}
+
+/// The drawn irradiance: the light that must stay sharp (`sharp`: direct light with its
+/// shadows, caustics) as it is; the rest (the sky along the lines and the inter-reflected
+/// light), smooth in nature but carrying the lines' sampling noise, averaged over each
+/// element's 3 × 3 neighbourhood of cells on its triangle side (a tent, weighted by area).
+pub fn smooth_indirect(
+    elements: &Elements,
+    area: &[f32],
+    sharp: &[[f32; 3]],
+    total: &[[f32; 3]],
+) -> Vec<[f32; 3]> {
+    let indirect: Vec<Vec3> = total
+        .iter()
+        .zip(sharp)
+        .map(|(t, d)| Vec3::from(*t) - Vec3::from(*d))
+        .collect();
+    let mut out = total.to_vec();
+    neighbourhoods(elements, |e, around| {
+        let (mut sum, mut w) = (Vec3::ZERO, 0.0);
+        for &(n, tent) in around {
+            sum += indirect[n] * area[n] * tent;
+            w += area[n] * tent;
+        }
+        if w > 0.0 {
+            out[e] = (Vec3::from(sharp[e]) + sum / w).to_array();
+        }
+    });
+    out
+}
+
+/// The drawn glossy tiles: their sharp light (`sharp`: next-event samples with the exact
+/// BSDF, caustics) as it is; the rest, which came along the lines, averaged bin by bin
+/// over the tiles of each element's 3 × 3 neighbourhood (as [`smooth_indirect`]). A tile's
+/// bins see only the few line directions inside its lobe, and which lines of a direction
+/// hit a small element varies from element to element: unsmoothed, a glossy table top
+/// showed that as grain at the elements' scale.
+pub fn smooth_tiles(
+    elements: &Elements,
+    tiles: &Tiles,
+    area: &[f32],
+    sharp: &[[f32; 3]],
+    total: &[[f32; 3]],
+) -> Vec<[f32; 3]> {
+    let k = tiles.per_tile();
+    let mut out = total.to_vec();
+    if tiles.is_empty() {
+        return out;
+    }
+    let mut sum = vec![Vec3::ZERO; k];
+    neighbourhoods(elements, |e, around| {
+        let Some(g) = tiles.of(e as u32) else { return };
+        sum.iter_mut().for_each(|s| *s = Vec3::ZERO);
+        let mut w = 0.0;
+        for &(n, tent) in around {
+            let Some(h) = tiles.of(n as u32) else {
+                continue;
+            };
+            let at = h as usize * k;
+            for (b, s) in sum.iter_mut().enumerate() {
+                *s += (Vec3::from(total[at + b]) - Vec3::from(sharp[at + b])) * area[n] * tent;
+            }
+            w += area[n] * tent;
+        }
+        if w > 0.0 {
+            let at = g as usize * k;
+            for (b, s) in sum.iter().enumerate() {
+                out[at + b] = (Vec3::from(sharp[at + b]) + *s / w).to_array();
+            }
+        }
+    });
     out
 }
 
@@ -465,8 +523,7 @@ pub fn bake_with<E>(
     );
     stats.direct = start.elapsed();
     // The light that arrives first: direct light, the sky along the lines, what delta
-    // surfaces show (caustics). Computed again on resume (deterministic): the last step
-    // keeps it sharp and smooths only the inter-reflected light.
+    // surfaces show (caustics). Computed again on resume (deterministic).
     let start = Instant::now();
     let line_dirs = &directions.lines;
     let reflection = Reflection::new(&tiles);
@@ -497,6 +554,31 @@ pub fn bake_with<E>(
     };
     let first = add(&direct, &got.irradiance);
     let first_tiles = add(&direct_tiles, &got.tiles);
+    // Of that, what is drawn sharp: the direct light and what delta surfaces show of the
+    // emitters (caustics: the first bounce without the sky at the lines' ends). The sky
+    // along the lines is as noisy as the inter-reflected light (which lines of a
+    // direction hit a small element varies from element to element) and is smoothed
+    // with it.
+    let (sharp, sharp_tiles) = if subfields.iter().any(|s| !s.links.is_empty()) {
+        let no_ends = vec![(Vec3::ZERO, Vec3::ZERO); ends.len()];
+        let caustics = bounce(
+            &Lines {
+                ends: &no_ends,
+                ..lines
+            },
+            Sending {
+                radiance: &zero,
+                tiles: &zero_tiles,
+                first_bounce: true,
+            },
+        );
+        (
+            add(&direct, &caustics.irradiance),
+            add(&direct_tiles, &caustics.tiles),
+        )
+    } else {
+        (direct.clone(), direct_tiles.clone())
+    };
     stats.propagation += start.elapsed();
     let mut state = match resume {
         Some(s) => s,
@@ -522,7 +604,8 @@ pub fn bake_with<E>(
     while !state.converged {
         if tail(&state.residuals) < settings.tolerance || state.bounces >= settings.max_bounces {
             state.converged = true;
-            state.irradiance = smooth_indirect(elements, &area, &first, &state.irradiance);
+            state.irradiance = smooth_indirect(elements, &area, &sharp, &state.irradiance);
+            state.tiles = smooth_tiles(elements, &tiles, &area, &sharp_tiles, &state.tiles);
             save(&state)?;
             break;
         }
