@@ -18,7 +18,8 @@ pub enum Method {
     Trace,
     /// The same, averaged over frames while the view stays put, reset when it moves.
     Accumulate,
-    /// The render cache fed by the tracer (the budget is its samples per eye and frame).
+    /// The render cache fed by the tracer (the budget is its samples per eye and frame;
+    /// beyond one per pixel, paths averaged per sample).
     Cache,
     /// The render cache fed by a holodeck in this process, its tracer threads on the same
     /// cores and held to the budget: each frame they trace exactly the budget's rays
@@ -97,7 +98,11 @@ pub enum Drawer {
         /// Per eye: the view accumulated, the sum of its frames and how many.
         sums: Vec<Option<(WallView, Image, u32)>>,
     },
-    Cache(DisplayProcess),
+    /// The cache fed `paths` paths per sample.
+    Cache {
+        display: DisplayProcess,
+        paths: u32,
+    },
     /// The light field alone: a render cache used only for its light-field pass.
     Vlf {
         cache: RenderCache,
@@ -174,12 +179,12 @@ impl Drawer {
                     unspent: 0,
                 }
             }
-            Drawer::Cache(display) => {
+            Drawer::Cache { display, paths } => {
                 let report = display.frame(views, false);
                 let images = (0..views.len()).map(|e| display.cache.image(e)).collect();
                 Drawn {
                     images,
-                    rays: report.inserted as u64,
+                    rays: report.inserted as u64 * u64::from(*paths),
                     unspent: 0,
                 }
             }

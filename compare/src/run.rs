@@ -173,11 +173,15 @@ impl Compare<'_> {
                 spp,
                 sums: Vec::new(),
             },
-            Method::Cache => Drawer::Cache(DisplayProcess::new(
-                cache()?,
-                PixelTracer::new(tracer, 1),
-                s.budget,
-            )),
+            // One sample per pixel at most, each the mean of the paths the budget buys.
+            Method::Cache => Drawer::Cache {
+                display: DisplayProcess::new(
+                    cache()?,
+                    PixelTracer::new(tracer, 1).with_paths(spp),
+                    s.budget / spp,
+                ),
+                paths: spp,
+            },
             Method::Vlf => {
                 let mut cache = cache()?;
                 let base = self.vlf_base(s)?;

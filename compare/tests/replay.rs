@@ -209,3 +209,43 @@ fn the_holodeck_traces_the_budget_of_every_frame() {
         assert_eq!(r.rays, sum, "frame {}", r.frame);
     }
 }
+
+/// Every method spends the budget, also where it buys several paths per pixel: the render
+/// cache takes at most one sample per pixel and frame, so each of its samples is then the
+/// mean of the paths the budget buys (four here), and every eye chooses all its pixels.
+#[test]
+fn the_cache_spends_a_budget_of_several_paths_per_pixel() {
+    let cave = load_cave(&root().join("configs/cave4-cornell.toml")).unwrap();
+    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
+    let scene_path = root().join("scenes/cornell.gltf");
+    let scene = Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap());
+    let dir = tempfile::tempdir().unwrap();
+    let size = (16, 12);
+    let settings = Settings {
+        methods: vec![Method::Trace, Method::Cache],
+        fps: 30.0,
+        budget: 4 * size.0 * size.1,
+        every: 4,
+        size,
+        reference_spp: 4,
+        out: dir.path().to_path_buf(),
+        holodeck: None,
+        vlf: None,
+    };
+    let poses = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 5];
+    let compare = Compare {
+        cave: &cave,
+        wall,
+        scene,
+        scene_path: &scene_path,
+    };
+    let outcome = compare.run(&settings, &poses, &mut |_, _, _| {}).unwrap();
+    let grant = 2 * u64::from(settings.budget);
+    for method in ["trace", "cache"] {
+        let rays = &outcome.frame_rays.iter().find(|r| r.0 == method).unwrap().1;
+        assert_eq!(rays.len(), poses.len());
+        for (f, &(traced, unspent)) in rays.iter().enumerate() {
+            assert_eq!((traced, unspent), (grant, 0), "{method}, frame {f}");
+        }
+    }
+}

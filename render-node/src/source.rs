@@ -21,6 +21,8 @@ pub struct PixelTracer {
     tracer: Arc<Tracer>,
     rng: SmallRng,
     seed: u64,
+    /// Paths averaged into each sample.
+    paths: u32,
 }
 
 impl PixelTracer {
@@ -29,7 +31,16 @@ impl PixelTracer {
             tracer,
             rng: SmallRng::seed_from_u64(seed),
             seed,
+            paths: 1,
         }
+    }
+
+    /// Each sample the mean of `paths` paths from its eye ray (at least one): how a
+    /// budget of more rays than an eye has pixels is spent, since the cache takes at most
+    /// one sample per pixel and frame.
+    pub fn with_paths(mut self, paths: u32) -> Self {
+        self.paths = paths.max(1);
+        self
     }
 
     /// One sample per chosen pixel (index `y * width + x`), through a random point of the
@@ -45,7 +56,24 @@ impl PixelTracer {
             })
             .collect();
         self.seed = self.seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let samples = self.tracer.trace(&rays, self.seed);
+        let mut samples = self.tracer.trace(&rays, self.seed);
+        if self.paths > 1 {
+            // More paths of the same eye rays (their first hit, hence distance, is the
+            // same), averaged.
+            let mut sum: Vec<glam::Vec3> = samples
+                .iter()
+                .map(|s| glam::Vec3::from(s.radiance))
+                .collect();
+            for k in 1..self.paths {
+                let more = self.tracer.trace(&rays, self.seed ^ (u64::from(k) << 40));
+                for (t, m) in sum.iter_mut().zip(&more) {
+                    *t += glam::Vec3::from(m.radiance);
+                }
+            }
+            for (s, t) in samples.iter_mut().zip(&sum) {
+                s.radiance = (*t / self.paths as f32).to_array();
+            }
+        }
         let scene = self.tracer.scene();
         rays.par_iter()
             .zip(samples.par_iter())
