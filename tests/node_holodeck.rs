@@ -103,6 +103,19 @@ fn median_error(img: &Image, reference: &Image) -> f64 {
     f64::from(d[d.len() / 2])
 }
 
+/// The first of run 1's filled frames (`errors`: holes, relative MSE and median relative
+/// error of each) with at most `holes` black (or as few as run 1 ever had), its index
+/// among them and its median error.
+fn frames_run1_cover(errors: &[(f64, f64, f64)], holes: f64) -> (usize, f64) {
+    let fewest = errors.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
+    errors
+        .iter()
+        .enumerate()
+        .find(|(_, e)| e.0 <= holes.max(fewest))
+        .map(|(i, e)| (i, e.2))
+        .expect("run 1 has filled frames")
+}
+
 #[test]
 fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
     let dir = std::env::temp_dir().join(format!("holocave-node-hdk-{}", std::process::id()));
@@ -247,9 +260,16 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
         "{:.1}% of the lit pixels are black",
         h * 100.0
     );
+    // Showing the stored samples, not a few: at the same coverage, run 1 (filling from
+    // nothing) had only the few samples traced so far and was worse. Coverage-matched,
+    // because run 1's error at its end depends on how many frames and samples a machine
+    // manages in its 12 s, and the reopened view's first frame does not.
+    let (f1, m1) = frames_run1_cover(&errors, h);
     assert!(
-        m < 2.0 * late,
-        "median relative error {m:.3} at once after reopening, {late:.3} at the end of run 1"
+        m < m1,
+        "median relative error {m:.3} at once after reopening with {:.1}% holes; run 1 had \
+         {m1:.3} when it first had as few holes (filled frame {f1})",
+        h * 100.0
     );
     // The beams of later frames' pixels follow within the 2 s, still with no tracing.
     let end = median_error(&frames.last().unwrap().1, &reference);
@@ -275,8 +295,7 @@ const TOLERANCE: f64 = 0.02;
 /// run 1 ended with: with at least half as many, a pixel's noise (falling as 1/√n) is at
 /// most √2 ≈ 1.41 times run 1's, and the median over the box's ~660 lit pixels moves by a
 /// few percent more from frame to frame (1.41 × 1.05 ≈ 1.5). Seen: 1.1 to 1.3. A view
-/// that lost the stored samples, or most of them, shows 2× or worse (the first frame's
-/// bound above).
+/// that lost the stored samples, or most of them, shows 2× or worse.
 const REOPENED_ERROR_RATIO: f64 = 1.5;
 /// Largest fraction of the reference's lit pixels allowed to be black in any frame once
 /// samples arrive (the first frames have the beams of the first requests: 12% seen).
