@@ -3,7 +3,7 @@
 //! file is written, and path tracing with the references' own budget is as far from a
 //! reference as two references are from each other.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::Quat;
@@ -16,27 +16,46 @@ fn root() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
 }
 
-#[test]
-fn trace_at_the_references_budget_reaches_its_reference_and_every_file_is_written() {
+/// The Cornell box's CAVE and scene.
+fn cornell() -> (holocave_cave::Cave, PathBuf, Arc<Scene>) {
     let cave = load_cave(&root().join("configs/cave4-cornell.toml")).unwrap();
-    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
     let scene_path = root().join("scenes/cornell.gltf");
     let scene = Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap());
-    let dir = tempfile::tempdir().unwrap();
-    let size = (16, 12);
-    const REFERENCE_SPP: u32 = 64;
-    let settings = Settings {
-        methods: vec![Method::Trace],
+    (cave, scene_path, scene)
+}
+
+/// A comparison of `methods` at 16 × 12 per eye and 30 Hz, written to `out`.
+fn settings(
+    methods: Vec<Method>,
+    budget: u32,
+    every: u64,
+    reference_spp: u32,
+    out: &Path,
+) -> Settings {
+    Settings {
+        methods,
         fps: 30.0,
-        // The references' own budget: every pixel gets as many paths as a reference's.
-        budget: size.0 * size.1 * REFERENCE_SPP,
-        every: 2,
-        size,
-        reference_spp: REFERENCE_SPP,
-        out: dir.path().to_path_buf(),
+        budget,
+        every,
+        size: SIZE,
+        reference_spp,
+        out: out.to_path_buf(),
         holodeck: None,
         vlf: None,
-    };
+    }
+}
+
+const SIZE: (u32, u32) = (16, 12);
+
+#[test]
+fn trace_at_the_references_budget_reaches_its_reference_and_every_file_is_written() {
+    let (cave, scene_path, scene) = cornell();
+    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    const REFERENCE_SPP: u32 = 64;
+    // The references' own budget: every pixel gets as many paths as a reference's.
+    let budget = SIZE.0 * SIZE.1 * REFERENCE_SPP;
+    let settings = settings(vec![Method::Trace], budget, 2, REFERENCE_SPP, dir.path());
     let poses = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 5];
     let compare = Compare {
         cave: &cave,
@@ -105,21 +124,12 @@ fn trace_at_the_references_budget_reaches_its_reference_and_every_file_is_writte
 
 #[test]
 fn a_trace_outside_the_cave_and_an_empty_method_list_are_named() {
-    let cave = load_cave(&root().join("configs/cave4-cornell.toml")).unwrap();
+    let (cave, scene_path, scene) = cornell();
     let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
-    let scene_path = root().join("scenes/cornell.gltf");
-    let scene = Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap());
     let dir = tempfile::tempdir().unwrap();
     let mut settings = Settings {
-        methods: vec![],
-        fps: 30.0,
-        budget: 64,
-        every: 1,
         size: (8, 8),
-        reference_spp: 4,
-        out: dir.path().to_path_buf(),
-        holodeck: None,
-        vlf: None,
+        ..settings(vec![], 64, 1, 4, dir.path())
     };
     let compare = Compare {
         cave: &cave,
@@ -151,24 +161,12 @@ fn a_trace_outside_the_cave_and_an_empty_method_list_are_named() {
 /// rays are taken from the allowance ray by ray, so there is no rounding to a packet.
 #[test]
 fn the_holodeck_traces_the_budget_of_every_frame() {
-    let cave = load_cave(&root().join("configs/cave4-cornell.toml")).unwrap();
+    let (cave, scene_path, scene) = cornell();
     let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
-    let scene_path = root().join("scenes/cornell.gltf");
-    let scene = Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap());
     let dir = tempfile::tempdir().unwrap();
-    let size = (16, 12);
-    let settings = Settings {
-        methods: vec![Method::Trace, Method::Holodeck],
-        fps: 30.0,
-        // One path per pixel and eye.
-        budget: size.0 * size.1,
-        every: 4,
-        size,
-        reference_spp: 4,
-        out: dir.path().to_path_buf(),
-        holodeck: None,
-        vlf: None,
-    };
+    // One path per pixel and eye.
+    let methods = vec![Method::Trace, Method::Holodeck];
+    let settings = settings(methods, SIZE.0 * SIZE.1, 4, 4, dir.path());
     // The head walks 2 cm a frame (0.6 m/s) across the CAVE: new views every frame.
     let poses: Vec<Pose> = (0..12)
         .map(|f| {
@@ -215,23 +213,11 @@ fn the_holodeck_traces_the_budget_of_every_frame() {
 /// mean of the paths the budget buys (four here), and every eye chooses all its pixels.
 #[test]
 fn the_cache_spends_a_budget_of_several_paths_per_pixel() {
-    let cave = load_cave(&root().join("configs/cave4-cornell.toml")).unwrap();
+    let (cave, scene_path, scene) = cornell();
     let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
-    let scene_path = root().join("scenes/cornell.gltf");
-    let scene = Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap());
     let dir = tempfile::tempdir().unwrap();
-    let size = (16, 12);
-    let settings = Settings {
-        methods: vec![Method::Trace, Method::Cache],
-        fps: 30.0,
-        budget: 4 * size.0 * size.1,
-        every: 4,
-        size,
-        reference_spp: 4,
-        out: dir.path().to_path_buf(),
-        holodeck: None,
-        vlf: None,
-    };
+    let methods = vec![Method::Trace, Method::Cache];
+    let settings = settings(methods, 4 * SIZE.0 * SIZE.1, 4, 4, dir.path());
     let poses = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 5];
     let compare = Compare {
         cave: &cave,
