@@ -233,6 +233,9 @@ pub struct RenderCache {
     eyes: Vec<EyeBuffers>,
     passes: Passes,
     vlf: Option<VlfBuffers>,
+    /// Scratch for [`exactly`]: one flag per pixel of the largest eye, all false between
+    /// frames.
+    taken: Vec<bool>,
 }
 
 fn groups(n: u32, size: u32) -> u32 {
@@ -409,6 +412,7 @@ impl RenderCache {
             eyes,
             passes,
             vlf: None,
+            taken: Vec::new(),
         }
     }
 
@@ -566,31 +570,32 @@ impl RenderCache {
             enc.copy_buffer_to_buffer(&e.chosen, 0, &e.staging, 16, 4 * u64::from(self.max_chosen));
         }
         r.submit();
+        let (gpu, max_chosen, frame) = (&self.gpu, self.max_chosen, self.frame);
+        let taken = &mut self.taken;
         let chosen: Vec<Vec<u32>> = self
             .eyes
-            .iter()
+            .iter_mut()
             .enumerate()
             .map(|(i, e)| {
-                let bytes = self.gpu.map_read(&e.staging);
-                if bytes.len() < 16 {
-                    return Vec::new();
-                }
+                let bytes = gpu.map_read(&e.staging);
                 let words: &[u32] = bytemuck::cast_slice(&bytes);
-                let count = (words[1] as usize).min(self.max_chosen as usize);
-                let mut chosen = words[4..4 + count].to_vec();
-                let target = targets.get(i).copied().unwrap_or(0).min(self.max_chosen);
-                exactly(
-                    &mut chosen,
-                    target,
-                    e.width * e.height,
-                    self.frame ^ ((i as u32) << 16),
-                );
+                let mut chosen = match words {
+                    [_, count, _, _, list @ ..] => {
+                        list[..(*count as usize).min(max_chosen as usize)].to_vec()
+                    }
+                    _ => {
+                        // No read-back (a lost device): nothing chosen.
+                        e.last_chosen.clear();
+                        return Vec::new();
+                    }
+                };
+                let target = targets.get(i).copied().unwrap_or(0).min(max_chosen);
+                let seed = frame ^ ((i as u32) << 16);
+                exactly(&mut chosen, target, e.width * e.height, taken, seed);
+                e.last_chosen.clone_from(&chosen);
                 chosen
             })
             .collect();
-        for (e, c) in self.eyes.iter_mut().zip(&chosen) {
-            e.last_chosen.clone_from(c);
-        }
         r.step(&mut times.readback);
         chosen
     }
@@ -690,13 +695,17 @@ impl RenderCache {
 /// priority asks for more than its pixels, the excess is lost, and a budget near one
 /// sample per pixel came out about half spent. The rest goes to pixels not yet chosen,
 /// spread evenly from a start that moves with `seed`.
-fn exactly(chosen: &mut Vec<u32>, target: u32, pixels: u32, seed: u32) {
+fn exactly(chosen: &mut Vec<u32>, target: u32, pixels: u32, taken: &mut Vec<bool>, seed: u32) {
     let target = target.min(pixels) as usize;
     if chosen.len() >= target {
         chosen.truncate(target);
         return;
     }
-    let mut taken = vec![false; pixels as usize];
+    // `taken` is all false on entry, and left so: only the chosen pixels are set, and
+    // they are cleared again at the end.
+    if taken.len() < pixels as usize {
+        taken.resize(pixels as usize, false);
+    }
     for &p in chosen.iter() {
         if let Some(t) = taken.get_mut(p as usize) {
             *t = true;
@@ -719,6 +728,11 @@ fn exactly(chosen: &mut Vec<u32>, target: u32, pixels: u32, seed: u32) {
             chosen.push(p as u32);
         }
     }
+    for &p in chosen.iter() {
+        if let Some(t) = taken.get_mut(p as usize) {
+            *t = false;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -730,12 +744,15 @@ mod tests {
     /// target is cut to it.
     #[test]
     fn a_choice_is_made_exactly_the_target_with_new_pixels() {
-        for pixels in [1u32, 7, 12_288, 7919 * 3] {
+        // One scratch for every size, as the cache's eyes share it.
+        let mut taken = Vec::new();
+        for pixels in [7919u32 * 3, 1, 7, 12_288] {
             let mut chosen = vec![0, pixels / 2, pixels - 1];
             chosen.dedup();
             let before = chosen.clone();
             let target = pixels.min(1000) * 3 / 4 + 1;
-            exactly(&mut chosen, target, pixels, 5);
+            exactly(&mut chosen, target, pixels, &mut taken, 5);
+            assert!(!taken.contains(&true), "scratch left clean");
             assert_eq!(chosen.len(), target.max(before.len() as u32) as usize);
             assert_eq!(chosen[..before.len()], before[..]);
             let mut sorted = chosen.clone();
@@ -745,11 +762,11 @@ mod tests {
             assert!(chosen.iter().all(|&p| p < pixels));
         }
         let mut all = vec![3];
-        exactly(&mut all, 100, 64, 9);
+        exactly(&mut all, 100, 64, &mut Vec::new(), 9);
         assert_eq!(all.len(), 64);
         // More than enough: cut to the target, first listed kept.
         let mut over = vec![1, 2, 3];
-        exactly(&mut over, 2, 64, 9);
+        exactly(&mut over, 2, 64, &mut Vec::new(), 9);
         assert_eq!(over, vec![1, 2]);
     }
 }

@@ -11,8 +11,8 @@ use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCach
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
-use holocave_vlf::file::{VlfFile, fingerprint};
-use holocave_vlf::{Settings, layout, view::shade};
+use holocave_vlf::file::VlfFile;
+use holocave_vlf::{Settings, view::shade};
 
 fn cornell_scene() -> Scene {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -41,15 +41,9 @@ fn baked(scene: &Arc<Scene>, settings: &Settings, dir: &std::path::Path) -> VlfB
     let path = dir.join("cornell.vlf");
     let (state, _) = holocave_vlf::bake(scene, settings, None, &|_| {}, &mut |_| Ok::<(), ()>(()))
         .expect("bake");
-    VlfFile {
-        scene: scene.name.clone(),
-        fingerprint: fingerprint(scene),
-        settings: *settings,
-        element_size: layout(scene, settings).element_size,
-        state,
-    }
-    .write(&path)
-    .expect("write the light field");
+    VlfFile::of(scene, *settings, state)
+        .write(&path)
+        .expect("write the light field");
     VlfBase::open(&path, scene.clone()).expect("open the light field")
 }
 

@@ -559,7 +559,7 @@ pub fn bake_with<E>(
     // along the lines is as noisy as the inter-reflected light (which lines of a
     // direction hit a small element varies from element to element) and is smoothed
     // with it.
-    let (sharp, sharp_tiles) = if subfields.iter().any(|s| !s.links.is_empty()) {
+    let caustics = subfields.iter().any(|s| !s.links.is_empty()).then(|| {
         let no_ends = vec![(Vec3::ZERO, Vec3::ZERO); ends.len()];
         let caustics = bounce(
             &Lines {
@@ -576,8 +576,12 @@ pub fn bake_with<E>(
             add(&direct, &caustics.irradiance),
             add(&direct_tiles, &caustics.tiles),
         )
-    } else {
-        (direct.clone(), direct_tiles.clone())
+    });
+    // Without mirrors or glass, the direct light itself (not a copy: the tiles' can be a
+    // gigabyte).
+    let (sharp, sharp_tiles): (&[[f32; 3]], &[[f32; 3]]) = match &caustics {
+        Some((e, t)) => (e, t),
+        None => (&direct, &direct_tiles),
     };
     stats.propagation += start.elapsed();
     let mut state = match resume {
@@ -604,8 +608,8 @@ pub fn bake_with<E>(
     while !state.converged {
         if tail(&state.residuals) < settings.tolerance || state.bounces >= settings.max_bounces {
             state.converged = true;
-            state.irradiance = smooth_indirect(elements, &area, &sharp, &state.irradiance);
-            state.tiles = smooth_tiles(elements, &tiles, &area, &sharp_tiles, &state.tiles);
+            state.irradiance = smooth_indirect(elements, &area, sharp, &state.irradiance);
+            state.tiles = smooth_tiles(elements, &tiles, &area, sharp_tiles, &state.tiles);
             save(&state)?;
             break;
         }

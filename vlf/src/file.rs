@@ -118,6 +118,18 @@ fn put_f32s(out: &mut Vec<u8>, v: &[[f32; 3]]) {
 }
 
 impl VlfFile {
+    /// The file of bake state `state` of `scene` with `settings` (fingerprinting the scene
+    /// and laying out its elements: a bake that saves every bounce keeps both instead).
+    pub fn of(scene: &Scene, settings: Settings, state: State) -> VlfFile {
+        VlfFile {
+            scene: scene.name.clone(),
+            fingerprint: fingerprint(scene),
+            settings,
+            element_size: crate::bake::layout(scene, &settings).element_size,
+            state,
+        }
+    }
+
     fn meta(&self) -> Vec<u8> {
         let mut m = Vec::new();
         m.extend_from_slice(&self.fingerprint.to_le_bytes());

@@ -8,8 +8,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use holocave_scene::{LoadOptions, Scene};
-use holocave_vlf::file::fingerprint;
-use holocave_vlf::{Settings, State, VlfFile, bake, layout};
+use holocave_vlf::{Settings, State, VlfFile, bake};
 
 fn cornell() -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell.gltf");
@@ -83,13 +82,7 @@ fn glossy_bakes_are_bit_identical_on_any_threads_and_when_resumed() {
     // Killed after bounce 1, saved through the file, resumed.
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("glossy.vlf");
-    let file = |state: &State| VlfFile {
-        scene: scene.name.clone(),
-        fingerprint: fingerprint(&scene),
-        settings,
-        element_size: layout(&scene, &settings).element_size,
-        state: state.clone(),
-    };
+    let file = |state: &State| VlfFile::of(&scene, settings, state.clone());
     let e = bake(&scene, &settings, None, &|_| {}, &mut |s: &State| {
         file(s).write(&path).unwrap();
         if s.bounces == 1 {
@@ -118,13 +111,7 @@ fn a_killed_bake_resumes_to_the_same_state() {
     let settings = settings();
     let (whole, _) = common::bake_quiet(&scene, &settings);
     assert!(whole.bounces >= 4, "{}", whole.bounces);
-    let file = |state: &State| VlfFile {
-        scene: scene.name.clone(),
-        fingerprint: fingerprint(&scene),
-        settings,
-        element_size: layout(&scene, &settings).element_size,
-        state: state.clone(),
-    };
+    let file = |state: &State| VlfFile::of(&scene, settings, state.clone());
 
     // Killed after bounce 0 (direct light only), in the middle, and after the last bounce
     // but before the converged state was saved.

@@ -30,13 +30,7 @@ fn furnace(name: &str, rho: f32) -> Scene {
 fn baked(scene: &Scene) -> VlfFile {
     let settings = settings();
     let (state, _) = common::bake_quiet(scene, &settings);
-    VlfFile {
-        scene: scene.name.clone(),
-        fingerprint: fingerprint(scene),
-        settings,
-        element_size: layout(scene, &settings).element_size,
-        state,
-    }
+    VlfFile::of(scene, settings, state)
 }
 
 /// The chunks of a file as written: (tag, offset of its header, payload length).
