@@ -22,7 +22,7 @@ use obvhs::{BvhBuildParams, cwbvh::builder::build_cwbvh_from_tris, triangle::Tri
 use crate::ray::{Hit, Ray};
 pub use packet::PACKET;
 pub use triangle::EDGE_TOLERANCE;
-use triangle::IsectTriangle;
+use triangle::{BlockRay, IsectTriangle, TriangleBlock};
 use wide_node::{BoxRay, Child, WideNode, safe_inverse};
 
 /// Children a traversal may hold back per level: all but the one it descends into.
@@ -50,9 +50,10 @@ impl Waiting {
 /// The BVH and its triangles, stored in the BVH's leaf order.
 pub struct Bvh {
     nodes: Vec<WideNode>,
-    /// Triangles in leaf order (a triangle may appear more than once with spatial splits).
-    triangles: Vec<IsectTriangle>,
-    /// For each leaf-order slot, the caller's triangle index.
+    /// Each leaf's triangles, in the order the leaves are first met breadth first (a
+    /// triangle may appear in more than one leaf with spatial splits).
+    blocks: Vec<TriangleBlock>,
+    /// For each block's lanes (slot `4 · block + lane`), the caller's triangle index.
     original: Vec<u32>,
     /// The most entries a traversal's stack can hold.
     stack_size: usize,
@@ -87,9 +88,9 @@ impl Bvh {
             })
             .collect();
         let mut core = Duration::ZERO;
-        let cw = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut core);
-        let original = cw.primitive_indices.clone();
-        let triangles: Vec<IsectTriangle> = original
+        let cw = build_cwbvh_from_tris(&tris, BvhBuildParams::slow_build(), &mut core);
+        let triangles: Vec<IsectTriangle> = cw
+            .primitive_indices
             .iter()
             .map(|&i| {
                 let t = &tris[i as usize];
@@ -100,14 +101,28 @@ impl Bvh {
                 }
             })
             .collect();
-        let (nodes, depth) = wide_node::unpack(&cw, |slot| triangles[slot].bounds());
+        let mut blocks = Vec::new();
+        let mut original = Vec::new();
+        let (nodes, depth) = wide_node::unpack(
+            &cw,
+            |slot| {
+                let (min, max) = triangles[slot].bounds();
+                (min, max, triangles[slot].pad())
+            },
+            |slots| {
+                blocks.push(TriangleBlock::new(&triangles[slots.clone()]));
+                original.extend(slots.clone().map(|s| cw.primitive_indices[s]));
+                original.extend((slots.len()..4).map(|_| u32::MAX));
+                (blocks.len() - 1) as u32
+            },
+        );
         let size = nodes.first().map_or(0.0, |root| {
             let (min, max) = root.bounds();
             min.distance(max)
         });
         Self {
             nodes,
-            triangles,
+            blocks,
             original,
             stack_size: depth * PENDING_PER_LEVEL + 1,
             size,
@@ -140,8 +155,8 @@ impl Bvh {
     }
 
     /// Visits the tree nearest child first. `enter(node, bound)` says which of a node's
-    /// children to enter and at what distance; `leaf(parent, slot, triangles)` tests a
-    /// leaf's triangles (the parent node and slot are there for a caller that tests the
+    /// children to enter and at what distance; `leaf(parent, slot, (block, count))` tests
+    /// a leaf's triangles (the parent node and slot are there for a caller that tests the
     /// leaf's box again) and returns the new bound. A child entered beyond the bound is
     /// skipped.
     #[inline(always)]
@@ -149,7 +164,7 @@ impl Bvh {
         &self,
         mut bound: f32,
         mut enter: impl FnMut(&WideNode, f32) -> (u32, [f32; 8]),
-        mut leaf: impl FnMut(&WideNode, usize, std::ops::Range<usize>) -> f32,
+        mut leaf: impl FnMut(&WideNode, usize, (usize, usize)) -> f32,
     ) {
         if self.nodes.is_empty() {
             return;
@@ -165,7 +180,7 @@ impl Bvh {
                     let slot = mask.trailing_zeros() as usize;
                     match node.children[slot].as_node() {
                         Some(child) => next = Some(child),
-                        None => bound = leaf(node, slot, node.children[slot].leaf_slots()),
+                        None => bound = leaf(node, slot, node.children[slot].leaf_block()),
                     }
                 } else if mask != 0 {
                     // Order the children entered by entry distance. Entry distances are
@@ -202,7 +217,7 @@ impl Bvh {
                             break;
                         }
                         if distance(key) <= bound {
-                            bound = leaf(node, slot, node.children[slot].leaf_slots());
+                            bound = leaf(node, slot, node.children[slot].leaf_block());
                         }
                     }
                     if first_inner < n {
@@ -246,7 +261,7 @@ impl Bvh {
                         }
                         None => {
                             let parent = &self.nodes[w.parent as usize];
-                            bound = leaf(parent, w.slot as usize, w.child.leaf_slots());
+                            bound = leaf(parent, w.slot as usize, w.child.leaf_block());
                         }
                     }
                 }
@@ -254,7 +269,8 @@ impl Bvh {
         })
     }
 
-    /// The hit of a leaf-order slot, in the caller's triangle numbering; `(u, v)` are
+    /// The hit of a block's lane (slot `4 · block + lane`), in the caller's triangle
+    /// numbering; `(u, v)` are
     /// clamped back into the triangle (the test accepts points just outside it).
     fn hit(&self, slot: usize, t: f32, u: f32, v: f32) -> Hit {
         let (u, v) = (u.max(0.0), v.max(0.0));
@@ -271,18 +287,18 @@ impl Bvh {
     pub fn closest_hit(&self, ray: &Ray, tmax: f32) -> Option<Hit> {
         let (origin, dir) = usable(ray, tmax)?;
         let box_ray = BoxRay::new(origin, safe_inverse(dir));
+        let block_ray = BlockRay::new(origin, dir);
         let mut best: Option<(usize, f32, f32, f32)> = None;
         let mut tmax = tmax;
         self.walk_nearest_first(
             tmax,
             |node, bound| node.intersect(&box_ray, bound),
-            |_, _, slots| {
-                for slot in slots {
-                    let (t, u, v) = self.triangles[slot].intersect(origin, dir, tmax);
-                    if t < tmax {
-                        tmax = t;
-                        best = Some((slot, t, u, v));
-                    }
+            |_, _, (block, _)| {
+                if let Some((lane, t, u, v)) =
+                    self.blocks[block].intersect(&block_ray, tmax).nearest()
+                {
+                    tmax = t;
+                    best = Some((4 * block + lane, t, u, v));
                 }
                 tmax
             },
@@ -290,8 +306,8 @@ impl Bvh {
         best.map(|(slot, t, u, v)| self.hit(slot, t, u, v))
     }
 
-    /// Visits every leaf slot whose triangle's box the ray enters before `tmax`, in no
-    /// particular order, until `leaf(slot)` returns true (then returns true).
+    /// Visits every leaf whose box the ray enters before `tmax`, in no particular order,
+    /// until `leaf(block)` returns true (then returns true).
     #[inline(always)]
     fn walk_any_order(
         &self,
@@ -316,7 +332,7 @@ impl Bvh {
                         stack[len].child = self.nodes[index].children[slot];
                         len += 1;
                     }
-                } else if child.leaf_slots().any(&mut leaf) {
+                } else if leaf(child.leaf_block().0) {
                     return true;
                 }
             }
@@ -333,10 +349,15 @@ impl Bvh {
             return;
         };
         let box_ray = BoxRay::new(origin, safe_inverse(dir));
-        self.walk_any_order(&box_ray, tmax, |slot| {
-            let (t, u, v) = self.triangles[slot].intersect(origin, dir, tmax);
-            if t < tmax {
-                hits.push(self.hit(slot, t, u, v));
+        let block_ray = BlockRay::new(origin, dir);
+        self.walk_any_order(&box_ray, tmax, |block| {
+            let found = self.blocks[block].intersect(&block_ray, tmax);
+            let mut lanes = found.lanes;
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let (t, u, v) = (found.t[lane], found.u[lane], found.v[lane]);
+                hits.push(self.hit(4 * block + lane, t, u, v));
             }
             false
         });
@@ -352,8 +373,9 @@ impl Bvh {
             return false;
         };
         let box_ray = BoxRay::new(origin, safe_inverse(dir));
-        self.walk_any_order(&box_ray, tmax, |slot| {
-            self.triangles[slot].intersect(origin, dir, tmax).0 < tmax
+        let block_ray = BlockRay::new(origin, dir);
+        self.walk_any_order(&box_ray, tmax, |block| {
+            self.blocks[block].intersect(&block_ray, tmax).lanes != 0
         })
     }
 }

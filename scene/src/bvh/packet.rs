@@ -213,7 +213,7 @@ impl Bvh {
             self.walk_nearest_first(
                 tmax,
                 |node, bound| node.intersect_interval(&interval, bound),
-                |node, child, slots| {
+                |node, child, (block, count)| {
                     let (min, max) = node.child_box(child);
                     let (near, far) = (
                         Vec3A::select(negative, max, min),
@@ -221,8 +221,9 @@ impl Bvh {
                     );
                     for group in groups.iter_mut() {
                         if group.enters(near, far) {
-                            for slot in slots.clone() {
-                                group.intersect(&self.triangles[slot], slot);
+                            for lane in 0..count {
+                                let triangle = self.blocks[block].lane(lane);
+                                group.intersect(&triangle, 4 * block + lane);
                             }
                         }
                     }

@@ -5,8 +5,12 @@
 //! are therefore widened by [`EDGE_TOLERANCE`] (far above the rounding error, far below
 //! anything visible); the BVH clamps the barycentrics of the hit it keeps back into the
 //! triangle.
+//!
+//! A leaf's triangles (up to four) are stored as one [`TriangleBlock`], in
+//! structure-of-arrays form, and a single ray meets all four in one pass of four-wide
+//! operations, with no branch per triangle.
 
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 
 /// How far outside `[0, 1]` a barycentric may fall and still hit: 50 times the rounding
 /// error seen on shared edges, i.e. 10 µm on a 1 m triangle.
@@ -21,50 +25,146 @@ pub(super) struct IsectTriangle {
 }
 
 impl IsectTriangle {
-    /// Möller–Trumbore. Returns `(t, u, v)`; `t` is infinite on a miss, and `(u, v)` may lie up to the
-    /// tolerance outside the triangle. Written so that
-    /// any NaN along the way is a miss.
-    #[inline(always)]
-    pub fn intersect(&self, origin: Vec3A, dir: Vec3A, tmax: f32) -> (f32, f32, f32) {
-        const MISS: (f32, f32, f32) = (f32::INFINITY, 0.0, 0.0);
-        let p = dir.cross(self.e2);
-        let det = self.e1.dot(p);
-        if det == 0.0 {
-            return MISS;
-        }
-        let inv = 1.0 / det;
-        let s = origin - self.v0;
-        let u = s.dot(p) * inv;
-        if !(-EDGE_TOLERANCE..=1.0 + EDGE_TOLERANCE).contains(&u) {
-            return MISS;
-        }
-        let q = s.cross(self.e1);
-        let v = dir.dot(q) * inv;
-        if !(v >= -EDGE_TOLERANCE && u + v <= 1.0 + EDGE_TOLERANCE) {
-            return MISS;
-        }
-        let t = self.e2.dot(q) * inv;
-        if !(t >= 0.0 && t < tmax) {
-            return MISS;
-        }
-        (t, u, v)
-    }
-}
-
-impl IsectTriangle {
     /// The box around every point the widened test accepts: the triangle's box grown by
     /// the tolerance along its edges, and by a few ulps of its coordinates for rounding.
     pub fn bounds(&self) -> (Vec3A, Vec3A) {
+        let (min, max) = self.tight_bounds();
+        let pad = self.pad();
+        (min - pad, max + pad)
+    }
+
+    /// The box around the three vertices.
+    fn tight_bounds(&self) -> (Vec3A, Vec3A) {
         let (a, b, c) = (self.v0, self.v0 + self.e1, self.v0 + self.e2);
-        let min = a.min(b).min(c);
-        let max = a.max(b).max(c);
+        (a.min(b).min(c), a.max(b).max(c))
+    }
+
+    /// How far the widened test reaches beyond the triangle, per axis.
+    pub fn pad(&self) -> Vec3A {
+        let (min, max) = self.tight_bounds();
         let edge = self
             .e1
             .abs()
             .max(self.e2.abs())
             .max((self.e2 - self.e1).abs());
         let magnitude = min.abs().max(max.abs());
-        let pad = edge * (2.0 * EDGE_TOLERANCE) + magnitude * (4.0 * f32::EPSILON);
-        (min - pad, max + pad)
+        edge * (2.0 * EDGE_TOLERANCE) + magnitude * (4.0 * f32::EPSILON)
+    }
+}
+
+/// Up to four triangles, lane by lane; an unused lane is all zeros (its determinant is
+/// zero, so every ray misses it).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub(super) struct TriangleBlock {
+    v0: [Vec4; 3],
+    e1: [Vec4; 3],
+    e2: [Vec4; 3],
+}
+
+/// A ray spread over four lanes, for [`TriangleBlock::intersect`].
+pub(super) struct BlockRay {
+    origin: [Vec4; 3],
+    dir: [Vec4; 3],
+}
+
+impl BlockRay {
+    pub fn new(origin: Vec3A, dir: Vec3A) -> Self {
+        let splat = |v: Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
+        Self {
+            origin: splat(origin),
+            dir: splat(dir),
+        }
+    }
+}
+
+/// What a ray met in a block: per lane the distance (infinite on a miss) and the
+/// barycentrics, and the lanes hit as bits.
+pub(super) struct BlockHits {
+    pub t: Vec4,
+    pub u: Vec4,
+    pub v: Vec4,
+    pub lanes: u32,
+}
+
+impl BlockHits {
+    /// The nearest lane hit, if any, with its `(t, u, v)`.
+    #[inline(always)]
+    pub fn nearest(&self) -> Option<(usize, f32, f32, f32)> {
+        if self.lanes == 0 {
+            return None;
+        }
+        let t = self.t.min_element();
+        let lane = (self.t.cmpeq(Vec4::splat(t)).bitmask() & self.lanes).trailing_zeros() as usize;
+        Some((lane, t, self.u[lane], self.v[lane]))
+    }
+}
+
+impl TriangleBlock {
+    /// The block of `triangles` (one to four).
+    pub fn new(triangles: &[IsectTriangle]) -> Self {
+        debug_assert!((1..=4).contains(&triangles.len()));
+        let mut block = TriangleBlock {
+            v0: [Vec4::ZERO; 3],
+            e1: [Vec4::ZERO; 3],
+            e2: [Vec4::ZERO; 3],
+        };
+        for (lane, tri) in triangles.iter().enumerate() {
+            for axis in 0..3 {
+                block.v0[axis][lane] = tri.v0[axis];
+                block.e1[axis][lane] = tri.e1[axis];
+                block.e2[axis][lane] = tri.e2[axis];
+            }
+        }
+        block
+    }
+
+    /// One lane's triangle.
+    #[inline(always)]
+    pub fn lane(&self, lane: usize) -> IsectTriangle {
+        let get = |p: &[Vec4; 3]| Vec3A::new(p[0][lane], p[1][lane], p[2][lane]);
+        IsectTriangle {
+            v0: get(&self.v0),
+            e1: get(&self.e1),
+            e2: get(&self.e2),
+        }
+    }
+
+    /// Möller–Trumbore for the four lanes at once, with the single-triangle test's
+    /// tolerance and miss rules (any NaN is a miss).
+    #[inline(always)]
+    pub fn intersect(&self, ray: &BlockRay, tmax: f32) -> BlockHits {
+        let [dx, dy, dz] = ray.dir;
+        let [e1x, e1y, e1z] = self.e1;
+        let [e2x, e2y, e2z] = self.e2;
+        let px = dy * e2z - dz * e2y;
+        let py = dz * e2x - dx * e2z;
+        let pz = dx * e2y - dy * e2x;
+        let det = e1x * px + e1y * py + e1z * pz;
+        let inv = Vec4::ONE / det;
+        let sx = ray.origin[0] - self.v0[0];
+        let sy = ray.origin[1] - self.v0[1];
+        let sz = ray.origin[2] - self.v0[2];
+        let u = (sx * px + sy * py + sz * pz) * inv;
+        let qx = sy * e1z - sz * e1y;
+        let qy = sz * e1x - sx * e1z;
+        let qz = sx * e1y - sy * e1x;
+        let v = (dx * qx + dy * qy + dz * qz) * inv;
+        let t = (e2x * qx + e2y * qy + e2z * qz) * inv;
+        let low = Vec4::splat(-EDGE_TOLERANCE);
+        let high = Vec4::splat(1.0 + EDGE_TOLERANCE);
+        let hit = det.cmpne(Vec4::ZERO)
+            & u.cmpge(low)
+            & u.cmple(high)
+            & v.cmpge(low)
+            & (u + v).cmple(high)
+            & t.cmpge(Vec4::ZERO)
+            & t.cmplt(Vec4::splat(tmax));
+        BlockHits {
+            t: Vec4::select(hit, t, Vec4::INFINITY),
+            u,
+            v,
+            lanes: hit.bitmask(),
+        }
     }
 }

@@ -18,7 +18,7 @@ pub(super) struct Child(u32);
 
 const LEAF: u32 = 1 << 31;
 /// The most triangles in a leaf made from a node of leaves (see [`unpack`]).
-const COLLAPSE: usize = 6;
+const COLLAPSE: usize = 4;
 const COUNT_SHIFT: u32 = 27;
 const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
 
@@ -30,7 +30,8 @@ impl Child {
         Child(index)
     }
 
-    /// `count` triangles (1 to 15) starting at leaf-order slot `first`.
+    /// `count` triangles (1 to 15) starting at leaf-order slot `first` while the tree is
+    /// unpacked; once compacted, `count` lanes (1 to 4) of triangle block `first`.
     fn leaf(first: u32, count: u32) -> Child {
         debug_assert!((1..=15).contains(&count) && first <= FIRST_MASK);
         Child(LEAF | (count << COUNT_SHIFT) | first)
@@ -42,9 +43,16 @@ impl Child {
         (self.0 & LEAF == 0).then_some(self.0 as usize)
     }
 
-    /// The leaf's triangle slots.
+    /// The leaf's triangle block and how many of its lanes hold triangles.
     #[inline(always)]
-    pub fn leaf_slots(self) -> std::ops::Range<usize> {
+    pub fn leaf_block(self) -> (usize, usize) {
+        let range = self.leaf_slots();
+        (range.start, range.len())
+    }
+
+    /// The leaf's triangle slots (while unpacking; see [`Child::leaf_block`] after).
+    #[inline(always)]
+    fn leaf_slots(self) -> std::ops::Range<usize> {
         let first = (self.0 & FIRST_MASK) as usize;
         let count = ((self.0 & !LEAF) >> COUNT_SHIFT) as usize;
         first..first + count
@@ -303,7 +311,8 @@ impl WideNode {
 /// group of four rays.
 pub(super) fn unpack(
     cw: &CwBvh,
-    slot_box: impl Fn(usize) -> (Vec3A, Vec3A),
+    slot_box: impl Fn(usize) -> (Vec3A, Vec3A, Vec3A),
+    block: impl FnMut(std::ops::Range<usize>) -> u32,
 ) -> (Vec<WideNode>, usize) {
     let mut nodes = vec![WideNode::EMPTY; cw.nodes.len()];
     // A compressed node's children come after it, so walking backwards meets every child
@@ -333,24 +342,35 @@ pub(super) fn unpack(
                 let first = c.primitive_base_idx + u32::from(meta & 0b1_1111);
                 let count = u32::from(meta >> 5).count_ones();
                 let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+                let mut pad = Vec3A::ZERO;
                 for s in first..first + count {
-                    let (lo, hi) = slot_box(s as usize);
+                    let (lo, hi, p) = slot_box(s as usize);
                     min = min.min(lo);
                     max = max.max(hi);
+                    pad = pad.max(p);
                 }
-                node.set_box(slot, min, max);
+                // With spatial splits a leaf holds only the part of a triangle inside
+                // obvhs' box for it: the two boxes' overlap, grown by what the widened
+                // test accepts beyond the triangle.
+                let split = c.child_aabb(slot);
+                node.set_box(slot, min.max(split.min - pad), max.min(split.max + pad));
                 node.children[slot] = Child::leaf(first, count);
             }
         }
         nodes[index] = node;
     }
     let depth = depth.first().copied().unwrap_or(0);
-    (compact(&nodes), depth)
+    (compact(&nodes, block), depth)
 }
 
 /// The nodes still reachable from the root (node 0) once small nodes became leaves,
-/// renumbered breadth first, so that siblings lie next to each other.
-fn compact(nodes: &[WideNode]) -> Vec<WideNode> {
+/// renumbered breadth first, so that siblings lie next to each other. Each leaf's run of
+/// triangle slots becomes one triangle block, numbered in the same order by `block`: a
+/// leaf then names its block and how many of its lanes hold triangles.
+fn compact(
+    nodes: &[WideNode],
+    mut block: impl FnMut(std::ops::Range<usize>) -> u32,
+) -> Vec<WideNode> {
     let Some(root) = nodes.first() else {
         return Vec::new();
     };
@@ -359,9 +379,18 @@ fn compact(nodes: &[WideNode]) -> Vec<WideNode> {
     while next < kept.len() {
         let mut node = kept[next];
         for child in node.children.iter_mut() {
-            if let Some(old) = child.as_node() {
-                *child = Child::node(kept.len() as u32);
-                kept.push(nodes[old]);
+            if *child == Child::EMPTY {
+                continue;
+            }
+            match child.as_node() {
+                Some(old) => {
+                    *child = Child::node(kept.len() as u32);
+                    kept.push(nodes[old]);
+                }
+                None => {
+                    let slots = child.leaf_slots();
+                    *child = Child::leaf(block(slots.clone()), slots.len() as u32);
+                }
             }
         }
         kept[next] = node;
