@@ -9,6 +9,8 @@
 //! `-0.0` direction component) is not used, and neither is its `compute_barycentric`
 //! (scaled by the triangle's area); the tests below keep both cases.
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 mod packet;
 mod triangle;
 mod wide_node;
@@ -27,6 +29,14 @@ use wide_node::{BoxRay, Child, WideNode, safe_inverse};
 
 /// Children a traversal may hold back per level: all but the one it descends into.
 const PENDING_PER_LEVEL: usize = 7;
+
+/// The order of a direction's signs that obvhs lays a node's children out by: bit 2 for
+/// a negative x, bit 1 for y, bit 0 for z.
+#[cfg(target_arch = "x86_64")]
+fn octant(dir: Vec3A) -> usize {
+    let negative = dir.is_negative_bitmask() as usize;
+    ((negative & 1) << 2) | (negative & 2) | ((negative >> 2) & 1)
+}
 
 /// A child put aside during a walk: where the ray enters it, and (for a leaf) its parent
 /// node and slot.
@@ -57,6 +67,9 @@ pub struct Bvh {
     original: Vec<u32>,
     /// The most entries a traversal's stack can hold.
     stack_size: usize,
+    /// The eight-wide single-ray walk, where the CPU has it and the tree fits its stack.
+    #[cfg(target_arch = "x86_64")]
+    avx2: Option<avx2::Kernel>,
     /// The length of the scene's bounding box diagonal.
     size: f32,
     build_time: Duration,
@@ -120,11 +133,16 @@ impl Bvh {
             let (min, max) = root.bounds();
             min.distance(max)
         });
+        // The deepest walk holds back seven children per level, and a node's eight are
+        // written before the top moves.
+        let stack_size = depth * PENDING_PER_LEVEL + 8;
         Self {
+            #[cfg(target_arch = "x86_64")]
+            avx2: avx2::Kernel::detect().filter(|_| stack_size <= avx2::STACK),
             nodes,
             blocks,
             original,
-            stack_size: depth * PENDING_PER_LEVEL + 1,
+            stack_size,
             size,
             build_time: start.elapsed(),
         }
@@ -286,22 +304,30 @@ impl Bvh {
     /// The closest hit with `t < tmax`, if any.
     pub fn closest_hit(&self, ray: &Ray, tmax: f32) -> Option<Hit> {
         let (origin, dir) = usable(ray, tmax)?;
-        let box_ray = BoxRay::new(origin, safe_inverse(dir));
+        let inv = safe_inverse(dir);
         let block_ray = BlockRay::new(origin, dir);
         let mut best: Option<(usize, f32, f32, f32)> = None;
-        let mut tmax = tmax;
+        let mut nearest = tmax;
+        let leaf = |block: usize| {
+            if let Some((lane, t, u, v)) =
+                self.blocks[block].intersect(&block_ray, nearest).nearest()
+            {
+                nearest = t;
+                best = Some((4 * block + lane, t, u, v));
+            }
+            nearest
+        };
+        #[cfg(target_arch = "x86_64")]
+        if let Some(kernel) = self.avx2 {
+            kernel.walk(&self.nodes, origin, inv, octant(dir), tmax, leaf);
+            return best.map(|(slot, t, u, v)| self.hit(slot, t, u, v));
+        }
+        let mut leaf = leaf;
+        let box_ray = BoxRay::new(origin, inv);
         self.walk_nearest_first(
             tmax,
             |node, bound| node.intersect(&box_ray, bound),
-            |_, _, (block, _)| {
-                if let Some((lane, t, u, v)) =
-                    self.blocks[block].intersect(&block_ray, tmax).nearest()
-                {
-                    tmax = t;
-                    best = Some((4 * block + lane, t, u, v));
-                }
-                tmax
-            },
+            |_, _, (block, _)| leaf(block),
         );
         best.map(|(slot, t, u, v)| self.hit(slot, t, u, v))
     }
@@ -311,13 +337,18 @@ impl Bvh {
     #[inline(always)]
     fn walk_any_order(
         &self,
-        box_ray: &BoxRay,
+        origin: Vec3A,
+        dir: Vec3A,
         tmax: f32,
         mut leaf: impl FnMut(usize) -> bool,
     ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
+        // The eight-wide walk orders children for closest hits; without that need, this
+        // walk's plain pushes were faster on Sponza's shadow rays (8.0 against 6.8
+        // Mrays per CPU-second).
+        let box_ray = &BoxRay::new(origin, safe_inverse(dir));
         self.with_stack(|stack| {
             let mut len = 1;
             stack[0].child = Child::node(0);
@@ -348,9 +379,8 @@ impl Bvh {
         let Some((origin, dir)) = usable(ray, tmax) else {
             return;
         };
-        let box_ray = BoxRay::new(origin, safe_inverse(dir));
         let block_ray = BlockRay::new(origin, dir);
-        self.walk_any_order(&box_ray, tmax, |block| {
+        self.walk_any_order(origin, dir, tmax, |block| {
             let found = self.blocks[block].intersect(&block_ray, tmax);
             let mut lanes = found.lanes;
             while lanes != 0 {
@@ -372,9 +402,8 @@ impl Bvh {
         let Some((origin, dir)) = usable(ray, tmax) else {
             return false;
         };
-        let box_ray = BoxRay::new(origin, safe_inverse(dir));
         let block_ray = BlockRay::new(origin, dir);
-        self.walk_any_order(&box_ray, tmax, |block| {
+        self.walk_any_order(origin, dir, tmax, |block| {
             self.blocks[block].intersect(&block_ray, tmax).lanes != 0
         })
     }
@@ -491,6 +520,46 @@ mod tests {
             assert!(bvh.closest_hit(&ray, f32::INFINITY).is_none());
             assert!(!bvh.occluded(&ray, f32::INFINITY));
         }
+    }
+
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn the_avx2_walk_finds_the_closest_hits_of_the_portable_walk() {
+        // Two thousand scattered triangles and rays in every direction: the eight-wide
+        // walk visits children in another order, but must end at the same distance.
+        let uniform = |i: u32| {
+            let x = i.wrapping_mul(0x9e37_79b9) ^ (i >> 13).wrapping_mul(0x85eb_ca6b);
+            (x.wrapping_mul(0xc2b2_ae35) >> 8) as f32 / (1 << 24) as f32
+        };
+        let point = |i: u32| Vec3::new(uniform(3 * i), uniform(3 * i + 1), uniform(3 * i + 2));
+        let tris: Vec<[Vec3; 3]> = (0..2000u32)
+            .map(|i| {
+                let c = point(4 * i);
+                let offsets = [1, 2, 3].map(|k| (point(4 * i + k) - 0.5) * 0.1);
+                offsets.map(|o| c + o)
+            })
+            .collect();
+        let with_kernel = Bvh::build(&tris);
+        let Some(_) = with_kernel.avx2 else {
+            eprintln!("no AVX2 on this CPU: only the portable walk runs here");
+            return;
+        };
+        let portable = Bvh {
+            avx2: None,
+            ..Bvh::build(&tris)
+        };
+        let mut hits = 0;
+        for i in 0..20_000u32 {
+            let origin = point(1_000_000 + 2 * i) * 1.4 - 0.2;
+            let dir = point(2_000_000 + 2 * i) - 0.5;
+            let ray = Ray::new(origin, dir.normalize_or(Vec3::X));
+            let tmax = if i % 7 == 0 { 0.3 } else { f32::INFINITY };
+            let a = with_kernel.closest_hit(&ray, tmax).map(|h| h.t);
+            let b = portable.closest_hit(&ray, tmax).map(|h| h.t);
+            assert_eq!(a, b, "ray {i}");
+            hits += a.is_some() as u32;
+        }
+        assert!(hits > 2_000, "too few rays hit ({hits}) to compare the walks");
     }
 
     #[test]

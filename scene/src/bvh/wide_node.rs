@@ -14,7 +14,8 @@ use obvhs::cwbvh::CwBvh;
 
 /// One child slot: an inner node, a leaf (a run of triangles in leaf order), or empty.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct Child(u32);
+#[repr(transparent)]
+pub(super) struct Child(pub(super) u32);
 
 const LEAF: u32 = 1 << 31;
 /// The most triangles in a leaf made from a node of leaves (see [`unpack`]).
@@ -177,7 +178,7 @@ impl IntervalRay {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 pub(super) struct WideNode {
-    planes: [[Vec4; 2]; 6],
+    pub planes: [[Vec4; 2]; 6],
     pub children: [Child; 8],
 }
 
