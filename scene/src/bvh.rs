@@ -559,7 +559,10 @@ mod tests {
             assert_eq!(a, b, "ray {i}");
             hits += a.is_some() as u32;
         }
-        assert!(hits > 2_000, "too few rays hit ({hits}) to compare the walks");
+        assert!(
+            hits > 2_000,
+            "too few rays hit ({hits}) to compare the walks"
+        );
     }
 
     #[test]
