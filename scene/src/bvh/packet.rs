@@ -11,7 +11,7 @@
 
 use glam::{Vec3A, Vec4};
 
-use super::triangle::{EDGE_TOLERANCE, IsectTriangle};
+use super::triangle::{IsectTriangle, intersect4};
 use super::wide_node::{FAR_GROWTH, IntervalRay, safe_inverse};
 use super::{Bvh, usable};
 use crate::ray::{Hit, Ray};
@@ -77,44 +77,17 @@ impl RayGroup {
         t_near.cmple(t_far).any()
     }
 
-    /// Möller–Trumbore for one triangle and four rays, with the same tolerance and the
-    /// same miss rules as the single-ray test (any NaN is a miss).
+    /// Möller–Trumbore for one triangle and four rays, the same test as a single ray's.
     #[inline(always)]
     fn intersect(&mut self, tri: &IsectTriangle, slot: usize) {
-        let [dx, dy, dz] = self.dir;
-        let (e1x, e1y, e1z) = (
-            Vec4::splat(tri.e1.x),
-            Vec4::splat(tri.e1.y),
-            Vec4::splat(tri.e1.z),
+        let splat = |v: Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
+        let corner = [splat(tri.v0), splat(tri.e1), splat(tri.e2)];
+        let (t, u, v, hit) = intersect4(
+            &self.origin,
+            &self.dir,
+            [&corner[0], &corner[1], &corner[2]],
+            self.tmax,
         );
-        let (e2x, e2y, e2z) = (
-            Vec4::splat(tri.e2.x),
-            Vec4::splat(tri.e2.y),
-            Vec4::splat(tri.e2.z),
-        );
-        let px = dy * e2z - dz * e2y;
-        let py = dz * e2x - dx * e2z;
-        let pz = dx * e2y - dy * e2x;
-        let det = e1x * px + e1y * py + e1z * pz;
-        let inv = Vec4::ONE / det;
-        let sx = self.origin[0] - Vec4::splat(tri.v0.x);
-        let sy = self.origin[1] - Vec4::splat(tri.v0.y);
-        let sz = self.origin[2] - Vec4::splat(tri.v0.z);
-        let u = (sx * px + sy * py + sz * pz) * inv;
-        let qx = sy * e1z - sz * e1y;
-        let qy = sz * e1x - sx * e1z;
-        let qz = sx * e1y - sy * e1x;
-        let v = (dx * qx + dy * qy + dz * qz) * inv;
-        let t = (e2x * qx + e2y * qy + e2z * qz) * inv;
-        let low = Vec4::splat(-EDGE_TOLERANCE);
-        let high = Vec4::splat(1.0 + EDGE_TOLERANCE);
-        let hit = det.cmpne(Vec4::ZERO)
-            & u.cmpge(low)
-            & u.cmple(high)
-            & v.cmpge(low)
-            & (u + v).cmple(high)
-            & t.cmpge(Vec4::ZERO)
-            & t.cmplt(self.tmax);
         let lanes = hit.bitmask();
         if lanes == 0 {
             return;

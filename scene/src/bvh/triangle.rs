@@ -10,7 +10,7 @@
 //! structure-of-arrays form, and a single ray meets all four in one pass of four-wide
 //! operations, with no branch per triangle.
 
-use glam::{Vec3A, Vec4};
+use glam::{BVec4A, Vec3A, Vec4};
 
 /// How far outside `[0, 1]` a barycentric may fall and still hit: 50 times the rounding
 /// error seen on shared edges, i.e. 10 µm on a 1 m triangle.
@@ -130,36 +130,15 @@ impl TriangleBlock {
         }
     }
 
-    /// Möller–Trumbore for the four lanes at once, with the single-triangle test's
-    /// tolerance and miss rules (any NaN is a miss).
+    /// Möller–Trumbore for the four lanes at once.
     #[inline(always)]
     pub fn intersect(&self, ray: &BlockRay, tmax: f32) -> BlockHits {
-        let [dx, dy, dz] = ray.dir;
-        let [e1x, e1y, e1z] = self.e1;
-        let [e2x, e2y, e2z] = self.e2;
-        let px = dy * e2z - dz * e2y;
-        let py = dz * e2x - dx * e2z;
-        let pz = dx * e2y - dy * e2x;
-        let det = e1x * px + e1y * py + e1z * pz;
-        let inv = Vec4::ONE / det;
-        let sx = ray.origin[0] - self.v0[0];
-        let sy = ray.origin[1] - self.v0[1];
-        let sz = ray.origin[2] - self.v0[2];
-        let u = (sx * px + sy * py + sz * pz) * inv;
-        let qx = sy * e1z - sz * e1y;
-        let qy = sz * e1x - sx * e1z;
-        let qz = sx * e1y - sy * e1x;
-        let v = (dx * qx + dy * qy + dz * qz) * inv;
-        let t = (e2x * qx + e2y * qy + e2z * qz) * inv;
-        let low = Vec4::splat(-EDGE_TOLERANCE);
-        let high = Vec4::splat(1.0 + EDGE_TOLERANCE);
-        let hit = det.cmpne(Vec4::ZERO)
-            & u.cmpge(low)
-            & u.cmple(high)
-            & v.cmpge(low)
-            & (u + v).cmple(high)
-            & t.cmpge(Vec4::ZERO)
-            & t.cmplt(Vec4::splat(tmax));
+        let (t, u, v, hit) = intersect4(
+            &ray.origin,
+            &ray.dir,
+            [&self.v0, &self.e1, &self.e2],
+            Vec4::splat(tmax),
+        );
         BlockHits {
             t: Vec4::select(hit, t, Vec4::INFINITY),
             u,
@@ -167,4 +146,45 @@ impl TriangleBlock {
             lanes: hit.bitmask(),
         }
     }
+}
+
+/// Möller–Trumbore in four lanes, each lane its own ray and triangle (a caller splats what
+/// its lanes share: one ray against a block of four triangles, or one triangle against
+/// four rays), with the single-triangle tolerance: hits within [`EDGE_TOLERANCE`] outside
+/// the edges count, and any NaN along the way is a miss. Returns `t`, `u`, `v` and the
+/// lanes hit before their `tmax`.
+#[inline(always)]
+pub(super) fn intersect4(
+    origin: &[Vec4; 3],
+    dir: &[Vec4; 3],
+    [v0, e1, e2]: [&[Vec4; 3]; 3],
+    tmax: Vec4,
+) -> (Vec4, Vec4, Vec4, BVec4A) {
+    let [dx, dy, dz] = *dir;
+    let [e1x, e1y, e1z] = *e1;
+    let [e2x, e2y, e2z] = *e2;
+    let px = dy * e2z - dz * e2y;
+    let py = dz * e2x - dx * e2z;
+    let pz = dx * e2y - dy * e2x;
+    let det = e1x * px + e1y * py + e1z * pz;
+    let inv = Vec4::ONE / det;
+    let sx = origin[0] - v0[0];
+    let sy = origin[1] - v0[1];
+    let sz = origin[2] - v0[2];
+    let u = (sx * px + sy * py + sz * pz) * inv;
+    let qx = sy * e1z - sz * e1y;
+    let qy = sz * e1x - sx * e1z;
+    let qz = sx * e1y - sy * e1x;
+    let v = (dx * qx + dy * qy + dz * qz) * inv;
+    let t = (e2x * qx + e2y * qy + e2z * qz) * inv;
+    let low = Vec4::splat(-EDGE_TOLERANCE);
+    let high = Vec4::splat(1.0 + EDGE_TOLERANCE);
+    let hit = det.cmpne(Vec4::ZERO)
+        & u.cmpge(low)
+        & u.cmple(high)
+        & v.cmpge(low)
+        & (u + v).cmple(high)
+        & t.cmpge(Vec4::ZERO)
+        & t.cmplt(tmax);
+    (t, u, v, hit)
 }
