@@ -72,12 +72,80 @@ impl Kernel {
         leaf: impl FnMut(usize) -> f32,
     ) {
         // SAFETY: a Kernel exists only where the CPU has AVX2.
-        unsafe { walk(nodes, origin, inv, octant, bound, leaf) }
+        unsafe { nearest_first(nodes, origin, inv, octant, bound, leaf) }
+    }
+
+    /// Visits the leaves the ray enters before `tmax`, in no particular order, until
+    /// `leaf(block)` returns true (then returns true). No ordering, no distances kept:
+    /// what an occlusion query needs. `nodes` as for [`Kernel::walk`].
+    #[inline(always)]
+    pub fn any_order(
+        self,
+        nodes: &[WideNode],
+        origin: Vec3A,
+        inv: Vec3A,
+        tmax: f32,
+        leaf: impl FnMut(usize) -> bool,
+    ) -> bool {
+        // SAFETY: a Kernel exists only where the CPU has AVX2.
+        unsafe { any_order(nodes, origin, inv, tmax, leaf) }
+    }
+}
+
+/// A ray prepared for the eight-wide slab test: origin and inverse direction in all
+/// lanes, and per axis the plane row met first (minimum or maximum) and the one met last.
+struct BoxRay8 {
+    origin: [__m256; 3],
+    inv: [__m256; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl BoxRay8 {
+    #[target_feature(enable = "avx2")]
+    fn new(origin: Vec3A, inv: Vec3A) -> Self {
+        let near = |axis: usize| if inv[axis] < 0.0 { axis + 3 } else { axis };
+        let near = [near(0), near(1), near(2)];
+        Self {
+            origin: [0, 1, 2].map(|axis| _mm256_set1_ps(origin[axis])),
+            inv: [0, 1, 2].map(|axis| _mm256_set1_ps(inv[axis])),
+            near,
+            far: near.map(|row| (row + 3) % 6),
+        }
+    }
+
+    /// The children the ray enters before `bound` (all bits set in a lane entered), and
+    /// where it enters each: the portable test's arithmetic, eight lanes at once.
+    ///
+    /// # Safety
+    /// The CPU has AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn enter(&self, node: &WideNode, bound: f32) -> (__m256, __m256) {
+        let planes = node.planes.as_ptr() as *const f32;
+        // SAFETY: each of the six plane rows is eight f32, 32-byte aligned.
+        let slab = |row: usize, axis: usize| unsafe {
+            let plane = _mm256_load_ps(planes.add(8 * row));
+            _mm256_mul_ps(_mm256_sub_ps(plane, self.origin[axis]), self.inv[axis])
+        };
+        let t_near = _mm256_max_ps(
+            _mm256_max_ps(slab(self.near[0], 0), slab(self.near[1], 1)),
+            _mm256_max_ps(slab(self.near[2], 2), _mm256_setzero_ps()),
+        );
+        let t_far = _mm256_mul_ps(
+            _mm256_min_ps(
+                _mm256_min_ps(slab(self.far[0], 0), slab(self.far[1], 1)),
+                slab(self.far[2], 2),
+            ),
+            _mm256_set1_ps(FAR_GROWTH),
+        );
+        let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(t_near, _mm256_min_ps(t_far, _mm256_set1_ps(bound)));
+        (hit, t_near)
     }
 }
 
 #[target_feature(enable = "avx2")]
-unsafe fn walk(
+unsafe fn nearest_first(
     nodes: &[WideNode],
     origin: Vec3A,
     inv: Vec3A,
@@ -85,72 +153,33 @@ unsafe fn walk(
     mut bound: f32,
     mut leaf: impl FnMut(usize) -> f32,
 ) {
+    if nodes.is_empty() {
+        return;
+    }
+    let ray = BoxRay8::new(origin, inv);
+    // Lane k of the order holds the slot met k-th from last: farthest first.
+    let order = _mm256_xor_si256(
+        _mm256_setr_epi32(7, 6, 5, 4, 3, 2, 1, 0),
+        _mm256_set1_epi32(octant as i32),
+    );
+    let mut children = [MaybeUninit::<u32>::uninit(); STACK];
+    let mut distances = [MaybeUninit::<f32>::uninit(); STACK];
+    let mut len = 0usize;
+    let mut current = Child::node(0);
     // SAFETY: the caller checked for AVX2; node and child indices come from the tree,
     // whose depth leaves every eight-wide store inside the stack (see `STACK`); only
     // entries written are read.
     unsafe {
-        if nodes.is_empty() {
-            return;
-        }
-        let mut children = [MaybeUninit::<u32>::uninit(); STACK];
-        let mut distances = [MaybeUninit::<f32>::uninit(); STACK];
-        let o = [
-            _mm256_set1_ps(origin.x),
-            _mm256_set1_ps(origin.y),
-            _mm256_set1_ps(origin.z),
-        ];
-        let d = [
-            _mm256_set1_ps(inv.x),
-            _mm256_set1_ps(inv.y),
-            _mm256_set1_ps(inv.z),
-        ];
-        // Per axis the plane row met first (minimum or maximum) and the one met last.
-        let near = |axis: usize, negative: bool| if negative { axis + 3 } else { axis };
-        let rows_near = [
-            near(0, inv.x < 0.0),
-            near(1, inv.y < 0.0),
-            near(2, inv.z < 0.0),
-        ];
-        let rows_far = rows_near.map(|row| (row + 3) % 6);
-        // Lane k of the order holds the slot met k-th from last: farthest first.
-        let order = _mm256_xor_si256(
-            _mm256_setr_epi32(7, 6, 5, 4, 3, 2, 1, 0),
-            _mm256_set1_epi32(octant as i32),
-        );
-        let zero = _mm256_setzero_ps();
-        let growth = _mm256_set1_ps(FAR_GROWTH);
-        let mut len = 0usize;
-        let mut current = Child::node(0);
         loop {
             // Down the inner nodes, nearest child first, until a leaf.
             while let Some(index) = current.as_node() {
                 let node = nodes.get_unchecked(index);
-                let planes = node.planes.as_ptr() as *const f32;
-                let slab = |row: usize, axis: usize| {
-                    let plane = _mm256_load_ps(planes.add(8 * row));
-                    _mm256_mul_ps(_mm256_sub_ps(plane, o[axis]), d[axis])
-                };
-                let t_near = _mm256_max_ps(
-                    _mm256_max_ps(slab(rows_near[0], 0), slab(rows_near[1], 1)),
-                    _mm256_max_ps(slab(rows_near[2], 2), zero),
-                );
-                let t_far = _mm256_mul_ps(
-                    _mm256_min_ps(
-                        _mm256_min_ps(slab(rows_far[0], 0), slab(rows_far[1], 1)),
-                        slab(rows_far[2], 2),
-                    ),
-                    growth,
-                );
-                let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(
-                    t_near,
-                    _mm256_min_ps(t_far, _mm256_set1_ps(bound)),
-                );
+                let (hit, t_near) = ray.enter(node, bound);
                 let mask = _mm256_movemask_ps(hit) as u32;
                 if mask == 0 {
                     current = Child::EMPTY;
                     break;
                 }
-                let slots = node.children.as_ptr() as *const __m256i;
                 if mask.is_power_of_two() {
                     current = *node.children.get_unchecked(mask.trailing_zeros() as usize);
                     continue;
@@ -160,9 +189,10 @@ unsafe fn walk(
                     order,
                     _mm256_loadu_si256(PACK.get_unchecked(entered).as_ptr() as *const __m256i),
                 );
+                let slots = _mm256_loadu_si256(node.children.as_ptr() as *const __m256i);
                 _mm256_storeu_si256(
                     children.as_mut_ptr().add(len) as *mut __m256i,
-                    _mm256_permutevar8x32_epi32(_mm256_loadu_si256(slots), pick),
+                    _mm256_permutevar8x32_epi32(slots, pick),
                 );
                 _mm256_storeu_ps(
                     distances.as_mut_ptr().add(len) as *mut f32,
@@ -188,6 +218,56 @@ unsafe fn walk(
                     break;
                 }
             }
+        }
+    }
+}
+
+#[target_feature(enable = "avx2")]
+unsafe fn any_order(
+    nodes: &[WideNode],
+    origin: Vec3A,
+    inv: Vec3A,
+    tmax: f32,
+    mut leaf: impl FnMut(usize) -> bool,
+) -> bool {
+    if nodes.is_empty() {
+        return false;
+    }
+    let ray = BoxRay8::new(origin, inv);
+    let mut children = [MaybeUninit::<u32>::uninit(); STACK];
+    let mut len = 0usize;
+    let mut current = Child::node(0);
+    // SAFETY: as in `nearest_first`.
+    unsafe {
+        loop {
+            while let Some(index) = current.as_node() {
+                let node = nodes.get_unchecked(index);
+                let mask = _mm256_movemask_ps(ray.enter(node, tmax).0) as usize;
+                if mask == 0 {
+                    current = Child::EMPTY;
+                    break;
+                }
+                // All entered children are pushed in slot order; the walk goes on with
+                // the last of them (the highest slot), read from the node.
+                let slots = _mm256_loadu_si256(node.children.as_ptr() as *const __m256i);
+                let pick = _mm256_loadu_si256(PACK.get_unchecked(mask).as_ptr() as *const __m256i);
+                _mm256_storeu_si256(
+                    children.as_mut_ptr().add(len) as *mut __m256i,
+                    _mm256_permutevar8x32_epi32(slots, pick),
+                );
+                len += mask.count_ones() as usize - 1;
+                current = *node
+                    .children
+                    .get_unchecked(31 - (mask as u32).leading_zeros() as usize);
+            }
+            if current != Child::EMPTY && leaf(current.leaf_block().0) {
+                return true;
+            }
+            if len == 0 {
+                return false;
+            }
+            len -= 1;
+            current = Child(children.get_unchecked(len).assume_init());
         }
     }
 }
