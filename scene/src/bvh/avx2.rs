@@ -1,5 +1,5 @@
-//! The closest-hit walk of a single ray with AVX2, chosen at run time where the CPU has
-//! it.
+//! The single-ray walks with AVX2, chosen at run time where the CPU has it: closest hit
+//! and any hit (occlusion).
 //!
 //! The portable walk ([`super::Bvh`]'s) tests a node's eight boxes in two four-wide halves
 //! and sorts the children it enters by distance; on Sponza that bookkeeping was half of a
@@ -9,9 +9,10 @@
 //! ray traversal on GPUs through compressed wide BVHs", 2017), so a ray whose direction
 //! has signs `octant` meets them roughly in slot order `k ^ octant`, k = 0, 1, …. One
 //! permutation puts the entered children in that order, farthest first, a second packs
-//! them together, and two stores push them all; the nearest is popped next. The box test
-//! is the same slab test with the same rounding guard as the portable one, so both
-//! walks enter the same boxes.
+//! them together, and two stores push them all; the nearest is taken next. The any-hit
+//! walk skips the ordering and the distances: it packs and pushes in slot order. The box
+//! test is the portable one's slab test with the same rounding guard, eight lanes at
+//! once, so both walks enter the same boxes.
 
 use std::arch::x86_64::*;
 use std::mem::MaybeUninit;
@@ -20,7 +21,7 @@ use glam::Vec3A;
 
 use super::wide_node::{Child, FAR_GROWTH, WideNode};
 
-/// The deepest stack the kernel keeps on the thread's stack: a tree deeper than
+/// The deepest stack the walks keep on the thread's stack: a tree deeper than
 /// `(STACK - 8) / 7` levels is walked by the portable code.
 pub(super) const STACK: usize = 256;
 
