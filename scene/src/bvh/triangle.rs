@@ -179,8 +179,9 @@ pub(super) fn intersect4(
     let t = (e2x * qx + e2y * qy + e2z * qz) * inv;
     let low = Vec4::splat(-EDGE_TOLERANCE);
     let high = Vec4::splat(1.0 + EDGE_TOLERANCE);
-    let hit = det.cmpne(Vec4::ZERO)
-        & u.cmpge(low)
+    // A zero determinant (a ray in the triangle's plane, or an unused lane) needs no test
+    // of its own: u is then ±∞ or NaN, and fails its bounds.
+    let hit = u.cmpge(low)
         & u.cmple(high)
         & v.cmpge(low)
         & (u + v).cmple(high)
