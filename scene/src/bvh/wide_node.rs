@@ -64,14 +64,7 @@ impl Child {
 /// same sign: no `0 · ∞ = NaN` when the origin lies on a box plane, and a practically
 /// infinite distance to planes the ray runs along.
 pub(super) fn safe_inverse(dir: Vec3A) -> Vec3A {
-    let safe = |d: f32| {
-        if d.abs() < 1e-30 {
-            1e-30f32.copysign(d)
-        } else {
-            d
-        }
-    };
-    Vec3A::new(1.0 / safe(dir.x), 1.0 / safe(dir.y), 1.0 / safe(dir.z))
+    Vec3A::ONE / dir.abs().max(Vec3A::splat(1e-30)).copysign(dir)
 }
 
 /// A ray prepared for box tests against all eight children at once, from its origin and
