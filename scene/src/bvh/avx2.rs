@@ -25,6 +25,12 @@ use super::wide_node::{Child, FAR_GROWTH, WideNode};
 /// `(STACK - 8) / 7` levels is walked by the portable code.
 pub(super) const STACK: usize = 256;
 
+// The loads below read a node's plane row as eight contiguous f32 at a 32-byte boundary,
+// and its children as eight u32.
+const _: () = assert!(std::mem::size_of::<[glam::Vec4; 2]>() == 32);
+const _: () = assert!(std::mem::align_of::<WideNode>() >= 32);
+const _: () = assert!(std::mem::size_of::<[Child; 8]>() == 32);
+
 /// For each 8-bit mask, the lanes set, lowest first, then zeros: a permutation that packs
 /// the chosen lanes at the front.
 static PACK: [[u32; 8]; 256] = pack_table();
