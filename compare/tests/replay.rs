@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::Quat;
-use holocave_cave::load_cave;
+use holocave_cave::{Cave, load_cave};
 use holocave_compare::{Compare, Method, Settings};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracking::Pose;
@@ -17,11 +17,31 @@ fn root() -> &'static Path {
 }
 
 /// The Cornell box's CAVE and scene.
-fn cornell() -> (holocave_cave::Cave, PathBuf, Arc<Scene>) {
-    let cave = load_cave(&root().join("configs/cave4-cornell.toml")).unwrap();
-    let scene_path = root().join("scenes/cornell.gltf");
-    let scene = Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap());
-    (cave, scene_path, scene)
+struct Cornell {
+    cave: Cave,
+    scene_path: PathBuf,
+    scene: Arc<Scene>,
+}
+
+impl Cornell {
+    fn load() -> Cornell {
+        let scene_path = root().join("scenes/cornell.gltf");
+        Cornell {
+            cave: load_cave(&root().join("configs/cave4-cornell.toml")).unwrap(),
+            scene: Arc::new(Scene::load(&scene_path, &LoadOptions::default()).unwrap()),
+            scene_path,
+        }
+    }
+
+    /// A comparison through the front wall.
+    fn front(&self) -> Compare<'_> {
+        Compare {
+            cave: &self.cave,
+            wall: self.cave.walls.iter().find(|w| w.name == "front").unwrap(),
+            scene: self.scene.clone(),
+            scene_path: &self.scene_path,
+        }
+    }
 }
 
 /// A comparison of `methods` at 16 × 12 per eye and 30 Hz, written to `out`.
@@ -49,20 +69,14 @@ const SIZE: (u32, u32) = (16, 12);
 
 #[test]
 fn trace_at_the_references_budget_reaches_its_reference_and_every_file_is_written() {
-    let (cave, scene_path, scene) = cornell();
-    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
+    let cornell = Cornell::load();
+    let (cave, compare) = (&cornell.cave, cornell.front());
     let dir = tempfile::tempdir().unwrap();
     const REFERENCE_SPP: u32 = 64;
     // The references' own budget: every pixel gets as many paths as a reference's.
     let budget = SIZE.0 * SIZE.1 * REFERENCE_SPP;
     let settings = settings(vec![Method::Trace], budget, 2, REFERENCE_SPP, dir.path());
     let poses = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 5];
-    let compare = Compare {
-        cave: &cave,
-        wall,
-        scene,
-        scene_path: &scene_path,
-    };
     let outcome = compare.run(&settings, &poses, &mut |_, _, _| {}).unwrap();
     // Frames 0, 2, 4 measured.
     assert_eq!(outcome.rows.len(), 3);
@@ -124,18 +138,12 @@ fn trace_at_the_references_budget_reaches_its_reference_and_every_file_is_writte
 
 #[test]
 fn a_trace_outside_the_cave_and_an_empty_method_list_are_named() {
-    let (cave, scene_path, scene) = cornell();
-    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
+    let cornell = Cornell::load();
+    let (cave, compare) = (&cornell.cave, cornell.front());
     let dir = tempfile::tempdir().unwrap();
     let mut settings = Settings {
         size: (8, 8),
         ..settings(vec![], 64, 1, 4, dir.path())
-    };
-    let compare = Compare {
-        cave: &cave,
-        wall,
-        scene,
-        scene_path: &scene_path,
     };
     let inside = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 3];
     let e = compare
@@ -145,7 +153,7 @@ fn a_trace_outside_the_cave_and_an_empty_method_list_are_named() {
     assert!(e.to_string().contains("no methods"), "{e}");
     settings.methods = vec![Method::Trace];
     // Ten metres behind the front wall.
-    let behind = wall.pa - wall.normal * 10.0;
+    let behind = compare.wall.pa - compare.wall.normal * 10.0;
     let outside = vec![Pose::new(behind.as_vec3(), Quat::IDENTITY); 3];
     let e = compare
         .run(&settings, &outside, &mut |_, _, _| {})
@@ -161,8 +169,8 @@ fn a_trace_outside_the_cave_and_an_empty_method_list_are_named() {
 /// rays are taken from the allowance ray by ray, so there is no rounding to a packet.
 #[test]
 fn the_holodeck_traces_the_budget_of_every_frame() {
-    let (cave, scene_path, scene) = cornell();
-    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
+    let cornell = Cornell::load();
+    let (cave, compare) = (&cornell.cave, cornell.front());
     let dir = tempfile::tempdir().unwrap();
     // One path per pixel and eye.
     let methods = vec![Method::Trace, Method::Holodeck];
@@ -174,12 +182,6 @@ fn the_holodeck_traces_the_budget_of_every_frame() {
             Pose::new(p, Quat::IDENTITY)
         })
         .collect();
-    let compare = Compare {
-        cave: &cave,
-        wall,
-        scene,
-        scene_path: &scene_path,
-    };
     let outcome = compare.run(&settings, &poses, &mut |_, _, _| {}).unwrap();
     let rays = |m: &str| &outcome.frame_rays.iter().find(|r| r.0 == m).unwrap().1;
     let grant = 2 * u64::from(settings.budget);
@@ -213,18 +215,12 @@ fn the_holodeck_traces_the_budget_of_every_frame() {
 /// mean of the paths the budget buys (four here), and every eye chooses all its pixels.
 #[test]
 fn the_cache_spends_a_budget_of_several_paths_per_pixel() {
-    let (cave, scene_path, scene) = cornell();
-    let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
+    let cornell = Cornell::load();
+    let (cave, compare) = (&cornell.cave, cornell.front());
     let dir = tempfile::tempdir().unwrap();
     let methods = vec![Method::Trace, Method::Cache];
     let settings = settings(methods, 4 * SIZE.0 * SIZE.1, 4, 4, dir.path());
     let poses = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 5];
-    let compare = Compare {
-        cave: &cave,
-        wall,
-        scene,
-        scene_path: &scene_path,
-    };
     let outcome = compare.run(&settings, &poses, &mut |_, _, _| {}).unwrap();
     let grant = 2 * u64::from(settings.budget);
     for method in ["trace", "cache"] {

@@ -30,14 +30,6 @@ use wide_node::{BoxRay, Child, WideNode, safe_inverse};
 /// Children a traversal may hold back per level: all but the one it descends into.
 const PENDING_PER_LEVEL: usize = 7;
 
-/// The order of a direction's signs that obvhs lays a node's children out by: bit 2 for
-/// a negative x, bit 1 for y, bit 0 for z.
-#[cfg(target_arch = "x86_64")]
-fn octant(dir: Vec3A) -> usize {
-    let negative = dir.is_negative_bitmask() as usize;
-    ((negative & 1) << 2) | (negative & 2) | ((negative >> 2) & 1)
-}
-
 /// A child put aside during a walk: where the ray enters it, and (for a leaf) its parent
 /// node and slot.
 #[derive(Clone, Copy)]
@@ -116,19 +108,12 @@ impl Bvh {
             .collect();
         let mut blocks = Vec::new();
         let mut original = Vec::new();
-        let (nodes, depth) = wide_node::unpack(
-            &cw,
-            |slot| {
-                let (min, max) = triangles[slot].bounds();
-                (min, max, triangles[slot].pad())
-            },
-            |slots| {
-                blocks.push(TriangleBlock::new(&triangles[slots.clone()]));
-                original.extend(slots.clone().map(|s| cw.primitive_indices[s]));
-                original.extend((slots.len()..4).map(|_| u32::MAX));
-                (blocks.len() - 1) as u32
-            },
-        );
+        let (nodes, depth) = wide_node::unpack(&cw, &triangles, |slots| {
+            blocks.push(TriangleBlock::new(&triangles[slots.clone()]));
+            original.extend(slots.clone().map(|s| cw.primitive_indices[s]));
+            original.extend((slots.len()..4).map(|_| u32::MAX));
+            (blocks.len() - 1) as u32
+        });
         let size = nodes.first().map_or(0.0, |root| {
             let (min, max) = root.bounds();
             min.distance(max)
@@ -319,7 +304,7 @@ impl Bvh {
         };
         #[cfg(target_arch = "x86_64")]
         if let Some(kernel) = self.avx2 {
-            kernel.walk(&self.nodes, origin, inv, octant(dir), tmax, leaf);
+            kernel.walk(&self.nodes, origin, inv, tmax, leaf);
             return best.map(|(slot, t, u, v)| self.hit(slot, t, u, v));
         }
         let mut leaf = leaf;

@@ -64,8 +64,8 @@ impl Kernel {
             .then_some(Kernel(()))
     }
 
-    /// Visits the leaves the ray (origin, [`super::wide_node::safe_inverse`] direction,
-    /// direction signs `octant`) enters, nearest first as far as the layout tells it.
+    /// Visits the leaves the ray (origin, [`super::wide_node::safe_inverse`] direction)
+    /// enters, nearest first as far as the layout tells it.
     /// `leaf(block)` tests a leaf's triangles and returns the new bound; a child entered
     /// beyond the bound is skipped. `nodes` must be no deeper than the [`STACK`] allows.
     #[inline(always)]
@@ -74,12 +74,11 @@ impl Kernel {
         nodes: &[WideNode],
         origin: Vec3A,
         inv: Vec3A,
-        octant: usize,
         bound: f32,
         leaf: impl FnMut(usize) -> f32,
     ) {
         // SAFETY: a Kernel exists only where the CPU has AVX2.
-        unsafe { nearest_first(nodes, origin, inv, octant, bound, leaf) }
+        unsafe { nearest_first(nodes, origin, inv, bound, leaf) }
     }
 
     /// Visits the leaves the ray enters before `tmax`, in no particular order, until
@@ -100,12 +99,15 @@ impl Kernel {
 }
 
 /// A ray prepared for the eight-wide slab test: origin and inverse direction in all
-/// lanes, and per axis the plane row met first (minimum or maximum) and the one met last.
+/// lanes, per axis the plane row met first (minimum or maximum) and the one met last, and
+/// the signs of its direction in the order obvhs lays a node's children out by (bit 2
+/// for a negative x, bit 1 for y, bit 0 for z).
 struct BoxRay8 {
     origin: [__m256; 3],
     inv: [__m256; 3],
     near: [usize; 3],
     far: [usize; 3],
+    octant: usize,
 }
 
 impl BoxRay8 {
@@ -113,11 +115,13 @@ impl BoxRay8 {
     fn new(origin: Vec3A, inv: Vec3A) -> Self {
         let near = |axis: usize| if inv[axis] < 0.0 { axis + 3 } else { axis };
         let near = [near(0), near(1), near(2)];
+        let negative = |axis: usize| usize::from(inv[axis] < 0.0);
         Self {
             origin: [0, 1, 2].map(|axis| _mm256_set1_ps(origin[axis])),
             inv: [0, 1, 2].map(|axis| _mm256_set1_ps(inv[axis])),
             near,
             far: near.map(|row| (row + 3) % 6),
+            octant: (negative(0) << 2) | (negative(1) << 1) | negative(2),
         }
     }
 
@@ -151,12 +155,37 @@ impl BoxRay8 {
     }
 }
 
+/// The permutation that packs the lanes set in `mask` (8 bits) at the front, lowest first.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn packing(mask: usize) -> __m256i {
+    // SAFETY: a table row is eight u32 (an unaligned load).
+    unsafe { _mm256_loadu_si256(PACK[mask].as_ptr() as *const __m256i) }
+}
+
+/// Writes the node's eight children, permuted by `pick`, at `top` of a walk's stack.
+///
+/// # Safety
+/// The CPU has AVX2, and `top` has room for eight entries.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn push_children(top: *mut MaybeUninit<u32>, node: &WideNode, pick: __m256i) {
+    // SAFETY: the children are eight u32 (see the layout checks above); the caller
+    // vouches for the room.
+    unsafe {
+        let slots = _mm256_loadu_si256(node.children.as_ptr() as *const __m256i);
+        _mm256_storeu_si256(
+            top as *mut __m256i,
+            _mm256_permutevar8x32_epi32(slots, pick),
+        );
+    }
+}
+
 #[target_feature(enable = "avx2")]
 unsafe fn nearest_first(
     nodes: &[WideNode],
     origin: Vec3A,
     inv: Vec3A,
-    octant: usize,
     mut bound: f32,
     mut leaf: impl FnMut(usize) -> f32,
 ) {
@@ -167,7 +196,7 @@ unsafe fn nearest_first(
     // Lane k of the order holds the slot met k-th from last: farthest first.
     let order = _mm256_xor_si256(
         _mm256_setr_epi32(7, 6, 5, 4, 3, 2, 1, 0),
-        _mm256_set1_epi32(octant as i32),
+        _mm256_set1_epi32(ray.octant as i32),
     );
     let mut children = [MaybeUninit::<u32>::uninit(); STACK];
     let mut distances = [MaybeUninit::<f32>::uninit(); STACK];
@@ -192,15 +221,8 @@ unsafe fn nearest_first(
                     continue;
                 }
                 let entered = _mm256_movemask_ps(_mm256_permutevar8x32_ps(hit, order)) as usize;
-                let pick = _mm256_permutevar8x32_epi32(
-                    order,
-                    _mm256_loadu_si256(PACK.get_unchecked(entered).as_ptr() as *const __m256i),
-                );
-                let slots = _mm256_loadu_si256(node.children.as_ptr() as *const __m256i);
-                _mm256_storeu_si256(
-                    children.as_mut_ptr().add(len) as *mut __m256i,
-                    _mm256_permutevar8x32_epi32(slots, pick),
-                );
+                let pick = _mm256_permutevar8x32_epi32(order, packing(entered));
+                push_children(children.as_mut_ptr().add(len), node, pick);
                 _mm256_storeu_ps(
                     distances.as_mut_ptr().add(len) as *mut f32,
                     _mm256_permutevar8x32_ps(t_near, pick),
@@ -209,7 +231,9 @@ unsafe fn nearest_first(
                 // The nearest is the last lane packed: the highest lane entered, whose
                 // slot is read from the node rather than back from the stack.
                 let lane = 31 - (entered as u32).leading_zeros();
-                current = *node.children.get_unchecked((7 - lane as usize) ^ octant);
+                current = *node
+                    .children
+                    .get_unchecked((7 - lane as usize) ^ ray.octant);
             }
             if current != Child::EMPTY {
                 bound = leaf(current.leaf_block().0);
@@ -256,12 +280,7 @@ unsafe fn any_order(
                 }
                 // All entered children are pushed in slot order; the walk goes on with
                 // the last of them (the highest slot), read from the node.
-                let slots = _mm256_loadu_si256(node.children.as_ptr() as *const __m256i);
-                let pick = _mm256_loadu_si256(PACK.get_unchecked(mask).as_ptr() as *const __m256i);
-                _mm256_storeu_si256(
-                    children.as_mut_ptr().add(len) as *mut __m256i,
-                    _mm256_permutevar8x32_epi32(slots, pick),
-                );
+                push_children(children.as_mut_ptr().add(len), node, packing(mask));
                 len += mask.count_ones() as usize - 1;
                 current = *node
                     .children

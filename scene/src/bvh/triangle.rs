@@ -25,30 +25,20 @@ pub(super) struct IsectTriangle {
 }
 
 impl IsectTriangle {
-    /// The box around every point the widened test accepts: the triangle's box grown by
-    /// the tolerance along its edges, and by a few ulps of its coordinates for rounding.
-    pub fn bounds(&self) -> (Vec3A, Vec3A) {
-        let (min, max) = self.tight_bounds();
-        let pad = self.pad();
-        (min - pad, max + pad)
-    }
-
-    /// The box around the three vertices.
-    fn tight_bounds(&self) -> (Vec3A, Vec3A) {
+    /// The box around every point the widened test accepts, and how far (per axis) it
+    /// reaches beyond the vertices' box: the tolerance along the edges, and a few ulps
+    /// of the coordinates for rounding.
+    pub fn bounds(&self) -> (Vec3A, Vec3A, Vec3A) {
         let (a, b, c) = (self.v0, self.v0 + self.e1, self.v0 + self.e2);
-        (a.min(b).min(c), a.max(b).max(c))
-    }
-
-    /// How far the widened test reaches beyond the triangle, per axis.
-    pub fn pad(&self) -> Vec3A {
-        let (min, max) = self.tight_bounds();
+        let (min, max) = (a.min(b).min(c), a.max(b).max(c));
         let edge = self
             .e1
             .abs()
             .max(self.e2.abs())
             .max((self.e2 - self.e1).abs());
         let magnitude = min.abs().max(max.abs());
-        edge * (2.0 * EDGE_TOLERANCE) + magnitude * (4.0 * f32::EPSILON)
+        let pad = edge * (2.0 * EDGE_TOLERANCE) + magnitude * (4.0 * f32::EPSILON);
+        (min - pad, max + pad, pad)
     }
 }
 

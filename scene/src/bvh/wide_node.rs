@@ -12,6 +12,8 @@
 use glam::{Vec3A, Vec4};
 use obvhs::cwbvh::CwBvh;
 
+use super::triangle::IsectTriangle;
+
 /// One child slot: an inner node, a leaf (a run of triangles in leaf order), or empty.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(transparent)]
@@ -342,8 +344,8 @@ impl WideNode {
     }
 }
 
-/// Unpacks obvhs' compressed tree. `slot_box` gives the exact box of one leaf-order
-/// triangle slot. Node 0 is the root. Returns the nodes and the tree's depth.
+/// Unpacks obvhs' compressed tree over `triangles` (in its leaf order). Node 0 is the
+/// root. Returns the nodes and the tree's depth.
 ///
 /// A node whose children are all leaves, with [`COLLAPSE`] triangles or fewer between
 /// them, becomes one leaf of its parent: its triangles are tested without first testing
@@ -352,7 +354,7 @@ impl WideNode {
 /// group of four rays.
 pub(super) fn unpack(
     cw: &CwBvh,
-    slot_box: impl Fn(usize) -> (Vec3A, Vec3A, Vec3A),
+    triangles: &[IsectTriangle],
     block: impl FnMut(std::ops::Range<usize>) -> u32,
 ) -> (Vec<WideNode>, usize) {
     let mut nodes = vec![WideNode::EMPTY; cw.nodes.len()];
@@ -385,7 +387,7 @@ pub(super) fn unpack(
                 let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
                 let mut pad = Vec3A::ZERO;
                 for s in first..first + count {
-                    let (lo, hi, p) = slot_box(s as usize);
+                    let (lo, hi, p) = triangles[s as usize].bounds();
                     min = min.min(lo);
                     max = max.max(hi);
                     pad = pad.max(p);
