@@ -1,8 +1,9 @@
 //! Ray queries over the scene's triangles.
 //!
-//! obvhs builds the tree (a compressed-wide BVH: PLOC with reinsertion, collapsed to eight
-//! children per node); [`wide_node`] unpacks it into the layout the CPU traverses fast,
-//! and the traversal below visits children nearest first. The triangles are stored in the
+//! [`spatial_split`] builds a binary tree with spatial splits (SBVH), obvhs collapses it to
+//! eight children per node (its compressed-wide BVH, by the surface area heuristic),
+//! [`wide_node`] unpacks that into the layout the CPU traverses fast, and the traversal
+//! below visits children nearest first. The triangles are stored in the
 //! tree's leaf order, so a leaf's triangles lie next to each other in memory.
 //!
 //! Two pitfalls of obvhs 0.4 do not reach us: its traversal (which missed every hit for a
@@ -12,6 +13,7 @@
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod packet;
+mod spatial_split;
 mod triangle;
 mod wide_node;
 
@@ -19,7 +21,7 @@ use std::cell::RefCell;
 use std::time::{Duration, Instant};
 
 use glam::{Vec3, Vec3A};
-use obvhs::{BvhBuildParams, cwbvh::builder::build_cwbvh_from_tris, triangle::Triangle};
+use obvhs::{cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh, triangle::Triangle};
 
 use crate::ray::{Hit, Ray};
 pub use packet::PACKET;
@@ -92,8 +94,7 @@ impl Bvh {
                 v2: t[2].into(),
             })
             .collect();
-        let mut core = Duration::ZERO;
-        let cw = build_cwbvh_from_tris(&tris, BvhBuildParams::slow_build(), &mut core);
+        let cw = bvh2_to_cwbvh(&spatial_split::build(&tris), 3, true, false);
         let triangles: Vec<IsectTriangle> = cw
             .primitive_indices
             .iter()

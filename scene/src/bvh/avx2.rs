@@ -4,12 +4,11 @@
 //! The portable walk ([`super::Bvh`]'s) tests a node's eight boxes in two four-wide halves
 //! and sorts the children it enters by distance; on Sponza that bookkeeping was half of a
 //! ray's time. Here, as in tinybvh's `BVH8_CPU` kernel, one eight-wide pass tests all
-//! eight boxes, and the children entered are ordered without sorting: obvhs lays a node's
-//! children out in its eight slots by where they lie (Ylitie et al., "Efficient incoherent
-//! ray traversal on GPUs through compressed wide BVHs", 2017), so a ray whose direction
-//! has signs `octant` meets them roughly in slot order `k ^ octant`, k = 0, 1, …. One
-//! permutation puts the entered children in that order, farthest first, a second packs
-//! them together, and two stores push them all; the nearest is taken next. The any-hit
+//! eight boxes, and the children entered are ordered without sorting: each node stores,
+//! for each of the eight octants of ray directions, the order a ray of that octant meets
+//! its children in ([`WideNode::order`]). One permutation puts the entered children in
+//! the ray's octant's order, farthest first, a second packs them together, and two stores
+//! push them all; the nearest is taken next. The any-hit
 //! walk skips the ordering and the distances: it packs and pushes in slot order. The box
 //! test is the portable one's slab test with the same rounding guard, eight lanes at
 //! once, so both walks enter the same boxes.
@@ -30,6 +29,7 @@ pub(super) const STACK: usize = 256;
 const _: () = assert!(std::mem::size_of::<[glam::Vec4; 2]>() == 32);
 const _: () = assert!(std::mem::align_of::<WideNode>() >= 32);
 const _: () = assert!(std::mem::size_of::<[Child; 8]>() == 32);
+const _: () = assert!(std::mem::offset_of!(WideNode, order) % 32 == 0);
 
 /// For each 8-bit mask, the lanes set, lowest first, then zeros: a permutation that packs
 /// the chosen lanes at the front.
@@ -100,8 +100,8 @@ impl Kernel {
 
 /// A ray prepared for the eight-wide slab test: origin and inverse direction in all
 /// lanes, per axis the plane row met first (minimum or maximum) and the one met last, and
-/// the signs of its direction in the order obvhs lays a node's children out by (bit 2
-/// for a negative x, bit 1 for y, bit 0 for z).
+/// the octant of its direction as [`WideNode::order`] numbers them (bit 2 for a negative
+/// x, bit 1 for y, bit 0 for z).
 struct BoxRay8 {
     origin: [__m256; 3],
     inv: [__m256; 3],
@@ -193,11 +193,8 @@ unsafe fn nearest_first(
         return;
     }
     let ray = BoxRay8::new(origin, inv);
-    // Lane k of the order holds the slot met k-th from last: farthest first.
-    let order = _mm256_xor_si256(
-        _mm256_setr_epi32(7, 6, 5, 4, 3, 2, 1, 0),
-        _mm256_set1_epi32(ray.octant as i32),
-    );
+    // Shifts a node's orders to the ray's octant (a permutation reads three low bits).
+    let shift = _mm_cvtsi32_si128(3 * ray.octant as i32);
     let mut children = [MaybeUninit::<u32>::uninit(); STACK];
     let mut distances = [MaybeUninit::<f32>::uninit(); STACK];
     let mut len = 0usize;
@@ -220,6 +217,11 @@ unsafe fn nearest_first(
                     current = *node.children.get_unchecked(mask.trailing_zeros() as usize);
                     continue;
                 }
+                // Lane k of the order: the slot met k-th from last, farthest first.
+                let order = _mm256_srl_epi32(
+                    _mm256_load_si256(node.order.as_ptr() as *const __m256i),
+                    shift,
+                );
                 let entered = _mm256_movemask_ps(_mm256_permutevar8x32_ps(hit, order)) as usize;
                 let pick = _mm256_permutevar8x32_epi32(order, packing(entered));
                 push_children(children.as_mut_ptr().add(len), node, pick);
@@ -231,9 +233,8 @@ unsafe fn nearest_first(
                 // The nearest is the last lane packed: the highest lane entered, whose
                 // slot is read from the node rather than back from the stack.
                 let lane = 31 - (entered as u32).leading_zeros();
-                current = *node
-                    .children
-                    .get_unchecked((7 - lane as usize) ^ ray.octant);
+                let slot = (node.order.get_unchecked(lane as usize) >> (3 * ray.octant)) & 7;
+                current = *node.children.get_unchecked(slot as usize);
             }
             if current != Child::EMPTY {
                 bound = leaf(current.leaf_block().0);

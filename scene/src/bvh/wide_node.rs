@@ -1,7 +1,7 @@
 //! The BVH as the CPU traverses it: eight children per node, their boxes in full `f32`.
 //!
-//! obvhs builds the tree (PLOC, reinsertion, the SAH collapse to eight children) and
-//! stores it compressed for GPUs: child boxes quantised to bytes, children found by bit
+//! obvhs collapses the binary tree to eight children per node (by the surface area
+//! heuristic) and stores it compressed for GPUs: child boxes quantised to bytes, children found by bit
 //! tricks. Decoding that per node was 88% of a Sponza primary ray on the CPU. Here the
 //! same tree is unpacked once at build time: each node holds its eight child boxes as
 //! plane arrays, so one ray meets all eight with a handful of four-wide SIMD operations
@@ -169,12 +169,16 @@ impl IntervalRay {
 }
 
 /// A node: its eight children's boxes as six plane rows (min x, y, z, max x, y, z) of
-/// eight lanes each, then what each child is.
+/// eight lanes each, what each child is, and the order a ray meets them in.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 pub(super) struct WideNode {
     pub planes: [[Vec4; 2]; 6],
     pub children: [Child; 8],
+    /// For each octant of ray directions (bit 2 set for a negative x, bit 1 for y, bit 0
+    /// for z), the slots from the one such a ray meets last to the one it meets first:
+    /// lane `k`, bits `3·octant` to `3·octant + 2`, holds the slot met `k`-th from last.
+    pub order: [u32; 8],
 }
 
 impl WideNode {
@@ -189,7 +193,34 @@ impl WideNode {
             [Vec4::NEG_INFINITY; 2],
         ],
         children: [Child::EMPTY; 8],
+        order: [0; 8],
     };
+
+    /// Fills [`WideNode::order`]: for each octant, the children sorted by their box's
+    /// centre along the octant's diagonal. One slot layout cannot be in order for all
+    /// eight octants (obvhs' layout, read as slot `k ^ octant`, let Sponza's primary rays
+    /// test 2.7 leaves each where a sorted walk tests 1.6); eight stored orders can.
+    /// tinybvh's `BVH8_CPU` stores eight orders too, by the box corner a ray enters at;
+    /// by the centre, Sponza's rays visited fewer nodes and leaves (diffuse: 12.4 nodes and
+    /// 2.7 leaves per ray against 12.7 and 3.0).
+    fn set_order(&mut self) {
+        self.order = [0; 8];
+        for octant in 0..8 {
+            let sign = |bit: usize| if octant & (1 << bit) != 0 { -1.0 } else { 1.0 };
+            let dir = Vec3A::new(sign(2), sign(1), sign(0));
+            let mut keys: [(f32, usize); 8] = std::array::from_fn(|slot| {
+                if self.children[slot] == Child::EMPTY {
+                    return (f32::INFINITY, slot);
+                }
+                let (min, max) = self.child_box(slot);
+                (dir.dot(min + max), slot)
+            });
+            keys.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+            for (lane, &(_, slot)) in keys.iter().enumerate() {
+                self.order[lane] |= (slot as u32) << (3 * octant);
+            }
+        }
+    }
 
     fn set_box(&mut self, slot: usize, min: Vec3A, max: Vec3A) {
         let (half, lane) = (slot / 4, slot % 4);
@@ -437,6 +468,7 @@ fn compact(
                 }
             }
         }
+        node.set_order();
         kept[next] = node;
         next += 1;
     }
