@@ -40,14 +40,6 @@ struct Part {
     triangle: u32,
 }
 
-/// A node still to be built: its slot in the node list, its parts, and how many parts its
-/// subtree may end with.
-struct Pending {
-    node: usize,
-    parts: Vec<Part>,
-    budget: usize,
-}
-
 /// How a node's parts are divided.
 enum Cut {
     /// Into two halves of the list (parts whose centres all coincide).
@@ -114,49 +106,112 @@ pub(super) fn build(triangles: &[Triangle]) -> Bvh2 {
     if parts.is_empty() {
         return bvh;
     }
-    let root = union(&parts);
-    let root_area = root.half_area();
-    bvh.nodes.push(Bvh2Node::new(root, 0, 0));
+    let builder = Builder {
+        triangles,
+        root_area: union(&parts).half_area(),
+    };
     let budget = ((parts.len() as f32 * GROWTH) as usize).max(parts.len());
-    let mut pending = vec![Pending {
-        node: 0,
-        parts,
-        budget,
-    }];
-    while let Some(Pending {
-        node,
-        parts,
-        budget,
-    }) = pending.pop()
-    {
-        if parts.len() == 1 {
-            bvh.nodes[node] = Bvh2Node::new(parts[0].bounds, 1, bvh.primitive_indices.len() as u32);
-            bvh.primitive_indices.push(parts[0].triangle);
-            continue;
-        }
-        let bounds = *bvh.nodes[node].aabb();
-        let cut = choose_cut(triangles, &parts, &bounds, budget, root_area);
-        let (left, right) = divide(triangles, parts, cut);
-        let spare = budget.saturating_sub(left.len() + right.len());
-        let left_budget = left.len() + spare * left.len() / (left.len() + right.len());
-        let right_budget = (budget.max(left.len() + right.len()) - left_budget).max(right.len());
-        let first = bvh.nodes.len();
-        bvh.nodes.push(Bvh2Node::new(union(&left), 0, 0));
-        bvh.nodes.push(Bvh2Node::new(union(&right), 0, 0));
-        bvh.nodes[node] = Bvh2Node::new(bounds, 0, first as u32);
-        // The left child is built first, so the nodes of a subtree lie together.
-        pending.push(Pending {
-            node: first + 1,
-            parts: right,
-            budget: right_budget,
-        });
-        pending.push(Pending {
-            node: first,
-            parts: left,
-            budget: left_budget,
-        });
-    }
+    let tree = builder.subtree(parts, budget);
+    bvh.nodes = tree.nodes;
+    bvh.primitive_indices = tree.parts;
     bvh
+}
+
+/// A subtree: its nodes (the root first, then each node's two children side by side, as
+/// obvhs' `Bvh2` stores them) and the triangle of each part, in leaf order.
+struct Subtree {
+    nodes: Vec<Bvh2Node>,
+    parts: Vec<u32>,
+}
+
+/// Subtrees with at least this many parts build their two halves on two threads.
+const PARALLEL_PARTS: usize = 16_384;
+
+/// What every node's cut needs to know of the whole build.
+struct Builder<'a> {
+    triangles: &'a [Triangle],
+    root_area: f32,
+}
+
+impl Builder<'_> {
+    /// Cuts `parts` in two and shares out `budget` (the most parts the subtree may end
+    /// with) between the halves, in proportion to their parts.
+    fn cut(&self, parts: Vec<Part>, bounds: &Aabb, budget: usize) -> [(Vec<Part>, usize); 2] {
+        let cut = choose_cut(self.triangles, &parts, bounds, budget, self.root_area);
+        let (left, right) = divide(self.triangles, parts, cut);
+        let total = left.len() + right.len();
+        let spare = budget.saturating_sub(total);
+        let left_budget = left.len() + spare * left.len() / total;
+        let right_budget = budget.max(total) - left_budget;
+        [(left, left_budget), (right, right_budget)]
+    }
+
+    /// The subtree over `parts`: large ones as two subtrees built in parallel and joined
+    /// (the result does not depend on which thread finishes first), small ones in one
+    /// depth-first pass.
+    fn subtree(&self, parts: Vec<Part>, budget: usize) -> Subtree {
+        if parts.len() < PARALLEL_PARTS {
+            return self.serial(parts, budget);
+        }
+        let bounds = union(&parts);
+        let [(left, left_budget), (right, right_budget)] = self.cut(parts, &bounds, budget);
+        let (left, right) = rayon::join(
+            || self.subtree(left, left_budget),
+            || self.subtree(right, right_budget),
+        );
+        // Root, the two children's roots, then the rest of the left subtree and of the
+        // right: a left node k ≥ 1 moves to k + 2, a right node k ≥ 1 to k + left − 1 + 2.
+        let mut nodes = Vec::with_capacity(1 + left.nodes.len() + right.nodes.len());
+        nodes.push(Bvh2Node::new(bounds, 0, 1));
+        let shifts = [(2, 0), (left.nodes.len() + 1, left.parts.len() as u32)];
+        let moved = |n: &Bvh2Node, (node_shift, part_shift): (usize, u32)| {
+            let shift = if n.prim_count > 0 {
+                part_shift
+            } else {
+                node_shift as u32
+            };
+            Bvh2Node::new(*n.aabb(), n.prim_count, n.first_index + shift)
+        };
+        for (side, shift) in [&left, &right].into_iter().zip(shifts) {
+            nodes.push(moved(&side.nodes[0], shift));
+        }
+        for (side, shift) in [&left, &right].into_iter().zip(shifts) {
+            nodes.extend(side.nodes[1..].iter().map(|n| moved(n, shift)));
+        }
+        let mut all_parts = left.parts;
+        all_parts.extend(right.parts);
+        Subtree {
+            nodes,
+            parts: all_parts,
+        }
+    }
+
+    /// The subtree over `parts`, depth first on this thread; the left child is built
+    /// first, so the nodes of a subtree lie together.
+    fn serial(&self, parts: Vec<Part>, budget: usize) -> Subtree {
+        let mut tree = Subtree {
+            nodes: vec![Bvh2Node::new(union(&parts), 0, 0)],
+            parts: Vec::new(),
+        };
+        let mut pending = vec![(0, parts, budget)];
+        while let Some((node, parts, budget)) = pending.pop() {
+            if let [part] = parts[..] {
+                let first = tree.parts.len() as u32;
+                tree.nodes[node] = Bvh2Node::new(part.bounds, 1, first);
+                tree.parts.push(part.triangle);
+                continue;
+            }
+            let bounds = *tree.nodes[node].aabb();
+            let [(left, left_budget), (right, right_budget)] = self.cut(parts, &bounds, budget);
+            let first = tree.nodes.len();
+            tree.nodes.push(Bvh2Node::new(union(&left), 0, 0));
+            tree.nodes.push(Bvh2Node::new(union(&right), 0, 0));
+            tree.nodes[node] = Bvh2Node::new(bounds, 0, first as u32);
+            pending.push((first + 1, right, right_budget));
+            pending.push((first, left, left_budget));
+        }
+        tree
+    }
 }
 
 fn union(parts: &[Part]) -> Aabb {
@@ -618,6 +673,48 @@ mod tests {
                 let c = bvh.nodes[child as usize].aabb();
                 assert!(n.aabb().min.cmple(c.min).all() && c.max.cmple(n.aabb().max).all());
             }
+        }
+    }
+
+    #[test]
+    fn the_parallel_build_makes_the_serial_builds_tree() {
+        // Enough triangles for the top cuts to run on two threads, with long strips among
+        // them so that parts are copied: joining the halves must give the very tree one
+        // depth-first pass gives.
+        let mut tris = strips_over_a_grid();
+        for i in 0..20_000 {
+            let (x, y, z) = (
+                (i % 40) as f32 * 0.4,
+                (i / 40 % 25) as f32 * 0.3,
+                (i / 1000) as f32 * 0.2,
+            );
+            tris.push(triangle(
+                [x, y, z],
+                [x + 0.2, y + 0.05, z],
+                [x, y + 0.1, z + 0.15],
+            ));
+        }
+        let parts: Vec<Part> = tris
+            .iter()
+            .enumerate()
+            .map(|(i, t)| Part {
+                bounds: Aabb::from_points(&[t.v0, t.v1, t.v2]),
+                triangle: i as u32,
+            })
+            .collect();
+        let builder = Builder {
+            triangles: &tris,
+            root_area: union(&parts).half_area(),
+        };
+        let budget = (parts.len() as f32 * GROWTH) as usize;
+        let parallel = builder.subtree(parts.clone(), budget);
+        let serial = builder.serial(parts, budget);
+        assert!(serial.parts.len() > tris.len(), "no part was copied");
+        assert_eq!(parallel.parts, serial.parts);
+        let fields = |n: &Bvh2Node| (n.aabb().min, n.aabb().max, n.prim_count, n.first_index);
+        assert_eq!(parallel.nodes.len(), serial.nodes.len());
+        for (k, (a, b)) in parallel.nodes.iter().zip(&serial.nodes).enumerate() {
+            assert_eq!(fields(a), fields(b), "node {k}");
         }
     }
 
