@@ -8,7 +8,6 @@ use glam::Vec2;
 use holocave_scene::Ray;
 use holocave_tracer::Tracer;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
-use rayon::prelude::*;
 
 use crate::EyeView;
 use crate::cache::{BACKGROUND, NewSample};
@@ -74,20 +73,13 @@ impl PixelTracer {
                 s.radiance = (*t / self.paths as f32).to_array();
             }
         }
-        let scene = self.tracer.scene();
-        rays.par_iter()
-            .zip(samples.par_iter())
-            .zip(pixels.par_iter())
-            .with_min_len(64)
+        rays.iter()
+            .zip(&samples)
+            .zip(pixels)
             .map(|((ray, s), &pixel)| {
-                let (distance, surface) = if s.distance.is_finite() {
-                    let surface = scene
-                        .closest_hit(ray, f32::INFINITY)
-                        .map(|h| scene.surface(&h).material)
-                        .unwrap_or(BACKGROUND);
-                    (s.distance, surface)
-                } else {
-                    (BACKGROUND_DISTANCE, BACKGROUND)
+                let (distance, surface) = match s.material {
+                    Some(material) if s.distance.is_finite() => (s.distance, material),
+                    _ => (BACKGROUND_DISTANCE, BACKGROUND),
                 };
                 NewSample::new(
                     pixel,

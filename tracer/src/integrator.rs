@@ -246,13 +246,14 @@ pub fn finish_path(
             break;
         };
         // Distances along the camera ray count from its own origin.
+        let sp = scene.surface(&hit);
         let t = if depth == 0 {
             sample.distance = (skipped + f64::from(hit.t)) as f32;
+            sample.material = Some(sp.material);
             sample.distance
         } else {
             hit.t
         };
-        let sp = scene.surface(&hit);
         let material = &scene.materials[sp.material as usize];
         let params = material.params(&scene.textures, sp.uv);
         let wo = -ray.dir;

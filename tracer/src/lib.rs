@@ -44,6 +44,9 @@ pub struct TracedRay {
     /// Distance to the first non-specular surface, continuing through flat mirrors and
     /// flat glass (the holodeck paper's `VDISTANCE`); infinite if the path escapes first.
     pub virtual_distance: f32,
+    /// The material of the first hit (an index into the scene's materials); `None` if the
+    /// ray escapes. A render cache marks its samples with it.
+    pub material: Option<u32>,
 }
 
 impl TracedRay {
@@ -53,6 +56,7 @@ impl TracedRay {
         radiance: [0.0; 3],
         distance: f32::INFINITY,
         virtual_distance: f32::INFINITY,
+        material: None,
     };
 }
 

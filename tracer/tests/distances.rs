@@ -41,9 +41,15 @@ fn virtual_distance_through_a_flat_mirror_and_flat_glass() {
         ],
         Daylight::default(),
     );
-    let s = tracer(scene).trace(&[Ray::new(eye, d)], 1)[0];
+    let tracer_ = tracer(scene);
+    let s = tracer_.trace(&[Ray::new(eye, d)], 1)[0];
     let first = to_z(0.0);
     assert!((s.distance - first).abs() < 1e-5, "{s:?}");
+    // The first hit's material is the mirror's (the first group), not the wall's seen in it;
+    // a ray away from both hits nothing.
+    assert_eq!(s.material, Some(0), "{s:?}");
+    let away = tracer_.trace(&[Ray::new(eye, Vec3::X)], 1)[0];
+    assert_eq!((away.material, away.distance), (None, f32::INFINITY));
     // Reflected upwards it travels 2 / |d.z| to the wall.
     assert!(
         (s.virtual_distance - (first + 2.0 / -d.z)).abs() < tol,
