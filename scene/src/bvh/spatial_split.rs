@@ -111,12 +111,13 @@ pub(super) fn build(triangles: &[Triangle]) -> Bvh2 {
     if parts.is_empty() {
         return bvh;
     }
+    let budget = ((parts.len() as f32 * GROWTH) as usize).max(parts.len());
+    let root = Side::new(parts, budget);
     let builder = Builder {
         triangles,
-        root_area: union(&parts).half_area(),
+        root_area: root.bounds.half_area(),
     };
-    let budget = ((parts.len() as f32 * GROWTH) as usize).max(parts.len());
-    let tree = builder.subtree(parts, budget);
+    let tree = builder.subtree(root);
     bvh.nodes = tree.nodes;
     bvh.primitive_indices = tree.parts;
     bvh
@@ -139,31 +140,34 @@ struct Builder<'a> {
 }
 
 impl Builder<'_> {
-    /// Cuts `parts` in two and shares out `budget` (the most parts the subtree may end
-    /// with) between the halves, in proportion to their parts.
-    fn cut(&self, parts: Vec<Part>, bounds: &Aabb, budget: usize) -> [(Vec<Part>, usize); 2] {
-        let cut = choose_cut(self.triangles, &parts, bounds, budget, self.root_area);
-        let (left, right) = divide(self.triangles, parts, cut);
+    /// Cuts a node's parts in two: each side's parts, box, and share of `budget` (the
+    /// most parts the subtree may end with), in proportion to its parts.
+    fn cut(&self, node: Side) -> [Side; 2] {
+        let cut = choose_cut(
+            self.triangles,
+            &node.parts,
+            &node.bounds,
+            node.budget,
+            self.root_area,
+        );
+        let (left, right) = divide(self.triangles, node.parts, cut);
         let total = left.len() + right.len();
-        let spare = budget.saturating_sub(total);
+        let spare = node.budget.saturating_sub(total);
         let left_budget = left.len() + spare * left.len() / total;
-        let right_budget = budget.max(total) - left_budget;
-        [(left, left_budget), (right, right_budget)]
+        let right_budget = node.budget.max(total) - left_budget;
+        [Side::new(left, left_budget), Side::new(right, right_budget)]
     }
 
     /// The subtree over `parts`: large ones as two subtrees built in parallel and joined
     /// (the result does not depend on which thread finishes first), small ones in one
     /// depth-first pass.
-    fn subtree(&self, parts: Vec<Part>, budget: usize) -> Subtree {
-        if parts.len() < PARALLEL_PARTS {
-            return self.serial(parts, budget);
+    fn subtree(&self, node: Side) -> Subtree {
+        if node.parts.len() < PARALLEL_PARTS {
+            return self.serial(node);
         }
-        let bounds = union(&parts);
-        let [(left, left_budget), (right, right_budget)] = self.cut(parts, &bounds, budget);
-        let (left, right) = rayon::join(
-            || self.subtree(left, left_budget),
-            || self.subtree(right, right_budget),
-        );
+        let bounds = node.bounds;
+        let [left, right] = self.cut(node);
+        let (left, right) = rayon::join(|| self.subtree(left), || self.subtree(right));
         // Root, the two children's roots, then the rest of the left subtree and of the
         // right: a left node k ≥ 1 moves to k + 2, a right node k ≥ 1 to k + left − 1 + 2.
         let mut nodes = Vec::with_capacity(1 + left.nodes.len() + right.nodes.len());
@@ -193,36 +197,51 @@ impl Builder<'_> {
 
     /// The subtree over `parts`, depth first on this thread; the left child is built
     /// first, so the nodes of a subtree lie together.
-    fn serial(&self, parts: Vec<Part>, budget: usize) -> Subtree {
+    fn serial(&self, root: Side) -> Subtree {
         let mut tree = Subtree {
-            nodes: vec![Bvh2Node::new(union(&parts), 0, 0)],
+            nodes: vec![Bvh2Node::new(root.bounds, 0, 0)],
             parts: Vec::new(),
         };
-        let mut pending = vec![(0, parts, budget)];
-        while let Some((node, parts, budget)) = pending.pop() {
-            if let [part] = parts[..] {
+        let mut pending = vec![(0, root)];
+        while let Some((index, node)) = pending.pop() {
+            if let [part] = node.parts[..] {
                 let first = tree.parts.len() as u32;
-                tree.nodes[node] = Bvh2Node::new(part.bounds, 1, first);
+                tree.nodes[index] = Bvh2Node::new(part.bounds, 1, first);
                 tree.parts.push(part.triangle);
                 continue;
             }
-            let bounds = *tree.nodes[node].aabb();
-            let [(left, left_budget), (right, right_budget)] = self.cut(parts, &bounds, budget);
+            let bounds = node.bounds;
+            let [left, right] = self.cut(node);
             let first = tree.nodes.len();
-            tree.nodes.push(Bvh2Node::new(union(&left), 0, 0));
-            tree.nodes.push(Bvh2Node::new(union(&right), 0, 0));
-            tree.nodes[node] = Bvh2Node::new(bounds, 0, first as u32);
-            pending.push((first + 1, right, right_budget));
-            pending.push((first, left, left_budget));
+            tree.nodes.push(Bvh2Node::new(left.bounds, 0, 0));
+            tree.nodes.push(Bvh2Node::new(right.bounds, 0, 0));
+            tree.nodes[index] = Bvh2Node::new(bounds, 0, first as u32);
+            pending.push((first + 1, right));
+            pending.push((first, left));
         }
         tree
     }
 }
 
-fn union(parts: &[Part]) -> Aabb {
-    parts
-        .iter()
-        .fold(Aabb::empty(), |acc, p| acc.union(&p.bounds))
+/// A node still to be cut: its parts, their box, and the most parts its subtree may end
+/// with.
+struct Side {
+    parts: Vec<Part>,
+    bounds: Aabb,
+    budget: usize,
+}
+
+impl Side {
+    fn new(parts: Vec<Part>, budget: usize) -> Self {
+        let bounds = parts
+            .iter()
+            .fold(Aabb::empty(), |acc, p| acc.union(&p.bounds));
+        Side {
+            parts,
+            bounds,
+            budget,
+        }
+    }
 }
 
 /// The surface-area cost of two groups, up to the constant factors every candidate shares.
@@ -325,23 +344,17 @@ fn choose_cut(
                 boxes[first] = boxes[first].union(&p.bounds);
                 continue;
             }
+            // Each plane's section bounds the pieces on both its sides.
             let section = Sections::new(&triangles[p.triangle as usize], axis);
-            // The part between two planes: the triangle's sections at both and its corners
-            // between them, within the part's box. Each plane's section serves two bins.
-            let mut below = Aabb::empty();
+            let mut below = (f32::NEG_INFINITY, Aabb::empty());
             for (bin, into) in boxes.iter_mut().enumerate().take(last + 1).skip(first) {
-                let (lo, hi, above) = if bin == last {
-                    (bins.plane(bin - 1), f32::INFINITY, Aabb::empty())
+                let above = if bin == last {
+                    (f32::INFINITY, Aabb::empty())
                 } else {
-                    let hi = bins.plane(bin);
-                    (bins.plane(bin.max(1) - 1), hi, section.at(hi))
+                    let plane = bins.plane(bin);
+                    (plane, section.at(plane))
                 };
-                let lo = if bin == first { f32::NEG_INFINITY } else { lo };
-                let piece = section.corners_within(lo, hi).union(&below).union(&above);
-                let piece = piece.intersection(&p.bounds);
-                if nonempty(&piece) {
-                    *into = into.union(&piece);
-                }
+                *into = into.union(&section.between(below, above, &p.bounds));
                 below = above;
             }
         }
@@ -377,7 +390,7 @@ struct Sections {
 
 impl Sections {
     fn new(t: &Triangle, axis: usize) -> Self {
-        let mut sorted = corners(t);
+        let mut sorted = [t.v0, t.v1, t.v2];
         sorted.sort_by(|a, b| a[axis].total_cmp(&b[axis]));
         Self {
             sorted,
@@ -409,48 +422,23 @@ impl Sections {
         Aabb::new(long.min(short), long.max(short))
     }
 
-    /// The box of the corners with `lo ≤ coordinate ≤ hi`.
-    fn corners_within(&self, lo: f32, hi: f32) -> Aabb {
-        let mut within = Aabb::empty();
+    /// The box of the triangle's piece between two planes, each given with the box of
+    /// its section ([`Sections::at`]; an infinite plane, with an empty box, bounds
+    /// nothing), within `bounds` (the box of the part the piece is cut from): its corners
+    /// between the planes and its sections on them. Empty where the piece is.
+    fn between(&self, (lo, at_lo): (f32, Aabb), (hi, at_hi): (f32, Aabb), bounds: &Aabb) -> Aabb {
+        let mut piece = at_lo.union(&at_hi);
         for (corner, along) in self.sorted.iter().zip(self.along) {
             if (lo..=hi).contains(&along) {
-                within.extend(*corner);
+                piece.extend(*corner);
             }
         }
-        within
-    }
-}
-
-fn corners(t: &Triangle) -> [Vec3A; 3] {
-    [t.v0, t.v1, t.v2]
-}
-
-/// The box around the part of a triangle between `lo` and `hi` on `axis`, within `bounds`
-/// (the box of the part being clipped): empty where the triangle does not reach the slab.
-fn clip(corners: &[Vec3A; 3], bounds: &Aabb, axis: usize, lo: f32, hi: f32) -> Aabb {
-    let mut clipped = Aabb::empty();
-    for k in 0..3 {
-        let (a, b) = (corners[k], corners[(k + 1) % 3]);
-        let (pa, pb) = (a[axis], b[axis]);
-        if (lo..=hi).contains(&pa) {
-            clipped.extend(a);
+        let piece = piece.intersection(bounds);
+        if nonempty(&piece) {
+            piece
+        } else {
+            Aabb::empty()
         }
-        for plane in [lo, hi] {
-            if (pa < plane && plane < pb) || (pb < plane && plane < pa) {
-                let mut point = a + (b - a) * ((plane - pa) / (pb - pa));
-                point[axis] = plane;
-                clipped.extend(point);
-            }
-        }
-    }
-    let mut slab = *bounds;
-    slab.min[axis] = slab.min[axis].max(lo);
-    slab.max[axis] = slab.max[axis].min(hi);
-    let clipped = clipped.intersection(&slab);
-    if nonempty(&clipped) {
-        clipped
-    } else {
-        Aabb::empty()
     }
 }
 
@@ -508,9 +496,11 @@ fn divide(triangles: &[Triangle], parts: Vec<Part>, cut: Cut) -> (Vec<Part>, Vec
                     into_right.push(p);
                     continue;
                 }
-                let corners = corners(&triangles[p.triangle as usize]);
-                let below = clip(&corners, &p.bounds, axis, f32::NEG_INFINITY, plane);
-                let above = clip(&corners, &p.bounds, axis, plane, f32::INFINITY);
+                let section = Sections::new(&triangles[p.triangle as usize], axis);
+                let on_plane = (plane, section.at(plane));
+                let below =
+                    section.between((f32::NEG_INFINITY, Aabb::empty()), on_plane, &p.bounds);
+                let above = section.between(on_plane, (f32::INFINITY, Aabb::empty()), &p.bounds);
                 match (nonempty(&below), nonempty(&above)) {
                     (true, true) => {
                         into_left.push(Part { bounds: below, ..p });
@@ -591,9 +581,9 @@ mod tests {
 
     #[test]
     fn sections_bound_the_triangle_between_two_planes() {
-        // The box of the triangle between two planes, from the sections and the corners
-        // between, equals the box of many points of the triangle between the planes (to
-        // within the sampling), and `clip` gives the same box.
+        // The box of the triangle between two planes (or beyond one), from the sections
+        // and the corners between, equals the box of many points of the triangle between
+        // the planes (to within the sampling).
         let t = triangle([0.0, 0.0, 0.0], [4.0, 1.0, -1.0], [1.5, 3.0, 2.0]);
         let dense: Vec<Vec3A> = (0..=400)
             .flat_map(|i| (0..=400 - i).map(move |j| (i as f32 / 400.0, j as f32 / 400.0)))
@@ -601,11 +591,15 @@ mod tests {
             .collect();
         for axis in 0..3 {
             let sections = Sections::new(&t, axis);
-            for (lo, hi) in [(-1.0, 0.5), (0.5, 1.2), (1.2, 2.9), (2.0, 9.0)] {
-                let from_sections = sections
-                    .corners_within(lo, hi)
-                    .union(&sections.at(lo))
-                    .union(&sections.at(hi));
+            let whole = Aabb::from_points(&dense);
+            let ranges = [
+                (f32::NEG_INFINITY, 0.5),
+                (0.5, 1.2),
+                (1.2, 2.9),
+                (2.0, f32::INFINITY),
+            ];
+            for (lo, hi) in ranges {
+                let b = sections.between((lo, sections.at(lo)), (hi, sections.at(hi)), &whole);
                 let sampled = dense.iter().filter(|p| (lo..=hi).contains(&p[axis])).fold(
                     Aabb::empty(),
                     |mut b, p| {
@@ -613,22 +607,19 @@ mod tests {
                         b
                     },
                 );
-                let clipped = clip(&corners(&t), &Aabb::from_points(&dense), axis, lo, hi);
                 // A sample lies within 1/400 of the triangle's extent of the true edge.
                 let step = 5.0 / 400.0;
-                for b in [from_sections, clipped] {
-                    assert!(
-                        (b.min - sampled.min).abs().max_element() <= step
-                            && (b.max - sampled.max).abs().max_element() <= step,
-                        "axis {axis}, [{lo}, {hi}]: {b:?} vs sampled {sampled:?}"
-                    );
-                    // And it holds every sample (up to rounding).
-                    let ulps = Vec3A::splat(8.0 * 5.0 * f32::EPSILON);
-                    assert!(
-                        (b.min - ulps).cmple(sampled.min).all()
-                            && (b.max + ulps).cmpge(sampled.max).all()
-                    );
-                }
+                assert!(
+                    (b.min - sampled.min).abs().max_element() <= step
+                        && (b.max - sampled.max).abs().max_element() <= step,
+                    "axis {axis}, [{lo}, {hi}]: {b:?} vs sampled {sampled:?}"
+                );
+                // And it holds every sample (up to rounding).
+                let ulps = Vec3A::splat(8.0 * 5.0 * f32::EPSILON);
+                assert!(
+                    (b.min - ulps).cmple(sampled.min).all()
+                        && (b.max + ulps).cmpge(sampled.max).all()
+                );
             }
         }
     }
@@ -708,13 +699,14 @@ mod tests {
                 triangle: i as u32,
             })
             .collect();
+        let budget = (parts.len() as f32 * GROWTH) as usize;
+        let root = || Side::new(parts.clone(), budget);
         let builder = Builder {
             triangles: &tris,
-            root_area: union(&parts).half_area(),
+            root_area: root().bounds.half_area(),
         };
-        let budget = (parts.len() as f32 * GROWTH) as usize;
-        let parallel = builder.subtree(parts.clone(), budget);
-        let serial = builder.serial(parts, budget);
+        let parallel = builder.subtree(root());
+        let serial = builder.serial(root());
         assert!(serial.parts.len() > tris.len(), "no part was copied");
         assert_eq!(parallel.parts, serial.parts);
         let fields = |n: &Bvh2Node| (n.aabb().min, n.aabb().max, n.prim_count, n.first_index);

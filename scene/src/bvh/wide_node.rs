@@ -1,8 +1,8 @@
 //! The BVH as the CPU traverses it: eight children per node, their boxes in full `f32`.
 //!
 //! obvhs collapses the binary tree to eight children per node (by the surface area
-//! heuristic) and stores it compressed for GPUs: child boxes quantised to bytes, children found by bit
-//! tricks. Decoding that per node was 88% of a Sponza primary ray on the CPU. Here the
+//! heuristic) and stores it compressed for GPUs: child boxes quantised to bytes, children
+//! found by bit tricks. Decoding that per node was 88% of a Sponza primary ray on the CPU. Here the
 //! same tree is unpacked once at build time: each node holds its eight child boxes as
 //! plane arrays, so one ray meets all eight with a handful of four-wide SIMD operations
 //! (glam's `Vec4` is SSE on x86-64), and each child says directly whether it is a node or
@@ -424,8 +424,9 @@ pub(super) fn unpack(
                     pad = pad.max(p);
                 }
                 // With spatial splits a leaf holds only the part of a triangle inside
-                // obvhs' box for it: the two boxes' overlap, grown by what the widened
-                // test accepts beyond the triangle.
+                // the builder's clipped box for it (as obvhs stored it, rounded
+                // outwards): the two boxes' overlap, grown by what the widened test
+                // accepts beyond the triangle.
                 let split = c.child_aabb(slot);
                 node.set_box(slot, min.max(split.min - pad), max.min(split.max + pad));
                 node.children[slot] = Child::leaf(first, count);
