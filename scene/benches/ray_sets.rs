@@ -42,13 +42,6 @@ fn sun() -> Vec3 {
     Vec3::new(0.25, 1.0, 0.15).normalize()
 }
 
-/// The tracer's rule for a new ray's start: off the surface along the face normal, by
-/// a distance relative to the magnitude of the coordinates.
-fn offset(p: Vec3, ng: Vec3, towards: Vec3) -> Vec3 {
-    let eps = 1e-4 * (1.0 + p.abs().max_element());
-    p + ng * (eps * ng.dot(towards).signum())
-}
-
 /// Two uniform numbers in [0, 1) from an index (splitmix64).
 fn uniform2(i: u64) -> (f32, f32) {
     let mut z = i.wrapping_add(1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
@@ -104,14 +97,14 @@ fn ray_sets(scene: &Scene) -> Option<RaySets> {
             sp.geometric_normal
         };
         if n.dot(sun()) > 0.0 {
-            shadow.push(Ray::new(offset(sp.position, n, sun()), sun()));
+            shadow.push(Ray::leaving(sp.position, n, sun()));
         }
         let (u1, u2) = uniform2(i as u64);
         let (r, phi) = (u1.sqrt(), std::f32::consts::TAU * u2);
         let (b1, b2) = n.any_orthonormal_pair();
         let wi = (b1 * (r * phi.cos()) + b2 * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt())
             .normalize();
-        diffuse.push(Ray::new(offset(sp.position, n, wi), wi));
+        diffuse.push(Ray::leaving(sp.position, n, wi));
     }
     Some(RaySets {
         primary,

@@ -26,6 +26,6 @@ pub use light::{PunctualKind, PunctualLight};
 pub use load::LoadOptions;
 pub use material::{Material, MaterialKind, SurfaceParams, TextureRef};
 pub use parts::{SceneParts, TriangleShading};
-pub use ray::{Hit, Ray};
+pub use ray::{Hit, Ray, leave_surface, surface_epsilon};
 pub use scene::{Scene, SurfacePoint};
 pub use texture::{Encoding, Texture};

@@ -3,7 +3,7 @@
 //! Russian roulette, and the virtual distance through flat mirrors and flat glass.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{Hit, Ray, Scene};
+use holocave_scene::{Hit, Ray, Scene, leave_surface, surface_epsilon};
 use rand::Rng;
 use rand_pcg::Pcg32;
 
@@ -14,26 +14,19 @@ use crate::mirrors::ViaMirror;
 use crate::sampling::{is_positive_finite, power_heuristic};
 use crate::{TraceSettings, TracedRay};
 
-/// How far a new ray starts off its surface, along the face normal: relative to the
-/// magnitude of the coordinates, so it stays above float spacing anywhere in the scene.
-fn offset(p: Vec3, ng: Vec3, towards: Vec3) -> Vec3 {
-    let eps = 1e-4 * (1.0 + p.abs().max_element());
-    p + ng * (eps * ng.dot(towards).signum())
-}
-
 /// Whether nothing blocks the segment from surface point `p` (face normal `ng`) to
 /// `target`. The ray starts just off the surface and is aimed at the target itself from
 /// there, stopping short of it: keeping the direction from `p` would run parallel to the
 /// true segment and cross a light's plane `eps / cos θl` early, so that at grazing angles
 /// (cos θl < 1/2) the light occluded itself.
 pub(crate) fn segment_clear(scene: &Scene, p: Vec3, ng: Vec3, target: Vec3) -> bool {
-    let origin = offset(p, ng, target - p);
+    let origin = leave_surface(p, ng, target - p);
     let d = target - origin;
     let len = d.length();
     if !is_positive_finite(len) {
         return false;
     }
-    let margin = 1e-4 * (1.0 + target.abs().max_element());
+    let margin = surface_epsilon(target);
     !scene.occluded(&Ray::new(origin, d / len), (len - margin).max(0.0))
 }
 
@@ -76,7 +69,7 @@ impl Path<'_> {
         } else {
             !self
                 .scene
-                .occluded(&Ray::new(offset(p, ng, ls.wi), ls.wi), f32::INFINITY)
+                .occluded(&Ray::leaving(p, ng, ls.wi), f32::INFINITY)
         };
         if !clear {
             return;
@@ -317,7 +310,7 @@ pub fn finish_path(
             }
             path.throughput /= p_continue;
         }
-        ray = Ray::new(offset(sp.position, ng, wi), wi);
+        ray = Ray::leaving(sp.position, ng, wi);
     }
     sample.radiance = finish(path.radiance);
     sample

@@ -6,14 +6,13 @@
 //! samples also go into its tile: each adds `f(ω_b, ω_i) E_i / samples` to every bin.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{Hit, Ray, Scene};
+use holocave_scene::{Hit, Ray, Scene, leave_surface};
 use holocave_tracer::lights::{LightSample, Lights};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
 use crate::elements::{Elements, cell_index};
-use crate::surface::leave;
 use crate::tiles::Tiles;
 
 /// The irradiance one light sample gives the point `p` on the side with normal `ns`.
@@ -22,7 +21,7 @@ pub fn irradiance_from(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3, ns: V
     if cos <= 0.0 {
         return Vec3::ZERO;
     }
-    let origin = leave(p, ng, ls.wi);
+    let origin = leave_surface(p, ng, ls.wi);
     let (dir, tmax) = if ls.dist.is_finite() {
         let target = p + ls.wi * ls.dist;
         let d = target - origin;

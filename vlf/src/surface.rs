@@ -115,13 +115,6 @@ pub fn delta_step(s: &Seen, dir: Vec3) -> Option<(Branch, Option<Branch>)> {
     }
 }
 
-/// The offset start of a ray leaving `p` on the side `towards` points to (the tracer's
-/// rule: relative to the coordinates' magnitude).
-pub fn leave(p: Vec3, normal: Vec3, towards: Vec3) -> Vec3 {
-    let eps = 1e-4 * (1.0 + p.abs().max_element());
-    p + normal * (eps * normal.dot(towards).signum())
-}
-
 /// The first non-delta surface along `ray`, through at most [`MAX_DELTA_DEPTH`] delta
 /// surfaces: what it is, the ray that reached it, the weight the deltas carried and the
 /// light they let through on the way (emission of delta surfaces; the sky and sun when
@@ -187,7 +180,7 @@ fn walk(
             // (so a chain of glass surfaces costs a bounded number of rays).
             let side = walk(
                 scene,
-                Ray::new(leave(s.position, s.normal, wj), wj),
+                Ray::leaving(s.position, s.normal, wj),
                 None,
                 environment,
                 (depth - level - 1) / 2,
@@ -199,7 +192,7 @@ fn walk(
             emitted += weight * wk * shown;
         }
         weight *= w;
-        ray = Ray::new(leave(s.position, s.normal, wi), wi);
+        ray = Ray::leaving(s.position, s.normal, wi);
     }
     Chain {
         end: None,
