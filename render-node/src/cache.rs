@@ -91,7 +91,8 @@ pub struct NewSample {
     pos: [f32; 4],
     rad: [f32; 4],
     origin: [f32; 4],
-    /// x: how many samples this one stands for (their mean radiance); yzw unused.
+    /// x: how many samples this one stands for (their mean radiance); y: 1 when it is
+    /// view-independent ([`NewSample::view_independent`]); zw unused.
     weight: [f32; 4],
 }
 
@@ -120,6 +121,14 @@ impl NewSample {
     /// point's running mean).
     pub fn with_weight(mut self, n: f32) -> NewSample {
         self.weight[0] = n.max(1.0);
+        self
+    }
+
+    /// The same sample, marked as radiance that does not depend on where it is seen
+    /// from (its surface is Lambertian): it may join a point made from any eye position,
+    /// not only a near one, so a moving head's samples keep averaging.
+    pub fn view_independent(mut self) -> NewSample {
+        self.weight[1] = 1.0;
         self
     }
 

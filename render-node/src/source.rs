@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use glam::Vec2;
-use holocave_scene::Ray;
+use holocave_scene::{MaterialKind, Ray};
 use holocave_tracer::Tracer;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 
@@ -22,15 +22,22 @@ pub struct PixelTracer {
     seed: u64,
     /// Paths averaged into each sample.
     paths: u32,
+    /// Per material, whether it is Lambertian (what it sends is the same seen from
+    /// anywhere, so its samples are marked view-independent).
+    lambertian: Vec<bool>,
 }
 
 impl PixelTracer {
     pub fn new(tracer: Arc<Tracer>, seed: u64) -> Self {
+        let lambertian = (tracer.scene().materials.iter())
+            .map(|m| m.kind() == MaterialKind::Diffuse)
+            .collect();
         PixelTracer {
             tracer,
             rng: SmallRng::seed_from_u64(seed),
             seed,
             paths: 1,
+            lambertian,
         }
     }
 
@@ -81,14 +88,18 @@ impl PixelTracer {
                     Some(material) if s.distance.is_finite() => (s.distance, material),
                     _ => (BACKGROUND_DISTANCE, BACKGROUND),
                 };
-                NewSample::new(
+                let sample = NewSample::new(
                     pixel,
                     ray.origin,
                     ray.at(distance),
                     distance,
                     s.radiance,
                     surface,
-                )
+                );
+                match self.lambertian.get(surface as usize) {
+                    Some(true) => sample.view_independent(),
+                    _ => sample,
+                }
             })
             .collect()
     }

@@ -48,19 +48,26 @@ fn a_point_shows_at_its_pixel_and_fills_its_neighbours() {
     let v = view(Vec3::new(0.0, 1.0, 1.0));
     let mut c = cache(256);
     draw(&mut c, &v);
-    c.insert(0, &[sample(&v, 3, 4, 2.0, 0.5)]);
+    c.insert(0, &[sample(&v, 1, 1, 2.0, 0.5)]);
     draw(&mut c, &v);
     let img = c.image(0);
     let cov = c.coverage(0);
-    assert_eq!(img.at(3, 4), Vec3::splat(0.5));
-    assert_eq!(cov[(4 * W + 3) as usize], 1.0);
-    // Every 3x3 neighbour is interpolated from it; pixels further away stay empty.
-    for (x, y) in [(2, 3), (4, 5), (3, 5), (2, 4)] {
+    assert_eq!(img.at(1, 1), Vec3::splat(0.5));
+    assert_eq!(cov[(W + 1) as usize], 1.0);
+    // Every 3x3 neighbour is interpolated from it; holes with no point in their 3x3 are
+    // filled from it up to four pixels away; pixels farther away stay empty.
+    for (x, y) in [(0, 0), (2, 2), (1, 2), (0, 1)] {
         assert_eq!(img.at(x, y), Vec3::splat(0.5), "({x},{y})");
         assert_eq!(cov[(y * W + x) as usize], 0.5);
     }
-    assert_eq!(img.at(0, 0), Vec3::ZERO);
-    assert_eq!(cov[0], 0.0);
+    for (x, y) in [(3, 1), (1, 5), (5, 5), (4, 0)] {
+        assert_eq!(img.at(x, y), Vec3::splat(0.5), "({x},{y})");
+        assert_eq!(cov[(y * W + x) as usize], 0.25);
+    }
+    for (x, y) in [(6, 1), (1, 6), (7, 7)] {
+        assert_eq!(img.at(x, y), Vec3::ZERO, "({x},{y})");
+        assert_eq!(cov[(y * W + x) as usize], 0.0);
+    }
 }
 
 #[test]
@@ -308,4 +315,36 @@ fn background_points_ask_for_samples_at_a_thirty_second_of_the_priority() {
     let pr = c.priority_image(0);
     assert_eq!(pr.at(1, 4).x, 1.0);
     assert_eq!(pr.at(6, 4).x, 1.0 / 32.0);
+}
+
+#[test]
+fn a_lambertian_sample_joins_the_point_from_a_far_eye_and_another_does_not() {
+    // A point of pixel (4, 4) made from this eye (radiance 1), then a sample of the same
+    // place on the same surface from 30 cm aside (beyond the 2 cm within which any
+    // surface's samples may join) with radiance 3: marked view-independent it joins the
+    // point (one point, the mean 2 of two samples); unmarked it becomes a point of its own.
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let aside = v.eye() + Vec3::new(0.3, 0.0, 0.0);
+    let p = v.wall.ray(Vec2::new(4.5, 4.5)).at(2.0);
+    let far = NewSample::new(4 * W + 4, aside, p, (p - aside).length(), [3.0; 3], 1);
+    let mut points = Vec::new();
+    for sample in [far.view_independent(), far] {
+        let mut c = cache(256);
+        draw(&mut c, &v);
+        c.insert(0, &[self::sample(&v, 4, 4, 2.0, 1.0)]);
+        draw(&mut c, &v);
+        c.insert(0, &[sample]);
+        let mut valid: Vec<[f32; 2]> = (c.points().iter())
+            .filter(|p| p.pos[3] < 1e6)
+            .map(|p| [p.rad[0], p.rad[3]])
+            .collect();
+        valid.sort_by(|a, b| a[0].total_cmp(&b[0]));
+        points.push(valid);
+    }
+    assert_eq!(
+        points[0],
+        [[2.0, 2.0]],
+        "marked: radiance and count of the points"
+    );
+    assert_eq!(points[1], [[1.0, 1.0], [3.0, 1.0]], "unmarked");
 }

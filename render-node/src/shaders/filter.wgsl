@@ -7,7 +7,7 @@
 @group(0) @binding(3) var<storage, read> key_img: array<u32>;
 // rgb + state: 1 a point is shown, 0 no point (after the cull).
 @group(0) @binding(4) var<storage, read_write> culled: array<vec4<f32>>;
-// rgb + state: 1 point, 0.5 interpolated, 0 empty.
+// rgb + state: 1 point, 0.5 interpolated, 0.25 filled from farther away, 0 empty.
 @group(0) @binding(5) var<storage, read_write> color: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> priority: array<f32>;
 @group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>>;
@@ -25,6 +25,8 @@ const MISS_SCALE: f32 = 0.02;
 const BACKGROUND_WEIGHT: f32 = 1.0 / 32.0;
 // Fixed-point scale of the priority sum.
 const SUM_SCALE: f32 = 256.0;
+// How far (in pixels) a hole with no point around it is filled from.
+const FILL_RADIUS: i32 = 4;
 
 @compute @workgroup_size(256)
 fn cull(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -117,11 +119,41 @@ fn interpolate(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (wsum > 0.0) {
             color[i] = vec4<f32>(sum / wsum, 0.5);
         } else {
-            color[i] = vec4<f32>(0.0);
+            color[i] = fill(x, y);
         }
         // Empty pixels first, the emptier their neighbourhood the more.
         pr = 1.0 + empty / 8.0;
     }
     priority[i] = pr;
     atomicAdd(&counters[0], u32(pr * SUM_SCALE + 0.5));
+}
+
+// A hole the 3×3 interpolation leaves (where motion uncovered what no point has sampled
+// yet): the mean of the points on the nearest square ring around it that has any, out to
+// FILL_RADIUS, so that it shows its surroundings rather than black until it is sampled.
+fn fill(x: i32, y: i32) -> vec4<f32> {
+    for (var r = 2; r <= FILL_RADIUS; r++) {
+        var sum = vec3<f32>(0.0);
+        var n = 0.0;
+        for (var dy = -r; dy <= r; dy++) {
+            // The ring's rows at dy = ±r are whole; the others have their two ends only.
+            let step = select(2 * r, 1, dy == -r || dy == r);
+            for (var dx = -r; dx <= r; dx += step) {
+                let xx = x + dx;
+                let yy = y + dy;
+                if (xx < 0 || yy < 0 || xx >= i32(P.width) || yy >= i32(P.height)) {
+                    continue;
+                }
+                let c = culled[u32(yy) * P.width + u32(xx)];
+                if (c.w > 0.0) {
+                    sum += c.xyz;
+                    n += 1.0;
+                }
+            }
+        }
+        if (n > 0.0) {
+            return vec4<f32>(sum / n, 0.25);
+        }
+    }
+    return vec4<f32>(0.0);
 }

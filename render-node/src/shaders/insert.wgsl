@@ -4,7 +4,10 @@
 //          from an eye position at most NEAR_ORIGIN away that hit the same surface at the
 //          same place joins a running mean capped at MOVING_MAX_COUNT samples (so a slowly
 //          moving head is not shown 1-sample noise, and view-dependent change still shows)
-//          and moves the point's ray origin to the new eye;
+//          and moves the point's ray origin to the new eye; a sample of a Lambertian
+//          surface (marked view-independent) joins it from any eye position, without
+//          the cap, since what such a surface sends does not depend on where it is seen
+//          from;
 //          a sample from another eye position whose colour differs a lot from the
 //          pixel's well-sampled point ages the points around it (premature aging);
 //   place: every other sample becomes a new point, replacing the oldest point of a
@@ -14,7 +17,8 @@ struct NewSample {
     pos: vec4<f32>,    // xyz hit position, w pixel index (bitcast u32)
     rad: vec4<f32>,    // rgb radiance, w surface id (bitcast u32)
     origin: vec4<f32>, // xyz ray origin, w distance along the ray
-    weight: vec4<f32>, // x: samples this one's radiance is the mean of (1 when traced)
+    weight: vec4<f32>, // x: samples this one's radiance is the mean of (1 when traced),
+                       // y: 1 when its radiance is the same from every eye position
 }
 
 struct InsertParams {
@@ -104,10 +108,13 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (moved > SAME_ORIGIN) {
         let same_surface = bitcast<u32>(p.origin.w) == bitcast<u32>(s.rad.w);
         let same_place = distance(p.pos.xyz, s.pos.xyz) <= SAME_PLACE * s.origin.w;
-        if (moved > NEAR_ORIGIN || !same_surface || !same_place) {
+        let view_independent = s.weight.y > 0.5;
+        if (!same_surface || !same_place || (moved > NEAR_ORIGIN && !view_independent)) {
             return;
         }
-        n = min(n, MOVING_MAX_COUNT);
+        if (!view_independent) {
+            n = min(n, MOVING_MAX_COUNT);
+        }
         p.origin = vec4<f32>(s.origin.xyz, p.origin.w);
     }
     p.rad = vec4<f32>(p.rad.xyz + (s.rad.xyz - p.rad.xyz) * min(w / n, 1.0), n);

@@ -125,7 +125,8 @@ fn blend(@builtin(global_invocation_id) gid: vec3<u32>) {
         let p = points[key_index(key_img[i], V.index_bits)];
         n = p.rad.w * STALE_FRAMES / (STALE_FRAMES + p.pos.w);
     } else if (c.w > 0.0) {
-        n = 0.5;
+        // Interpolated (0.5) or filled from farther away (0.25): worth that much.
+        n = c.w;
     }
     let shown = (V.prior * vlf + n * c.xyz) / max(V.prior + n, 1.0e-6);
     color[i] = vec4<f32>(shown, c.w);
