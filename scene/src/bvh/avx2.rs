@@ -341,8 +341,6 @@ unsafe fn any_order<const OCTANT: usize>(
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec4;
-
     use super::*;
     use crate::bvh::wide_node::safe_inverse;
 
@@ -358,18 +356,7 @@ mod tests {
             eprintln!("no AVX2 and FMA on this CPU: nothing to test");
             return;
         };
-        let mut node = WideNode {
-            planes: [
-                [Vec4::INFINITY; 2],
-                [Vec4::INFINITY; 2],
-                [Vec4::INFINITY; 2],
-                [Vec4::NEG_INFINITY; 2],
-                [Vec4::NEG_INFINITY; 2],
-                [Vec4::NEG_INFINITY; 2],
-            ],
-            children: [Child::EMPTY; 8],
-            order: [0; 8],
-        };
+        let mut node = WideNode::EMPTY;
         let (min, max) = (
             Vec3A::new(1000.0, 1000.0, 0.0),
             Vec3A::new(1000.5, 1000.5, 0.0),

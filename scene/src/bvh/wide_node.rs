@@ -182,7 +182,7 @@ pub(super) struct WideNode {
 }
 
 impl WideNode {
-    const EMPTY: WideNode = WideNode {
+    pub(super) const EMPTY: WideNode = WideNode {
         // An empty slot's box is inverted (min +∞, max −∞): every ray misses it.
         planes: [
             [Vec4::INFINITY; 2],
