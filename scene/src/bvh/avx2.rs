@@ -133,9 +133,10 @@ impl Kernel {
 /// of the portable test's `(plane − origin) · inv`. Its error is then not only relative to
 /// the distance (what [`FAR_GROWTH`] absorbs) but also the rounding of `origin · inv`,
 /// which is absolute: a ray starting on a box plane far from the scene's origin could get
-/// an entry distance past its exit. The offsets carry that rounding's bound (twice it,
-/// `2 ε |origin · inv|`): the entry planes subtract an offset that much too large and the
-/// exit planes one that much too small, so no box the ray meets is missed (test below). In
+/// an entry distance past its exit. The offsets carry a guard of two float steps of the
+/// product, `2 ε |origin · inv|`, against at most half a step of rounding in it and half a
+/// step in adding the guard: the entry planes subtract an offset that much too large and
+/// the exit planes one that much too small, so no box the ray meets is missed (test below). In
 /// space the boxes grow by about two ulps of the origin's coordinates, the precision the
 /// origin has anyway.
 struct BoxRay8 {
