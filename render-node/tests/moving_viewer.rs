@@ -7,15 +7,15 @@
 //! the error of a few frames against path-traced references stays near that of a
 //! path-traced frame with as many rays.
 
+mod common;
+
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache};
-use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_tracking::csv_log::read_csv;
 
@@ -37,9 +37,9 @@ fn moving_viewer_follows_a_recorded_trace() {
 /// up to four pixels away), the cache's error at frames 29/59/89/119, mean of four runs, is
 /// 0.33/0.27/0.26/0.31 against 0.31/0.21/0.16/0.18 (before: 0.33/0.31/0.38/0.42, two runs),
 /// and the test passed in 10 of 14 runs; the other four failed at frame 119 (0.38–0.46
-/// against 0.36). Runs differ although the CPU side is seeded: the cache's GPU passes insert samples
-/// into shared points in parallel, in no fixed order. Kept, not loosened, until it passes
-/// every time.
+/// against 0.36). Runs differ although the CPU side is seeded: the cache's GPU passes
+/// insert samples into shared points in parallel, in no fixed order. Kept, not loosened,
+/// until it passes every time.
 #[test]
 #[ignore = "passes in about seven runs of ten: the cache during motion is up to 2.5x a path-traced frame's error in single frames (README, Tests)"]
 fn moving_viewer_error_stays_within_twice_a_path_traced_frame() {
@@ -63,19 +63,13 @@ fn follow_a_recorded_trace(check_error: bool) {
     let samples = log.samples;
     let t0 = samples[0].t_ns;
     let p0 = samples[0].pose.position;
-    let centre = Vec3::new(0.0, 1.0, 3.4);
+    let centre = common::EYE;
 
-    let scene = Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default())
-        .expect("load the Cornell box");
-    let tracer = Arc::new(Tracer::new(Arc::new(scene), TraceSettings::default()));
-    let wall = |eye: Vec3| WallView {
-        eye,
-        pa: Vec3::new(-1.0, 0.0, 1.2),
-        pb: Vec3::new(1.0, 0.0, 1.2),
-        pc: Vec3::new(-1.0, 2.0, 1.2),
-        width: SIZE,
-        height: SIZE,
-    };
+    let tracer = Arc::new(Tracer::new(
+        Arc::new(common::cornell()),
+        TraceSettings::default(),
+    ));
+    let wall = |eye: Vec3| common::front_wall(eye, SIZE);
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let n = SIZE * SIZE;
     let budget = n / 16;

@@ -3,14 +3,13 @@
 //! the same view (relative MSE < 0.01) within a stated time, on whatever adapter exists
 //! (Mesa's lavapipe or llvmpipe on CI).
 
+mod common;
+
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use glam::Vec3;
 use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache};
-use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 
 const SIZE: u32 = 64;
@@ -20,19 +19,11 @@ const TARGET: f64 = 0.01;
 
 #[test]
 fn still_viewer_converges_to_the_path_traced_reference() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let scene = Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default())
-        .expect("load the Cornell box");
-    let tracer = Arc::new(Tracer::new(Arc::new(scene), TraceSettings::default()));
-    // The README's view: the front wall of a CAVE framing the box.
-    let wall = WallView {
-        eye: Vec3::new(0.0, 1.0, 3.4),
-        pa: Vec3::new(-1.0, 0.0, 1.2),
-        pb: Vec3::new(1.0, 0.0, 1.2),
-        pc: Vec3::new(-1.0, 2.0, 1.2),
-        width: SIZE,
-        height: SIZE,
-    };
+    let tracer = Arc::new(Tracer::new(
+        Arc::new(common::cornell()),
+        TraceSettings::default(),
+    ));
+    let wall = common::front_wall(common::EYE, SIZE);
     let t = Instant::now();
     let reference = render(&tracer, &wall, 4096, 7, &|| {});
     eprintln!("reference: 4096 spp in {:.1} s", t.elapsed().as_secs_f64());

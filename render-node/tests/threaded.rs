@@ -2,14 +2,12 @@
 //! purpose (no Russian roulette: every path runs to 64 bounces), frames keep coming while
 //! batches are traced, and the picture still fills in as they arrive.
 
-use std::path::PathBuf;
+mod common;
+
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use glam::Vec3;
 use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache, Sampler};
-use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
 
 /// Frames the display must draw, on average, per batch of samples that arrives. A display
@@ -22,24 +20,14 @@ const MIN_FRAMES_PER_BATCH: u32 = 2;
 
 #[test]
 fn frames_do_not_wait_for_the_tracer() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let scene = Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default())
-        .expect("load the Cornell box");
+    let scene = common::cornell();
     let slow = TraceSettings {
         max_depth: 64,
         roulette_depth: 64,
     };
     let tracer = Arc::new(Tracer::new(Arc::new(scene), slow));
     let size = 64;
-    let wall = WallView {
-        eye: Vec3::new(0.0, 1.0, 3.4),
-        pa: Vec3::new(-1.0, 0.0, 1.2),
-        pb: Vec3::new(1.0, 0.0, 1.2),
-        pc: Vec3::new(-1.0, 2.0, 1.2),
-        width: size,
-        height: size,
-    };
-    let view = EyeView::looking_at(wall, 0.05).unwrap();
+    let view = EyeView::looking_at(common::front_wall(common::EYE, size), 0.05).unwrap();
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let n = size * size;
     let cache = RenderCache::new(gpu, &[(size, size)], n * 2, n);

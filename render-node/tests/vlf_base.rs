@@ -2,38 +2,26 @@
 //! CPU's; a cold start shows the lit scene from its first frame (not black), close to the
 //! converged image; and a still viewer still converges to the path-traced image.
 
+mod common;
+
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use glam::Vec3;
 use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache, VlfBase};
-use holocave_scene::{LoadOptions, Scene};
+use holocave_scene::Scene;
 use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_vlf::file::VlfFile;
 use holocave_vlf::{Settings, view::shade};
 
-fn cornell_scene() -> Scene {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default())
-        .expect("load the Cornell box")
-}
-
 fn cornell() -> Arc<Scene> {
-    Arc::new(cornell_scene())
+    Arc::new(common::cornell())
 }
 
 /// The README's view: the front wall of a CAVE framing the box.
 fn wall(size: u32) -> WallView {
-    WallView {
-        eye: Vec3::new(0.0, 1.0, 3.4),
-        pa: Vec3::new(-1.0, 0.0, 1.2),
-        pb: Vec3::new(1.0, 0.0, 1.2),
-        pc: Vec3::new(-1.0, 2.0, 1.2),
-        width: size,
-        height: size,
-    }
+    common::front_wall(common::EYE, size)
 }
 
 /// Bakes `scene` with `settings` into a file in `dir` and opens it as a node does.
@@ -50,7 +38,7 @@ fn baked(scene: &Arc<Scene>, settings: &Settings, dir: &std::path::Path) -> VlfB
 /// The Cornell box with its white walls made a glossy metal (GGX α = 0.09): most of the
 /// view is drawn from directional radiance tiles.
 fn glossy_cornell() -> Arc<Scene> {
-    let mut scene = cornell_scene();
+    let mut scene = common::cornell();
     let white = scene
         .materials
         .iter()

@@ -94,6 +94,10 @@ impl Bvh {
                 v2: t[2].into(),
             })
             .collect();
+        // Leaves of at most three triangles (the most obvhs' wide leaves hold); children
+        // laid out by obvhs' octant rule (the walks read their own `WideNode::order`
+        // instead; the figures in the README were measured with this layout); no exact
+        // node boxes: `wide_node::unpack` bounds each leaf from its triangles.
         let cw = bvh2_to_cwbvh(&spatial_split::build(&tris), 3, true, false);
         let triangles: Vec<IsectTriangle> = cw
             .primitive_indices

@@ -15,7 +15,7 @@
 //! the aliasing becomes noise that the other directions average out.
 
 use glam::Vec3;
-use holocave_scene::{Hit, Ray, Scene};
+use holocave_scene::{Hit, Ray, Scene, surface_epsilon};
 use holocave_tracer::frame::Frame;
 
 use crate::elements::Elements;
@@ -164,9 +164,10 @@ pub fn cast(
             let first = out.crossings.len();
             let mut last_t = f32::NEG_INFINITY;
             for h in &hits {
-                // Two triangles meeting at an edge the line runs through are one surface.
+                // Two triangles meeting at an edge the line runs through are one surface:
+                // hits closer than a tenth of the gap a new ray leaves off a surface.
                 let p = ray.at(h.t);
-                if h.t - last_t <= 1e-5 * (1.0 + p.abs().max_element()) {
+                if h.t - last_t <= 0.1 * surface_epsilon(p) {
                     continue;
                 }
                 last_t = h.t;
@@ -176,10 +177,9 @@ pub fn cast(
                 let crossing = if s.delta {
                     // Light leaving along +d comes from what a ray arriving along −d sees.
                     let mut link = |arriving: Vec3| {
-                        let probe = Ray::new(
-                            p - arriving * (4e-4 * (1.0 + p.abs().max_element())),
-                            arriving,
-                        );
+                        // Started back along the line by four surface gaps, so that it
+                        // meets this surface again even where the line grazes it.
+                        let probe = Ray::new(p - arriving * (4.0 * surface_epsilon(p)), arriving);
                         let chain = follow(scene, probe, environment);
                         let (element, emitted, toward) = match chain.end {
                             Some((end, r)) => (

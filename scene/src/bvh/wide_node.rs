@@ -2,9 +2,9 @@
 //!
 //! obvhs collapses the binary tree to eight children per node (by the surface area
 //! heuristic) and stores it compressed for GPUs: child boxes quantised to bytes, children
-//! found by bit tricks. Decoding that per node was 88% of a Sponza primary ray on the CPU. Here the
-//! same tree is unpacked once at build time: each node holds its eight child boxes as
-//! plane arrays, so one ray meets all eight with a handful of four-wide SIMD operations
+//! found by bit tricks. Decoding that per node was 88% of a Sponza primary ray on the CPU.
+//! Here the same tree is unpacked once at build time: each node holds its eight child boxes
+//! as plane arrays, so one ray meets all eight with a handful of four-wide SIMD operations
 //! (glam's `Vec4` is SSE on x86-64), and each child says directly whether it is a node or
 //! a leaf and where it lives. The boxes are recomputed exactly from the triangles, so they
 //! are tighter than the quantised ones.
