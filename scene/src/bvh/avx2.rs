@@ -19,11 +19,17 @@ use std::mem::MaybeUninit;
 
 use glam::Vec3A;
 
+use super::triangle::{EDGE_TOLERANCE, TriangleBlock};
 use super::wide_node::{Child, FAR_GROWTH, WideNode};
 
 /// The deepest stack the walks keep on the thread's stack: a tree deeper than
 /// `(STACK - 8) / 7` levels is walked by the portable code.
 pub(super) const STACK: usize = 256;
+
+/// The entry at the bottom of a walk's stack (below its [`STACK`] entries): popping it
+/// ends the walk, so the pops need no test for an empty stack. No tree has it as a child
+/// (a leaf of 15 triangles at slot 2^27 − 2).
+const END: Child = Child(u32::MAX - 1);
 
 // The loads below read a node's plane row as eight contiguous f32 at a 32-byte boundary,
 // and its children as eight u32.
@@ -57,55 +63,71 @@ const fn pack_table() -> [[u32; 8]; 256] {
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Kernel(());
 
-/// The octant of a ray's direction, as [`WideNode::order`] numbers them: bit 2 for a
-/// negative x, bit 1 for y, bit 0 for z.
-fn octant(inv: Vec3A) -> usize {
-    let negative = inv.is_negative_bitmask() as usize; // bit 0 for x
-    ((negative & 1) << 2) | (negative & 2) | (negative >> 2)
-}
-
-/// Calls `walk::<OCTANT>(args)` for the octant given: each octant has its own copy of a
-/// walk, with the plane rows it reads and the shift of its orders fixed when compiled.
+/// Calls `walk::<OCTANT>(args)` for the octant of the inverse direction `inv`: each octant
+/// has its own copy of a walk, with the plane rows it reads and the shift of its orders
+/// fixed when compiled. The match reads the direction's sign bits as they come (bit 0 for
+/// x) and names each arm's octant as [`WideNode::order`] numbers them (bit 2 for x, bit 0
+/// for z), so the jump table does the reordering.
 macro_rules! for_octant {
-    ($octant:expr, $walk:ident($($arg:expr),*)) => {
-        match $octant {
+    ($inv:expr, $walk:ident($($arg:expr),*)) => {
+        match $inv.is_negative_bitmask() {
             0 => $walk::<0>($($arg),*),
-            1 => $walk::<1>($($arg),*),
+            1 => $walk::<4>($($arg),*),
             2 => $walk::<2>($($arg),*),
-            3 => $walk::<3>($($arg),*),
-            4 => $walk::<4>($($arg),*),
+            3 => $walk::<6>($($arg),*),
+            4 => $walk::<1>($($arg),*),
             5 => $walk::<5>($($arg),*),
-            6 => $walk::<6>($($arg),*),
+            6 => $walk::<3>($($arg),*),
             _ => $walk::<7>($($arg),*),
         }
     };
 }
 
 impl Kernel {
-    /// The kernel, where the CPU has AVX2 and FMA (`HOLOCAVE_NO_AVX2` set in the environment
+    /// The kernel, where the CPU has AVX2, FMA and the bit instructions that come with them
+    /// (BMI1, LZCNT, POPCNT: one instruction each for counting and finding lanes)
+    /// (`HOLOCAVE_NO_AVX2` set in the environment
     /// turns it off, to compare the two walks).
     pub fn detect() -> Option<Kernel> {
         (is_x86_feature_detected!("avx2")
             && is_x86_feature_detected!("fma")
+            && is_x86_feature_detected!("bmi1")
+            && is_x86_feature_detected!("lzcnt")
+            && is_x86_feature_detected!("popcnt")
             && std::env::var_os("HOLOCAVE_NO_AVX2").is_none())
         .then_some(Kernel(()))
     }
 
-    /// Visits the leaves the ray (origin, [`super::wide_node::safe_inverse`] direction)
-    /// enters, nearest first as far as the layout tells it.
-    /// `leaf(block)` tests a leaf's triangles and returns the new bound; a child entered
-    /// beyond the bound is skipped. `nodes` must be no deeper than the [`STACK`] allows.
+    /// The closest hit of the ray (origin, direction and its
+    /// [`super::wide_node::safe_inverse`]) with `t < tmax` among the triangles of `blocks`:
+    /// slot `4 · block + lane`, `t`, `u`, `v`. `nodes` must be no deeper than the [`STACK`]
+    /// allows.
     #[inline(always)]
-    pub fn walk(
+    pub fn closest_hit(
         self,
         nodes: &[WideNode],
-        origin: Vec3A,
-        inv: Vec3A,
-        bound: f32,
-        leaf: impl FnMut(usize) -> f32,
-    ) {
-        // SAFETY: a Kernel exists only where the CPU has AVX2 and FMA.
-        unsafe { for_octant!(octant(inv), nearest_first(nodes, origin, inv, bound, leaf)) }
+        blocks: &[TriangleBlock],
+        ray: (Vec3A, Vec3A, Vec3A),
+        tmax: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        let (origin, dir, inv) = ray;
+        // SAFETY: a Kernel exists only where the CPU has AVX2, FMA and the bit instructions.
+        unsafe { for_octant!(inv, nearest_first(nodes, blocks, origin, dir, inv, tmax)) }
+    }
+
+    /// Whether any triangle of `blocks` lies on the ray before `tmax` (the ray as for
+    /// [`Kernel::closest_hit`]).
+    #[inline(always)]
+    pub fn occluded(
+        self,
+        nodes: &[WideNode],
+        blocks: &[TriangleBlock],
+        ray: (Vec3A, Vec3A, Vec3A),
+        tmax: f32,
+    ) -> bool {
+        let (origin, dir, inv) = ray;
+        // SAFETY: a Kernel exists only where the CPU has AVX2, FMA and the bit instructions.
+        unsafe { for_octant!(inv, occluded(nodes, blocks, origin, dir, inv, tmax)) }
     }
 
     /// Visits the leaves the ray enters before `tmax`, in no particular order, until
@@ -120,8 +142,8 @@ impl Kernel {
         tmax: f32,
         leaf: impl FnMut(usize) -> bool,
     ) -> bool {
-        // SAFETY: a Kernel exists only where the CPU has AVX2 and FMA.
-        unsafe { for_octant!(octant(inv), any_order(nodes, origin, inv, tmax, leaf)) }
+        // SAFETY: a Kernel exists only where the CPU has AVX2, FMA and the bit instructions.
+        unsafe { for_octant!(inv, any_order(nodes, origin, inv, tmax, leaf)) }
     }
 }
 
@@ -146,7 +168,7 @@ struct BoxRay8 {
 }
 
 impl BoxRay8 {
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
     fn new(origin: Vec3A, inv: Vec3A) -> Self {
         // An offset too large for f32 (an origin 10^8 away with a direction along a
         // plane) leaves that axis unconstrained rather than wrong.
@@ -164,11 +186,12 @@ impl BoxRay8 {
     }
 
     /// The children the ray enters before `bound` (all bits set in a lane entered), and
-    /// where it enters each, eight lanes at once. `OCTANT` is the ray's [`octant`].
+    /// where it enters each, eight lanes at once. `OCTANT` is the ray's octant (see
+    /// [`for_octant`]).
     ///
     /// # Safety
-    /// The CPU has AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
+    /// The CPU has AVX2, FMA and the bit instructions.
+    #[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
     #[inline]
     unsafe fn enter<const OCTANT: usize>(&self, node: &WideNode, bound: f32) -> (__m256, __m256) {
         // Per axis, the plane row a ray of the octant enters through (the minimum, or the
@@ -197,7 +220,7 @@ impl BoxRay8 {
 }
 
 /// The permutation that packs the lanes set in `mask` (8 bits) at the front, lowest first.
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
 #[inline]
 fn packing(mask: usize) -> __m256i {
     // SAFETY: a table row is eight u32 (an unaligned load).
@@ -207,8 +230,8 @@ fn packing(mask: usize) -> __m256i {
 /// Writes the node's eight children, permuted by `pick`, at `top` of a walk's stack.
 ///
 /// # Safety
-/// The CPU has AVX2 and FMA, and `top` has room for eight entries.
-#[target_feature(enable = "avx2,fma")]
+/// The CPU has AVX2, FMA and the bit instructions, and `top` has room for eight entries.
+#[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
 #[inline]
 unsafe fn push_children(top: *mut MaybeUninit<u32>, node: &WideNode, pick: __m256i) {
     // SAFETY: the children are eight u32 (see the layout checks above); the caller
@@ -222,69 +245,163 @@ unsafe fn push_children(top: *mut MaybeUninit<u32>, node: &WideNode, pick: __m25
     }
 }
 
-#[target_feature(enable = "avx2,fma")]
+/// A ray spread over four lanes for [`leaf_hits`].
+struct LeafRay {
+    origin: [__m128; 3],
+    dir: [__m128; 3],
+}
+
+impl LeafRay {
+    #[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
+    fn new(origin: Vec3A, dir: Vec3A) -> Self {
+        Self {
+            origin: [0, 1, 2].map(|axis| _mm_set1_ps(origin[axis])),
+            dir: [0, 1, 2].map(|axis| _mm_set1_ps(dir[axis])),
+        }
+    }
+}
+
+/// Möller–Trumbore for a block's four triangles, as [`super::triangle::intersect4`] but
+/// with fused multiply-adds: `t`, `u`, `v` and the lanes hit before `tmax` (all bits set).
+/// The fused products round once where the portable test rounds twice, so the two may
+/// differ in the last bits of `t`, `u` and `v` (and so on a hit within a few ulps of
+/// an edge's tolerance); both are the same test, within its rounding.
+#[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
+#[inline]
+fn leaf_hits(block: &TriangleBlock, ray: &LeafRay, tmax: f32) -> [__m128; 4] {
+    let row = |rows: &[glam::Vec4; 3]| rows.map(__m128::from);
+    let ([e1x, e1y, e1z], [e2x, e2y, e2z], v0) = (row(&block.e1), row(&block.e2), row(&block.v0));
+    let [dx, dy, dz] = ray.dir;
+    // a·b − c·d with one rounding for the first product.
+    let cross = |a, b, c, d| _mm_fmsub_ps(a, b, _mm_mul_ps(c, d));
+    let dot = |a: [__m128; 3], b: [__m128; 3]| {
+        _mm_fmadd_ps(a[2], b[2], _mm_fmadd_ps(a[1], b[1], _mm_mul_ps(a[0], b[0])))
+    };
+    let p = [
+        cross(dy, e2z, dz, e2y),
+        cross(dz, e2x, dx, e2z),
+        cross(dx, e2y, dy, e2x),
+    ];
+    let inv = _mm_div_ps(_mm_set1_ps(1.0), dot([e1x, e1y, e1z], p));
+    let [sx, sy, sz] = [0, 1, 2].map(|axis| _mm_sub_ps(ray.origin[axis], v0[axis]));
+    let u = _mm_mul_ps(dot([sx, sy, sz], p), inv);
+    let q = [
+        cross(sy, e1z, sz, e1y),
+        cross(sz, e1x, sx, e1z),
+        cross(sx, e1y, sy, e1x),
+    ];
+    let v = _mm_mul_ps(dot(ray.dir, q), inv);
+    let t = _mm_mul_ps(dot([e2x, e2y, e2z], q), inv);
+    // Ordered comparisons: a NaN anywhere (a zero determinant, an unused lane) misses.
+    let (low, high) = (
+        _mm_set1_ps(-EDGE_TOLERANCE),
+        _mm_set1_ps(1.0 + EDGE_TOLERANCE),
+    );
+    let hit = _mm_and_ps(
+        _mm_and_ps(
+            _mm_cmp_ps::<_CMP_GE_OQ>(u, low),
+            _mm_cmp_ps::<_CMP_GE_OQ>(v, low),
+        ),
+        _mm_and_ps(
+            _mm_and_ps(
+                _mm_cmp_ps::<_CMP_LE_OQ>(u, high),
+                _mm_cmp_ps::<_CMP_LE_OQ>(_mm_add_ps(u, v), high),
+            ),
+            _mm_and_ps(
+                _mm_cmp_ps::<_CMP_GE_OQ>(t, _mm_setzero_ps()),
+                _mm_cmp_ps::<_CMP_LT_OQ>(t, _mm_set1_ps(tmax)),
+            ),
+        ),
+    );
+    [t, u, v, hit]
+}
+
+#[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
 unsafe fn nearest_first<const OCTANT: usize>(
     nodes: &[WideNode],
+    blocks: &[TriangleBlock],
     origin: Vec3A,
+    dir: Vec3A,
     inv: Vec3A,
     mut bound: f32,
-    mut leaf: impl FnMut(usize) -> f32,
-) {
+) -> Option<(usize, f32, f32, f32)> {
     if nodes.is_empty() {
-        return;
+        return None;
     }
     let ray = BoxRay8::new(origin, inv);
+    let leaf_ray = LeafRay::new(origin, dir);
     // Shifts a node's orders to the ray's octant (a permutation reads three low bits).
     let shift = _mm_cvtsi32_si128(3 * OCTANT as i32);
-    let mut children = [MaybeUninit::<u32>::uninit(); STACK];
-    let mut distances = [MaybeUninit::<f32>::uninit(); STACK];
-    let mut len = 0usize;
+    let mut children = [MaybeUninit::<u32>::uninit(); STACK + 1];
+    let mut distances = [MaybeUninit::<f32>::uninit(); STACK + 1];
+    // At the bottom of the stack, the end: every bound accepts it.
+    children[0] = MaybeUninit::new(END.0);
+    distances[0] = MaybeUninit::new(f32::NEG_INFINITY);
+    let mut len = 1usize;
     let mut current = Child::node(0);
-    // SAFETY: the caller checked for AVX2; node and child indices come from the tree,
-    // whose depth leaves every eight-wide store inside the stack (see `STACK`); only
-    // entries written are read.
+    // The nearest hit so far: its slot, u and v (its t is the bound).
+    let mut best: Option<(usize, f32, f32)> = None;
+    // SAFETY: the caller checked for AVX2; node, block and child indices come from the
+    // tree, whose depth leaves every eight-wide store inside the stack (see `STACK`);
+    // only entries written are read, and the end is never popped past.
     unsafe {
         loop {
-            // Down the inner nodes, nearest child first, until a leaf.
-            while let Some(index) = current.as_node() {
-                let node = nodes.get_unchecked(index);
-                let (hit, t_near) = ray.enter::<OCTANT>(node, bound);
-                let mask = _mm256_movemask_ps(hit) as u32;
-                if mask == 0 {
-                    current = Child::EMPTY;
-                    break;
+            'descend: {
+                // Down the inner nodes, nearest child first, until a leaf.
+                while let Some(index) = current.as_node() {
+                    let node = nodes.get_unchecked(index);
+                    let (hit, t_near) = ray.enter::<OCTANT>(node, bound);
+                    let mask = _mm256_movemask_ps(hit) as u32;
+                    if mask == 0 {
+                        break 'descend;
+                    }
+                    if mask.is_power_of_two() {
+                        current = *node.children.get_unchecked(mask.trailing_zeros() as usize);
+                        continue;
+                    }
+                    // Lane k of the order: the slot met k-th from last, farthest first.
+                    let order = _mm256_srl_epi32(
+                        _mm256_load_si256(node.order.as_ptr() as *const __m256i),
+                        shift,
+                    );
+                    let entered = _mm256_movemask_ps(_mm256_permutevar8x32_ps(hit, order)) as usize;
+                    let pick = _mm256_permutevar8x32_epi32(order, packing(entered));
+                    push_children(children.as_mut_ptr().add(len), node, pick);
+                    _mm256_storeu_ps(
+                        distances.as_mut_ptr().add(len) as *mut f32,
+                        _mm256_permutevar8x32_ps(t_near, pick),
+                    );
+                    len += entered.count_ones() as usize - 1;
+                    // The nearest is the last lane packed: the highest lane entered, whose
+                    // slot is read from the node rather than back from the stack.
+                    let lane = 31 - (entered as u32).leading_zeros();
+                    let slot = (node.order.get_unchecked(lane as usize) >> (3 * OCTANT)) & 7;
+                    current = *node.children.get_unchecked(slot as usize);
                 }
-                if mask.is_power_of_two() {
-                    current = *node.children.get_unchecked(mask.trailing_zeros() as usize);
-                    continue;
+                if current == END {
+                    return best.map(|(slot, u, v)| (slot, bound, u, v));
                 }
-                // Lane k of the order: the slot met k-th from last, farthest first.
-                let order = _mm256_srl_epi32(
-                    _mm256_load_si256(node.order.as_ptr() as *const __m256i),
-                    shift,
-                );
-                let entered = _mm256_movemask_ps(_mm256_permutevar8x32_ps(hit, order)) as usize;
-                let pick = _mm256_permutevar8x32_epi32(order, packing(entered));
-                push_children(children.as_mut_ptr().add(len), node, pick);
-                _mm256_storeu_ps(
-                    distances.as_mut_ptr().add(len) as *mut f32,
-                    _mm256_permutevar8x32_ps(t_near, pick),
-                );
-                len += entered.count_ones() as usize - 1;
-                // The nearest is the last lane packed: the highest lane entered, whose
-                // slot is read from the node rather than back from the stack.
-                let lane = 31 - (entered as u32).leading_zeros();
-                let slot = (node.order.get_unchecked(lane as usize) >> (3 * OCTANT)) & 7;
-                current = *node.children.get_unchecked(slot as usize);
-            }
-            if current != Child::EMPTY {
-                bound = leaf(current.leaf_block().0);
+                if current == Child::EMPTY {
+                    break 'descend;
+                }
+                // The leaf's triangles; a hit (before the bound) becomes the new bound.
+                let block = current.leaf_block().0;
+                let [t, u, v, hit] = leaf_hits(blocks.get_unchecked(block), &leaf_ray, bound);
+                let lanes = _mm_movemask_ps(hit) as u32;
+                if lanes != 0 {
+                    let t = _mm_blendv_ps(_mm_set1_ps(f32::INFINITY), t, hit);
+                    let nearest = _mm_min_ps(t, _mm_shuffle_ps::<0b10_11_00_01>(t, t));
+                    let nearest =
+                        _mm_min_ps(nearest, _mm_shuffle_ps::<0b01_00_11_10>(nearest, nearest));
+                    let lane = (_mm_movemask_ps(_mm_cmpeq_ps(t, nearest)) as u32 & lanes)
+                        .trailing_zeros() as usize;
+                    bound = _mm_cvtss_f32(nearest);
+                    let at_lane = |x: __m128| std::mem::transmute::<__m128, [f32; 4]>(x)[lane];
+                    best = Some((4 * block + lane, at_lane(u), at_lane(v)));
+                }
             }
             // Resume with the nearest waiting child still within the bound.
             loop {
-                if len == 0 {
-                    return;
-                }
                 len -= 1;
                 if distances.get_unchecked(len).assume_init() <= bound {
                     current = Child(children.get_unchecked(len).assume_init());
@@ -295,7 +412,25 @@ unsafe fn nearest_first<const OCTANT: usize>(
     }
 }
 
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
+unsafe fn occluded<const OCTANT: usize>(
+    nodes: &[WideNode],
+    blocks: &[TriangleBlock],
+    origin: Vec3A,
+    dir: Vec3A,
+    inv: Vec3A,
+    tmax: f32,
+) -> bool {
+    let leaf_ray = LeafRay::new(origin, dir);
+    // SAFETY: the caller checked for AVX2; block indices come from the tree.
+    unsafe {
+        any_order::<OCTANT>(nodes, origin, inv, tmax, |block| {
+            _mm_movemask_ps(leaf_hits(blocks.get_unchecked(block), &leaf_ray, tmax)[3]) != 0
+        })
+    }
+}
+
+#[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
 unsafe fn any_order<const OCTANT: usize>(
     nodes: &[WideNode],
     origin: Vec3A,
@@ -307,32 +442,34 @@ unsafe fn any_order<const OCTANT: usize>(
         return false;
     }
     let ray = BoxRay8::new(origin, inv);
-    let mut children = [MaybeUninit::<u32>::uninit(); STACK];
-    let mut len = 0usize;
+    let mut children = [MaybeUninit::<u32>::uninit(); STACK + 1];
+    children[0] = MaybeUninit::new(END.0);
+    let mut len = 1usize;
     let mut current = Child::node(0);
     // SAFETY: as in `nearest_first`.
     unsafe {
         loop {
-            while let Some(index) = current.as_node() {
-                let node = nodes.get_unchecked(index);
-                let mask = _mm256_movemask_ps(ray.enter::<OCTANT>(node, tmax).0) as usize;
-                if mask == 0 {
-                    current = Child::EMPTY;
-                    break;
+            'descend: {
+                while let Some(index) = current.as_node() {
+                    let node = nodes.get_unchecked(index);
+                    let mask = _mm256_movemask_ps(ray.enter::<OCTANT>(node, tmax).0) as usize;
+                    if mask == 0 {
+                        break 'descend;
+                    }
+                    // All entered children are pushed in slot order; the walk goes on with
+                    // the last of them (the highest slot), read from the node.
+                    push_children(children.as_mut_ptr().add(len), node, packing(mask));
+                    len += mask.count_ones() as usize - 1;
+                    current = *node
+                        .children
+                        .get_unchecked(31 - (mask as u32).leading_zeros() as usize);
                 }
-                // All entered children are pushed in slot order; the walk goes on with
-                // the last of them (the highest slot), read from the node.
-                push_children(children.as_mut_ptr().add(len), node, packing(mask));
-                len += mask.count_ones() as usize - 1;
-                current = *node
-                    .children
-                    .get_unchecked(31 - (mask as u32).leading_zeros() as usize);
-            }
-            if current != Child::EMPTY && leaf(current.leaf_block().0) {
-                return true;
-            }
-            if len == 0 {
-                return false;
+                if current == END {
+                    return false;
+                }
+                if current != Child::EMPTY && leaf(current.leaf_block().0) {
+                    return true;
+                }
             }
             len -= 1;
             current = Child(children.get_unchecked(len).assume_init());
@@ -344,6 +481,12 @@ unsafe fn any_order<const OCTANT: usize>(
 mod tests {
     use super::*;
     use crate::bvh::wide_node::safe_inverse;
+
+    /// The octant of a ray's direction, as [`WideNode::order`] numbers them.
+    fn octant(inv: Vec3A) -> usize {
+        let negative = inv.is_negative_bitmask() as usize; // bit 0 for x
+        ((negative & 1) << 2) | (negative & 2) | (negative >> 2)
+    }
 
     #[test]
     fn rays_starting_on_a_box_plane_enter_the_box() {
@@ -371,7 +514,7 @@ mod tests {
             let origin = Vec3A::new(1000.0, 1000.0 + 0.4 * (i as f32 / 1000.0), 1e-3);
             let dir = Vec3A::new(1e-3 * (1.0 + (i % 7) as f32), 0.0, -1.0).normalize();
             let inv = safe_inverse(dir);
-            // SAFETY: the kernel exists, so the CPU has AVX2 and FMA.
+            // SAFETY: the kernel exists, so the CPU has what the walks use.
             assert_eq!(octant(inv), 1, "a ray down z, towards +x");
             let (hit, _) = unsafe { BoxRay8::new(origin, inv).enter::<1>(&node, f32::INFINITY) };
             assert_eq!(

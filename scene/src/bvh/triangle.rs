@@ -43,13 +43,16 @@ impl IsectTriangle {
 }
 
 /// Up to four triangles, lane by lane; an unused lane is all zeros (its determinant is
-/// zero, so every ray misses it).
+/// zero, so every ray misses it). Each lane's triangle index in the caller's numbering is
+/// kept with it: the cache lines a hit was just found in also name it.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub(super) struct TriangleBlock {
-    v0: [Vec4; 3],
-    e1: [Vec4; 3],
-    e2: [Vec4; 3],
+    pub v0: [Vec4; 3],
+    pub e1: [Vec4; 3],
+    pub e2: [Vec4; 3],
+    /// The caller's index of each lane's triangle (`u32::MAX` for an unused lane).
+    pub ids: [u32; 4],
 }
 
 /// A ray spread over four lanes, for [`TriangleBlock::intersect`].
@@ -91,14 +94,16 @@ impl BlockHits {
 }
 
 impl TriangleBlock {
-    /// The block of `triangles` (one to four).
-    pub fn new(triangles: &[IsectTriangle]) -> Self {
-        debug_assert!((1..=4).contains(&triangles.len()));
+    /// The block of `triangles` (one to four), with their indices `ids`.
+    pub fn new(triangles: &[IsectTriangle], ids: &[u32]) -> Self {
+        debug_assert!((1..=4).contains(&triangles.len()) && ids.len() == triangles.len());
         let mut block = TriangleBlock {
             v0: [Vec4::ZERO; 3],
             e1: [Vec4::ZERO; 3],
             e2: [Vec4::ZERO; 3],
+            ids: [u32::MAX; 4],
         };
+        block.ids[..ids.len()].copy_from_slice(ids);
         for (lane, tri) in triangles.iter().enumerate() {
             for axis in 0..3 {
                 block.v0[axis][lane] = tri.v0[axis];
