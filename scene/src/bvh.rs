@@ -71,10 +71,9 @@ pub struct Bvh {
 /// hit anything (non-finite origin or direction, zero direction, NaN `tmax`).
 fn usable(ray: &Ray, tmax: f32) -> Option<(Vec3A, Vec3A)> {
     let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
-    if !origin.is_finite() || !dir.is_finite() || dir == Vec3A::ZERO || tmax.is_nan() {
-        return None;
-    }
-    Some((origin, dir))
+    // x − x is 0 for a finite x and NaN for ±∞ or NaN: one test for all six coordinates.
+    let finite = ((origin - origin) + (dir - dir)).cmpeq(Vec3A::ZERO).all();
+    (finite && dir != Vec3A::ZERO && !tmax.is_nan()).then_some((origin, dir))
 }
 
 impl Bvh {
@@ -276,25 +275,33 @@ impl Bvh {
     /// numbering; `(u, v)` are
     /// clamped back into the triangle (the test accepts points just outside it).
     fn hit(&self, slot: usize, t: f32, u: f32, v: f32) -> Hit {
-        let (u, v) = (u.max(0.0), v.max(0.0));
-        let over = (u + v - 1.0).max(0.0) * 0.5;
+        // A hit's barycentrics are finite (they passed the edge tests): no NaN to mind.
+        let positive = |x: f32| if x > 0.0 { x } else { 0.0 };
+        let (u, v) = (positive(u), positive(v));
+        let over = positive(u + v - 1.0) * 0.5;
         Hit {
             triangle: self.blocks[slot / 4].ids[slot % 4],
             t,
-            u: (u - over).max(0.0),
-            v: (v - over).max(0.0),
+            u: positive(u - over),
+            v: positive(v - over),
         }
     }
 
     /// The closest hit with `t < tmax`, if any.
     pub fn closest_hit(&self, ray: &Ray, tmax: f32) -> Option<Hit> {
         let (origin, dir) = usable(ray, tmax)?;
-        let inv = safe_inverse(dir);
         #[cfg(target_arch = "x86_64")]
         if let Some(kernel) = self.avx2 {
-            let best = kernel.closest_hit(&self.nodes, &self.blocks, (origin, dir, inv), tmax);
+            let best = kernel.closest_hit(&self.nodes, &self.blocks, (origin, dir), tmax);
             return best.map(|(slot, t, u, v)| self.hit(slot, t, u, v));
         }
+        self.closest_hit_portable(origin, dir, tmax)
+    }
+
+    /// [`Bvh::closest_hit`] by the portable walk.
+    #[inline(never)]
+    fn closest_hit_portable(&self, origin: Vec3A, dir: Vec3A, tmax: f32) -> Option<Hit> {
+        let inv = safe_inverse(dir);
         let block_ray = BlockRay::new(origin, dir);
         let mut best: Option<(usize, f32, f32, f32)> = None;
         let mut nearest = tmax;
@@ -389,8 +396,7 @@ impl Bvh {
         };
         #[cfg(target_arch = "x86_64")]
         if let Some(kernel) = self.avx2 {
-            let ray = (origin, dir, safe_inverse(dir));
-            return kernel.occluded(&self.nodes, &self.blocks, ray, tmax);
+            return kernel.occluded(&self.nodes, &self.blocks, (origin, dir), tmax);
         }
         let block_ray = BlockRay::new(origin, dir);
         self.walk_any_order(origin, dir, tmax, |block| {

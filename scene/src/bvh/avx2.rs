@@ -20,7 +20,7 @@ use std::mem::MaybeUninit;
 use glam::Vec3A;
 
 use super::triangle::{EDGE_TOLERANCE, TriangleBlock};
-use super::wide_node::{Child, FAR_GROWTH, WideNode};
+use super::wide_node::{Child, FAR_GROWTH, WideNode, safe_inverse};
 
 /// The deepest stack the walks keep on the thread's stack: a tree deeper than
 /// `(STACK - 8) / 7` levels is walked by the portable code.
@@ -98,21 +98,19 @@ impl Kernel {
         .then_some(Kernel(()))
     }
 
-    /// The closest hit of the ray (origin, direction and its
-    /// [`super::wide_node::safe_inverse`]) with `t < tmax` among the triangles of `blocks`:
-    /// slot `4 · block + lane`, `t`, `u`, `v`. `nodes` must be no deeper than the [`STACK`]
-    /// allows.
+    /// The closest hit of the ray (origin, direction) with `t < tmax` among the triangles
+    /// of `blocks`: slot `4 · block + lane`, `t`, `u`, `v`. `nodes` must be no deeper than
+    /// the [`STACK`] allows.
     #[inline(always)]
     pub fn closest_hit(
         self,
         nodes: &[WideNode],
         blocks: &[TriangleBlock],
-        ray: (Vec3A, Vec3A, Vec3A),
+        (origin, dir): (Vec3A, Vec3A),
         tmax: f32,
     ) -> Option<(usize, f32, f32, f32)> {
-        let (origin, dir, inv) = ray;
         // SAFETY: a Kernel exists only where the CPU has AVX2, FMA and the bit instructions.
-        unsafe { for_octant!(inv, nearest_first(nodes, blocks, origin, dir, inv, tmax)) }
+        unsafe { closest_hit(nodes, blocks, origin, dir, tmax) }
     }
 
     /// Whether any triangle of `blocks` lies on the ray before `tmax` (the ray as for
@@ -122,17 +120,16 @@ impl Kernel {
         self,
         nodes: &[WideNode],
         blocks: &[TriangleBlock],
-        ray: (Vec3A, Vec3A, Vec3A),
+        (origin, dir): (Vec3A, Vec3A),
         tmax: f32,
     ) -> bool {
-        let (origin, dir, inv) = ray;
         // SAFETY: a Kernel exists only where the CPU has AVX2, FMA and the bit instructions.
-        unsafe { for_octant!(inv, occluded(nodes, blocks, origin, dir, inv, tmax)) }
+        unsafe { occluded(nodes, blocks, origin, dir, tmax) }
     }
 
     /// Visits the leaves the ray enters before `tmax`, in no particular order, until
     /// `leaf(block)` returns true (then returns true). No ordering, no distances kept:
-    /// what an occlusion query needs. `nodes` as for [`Kernel::walk`].
+    /// what the list of all hits needs. `nodes` as for [`Kernel::closest_hit`].
     #[inline(always)]
     pub fn any_order(
         self,
@@ -316,7 +313,23 @@ fn leaf_hits(block: &TriangleBlock, ray: &LeafRay, tmax: f32) -> [__m128; 4] {
     [t, u, v, hit]
 }
 
+/// [`Kernel::closest_hit`], with the features on: the walk of the ray's octant is inlined
+/// here, so the ray goes to it in registers.
 #[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
+unsafe fn closest_hit(
+    nodes: &[WideNode],
+    blocks: &[TriangleBlock],
+    origin: Vec3A,
+    dir: Vec3A,
+    tmax: f32,
+) -> Option<(usize, f32, f32, f32)> {
+    let inv = safe_inverse(dir);
+    // SAFETY: the features are on.
+    unsafe { for_octant!(inv, nearest_first(nodes, blocks, origin, dir, inv, tmax)) }
+}
+
+#[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
+#[inline]
 unsafe fn nearest_first<const OCTANT: usize>(
     nodes: &[WideNode],
     blocks: &[TriangleBlock],
@@ -412,25 +425,27 @@ unsafe fn nearest_first<const OCTANT: usize>(
     }
 }
 
+/// [`Kernel::occluded`], with the features on: any hit ends the walk.
 #[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
-unsafe fn occluded<const OCTANT: usize>(
+unsafe fn occluded(
     nodes: &[WideNode],
     blocks: &[TriangleBlock],
     origin: Vec3A,
     dir: Vec3A,
-    inv: Vec3A,
     tmax: f32,
 ) -> bool {
+    let inv = safe_inverse(dir);
     let leaf_ray = LeafRay::new(origin, dir);
-    // SAFETY: the caller checked for AVX2; block indices come from the tree.
-    unsafe {
-        any_order::<OCTANT>(nodes, origin, inv, tmax, |block| {
-            _mm_movemask_ps(leaf_hits(blocks.get_unchecked(block), &leaf_ray, tmax)[3]) != 0
-        })
-    }
+    let leaf = |block: usize| {
+        // SAFETY: the features are on; block indices come from the tree.
+        unsafe { _mm_movemask_ps(leaf_hits(blocks.get_unchecked(block), &leaf_ray, tmax)[3]) != 0 }
+    };
+    // SAFETY: the features are on.
+    unsafe { for_octant!(inv, any_order(nodes, origin, inv, tmax, leaf)) }
 }
 
 #[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
+#[inline]
 unsafe fn any_order<const OCTANT: usize>(
     nodes: &[WideNode],
     origin: Vec3A,
@@ -480,7 +495,6 @@ unsafe fn any_order<const OCTANT: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::wide_node::safe_inverse;
 
     /// The octant of a ray's direction, as [`WideNode::order`] numbers them.
     fn octant(inv: Vec3A) -> usize {
