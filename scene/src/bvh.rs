@@ -71,8 +71,8 @@ pub struct Bvh {
 /// hit anything (non-finite origin or direction, zero direction, NaN `tmax`).
 fn usable(ray: &Ray, tmax: f32) -> Option<(Vec3A, Vec3A)> {
     let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
-    // x − x is 0 for a finite x and NaN for ±∞ or NaN: one test for all six coordinates.
-    let finite = ((origin - origin) + (dir - dir)).cmpeq(Vec3A::ZERO).all();
+    // 0 · x is 0 for a finite x and NaN for ±∞ or NaN: one test for all six coordinates.
+    let finite = (origin * 0.0 + dir * 0.0).cmpeq(Vec3A::ZERO).all();
     (finite && dir != Vec3A::ZERO && !tmax.is_nan()).then_some((origin, dir))
 }
 
