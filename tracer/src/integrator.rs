@@ -30,6 +30,16 @@ pub(crate) fn segment_clear(scene: &Scene, p: Vec3, ng: Vec3, target: Vec3) -> b
     !scene.occluded(&Ray::new(origin, d / len), (len - margin).max(0.0))
 }
 
+/// Whether nothing blocks light sample `ls` from surface point `p` (face normal `ng`):
+/// the segment to the light point, or for the sun and sky the whole ray.
+pub fn light_unblocked(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3) -> bool {
+    if ls.dist.is_finite() {
+        segment_clear(scene, p, ng, p + ls.wi * ls.dist)
+    } else {
+        !scene.occluded(&Ray::leaving(p, ng, ls.wi), f32::INFINITY)
+    }
+}
+
 fn u2(rng: &mut Pcg32) -> Vec2 {
     Vec2::new(rng.random(), rng.random())
 }
@@ -64,14 +74,7 @@ impl Path<'_> {
         if c.max_element() <= 0.0 {
             return;
         }
-        let clear = if ls.dist.is_finite() {
-            segment_clear(self.scene, p, ng, p + ls.wi * ls.dist)
-        } else {
-            !self
-                .scene
-                .occluded(&Ray::leaving(p, ng, ls.wi), f32::INFINITY)
-        };
-        if !clear {
+        if !light_unblocked(self.scene, &ls, p, ng) {
             return;
         }
         let w = if ls.pdf.is_infinite() {

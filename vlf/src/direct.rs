@@ -6,7 +6,8 @@
 //! samples also go into its tile: each adds `f(ω_b, ω_i) E_i / samples` to every bin.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{Hit, Ray, Scene, leave_surface};
+use holocave_scene::{Hit, Scene};
+use holocave_tracer::integrator::light_unblocked;
 use holocave_tracer::lights::{LightSample, Lights};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
@@ -21,17 +22,7 @@ pub fn irradiance_from(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3, ns: V
     if cos <= 0.0 {
         return Vec3::ZERO;
     }
-    let origin = leave_surface(p, ng, ls.wi);
-    let (dir, tmax) = if ls.dist.is_finite() {
-        let target = p + ls.wi * ls.dist;
-        let d = target - origin;
-        let len = d.length();
-        let margin = 1e-4 * (1.0 + target.abs().max_element());
-        (d / len, (len - margin).max(0.0))
-    } else {
-        (ls.wi, f32::INFINITY)
-    };
-    if !dir.is_finite() || scene.occluded(&Ray::new(origin, dir), tmax) {
+    if !light_unblocked(scene, ls, p, ng) {
         return Vec3::ZERO;
     }
     ls.contribution * cos

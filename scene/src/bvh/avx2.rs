@@ -63,7 +63,8 @@ const fn pack_table() -> [[u32; 8]; 256] {
     table
 }
 
-/// Proof that the CPU runs AVX2: only [`Kernel::detect`] makes one.
+/// Proof that the CPU runs AVX2, FMA and the bit instructions the walks use: only
+/// [`Kernel::detect`] makes one.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Kernel(());
 
@@ -317,6 +318,23 @@ fn leaf_hits(block: &TriangleBlock, ray: &LeafRay, tmax: f32) -> [__m128; 4] {
     [t, u, v, hit]
 }
 
+/// The lane of the nearest hit among the lanes set in `hit`, and its distance (as
+/// [`super::triangle::BlockHits::nearest`], in registers).
+#[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
+#[inline]
+fn nearest_lane(t: __m128, hit: __m128) -> Option<(usize, f32)> {
+    let lanes = _mm_movemask_ps(hit) as u32;
+    if lanes == 0 {
+        return None;
+    }
+    let t = _mm_blendv_ps(_mm_set1_ps(f32::INFINITY), t, hit);
+    // The minimum in every lane: pairs swapped, then halves swapped.
+    let nearest = _mm_min_ps(t, _mm_shuffle_ps::<0b10_11_00_01>(t, t));
+    let nearest = _mm_min_ps(nearest, _mm_shuffle_ps::<0b01_00_11_10>(nearest, nearest));
+    let lane = (_mm_movemask_ps(_mm_cmpeq_ps(t, nearest)) as u32 & lanes).trailing_zeros();
+    Some((lane as usize, _mm_cvtss_f32(nearest)))
+}
+
 /// [`Kernel::closest_hit`], with the features on: the walk of the ray's octant is inlined
 /// here, so the ray goes to it in registers.
 #[target_feature(enable = "avx2,fma,bmi1,lzcnt,popcnt")]
@@ -404,15 +422,8 @@ unsafe fn nearest_first<const OCTANT: usize>(
                 // The leaf's triangles; a hit (before the bound) becomes the new bound.
                 let block = current.leaf_block().0;
                 let [t, u, v, hit] = leaf_hits(blocks.get_unchecked(block), &leaf_ray, bound);
-                let lanes = _mm_movemask_ps(hit) as u32;
-                if lanes != 0 {
-                    let t = _mm_blendv_ps(_mm_set1_ps(f32::INFINITY), t, hit);
-                    let nearest = _mm_min_ps(t, _mm_shuffle_ps::<0b10_11_00_01>(t, t));
-                    let nearest =
-                        _mm_min_ps(nearest, _mm_shuffle_ps::<0b01_00_11_10>(nearest, nearest));
-                    let lane = (_mm_movemask_ps(_mm_cmpeq_ps(t, nearest)) as u32 & lanes)
-                        .trailing_zeros() as usize;
-                    bound = _mm_cvtss_f32(nearest);
+                if let Some((lane, t)) = nearest_lane(t, hit) {
+                    bound = t;
                     let at_lane = |x: __m128| std::mem::transmute::<__m128, [f32; 4]>(x)[lane];
                     best = Some((4 * block + lane, at_lane(u), at_lane(v)));
                 }
