@@ -104,14 +104,18 @@ fn median_error(img: &Image, reference: &Image) -> f64 {
 }
 
 /// The first of run 1's filled frames (`errors`: holes, relative MSE and median relative
-/// error of each) with at most `holes` black (or as few as run 1 ever had), its index
-/// among them and its median error.
+/// error of each) with at most `holes` black, its index among them and its median error.
+/// Coverages closer than `MAX_HOLES` (what this test calls filled) count as equal: the
+/// last few silhouette pixels (0.15% each) fill late and at random, so matching exactly
+/// 0% would compare with run 1 long after it was filled, on a machine that draws many
+/// frames before its last silhouette pixel gets a sample.
 fn frames_run1_cover(errors: &[(f64, f64, f64)], holes: f64) -> (usize, f64) {
     let fewest = errors.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
+    let cover = holes.max(MAX_HOLES).max(fewest);
     errors
         .iter()
         .enumerate()
-        .find(|(_, e)| e.0 <= holes.max(fewest))
+        .find(|(_, e)| e.0 <= cover)
         .map(|(i, e)| (i, e.2))
         .expect("run 1 has filled frames")
 }
