@@ -1,10 +1,11 @@
 //! Ray queries over the scene's triangles.
 //!
-//! [`spatial_split`] builds a binary tree with spatial splits (SBVH), obvhs collapses it to
-//! eight children per node (its compressed-wide BVH, by the surface area heuristic),
-//! [`wide_node`] unpacks that into the layout the CPU traverses fast, and the traversal
-//! below visits children nearest first. The triangles are stored in the
-//! tree's leaf order, so a leaf's triangles lie next to each other in memory.
+//! [`spatial_split`] builds a binary tree with spatial splits (SBVH) as obvhs' `Bvh2`,
+//! [`collapse`] makes it eight children per node with leaves of up to four triangles (by
+//! the surface area heuristic, with our walks' costs), in the layout of [`wide_node`],
+//! and the traversal below visits children nearest first. Each leaf's triangles are one
+//! block of four lanes ([`triangle`]), blocks in the order their leaves are met breadth
+//! first.
 //!
 //! Two pitfalls of obvhs 0.4 do not reach us: its traversal (which missed every hit for a
 //! `-0.0` direction component) is not used, and neither is its `compute_barycentric`
@@ -12,6 +13,7 @@
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+mod collapse;
 mod packet;
 mod spatial_split;
 mod triangle;
@@ -21,7 +23,7 @@ use std::cell::RefCell;
 use std::time::{Duration, Instant};
 
 use glam::{Vec3, Vec3A};
-use obvhs::{cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh, triangle::Triangle};
+use obvhs::triangle::Triangle;
 
 use crate::ray::{Hit, Ray};
 pub use packet::PACKET;
@@ -91,29 +93,20 @@ impl Bvh {
                 v2: t[2].into(),
             })
             .collect();
-        // Leaves of at most three triangles (the most obvhs' wide leaves hold); children
-        // laid out by obvhs' octant rule (the walks read their own `WideNode::order`
-        // instead; the figures in the README were measured with this layout); no exact
-        // node boxes: `wide_node::unpack` bounds each leaf from its triangles.
-        let cw = bvh2_to_cwbvh(&spatial_split::build(&tris), 3, true, false);
-        let triangles: Vec<IsectTriangle> = cw
-            .primitive_indices
+        let triangles: Vec<IsectTriangle> = tris
             .iter()
-            .map(|&i| {
-                let t = &tris[i as usize];
-                IsectTriangle {
-                    v0: t.v0,
-                    e1: t.v1 - t.v0,
-                    e2: t.v2 - t.v0,
-                }
+            .map(|t| IsectTriangle {
+                v0: t.v0,
+                e1: t.v1 - t.v0,
+                e2: t.v2 - t.v0,
             })
             .collect();
         let mut blocks = Vec::new();
-        let (nodes, depth) = wide_node::unpack(&cw, &triangles, |slots| {
-            let ids = &cw.primitive_indices[slots.clone()];
-            blocks.push(TriangleBlock::new(&triangles[slots], ids));
-            (blocks.len() - 1) as u32
-        });
+        let (nodes, depth) =
+            collapse::collapse(&spatial_split::build(&tris), &triangles, |tris, ids| {
+                blocks.push(TriangleBlock::new(tris, ids));
+                (blocks.len() - 1) as u32
+            });
         let size = nodes.first().map_or(0.0, |root| {
             let (min, max) = root.bounds();
             min.distance(max)

@@ -10,8 +10,8 @@
 //! the best object split leaves boxes that overlap, and the copies they make are bounded
 //! (each node's share of [`GROWTH`] times the triangles).
 //!
-//! The result is obvhs' `Bvh2` with one triangle part per leaf, which obvhs collapses into
-//! its eight-wide tree as it does its own builds.
+//! The result is obvhs' `Bvh2` with one triangle part per leaf, which
+//! [`super::collapse`] makes the eight-wide tree.
 
 use glam::{BVec3A, Vec3A};
 use obvhs::{
@@ -633,7 +633,7 @@ mod tests {
             .iter()
             .filter(|n| n.prim_count > 0)
             .map(|n| {
-                assert_eq!(n.prim_count, 1, "obvhs' collapse takes one part per leaf");
+                assert_eq!(n.prim_count, 1, "one part per leaf");
                 (bvh.primitive_indices[n.first_index as usize], *n.aabb())
             })
             .collect();

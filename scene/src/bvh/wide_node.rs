@@ -1,18 +1,12 @@
 //! The BVH as the CPU traverses it: eight children per node, their boxes in full `f32`.
 //!
-//! obvhs collapses the binary tree to eight children per node (by the surface area
-//! heuristic) and stores it compressed for GPUs: child boxes quantised to bytes, children
-//! found by bit tricks. Decoding that per node was 88% of a Sponza primary ray on the CPU.
-//! Here the same tree is unpacked once at build time: each node holds its eight child boxes
-//! as plane arrays, so one ray meets all eight with a handful of four-wide SIMD operations
-//! (glam's `Vec4` is SSE on x86-64), and each child says directly whether it is a node or
-//! a leaf and where it lives. The boxes are recomputed exactly from the triangles, so they
-//! are tighter than the quantised ones.
+//! Each node holds its eight child boxes as plane arrays, so one ray meets all eight with
+//! a handful of SIMD operations, and each child says directly whether it is a node or a
+//! leaf and where it lives ([`super::collapse`] makes them). The boxes are kept in full
+//! precision: obvhs' compressed wide BVH, which quantises them to bytes for GPUs and finds
+//! children by bit tricks, cost 88% of a Sponza primary ray in decoding on the CPU.
 
 use glam::{Vec3A, Vec4};
-use obvhs::cwbvh::CwBvh;
-
-use super::triangle::IsectTriangle;
 
 /// One child slot: an inner node, a leaf (a run of triangles in leaf order), or empty.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -20,8 +14,6 @@ use super::triangle::IsectTriangle;
 pub(super) struct Child(pub(super) u32);
 
 const LEAF: u32 = 1 << 31;
-/// The most triangles in a leaf made from a node of leaves (see [`unpack`]).
-const COLLAPSE: usize = 4;
 const COUNT_SHIFT: u32 = 27;
 const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
 
@@ -33,10 +25,9 @@ impl Child {
         Child(index)
     }
 
-    /// `count` triangles (1 to 15) starting at leaf-order slot `first` while the tree is
-    /// unpacked; once compacted, `count` lanes (1 to 4) of triangle block `first`.
-    fn leaf(first: u32, count: u32) -> Child {
-        debug_assert!((1..=15).contains(&count) && first <= FIRST_MASK);
+    /// A leaf: the first `count` lanes (1 to 4) of triangle block `first`.
+    pub(super) fn leaf(first: u32, count: u32) -> Child {
+        debug_assert!((1..=4).contains(&count) && first <= FIRST_MASK);
         Child(LEAF | (count << COUNT_SHIFT) | first)
     }
 
@@ -49,16 +40,9 @@ impl Child {
     /// The leaf's triangle block and how many of its lanes hold triangles.
     #[inline(always)]
     pub fn leaf_block(self) -> (usize, usize) {
-        let range = self.leaf_slots();
-        (range.start, range.len())
-    }
-
-    /// The leaf's triangle slots (while unpacking; see [`Child::leaf_block`] after).
-    #[inline(always)]
-    fn leaf_slots(self) -> std::ops::Range<usize> {
         let first = (self.0 & FIRST_MASK) as usize;
         let count = ((self.0 & !LEAF) >> COUNT_SHIFT) as usize;
-        first..first + count
+        (first, count)
     }
 }
 
@@ -203,7 +187,7 @@ impl WideNode {
     /// tinybvh's `BVH8_CPU` stores eight orders too, by the box corner a ray enters at;
     /// by the centre, Sponza's rays visited fewer nodes and leaves (diffuse: 12.4 nodes and
     /// 2.7 leaves per ray against 12.7 and 3.0).
-    fn set_order(&mut self) {
+    pub(super) fn set_order(&mut self) {
         self.order = [0; 8];
         for octant in 0..8 {
             let sign = |bit: usize| if octant & (1 << bit) != 0 { -1.0 } else { 1.0 };
@@ -222,7 +206,7 @@ impl WideNode {
         }
     }
 
-    fn set_box(&mut self, slot: usize, min: Vec3A, max: Vec3A) {
+    pub(super) fn set_box(&mut self, slot: usize, min: Vec3A, max: Vec3A) {
         let (half, lane) = (slot / 4, slot % 4);
         for axis in 0..3 {
             self.planes[axis][half][lane] = min[axis];
@@ -239,72 +223,6 @@ impl WideNode {
             Vec3A::new(plane(0), plane(1), plane(2)),
             Vec3A::new(plane(3), plane(4), plane(5)),
         )
-    }
-
-    /// The node as one leaf, when all its children are leaves whose triangles lie next to
-    /// each other, [`COLLAPSE`] at most.
-    fn as_one_leaf(&self) -> Option<Child> {
-        let (mut first, mut end, mut total) = (usize::MAX, 0, 0);
-        for child in self.children.iter().filter(|c| **c != Child::EMPTY) {
-            if child.as_node().is_some() {
-                return None;
-            }
-            let slots = child.leaf_slots();
-            (first, end, total) = (
-                first.min(slots.start),
-                end.max(slots.end),
-                total + slots.len(),
-            );
-        }
-        (total > 0 && total == end - first && total <= COLLAPSE)
-            .then(|| Child::leaf(first as u32, total as u32))
-    }
-
-    /// Merges sibling leaves into one while that lowers the expected number of leaf
-    /// tests (the surface area heuristic): two leaves whose triangles lie next to each
-    /// other, [`COLLAPSE`] at most between them, whose common box has less surface than
-    /// their two boxes together (a ray enters a box with a chance in proportion to its
-    /// surface, and a block of four triangles costs one test, as one triangle does).
-    /// obvhs' leaves hold three triangles at most; Sponza's held 1.6 on average, and
-    /// 58 933 merges take its 176 658 leaves to about 118 000.
-    fn merge_leaves(&mut self) {
-        let half_area = |(min, max): (Vec3A, Vec3A)| {
-            let e = (max - min).max(Vec3A::ZERO);
-            e.x * e.y + e.y * e.z + e.z * e.x
-        };
-        loop {
-            let mut best: Option<(usize, usize, f32)> = None;
-            for a in 0..8 {
-                for b in 0..8 {
-                    let (ca, cb) = (self.children[a], self.children[b]);
-                    if a == b || ca == Child::EMPTY || cb == Child::EMPTY {
-                        continue;
-                    }
-                    if ca.as_node().is_some() || cb.as_node().is_some() {
-                        continue;
-                    }
-                    let (sa, sb) = (ca.leaf_slots(), cb.leaf_slots());
-                    if sa.end != sb.start || sa.len() + sb.len() > COLLAPSE {
-                        continue;
-                    }
-                    let (box_a, box_b) = (self.child_box(a), self.child_box(b));
-                    let union = (box_a.0.min(box_b.0), box_a.1.max(box_b.1));
-                    let gain = half_area(box_a) + half_area(box_b) - half_area(union);
-                    if gain > 0.0 && best.is_none_or(|(_, _, g)| gain > g) {
-                        best = Some((a, b, gain));
-                    }
-                }
-            }
-            let Some((a, b, _)) = best else {
-                return;
-            };
-            let (box_a, box_b) = (self.child_box(a), self.child_box(b));
-            let (sa, sb) = (self.children[a].leaf_slots(), self.children[b].leaf_slots());
-            self.set_box(a, box_a.0.min(box_b.0), box_a.1.max(box_b.1));
-            self.children[a] = Child::leaf(sa.start as u32, (sa.len() + sb.len()) as u32);
-            self.set_box(b, Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-            self.children[b] = Child::EMPTY;
-        }
     }
 
     /// The box around all eight children.
@@ -373,105 +291,4 @@ impl WideNode {
         }
         (mask, entry)
     }
-}
-
-/// Unpacks obvhs' compressed tree over `triangles` (in its leaf order). Node 0 is the
-/// root. Returns the nodes and the tree's depth.
-///
-/// A node whose children are all leaves, with [`COLLAPSE`] triangles or fewer between
-/// them, becomes one leaf of its parent: its triangles are tested without first testing
-/// their boxes, which on Sponza's primary rays is faster both for single rays (1.7 → 1.8
-/// Mrays/s) and for packets (2.9 → 3.3 Mrays/s), where a leaf box is tested once per
-/// group of four rays.
-pub(super) fn unpack(
-    cw: &CwBvh,
-    triangles: &[IsectTriangle],
-    block: impl FnMut(std::ops::Range<usize>) -> u32,
-) -> (Vec<WideNode>, usize) {
-    let mut nodes = vec![WideNode::EMPTY; cw.nodes.len()];
-    // A compressed node's children come after it, so walking backwards meets every child
-    // before its parent and each child node's bounds are ready when its parent needs them.
-    let mut depth = vec![1usize; cw.nodes.len()];
-    for (index, c) in cw.nodes.iter().enumerate().rev() {
-        let mut node = WideNode::EMPTY;
-        let mut inner = 0;
-        for slot in 0..8 {
-            let meta = c.child_meta[slot];
-            if meta == 0 {
-                continue;
-            }
-            if c.imask & (1 << slot) != 0 {
-                let child = (c.child_base_idx + inner) as usize;
-                inner += 1;
-                let (min, max) = nodes[child].bounds();
-                node.set_box(slot, min, max);
-                node.children[slot] = match nodes[child].as_one_leaf() {
-                    Some(leaf) => leaf,
-                    None => {
-                        depth[index] = depth[index].max(depth[child] + 1);
-                        Child::node(child as u32)
-                    }
-                };
-            } else {
-                let first = c.primitive_base_idx + u32::from(meta & 0b1_1111);
-                let count = u32::from(meta >> 5).count_ones();
-                let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-                let mut pad = Vec3A::ZERO;
-                for s in first..first + count {
-                    let (lo, hi, p) = triangles[s as usize].bounds();
-                    min = min.min(lo);
-                    max = max.max(hi);
-                    pad = pad.max(p);
-                }
-                // With spatial splits a leaf holds only the part of a triangle inside
-                // the builder's clipped box for it (as obvhs stored it, rounded
-                // outwards): the two boxes' overlap, grown by what the widened test
-                // accepts beyond the triangle.
-                let split = c.child_aabb(slot);
-                node.set_box(slot, min.max(split.min - pad), max.min(split.max + pad));
-                node.children[slot] = Child::leaf(first, count);
-            }
-        }
-        node.merge_leaves();
-        nodes[index] = node;
-    }
-    let depth = depth.first().copied().unwrap_or(0);
-    (compact(&nodes, block), depth)
-}
-
-/// The nodes still reachable from the root (node 0) once small nodes became leaves,
-/// renumbered breadth first, so that siblings lie next to each other. Each leaf's run of
-/// triangle slots becomes one triangle block, numbered in the same order by `block`: a
-/// leaf then names its block and how many of its lanes hold triangles.
-fn compact(
-    nodes: &[WideNode],
-    mut block: impl FnMut(std::ops::Range<usize>) -> u32,
-) -> Vec<WideNode> {
-    let Some(root) = nodes.first() else {
-        return Vec::new();
-    };
-    let mut kept = vec![*root];
-    let mut next = 0;
-    while next < kept.len() {
-        let mut node = kept[next];
-        for child in node.children.iter_mut() {
-            if *child == Child::EMPTY {
-                continue;
-            }
-            match child.as_node() {
-                Some(old) => {
-                    *child = Child::node(kept.len() as u32);
-                    kept.push(nodes[old]);
-                }
-                None => {
-                    let slots = child.leaf_slots();
-                    *child = Child::leaf(block(slots.clone()), slots.len() as u32);
-                }
-            }
-        }
-        node.set_order();
-        kept[next] = node;
-        next += 1;
-    }
-    kept
 }
