@@ -146,7 +146,7 @@ fn tight_boxes(bvh2: &Bvh2, triangles: &[IsectTriangle]) -> Vec<(Vec3A, Vec3A)> 
             let parts = &bvh2.primitive_indices[first..first + node.prim_count as usize];
             parts.iter().fold(boxes[index], |(min, max), &t| {
                 let (lo, hi, pad) = triangles[t as usize].bounds();
-                let split = (Vec3A::from(node.aabb.min), Vec3A::from(node.aabb.max));
+                let split = (node.aabb.min, node.aabb.max);
                 (
                     min.min(lo.max(split.0 - pad)),
                     max.max(hi.min(split.1 + pad)),
@@ -222,9 +222,9 @@ fn plan(bvh2: &Bvh2, boxes: &[(Vec3A, Vec3A)]) -> Vec<Plan> {
         plan.split8 = spread[7].1;
         plan.leaf = as_leaf <= as_node;
         plan.cost[0] = as_leaf.min(as_node);
-        for i in 1..8 {
-            (plan.cost[i], plan.share[i]) = if spread[i].0 < plan.cost[i - 1] {
-                (spread[i].0, Share::Split(spread[i].1))
+        for (i, &(cost, k)) in spread.iter().enumerate().skip(1) {
+            (plan.cost[i], plan.share[i]) = if cost < plan.cost[i - 1] {
+                (cost, Share::Split(k))
             } else {
                 (plan.cost[i - 1], Share::Fewer)
             };
