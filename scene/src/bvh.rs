@@ -282,12 +282,13 @@ impl Bvh {
 
     /// The closest hit with `t < tmax`, if any.
     pub fn closest_hit(&self, ray: &Ray, tmax: f32) -> Option<Hit> {
-        let (origin, dir) = usable(ray, tmax)?;
         #[cfg(target_arch = "x86_64")]
         if let Some(kernel) = self.avx2 {
-            let best = kernel.closest_hit(&self.nodes, &self.blocks, (origin, dir), tmax);
-            return best.map(|(slot, t, u, v)| self.hit(slot, t, u, v));
+            return kernel.closest_hit(&self.nodes, &self.blocks, ray, tmax, |slot, t, u, v| {
+                self.hit(slot, t, u, v)
+            });
         }
+        let (origin, dir) = usable(ray, tmax)?;
         self.closest_hit_portable(origin, dir, tmax)
     }
 
@@ -385,13 +386,13 @@ impl Bvh {
     /// True when something lies on the ray before `tmax` (any hit ends the query, so the
     /// order of children does not matter).
     pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(kernel) = self.avx2 {
+            return kernel.occluded(&self.nodes, &self.blocks, ray, tmax);
+        }
         let Some((origin, dir)) = usable(ray, tmax) else {
             return false;
         };
-        #[cfg(target_arch = "x86_64")]
-        if let Some(kernel) = self.avx2 {
-            return kernel.occluded(&self.nodes, &self.blocks, (origin, dir), tmax);
-        }
         let block_ray = BlockRay::new(origin, dir);
         self.walk_any_order(origin, dir, tmax, |block| {
             self.blocks[block].intersect(&block_ray, tmax).lanes != 0
