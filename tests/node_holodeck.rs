@@ -246,7 +246,7 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
     let text = node(
         &run2,
         &hdk,
-        &["--workers", "0", "--seconds", "2", "--every", "1"],
+        &["--workers", "0", "--seconds", "4", "--every", "1"],
     );
     eprintln!("{text}");
     let frames = left_frames(&run2);
@@ -275,7 +275,7 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
          {m1:.3} when it first had as few holes (filled frame {f1})",
         h * 100.0
     );
-    // The beams of later frames' pixels follow within the 2 s, still with no tracing.
+    // The beams of later frames' pixels follow within the 4 s, still with no tracing.
     let end = median_error(&frames.last().unwrap().1, &reference);
     eprintln!("run 2 last frame: median relative error {end:.3}");
     assert!(
@@ -294,7 +294,8 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
 /// machines and fireflies.
 const TOLERANCE: f64 = 0.02;
 /// How much worse than run 1's final median relative error the reopened holodeck's view
-/// may be after its 2 s with no tracing. It shows the same stored samples, reassembled
+/// may be after its 4 s with no tracing (2 s sufficed on one core; the rest is for a
+/// machine slower to answer the requests). It shows the same stored samples, reassembled
 /// from scratch as its pixels' beams arrive, so it may hold fewer of them per pixel than
 /// run 1 ended with: with at least half as many, a pixel's noise (falling as 1/√n) is at
 /// most √2 ≈ 1.41 times run 1's, and the median over the box's ~660 lit pixels moves by a
