@@ -275,38 +275,8 @@ fn leaf_triangles(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::spatial_split;
+    use crate::bvh::spatial_split::{self, tests::strips_over_a_grid};
     use obvhs::triangle::Triangle;
-
-    /// Long thin strips across a grid of small triangles: the builder cuts the strips
-    /// (spatial splits), so leaves hold parts of triangles and one triangle several parts.
-    fn scene() -> Vec<Triangle> {
-        let t = |a: [f32; 3], b: [f32; 3], c: [f32; 3]| Triangle {
-            v0: a.into(),
-            v1: b.into(),
-            v2: c.into(),
-        };
-        let mut tris = Vec::new();
-        for i in 0..12 {
-            let z = i as f32 * 0.8;
-            tris.push(t(
-                [-1.0, 0.05, z],
-                [11.0, 0.05, z + 0.3],
-                [-1.0, 0.15, z + 0.1],
-            ));
-        }
-        for i in 0..20 {
-            for j in 0..20 {
-                let (x, z) = (i as f32 * 0.5, j as f32 * 0.5);
-                tris.push(t(
-                    [x, 0.0, z + 0.1],
-                    [x + 0.3, 0.1, z + 0.1],
-                    [x, 0.2, z + 0.4],
-                ));
-            }
-        }
-        tris
-    }
 
     fn isect(tris: &[Triangle]) -> Vec<IsectTriangle> {
         tris.iter()
@@ -336,7 +306,7 @@ mod tests {
 
     #[test]
     fn every_point_of_every_triangle_lies_in_a_leaf_holding_it() {
-        let tris = scene();
+        let tris = strips_over_a_grid();
         let bvh2 = spatial_split::build(&tris);
         assert!(
             bvh2.primitive_indices.len() > tris.len(),
@@ -377,7 +347,7 @@ mod tests {
     fn the_tree_costs_what_the_plan_says() {
         // The heuristic's cost summed over the nodes and leaves made equals the table's
         // cost for the root: the tree is the one planned.
-        let tris = scene();
+        let tris = strips_over_a_grid();
         let bvh2 = spatial_split::build(&tris);
         let (nodes, _) = collapse(&bvh2, &isect(&tris), |_, _| 0);
         let plans = plan(&bvh2, &tight_boxes(&bvh2, &isect(&tris)));

@@ -530,7 +530,7 @@ fn nonempty(b: &Aabb) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     fn triangle(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Triangle {
@@ -543,7 +543,7 @@ mod tests {
 
     /// Long thin strips across a grid of small triangles: the strips' boxes cover the
     /// grid's, which is where spatial splits pay.
-    fn strips_over_a_grid() -> Vec<Triangle> {
+    pub(in crate::bvh) fn strips_over_a_grid() -> Vec<Triangle> {
         let mut tris = Vec::new();
         for k in 0..8 {
             let z = k as f32 * 0.5;
