@@ -119,7 +119,7 @@ fn tcp_holodeck_source_turns_requests_into_samples_at_the_right_pixels() {
     // that shows as no word from it within a minute.
     let (done, finished) = std::sync::mpsc::channel();
     let frames = std::thread::spawn({
-        let (views, all) = (views.clone(), all.clone());
+        let (views, all) = (views, all.clone());
         move || {
             let mut received = 0;
             for _ in 0..100 {
