@@ -15,7 +15,9 @@
 # 3. Two tables, Mrays/s per ray set: by wall clock, and per CPU-second (the process's CPU
 #    time, which other processes' load on a shared machine does not lower by taking turns on
 #    the cores). holocave's figure is criterion's best sample (as tinybvh's is its best
-#    run); its median is printed beside it.
+#    run); its median is printed beside it. A third, one thread per CPU-second: tinybvh
+#    with each Ray made inside its timed loop from the origin and direction, as holocave's
+#    queries take them (tinybvh's rates above are on Rays made before the clock starts).
 #
 # TINYBVH_GIT overrides where tinybvh's header is fetched from (a github.com URL or a local
 # clone / mirror).
@@ -75,7 +77,7 @@ fi
 peer_hq=$("$harness" "$rays" "$runs" hq)
 echo "$peer_hq"
 peer_plain=$("$harness" "$rays" "$runs" plain)
-echo "$peer_plain" | grep -v '^agree'
+echo "$peer_plain" | grep -v -e '^agree' -e '^made'
 
 # --- the tables ------------------------------------------------------------------------
 PEER_HQ=$peer_hq PEER_PLAIN=$peer_plain CRITERION=$target/criterion \
@@ -134,4 +136,17 @@ for kind, group, title, cols in [
         if native:
             row += f" {fmt(ours(native, group, f'{name}_1t'))} |"
         print(row)
+
+# tinybvh timed as holocave is: each ray made in the timed loop from its origin and direction.
+made = peer(os.environ["PEER_HQ"], "made")
+print()
+print("One thread, tinybvh with each Ray made inside the timed loop (its constructor: "
+      "normalised direction, inverse), Mrays per CPU-second, best run; holocave as above:")
+print()
+print("| ray set | holocave, 1 thread | tinybvh, Ray made in the loop | holocave / tinybvh |")
+print("|---|---|---|---|")
+for name in ["primary", "shadow", "diffuse"]:
+    o1, p1 = ours(crit, "sponza_rays_cpu", f"{name}_1t"), made.get((name, 1))
+    ratio = f"{o1[0] / p1:.2f}" if o1 and p1 else "—"
+    print(f"| {name} | {fmt(o1)} | {cell(p1)} | {ratio} |")
 EOF
