@@ -81,7 +81,7 @@ fn usable(ray: &Ray, tmax: f32) -> Option<(Vec3A, Vec3A)> {
 impl Bvh {
     /// Builds the BVH over triangles given as three vertices each.
     ///
-    /// Leaves address at most 2^27 triangle slots (1.3·10^8 triangles, about 15 GB of
+    /// Leaves address at most 2^27 triangle blocks (over 1.3·10^8 triangles, about 15 GB of
     /// loaded scene: beyond any machine the project runs on).
     pub fn build(vertices: &[[Vec3; 3]]) -> Self {
         let start = Instant::now();
@@ -93,14 +93,7 @@ impl Bvh {
                 v2: t[2].into(),
             })
             .collect();
-        let triangles: Vec<IsectTriangle> = tris
-            .iter()
-            .map(|t| IsectTriangle {
-                v0: t.v0,
-                e1: t.v1 - t.v0,
-                e2: t.v2 - t.v0,
-            })
-            .collect();
+        let triangles: Vec<IsectTriangle> = tris.iter().map(IsectTriangle::from).collect();
         let mut blocks = Vec::new();
         let (nodes, depth) =
             collapse::collapse(&spatial_split::build(&tris), &triangles, |tris, ids| {

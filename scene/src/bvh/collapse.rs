@@ -22,11 +22,11 @@ const LEAF_SIZE: usize = 4;
 /// What a visit to an eight-wide node costs (its eight box tests and the ordering of the
 /// children entered).
 const NODE_COST: f32 = 1.0;
-/// What a leaf's four-wide triangle test costs, against a node visit's 1. Counted in
-/// instructions the two are about 65 and 45 (1.4), but the heuristic's chance of a visit
-/// (a box's surface) overstates how often a leaf deep in the tree is reached; chosen by
-/// counting the walks' instructions per ray on Sponza's primary and diffuse rays
-/// (callgrind): 867 and 904 at 1.0, 822 and 883 at 1.5, 819 and 878 at 2.0 (and at
+/// What a leaf's four-wide triangle test costs, against a node visit's 1: counted per
+/// instruction in the closest-hit walk (README, "Where a ray's instructions went after
+/// item 8"), a leaf tested is about 95 instructions and a node visited 29, or 56 where
+/// several children are entered, so about two to one. Checked by counting the walks'
+/// instructions per ray on Sponza's primary and diffuse rays (callgrind): 867 and 904 at 1.0, 822 and 883 at 1.5, 819 and 878 at 2.0 (and at
 /// 2.5), 849 and 867 at 4.0; shadow rays 514 at 2.0, 507 at 4.0. obvhs' collapse, with
 /// leaves of three merged into fours where that lowered the heuristic, gave 854, 919
 /// and 516.
@@ -62,8 +62,9 @@ pub(super) fn collapse(
     if bvh2.nodes.is_empty() {
         return (Vec::new(), 0);
     }
-    let boxes = tight_boxes(bvh2, triangles);
-    let plans = plan(bvh2, &boxes);
+    let order = children_first(bvh2);
+    let boxes = tight_boxes(bvh2, triangles, &order);
+    let plans = plan(bvh2, &boxes, &order);
     let mut nodes = vec![WideNode::EMPTY];
     // Binary nodes waiting to become wide nodes, with their wide index and depth.
     let mut queue = std::collections::VecDeque::from([(0usize, 0usize, 1usize)]);
@@ -85,7 +86,7 @@ pub(super) fn collapse(
         for (slot, child) in by_direction(&slots, &boxes, boxes[binary]) {
             let (min, max) = boxes[child];
             wide_node.set_box(slot, min, max);
-            wide_node.children[slot] = if bvh2.nodes[child].is_leaf() || plans[child].leaf {
+            wide_node.children[slot] = if plans[child].leaf {
                 let (tris, ids) = leaf_triangles(bvh2, triangles, child);
                 Child::leaf(block(&tris, &ids), ids.len() as u32)
             } else {
@@ -137,9 +138,9 @@ fn by_direction(
 /// (grown by what the widened triangle test accepts beyond them) cut to the builder's box
 /// for the leaf (with spatial splits a leaf holds only the part of a triangle inside it),
 /// and an inner node's the union of its children's.
-fn tight_boxes(bvh2: &Bvh2, triangles: &[IsectTriangle]) -> Vec<(Vec3A, Vec3A)> {
+fn tight_boxes(bvh2: &Bvh2, triangles: &[IsectTriangle], order: &[usize]) -> Vec<(Vec3A, Vec3A)> {
     let mut boxes = vec![(Vec3A::INFINITY, Vec3A::NEG_INFINITY); bvh2.nodes.len()];
-    for index in children_first(bvh2) {
+    for &index in order {
         let node = &bvh2.nodes[index];
         let first = node.first_index as usize;
         boxes[index] = if node.is_leaf() {
@@ -181,8 +182,9 @@ fn half_area((min, max): (Vec3A, Vec3A)) -> f32 {
     e.x * e.y + e.y * e.z + e.z * e.x
 }
 
-/// Each binary node's least costs in one to eight slots (Ylitie et al.'s table).
-fn plan(bvh2: &Bvh2, boxes: &[(Vec3A, Vec3A)]) -> Vec<Plan> {
+/// Each binary node's least costs in one to eight slots (Ylitie et al.'s table), visiting
+/// them in `order` (children first). A binary leaf is a leaf in every plan.
+fn plan(bvh2: &Bvh2, boxes: &[(Vec3A, Vec3A)], order: &[usize]) -> Vec<Plan> {
     let mut plans: Vec<Plan> = (0..bvh2.nodes.len())
         .map(|_| Plan {
             cost: [f32::INFINITY; 8],
@@ -192,7 +194,7 @@ fn plan(bvh2: &Bvh2, boxes: &[(Vec3A, Vec3A)]) -> Vec<Plan> {
         })
         .collect();
     let mut parts = vec![0usize; bvh2.nodes.len()];
-    for index in children_first(bvh2) {
+    for &index in order {
         let node = &bvh2.nodes[index];
         let area = half_area(boxes[index]);
         if node.is_leaf() {
@@ -268,6 +270,7 @@ fn leaf_triangles(
             stack.extend([first + 1, first]);
         }
     }
+    debug_assert!(ids.len() <= LEAF_SIZE, "a leaf planned with too many parts");
     let tris = ids.iter().map(|&t| triangles[t as usize]).collect();
     (tris, ids)
 }
@@ -279,13 +282,7 @@ mod tests {
     use obvhs::triangle::Triangle;
 
     fn isect(tris: &[Triangle]) -> Vec<IsectTriangle> {
-        tris.iter()
-            .map(|t| IsectTriangle {
-                v0: t.v0,
-                e1: t.v1 - t.v0,
-                e2: t.v2 - t.v0,
-            })
-            .collect()
+        tris.iter().map(IsectTriangle::from).collect()
     }
 
     /// Every leaf of the collapsed tree: its box and its triangles' ids.
@@ -350,7 +347,8 @@ mod tests {
         let tris = strips_over_a_grid();
         let bvh2 = spatial_split::build(&tris);
         let (nodes, _) = collapse(&bvh2, &isect(&tris), |_, _| 0);
-        let plans = plan(&bvh2, &tight_boxes(&bvh2, &isect(&tris)));
+        let order = children_first(&bvh2);
+        let plans = plan(&bvh2, &tight_boxes(&bvh2, &isect(&tris), &order), &order);
         let made: f32 = nodes
             .iter()
             .map(|node| {

@@ -24,6 +24,16 @@ pub(super) struct IsectTriangle {
     pub e2: Vec3A,
 }
 
+impl From<&obvhs::triangle::Triangle> for IsectTriangle {
+    fn from(t: &obvhs::triangle::Triangle) -> Self {
+        IsectTriangle {
+            v0: t.v0,
+            e1: t.v1 - t.v0,
+            e2: t.v2 - t.v0,
+        }
+    }
+}
+
 impl IsectTriangle {
     /// The box around every point the widened test accepts, and how far (per axis) it
     /// reaches beyond the vertices' box: the tolerance along the edges, and a few ulps
