@@ -9,10 +9,13 @@
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdout, Command, Stdio};
+use std::path::Path;
+use std::process::{ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
+use common::{Proc, holocave, root, scratch, start_master};
 use holocave_cave::{CaveFrusta, load_cave};
 use holocave_master::frame_state::{FrameTimes, frame_state};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
@@ -31,71 +34,15 @@ const RATE: f64 = 20.0;
 /// above that and still short for the tests that wait for a node to be declared out.
 const DEAD_NODE_MS: u64 = 1000;
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("holocave-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// A child process killed when dropped (a failing test leaves nothing running).
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-impl Proc {
-    /// Waits for the process to exit by itself within `limit`; its status and stderr.
-    fn finish(mut self, limit: Duration) -> (std::process::ExitStatus, String) {
-        let end = Instant::now() + limit;
-        let status = loop {
-            if let Some(s) = self.0.try_wait().unwrap() {
-                break s;
-            }
-            assert!(
-                Instant::now() < end,
-                "process did not exit within {limit:?}"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        };
-        let mut err = String::new();
-        if let Some(mut e) = self.0.stderr.take() {
-            let _ = e.read_to_string(&mut err);
-        }
-        (status, err)
-    }
-}
-
 /// Starts `holocave master` on an ephemeral port; returns it, its address and its stdout.
 fn master(extra: &[&str], secret: &str) -> (Proc, String, BufReader<ChildStdout>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_holocave"))
-        .current_dir(root())
-        .args(["master", "--config", CONFIG, "--listen", "127.0.0.1:0"])
+    let mut c = holocave();
+    c.args(["master", "--config", CONFIG, "--listen", "127.0.0.1:0"])
         .args(["--rate", &RATE.to_string()])
         .args(["--dead-node-ms", &DEAD_NODE_MS.to_string()])
         .args(extra)
-        .env("HOLOCAVE_SECRET", secret)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start holocave master");
-    let mut out = BufReader::new(child.stdout.take().unwrap());
-    let mut line = String::new();
-    out.read_line(&mut line).unwrap();
-    let addr = line
-        .trim()
-        .strip_prefix("master listening on ")
-        .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
-        .to_owned();
-    (Proc(child), addr, out)
+        .env("HOLOCAVE_SECRET", secret);
+    start_master(c)
 }
 
 /// Starts a render node for `wall` that writes images of frame 0 only.
@@ -111,8 +58,7 @@ fn node_every(addr: &str, wall: &str, out: &Path, secret: &str, every: u64) -> P
 /// Starts a render node for `wall` with extra arguments.
 fn node_with(addr: &str, wall: &str, out: &Path, secret: &str, extra: &[&str]) -> Proc {
     Proc(
-        Command::new(env!("CARGO_BIN_EXE_holocave"))
-            .current_dir(root())
+        holocave()
             .args(["node", "--master", addr, "--wall", wall, "--headless"])
             .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
             .args(["--samples", "48"])
@@ -193,13 +139,13 @@ fn lockstep_run(
             node_with(&addr, w, &out, SECRET, &args)
         })
         .collect();
-    let (status, err) = m.finish(Duration::from_secs(120));
+    let (status, _, err) = m.finish(Duration::from_secs(120));
     assert!(status.success(), "master failed: {err}");
     let mut summary = String::new();
     stdout.read_to_string(&mut summary).unwrap();
     println!("{summary}");
     for n in nodes {
-        let (status, err) = n.finish(Duration::from_secs(30));
+        let (status, _, err) = n.finish(Duration::from_secs(30));
         assert!(status.success(), "a node failed: {err}");
     }
     let logs: Vec<Vec<u64>> = WALLS.iter().map(|w| presented(&out, w)).collect();
@@ -421,17 +367,17 @@ fn a_killed_node_leaves_the_others_at_full_rate_and_its_restart_rejoins() {
 fn a_node_with_a_wrong_secret_is_refused_and_the_master_says_why() {
     let out = scratch("secret");
     let (m, addr, _stdout) = master(&["--seconds", "20"], SECRET);
-    let (status, err) =
+    let (status, _, err) =
         node(&addr, "front", &out, "not-the-secret").finish(Duration::from_secs(60));
     assert!(!status.success());
     assert!(err.contains("authentication"), "node said: {err}");
     // No secret at all: the node refuses to start, naming the setting.
-    let (status, err) = node(&addr, "left", &out, "").finish(Duration::from_secs(60));
+    let (status, _, err) = node(&addr, "left", &out, "").finish(Duration::from_secs(60));
     assert!(!status.success());
     assert!(err.contains("cluster.secret"), "node said: {err}");
     let mut m = m;
     m.0.kill().unwrap();
-    let (_, master_err) = m.finish(Duration::from_secs(10));
+    let (_, _, master_err) = m.finish(Duration::from_secs(10));
     assert!(
         master_err.contains("refused a connection") && master_err.contains("authentication"),
         "master said: {master_err}"
@@ -522,7 +468,7 @@ fn garbage_sent_to_the_master_does_not_disturb_the_honest_nodes() {
     }
     let mut m = m;
     m.0.kill().unwrap();
-    let (_, err) = m.finish(Duration::from_secs(10));
+    let (_, _, err) = m.finish(Duration::from_secs(10));
     let refused = err.matches("refused a connection").count();
     println!(
         "master refused {refused} of {sent} bad connections; e.g. {:?}",
@@ -600,7 +546,7 @@ fn injected_and_replayed_messages_to_the_master_are_refused() {
         .unwrap();
     s2.write_all(&sealed).unwrap();
     s2.write_all(&sealed).unwrap();
-    let (status, err) = m.finish(Duration::from_secs(30));
+    let (status, _, err) = m.finish(Duration::from_secs(30));
     assert!(status.success(), "master failed: {err}");
     let forged: Vec<&str> = err
         .lines()
@@ -682,7 +628,7 @@ fn garbage_from_the_master_makes_a_node_reconnect_and_serve_the_honest_master() 
         reason: "test over".into(),
     };
     sealer.write(&mut s, &bye, MAX_CLUSTER_FRAME).unwrap();
-    let (status, err) = n.finish(Duration::from_secs(30));
+    let (status, _, err) = n.finish(Duration::from_secs(30));
     assert!(status.success(), "node failed: {err}");
     // Frame 2 was drawn once (the replay of its state was refused, not shown).
     assert_eq!(presented(&out, "front"), (100..110).collect::<Vec<_>>());
@@ -726,7 +672,7 @@ fn replay_sends_the_same_frame_states_bit_for_bit() {
             ],
             SECRET,
         );
-        let (status, err) = m.finish(Duration::from_secs(60));
+        let (status, _, err) = m.finish(Duration::from_secs(60));
         assert!(status.success(), "{err}");
         std::fs::read(states).unwrap()
     };
@@ -787,14 +733,14 @@ fn finish_all(
     mut m_out: BufReader<ChildStdout>,
     nodes: Vec<Proc>,
 ) -> (String, Vec<String>) {
-    let (status, err) = m.finish(Duration::from_secs(120));
+    let (status, _, err) = m.finish(Duration::from_secs(120));
     assert!(status.success(), "master failed: {err}");
     let mut summary = String::new();
     m_out.read_to_string(&mut summary).unwrap();
     let errs = nodes
         .into_iter()
         .map(|n| {
-            let (status, err) = n.finish(Duration::from_secs(30));
+            let (status, _, err) = n.finish(Duration::from_secs(30));
             assert!(status.success(), "node failed: {err}");
             err
         })
@@ -818,8 +764,7 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
     // ask for.
     let (m, addr, holodeck, m_out) = holodeck_master(&hdk, 60);
     let worker = Proc(
-        Command::new(env!("CARGO_BIN_EXE_holocave"))
-            .current_dir(root())
+        holocave()
             .args(["worker", "--server", &holodeck, "--scene", SCENE])
             .env("HOLOCAVE_SECRET", SECRET)
             .stdout(Stdio::null())
@@ -906,12 +851,11 @@ fn a_node_whose_holodeck_dies_goes_on_tracing_locally() {
         ],
         SECRET,
     );
-    let (status, err) = m.finish(Duration::from_secs(60));
+    let (status, _, err) = m.finish(Duration::from_secs(60));
     assert!(status.success(), "master failed: {err}");
 
     // The holodeck on its own host, the master pointing the nodes at it.
-    let mut serve = Command::new(env!("CARGO_BIN_EXE_holocave"))
-        .current_dir(root())
+    let mut serve = holocave()
         .args([
             "holodeck",
             "serve",

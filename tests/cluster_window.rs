@@ -3,13 +3,15 @@
 //! order, as headless nodes do under the same master; and resizing one window or closing
 //! another (as a window manager would) stops neither the others nor the master.
 
+mod common;
 mod xvfb;
 
-use std::io::{BufRead, BufReader, Read};
-use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdout, Command, Stdio};
+use std::io::{BufReader, Read};
+use std::path::Path;
+use std::process::{ChildStdout, Stdio};
 use std::time::{Duration, Instant};
 
+use common::{Proc, holocave, scratch, start_master};
 use xvfb::{WindowManager, Xvfb};
 
 const CONFIG: &str = "configs/cave4-room.toml";
@@ -20,75 +22,21 @@ const RATE: &str = "20";
 /// Generous: a loaded CI machine must not declare a live node out.
 const DEAD_NODE_MS: &str = "1000";
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// A child process killed when dropped.
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-impl Proc {
-    /// Waits (polling) for the process to exit by itself within `limit`; status, stdout and
-    /// stderr.
-    fn finish(mut self, limit: Duration) -> (std::process::ExitStatus, String, String) {
-        let end = Instant::now() + limit;
-        let status = loop {
-            if let Some(s) = self.0.try_wait().unwrap() {
-                break s;
-            }
-            assert!(
-                Instant::now() < end,
-                "process did not exit within {limit:?}"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        };
-        let (mut out, mut err) = (String::new(), String::new());
-        if let Some(mut o) = self.0.stdout.take() {
-            let _ = o.read_to_string(&mut out);
-        }
-        if let Some(mut e) = self.0.stderr.take() {
-            let _ = e.read_to_string(&mut err);
-        }
-        (status, out, err)
-    }
-}
-
 fn master(frames: u64) -> (Proc, String, BufReader<ChildStdout>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_holocave"))
-        .current_dir(root())
-        .args(["master", "--config", CONFIG, "--listen", "127.0.0.1:0"])
+    let mut c = holocave();
+    c.args(["master", "--config", CONFIG, "--listen", "127.0.0.1:0"])
         .args(["--rate", RATE, "--dead-node-ms", DEAD_NODE_MS])
         .args(["--frames", &frames.to_string(), "--wait-for-walls", "60"])
         .env("HOLOCAVE_SECRET", SECRET)
-        .env("RUST_LOG", "info")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start holocave master");
-    let mut out = BufReader::new(child.stdout.take().unwrap());
-    let mut line = String::new();
-    out.read_line(&mut line).unwrap();
-    let addr = line
-        .trim()
-        .strip_prefix("master listening on ")
-        .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
-        .to_owned();
-    (Proc(child), addr, out)
+        .env("RUST_LOG", "info");
+    start_master(c)
 }
 
 /// A node for `wall` writing its presented log under `out`: in a window on `x` (placed so
 /// the four do not overlap), or headless.
 fn node(addr: &str, wall: &str, out: &Path, x: Option<&Xvfb>) -> Proc {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_holocave"));
-    c.current_dir(root())
-        .args(["node", "--master", addr, "--wall", wall])
+    let mut c = holocave();
+    c.args(["node", "--master", addr, "--wall", wall])
         .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
         .args(["--samples", "48", "--every", "1000000"])
         .arg("--out")
@@ -120,13 +68,6 @@ fn presented(out: &Path, wall: &str) -> Vec<u64> {
         .lines()
         .map(|l| l.parse().expect("a frame number per line"))
         .collect()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("holocave-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// Every wall's presented frames in a lockstep run of `frames` frames.

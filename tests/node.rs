@@ -3,9 +3,11 @@
 //! finite radiance, nothing before the first samples, then a picture that fills in, a
 //! different one per eye, its tone-mapped PNG and the pixels each frame chose.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
+use std::path::Path;
+
+use common::cornell_front_node;
 use glam::Vec3;
 use holocave_tracer::film::Image;
 
@@ -34,20 +36,10 @@ fn png(path: &Path) -> image::RgbImage {
 fn standalone_headless_node_writes_both_eyes_per_frame() {
     let dir = std::env::temp_dir().join(format!("holocave-node-test-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let root = env!("CARGO_MANIFEST_DIR");
     let frames = FRAMES.to_string();
     let size = format!("{W}x{H}");
-    let out = Command::new(env!("CARGO_BIN_EXE_holocave"))
-        .current_dir(root)
+    let out = cornell_front_node()
         .args([
-            "node",
-            "--standalone",
-            "--config",
-            "configs/cave4-cornell.toml",
-            "--wall",
-            "front",
-            "--scene",
-            "scenes/cornell.gltf",
             "--tracker",
             "synthetic:walk",
             "--headless",

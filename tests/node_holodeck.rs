@@ -4,10 +4,12 @@
 //! and their error against the path tracer's own render of the same view falls; a second
 //! run on the same file, with no tracer threads at all, shows the stored samples at once.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::Arc;
 
+use common::cornell_front_node;
 use glam::{Quat, Vec3};
 use holocave_cave::load_cave;
 use holocave_cave::{Eye, eye_position};
@@ -22,20 +24,10 @@ const H: u32 = 48;
 const STILL: [f32; 3] = [0.0, 1.5, 0.0];
 
 fn node(out: &Path, hdk: &Path, extra: &[&str]) -> String {
-    let root = env!("CARGO_MANIFEST_DIR");
     let size = format!("{W}x{H}");
     let still = format!("{},{},{}", STILL[0], STILL[1], STILL[2]);
-    let o = Command::new(env!("CARGO_BIN_EXE_holocave"))
-        .current_dir(root)
+    let o = cornell_front_node()
         .args([
-            "node",
-            "--standalone",
-            "--config",
-            "configs/cave4-cornell.toml",
-            "--wall",
-            "front",
-            "--scene",
-            "scenes/cornell.gltf",
             "--headless",
             "--size",
             &size,

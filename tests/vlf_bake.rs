@@ -2,27 +2,22 @@
 //! threads and from `holocave worker --vlf` processes that the bake hands subfields to;
 //! workers with a wrong secret or another scene are refused and the bake goes on.
 
+mod common;
+
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
+use common::holocave;
+
 const SECRET: &str = "vlf-bake-test-secret";
-
-fn exe() -> &'static str {
-    env!("CARGO_BIN_EXE_holocave")
-}
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// Small settings: a bake of the Cornell box (mirror and glass: links too) in a second.
 const SETTINGS: [&str; 4] = ["--directions", "42", "--resolution", "32"];
 
 fn bake_args(out: &Path) -> Command {
-    let mut c = Command::new(exe());
-    c.current_dir(root())
-        .args(["vlf", "bake", "--scene", "scenes/cornell.gltf"])
+    let mut c = holocave();
+    c.args(["vlf", "bake", "--scene", "scenes/cornell.gltf"])
         .args(SETTINGS)
         .arg("--out")
         .arg(out)
@@ -31,8 +26,7 @@ fn bake_args(out: &Path) -> Command {
 }
 
 fn worker(addr: &str, scene: &str, secret: &str) -> Child {
-    Command::new(exe())
-        .current_dir(root())
+    holocave()
         .args(["worker", "--vlf", "--server", addr, "--scene", scene])
         .env("HOLOCAVE_SECRET", secret)
         .stdout(Stdio::null())

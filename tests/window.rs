@@ -5,42 +5,32 @@
 //! channel, the headless PNGs of that frame laid out as the layout says — composed here on
 //! the CPU, so the GPU's tone mapping and layout are checked against the CPU's.
 
+mod common;
 mod xvfb;
 
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use common::cornell_front_node;
 use xvfb::{Xvfb, max_difference, stderr_of, wait_for_line};
 
 const FRAMES: u64 = 6;
 const W: u32 = 40;
 const H: u32 = 30;
 
-fn node_args(layout: &str) -> Vec<String> {
-    [
-        "node",
-        "--standalone",
-        "--config",
-        "configs/cave4-cornell.toml",
-        "--wall",
-        "front",
-        "--scene",
-        "scenes/cornell.gltf",
-        "--still",
-        "0.1,1.4,0.3",
-        "--sync",
-        "--frames",
-        &FRAMES.to_string(),
-        "--size",
-        &format!("{W}x{H}"),
-        "--samples",
-        &(W * H / 2).to_string(),
-        "--layout",
-        layout,
-    ]
-    .map(str::to_owned)
-    .to_vec()
+/// The standalone node of a still view of the Cornell box in `layout`, `--sync`.
+fn node(layout: &str) -> Command {
+    let mut c = cornell_front_node();
+    c.args(["--still", "0.1,1.4,0.3", "--sync"])
+        .args([
+            "--frames",
+            &FRAMES.to_string(),
+            "--size",
+            &format!("{W}x{H}"),
+        ])
+        .args(["--samples", &(W * H / 2).to_string(), "--layout", layout]);
+    c
 }
 
 /// One lavapipe thread: the render cache's insert pass lets samples race for a group's
@@ -57,9 +47,7 @@ fn png(path: &Path) -> image::RgbImage {
 
 /// The headless node's last frame in `layout`, laid out on the CPU.
 fn headless(layout: &str, dir: &Path) -> image::RgbImage {
-    let out = Command::new(env!("CARGO_BIN_EXE_holocave"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(node_args(layout))
+    let out = node(layout)
         .env(GPU_THREADS.0, GPU_THREADS.1)
         .args(["--headless", "--out"])
         .arg(dir)
@@ -109,9 +97,7 @@ fn headless(layout: &str, dir: &Path) -> image::RgbImage {
 /// matches `expected` or the linger ends (the X server may show the presented image a
 /// moment after the present call returns); the last one is returned.
 fn windowed(x: &Xvfb, layout: &str, expected: &image::RgbImage) -> image::RgbImage {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_holocave"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(node_args(layout))
+    let mut child = node(layout)
         .args(["--window", "--linger", "20", "--window-pos", "0,0"])
         .env("DISPLAY", &x.display)
         .env("WINIT_X11_SCALE_FACTOR", "1")

@@ -11,25 +11,13 @@ use std::time::Duration;
 
 use glam::DVec3;
 use holocave_holodeck::file::check::check;
-use holocave_holodeck::sample::PackedSample;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-/// Must match the writer's.
-fn expected(beam: u32, index: u32) -> PackedSample {
-    PackedSample {
-        rgbe: [
-            beam as u8,
-            (beam >> 8) as u8,
-            index as u8,
-            (index >> 8) as u8,
-        ],
-        entry: [(index >> 16) as u8, (beam >> 16) as u8],
-        exit: [0x5a, 0xa5],
-        dist: (beam.wrapping_mul(31) ^ index.wrapping_mul(7)) as u16,
-    }
-}
+#[path = "common/crash_pattern.rs"]
+mod crash_pattern;
+use crash_pattern::expected;
 
 #[test]
 fn sigkill_at_random_moments_loses_nothing_flushed() {

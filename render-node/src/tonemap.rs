@@ -17,7 +17,7 @@
 //! log-mean luminance moves by more than a stop, so the picture does not pump.
 
 use glam::Vec3;
-use holocave_tracer::film::Image;
+use holocave_tracer::film::{Image, srgb8};
 
 const BINS: usize = 100;
 /// Display luminance range (cd/m²).
@@ -359,16 +359,7 @@ impl ToneMapper {
             let ld = m.display_luminance(lw);
             let scale = if lw > 0.0 { ld / lw / LD_MAX } else { 0.0 };
             let d = c * LUMINOUS_EFFICACY * scale;
-            let enc = |v: f32| {
-                let v = v.clamp(0.0, 1.0);
-                let s = if v <= 0.003_130_8 {
-                    12.92 * v
-                } else {
-                    1.055 * v.powf(1.0 / 2.4) - 0.055
-                };
-                (s * 255.0 + 0.5) as u8
-            };
-            image::Rgb([enc(d.x), enc(d.y), enc(d.z)])
+            image::Rgb([srgb8(d.x), srgb8(d.y), srgb8(d.z)])
         })
     }
 }

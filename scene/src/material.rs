@@ -28,6 +28,23 @@ pub struct SurfaceParams {
     pub ior: f32,
 }
 
+/// glTF's defaults: white, metallic, rough, no emission, the dielectric specular layer at
+/// full strength, opaque, index of refraction 1.5.
+impl Default for SurfaceParams {
+    fn default() -> Self {
+        SurfaceParams {
+            base_color: Vec3::ONE,
+            metallic: 1.0,
+            roughness: 1.0,
+            emission: Vec3::ZERO,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            transmission: 0.0,
+            ior: 1.5,
+        }
+    }
+}
+
 /// One glTF material.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {

@@ -83,7 +83,7 @@ pub fn read_reference(
 pub fn wall_view(scene: &Scene, scene_path: &Path, flags: &ViewFlags) -> Result<WallView> {
     let (width, height) = flags.size;
     let (camera, eye, wall) = (&flags.camera, flags.eye, flags.wall);
-    let (eye, [pa, pb, pc]) = match (camera, eye, wall) {
+    match (camera, eye, wall) {
         (Some(name), _, _) => {
             let cam = scene
                 .cameras
@@ -96,19 +96,18 @@ pub fn wall_view(scene: &Scene, scene_path: &Path, flags: &ViewFlags) -> Result<
                         scene_path.display()
                     )
                 })?;
-            (cam.position, cam.screen(width as f32 / height as f32))
+            Ok(WallView::through_camera(cam, width, height))
         }
-        (None, Some(eye), Some(wall)) => (eye, wall),
+        (None, Some(eye), Some([pa, pb, pc])) => Ok(WallView {
+            eye,
+            pa,
+            pb,
+            pc,
+            width,
+            height,
+        }),
         _ => bail!("give --eye and --wall, or --camera"),
-    };
-    Ok(WallView {
-        eye,
-        pa,
-        pb,
-        pc,
-        width,
-        height,
-    })
+    }
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {

@@ -246,6 +246,11 @@ pub fn baked_default(scene: &Scene, path: &Path) -> Result<PathBuf> {
             "baking the light field {} (once; kept for later runs)",
             path.display()
         );
+    } else {
+        println!(
+            "light field {} (kept from an earlier run; a bake it left unfinished is finished)",
+            path.display()
+        );
     }
     let start = std::time::Instant::now();
     bake_file(scene, &Settings::default(), path, true, &Threads)

@@ -30,15 +30,7 @@ fn paths(c: &mut Criterion) {
         eprintln!("paths bench: skipped: the Cornell box has no camera \"front\"");
         return;
     };
-    let [pa, pb, pc] = cam.screen(1.0);
-    let view = WallView {
-        eye: cam.position,
-        pa,
-        pb,
-        pc,
-        width: SIZE,
-        height: SIZE,
-    };
+    let view = WallView::through_camera(&cam, SIZE, SIZE);
     let rays: Vec<_> = (0..SIZE * SIZE)
         .map(|i| view.ray(Vec2::new((i % SIZE) as f32 + 0.5, (i / SIZE) as f32 + 0.5)))
         .collect();

@@ -323,14 +323,10 @@ mod tests {
 
     fn params(metallic: f32, roughness: f32, transmission: f32) -> SurfaceParams {
         SurfaceParams {
-            base_color: Vec3::ONE,
             metallic,
             roughness,
-            emission: Vec3::ZERO,
-            specular: 1.0,
-            specular_color: Vec3::ONE,
             transmission,
-            ior: 1.5,
+            ..SurfaceParams::default()
         }
     }
 

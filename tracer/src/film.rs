@@ -5,6 +5,18 @@ use std::path::Path;
 
 use glam::Vec3;
 
+/// A display value in [0, 1] (clamped) as an 8-bit sRGB code: the sRGB transfer curve,
+/// rounded to the nearest code.
+pub fn srgb8(v: f32) -> u8 {
+    let v = v.clamp(0.0, 1.0);
+    let s = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
 /// A linear RGB image, rows from the top.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
@@ -86,16 +98,7 @@ impl Image {
             } else {
                 Vec3::ZERO
             };
-            let enc = |v: f32| {
-                let v = v.clamp(0.0, 1.0);
-                let s = if v <= 0.003_130_8 {
-                    12.92 * v
-                } else {
-                    1.055 * v.powf(1.0 / 2.4) - 0.055
-                };
-                (s * 255.0 + 0.5) as u8
-            };
-            image::Rgb([enc(c.x), enc(c.y), enc(c.z)])
+            image::Rgb([srgb8(c.x), srgb8(c.y), srgb8(c.z)])
         })
     }
 

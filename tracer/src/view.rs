@@ -3,7 +3,7 @@
 //! is the mean radiance through its patch of the screen.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::Ray;
+use holocave_scene::{NamedCamera, Ray};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WallView {
@@ -16,6 +16,20 @@ pub struct WallView {
 }
 
 impl WallView {
+    /// The view of a scene's camera, its screen one metre in front of it and of the image's
+    /// aspect.
+    pub fn through_camera(cam: &NamedCamera, width: u32, height: u32) -> Self {
+        let [pa, pb, pc] = cam.screen(width as f32 / height as f32);
+        WallView {
+            eye: cam.position,
+            pa,
+            pb,
+            pc,
+            width,
+            height,
+        }
+    }
+
     /// The ray from the eye through the point `(x, y)` of the image, in pixels from the
     /// top-left corner (fractional: `(0.5, 0.5)` is the centre of the first pixel).
     pub fn ray(&self, pixel: Vec2) -> Ray {

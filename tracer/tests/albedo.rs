@@ -19,7 +19,7 @@ mod common;
 
 use std::f64::consts::PI;
 
-use common::{integrate_cell, z_for_two_sided};
+use common::{integrate_cell, params, z_for_two_sided};
 use glam::{Vec2, Vec3};
 use holocave_scene::SurfaceParams;
 use holocave_tracer::bsdf::Bsdf;
@@ -27,19 +27,6 @@ use holocave_tracer::fresnel;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
-
-fn params(base: Vec3, metallic: f32, roughness: f32, transmission: f32) -> SurfaceParams {
-    SurfaceParams {
-        base_color: base,
-        metallic,
-        roughness,
-        emission: Vec3::ZERO,
-        specular: 1.0,
-        specular_color: Vec3::ONE,
-        transmission,
-        ior: 1.5,
-    }
-}
 
 fn wo_at(theta_deg: f32) -> Vec3 {
     let t = theta_deg.to_radians();

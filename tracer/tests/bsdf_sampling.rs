@@ -25,25 +25,12 @@ use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
 mod common;
-use common::integrate_cell;
+use common::{integrate_cell, params};
 
 const THETA_RES: usize = 10;
 const PHI_RES: usize = 20;
 const SAMPLES: usize = 1_000_000;
 const MIN_EXPECTED: f64 = 5.0;
-
-fn params(base: Vec3, metallic: f32, roughness: f32, transmission: f32) -> SurfaceParams {
-    SurfaceParams {
-        base_color: base,
-        metallic,
-        roughness,
-        emission: Vec3::ZERO,
-        specular: 1.0,
-        specular_color: Vec3::ONE,
-        transmission,
-        ior: 1.5,
-    }
-}
 
 fn dir(theta: f64, phi: f64) -> Vec3 {
     Vec3::new(

@@ -49,15 +49,7 @@ fn cornell_error_falls_like_one_over_sqrt_spp() {
         .find(|c| c.name == "front")
         .expect("the Cornell box has a camera named front")
         .clone();
-    let [pa, pb, pc] = cam.screen(1.0);
-    let view = WallView {
-        eye: cam.position,
-        pa,
-        pb,
-        pc,
-        width: 32,
-        height: 32,
-    };
+    let view = WallView::through_camera(&cam, 32, 32);
     let tracer = common::tracer(scene);
     let (n, repeats) = (64u32, 16u64);
     let start = std::time::Instant::now();

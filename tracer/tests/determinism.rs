@@ -84,16 +84,7 @@ fn parallel_trace_equals_serial_trace_bit_for_bit() {
 #[test]
 fn rendering_is_deterministic() {
     let scene = cornell();
-    let cam = scene.cameras[0].clone();
-    let [pa, pb, pc] = cam.screen(1.0);
-    let view = WallView {
-        eye: cam.position,
-        pa,
-        pb,
-        pc,
-        width: 24,
-        height: 16,
-    };
+    let view = WallView::through_camera(&scene.cameras[0], 24, 16);
     let tracer = tracer(scene);
     let a = render(&tracer, &view, 8, 7, &|| {});
     let pool = rayon::ThreadPoolBuilder::new()

@@ -47,15 +47,7 @@ fn cornell() -> Arc<Scene> {
 
 fn front(scene: &Scene) -> WallView {
     let cam = scene.cameras.iter().find(|c| c.name == "front").unwrap();
-    let [pa, pb, pc] = cam.screen(1.0);
-    WallView {
-        eye: cam.position,
-        pa,
-        pb,
-        pc,
-        width: SIZE,
-        height: SIZE,
-    }
+    WallView::through_camera(cam, SIZE, SIZE)
 }
 
 /// `relative_mse` over the pixels of `mask` only, as a share of the whole image's.

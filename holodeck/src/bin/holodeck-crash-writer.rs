@@ -15,20 +15,9 @@ use holocave_holodeck::sample::PackedSample;
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-/// The sample the writer stores at `index` of `beam` (shared with the test).
-fn expected(beam: u32, index: u32) -> PackedSample {
-    PackedSample {
-        rgbe: [
-            beam as u8,
-            (beam >> 8) as u8,
-            index as u8,
-            (index >> 8) as u8,
-        ],
-        entry: [(index >> 16) as u8, (beam >> 16) as u8],
-        exit: [0x5a, 0xa5],
-        dist: (beam.wrapping_mul(31) ^ index.wrapping_mul(7)) as u16,
-    }
-}
+#[path = "../../tests/common/crash_pattern.rs"]
+mod crash_pattern;
+use crash_pattern::expected;
 
 fn main() {
     let mut args = std::env::args().skip(1);

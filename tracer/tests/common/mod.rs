@@ -7,7 +7,8 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
 use holocave_scene::{
-    Daylight, LoadOptions, Material, Scene, SceneParts, Sky, SkyModel, TriangleShading,
+    Daylight, LoadOptions, Material, Scene, SceneParts, Sky, SkyModel, SurfaceParams,
+    TriangleShading,
 };
 use holocave_tracer::{TraceSettings, Tracer};
 use rand::Rng;
@@ -284,4 +285,15 @@ pub fn integrate_cell(f: &dyn Fn(f64, f64) -> f64, t0: f64, t1: f64, p0: f64, p1
     let (t0, t1) = (t0 + shrink, t1 - shrink);
     let inner = |t: f64| adaptive_simpson(&|p| f(t, p), p0, p1, eps, 8);
     adaptive_simpson(&inner, t0, t1, eps, 8)
+}
+
+/// A surface of base colour `base` with glTF's other defaults.
+pub fn params(base: Vec3, metallic: f32, roughness: f32, transmission: f32) -> SurfaceParams {
+    SurfaceParams {
+        base_color: base,
+        metallic,
+        roughness,
+        transmission,
+        ..SurfaceParams::default()
+    }
 }

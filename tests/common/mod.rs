@@ -1,0 +1,99 @@
+//! What the binary's end-to-end tests share: the `holocave` command run from the checkout,
+//! child processes that cannot outlive a failing test, a scratch folder per test, a master
+//! started on an ephemeral port, and the standalone node on the Cornell box's front wall.
+
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdout, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+/// The checkout: configs and scenes are named relative to it.
+pub fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `holocave` with the checkout as its working directory.
+pub fn holocave() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_holocave"));
+    c.current_dir(root());
+    c
+}
+
+/// `holocave node --standalone` on the front wall of `configs/cave4-cornell.toml`, looking
+/// at the Cornell box; the caller adds the view, the frames and the output.
+pub fn cornell_front_node() -> Command {
+    let mut c = holocave();
+    c.args([
+        "node",
+        "--standalone",
+        "--config",
+        "configs/cave4-cornell.toml",
+    ])
+    .args(["--wall", "front", "--scene", "scenes/cornell.gltf"]);
+    c
+}
+
+/// An empty folder of this test's own under the system's temporary folder.
+pub fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("holocave-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A child process killed when dropped (a failing test leaves nothing running).
+pub struct Proc(pub Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+impl Proc {
+    /// Waits (polling) for the process to exit by itself within `limit`; its status, and
+    /// whatever of its stdout and stderr was piped and not taken.
+    pub fn finish(mut self, limit: Duration) -> (ExitStatus, String, String) {
+        let end = Instant::now() + limit;
+        let status = loop {
+            if let Some(s) = self.0.try_wait().unwrap() {
+                break s;
+            }
+            assert!(
+                Instant::now() < end,
+                "process did not exit within {limit:?}"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        let (mut out, mut err) = (String::new(), String::new());
+        if let Some(mut o) = self.0.stdout.take() {
+            let _ = o.read_to_string(&mut out);
+        }
+        if let Some(mut e) = self.0.stderr.take() {
+            let _ = e.read_to_string(&mut err);
+        }
+        (status, out, err)
+    }
+}
+
+/// Starts `master` (a `holocave master …` command listening on port 0) with its output
+/// piped; returns it, the address its first line names, and the rest of its stdout.
+pub fn start_master(mut master: Command) -> (Proc, String, BufReader<ChildStdout>) {
+    let mut child = master
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start holocave master");
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    out.read_line(&mut line).unwrap();
+    let addr = line
+        .trim()
+        .strip_prefix("master listening on ")
+        .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
+        .to_owned();
+    (Proc(child), addr, out)
+}
