@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use holocave_cave::{Cave, Eye, load_cave};
+use holocave_cave::{Cave, Eye, Unfolded, load_cave, unfold};
 use holocave_master::cluster::{MasterOptions, run as run_master};
 use holocave_render_node::mosaic::cave_mosaic;
 
@@ -180,14 +180,15 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         }
     }
     let size = |p: u32| ((f64::from(p) * args.scale).round() as u32).max(8);
-    let placed = super::window::unfolded_windows(
+    // One layout of the unfolded CAVE for the windows and the mosaics.
+    let unfolded = unfold(
         &cave
             .walls
             .iter()
             .map(|w| (w.name.clone(), (size(w.pixels[0]), size(w.pixels[1]))))
             .collect::<Vec<_>>(),
-        args.windows.screen,
     );
+    let placed = unfolded.fit(args.windows.screen);
     for wall in &cave.walls {
         let dir = args.out.join(&wall.name);
         std::fs::create_dir_all(&dir)?;
@@ -297,7 +298,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     }
     let every = args.every.max(1);
     let written: Vec<u64> = all.into_iter().filter(|f| f % every == 0).collect();
-    let mosaics = write_mosaics(&args.out, &cave, &written)?;
+    let mosaics = write_mosaics(&args.out, &cave, &unfolded, &written)?;
     for p in &mosaics {
         println!("mosaic {}", p.display());
     }
@@ -332,7 +333,12 @@ fn presented_logs(out: &Path, cave: &Cave) -> Result<BTreeMap<String, BTreeSet<u
 
 /// The mosaic of each of `frames` from the walls' first-eye previews (a wall that did not
 /// write the frame is left grey); the paths written.
-fn write_mosaics(out: &Path, cave: &Cave, frames: &[u64]) -> Result<Vec<PathBuf>> {
+fn write_mosaics(
+    out: &Path,
+    cave: &Cave,
+    layout: &Unfolded,
+    frames: &[u64],
+) -> Result<Vec<PathBuf>> {
     let dir = out.join("mosaic");
     std::fs::create_dir_all(&dir)?;
     let mut written = Vec::new();
@@ -349,7 +355,7 @@ fn write_mosaics(out: &Path, cave: &Cave, frames: &[u64]) -> Result<Vec<PathBuf>
         }
         let walls: Vec<(&str, &image::RgbImage)> = images.iter().map(|(n, i)| (*n, i)).collect();
         let path = dir.join(format!("{frame:05}.png"));
-        cave_mosaic(&walls)
+        cave_mosaic(layout, &walls)
             .save(&path)
             .with_context(|| format!("writing {}", path.display()))?;
         written.push(path);

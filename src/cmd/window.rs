@@ -10,7 +10,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use holocave_cave::{Eye, Layout, Wall, WindowSettings};
+use holocave_cave::{Eye, Layout, Place, Wall, WindowSettings};
 use holocave_protocol::cluster::FrameState;
 use holocave_render_node::cluster::Presentation;
 use holocave_render_node::present::{Histogrammer, Prepared, layout_eyes};
@@ -302,58 +302,6 @@ pub struct SimWindowArgs {
     pub screen: (u32, u32),
 }
 
-/// Where each wall's window goes: `(wall, position, size)` for walls whose eye images are
-/// `sizes[wall]`, in the unfolded CAVE scaled by the largest factor that fits `screen`.
-pub fn unfolded_windows(
-    walls: &[(String, (u32, u32))],
-    screen: (u32, u32),
-) -> Vec<(String, [i32; 2], (u32, u32))> {
-    let get = |n: &str| walls.iter().find(|(w, _)| w == n).map(|(_, s)| *s);
-    let front = get("front").unwrap_or((1, 1));
-    let left = get("left").unwrap_or((0, front.1));
-    let right = get("right").unwrap_or((0, front.1));
-    let floor = get("floor").unwrap_or((0, 0));
-    let top = left.1.max(front.1).max(right.1);
-    let middle = front.0.max(floor.0);
-    // Walls with other names: a row under the floor.
-    let others: Vec<&(String, (u32, u32))> = walls
-        .iter()
-        .filter(|(w, _)| !["front", "left", "right", "floor"].contains(&w.as_str()))
-        .collect();
-    let others_w: u32 = others.iter().map(|(_, s)| s.0).sum();
-    let others_h = others.iter().map(|(_, s)| s.1).max().unwrap_or(0);
-    let width = (left.0 + middle + right.0).max(others_w).max(1);
-    let height = (top + floor.1 + others_h).max(1);
-    let zoom =
-        (f64::from(screen.0) / f64::from(width)).min(f64::from(screen.1) / f64::from(height));
-    let z = |v: u32| (f64::from(v) * zoom).floor() as i32;
-    let sz = |(w, h): (u32, u32)| {
-        (
-            ((f64::from(w) * zoom) as u32).max(1),
-            ((f64::from(h) * zoom) as u32).max(1),
-        )
-    };
-    let mut out = Vec::new();
-    for (name, size) in walls {
-        let pos = match name.as_str() {
-            "left" => [0, z(top - size.1)],
-            "front" => [z(left.0), z(top - size.1)],
-            "right" => [z(left.0 + middle), z(top - size.1)],
-            "floor" => [z(left.0), z(top)],
-            _ => {
-                let before: u32 = others
-                    .iter()
-                    .take_while(|(w, _)| w != name)
-                    .map(|(_, s)| s.0)
-                    .sum();
-                [z(before), z(top + floor.1)]
-            }
-        };
-        out.push((name.clone(), pos, sz(*size)));
-    }
-    out
-}
-
 impl SimWindowArgs {
     /// With `--window`, an X display must be named (the nodes would otherwise fail one by
     /// one while the master waits for them).
@@ -369,12 +317,7 @@ impl SimWindowArgs {
     /// The node's arguments for `wall` (eye images of `size`): its window placed in the
     /// unfolded CAVE, its present times logged to `DIR/<wall>/present-times.log`; or
     /// `--headless`.
-    pub fn node_args(
-        &self,
-        placed: &[(String, [i32; 2], (u32, u32))],
-        wall: &Wall,
-        out: &Path,
-    ) -> Vec<String> {
+    pub fn node_args(&self, placed: &[Place], wall: &Wall, out: &Path) -> Vec<String> {
         if !self.window {
             return vec!["--headless".to_owned()];
         }
@@ -395,12 +338,12 @@ impl SimWindowArgs {
                 .display()
                 .to_string(),
         ];
-        if let Some((_, [x, y], (w, h))) = placed.iter().find(|(n, _, _)| *n == wall.name) {
+        if let Some(p) = placed.iter().find(|p| p.wall == wall.name) {
             a.extend([
                 "--window-pos".to_owned(),
-                format!("{x},{y}"),
+                format!("{},{}", p.x, p.y),
                 "--window-size".to_owned(),
-                format!("{w}x{h}"),
+                format!("{}x{}", p.width, p.height),
             ]);
         }
         a
@@ -454,32 +397,6 @@ pub fn quantile(values: &[f64], q: f64) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_unfolded_cave_fits_the_screen_with_walls_where_the_room_unfolds() {
-        let walls: Vec<(String, (u32, u32))> = [
-            ("front", (128, 96)),
-            ("left", (128, 96)),
-            ("right", (128, 96)),
-            ("floor", (128, 128)),
-        ]
-        .map(|(n, s)| (n.to_owned(), s))
-        .to_vec();
-        let placed = unfolded_windows(&walls, (1280, 1024));
-        let at = |n: &str| placed.iter().find(|(w, _, _)| w == n).unwrap().clone();
-        // 384 x 224 eye pixels; 1280 / 384 = 3.33 < 1024 / 224 = 4.57.
-        let (_, p, s) = at("left");
-        assert_eq!((p, s), ([0, 0], (426, 320)));
-        let (_, p, _) = at("front");
-        assert_eq!(p, [426, 0]);
-        let (_, p, _) = at("right");
-        assert_eq!(p, [853, 0]);
-        let (_, p, s) = at("floor");
-        assert_eq!((p, s), ([426, 320], (426, 426)));
-        for (_, [x, y], (w, h)) in &placed {
-            assert!(*x as u32 + w <= 1280 && *y as u32 + h <= 1024);
-        }
-    }
 
     #[test]
     fn skew_is_the_spread_of_each_frames_first_presents() {

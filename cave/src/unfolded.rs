@@ -1,0 +1,170 @@
+//! The unfolded CAVE: the walls laid flat as a user facing the front wall would fold them
+//! out — left | front | right in a row, standing on the floor, which lies under the front
+//! wall — so that each seam of the picture is a seam of the room. Walls with other names
+//! go in a row below. One layout for the mosaics `sim` writes and for the windows
+//! `sim --window` opens.
+
+/// Where one wall's image goes in the unfolded CAVE, in pixels from the top-left corner.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Place {
+    pub wall: String,
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// The walls' places and the size of the whole.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Unfolded {
+    pub width: u32,
+    pub height: u32,
+    pub places: Vec<Place>,
+}
+
+const ROOM: [&str; 4] = ["front", "left", "right", "floor"];
+
+/// Lays out walls whose images are `(name, (width, height))`; a room wall that is not
+/// there takes no room.
+pub fn unfold(walls: &[(String, (u32, u32))]) -> Unfolded {
+    let get = |n: &str| {
+        walls
+            .iter()
+            .find(|(w, _)| w == n)
+            .map_or((0, 0), |(_, s)| *s)
+    };
+    let (front, left, right, floor) = (get("front"), get("left"), get("right"), get("floor"));
+    // Walls stand on the floor: their bottom edges on the top of the floor row.
+    let top = left.1.max(front.1).max(right.1);
+    let middle = front.0.max(floor.0);
+    let others: Vec<&(String, (u32, u32))> = walls
+        .iter()
+        .filter(|(w, _)| !ROOM.contains(&w.as_str()))
+        .collect();
+    let others_width: u32 = others.iter().map(|(_, s)| s.0).sum();
+    let others_height = others.iter().map(|(_, s)| s.1).max().unwrap_or(0);
+    let places = walls
+        .iter()
+        .map(|(name, (w, h))| {
+            let (x, y) = match name.as_str() {
+                "left" => (0, top - h),
+                "front" => (left.0, top - h),
+                "right" => (left.0 + middle, top - h),
+                "floor" => (left.0, top),
+                _ => {
+                    let before = others
+                        .iter()
+                        .take_while(|(o, _)| o != name)
+                        .map(|(_, s)| s.0)
+                        .sum();
+                    (before, top + floor.1)
+                }
+            };
+            Place {
+                wall: name.clone(),
+                x,
+                y,
+                width: *w,
+                height: *h,
+            }
+        })
+        .collect();
+    Unfolded {
+        width: (left.0 + middle + right.0).max(others_width),
+        height: top + floor.1 + others_height,
+        places,
+    }
+}
+
+impl Unfolded {
+    /// The layout scaled by the largest factor that fits `(width, height)` (every place at
+    /// least one pixel).
+    pub fn fit(&self, (width, height): (u32, u32)) -> Vec<Place> {
+        let zoom = (f64::from(width) / f64::from(self.width.max(1)))
+            .min(f64::from(height) / f64::from(self.height.max(1)));
+        let z = |v: u32| (f64::from(v) * zoom).floor() as u32;
+        self.places
+            .iter()
+            .map(|p| Place {
+                wall: p.wall.clone(),
+                x: z(p.x),
+                y: z(p.y),
+                width: z(p.width).max(1),
+                height: z(p.height).max(1),
+            })
+            .collect()
+    }
+
+    /// The place of `wall`, if it is laid out.
+    pub fn place(&self, wall: &str) -> Option<&Place> {
+        self.places.iter().find(|p| p.wall == wall)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn walls(list: &[(&str, (u32, u32))]) -> Vec<(String, (u32, u32))> {
+        list.iter().map(|(n, s)| (n.to_string(), *s)).collect()
+    }
+
+    #[test]
+    fn walls_land_where_the_room_unfolds() {
+        let u = unfold(&walls(&[
+            ("front", (4, 3)),
+            ("left", (4, 3)),
+            ("right", (4, 3)),
+            ("floor", (4, 4)),
+        ]));
+        assert_eq!((u.width, u.height), (12, 7));
+        let at = |n: &str| {
+            let p = u.place(n).unwrap();
+            (p.x, p.y)
+        };
+        assert_eq!(at("left"), (0, 0));
+        assert_eq!(at("front"), (4, 0));
+        assert_eq!(at("right"), (8, 0));
+        assert_eq!(at("floor"), (4, 3), "the floor is under the front wall");
+    }
+
+    #[test]
+    fn other_walls_go_in_a_row_below_and_a_shorter_wall_stands_on_the_floor() {
+        let u = unfold(&walls(&[
+            ("front", (8, 6)),
+            ("left", (4, 4)),
+            ("ceiling", (8, 8)),
+            ("back", (8, 6)),
+        ]));
+        // No right wall, no floor: the row below starts under the top row.
+        assert_eq!((u.width, u.height), (16, 14));
+        let p = u.place("left").unwrap();
+        assert_eq!((p.x, p.y), (0, 2), "its bottom on the front wall's");
+        let p = u.place("ceiling").unwrap();
+        assert_eq!((p.x, p.y), (0, 6));
+        let p = u.place("back").unwrap();
+        assert_eq!((p.x, p.y), (8, 6));
+    }
+
+    #[test]
+    fn the_unfolded_cave_fits_the_screen() {
+        let u = unfold(&walls(&[
+            ("front", (128, 96)),
+            ("left", (128, 96)),
+            ("right", (128, 96)),
+            ("floor", (128, 128)),
+        ]));
+        // 384 x 224 eye pixels; 1280 / 384 = 3.33 < 1024 / 224 = 4.57.
+        let placed = u.fit((1280, 1024));
+        let at = |n: &str| placed.iter().find(|p| p.wall == n).unwrap().clone();
+        let p = at("left");
+        assert_eq!((p.x, p.y, p.width, p.height), (0, 0, 426, 320));
+        assert_eq!((at("front").x, at("front").y), (426, 0));
+        assert_eq!((at("right").x, at("right").y), (853, 0));
+        let p = at("floor");
+        assert_eq!((p.x, p.y, p.width, p.height), (426, 320, 426, 426));
+        for p in &placed {
+            assert!(p.x + p.width <= 1280 && p.y + p.height <= 1024);
+        }
+    }
+}
