@@ -38,25 +38,32 @@ fn sigkill_at_random_moments_loses_nothing_flushed() {
             .spawn()
             .unwrap();
         let stdout = child.stdout.take().unwrap();
+        let (tx, rx) = std::sync::mpsc::channel();
         let reader = std::thread::spawn(move || {
-            let mut lines = Vec::new();
             let mut r = BufReader::new(stdout);
             let mut line = String::new();
             // Only complete lines count as reported.
             while r.read_line(&mut line).unwrap_or(0) > 0 {
-                if line.ends_with('\n') {
-                    lines.push(std::mem::take(&mut line));
-                } else {
+                if !line.ends_with('\n') || tx.send(std::mem::take(&mut line)).is_err() {
                     break;
                 }
             }
-            lines
         });
-        // The random moment of the kill: somewhere in the child's start-up or its writing.
+        // The random moment of the kill: every other child anywhere in its start-up or its
+        // writing; the others after their first commit, so that half the kills land while
+        // writing however long a start-up takes on this machine.
+        let mut lines = Vec::new();
+        if kill % 2 == 1 {
+            let first = rx
+                .recv_timeout(Duration::from_secs(120))
+                .expect("the writer reports a first commit");
+            lines.push(first);
+        }
         std::thread::sleep(Duration::from_micros(rng.random_range(500..40_000)));
         child.kill().unwrap(); // SIGKILL on Unix
         child.wait().unwrap();
-        let lines = reader.join().unwrap();
+        reader.join().unwrap();
+        lines.extend(rx.try_iter());
         let mut last_seq = 0;
         for l in &lines {
             let mut parts = l.split_whitespace();
@@ -111,8 +118,4 @@ fn sigkill_at_random_moments_loses_nothing_flushed() {
         "{KILLS} SIGKILLs, {commits_seen} reported commits: {unreadable} unreadable, {lost} lost flushed beams, {invented} invented samples"
     );
     assert_eq!((unreadable, lost, invented), (0, 0, 0));
-    assert!(
-        commits_seen >= KILLS,
-        "the children were killed while writing ({commits_seen} commits)"
-    );
 }
