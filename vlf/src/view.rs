@@ -231,9 +231,9 @@ mod tests {
         let vis = Visibility::of(scene.clone(), &crate::Settings::default());
         let (w, h) = (37, 23);
         let view = WallView::through_camera(&scene.cameras[0], w, h);
-        let tiled = vis.pixels(&view);
-        assert_eq!(tiled.len(), (w * h) as usize);
-        for (i, l) in tiled.iter().enumerate() {
+        let lookups = vis.pixels(&view);
+        assert_eq!(lookups.len(), (w * h) as usize);
+        for (i, l) in lookups.iter().enumerate() {
             let (x, y) = ((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
             let one = vis.lookup(view.ray(Vec2::new(x, y)));
             let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(1.0);
