@@ -16,7 +16,9 @@
 //!   blending on the GPU in `shaders/vlf.wgsl`);
 //! - [`window`]: the node's windows (winit) and their GPU device;
 //! - [`present`]: drawing a wall into a window (layout, tone mapping on the GPU) and
-//!   presenting it, split into prepare / show / abandon for swap lock.
+//!   presenting it, split into prepare / show / abandon for swap lock;
+//! - [`wall_windows`]: a wall's windows frame by frame (tone curve, prepare before Ready,
+//!   show on Swap, the present log) and the skew between walls read from those logs.
 
 pub mod cache;
 pub mod cluster;
@@ -31,6 +33,7 @@ pub mod standalone;
 pub mod tonemap;
 pub mod view;
 pub mod vlf;
+pub mod wall_windows;
 pub mod window;
 
 pub use cache::{NewSample, RenderCache, StepTimes};

@@ -48,6 +48,10 @@ pub enum WindowError {
     Gpu(#[from] RenderNodeError),
     #[error("the frame loop panicked")]
     Panicked,
+    #[error("{0}")]
+    Layout(String),
+    #[error("opening the present log {path}: {message}")]
+    PresentLog { path: String, message: String },
 }
 
 /// The windows as the frame loop sees them: the device, one presenter per window (in the

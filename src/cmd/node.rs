@@ -23,6 +23,7 @@ use holocave_protocol::cluster::FrameState;
 use holocave_render_node::cluster_node::{self, DisplayMaker, Membership};
 use holocave_render_node::display::contact_sheet;
 use holocave_render_node::standalone::{self, Schedule};
+use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
 use holocave_render_node::{
     DisplayProcess, Gpu, HolodeckOptions, HolodeckSource, PixelTracer, RenderCache, Sampler,
@@ -34,7 +35,6 @@ use holocave_tracking::Pose;
 
 use super::cave_holodeck;
 use super::master::open_head;
-use super::window::{ClusterWindows, WindowOutput};
 
 #[derive(Args)]
 pub struct NodeArgs {
@@ -296,7 +296,15 @@ fn standalone(
     let mut tone = tone_mapper(&args.tone)?;
     let closed = screens.as_ref().map(|s| s.closed_flag());
     let mut output = screens
-        .map(|s| WindowOutput::new(s, wall, tone.clone(), args.window.present_log.as_deref()))
+        .map(|s| {
+            WindowOutput::new(
+                s,
+                wall,
+                window_tone(tone.clone())?,
+                args.window.present_log.as_deref(),
+            )
+            .map_err(anyhow::Error::from)
+        })
         .transpose()?;
     let dir = args.out.join(&wall.name);
     let schedule = Schedule {
@@ -398,6 +406,12 @@ fn tone_mapper(name: &str) -> Result<Option<ToneMapper>> {
     })
 }
 
+/// The tone mapping of a node's windows: a histogram adjustment (the tone curve is applied
+/// on the GPU; Reinhard's operator exists only for the PNG previews).
+fn window_tone(tone: Option<ToneMapper>) -> Result<ToneMapper> {
+    tone.context("--tone reinhard is for PNG previews; windows tone-map with camera or human")
+}
+
 /// `--master`: follows the cluster's frames, appending every presented frame's number to
 /// `DIR/<wall>/presented.log` and writing its images every `--every` frames.
 #[allow(clippy::too_many_arguments)]
@@ -461,7 +475,7 @@ fn in_cluster(
             let output = WindowOutput::new(
                 screens,
                 &member.wall,
-                tone_mapper(&args.tone)?,
+                window_tone(tone_mapper(&args.tone)?)?,
                 args.window.present_log.as_deref(),
             )?;
             let mut windows = ClusterWindows {

@@ -15,6 +15,7 @@ use clap::Args;
 use holocave_cave::{Cave, Eye, Unfolded, load_cave, unfold};
 use holocave_master::cluster::{MasterOptions, run as run_master};
 use holocave_render_node::mosaic::cave_mosaic;
+use holocave_render_node::wall_windows::present_skew;
 
 use super::cave_holodeck::{Hosted, host};
 use super::credentials;
@@ -285,11 +286,11 @@ pub fn run(mut args: SimArgs) -> Result<()> {
                 (w.name.clone(), p)
             })
             .collect();
-        let skew = super::window::present_skew(&logs)?;
-        let q = |p: f64| super::window::quantile(&skew, p).unwrap_or(f64::NAN);
+        let skew = present_skew(&logs).map_err(|e| anyhow::anyhow!(e))?;
+        let q = |p: f64| skew.quantile(p).unwrap_or(f64::NAN);
         println!(
             "present skew between the walls' windows over {} frames: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
-            skew.len(),
+            skew.spreads.len(),
             q(0.5),
             q(0.99),
             q(1.0)
