@@ -3,7 +3,8 @@
 //! and seed both ways (`--sync`); the screenshot of the window (`xwd -name "holocave
 //! front"`) taken while the last frame lingers equals, within one 8-bit step per
 //! channel, the headless PNGs of that frame laid out as the layout says — composed here on
-//! the CPU, so the GPU's tone mapping and layout are checked against the CPU's.
+//! the CPU, so the GPU's tone mapping and layout are checked against the CPU's. And passive
+//! stereo: a wall with two windows shows one eye in each.
 
 mod common;
 mod xvfb;
@@ -12,16 +13,16 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::cornell_front_node;
+use common::{cornell_front_node, front_node};
 use xvfb::{Xvfb, max_difference, stderr_of, wait_for_line};
 
 const FRAMES: u64 = 6;
 const W: u32 = 40;
 const H: u32 = 30;
 
-/// The standalone node of a still view of the Cornell box in `layout`, `--sync`.
-fn node(layout: &str) -> Command {
-    let mut c = cornell_front_node();
+/// The standalone node of a still view of the Cornell box, `--sync`.
+fn still_node(config: Option<&Path>) -> Command {
+    let mut c = config.map_or_else(cornell_front_node, front_node);
     c.args(["--still", "0.1,1.4,0.3", "--sync"])
         .args([
             "--frames",
@@ -29,7 +30,14 @@ fn node(layout: &str) -> Command {
             "--size",
             &format!("{W}x{H}"),
         ])
-        .args(["--samples", &(W * H / 2).to_string(), "--layout", layout]);
+        .args(["--samples", &(W * H / 2).to_string()]);
+    c
+}
+
+/// The same in `layout`.
+fn node(layout: &str) -> Command {
+    let mut c = still_node(None);
+    c.args(["--layout", layout]);
     c
 }
 
@@ -178,4 +186,102 @@ fn the_window_shows_what_the_headless_node_writes_in_every_layout() {
             shot.dimensions()
         );
     }
+}
+
+/// Passive stereo, one projector per eye: a wall with two windows (`[[wall.window]]`,
+/// layouts `left` and `right`) shows the left eye's frame in the first and the right
+/// eye's in the second, each equal within one step to the headless node's PNG of that eye.
+#[test]
+fn two_windows_on_one_wall_show_one_eye_each() {
+    let Some(x) = Xvfb::start(640, 480) else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    // The Cornell config with the front wall's two windows, side by side on the screen.
+    let shipped = std::fs::read_to_string(common::root().join("configs/cave4-cornell.toml"))
+        .expect("the Cornell config");
+    let second_wall = shipped
+        .match_indices("[[wall]]")
+        .nth(1)
+        .expect("a second wall")
+        .0;
+    let windows = format!(
+        "[[wall.window]]\nposition = [0, 0]\nlayout = \"left\"\n\
+         [[wall.window]]\nposition = [{}, 0]\nlayout = \"right\"\n\n",
+        W + 20
+    );
+    let config = tmp.path().join("passive.toml");
+    let text = format!(
+        "{}{windows}{}",
+        &shipped[..second_wall],
+        &shipped[second_wall..]
+    );
+    std::fs::write(&config, text).unwrap();
+
+    let out = still_node(Some(&config))
+        .env(GPU_THREADS.0, GPU_THREADS.1)
+        .args(["--headless", "--out"])
+        .arg(tmp.path())
+        .output()
+        .expect("run holocave node --headless");
+    assert!(
+        out.status.success(),
+        "headless: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let eye = |e: &str| png(&tmp.path().join(format!("front/{:05}-{e}.png", FRAMES - 1)));
+    let (left, right) = (eye("left"), eye("right"));
+    assert!(
+        max_difference(&left, &right).is_some_and(|d| d > 8),
+        "the eyes' frames differ, so each window must show its own"
+    );
+
+    let mut child = still_node(Some(&config))
+        .args(["--window", "--linger", "20"])
+        .env("DISPLAY", &x.display)
+        .env("WINIT_X11_SCALE_FACTOR", "1")
+        .env(GPU_THREADS.0, GPU_THREADS.1)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .stdin(Stdio::null())
+        .spawn()
+        .expect("run holocave node --window");
+    let (lingering, stdout) = wait_for_line(&mut child, "lingering:", Duration::from_secs(120));
+    assert!(
+        lingering,
+        "the node never lingered\nstdout:\n{stdout}\nstderr:\n{}",
+        stderr_of(&mut child)
+    );
+    // Each window by its title; retried while the X server catches up with the present.
+    let shot_of = |title: &str, expected: &image::RgbImage| {
+        let end = Instant::now() + Duration::from_secs(15);
+        loop {
+            let shot = x.screenshot(title);
+            let done = Instant::now() >= end;
+            match shot {
+                Ok(s) if done || max_difference(&s, expected).is_some_and(|d| d <= 1) => break s,
+                Err(e) if done => panic!("{title}: {e}"),
+                _ => std::thread::sleep(Duration::from_millis(100)),
+            }
+        }
+    };
+    let first = shot_of("holocave front 0", &left);
+    let second = shot_of("holocave front 1", &right);
+    let _ = child.kill();
+    let _ = child.wait();
+    for (title, shot, expected) in [
+        ("holocave front 0", &first, &left),
+        ("holocave front 1", &second, &right),
+    ] {
+        let d = max_difference(shot, expected);
+        assert!(
+            d.is_some_and(|d| d <= 1),
+            "{title}: {:?} against the headless eye's {:?}, {d:?} steps apart",
+            shot.dimensions(),
+            expected.dimensions()
+        );
+    }
+    eprintln!(
+        "two windows: the left eye in the first, the right eye in the second, within one step"
+    );
 }

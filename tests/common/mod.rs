@@ -24,14 +24,15 @@ pub fn holocave() -> Command {
 /// `holocave node --standalone` on the front wall of `configs/cave4-cornell.toml`, looking
 /// at the Cornell box; the caller adds the view, the frames and the output.
 pub fn cornell_front_node() -> Command {
+    front_node(Path::new("configs/cave4-cornell.toml"))
+}
+
+/// The same with another CAVE config (relative to the checkout, or absolute).
+pub fn front_node(config: &Path) -> Command {
     let mut c = holocave();
-    c.args([
-        "node",
-        "--standalone",
-        "--config",
-        "configs/cave4-cornell.toml",
-    ])
-    .args(["--wall", "front", "--scene", "scenes/cornell.gltf"]);
+    c.args(["node", "--standalone", "--config"])
+        .arg(config)
+        .args(["--wall", "front", "--scene", "scenes/cornell.gltf"]);
     c
 }
 
