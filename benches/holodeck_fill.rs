@@ -11,6 +11,7 @@
 use std::collections::VecDeque;
 use std::path::Path;
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
@@ -18,7 +19,9 @@ use holocave_holodeck::file::DISTANCE_SETTING;
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, trace_packet};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
-use holocave_protocol::holodeck::SamplePacket;
+use holocave_protocol::frame::{FrameError, MAX_FRAME_BYTES, decode, encode};
+use holocave_protocol::holodeck::{RayPacket, SamplePacket, ServerMsg, WorkerMsg};
+use holocave_protocol::session::SessionKeys;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::holodeck::HolodeckTracer;
 use holocave_tracer::{TraceSettings, Tracer};
@@ -110,25 +113,101 @@ fn fill(c: &mut Criterion) {
     );
     g.throughput(Throughput::Elements(RAYS));
     // One server through all iterations, as in a long fill; commits are left out (a fill
-    // commits every 5 s; `holocave fill` end to end includes them).
-    let path = dir.path().join("fill.hdk");
-    let mut srv = server(&path);
-    let w = srv.add_worker();
-    let mut queue = VecDeque::new();
-    let mut t = 0.0;
-    g.bench_function("fill_one_worker_one_core", |b| {
-        b.iter(|| {
-            let start = srv.stats().added;
-            while srv.stats().added - start < RAYS {
-                queue.extend(srv.next_packets(w, t));
-                let p = queue.pop_front().unwrap();
-                t += p.len() as f64 / RATE;
-                let r = trace_packet(&source, &p, DistanceKind::Virtual).unwrap();
-                srv.complete(w, &r, t).unwrap();
-            }
-        })
-    });
+    // commits every 5 s; `holocave fill` end to end includes them). Each packet and its
+    // samples cross between server and worker in process, as plain frames (encoded and
+    // decoded both ways: a TCP worker's wire work without the socket), or sealed (the
+    // same, authenticated: what a TCP worker does since every holodeck port is).
+    let keys = SessionKeys::derive(b"holodeck_fill bench");
+    let (mut server_seal, mut server_open) = keys.acceptor();
+    let (mut worker_seal, mut worker_open) = keys.connector();
+    for wire in [Wire::InProcess, Wire::Framed, Wire::Sealed] {
+        let path = dir.path().join(format!("fill-{wire:?}.hdk"));
+        let mut srv = server(&path);
+        let w = srv.add_worker();
+        let mut queue = VecDeque::new();
+        let mut t = 0.0;
+        // The crossings' own time, against the whole fill's, in the same iterations.
+        let (mut crossing, mut whole, mut packets) = (Duration::ZERO, Duration::ZERO, 0u64);
+        g.bench_function(format!("fill_one_worker_one_core{}", wire.suffix()), |b| {
+            b.iter(|| {
+                let begin = Instant::now();
+                let start = srv.stats().added;
+                while srv.stats().added - start < RAYS {
+                    queue.extend(srv.next_packets(w, t));
+                    let p = queue.pop_front().unwrap();
+                    t += p.len() as f64 / RATE;
+                    let c = Instant::now();
+                    let p = match wire {
+                        Wire::InProcess => p,
+                        Wire::Framed => {
+                            rays_of(decode(&encode(&ServerMsg::Rays(p), MAX).unwrap()[4..]))
+                        }
+                        Wire::Sealed => rays_of(
+                            worker_open
+                                .open(&server_seal.seal(&ServerMsg::Rays(p), MAX).unwrap()[4..]),
+                        ),
+                    };
+                    crossing += c.elapsed();
+                    let r = trace_packet(&source, &p, DistanceKind::Virtual).unwrap();
+                    let c = Instant::now();
+                    let r = match wire {
+                        Wire::InProcess => r,
+                        Wire::Framed => {
+                            samples_of(decode(&encode(&WorkerMsg::Samples(r), MAX).unwrap()[4..]))
+                        }
+                        Wire::Sealed => samples_of(
+                            server_open
+                                .open(&worker_seal.seal(&WorkerMsg::Samples(r), MAX).unwrap()[4..]),
+                        ),
+                    };
+                    crossing += c.elapsed();
+                    packets += 1;
+                    srv.complete(w, &r, t).unwrap();
+                }
+                whole += begin.elapsed();
+            })
+        });
+        eprintln!(
+            "{wire:?}: crossing server and worker took {:.2}% of the fill's time, {:.0} µs per packet",
+            100.0 * crossing.as_secs_f64() / whole.as_secs_f64().max(1e-9),
+            crossing.as_secs_f64() * 1e6 / packets.max(1) as f64
+        );
+    }
     g.finish();
+}
+
+/// How a packet of rays and its samples cross between the server and the worker.
+#[derive(Clone, Copy, Debug)]
+enum Wire {
+    InProcess,
+    Framed,
+    Sealed,
+}
+
+impl Wire {
+    fn suffix(self) -> &'static str {
+        match self {
+            Wire::InProcess => "",
+            Wire::Framed => "_framed",
+            Wire::Sealed => "_sealed",
+        }
+    }
+}
+
+const MAX: u32 = MAX_FRAME_BYTES;
+
+fn rays_of(m: Result<ServerMsg, FrameError>) -> RayPacket {
+    match m {
+        Ok(ServerMsg::Rays(p)) => p,
+        other => panic!("expected rays, got {other:?}"),
+    }
+}
+
+fn samples_of(m: Result<WorkerMsg, FrameError>) -> SamplePacket {
+    match m {
+        Ok(WorkerMsg::Samples(r)) => r,
+        other => panic!("expected samples, got {other:?}"),
+    }
 }
 
 criterion_group!(benches, fill);
