@@ -407,7 +407,7 @@ fn attack(addr: &str, kind: u64, rng: &mut XorShift) {
     };
     let _ = s.set_read_timeout(Some(Duration::from_millis(500)));
     let mut preamble = b"HOLOCAVE".to_vec();
-    preamble.extend(1u32.to_le_bytes());
+    preamble.extend(handshake::CLUSTER_PROTOCOL_VERSION.to_le_bytes());
     let n = 1 + (rng.next() % 300) as usize;
     let garbage = rng.bytes(n);
     let bytes: Vec<u8> = match kind % 6 {

@@ -1,6 +1,6 @@
 //! The swap barrier's round trip on loopback: the master sends a frame state to four
 //! nodes, each answers Ready at once (no drawing), the master sends Swap; every message
-//! sealed (HMAC-SHA256 per message, as on every cluster link). The time from
+//! sealed (a keyed BLAKE3 tag per message, as on every cluster link). The time from
 //! sending the state to sending Swap is the barrier's cost. Goal (issue 6, after VR
 //! Juggler's software swap lock): p99 ≤ 100 µs.
 //!

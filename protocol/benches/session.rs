@@ -1,5 +1,5 @@
 //! What sealing costs: a message encoded and decoded as a plain frame against the same
-//! message sealed and opened (HMAC-SHA256 over its number and bytes, both directions'
+//! message sealed and opened (keyed BLAKE3 over its number and bytes, both directions'
 //! work), for a frame state's size and for a holodeck sample packet's.
 //!
 //! `cargo bench -p holocave-protocol --bench session`
