@@ -19,12 +19,14 @@ use holocave_holodeck::file::DISTANCE_SETTING;
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, trace_packet};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
-use holocave_protocol::frame::{FrameError, MAX_FRAME_BYTES, decode, encode};
+use holocave_protocol::frame::{MAX_FRAME_BYTES, decode, encode};
 use holocave_protocol::holodeck::{RayPacket, SamplePacket, ServerMsg, WorkerMsg};
-use holocave_protocol::session::SessionKeys;
+use holocave_protocol::session::{Opener, Sealer, SessionKeys};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::holodeck::HolodeckTracer;
 use holocave_tracer::{TraceSettings, Tracer};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
 
 /// Rays per measured iteration: about half a sweep of the batch order over every beam of
 /// the default grid (166,912 beams, about 8 rays each), so that both benches see the
@@ -137,29 +139,21 @@ fn fill(c: &mut Criterion) {
                     let p = queue.pop_front().unwrap();
                     t += p.len() as f64 / RATE;
                     let c = Instant::now();
-                    let p = match wire {
-                        Wire::InProcess => p,
-                        Wire::Framed => {
-                            rays_of(decode(&encode(&ServerMsg::Rays(p), MAX).unwrap()[4..]))
-                        }
-                        Wire::Sealed => rays_of(
-                            worker_open
-                                .open(&server_seal.seal(&ServerMsg::Rays(p), MAX).unwrap()[4..]),
-                        ),
-                    };
+                    let p = rays_of(cross(
+                        wire,
+                        ServerMsg::Rays(p),
+                        &mut server_seal,
+                        &mut worker_open,
+                    ));
                     crossing += c.elapsed();
                     let r = trace_packet(&source, &p, DistanceKind::Virtual).unwrap();
                     let c = Instant::now();
-                    let r = match wire {
-                        Wire::InProcess => r,
-                        Wire::Framed => {
-                            samples_of(decode(&encode(&WorkerMsg::Samples(r), MAX).unwrap()[4..]))
-                        }
-                        Wire::Sealed => samples_of(
-                            server_open
-                                .open(&worker_seal.seal(&WorkerMsg::Samples(r), MAX).unwrap()[4..]),
-                        ),
-                    };
+                    let r = samples_of(cross(
+                        wire,
+                        WorkerMsg::Samples(r),
+                        &mut worker_seal,
+                        &mut server_open,
+                    ));
                     crossing += c.elapsed();
                     packets += 1;
                     srv.complete(w, &r, t).unwrap();
@@ -196,16 +190,30 @@ impl Wire {
 
 const MAX: u32 = MAX_FRAME_BYTES;
 
-fn rays_of(m: Result<ServerMsg, FrameError>) -> RayPacket {
+/// `msg` as the other side gets it over `wire` (sealed with `seal`, opened with `open`).
+fn cross<T: Serialize + DeserializeOwned>(
+    wire: Wire,
+    msg: T,
+    seal: &mut Sealer,
+    open: &mut Opener,
+) -> T {
+    match wire {
+        Wire::InProcess => msg,
+        Wire::Framed => decode(&encode(&msg, MAX).unwrap()[4..]).unwrap(),
+        Wire::Sealed => open.open(&seal.seal(&msg, MAX).unwrap()[4..]).unwrap(),
+    }
+}
+
+fn rays_of(m: ServerMsg) -> RayPacket {
     match m {
-        Ok(ServerMsg::Rays(p)) => p,
+        ServerMsg::Rays(p) => p,
         other => panic!("expected rays, got {other:?}"),
     }
 }
 
-fn samples_of(m: Result<WorkerMsg, FrameError>) -> SamplePacket {
+fn samples_of(m: WorkerMsg) -> SamplePacket {
     match m {
-        Ok(WorkerMsg::Samples(r)) => r,
+        WorkerMsg::Samples(r) => r,
         other => panic!("expected samples, got {other:?}"),
     }
 }

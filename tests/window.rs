@@ -10,7 +10,7 @@ mod common;
 mod xvfb;
 
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::{cornell_front_node, front_node};
@@ -53,9 +53,9 @@ fn png(path: &Path) -> image::RgbImage {
         .to_rgb8()
 }
 
-/// The headless node's last frame in `layout`, laid out on the CPU.
-fn headless(layout: &str, dir: &Path) -> image::RgbImage {
-    let out = node(layout)
+/// Runs `node` headless into `dir`; its last frame's PNG of each eye, by eye name.
+fn headless_eyes(mut node: Command, dir: &Path, what: &str) -> impl Fn(&str) -> image::RgbImage {
+    let out = node
         .env(GPU_THREADS.0, GPU_THREADS.1)
         .args(["--headless", "--out"])
         .arg(dir)
@@ -63,10 +63,16 @@ fn headless(layout: &str, dir: &Path) -> image::RgbImage {
         .expect("run holocave node --headless");
     assert!(
         out.status.success(),
-        "headless {layout}: {}",
+        "headless {what}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let eye = |e: &str| png(&dir.join(format!("front/{:05}-{e}.png", FRAMES - 1)));
+    let dir = dir.to_owned();
+    move |e: &str| png(&dir.join(format!("front/{:05}-{e}.png", FRAMES - 1)))
+}
+
+/// The headless node's last frame in `layout`, laid out on the CPU.
+fn headless(layout: &str, dir: &Path) -> image::RgbImage {
+    let eye = headless_eyes(node(layout), dir, layout);
     match layout {
         "left" => eye("left"),
         "side-by-side" => {
@@ -100,13 +106,11 @@ fn headless(layout: &str, dir: &Path) -> image::RgbImage {
     }
 }
 
-/// The window's picture of the same run: started under `x`, screenshot once the last frame
-/// is on screen (the node says so, then lingers). Screenshots are retried until one
-/// matches `expected` or the linger ends (the X server may show the presented image a
-/// moment after the present call returns); the last one is returned.
-fn windowed(x: &Xvfb, layout: &str, expected: &image::RgbImage) -> image::RgbImage {
-    let mut child = node(layout)
-        .args(["--window", "--linger", "20", "--window-pos", "0,0"])
+/// Starts `node` in its window(s) under `x` (lingering on its last frame) and waits until
+/// it says the last frame is on screen.
+fn lingering(mut node: Command, x: &Xvfb, what: &str) -> Child {
+    let mut child = node
+        .args(["--window", "--linger", "20"])
         .env("DISPLAY", &x.display)
         .env("WINIT_X11_SCALE_FACTOR", "1")
         .env(GPU_THREADS.0, GPU_THREADS.1)
@@ -120,14 +124,25 @@ fn windowed(x: &Xvfb, layout: &str, expected: &image::RgbImage) -> image::RgbIma
         let _ = child.kill();
         let _ = child.wait();
         panic!(
-            "{layout}: the node never lingered\nstdout:\n{stdout}\nstderr:\n{}",
+            "{what}: the node never lingered\nstdout:\n{stdout}\nstderr:\n{}",
             stderr_of(&mut child)
         );
     }
+    child
+}
+
+/// A screenshot of the window titled `title`, retried until one matches `expected` within
+/// one step or 15 s pass (the X server may show the presented image a moment after the
+/// present call returns); the last one.
+fn screenshot_of(
+    x: &Xvfb,
+    title: &str,
+    expected: &image::RgbImage,
+) -> Result<image::RgbImage, String> {
     let end = Instant::now() + Duration::from_secs(15);
     let mut last = Err("no screenshot taken".to_owned());
     while Instant::now() < end {
-        last = x.screenshot("holocave front");
+        last = x.screenshot(title);
         if let Ok(shot) = &last
             && max_difference(shot, expected).is_some_and(|d| d <= 1)
         {
@@ -135,9 +150,18 @@ fn windowed(x: &Xvfb, layout: &str, expected: &image::RgbImage) -> image::RgbIma
         }
         std::thread::sleep(Duration::from_millis(100));
     }
+    last
+}
+
+/// The window's picture of the same run, once its last frame is on screen.
+fn windowed(x: &Xvfb, layout: &str, expected: &image::RgbImage) -> image::RgbImage {
+    let mut n = node(layout);
+    n.args(["--window-pos", "0,0"]);
+    let mut child = lingering(n, x, layout);
+    let shot = screenshot_of(x, "holocave front", expected);
     let _ = child.kill();
     let _ = child.wait();
-    last.unwrap_or_else(|e| panic!("{layout}: {e}\nstderr:\n{}", stderr_of(&mut child)))
+    shot.unwrap_or_else(|e| panic!("{layout}: {e}\nstderr:\n{}", stderr_of(&mut child)))
 }
 
 #[test]
@@ -218,52 +242,16 @@ fn two_windows_on_one_wall_show_one_eye_each() {
     );
     std::fs::write(&config, text).unwrap();
 
-    let out = still_node(Some(&config))
-        .env(GPU_THREADS.0, GPU_THREADS.1)
-        .args(["--headless", "--out"])
-        .arg(tmp.path())
-        .output()
-        .expect("run holocave node --headless");
-    assert!(
-        out.status.success(),
-        "headless: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let eye = |e: &str| png(&tmp.path().join(format!("front/{:05}-{e}.png", FRAMES - 1)));
+    let eye = headless_eyes(still_node(Some(&config)), tmp.path(), "two windows");
     let (left, right) = (eye("left"), eye("right"));
     assert!(
         max_difference(&left, &right).is_some_and(|d| d > 8),
         "the eyes' frames differ, so each window must show its own"
     );
 
-    let mut child = still_node(Some(&config))
-        .args(["--window", "--linger", "20"])
-        .env("DISPLAY", &x.display)
-        .env("WINIT_X11_SCALE_FACTOR", "1")
-        .env(GPU_THREADS.0, GPU_THREADS.1)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .stdin(Stdio::null())
-        .spawn()
-        .expect("run holocave node --window");
-    let (lingering, stdout) = wait_for_line(&mut child, "lingering:", Duration::from_secs(120));
-    assert!(
-        lingering,
-        "the node never lingered\nstdout:\n{stdout}\nstderr:\n{}",
-        stderr_of(&mut child)
-    );
-    // Each window by its title; retried while the X server catches up with the present.
+    let mut child = lingering(still_node(Some(&config)), &x, "two windows");
     let shot_of = |title: &str, expected: &image::RgbImage| {
-        let end = Instant::now() + Duration::from_secs(15);
-        loop {
-            let shot = x.screenshot(title);
-            let done = Instant::now() >= end;
-            match shot {
-                Ok(s) if done || max_difference(&s, expected).is_some_and(|d| d <= 1) => break s,
-                Err(e) if done => panic!("{title}: {e}"),
-                _ => std::thread::sleep(Duration::from_millis(100)),
-            }
-        }
+        screenshot_of(&x, title, expected).unwrap_or_else(|e| panic!("{title}: {e}"))
     };
     let first = shot_of("holocave front 0", &left);
     let second = shot_of("holocave front 1", &right);
