@@ -170,6 +170,8 @@ pub fn run(args: NodeArgs) -> Result<()> {
         .samples
         .unwrap_or_else(|| RenderCache::default_samples(size));
     if args.window.window {
+        // Before any window opens: windows take only the histogram tone curves.
+        window_tone(tone_mapper(&args.tone)?)?;
         let specs = args.window.specs(&wall, size);
         return holocave_render_node::window::run(&specs, |mut screens| match &args.master {
             Some(master) => in_cluster(
