@@ -1,9 +1,9 @@
 //! Who may use a holodeck server's port: every worker and display proves the cluster's
 //! shared secret in the cluster handshake (`holocave_protocol::handshake`, mutual
-//! HMAC-SHA256), and every message after it is sealed with the link's keys (keyed BLAKE3)
-//! (`holocave_protocol::session`). Without the secret nobody on the network can add
-//! samples to a persistent holodeck or read it; with a stolen connection nobody can
-//! inject or replay a message.
+//! HMAC-SHA256), and every message after it is sealed with the link's keys
+//! (`holocave_protocol::session`: a keyed BLAKE3 tag). Without the secret nobody on the
+//! network can add samples to a persistent holodeck or read it; with a stolen connection
+//! nobody can inject or replay a message.
 
 use std::net::TcpStream;
 use std::time::Duration;

@@ -11,11 +11,12 @@ use std::time::Duration;
 
 use glam::DVec3;
 use holocave_holodeck::file::check::check;
+use holocave_holodeck::sample::PackedSample;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-#[path = "common/crash_pattern.rs"]
+#[path = "../src/file/crash_pattern.rs"]
 mod crash_pattern;
 use crash_pattern::expected;
 

@@ -4,8 +4,8 @@
 //!
 //! - [`frame`]: framing, sync and async, with its errors.
 //! - [`handshake`]: the cluster's preamble and mutual HMAC authentication, on every port;
-//! - [`session`]: the messages after it, sealed (a keyed BLAKE3 tag per message, numbered: no injection,
-//!   no replay).
+//! - [`session`]: the messages after it, sealed (a keyed BLAKE3 tag per message,
+//!   numbered: no injection, no replay).
 //! - [`cluster`]: master ↔ render node messages (frame state, ready, swap).
 //! - [`holodeck`]: holodeck server ↔ worker messages (hello, ray packets, sample packets).
 

@@ -170,8 +170,8 @@ pub fn run(args: NodeArgs) -> Result<()> {
         .samples
         .unwrap_or_else(|| RenderCache::default_samples(size));
     if args.window.window {
-        // Before any window opens: windows take only the histogram tone curves.
-        window_tone(tone_mapper(&args.tone)?)?;
+        // Windows take only the histogram tone curves: checked before any window opens.
+        let tone = window_tone(tone_mapper(&args.tone)?)?;
         let specs = args.window.specs(&wall, size);
         return holocave_render_node::window::run(&specs, |mut screens| match &args.master {
             Some(master) => in_cluster(
@@ -182,9 +182,16 @@ pub fn run(args: NodeArgs) -> Result<()> {
                 display_id,
                 size,
                 samples,
-                Some(&mut screens),
+                Some((&mut screens, tone)),
             ),
-            None => standalone(&args, &cave, &wall, size, samples, Some(&mut screens)),
+            None => standalone(
+                &args,
+                &cave,
+                &wall,
+                size,
+                samples,
+                Some((&mut screens, tone)),
+            ),
         })?;
     }
     match &args.master {
@@ -208,7 +215,7 @@ fn standalone(
     wall: &Wall,
     size: (u32, u32),
     samples: u32,
-    screens: Option<&mut Screens>,
+    windows: Option<(&mut Screens, ToneMapper)>,
 ) -> Result<()> {
     if args.frames.is_none() && args.seconds.is_none() {
         bail!("say when to stop: --frames N or --seconds S");
@@ -242,8 +249,8 @@ fn standalone(
         (None, p) => Pose::new(p.unwrap_or(Vec3::ZERO), Quat::IDENTITY),
     };
 
-    let gpu = match &screens {
-        Some(s) => s.gpu.clone(),
+    let gpu = match &windows {
+        Some((s, _)) => s.gpu.clone(),
         None => Gpu::new()?,
     };
     let cache = RenderCache::for_wall(gpu, size, eyes.len(), samples);
@@ -296,17 +303,9 @@ fn standalone(
     );
 
     let mut tone = tone_mapper(&args.tone)?;
-    let closed = screens.as_ref().map(|s| s.closed_flag());
-    let mut output = screens
-        .map(|s| {
-            WindowOutput::new(
-                s,
-                wall,
-                window_tone(tone.clone())?,
-                args.window.present_log.as_deref(),
-            )
-            .map_err(anyhow::Error::from)
-        })
+    let closed = windows.as_ref().map(|(s, _)| s.closed_flag());
+    let mut output = windows
+        .map(|(s, tone)| WindowOutput::new(s, wall, tone, args.window.present_log.as_deref()))
         .transpose()?;
     let dir = args.out.join(&wall.name);
     let schedule = Schedule {
@@ -425,7 +424,7 @@ fn in_cluster(
     display_id: u32,
     size: (u32, u32),
     samples: u32,
-    screens: Option<&mut Screens>,
+    windows: Option<(&mut Screens, ToneMapper)>,
 ) -> Result<()> {
     let secret = cave
         .secret()
@@ -442,7 +441,7 @@ fn in_cluster(
         .open(&log_path)
         .with_context(|| format!("opening {}", log_path.display()))?;
     let every = args.every.max(1);
-    let windowed = screens.is_some();
+    let windowed = windows.is_some();
     let mut present = |state: &FrameState, display: &mut DisplayProcess| -> Result<(), String> {
         writeln!(log, "{}", state.frame).map_err(|e| format!("{}: {e}", log_path.display()))?;
         if !windowed && state.frame.is_multiple_of(every) {
@@ -471,13 +470,13 @@ fn in_cluster(
         args.vlf.clone(),
         args.vlf_prior,
     );
-    let (counters, reason) = match screens {
-        Some(screens) => {
+    let (counters, reason) = match windows {
+        Some((screens, tone)) => {
             maker = maker.with_gpu(screens.gpu.clone());
             let output = WindowOutput::new(
                 screens,
                 &member.wall,
-                window_tone(tone_mapper(&args.tone)?)?,
+                tone,
                 args.window.present_log.as_deref(),
             )?;
             let mut windows = ClusterWindows {

@@ -15,7 +15,7 @@ use holocave_holodeck::sample::PackedSample;
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-#[path = "../../tests/common/crash_pattern.rs"]
+#[path = "../file/crash_pattern.rs"]
 mod crash_pattern;
 use crash_pattern::expected;
 

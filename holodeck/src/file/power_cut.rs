@@ -18,20 +18,9 @@ use crate::cache::BeamCache;
 use crate::sample::PackedSample;
 use crate::section::{Section, ViewClass};
 
-/// The sample stored at `index` of `beam`.
-fn expected(beam: u32, index: u32) -> PackedSample {
-    PackedSample {
-        rgbe: [
-            beam as u8,
-            (beam >> 8) as u8,
-            index as u8,
-            (index >> 8) as u8,
-        ],
-        entry: [(index >> 16) as u8, beam as u8 ^ 0x33],
-        exit: [0x5a, 0xa5],
-        dist: (beam.wrapping_mul(31) ^ index.wrapping_mul(7)) as u16,
-    }
-}
+#[path = "crash_pattern.rs"]
+mod crash_pattern;
+use crash_pattern::expected;
 
 /// What is wrong with a power-cut `image`, given the last commit that returned (`seq`,
 /// per-beam counts); `None` if nothing.

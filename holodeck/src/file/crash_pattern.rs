@@ -1,8 +1,9 @@
-//! What the crash writer stores, as a known function of the beam and the index: the
-//! writer (`holodeck-crash-writer`) and the test that checks its files (`tests/crash.rs`)
-//! both include this file.
+//! What the crash tests store, as a known function of the beam and the index, so that a
+//! reopened file can be checked sample by sample: the power-cut test (`power_cut.rs`), the
+//! crash writer (`src/bin/holodeck-crash-writer.rs`) and the test that SIGKILLs it
+//! (`tests/crash.rs`) include this file, each with `PackedSample` in scope.
 
-use holocave_holodeck::sample::PackedSample;
+use super::PackedSample;
 
 /// The sample the writer stores at `index` of `beam`.
 pub fn expected(beam: u32, index: u32) -> PackedSample {
