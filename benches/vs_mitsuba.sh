@@ -70,7 +70,7 @@ SCENES=(
     "emissive-lambert|$OUT/scenes/emissive_lambert.gltf|$MITSUBA/emissive_strength.json"
 )
 
-# The camera JSON as holocave's flags: --eye X,Y,Z --wall "PA;PB;PC" --size WxH.
+# The camera JSON as holocave's flags: --eye X,Y,Z --screen "PA;PB;PC" --size WxH.
 camera_flags() {
     python3 - "$1" <<'EOF'
 import json, sys
@@ -78,7 +78,7 @@ c = json.load(open(sys.argv[1]))
 s = c.get("screen", c)
 v = lambda p: ",".join(repr(float(x)) for x in p)
 print(f'--eye={v(c["eye"])}')
-print(f'--wall={v(s["pa"])};{v(s["pb"])};{v(s["pc"])}')
+print(f'--screen={v(s["pa"])};{v(s["pb"])};{v(s["pc"])}')
 print(f'--size={c["width"]}x{c["height"]}')
 EOF
 }

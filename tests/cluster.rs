@@ -79,11 +79,7 @@ fn node_with(addr: &str, wall: &str, out: &Path, secret: &str, extra: &[&str]) -
 
 /// The frames a node presented, in order.
 fn presented(out: &Path, wall: &str) -> Vec<u64> {
-    std::fs::read_to_string(out.join(wall).join("presented.log"))
-        .unwrap_or_default()
-        .lines()
-        .map(|l| l.parse().expect("a frame number per line"))
-        .collect()
+    holocave_render_node::output::read_presented(&out.join(wall)).expect("a presented log")
 }
 
 /// Waits until `cond` holds, polling.

@@ -63,11 +63,7 @@ fn node(addr: &str, wall: &str, out: &Path, x: Option<&Xvfb>) -> Proc {
 }
 
 fn presented(out: &Path, wall: &str) -> Vec<u64> {
-    std::fs::read_to_string(out.join(wall).join("presented.log"))
-        .unwrap_or_default()
-        .lines()
-        .map(|l| l.parse().expect("a frame number per line"))
-        .collect()
+    holocave_render_node::output::read_presented(&out.join(wall)).expect("a presented log")
 }
 
 /// Every wall's presented frames in a lockstep run of `frames` frames.

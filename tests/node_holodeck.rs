@@ -11,11 +11,11 @@ use std::sync::Arc;
 
 use common::cornell_front_node;
 use glam::{Quat, Vec3};
+use holocave_cave::WallView;
 use holocave_cave::load_cave;
 use holocave_cave::{Eye, eye_position};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_tracking::Pose;
 
@@ -143,7 +143,7 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
     let text = node(
         &run1,
         &hdk,
-        &["--workers", "2", "--seconds", "12", "--every", "25"],
+        &["--threads", "2", "--seconds", "12", "--every", "25"],
     );
     eprintln!("{text}");
     assert!(hdk.exists(), "the node made the holodeck");
@@ -238,7 +238,7 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
     let text = node(
         &run2,
         &hdk,
-        &["--workers", "0", "--seconds", "4", "--every", "1"],
+        &["--threads", "0", "--seconds", "4", "--every", "1"],
     );
     eprintln!("{text}");
     let frames = left_frames(&run2);

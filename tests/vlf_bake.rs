@@ -42,11 +42,11 @@ fn worker_processes_bake_the_same_light_field_as_threads() {
     let status = bake_args(&threads).stdout(Stdio::null()).status().unwrap();
     assert!(status.success());
 
-    // Only worker processes cast lines (--workers 0): two good ones, one with a wrong
+    // Only worker processes cast lines (--threads 0): two good ones, one with a wrong
     // secret and one with another scene, which must be refused.
     let remote = dir.path().join("remote.vlf");
     let mut bake = bake_args(&remote)
-        .args(["--listen", "127.0.0.1:0", "--workers", "0"])
+        .args(["--listen", "127.0.0.1:0", "--threads", "0"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

@@ -1,8 +1,10 @@
-//! An off-axis view as a CAVE wall sees it: an eye and a screen rectangle given by three
-//! corners (Kooima's lower-left `pa`, lower-right `pb`, upper-left `pc`). A pixel's value
-//! is the mean radiance through its patch of the screen.
+//! The one view type: an eye and a screen rectangle given by three corners (Kooima's
+//! lower-left `pa`, lower-right `pb`, upper-left `pc`) and the image on it, as a CAVE wall
+//! sees the scene. A pixel's value is the mean radiance through its patch of the screen.
+//! Pixel rays go out through the screen ([`WallView::ray`]); directions come back to
+//! pixels through it ([`WallView::project`]).
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use holocave_scene::{NamedCamera, Ray};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -37,6 +39,30 @@ impl WallView {
         let t = 1.0 - pixel.y / self.height as f32;
         let p = self.pa + (self.pb - self.pa) * s + (self.pc - self.pa) * t;
         Ray::new(self.eye, (p - self.eye).normalize_or_zero())
+    }
+
+    /// The pixel (from the top-left corner, fractional) where the line of sight along `v`
+    /// (from the eye) crosses the screen's plane, if it does so in front of the eye
+    /// (computed in f64: reprojection compares positions to a fraction of a pixel).
+    pub fn project(&self, v: DVec3) -> Option<(f64, f64)> {
+        let (eye, pa) = (self.eye.as_dvec3(), self.pa.as_dvec3());
+        let (r, u) = (self.pb.as_dvec3() - pa, self.pc.as_dvec3() - pa);
+        let n = r.cross(u);
+        let (num, den) = ((pa - eye).dot(n), v.dot(n));
+        if den == 0.0 || !den.is_finite() {
+            return None;
+        }
+        let t = num / den;
+        if t.is_nan() || t <= 0.0 {
+            return None;
+        }
+        let p = eye + v * t - pa;
+        let s = p.dot(r) / r.length_squared();
+        let q = p.dot(u) / u.length_squared();
+        Some((
+            s * f64::from(self.width),
+            (1.0 - q) * f64::from(self.height),
+        ))
     }
 
     /// `n` stratified, jittered rays through pixel `(x, y)`: a √n × √n grid (rounded up)

@@ -4,12 +4,12 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use holocave_cave::WallView;
 use holocave_holodeck::run::{RayAllowance, Running};
 use holocave_render_node::{DisplayProcess, EyeView, RenderCache, Sampler, VlfBase};
 use holocave_tracer::Tracer;
 use holocave_tracer::film::Image;
 use holocave_tracer::render::render;
-use holocave_tracer::view::WallView;
 
 /// A display method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -7,10 +7,10 @@
 use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 
+use holocave_cave::WallView;
 use holocave_tracer::Tracer;
 use holocave_tracer::film::{FilmError, Image};
 use holocave_tracer::render::render;
-use holocave_tracer::view::WallView;
 
 /// The seed every reference is rendered with (the noise check uses another).
 const SEED: u64 = 0x005E_ED0F_2EF5;

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Duration;
 
-use holocave_tracer::view::WallView;
+use holocave_cave::WallView;
 use plotters::prelude::*;
 
 /// One method's error at one measured frame.

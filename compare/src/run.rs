@@ -8,20 +8,16 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
+use holocave_cave::WallView;
 use holocave_cave::{Cave, Eye, Wall, wall_frusta};
-use holocave_holodeck::HoloFile;
-use holocave_holodeck::cave_section::CaveSection;
-use holocave_holodeck::file::DistanceKind;
-use holocave_holodeck::run::{RayAllowance, RunOptions, start_held};
-use holocave_holodeck::server::{Mode, Server, ServerConfig};
+use holocave_holodeck::run::RayAllowance;
 use holocave_render_node::{
-    DisplayProcess, EyeView, Gpu, HolodeckOptions, HolodeckSource, PixelTracer, RenderCache,
-    RenderNodeError, VlfBase,
+    DisplayBuilder, EyeView, Feed, HolodeckOptions, HolodeckSource, LightField, RenderNodeError,
+    VlfBase,
 };
 use holocave_scene::Scene;
+use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
 use holocave_tracer::film::FilmError;
-use holocave_tracer::holodeck::{HolodeckTracer, file_settings, scene_name};
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
 
@@ -163,9 +159,7 @@ impl Compare<'_> {
     fn drawer(&self, method: Method, s: &Settings, eyes: usize) -> Result<Drawer, CompareError> {
         let tracer = Arc::new(Tracer::new(self.scene.clone(), TraceSettings::default()));
         let spp = spp_for(s.budget, s.size.0, s.size.1);
-        let cache = || -> Result<RenderCache, CompareError> {
-            Ok(RenderCache::for_wall(Gpu::new()?, s.size, eyes, s.budget))
-        };
+        let builder = DisplayBuilder::new(s.size, eyes, s.budget, tracer.clone());
         Ok(match method {
             Method::Trace => Drawer::Trace { tracer, spp },
             Method::Accumulate => Drawer::Accumulate {
@@ -175,46 +169,44 @@ impl Compare<'_> {
             },
             // One sample per pixel at most, each the mean of the paths the budget buys.
             Method::Cache => Drawer::Cache {
-                display: DisplayProcess::new(
-                    cache()?,
-                    PixelTracer::new(tracer, 1).with_paths(spp),
-                    s.budget / spp,
-                ),
+                display: DisplayBuilder {
+                    samples: s.budget / spp,
+                    paths: spp,
+                    ..builder
+                }
+                .build(Feed::Inline)?,
                 paths: spp,
             },
             Method::Vlf => {
-                let mut cache = cache()?;
+                let mut cache = builder.cache()?;
                 let base = self.vlf_base(s)?;
                 cache.set_vlf(base.values(), 0.0);
                 Drawer::Vlf { cache, base }
             }
             Method::Holodeck | Method::VlfHolodeck => {
-                let file = self.holodeck_file(s)?;
+                let hd = |e: &dyn std::fmt::Display| CompareError::Holodeck(e.to_string());
                 let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-                let source =
-                    HolodeckTracer(Tracer::new(self.scene.clone(), TraceSettings::default()));
-                let server = Server::new(file, Mode::Interactive, ServerConfig::interactive());
                 // The tracer threads trace only what each frame grants: the budget.
                 let allowance = Arc::new(RayAllowance::new());
-                let running = start_held(
-                    server,
-                    RunOptions {
+                let running = self
+                    .holodeck_file(s)?
+                    .serve(Serving {
                         threads,
-                        source: Some(Arc::new(source)),
-                        listener: None,
-                        scene: scene_name(self.scene_path),
-                        commit_every: Duration::from_secs(5),
+                        scene: Some(self.scene.clone()),
+                        port: None,
                         stop: Arc::new(AtomicBool::new(false)),
-                    },
-                    allowance.clone(),
-                )
-                .map_err(|e| CompareError::Holodeck(e.to_string()))?;
+                        allowance: Some(allowance.clone()),
+                    })
+                    .map_err(|e| hd(&e))?;
                 let source = HolodeckSource::new(running.display(0), holodeck_options(s.fps), 1);
-                let mut display = DisplayProcess::holodeck(cache()?, source, s.budget);
+                let mut builder = builder;
                 if method == Method::VlfHolodeck {
-                    let prior = s.vlf.as_ref().map_or(0.0, |v| v.1);
-                    display = display.with_vlf(self.vlf_base(s)?, prior);
+                    builder.light_field = Some(LightField {
+                        base: self.vlf_base(s)?,
+                        prior: s.vlf.as_ref().map_or(0.0, |v| v.1),
+                    });
                 }
+                let display = builder.build(Feed::Holodeck(source))?;
                 Drawer::Holodeck {
                     display,
                     server: running,
@@ -234,10 +226,8 @@ impl Compare<'_> {
 
     /// The holodeck method's file: the given one if it exists (warm), else a new one for
     /// this CAVE (cold).
-    fn holodeck_file(&self, s: &Settings) -> Result<HoloFile, CompareError> {
-        let hd = |e: &dyn std::fmt::Display| CompareError::Holodeck(e.to_string());
+    fn holodeck_file(&self, s: &Settings) -> Result<CaveHolodeck, CompareError> {
         let path = match &s.holodeck {
-            Some(p) if p.exists() => return HoloFile::open_rw(p).map_err(|e| hd(&e)),
             Some(p) => p.clone(),
             None => {
                 let p = s.out.join("holodeck.hdk");
@@ -247,13 +237,14 @@ impl Compare<'_> {
                 p
             }
         };
-        let section = CaveSection::new(self.cave, &self.scene).map_err(|e| hd(&e))?;
-        let settings = file_settings(
-            &scene_name(self.scene_path),
-            DistanceKind::Virtual,
+        CaveHolodeck::open_or_create(
+            &path,
+            self.cave,
+            self.scene_path,
+            Some(&self.scene),
             "compare",
-        );
-        HoloFile::create(&path, vec![section.section], settings).map_err(|e| hd(&e))
+        )
+        .map_err(|e| CompareError::Holodeck(e.to_string()))
     }
 
     /// Replays `poses` (one per frame) through every method; writes `error_time.csv`,

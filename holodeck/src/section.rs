@@ -183,6 +183,30 @@ impl Section {
         Self::with_target_beams(origin, edges, class, DEFAULT_TARGET_BEAMS)
     }
 
+    /// The axis-aligned box `lo .. hi` as a section, with `grid` cells (the default grid
+    /// without one).
+    pub fn of_box(
+        lo: DVec3,
+        hi: DVec3,
+        grid: Option<[u32; 3]>,
+        class: ViewClass,
+    ) -> Result<Self, SectionError> {
+        let d = hi - lo;
+        let edges = [DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z];
+        match grid {
+            Some(g) => Self::new(lo, edges, g, class),
+            None => Self::with_default_grid(lo, edges, class),
+        }
+    }
+
+    /// The box a new file takes for a scene unless told: the scene's bounds (`lo .. hi`)
+    /// shrunk by a tenth of their size on each side, so that an interior section stays
+    /// clear of the outer walls.
+    pub fn default_box(lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
+        let inset = (hi - lo) * 0.1;
+        (lo + inset, hi - inset)
+    }
+
     pub fn origin(&self) -> DVec3 {
         self.origin
     }

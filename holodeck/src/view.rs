@@ -13,47 +13,12 @@
 //! everything else.
 
 use glam::DVec3;
+use holocave_cave::WallView;
 
 use crate::distance_code::DistanceCode;
 use crate::file::{FileError, HoloFile};
 use crate::rgbe;
 use crate::sample::PackedSample;
-
-/// An off-axis view: an eye and a screen rectangle given by its lower-left `pa`,
-/// lower-right `pb` and upper-left `pc` corners (perpendicular edges), as a CAVE wall.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct View {
-    pub eye: DVec3,
-    pub pa: DVec3,
-    pub pb: DVec3,
-    pub pc: DVec3,
-    pub width: u32,
-    pub height: u32,
-}
-
-impl View {
-    /// The pixel (from the top-left corner, fractional) where the line of sight along `v`
-    /// (from the eye) crosses the screen plane, if it does so in front of the eye.
-    pub fn project(&self, v: DVec3) -> Option<(f64, f64)> {
-        let (r, u) = (self.pb - self.pa, self.pc - self.pa);
-        let n = r.cross(u);
-        let (num, den) = ((self.pa - self.eye).dot(n), v.dot(n));
-        if den == 0.0 || !den.is_finite() {
-            return None;
-        }
-        let t = num / den;
-        if t.is_nan() || t <= 0.0 {
-            return None;
-        }
-        let p = self.eye + v * t - self.pa;
-        let s = p.dot(r) / r.length_squared();
-        let q = p.dot(u) / u.length_squared();
-        Some((
-            s * f64::from(self.width),
-            (1.0 - q) * f64::from(self.height),
-        ))
-    }
-}
 
 /// How samples are chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -221,11 +186,16 @@ struct Hit {
 
 /// The pixel and depth of a decoded sample in a section of size `size`; `None` if it is
 /// not usable for this view.
-fn project(view: &View, opts: &ViewOptions, ws: &WorldSample, size: f64) -> Option<(usize, f64)> {
+fn project(
+    view: &WallView,
+    opts: &ViewOptions,
+    ws: &WorldSample,
+    size: f64,
+) -> Option<(usize, f64)> {
     // A batch fill spreads its rays over every line through the section, so few pass
     // within a fraction of a degree of a given eye; the bound trades occlusion and
     // view-dependence errors against coverage.
-    let (v, depth) = ws.seen_from(view.eye, opts.max_angle, size)?;
+    let (v, depth) = ws.seen_from(view.eye.as_dvec3(), opts.max_angle, size)?;
     let (x, y) = view.project(v)?;
     if !(x >= 0.0 && y >= 0.0 && x < f64::from(view.width) && y < f64::from(view.height)) {
         return None;
@@ -235,7 +205,11 @@ fn project(view: &View, opts: &ViewOptions, ws: &WorldSample, size: f64) -> Opti
 }
 
 /// Reconstructs `view` from every sample of every section of `file`.
-pub fn reconstruct(file: &HoloFile, view: &View, opts: &ViewOptions) -> Result<Picture, FileError> {
+pub fn reconstruct(
+    file: &HoloFile,
+    view: &WallView,
+    opts: &ViewOptions,
+) -> Result<Picture, FileError> {
     let n = view.width as usize * view.height as usize;
     let mut nearest = vec![f64::INFINITY; n];
     let mut hits = Vec::new();
@@ -308,6 +282,7 @@ mod tests {
     use super::*;
     use crate::section::{Section, ViewClass};
     use crate::server::{Mode, Server, ServerConfig};
+    use glam::Vec3;
     use holocave_protocol::holodeck::SamplePacket;
 
     /// An analytic scene around an interior section: a back plane z = -2 whose colour
@@ -358,12 +333,12 @@ mod tests {
         let h = srv.into_file().unwrap();
         // Eye off the centre, looking at -z through a screen 1 m ahead; the plane's colour
         // boundary x = 0 appears where the line of sight to (0, y, -2) crosses the screen.
-        let eye = DVec3::new(0.3, 0.1, 0.2);
-        let view = View {
+        let eye = Vec3::new(0.3, 0.1, 0.2);
+        let view = WallView {
             eye,
-            pa: eye + DVec3::new(-0.5, -0.5, -1.0),
-            pb: eye + DVec3::new(0.5, -0.5, -1.0),
-            pc: eye + DVec3::new(-0.5, 0.5, -1.0),
+            pa: eye + Vec3::new(-0.5, -0.5, -1.0),
+            pb: eye + Vec3::new(0.5, -0.5, -1.0),
+            pc: eye + Vec3::new(-0.5, 0.5, -1.0),
             width: 40,
             height: 40,
         };
@@ -390,10 +365,10 @@ mod tests {
             "holes remain"
         );
         // Looking the other way (+z) sees only escaped, black rays.
-        let back = View {
-            pa: eye + DVec3::new(0.5, -0.5, 1.0),
-            pb: eye + DVec3::new(-0.5, -0.5, 1.0),
-            pc: eye + DVec3::new(0.5, 0.5, 1.0),
+        let back = WallView {
+            pa: eye + Vec3::new(0.5, -0.5, 1.0),
+            pb: eye + Vec3::new(-0.5, -0.5, 1.0),
+            pc: eye + Vec3::new(0.5, 0.5, 1.0),
             ..view
         };
         let pic = reconstruct(&h, &back, &ViewOptions::default()).unwrap();

@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec2, Vec3};
+use holocave_cave::WallView;
 use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
-use holocave_tracer::view::WallView;
 use holocave_vlf::Lookup;
 
 fn views(w: u32, h: u32) -> Vec<EyeView> {

@@ -17,7 +17,7 @@ use holocave_tracer::Tracer;
 
 use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
 use crate::{
-    DisplayProcess, Gpu, HolodeckSource, PixelTracer, RenderCache, RenderNodeError, VlfBase,
+    DisplayBuilder, DisplayProcess, Feed, Gpu, HolodeckSource, LightField, RenderNodeError, VlfBase,
 };
 
 /// Pause between attempts to reach the master.
@@ -51,18 +51,13 @@ pub struct Membership {
 
 /// Makes the node's display process for the holodeck the master names.
 pub struct DisplayMaker {
-    size: (u32, u32),
-    eyes: usize,
-    samples: u32,
-    tracer: Arc<Tracer>,
-    seed: u64,
+    /// The wall's displays, tracing locally when there is no holodeck.
+    builder: DisplayBuilder,
     display_id: u32,
     /// The master's address: a holodeck on an unspecified address (0.0.0.0) is there.
     master_ip: Option<IpAddr>,
     /// What the holodeck server asks of its displays: the cluster's name and secret.
     credentials: Credentials,
-    /// The device to draw on (the windows' one); `None`: a new one per display.
-    gpu: Option<Gpu>,
     /// The light field to draw under the samples: the node's own file, else the one the
     /// master names (read once per path).
     vlf: Option<VlfChoice>,
@@ -112,15 +107,14 @@ impl DisplayMaker {
         tracer: Arc<Tracer>,
     ) -> DisplayMaker {
         let wall = &member.wall;
+        let mut builder =
+            DisplayBuilder::new(size, Eye::for_mode(wall.stereo).len(), samples, tracer);
+        builder.seed = wall
+            .name
+            .bytes()
+            .fold(1u64, |h, b| h.wrapping_mul(31) ^ u64::from(b));
         DisplayMaker {
-            size,
-            eyes: Eye::for_mode(wall.stereo).len(),
-            samples,
-            tracer,
-            seed: wall
-                .name
-                .bytes()
-                .fold(1u64, |h, b| h.wrapping_mul(31) ^ u64::from(b)),
+            builder,
             display_id,
             master_ip: member
                 .master
@@ -132,7 +126,6 @@ impl DisplayMaker {
                 cluster: member.cluster.clone(),
                 secret: member.secret.clone(),
             },
-            gpu: None,
             vlf: None,
         }
     }
@@ -157,8 +150,13 @@ impl DisplayMaker {
 
     /// Draws on `gpu` (the device that presents to the node's windows).
     pub fn with_gpu(mut self, gpu: Gpu) -> DisplayMaker {
-        self.gpu = Some(gpu);
+        self.builder.gpu = Some(gpu);
         self
+    }
+
+    /// Pixels per eye.
+    pub fn size(&self) -> (u32, u32) {
+        self.builder.size
     }
 
     /// The display, and the holodeck address it draws from (`None`: tracing locally).
@@ -167,33 +165,15 @@ impl DisplayMaker {
         holodeck: Option<&str>,
         vlf: Option<&str>,
     ) -> Result<(Option<String>, DisplayProcess), RenderNodeError> {
-        let (using, display) = self.sampled_display(holodeck)?;
-        let base = self
-            .vlf
-            .as_ref()
-            .and_then(|c| Some((c.base(vlf)?, c.prior)));
-        Ok(match base {
-            Some((b, prior)) => (using, display.with_vlf(b, prior)),
-            None => (using, display),
-        })
-    }
-
-    /// The display without a light field, and the holodeck address it draws from.
-    fn sampled_display(
-        &self,
-        holodeck: Option<&str>,
-    ) -> Result<(Option<String>, DisplayProcess), RenderNodeError> {
-        let gpu = match &self.gpu {
-            Some(g) => g.clone(),
-            None => Gpu::new()?,
-        };
-        let cache = RenderCache::for_wall(gpu, self.size, self.eyes, self.samples);
-        let local = |cache| {
-            let source = PixelTracer::new(self.tracer.clone(), self.seed);
-            DisplayProcess::threaded(cache, source, self.samples)
-        };
+        let mut builder = self.builder.clone();
+        builder.light_field = self.vlf.as_ref().and_then(|c| {
+            Some(LightField {
+                base: c.base(vlf)?,
+                prior: c.prior,
+            })
+        });
         let Some(addr) = holodeck else {
-            return Ok((None, local(cache)));
+            return Ok((None, builder.build(Feed::Thread)?));
         };
         let connected = self.resolve(addr).and_then(|a| {
             HolodeckSource::connect(a, self.display_id, &self.credentials)
@@ -202,12 +182,14 @@ impl DisplayMaker {
         Ok(match connected {
             Ok(source) => {
                 tracing::info!("drawing from the holodeck at {addr}");
-                let display = DisplayProcess::holodeck(cache, source, self.samples);
-                (Some(addr.to_owned()), display)
+                (
+                    Some(addr.to_owned()),
+                    builder.build(Feed::Holodeck(source))?,
+                )
             }
             Err(e) => {
                 tracing::warn!("holodeck {addr}: {e}; tracing this wall's samples locally");
-                (None, local(cache))
+                (None, builder.build(Feed::Thread)?)
             }
         })
     }
@@ -290,7 +272,7 @@ pub fn run(
                 &mut link,
                 display,
                 wall,
-                maker.size,
+                maker.size(),
                 member.slow_by,
                 &mut counters,
                 present,

@@ -7,11 +7,13 @@
 //! - [`source`]: chosen pixels → eye rays → the path tracer → new samples;
 //! - [`holodeck`]: chosen pixels → beam requests → a holodeck server → new samples;
 //! - [`tonemap`]: Ward Larson's histogram adjustment (camera and human modes), at display;
+//! - [`build`]: the one builder of a wall's display (cache, sample feed, light field);
 //! - [`display`]: one frame of the display process for all eyes, and its output files;
 //! - [`cluster`]: the node's link to the master and the frame cycle (ready, swap);
 //! - [`cluster_node`]: joining, reconnecting, and the display for the named holodeck;
 //! - [`standalone`]: one wall by itself, on its own clock and head poses;
 //! - [`mosaic`]: the unfolded CAVE as one picture;
+//! - [`output`]: a headless node's files (frame images, `presented.log`) and their reader;
 //! - [`vlf`]: the Virtual Light Field under the cache (visibility per pixel; shading and
 //!   blending on the GPU in `shaders/vlf.wgsl`);
 //! - [`window`]: the node's windows (winit) and their GPU device;
@@ -20,6 +22,7 @@
 //! - [`wall_windows`]: a wall's windows frame by frame (tone curve, prepare before Ready,
 //!   show on Swap, the present log) and the skew between walls read from those logs.
 
+pub mod build;
 pub mod cache;
 pub mod cluster;
 pub mod cluster_node;
@@ -27,6 +30,7 @@ pub mod display;
 pub mod gpu;
 pub mod holodeck;
 pub mod mosaic;
+pub mod output;
 pub mod present;
 pub mod source;
 pub mod standalone;
@@ -36,6 +40,7 @@ pub mod vlf;
 pub mod wall_windows;
 pub mod window;
 
+pub use build::{DisplayBuilder, Feed, LightField};
 pub use cache::{NewSample, RenderCache, StepTimes};
 pub use display::{DisplayProcess, FrameReport, Sampler};
 pub use gpu::Gpu;

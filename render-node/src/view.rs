@@ -3,9 +3,9 @@
 //! is always the CAVE's (`holocave_cave::frustum`); this only carries it to the GPU.
 
 use glam::{DMat4, DVec3, Mat4, Vec3};
+use holocave_cave::WallView;
 use holocave_cave::{Frustum, FrustumFault, Wall, config::StereoMode, off_axis};
 use holocave_protocol::cluster::EyeState;
-use holocave_tracer::view::WallView;
 
 /// What the render cache needs to draw one eye.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -8,8 +8,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use holocave_scene::Scene;
-use holocave_vlf::file::VlfFile;
-use holocave_vlf::{Lookup, Visibility, layout, tiles};
+use holocave_vlf::baked::{self, Opened};
+use holocave_vlf::{Lookup, Visibility};
 
 use crate::{EyeView, RenderNodeError};
 
@@ -33,24 +33,11 @@ pub struct VlfBase {
 impl VlfBase {
     /// Opens `path`, refusing a file baked for another scene or with another layout.
     pub fn open(path: &Path, scene: Arc<Scene>) -> Result<VlfBase, RenderNodeError> {
-        let bad = |e: String| RenderNodeError::Vlf(format!("{}: {e}", path.display()));
-        let f = VlfFile::read_for(path, &scene).map_err(|e| RenderNodeError::Vlf(e.to_string()))?;
-        let elements = layout(&scene, &f.settings);
-        if elements.count != f.state.irradiance.len() {
-            return Err(bad(format!(
-                "{} elements, but the scene's layout at its settings has {}",
-                f.state.irradiance.len(),
-                elements.count
-            )));
-        }
-        let tiles = tiles(&scene, &f.settings, &elements);
-        if tiles.len() != f.state.tiles.len() {
-            return Err(bad(format!(
-                "{} tile values, but the scene's glossy surfaces at its settings have {}",
-                f.state.tiles.len(),
-                tiles.len()
-            )));
-        }
+        let Opened {
+            file: f,
+            elements,
+            tiles,
+        } = baked::open(path, &scene).map_err(|e| RenderNodeError::Vlf(e.to_string()))?;
         if !f.state.converged {
             tracing::warn!(
                 "{}: bake not finished ({} bounces); drawing what it has",

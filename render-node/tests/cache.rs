@@ -1,8 +1,8 @@
 //! The render cache's steps on a tiny image, checked pixel by pixel.
 
 use glam::{Vec2, Vec3};
+use holocave_cave::WallView;
 use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
-use holocave_tracer::view::WallView;
 
 const W: u32 = 8;
 const H: u32 = 8;

@@ -8,13 +8,13 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::{DVec3, Vec2, Vec3};
+use holocave_cave::WallView;
 use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::run::{RayAllowance, RunOptions, start_held};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::{DistanceKind, SampleSource, SourceRay, SourceResult};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_render_node::{EyeView, HolodeckSource, NewSample};
-use holocave_tracer::view::WallView;
 
 /// A back plane z = -3: red where x < 0, green where x ≥ 0; everything else escapes.
 struct Plane;

@@ -8,9 +8,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use holocave_cave::WallView;
 use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache, VlfBase};
 use holocave_scene::Scene;
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_vlf::file::VlfFile;
 use holocave_vlf::{Settings, view::shade};

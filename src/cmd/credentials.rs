@@ -8,8 +8,7 @@ use holocave_cave::Cave;
 use holocave_holodeck::auth::Credentials;
 use rand::TryRngCore;
 
-/// The environment variable that carries the secret (and overrides the config's).
-pub const SECRET_VAR: &str = "HOLOCAVE_SECRET";
+pub use holocave::launch::SECRET_VAR;
 /// The cluster name of a peer given no config (the config's default `[cluster] id`).
 pub const DEFAULT_CLUSTER: &str = "holocave";
 

@@ -4,14 +4,14 @@
 //! and the batch order is recomputed from the counts.
 
 use std::net::TcpListener;
-use std::path::PathBuf;
-use std::process::{Child, Command};
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::{Context, bail};
-use clap::Args;
+use anyhow::Context;
+use clap::{Args, ValueEnum};
 use glam::DVec3;
+use holocave::launch::{Group, Watched, worker_command};
 use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::file::DistanceKind;
 use holocave_holodeck::run::{RunOptions, run as run_server};
@@ -25,6 +25,29 @@ use indicatif::{ProgressBar, ProgressStyle};
 use super::worker::load_source;
 use holocave_tracer::holodeck::scene_name;
 
+/// A section's view class.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Class {
+    Interior,
+    Exterior,
+}
+
+/// The distance a new file's samples store.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Distance {
+    Virtual,
+    FirstHit,
+}
+
+impl Distance {
+    fn kind(self) -> DistanceKind {
+        match self {
+            Distance::Virtual => DistanceKind::Virtual,
+            Distance::FirstHit => DistanceKind::FirstHit,
+        }
+    }
+}
+
 #[derive(Args)]
 pub struct FillArgs {
     /// The scene to trace.
@@ -36,25 +59,25 @@ pub struct FillArgs {
     /// A section box `x0,y0,z0,x1,y1,z1` (metres, scene coordinates; repeatable). Used when
     /// creating the file; default: the scene's bounds shrunk by 10% on each side. An
     /// interior section should be free space: what lies inside it is never traced.
-    #[arg(long, allow_hyphen_values = true)]
-    pub section: Vec<String>,
+    #[arg(long, allow_hyphen_values = true, value_parser = super::parse::aabb)]
+    pub section: Vec<[DVec3; 2]>,
     /// Grid `W,D,H` for new sections (default: about 200,000 beams).
-    #[arg(long)]
-    pub grid: Option<String>,
+    #[arg(long, value_parser = super::parse::grid)]
+    pub grid: Option<[u32; 3]>,
     /// View class of new sections: interior (looking out) or exterior (looking in).
-    #[arg(long, default_value = "interior")]
-    pub class: String,
+    #[arg(long, value_enum, default_value_t = Class::Interior)]
+    pub class: Class,
     /// Distance stored with new files' samples: `virtual` (through flat mirrors and glass
     /// to what they show, the paper's VDISTANCE=True) or `first-hit`. An existing file
     /// keeps the one it was made with. [default: virtual]
+    #[arg(long, value_enum)]
+    pub distance: Option<Distance>,
+    /// Tracer threads in this process.
+    #[arg(long, default_value_t = 1, conflicts_with = "worker_processes")]
+    pub threads: usize,
+    /// Trace in this many `holocave worker` processes over TCP instead of threads.
     #[arg(long)]
-    pub distance: Option<String>,
-    /// Number of workers.
-    #[arg(long, default_value_t = 1)]
-    pub workers: usize,
-    /// Run the workers as separate `holocave worker` processes over TCP instead of threads.
-    #[arg(long)]
-    pub worker_processes: bool,
+    pub worker_processes: Option<usize>,
     /// Also accept external workers on this address.
     #[arg(long)]
     pub listen: Option<String>,
@@ -69,58 +92,33 @@ pub struct FillArgs {
     pub commit_every: f64,
 }
 
-fn parse_floats<const N: usize>(s: &str, what: &str) -> anyhow::Result<[f64; N]> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("{what} {s:?}: not numbers"))?;
-    v.try_into()
-        .map_err(|v: Vec<f64>| anyhow::anyhow!("{what} {s:?}: {} values, expected {N}", v.len()))
-}
-
 fn make_sections(args: &FillArgs, scene: &Scene) -> anyhow::Result<Vec<Section>> {
-    let class = match args.class.as_str() {
-        "interior" => ViewClass::Interior,
-        "exterior" => ViewClass::Exterior,
-        c => bail!("--class {c:?}: expected interior or exterior"),
+    let class = match args.class {
+        Class::Interior => ViewClass::Interior,
+        Class::Exterior => ViewClass::Exterior,
     };
-    let boxes: Vec<[f64; 6]> = if args.section.is_empty() {
+    let boxes = if args.section.is_empty() {
         let (lo, hi) = scene.bounds();
-        let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
-        let inset = (hi - lo) * 0.1;
-        let (a, b) = (lo + inset, hi - inset);
-        vec![[a.x, a.y, a.z, b.x, b.y, b.z]]
+        let (lo, hi) = Section::default_box(lo.as_dvec3(), hi.as_dvec3());
+        vec![[lo, hi]]
     } else {
-        args.section
-            .iter()
-            .map(|s| parse_floats::<6>(s, "--section"))
-            .collect::<Result<_, _>>()?
+        args.section.clone()
     };
     boxes
         .iter()
-        .map(|b| {
-            let (lo, hi) = (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]));
+        .map(|&[lo, hi]| {
             if class == ViewClass::Interior {
                 let n = triangles_inside(scene, &Aabb { lo, hi });
                 if n > 0 {
                     tracing::warn!(
-                        "section {b:?} is interior (free space to look out of) but {n} \
+                        "section {lo} .. {hi} is interior (free space to look out of) but {n} \
                          triangles of the scene reach into it; they will be missing from views \
                          inside it (give a free --section, or --class exterior)"
                     );
                 }
             }
-            let d = hi - lo;
-            let edges = [DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z];
-            let s = match &args.grid {
-                Some(g) => {
-                    let g = parse_floats::<3>(g, "--grid")?.map(|x| x as u32);
-                    Section::new(lo, edges, g, class)
-                }
-                None => Section::with_default_grid(lo, edges, class),
-            };
-            s.with_context(|| format!("section {b:?}"))
+            Section::of_box(lo, hi, args.grid, class)
+                .with_context(|| format!("section {lo} .. {hi}"))
         })
         .collect()
 }
@@ -128,24 +126,19 @@ fn make_sections(args: &FillArgs, scene: &Scene) -> anyhow::Result<Vec<Section>>
 fn spawn_workers(
     n: usize,
     addr: &str,
-    scene: &PathBuf,
+    scene: &Path,
     credentials: &Credentials,
-) -> anyhow::Result<Vec<Child>> {
+) -> anyhow::Result<Group> {
     let exe = std::env::current_exe().context("finding the holocave executable")?;
-    (0..n)
-        .map(|_| {
-            Command::new(&exe)
-                .args(["worker", "--server", addr, "--scene"])
-                .arg(scene)
-                .args(["--cluster", &credentials.cluster])
-                .env(
-                    super::credentials::SECRET_VAR,
-                    super::credentials::secret_text(credentials),
-                )
-                .spawn()
-                .context("starting a worker process")
+    let workers = (0..n)
+        .map(|i| {
+            Watched::spawn(
+                format!("worker {i}"),
+                &mut worker_command(&exe, addr, scene, credentials),
+            )
         })
-        .collect()
+        .collect::<std::io::Result<_>>()?;
+    Ok(Group(workers))
 }
 
 pub fn run(args: FillArgs) -> anyhow::Result<()> {
@@ -166,20 +159,17 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
             );
         }
         let kind = h.distance_kind()?;
-        if let Some(d) = args.distance.as_ref().filter(|d| *d != kind.name()) {
+        if let Some(d) = args.distance.map(Distance::kind).filter(|d| *d != kind) {
             tracing::warn!(
-                "{} stores {} distances: --distance {d} is ignored",
+                "{} stores {} distances: --distance {} is ignored",
                 args.holodeck.display(),
                 kind.name(),
+                d.name(),
             );
         }
         h
     } else {
-        let distance = match &args.distance {
-            None => DistanceKind::Virtual,
-            Some(d) => DistanceKind::from_name(d)
-                .with_context(|| format!("--distance {d:?}: expected virtual or first-hit"))?,
-        };
+        let distance = args.distance.map_or(DistanceKind::Virtual, Distance::kind);
         let scene = Scene::load(&args.scene, &LoadOptions::default())
             .with_context(|| format!("loading scene {}", args.scene.display()))?;
         let sections = make_sections(&args, &scene)?;
@@ -211,8 +201,8 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
     let start_samples = server.stats().samples;
     let listen = match (&args.listen, args.worker_processes) {
         (Some(a), _) => Some(a.clone()),
-        (None, true) => Some("127.0.0.1:0".to_string()),
-        (None, false) => None,
+        (None, Some(_)) => Some("127.0.0.1:0".to_string()),
+        (None, None) => None,
     };
     // Workers prove the cluster's secret: HOLOCAVE_SECRET, or a fresh one that only this
     // fill's own worker processes are given.
@@ -226,20 +216,20 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
             })
         })
         .transpose()?;
-    let mut children = Vec::new();
-    let (threads, source) = if args.worker_processes {
+    let mut children = Group::default();
+    let (threads, source) = if let Some(processes) = args.worker_processes {
         let addr = listener
             .as_ref()
             .expect("bound above")
             .listener
             .local_addr()?
             .to_string();
-        children = spawn_workers(args.workers, &addr, &args.scene, &credentials)?;
+        children = spawn_workers(processes, &addr, &args.scene, &credentials)?;
         (0, None)
     } else {
         let src: Arc<dyn holocave_holodeck::worker::SampleSource> =
             Arc::new(load_source(&args.scene)?);
-        (args.workers, Some(src))
+        (args.threads, Some(src))
     };
     let limit = args.time.map(Duration::from_secs_f64);
     let bar = match limit {
@@ -277,18 +267,9 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         limit.is_some_and(|l| p.elapsed >= l)
     });
     bar.finish();
-    for mut c in children {
-        // The server said goodbye; a worker that does not exit soon is stopped.
-        for _ in 0..50 {
-            if c.try_wait().ok().flatten().is_some() {
-                break;
-            }
-            std::thread::sleep(Duration::from_millis(100));
-        }
-        if c.try_wait().ok().flatten().is_none() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
+    // The server said goodbye; a worker that does not exit soon is stopped.
+    for problem in children.wait(Duration::from_secs(5)) {
+        tracing::warn!("{problem}");
     }
     let server = result?;
     let s = server.stats();

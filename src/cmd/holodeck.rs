@@ -5,9 +5,10 @@ use std::net::TcpListener;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use clap::{Args, Subcommand};
-use glam::{DVec3, Vec3};
+use glam::Vec3;
+use holocave_cave::WallView;
 use holocave_holodeck::HoloFile;
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::file::check::{check, holds, salvage};
@@ -15,7 +16,9 @@ use holocave_holodeck::file::info::Info;
 use holocave_holodeck::file::optimize::optimize;
 use holocave_holodeck::run::{RunOptions, run as run_server};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::view::{View, ViewOptions, reconstruct};
+use holocave_holodeck::view::{ViewOptions, reconstruct};
+
+use super::view::ViewFlags;
 use holocave_tracer::film::Image;
 
 #[derive(Subcommand)]
@@ -48,15 +51,8 @@ pub struct ViewArgs {
     /// The scene, for --camera.
     #[arg(long)]
     pub scene: Option<PathBuf>,
-    /// Use this glTF camera of --scene.
-    #[arg(long, requires = "scene", conflicts_with_all = ["eye", "wall"])]
-    pub camera: Option<String>,
-    /// Eye position X,Y,Z in scene metres.
-    #[arg(long, allow_hyphen_values = true, value_parser = super::parse::vec3)]
-    pub eye: Option<Vec3>,
-    /// The screen rectangle "PA;PB;PC": lower-left, lower-right and upper-left corners.
-    #[arg(long, allow_hyphen_values = true, value_parser = super::parse::wall)]
-    pub wall: Option<[Vec3; 3]>,
+    #[command(flatten)]
+    pub view: ViewFlags,
     /// Image size WxH in pixels.
     #[arg(long, default_value = "256x256", value_parser = super::parse::size)]
     pub size: (u32, u32),
@@ -75,31 +71,13 @@ pub struct ViewArgs {
     pub reference: Option<PathBuf>,
 }
 
-fn view_of(a: &ViewArgs) -> anyhow::Result<View> {
-    let (w, h) = a.size;
-    let (eye, [pa, pb, pc]) = match (&a.camera, &a.eye, &a.wall) {
-        (Some(name), _, _) => {
-            let path = a.scene.as_ref().expect("clap requires --scene");
-            let scene = super::render::load_scene(path, None, false)?;
-            let cam = scene
-                .cameras
-                .iter()
-                .find(|c| &c.name == name)
-                .with_context(|| format!("{} has no camera {name:?}", path.display()))?;
-            (cam.position, cam.screen(w as f32 / h as f32))
-        }
-        (None, Some(eye), Some(wall)) => (*eye, *wall),
-        _ => bail!("give --eye and --wall, or --scene and --camera"),
+fn view_of(a: &ViewArgs) -> anyhow::Result<WallView> {
+    let scene = match (&a.scene, &a.view.camera) {
+        (Some(path), Some(_)) => Some((super::render::load_scene(path, None, false)?, path)),
+        _ => None,
     };
-    let d = |v: Vec3| -> DVec3 { v.as_dvec3() };
-    Ok(View {
-        eye: d(eye),
-        pa: d(pa),
-        pb: d(pb),
-        pc: d(pc),
-        width: w,
-        height: h,
-    })
+    a.view
+        .view(scene.as_ref().map(|(s, p)| (s, p.as_path())), a.size)
 }
 
 /// The image averaged over `k`×`k` blocks (edges dropped).

@@ -13,7 +13,7 @@ use holocave_master::cluster::{MasterOptions, Summary, pacer_since, quantile, ru
 use holocave_master::head::{Clock, Head};
 use holocave_tracking::source::SourceSpec;
 
-use super::cave_holodeck::{Hosted, host};
+use holocave_tracer::cave_holodeck::{HostSpec, Hosted};
 
 #[derive(Args)]
 pub struct MasterArgs {
@@ -94,11 +94,43 @@ impl HolodeckArgs {
             .holodeck_listen
             .as_ref()
             .unwrap_or(&cave.cluster.holodeck);
-        let port = (listen.as_str(), credentials);
-        let hosted = host(path, cave, scene, self.tracer_threads, port, made_by)?;
+        let hosted = host(HostSpec {
+            path,
+            cave,
+            scene_path: scene,
+            threads: self.tracer_threads,
+            listen,
+            credentials,
+            made_by,
+            stop: super::interrupt::ctrl_c_flag(),
+        })?;
         let addr = hosted.addr.to_string();
         Ok((Some(hosted), Some(addr)))
     }
+}
+
+/// Hosts a cluster's holodeck and says what it holds and where it listens.
+pub fn host(spec: HostSpec) -> Result<Hosted> {
+    let (hosted, described) = spec.host()?;
+    println!("{described}");
+    println!(
+        "holodeck workers and displays may connect to {}",
+        hosted.addr
+    );
+    Ok(hosted)
+}
+
+/// Stops a cluster's holodeck, committing everything traced, and says how much it holds.
+pub fn stop_hosted(hosted: Hosted) -> Result<()> {
+    let path = hosted.path.clone();
+    let s = hosted.stop()?;
+    println!(
+        "holodeck {}: {} samples added by this run, {} in all (committed)",
+        path.display(),
+        s.added,
+        s.samples
+    );
+    Ok(())
 }
 
 /// Where head poses come from, shared by `master` and `sim`.
@@ -248,7 +280,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
     );
     // The holodeck commits what was traced even when the master failed.
     if let Some(h) = hosted {
-        h.stop()?;
+        stop_hosted(h)?;
     }
     print_summary(&summary?);
     Ok(())

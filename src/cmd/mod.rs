@@ -1,7 +1,6 @@
 //! One module per subcommand: argument structs and the calls into the crates.
 
 pub mod cave;
-pub mod cave_holodeck;
 pub mod compare;
 pub mod credentials;
 pub mod fill;
@@ -14,6 +13,7 @@ pub mod render;
 pub mod scene;
 pub mod sim;
 pub mod tracking;
+pub mod view;
 pub mod vlf;
 pub mod window;
 pub mod worker;

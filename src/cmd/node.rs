@@ -1,7 +1,7 @@
 //! `holocave node`: one render node. `--standalone --headless` runs one wall by itself
 //! (`render_node::standalone`): its own tracker source, path tracer and GPU render cache,
 //! writing each frame's images. With `--holodeck H.hdk` the samples come from a holodeck
-//! server in this process (with `--workers` tracer threads), which keeps every ray it
+//! server in this process (with `--threads` tracer threads), which keeps every ray it
 //! traces in the file. `--master HOST:PORT` joins a cluster (`render_node::cluster_node`)
 //! and writes the frames the master swaps.
 
@@ -13,7 +13,7 @@ use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow, bail};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use glam::{Quat, Vec3};
 use holocave_cave::{Cave, Eye, Wall, load_cave};
 use holocave_holodeck::auth::Port;
@@ -21,20 +21,49 @@ use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
 use holocave_protocol::cluster::FrameState;
 use holocave_render_node::cluster_node::{self, DisplayMaker, Membership};
-use holocave_render_node::display::contact_sheet;
+use holocave_render_node::output::{PresentedLog, write_frame};
 use holocave_render_node::standalone::{self, Schedule};
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
 use holocave_render_node::{
-    DisplayProcess, Gpu, HolodeckOptions, HolodeckSource, PixelTracer, RenderCache, Sampler,
-    ToneMapper, ToneMode, VlfBase,
+    DisplayBuilder, DisplayProcess, Feed, Gpu, HolodeckOptions, HolodeckSource, LightField,
+    RenderCache, Sampler, ToneMapper, ToneMode, VlfBase,
 };
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
 
-use super::cave_holodeck;
 use super::master::open_head;
+use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
+
+/// How a node's images are tone-mapped.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Tone {
+    /// Ward Larson's histogram adjustment, as a camera would.
+    Camera,
+    /// Ward Larson's histogram adjustment with human contrast sensitivity.
+    Human,
+    /// The tracer's Reinhard preview (PNG previews only).
+    Reinhard,
+}
+
+impl Tone {
+    /// The PNG previews' tone mapper (`None`: the tracer's Reinhard preview).
+    fn mapper(self) -> Option<ToneMapper> {
+        match self {
+            Tone::Camera => Some(ToneMapper::new(ToneMode::Camera)),
+            Tone::Human => Some(ToneMapper::new(ToneMode::Human)),
+            Tone::Reinhard => None,
+        }
+    }
+}
+
+/// A node's windows and the tone mapping they show (a histogram adjustment: the tone
+/// curve is applied on the GPU; Reinhard's operator exists only for the PNG previews).
+struct Windows<'a> {
+    screens: &'a mut Screens,
+    tone: ToneMapper,
+}
 
 #[derive(Args)]
 pub struct NodeArgs {
@@ -54,14 +83,14 @@ pub struct NodeArgs {
     #[arg(long)]
     pub(crate) scene: PathBuf,
     /// Draw from this holodeck file (created if missing: one interior section, the CAVE's
-    /// inside volume in scene coordinates), served in this process by `--workers` tracer
+    /// inside volume in scene coordinates), served in this process by `--threads` tracer
     /// threads that add every ray they trace to it. Without it the node traces its own
     /// samples and keeps none.
     #[arg(long)]
     pub(crate) holodeck: Option<PathBuf>,
     /// Tracer threads of the in-process holodeck server (default: the cores).
     #[arg(long)]
-    pub(crate) workers: Option<usize>,
+    pub(crate) threads: Option<usize>,
     /// Draw this baked light field (`holocave vlf bake`) under the samples: every pixel
     /// shows it until exact samples refine it. In a cluster the master's file is used
     /// unless this is given.
@@ -115,8 +144,8 @@ pub struct NodeArgs {
     pub(crate) debug_images: bool,
     /// Tone mapping of the PNG previews: Ward Larson's histogram adjustment in `camera` or
     /// `human` mode, or `reinhard` (the tracer's preview). EXR files are always linear.
-    #[arg(long, default_value = "camera")]
-    pub(crate) tone: String,
+    #[arg(long, value_enum, default_value_t = Tone::Camera)]
+    pub(crate) tone: Tone,
     /// Trace between frames on the display's thread (deterministic output) instead of on a
     /// tracer thread that frames never wait for.
     #[arg(long)]
@@ -128,14 +157,6 @@ pub struct NodeArgs {
     /// slow on purpose (to see the cluster's frame lock wait for it).
     #[arg(long, default_value_t = 0)]
     pub(crate) slow_ms: u64,
-}
-
-pub(crate) fn eye_name(eye: Eye) -> &'static str {
-    match eye {
-        Eye::Left => "left",
-        Eye::Right => "right",
-        Eye::Centre => "centre",
-    }
 }
 
 pub fn run(args: NodeArgs) -> Result<()> {
@@ -171,7 +192,9 @@ pub fn run(args: NodeArgs) -> Result<()> {
         .unwrap_or_else(|| RenderCache::default_samples(size));
     if args.window.window {
         // Windows take only the histogram tone curves: checked before any window opens.
-        let tone = window_tone(tone_mapper(&args.tone)?)?;
+        let tone = args.tone.mapper().context(
+            "--tone reinhard is for PNG previews; windows tone-map with camera or human",
+        )?;
         let specs = args.window.specs(&wall, size);
         return holocave_render_node::window::run(&specs, |mut screens| match &args.master {
             Some(master) => in_cluster(
@@ -182,7 +205,10 @@ pub fn run(args: NodeArgs) -> Result<()> {
                 display_id,
                 size,
                 samples,
-                Some((&mut screens, tone)),
+                Some(Windows {
+                    screens: &mut screens,
+                    tone,
+                }),
             ),
             None => standalone(
                 &args,
@@ -190,7 +216,10 @@ pub fn run(args: NodeArgs) -> Result<()> {
                 &wall,
                 size,
                 samples,
-                Some((&mut screens, tone)),
+                Some(Windows {
+                    screens: &mut screens,
+                    tone,
+                }),
             ),
         })?;
     }
@@ -215,13 +244,13 @@ fn standalone(
     wall: &Wall,
     size: (u32, u32),
     samples: u32,
-    windows: Option<(&mut Screens, ToneMapper)>,
+    windows: Option<Windows>,
 ) -> Result<()> {
     if args.frames.is_none() && args.seconds.is_none() {
         bail!("say when to stop: --frames N or --seconds S");
     }
-    if args.holodeck.is_none() && (args.workers.is_some() || args.listen.is_some()) {
-        bail!("--workers and --listen are for the holodeck's server: give --holodeck H.hdk");
+    if args.holodeck.is_none() && (args.threads.is_some() || args.listen.is_some()) {
+        bail!("--threads and --listen are for the holodeck's server: give --holodeck H.hdk");
     }
     if args.holodeck.is_some() && args.sync {
         tracing::warn!(
@@ -250,18 +279,27 @@ fn standalone(
     };
 
     let gpu = match &windows {
-        Some((s, _)) => s.gpu.clone(),
+        Some(w) => w.screens.gpu.clone(),
         None => Gpu::new()?,
     };
-    let cache = RenderCache::for_wall(gpu, size, eyes.len(), samples);
+    let mut builder = DisplayBuilder::new(size, eyes.len(), samples, tracer);
+    builder.gpu = Some(gpu);
+    if let Some(path) = &args.vlf {
+        builder.light_field = Some(LightField {
+            base: Arc::new(VlfBase::open(path, scene.clone())?),
+            prior: args.vlf_prior,
+        });
+    }
     let mut holodeck = None;
-    let mut display = match &args.holodeck {
+    let feed = match &args.holodeck {
         Some(path) => {
-            let file = cave_holodeck::open_or_create(path, cave, &args.scene, &scene, "node")?;
-            let workers = args.workers.unwrap_or_else(|| {
+            let opened =
+                CaveHolodeck::open_or_create(path, cave, &args.scene, Some(&scene), "node")?;
+            println!("{}", opened.describe());
+            let threads = args.threads.unwrap_or_else(|| {
                 std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
             });
-            let listener = args
+            let port = args
                 .listen
                 .as_ref()
                 .map(|a| {
@@ -273,25 +311,24 @@ fn standalone(
                     })
                 })
                 .transpose()?;
-            let name = holocave_tracer::holodeck::scene_name(&args.scene);
-            let running = cave_holodeck::serve(file, workers, Some(scene.clone()), name, listener)?;
+            let running = opened.serve(Serving {
+                threads,
+                scene: Some(scene.clone()),
+                port,
+                stop: super::interrupt::ctrl_c_flag(),
+                allowance: None,
+            })?;
+            if let Some(a) = running.local_addr() {
+                println!("holodeck workers and displays may connect to {a}");
+            }
             let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
             holodeck = Some(running);
-            DisplayProcess::holodeck(cache, source, samples)
+            Feed::Holodeck(source)
         }
-        None => {
-            let source = PixelTracer::new(tracer, 1);
-            if args.sync {
-                DisplayProcess::new(cache, source, samples)
-            } else {
-                DisplayProcess::threaded(cache, source, samples)
-            }
-        }
+        None if args.sync => Feed::Inline,
+        None => Feed::Thread,
     };
-    if let Some(path) = &args.vlf {
-        let base = VlfBase::open(path, scene.clone())?;
-        display = display.with_vlf(Arc::new(base), args.vlf_prior);
-    }
+    let mut display = builder.build(feed)?;
     println!(
         "wall {:?}: {} eye(s) at {}x{}, {} points, {samples} samples per eye and frame, GPU {}",
         wall.name,
@@ -302,10 +339,10 @@ fn standalone(
         display.cache.gpu().adapter
     );
 
-    let mut tone = tone_mapper(&args.tone)?;
-    let closed = windows.as_ref().map(|(s, _)| s.closed_flag());
+    let mut tone = args.tone.mapper();
+    let closed = windows.as_ref().map(|w| w.screens.closed_flag());
     let mut output = windows
-        .map(|(s, tone)| WindowOutput::new(s, wall, tone, args.window.present_log.as_deref()))
+        .map(|w| WindowOutput::new(w.screens, wall, w.tone, args.window.present_log.as_deref()))
         .transpose()?;
     let dir = args.out.join(&wall.name);
     let schedule = Schedule {
@@ -323,7 +360,7 @@ fn standalone(
             o.prepare(display);
             o.show(frame).map(|_| ())
         }
-        None => write_images(&dir, frame, eyes, display, &mut tone, args.debug_images)
+        None => write_frame(&dir, frame, eyes, display, &mut tone, args.debug_images)
             .map_err(|e| format!("{e:#}")),
     };
     let totals = standalone::run(
@@ -397,22 +434,6 @@ fn standalone(
     Ok(())
 }
 
-/// The PNG previews' tone mapper (`None`: the tracer's Reinhard preview).
-fn tone_mapper(name: &str) -> Result<Option<ToneMapper>> {
-    Ok(match name {
-        "camera" => Some(ToneMapper::new(ToneMode::Camera)),
-        "human" => Some(ToneMapper::new(ToneMode::Human)),
-        "reinhard" => None,
-        other => bail!("--tone {other:?}: expected camera, human or reinhard"),
-    })
-}
-
-/// The tone mapping of a node's windows: a histogram adjustment (the tone curve is applied
-/// on the GPU; Reinhard's operator exists only for the PNG previews).
-fn window_tone(tone: Option<ToneMapper>) -> Result<ToneMapper> {
-    tone.context("--tone reinhard is for PNG previews; windows tone-map with camera or human")
-}
-
 /// `--master`: follows the cluster's frames, appending every presented frame's number to
 /// `DIR/<wall>/presented.log` and writing its images every `--every` frames.
 #[allow(clippy::too_many_arguments)]
@@ -424,28 +445,22 @@ fn in_cluster(
     display_id: u32,
     size: (u32, u32),
     samples: u32,
-    windows: Option<(&mut Screens, ToneMapper)>,
+    windows: Option<Windows>,
 ) -> Result<()> {
     let secret = cave
         .secret()
         .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
     let (scene, tracer) = load_tracer(&args.scene)?;
     let eyes = Eye::for_mode(wall.stereo);
-    let mut tone = tone_mapper(&args.tone)?;
+    let mut tone = args.tone.mapper();
     let dir = args.out.join(&wall.name);
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let log_path = dir.join("presented.log");
-    let mut log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&log_path)
-        .with_context(|| format!("opening {}", log_path.display()))?;
+    let mut log = PresentedLog::append(&dir)?;
     let every = args.every.max(1);
     let windowed = windows.is_some();
     let mut present = |state: &FrameState, display: &mut DisplayProcess| -> Result<(), String> {
-        writeln!(log, "{}", state.frame).map_err(|e| format!("{}: {e}", log_path.display()))?;
+        log.presented(state.frame).map_err(|e| e.to_string())?;
         if !windowed && state.frame.is_multiple_of(every) {
-            write_images(
+            write_frame(
                 &dir,
                 state.frame,
                 eyes,
@@ -471,7 +486,7 @@ fn in_cluster(
         args.vlf_prior,
     );
     let (counters, reason) = match windows {
-        Some((screens, tone)) => {
+        Some(Windows { screens, tone }) => {
             maker = maker.with_gpu(screens.gpu.clone());
             let output = WindowOutput::new(
                 screens,
@@ -493,52 +508,5 @@ fn in_cluster(
         "wall {:?}: {} frames presented, {} skipped; master: {reason}",
         member.wall.name, counters.presented, counters.skipped
     );
-    Ok(())
-}
-
-/// Writes frame `frame`'s images of every eye: `DIR/<frame>-<eye>.exr` (linear) and
-/// `.png` (tone-mapped preview), and with `debug` the priority image, the chosen pixels
-/// and a contact sheet of all three.
-pub(crate) fn write_images(
-    dir: &Path,
-    frame: u64,
-    eyes: &[Eye],
-    display: &mut DisplayProcess,
-    tone: &mut Option<ToneMapper>,
-    debug: bool,
-) -> Result<()> {
-    let mut sheet = Vec::new();
-    let mut width = 1;
-    for (i, &eye) in eyes.iter().enumerate() {
-        let img = display.cache.image(i);
-        width = img.width;
-        let stem = format!("{frame:05}-{}", eye_name(eye));
-        std::fs::create_dir_all(dir)?;
-        img.write_exr(&dir.join(format!("{stem}.exr")))?;
-        let preview = match tone {
-            Some(tm) => {
-                if i == 0 && tm.update(&img, false) {
-                    tracing::debug!("frame {frame}: tone mapping recomputed");
-                }
-                tm.apply(&img)
-            }
-            None => {
-                let exposure = display.exposure(&img);
-                img.to_preview(exposure)
-            }
-        };
-        preview.save(dir.join(format!("{stem}.png")))?;
-        if debug {
-            let pr = display.cache.priority_image(i).to_preview(0.5);
-            pr.save(dir.join(format!("{stem}-priority.png")))?;
-            let ch = display.cache.chosen_image(i).to_preview(100.0);
-            ch.save(dir.join(format!("{stem}-chosen.png")))?;
-            sheet.push(vec![preview, pr, ch]);
-        }
-    }
-    if debug {
-        let zoom = (512 / width).max(1);
-        contact_sheet(&sheet, zoom).save(dir.join(format!("{frame:05}-sheet.png")))?;
-    }
     Ok(())
 }

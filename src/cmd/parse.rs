@@ -1,7 +1,7 @@
 //! Parsers of command-line values shared by the subcommands (clap `value_parser`s): each
 //! error names the value and what was expected.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// `X,Y,Z`: three finite numbers.
 pub fn vec3(s: &str) -> Result<Vec3, String> {
@@ -20,8 +20,48 @@ pub fn vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+/// `N` comma-separated finite numbers.
+fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .map_err(|e| format!("{p:?} in {s:?}: {e}"))
+        })
+        .collect::<Result<_, _>>()?;
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err(format!("{s:?}: values must be finite"));
+    }
+    let n = v.len();
+    v.try_into()
+        .map_err(|_| format!("{s:?}: {n} values, expected {N}"))
+}
+
+/// `X0,Y0,Z0,X1,Y1,Z1`: a box's lower and upper corners, each coordinate of the first
+/// below the second's.
+pub fn aabb(s: &str) -> Result<[DVec3; 2], String> {
+    let [a, b, c, d, e, f] = numbers::<6>(s)?;
+    let (lo, hi) = (DVec3::new(a, b, c), DVec3::new(d, e, f));
+    if !lo.cmplt(hi).all() {
+        return Err(format!("{s:?}: each of X0,Y0,Z0 must be below X1,Y1,Z1"));
+    }
+    Ok([lo, hi])
+}
+
+/// `NX,NY,NZ`: a grid's cells along each axis, each at least 1.
+pub fn grid(s: &str) -> Result<[u32; 3], String> {
+    let g = numbers::<3>(s)?;
+    if g.iter()
+        .any(|&n| n < 1.0 || n.fract() != 0.0 || n > f64::from(u32::MAX))
+    {
+        return Err(format!("{s:?}: cells must be whole numbers, at least 1"));
+    }
+    Ok(g.map(|n| n as u32))
+}
+
 /// `PA;PB;PC`: a screen rectangle's lower-left, lower-right and upper-left corners.
-pub fn wall(s: &str) -> Result<[Vec3; 3], String> {
+pub fn screen(s: &str) -> Result<[Vec3; 3], String> {
     let corners: Vec<Vec3> = s.split(';').map(vec3).collect::<Result<_, _>>()?;
     let [pa, pb, pc] = corners[..] else {
         return Err(format!("{s:?}: expected three corners PA;PB;PC"));
@@ -61,16 +101,26 @@ mod tests {
         assert!(vec3("1,2").unwrap_err().contains("expected three numbers"));
         assert!(vec3("1,2,inf").unwrap_err().contains("finite"));
         assert!(vec3("1,x,3").unwrap_err().contains("\"x\""));
-        assert!(wall("0,0,0;1,0,0;0,1,0").is_ok());
+        assert!(screen("0,0,0;1,0,0;0,1,0").is_ok());
         assert!(
-            wall("0,0,0;1,0,0;1,1,0")
+            screen("0,0,0;1,0,0;1,1,0")
                 .unwrap_err()
                 .contains("perpendicular")
         );
-        assert!(wall("0,0,0;1,0,0;2,0,0").unwrap_err().contains("rectangle"));
+        assert!(
+            screen("0,0,0;1,0,0;2,0,0")
+                .unwrap_err()
+                .contains("rectangle")
+        );
         assert_eq!(size("64x48").unwrap(), (64, 48));
         assert!(size("64").unwrap_err().contains("WxH"));
         assert!(size("0x48").unwrap_err().contains("positive"));
         assert!(size("65536x65536").unwrap_err().contains("2^28"));
+        assert_eq!(aabb("0,0,0,1,2,3").unwrap()[1], DVec3::new(1.0, 2.0, 3.0));
+        assert!(aabb("0,0,0,1,2").unwrap_err().contains("5 values"));
+        assert!(aabb("0,0,0,1,-2,3").unwrap_err().contains("below"));
+        assert_eq!(grid("4,5,6").unwrap(), [4, 5, 6]);
+        assert!(grid("4,0,6").unwrap_err().contains("at least 1"));
+        assert!(grid("4,1.5,6").unwrap_err().contains("whole"));
     }
 }

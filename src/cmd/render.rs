@@ -5,30 +5,12 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use glam::Vec3;
+
+use super::view::ViewFlags;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::render::render;
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
 use indicatif::{ProgressBar, ProgressStyle};
-
-/// Which view of a scene: an eye and a wall, or a glTF camera; and the image size (the
-/// flags of `render` and `vlf view`).
-#[derive(Args)]
-pub struct ViewFlags {
-    /// Eye position X,Y,Z in scene metres.
-    #[arg(long, value_parser = super::parse::vec3, allow_hyphen_values = true)]
-    pub eye: Option<Vec3>,
-    /// The screen rectangle "PA;PB;PC": lower-left, lower-right and upper-left corners.
-    #[arg(long, value_parser = super::parse::wall, allow_hyphen_values = true)]
-    pub wall: Option<[Vec3; 3]>,
-    /// Use a glTF camera of the scene instead of --eye/--wall.
-    #[arg(long, conflicts_with_all = ["eye", "wall"])]
-    pub camera: Option<String>,
-    /// Image size WxH in pixels.
-    #[arg(long, default_value = "512x512", value_parser = super::parse::size)]
-    pub size: (u32, u32),
-}
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -37,6 +19,9 @@ pub struct RenderArgs {
     pub scene: PathBuf,
     #[command(flatten)]
     pub view: ViewFlags,
+    /// Image size WxH in pixels.
+    #[arg(long, default_value = "512x512", value_parser = super::parse::size)]
+    pub size: (u32, u32),
     /// Path samples per pixel.
     #[arg(long, default_value_t = 64)]
     pub spp: u32,
@@ -79,41 +64,10 @@ pub fn read_reference(
     Ok(reference)
 }
 
-/// The view the flags give.
-pub fn wall_view(scene: &Scene, scene_path: &Path, flags: &ViewFlags) -> Result<WallView> {
-    let (width, height) = flags.size;
-    let (camera, eye, wall) = (&flags.camera, flags.eye, flags.wall);
-    match (camera, eye, wall) {
-        (Some(name), _, _) => {
-            let cam = scene
-                .cameras
-                .iter()
-                .find(|c| &c.name == name)
-                .with_context(|| {
-                    let names: Vec<_> = scene.cameras.iter().map(|c| c.name.as_str()).collect();
-                    format!(
-                        "{} has no camera {name:?} (it has {names:?})",
-                        scene_path.display()
-                    )
-                })?;
-            Ok(WallView::through_camera(cam, width, height))
-        }
-        (None, Some(eye), Some([pa, pb, pc])) => Ok(WallView {
-            eye,
-            pa,
-            pb,
-            pc,
-            width,
-            height,
-        }),
-        _ => bail!("give --eye and --wall, or --camera"),
-    }
-}
-
 pub fn run(args: RenderArgs) -> Result<()> {
     let scene = load_scene(&args.scene, args.daylight.clone(), args.strict)?;
-    let (width, height) = args.view.size;
-    let view = wall_view(&scene, &args.scene, &args.view)?;
+    let (width, height) = args.size;
+    let view = args.view.view(Some((&scene, &args.scene)), args.size)?;
     let tracer = Tracer::new(Arc::new(scene), TraceSettings::default());
     let bar = ProgressBar::new(u64::from(height)).with_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} rows, {elapsed} (eta {eta})")

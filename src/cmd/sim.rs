@@ -7,20 +7,22 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Stdio};
+use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use holocave::launch::{Group, Watched, worker_command};
 use holocave_cave::{Cave, Eye, Unfolded, load_cave, unfold};
 use holocave_master::cluster::{MasterOptions, run as run_master};
 use holocave_render_node::mosaic::cave_mosaic;
+use holocave_render_node::output::{PRESENTED_LOG, frame_png, read_presented};
 use holocave_render_node::wall_windows::present_skew;
 
-use super::cave_holodeck::{Hosted, host};
+use holocave_tracer::cave_holodeck::{HostSpec, Hosted};
+
 use super::credentials;
-use super::master::{HeadArgs, print_summary};
-use super::node::eye_name;
+use super::master::{HeadArgs, host, print_summary, stop_hosted};
 
 /// The recorded head trace used when none is given (a HoloLens user walking and looking
 /// around), if the shared data is beside the checkout; otherwise a synthetic walk.
@@ -73,47 +75,6 @@ pub struct SimArgs {
     pub windows: super::window::SimWindowArgs,
 }
 
-/// Child processes that are killed if the simulation stops early.
-struct Children(Vec<(String, Child)>);
-
-impl Drop for Children {
-    fn drop(&mut self) {
-        for (_, c) in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
-
-impl Children {
-    /// Waits up to `limit` for every child to exit; kills the rest and names them.
-    fn wait(&mut self, limit: Duration) -> Vec<String> {
-        let end = Instant::now() + limit;
-        let mut stuck = Vec::new();
-        for (name, c) in &mut self.0 {
-            loop {
-                match c.try_wait() {
-                    Ok(Some(status)) if status.success() => break,
-                    Ok(Some(status)) => {
-                        stuck.push(format!("{name} exited with {status}"));
-                        break;
-                    }
-                    Ok(None) if Instant::now() < end => {
-                        std::thread::sleep(Duration::from_millis(20));
-                    }
-                    _ => {
-                        let _ = c.kill();
-                        stuck.push(format!("{name} did not exit"));
-                        break;
-                    }
-                }
-            }
-        }
-        self.0.clear();
-        stuck
-    }
-}
-
 pub fn run(mut args: SimArgs) -> Result<()> {
     let mut cave = load_cave(&args.config)?;
     cave.set_rate(args.rate)
@@ -159,25 +120,29 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     } else {
         let path = (args.holodeck.clone())
             .unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "hdk"));
-        let port = ("127.0.0.1:0", credentials.clone());
-        Some(host(&path, &cave, &args.scene, 0, port, "sim")?)
+        Some(host(HostSpec {
+            path: &path,
+            cave: &cave,
+            scene_path: &args.scene,
+            threads: 0,
+            listen: "127.0.0.1:0",
+            credentials: credentials.clone(),
+            made_by: "sim",
+            stop: super::interrupt::ctrl_c_flag(),
+        })?)
     };
-    let mut children = Children(Vec::new());
+    let mut children = Group::default();
     if let Some(h) = &hosted {
         for i in 0..args.workers {
             let log = std::fs::File::create(args.out.join(format!("worker{i}.log")))?;
-            let child = Command::new(&exe)
-                .args(["worker", "--server", &h.addr.to_string()])
-                .args(["--cluster", &cave.cluster.id])
-                .env(credentials::SECRET_VAR, &secret)
-                .arg("--scene")
-                .arg(&args.scene)
+            let mut command = worker_command(&exe, &h.addr.to_string(), &args.scene, &credentials);
+            command
                 .stdout(log.try_clone()?)
                 .stderr(log)
-                .stdin(Stdio::null())
-                .spawn()
-                .context("starting a holodeck worker process")?;
-            children.0.push((format!("worker {i}"), child));
+                .stdin(Stdio::null());
+            children
+                .0
+                .push(Watched::spawn(format!("worker {i}"), &mut command)?);
         }
     }
     let size = |p: u32| ((f64::from(p) * args.scale).round() as u32).max(8);
@@ -189,15 +154,16 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .map(|w| (w.name.clone(), (size(w.pixels[0]), size(w.pixels[1]))))
             .collect::<Vec<_>>(),
     );
-    let placed = unfolded.fit(args.windows.screen);
+    let placed = unfolded.fit(args.windows.desktop);
     for wall in &cave.walls {
         let dir = args.out.join(&wall.name);
         std::fs::create_dir_all(&dir)?;
         // A fresh presented.log (and present-times.log) per run.
-        let _ = std::fs::remove_file(dir.join("presented.log"));
+        let _ = std::fs::remove_file(dir.join(PRESENTED_LOG));
         let _ = std::fs::remove_file(dir.join("present-times.log"));
         let log = std::fs::File::create(dir.join("node.log"))?;
-        let child = Command::new(&exe)
+        let mut command = Command::new(&exe);
+        command
             .arg("node")
             .args(["--master", &addr, "--wall", &wall.name])
             .args(args.windows.node_args(&placed, wall, &args.out))
@@ -224,10 +190,10 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .env("RAYON_NUM_THREADS", "1")
             .stdout(log.try_clone()?)
             .stderr(log)
-            .stdin(Stdio::null())
-            .spawn()
-            .context("starting a render-node process")?;
-        children.0.push((format!("node {}", wall.name), child));
+            .stdin(Stdio::null());
+        children
+            .0
+            .push(Watched::spawn(format!("node {}", wall.name), &mut command)?);
     }
     let head = args.head.open(&cave)?;
     let summary = run_master(
@@ -252,7 +218,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     // Stopping the holodeck commits its samples and tells the workers goodbye, also when
     // the master failed: what the workers traced is kept.
     if let Some(h) = hosted {
-        h.stop()?;
+        stop_hosted(h)?;
     }
     let summary = summary?;
     for problem in children.wait(Duration::from_secs(20)) {
@@ -317,17 +283,8 @@ fn presented_logs(out: &Path, cave: &Cave) -> Result<BTreeMap<String, BTreeSet<u
     cave.walls
         .iter()
         .map(|wall| {
-            let path = out.join(&wall.name).join("presented.log");
-            let text = std::fs::read_to_string(&path).unwrap_or_default();
-            let frames = text
-                .lines()
-                .map(|l| {
-                    l.trim()
-                        .parse::<u64>()
-                        .with_context(|| format!("{}: {l:?} is not a frame number", path.display()))
-                })
-                .collect::<Result<BTreeSet<u64>>>()?;
-            Ok((wall.name.clone(), frames))
+            let frames = read_presented(&out.join(&wall.name))?;
+            Ok((wall.name.clone(), frames.into_iter().collect()))
         })
         .collect()
 }
@@ -347,9 +304,7 @@ fn write_mosaics(
         let mut images = Vec::new();
         for wall in &cave.walls {
             let eye = Eye::for_mode(wall.stereo)[0];
-            let p = out
-                .join(&wall.name)
-                .join(format!("{frame:05}-{}.png", eye_name(eye)));
+            let p = frame_png(&out.join(&wall.name), frame, eye);
             if let Ok(img) = image::open(&p) {
                 images.push((wall.name.as_str(), img.to_rgb8()));
             }

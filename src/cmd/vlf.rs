@@ -2,18 +2,19 @@
 //! draw a view from it.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::Ordering;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use holocave_scene::Scene;
-use holocave_vlf::bake::{Settings, Stage, State, tail};
+use holocave_vlf::bake::{Settings, Stage, tail};
+use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::{VlfFile, fingerprint};
 use holocave_vlf::remote::Workers;
-use holocave_vlf::{Casting, Threads, Visibility, layout, tiles};
+use holocave_vlf::{Casting, Threads, Visibility};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::render::{ViewFlags, load_scene, wall_view};
+use super::render::load_scene;
+use super::view::ViewFlags;
 
 #[derive(Subcommand)]
 pub enum VlfCommand {
@@ -69,7 +70,7 @@ pub struct BakeArgs {
     /// Threads of this process (default: all cores); 0 with --listen: only the worker
     /// processes cast lines.
     #[arg(long)]
-    pub workers: Option<usize>,
+    pub threads: Option<usize>,
     /// Also hand subfields out to `holocave worker --vlf` processes connecting here
     /// (the cluster's secret from HOLOCAVE_SECRET); the result is the same bit for bit.
     #[arg(long)]
@@ -88,6 +89,9 @@ pub struct ViewArgs {
     pub daylight: Option<PathBuf>,
     #[command(flatten)]
     pub view: ViewFlags,
+    /// Image size WxH in pixels.
+    #[arg(long, default_value = "512x512", value_parser = super::parse::size)]
+    pub size: (u32, u32),
     /// Lookups per pixel along each axis (k × k, antialiasing).
     #[arg(long, default_value_t = 2)]
     pub aa: u32,
@@ -111,37 +115,15 @@ pub fn run(c: VlfCommand) -> Result<()> {
     }
 }
 
-/// Bakes (or finishes baking) `out` for `scene`; shared by `vlf bake` and `sim`.
-pub fn bake_file(
-    scene: &Scene,
-    settings: &Settings,
-    out: &Path,
-    quiet: bool,
-    casting: &dyn Casting,
-) -> Result<VlfFile> {
-    let resume = if out.exists() {
-        let f = VlfFile::read_for(out, scene)?;
-        if f.settings != *settings {
-            bail!(
-                "{} was baked with other settings ({:?}); remove it or give the same settings",
-                out.display(),
-                f.settings
-            );
-        }
-        if f.state.converged {
-            return Ok(f);
-        }
+/// Bakes (or finishes baking) `job`'s file with a progress bar (none when `quiet`), and
+/// prints what the bake did.
+fn run_bake(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<VlfFile> {
+    if let Start::Resumed { bounces, residual } = job.start()? {
         eprintln!(
-            "resuming {} after bounce {} (residual {:.2e})",
-            out.display(),
-            f.state.bounces,
-            f.state.residual()
+            "resuming {} after bounce {bounces} (residual {residual:.2e})",
+            job.out.display()
         );
-        Some(f.state)
-    } else {
-        None
-    };
-    let element_size = holocave_vlf::bake::element_size(scene, settings);
+    }
     let style =
         ProgressStyle::with_template("{msg:12} [{bar:40}] {pos}/{len} {elapsed} (eta {eta})")
             .expect("static template")
@@ -152,6 +134,7 @@ pub fn bake_file(
         ProgressBar::new(1)
     }
     .with_style(style);
+    let max_bounces = job.settings.max_bounces;
     let progress = |s: Stage| match s {
         Stage::Visibility { done, total } => {
             bar.set_message("visibility");
@@ -165,36 +148,16 @@ pub fn bake_file(
         }
         Stage::Bounce { bounce, residual } => {
             bar.set_message(format!("bounce {bounce}"));
-            bar.set_length(u64::from(settings.max_bounces));
+            bar.set_length(u64::from(max_bounces));
             bar.set_position(u64::from(bounce));
             bar.println(format!("bounce {bounce}: residual {residual:.3e}"));
         }
     };
-    let name = scene.name.clone();
-    let fp = fingerprint(scene);
-    let interrupted = super::interrupt::ctrl_c_flag();
-    let mut save = |state: &State| -> Result<()> {
-        VlfFile {
-            scene: name.clone(),
-            fingerprint: fp,
-            settings: *settings,
-            element_size,
-            state: state.clone(),
-        }
-        .write(out)?;
-        if interrupted.load(Ordering::Relaxed) {
-            bail!(
-                "interrupted; {} keeps bounce {} (run again to resume)",
-                out.display(),
-                state.bounces
-            );
-        }
-        Ok(())
-    };
-    let (state, stats) =
-        holocave_vlf::bake_with(scene, settings, resume, casting, &progress, &mut save)?;
+    let (file, stats) = job.run(casting, &progress)?;
     bar.finish_and_clear();
-    if !quiet {
+    if let (Some(stats), false) = (stats, quiet) {
+        let settings = &job.settings;
+        let state = &file.state;
         println!(
             "{} directions ({} subfields of {}²), {} lines cast, {} stored with {} crossings and {} links; {} elements, {} glossy tiles of {}² bins ({:.2} MB); {:.2} MB while propagating",
             stats.directions,
@@ -220,56 +183,50 @@ pub fn bake_file(
             state.tail()
         );
     }
-    Ok(VlfFile {
-        scene: name,
-        fingerprint: fp,
-        settings: *settings,
-        element_size,
-        state,
-    })
+    Ok(file)
 }
 
-/// The light field at `path`, baked with default settings for `scene` if it is missing
-/// or unfinished (and kept), for `sim` and `compare`.
+/// The light field at `path`, baked with default settings for `scene` if it is missing,
+/// unfinished or of an older format (and kept), for `sim` and `compare`.
 pub fn baked_default(scene: &Scene, path: &Path) -> Result<PathBuf> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    // A file from an older build's format (before the glossy tiles) is baked again.
-    if let Err(e @ holocave_vlf::VlfError::Version { .. }) = VlfFile::read(path) {
-        println!("{e}: baking it again");
-        std::fs::remove_file(path).with_context(|| format!("removing {}", path.display()))?;
-    }
-    let fresh = !path.exists();
-    if fresh {
-        println!(
+    let job = BakeJob {
+        scene,
+        settings: Settings::default(),
+        out: path,
+        interrupted: &super::interrupt::ctrl_c_flag(),
+        rebake_old_version: true,
+    };
+    let start = job
+        .start()
+        .with_context(|| format!("the light field {}", path.display()))?;
+    match start {
+        Start::Fresh => println!(
             "baking the light field {} (once; kept for later runs)",
             path.display()
-        );
-    } else {
-        println!(
+        ),
+        _ => println!(
             "light field {} (kept from an earlier run; a bake it left unfinished is finished)",
             path.display()
-        );
+        ),
     }
-    let start = std::time::Instant::now();
-    bake_file(scene, &Settings::default(), path, true, &Threads)
+    let t = std::time::Instant::now();
+    run_bake(&job, true, &Threads)
         .with_context(|| format!("the light field {}", path.display()))?;
-    if fresh {
-        println!("baked in {:.1} s", start.elapsed().as_secs_f64());
+    if matches!(start, Start::Fresh) {
+        println!("baked in {:.1} s", t.elapsed().as_secs_f64());
     }
     Ok(path.to_owned())
 }
 
 fn bake(a: BakeArgs) -> Result<()> {
-    if let Some(n) = a.workers {
+    if let Some(n) = a.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n.max(1))
             .build_global()
             .context("setting the number of bake threads")?;
     }
-    if a.workers == Some(0) && a.listen.is_none() {
-        bail!("--workers 0 leaves nobody to bake: give --listen ADDR for worker processes");
+    if a.threads == Some(0) && a.listen.is_none() {
+        bail!("--threads 0 leaves nobody to bake: give --listen ADDR for worker processes");
     }
     let scene = load_scene(&a.scene, a.daylight, false)?;
     let settings = Settings {
@@ -282,21 +239,14 @@ fn bake(a: BakeArgs) -> Result<()> {
         tile_bins: a.tile_bins,
         ..Settings::default()
     };
-    if !(0.0..=1.0).contains(&settings.glossy_alpha) {
-        bail!("--glossy-alpha {}: give 0 to 1", settings.glossy_alpha);
-    }
-    if settings.tile_bins == 0 || settings.tile_bins > 64 {
-        bail!("--tile-bins {}: give 1 to 64", settings.tile_bins);
-    }
-    if settings.resolution == 0 || settings.resolution > 4096 {
-        bail!("--resolution {}: give 1 to 4096 lines", settings.resolution);
-    }
-    if settings
-        .element_size
-        .is_some_and(|s| !(s > 0.0 && s.is_finite()))
-    {
-        bail!("--element-size must be a positive length");
-    }
+    baked::validate(&settings)?;
+    let job = BakeJob {
+        scene: &scene,
+        settings,
+        out: &a.out,
+        interrupted: &super::interrupt::ctrl_c_flag(),
+        rebake_old_version: false,
+    };
     let start = std::time::Instant::now();
     match &a.listen {
         Some(addr) => {
@@ -308,14 +258,14 @@ fn bake(a: BakeArgs) -> Result<()> {
                 listener,
                 cluster: credentials.cluster,
                 secret: credentials.secret,
-                local: a.workers != Some(0),
+                local: a.threads != Some(0),
                 fingerprint: fingerprint(&scene),
                 settings,
             };
-            bake_file(&scene, &settings, &a.out, false, &workers)?;
+            run_bake(&job, false, &workers)?;
         }
         None => {
-            bake_file(&scene, &settings, &a.out, false, &Threads)?;
+            run_bake(&job, false, &Threads)?;
         }
     }
     println!(
@@ -372,24 +322,7 @@ fn check(file: &Path, scene: Option<&Path>, daylight: Option<PathBuf>) -> Result
     let f = VlfFile::read(file)?;
     if let Some(scene) = scene {
         let scene = load_scene(scene, daylight, false)?;
-        let f = VlfFile::read_for(file, &scene)?;
-        let elements = layout(&scene, &f.settings);
-        let count = elements.count;
-        if count != f.state.irradiance.len() {
-            bail!(
-                "{}: {} elements, but the scene's layout at these settings has {count}",
-                file.display(),
-                f.state.irradiance.len()
-            );
-        }
-        let tile_values = tiles(&scene, &f.settings, &elements).len();
-        if tile_values != f.state.tiles.len() {
-            bail!(
-                "{}: {} tile values, but the scene's glossy surfaces at these settings have {tile_values}",
-                file.display(),
-                f.state.tiles.len()
-            );
-        }
+        baked::open(file, &scene)?;
     }
     let bad = f
         .state
@@ -416,16 +349,12 @@ fn check(file: &Path, scene: Option<&Path>, daylight: Option<PathBuf>) -> Result
 
 fn view(a: ViewArgs) -> Result<()> {
     let scene = load_scene(&a.scene, a.daylight.clone(), false)?;
-    let f = VlfFile::read_for(&a.file, &scene)?;
-    let elements = layout(&scene, &f.settings);
-    let tiles = tiles(&scene, &f.settings, &elements);
-    if elements.count != f.state.irradiance.len() || tiles.len() != f.state.tiles.len() {
-        bail!(
-            "{}: element or tile count does not match the scene's layout",
-            a.file.display()
-        );
-    }
-    let view = wall_view(&scene, &a.scene, &a.view)?;
+    let Opened {
+        file: f,
+        elements,
+        tiles,
+    } = baked::open(&a.file, &scene)?;
+    let view = a.view.view(Some((&scene, &a.scene)), a.size)?;
     let start = std::time::Instant::now();
     let image = Visibility::new(std::sync::Arc::new(scene), elements, tiles).render(
         &view,

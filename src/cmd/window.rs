@@ -114,9 +114,9 @@ pub struct SimWindowArgs {
     /// The layout of every wall's window (default: the first eye the wall draws).
     #[arg(long, value_parser = parse_layout)]
     pub layout: Option<Layout>,
-    /// The screen the windows are laid out to fit, WxH pixels.
+    /// The desktop the windows are laid out to fit, WxH pixels.
     #[arg(long, value_parser = super::parse::size, default_value = "1280x1024")]
-    pub screen: (u32, u32),
+    pub desktop: (u32, u32),
 }
 
 impl SimWindowArgs {

@@ -11,8 +11,8 @@ use std::sync::Arc;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec2;
+use holocave_cave::WallView;
 use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
 
 const SIZE: u32 = 64;

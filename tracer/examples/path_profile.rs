@@ -17,9 +17,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
+use holocave_cave::WallView;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::render::render;
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TraceSettings, Tracer};
 
 /// Vertices reported one by one; the rest are summed into the last line.

@@ -6,9 +6,12 @@
 //! - [`bsdf`], [`microfacet`], [`fresnel`]: glTF's metallic-roughness scattering;
 //! - [`lights`]: what next-event estimation samples ([`few_lights`] and [`light_groups`]:
 //!   which lamp, by place), and [`mirrors`]: the same through flat mirrors;
-//! - [`view`] and [`film`]: off-axis wall views and the images they make.
+//! - [`film`]: the images wall views (`holocave_cave::WallView`) make;
+//! - [`holodeck`]: the tracer as the holodeck's sample source, and [`cave_holodeck`]: a
+//!   CAVE's holodeck file and its server (open or create, serve, host for a cluster).
 
 pub mod bsdf;
+pub mod cave_holodeck;
 pub mod few_lights;
 pub mod film;
 pub mod frame;
@@ -21,7 +24,6 @@ pub mod microfacet;
 pub mod mirrors;
 pub mod render;
 pub mod sampling;
-pub mod view;
 
 use std::sync::Arc;
 

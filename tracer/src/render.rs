@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use crate::Tracer;
 use crate::film::Image;
-use crate::view::WallView;
+use holocave_cave::WallView;
 
 /// Renders `view` with `spp` samples per pixel. `on_row` is called once per finished row
 /// (from any thread), for progress reporting. Deterministic for a given `seed`.

@@ -31,8 +31,8 @@
 mod common;
 
 use glam::Vec3;
+use holocave_cave::WallView;
 use holocave_tracer::render::render;
-use holocave_tracer::view::WallView;
 
 fn mean_sd(v: &[f64]) -> (f64, f64) {
     let m = v.iter().sum::<f64>() / v.len() as f64;

@@ -6,9 +6,9 @@ mod common;
 
 use common::*;
 use glam::Vec3;
+use holocave_cave::WallView;
 use holocave_scene::Ray;
 use holocave_tracer::render::render;
-use holocave_tracer::view::WallView;
 use holocave_tracer::{TracedRay, Tracer};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;

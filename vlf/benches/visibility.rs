@@ -9,8 +9,8 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::Vec3;
+use holocave_cave::WallView;
 use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::view::WallView;
 use holocave_vlf::{Settings, Visibility};
 
 fn scene(name: &str) -> Arc<Scene> {

@@ -16,7 +16,9 @@
 //! - [`direct`]: small emitters, punctual lights and the sun by next-event estimation;
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
 //! - [`bake`]: the whole bake, its stopping rule and its checkpoints;
-//! - [`file`]: the `.vlf` file;
+//! - [`file`]: the `.vlf` file, and [`baked`]: its life on disk (settings checked, bakes
+//!   saved per bounce and resumed, old versions baked again, the one `open` that checks a
+//!   file against its scene);
 //! - [`remote`]: bake workers in other processes (subfields handed out as work);
 //! - [`view`]: per-pixel visibility and the lookup (the render node does the lookup on
 //!   the GPU).
@@ -37,6 +39,7 @@
 //! crossings.
 
 pub mod bake;
+pub mod baked;
 pub mod direct;
 pub mod directions;
 pub mod elements;

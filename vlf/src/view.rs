@@ -17,11 +17,11 @@
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
+use holocave_cave::WallView;
 use holocave_scene::bvh::PACKET;
 use holocave_scene::{Ray, Scene};
 use holocave_tracer::film::Image;
 use holocave_tracer::lights::Lights;
-use holocave_tracer::view::WallView;
 use rayon::prelude::*;
 
 use crate::bake::environment;

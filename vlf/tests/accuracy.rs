@@ -30,9 +30,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec2;
+use holocave_cave::WallView;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
-use holocave_tracer::view::WallView;
 
 use holocave_vlf::{Settings, Visibility};
 

@@ -14,8 +14,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use glam::Vec3;
+use holocave_cave::WallView;
 use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::view::WallView;
 use holocave_vlf::{Settings, Visibility};
 
 const SIZE: u32 = 32;

@@ -2,8 +2,8 @@
 //! path) share: the Cornell box, and the README's view of it.
 
 use glam::Vec3;
+use holocave_cave::WallView;
 use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::view::WallView;
 
 /// The README's eye: in front of the box, at standing height.
 pub const EYE: Vec3 = Vec3::new(0.0, 1.0, 3.4);

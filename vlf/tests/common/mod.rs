@@ -145,7 +145,7 @@ pub fn glossy_cornell() -> Scene {
 /// other), and the two renders.
 pub fn two_seed_reference(
     scene: &std::sync::Arc<Scene>,
-    view: &holocave_tracer::view::WallView,
+    view: &holocave_cave::WallView,
     spp: u32,
 ) -> (
     holocave_tracer::film::Image,

@@ -1,0 +1,95 @@
+//! The one builder of a wall's display: the render cache on a GPU device, the feed its
+//! samples come from (the path tracer inline or on a thread, or a holodeck server), and the
+//! light field drawn under them. `node --standalone`, the cluster node and `compare` all
+//! make their displays here.
+
+use std::sync::Arc;
+
+use holocave_tracer::Tracer;
+
+use crate::{
+    DisplayProcess, Gpu, HolodeckSource, PixelTracer, RenderCache, RenderNodeError, VlfBase,
+};
+
+/// Where a display's samples come from.
+pub enum Feed {
+    /// The path tracer, between frames on the display's thread (deterministic).
+    Inline,
+    /// The path tracer on a thread of its own: frames never wait for rays.
+    Thread,
+    /// A holodeck server's display service (in this process or over TCP).
+    Holodeck(HolodeckSource),
+}
+
+/// A baked light field drawn under a display's samples.
+#[derive(Clone)]
+pub struct LightField {
+    pub base: Arc<VlfBase>,
+    /// How many samples the light field is worth in a pixel (0: the samples alone).
+    pub prior: f32,
+}
+
+/// What every display of a wall shares, whatever feeds it.
+#[derive(Clone)]
+pub struct DisplayBuilder {
+    /// Pixels per eye.
+    pub size: (u32, u32),
+    pub eyes: usize,
+    /// Samples asked for per eye and frame.
+    pub samples: u32,
+    /// The tracer of the inline and threaded feeds.
+    pub tracer: Arc<Tracer>,
+    /// The tracer's random stream (walls of one cluster take different ones).
+    pub seed: u64,
+    /// Paths averaged into each traced sample.
+    pub paths: u32,
+    /// The device to draw on (a window's); `None`: a new one per display.
+    pub gpu: Option<Gpu>,
+    pub light_field: Option<LightField>,
+}
+
+impl DisplayBuilder {
+    /// Displays of `eyes` eyes at `size` pixels asking for `samples` per eye and frame, one
+    /// path per sample, seed 1, no light field, on a new device.
+    pub fn new(size: (u32, u32), eyes: usize, samples: u32, tracer: Arc<Tracer>) -> Self {
+        DisplayBuilder {
+            size,
+            eyes,
+            samples,
+            tracer,
+            seed: 1,
+            paths: 1,
+            gpu: None,
+            light_field: None,
+        }
+    }
+
+    /// The render cache alone, on the builder's device.
+    pub fn cache(&self) -> Result<RenderCache, RenderNodeError> {
+        let gpu = match &self.gpu {
+            Some(g) => g.clone(),
+            None => Gpu::new()?,
+        };
+        Ok(RenderCache::for_wall(
+            gpu,
+            self.size,
+            self.eyes,
+            self.samples,
+        ))
+    }
+
+    /// A display fed by `feed`, with the light field under it when there is one.
+    pub fn build(&self, feed: Feed) -> Result<DisplayProcess, RenderNodeError> {
+        let cache = self.cache()?;
+        let tracer = || PixelTracer::new(self.tracer.clone(), self.seed).with_paths(self.paths);
+        let display = match feed {
+            Feed::Inline => DisplayProcess::new(cache, tracer(), self.samples),
+            Feed::Thread => DisplayProcess::threaded(cache, tracer(), self.samples),
+            Feed::Holodeck(source) => DisplayProcess::holodeck(cache, source, self.samples),
+        };
+        Ok(match &self.light_field {
+            Some(lf) => display.with_vlf(lf.base.clone(), lf.prior),
+            None => display,
+        })
+    }
+}
