@@ -60,4 +60,6 @@ pub enum RenderNodeError {
     Write { path: String, message: String },
     #[error("light field {0}")]
     Vlf(String),
+    #[error("holodeck {0}")]
+    Holodeck(String),
 }

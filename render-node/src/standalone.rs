@@ -4,12 +4,83 @@
 //! whose eye faults keeps its last good views), draws them and hands the frame to
 //! `present` every `every` frames and at the last one.
 
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use holocave_cave::{Cave, Eye, Wall, wall_frusta};
+use holocave_holodeck::auth::Port;
+use holocave_holodeck::run::Running;
+use holocave_scene::Scene;
+use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
 use holocave_tracking::Pose;
 
-use crate::{DisplayProcess, EyeView};
+use crate::{
+    DisplayBuilder, DisplayProcess, EyeView, Feed, HolodeckOptions, HolodeckSource, RenderNodeError,
+};
+
+/// The holodeck a standalone wall draws from, served in its own process.
+pub struct OwnHolodeck<'a> {
+    /// The file, created for the CAVE if missing.
+    pub path: &'a Path,
+    pub scene_path: &'a Path,
+    /// Tracer threads adding to it.
+    pub threads: usize,
+    /// Also accept TCP workers and displays here.
+    pub port: Option<Port>,
+    pub stop: Arc<AtomicBool>,
+}
+
+/// A standalone wall's display and the holodeck it serves itself, if any.
+pub struct StandaloneWall {
+    pub display: DisplayProcess,
+    pub holodeck: Option<Running>,
+    /// What the holodeck opened holds (its [`CaveHolodeck::describe`]).
+    pub holodeck_described: Option<String>,
+}
+
+impl StandaloneWall {
+    /// The wall's display from `builder`: fed by its own holodeck server when given one,
+    /// else by the path tracer inline (`sync`, deterministic) or on a thread.
+    pub fn assemble(
+        builder: &DisplayBuilder,
+        cave: &Cave,
+        scene: &Arc<Scene>,
+        holodeck: Option<OwnHolodeck>,
+        sync: bool,
+    ) -> Result<StandaloneWall, RenderNodeError> {
+        let Some(h) = holodeck else {
+            let feed = if sync { Feed::Inline } else { Feed::Thread };
+            return Ok(StandaloneWall {
+                display: builder.build(feed)?,
+                holodeck: None,
+                holodeck_described: None,
+            });
+        };
+        let hd = |e: holocave_tracer::cave_holodeck::CaveHolodeckError| {
+            RenderNodeError::Holodeck(e.to_string())
+        };
+        let opened = CaveHolodeck::open_or_create(h.path, cave, h.scene_path, Some(scene), "node")
+            .map_err(hd)?;
+        let described = opened.describe();
+        let running = opened
+            .serve(Serving {
+                threads: h.threads,
+                scene: Some(scene.clone()),
+                port: h.port,
+                stop: h.stop,
+                allowance: None,
+            })
+            .map_err(hd)?;
+        let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
+        Ok(StandaloneWall {
+            display: builder.build(Feed::Holodeck(source))?,
+            holodeck: Some(running),
+            holodeck_described: Some(described),
+        })
+    }
+}
 
 /// When a standalone run stops, its clock, and which frames it presents.
 #[derive(Clone, Copy, Debug)]

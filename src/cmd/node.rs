@@ -22,19 +22,18 @@ use holocave_master::head::Clock;
 use holocave_protocol::cluster::FrameState;
 use holocave_render_node::cluster_node::{self, DisplayMaker, Membership};
 use holocave_render_node::output::{PresentedLog, write_frame};
-use holocave_render_node::standalone::{self, Schedule};
+use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWall};
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
 use holocave_render_node::{
-    DisplayBuilder, DisplayProcess, Feed, Gpu, HolodeckOptions, HolodeckSource, LightField,
-    RenderCache, Sampler, ToneMapper, ToneMode, VlfBase,
+    DisplayBuilder, DisplayProcess, Gpu, LightField, RenderCache, Sampler, ToneMapper, ToneMode,
+    VlfBase,
 };
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
 
 use super::master::open_head;
-use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
 
 /// How a node's images are tone-mapped.
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -290,45 +289,38 @@ fn standalone(
             prior: args.vlf_prior,
         });
     }
-    let mut holodeck = None;
-    let feed = match &args.holodeck {
-        Some(path) => {
-            let opened =
-                CaveHolodeck::open_or_create(path, cave, &args.scene, Some(&scene), "node")?;
-            println!("{}", opened.describe());
-            let threads = args.threads.unwrap_or_else(|| {
-                std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-            });
-            let port = args
-                .listen
-                .as_ref()
-                .map(|a| {
-                    let listener = TcpListener::bind(a).with_context(|| format!("--listen {a}"))?;
-                    let credentials = super::credentials::of_cave(cave, &args.config)?;
-                    anyhow::Ok(Port {
-                        listener,
-                        credentials,
-                    })
-                })
-                .transpose()?;
-            let running = opened.serve(Serving {
-                threads,
-                scene: Some(scene.clone()),
-                port,
-                stop: super::interrupt::ctrl_c_flag(),
-                allowance: None,
-            })?;
-            if let Some(a) = running.local_addr() {
-                println!("holodeck workers and displays may connect to {a}");
-            }
-            let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
-            holodeck = Some(running);
-            Feed::Holodeck(source)
-        }
-        None if args.sync => Feed::Inline,
-        None => Feed::Thread,
-    };
-    let mut display = builder.build(feed)?;
+    let port = args
+        .listen
+        .as_ref()
+        .map(|a| {
+            let listener = TcpListener::bind(a).with_context(|| format!("--listen {a}"))?;
+            let credentials = super::credentials::of_cave(cave, &args.config)?;
+            anyhow::Ok(Port {
+                listener,
+                credentials,
+            })
+        })
+        .transpose()?;
+    let own = args.holodeck.as_deref().map(|path| OwnHolodeck {
+        path,
+        scene_path: &args.scene,
+        threads: args.threads.unwrap_or_else(|| {
+            std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+        }),
+        port,
+        stop: super::interrupt::ctrl_c_flag(),
+    });
+    let StandaloneWall {
+        mut display,
+        holodeck,
+        holodeck_described,
+    } = StandaloneWall::assemble(&builder, cave, &scene, own, args.sync)?;
+    if let Some(d) = holodeck_described {
+        println!("{d}");
+    }
+    if let Some(a) = holodeck.as_ref().and_then(Running::local_addr) {
+        println!("holodeck workers and displays may connect to {a}");
+    }
     println!(
         "wall {:?}: {} eye(s) at {}x{}, {} points, {samples} samples per eye and frame, GPU {}",
         wall.name,
