@@ -17,4 +17,4 @@ pub mod report;
 pub mod run;
 
 pub use method::Method;
-pub use run::{Compare, CompareError, Settings};
+pub use run::{Compare, CompareError, Settings, VlfSetting};

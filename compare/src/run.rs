@@ -65,6 +65,14 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CompareError + '_ {
     }
 }
 
+/// The baked light field of the vlf methods (`holocave vlf bake`).
+#[derive(Clone, Debug)]
+pub struct VlfSetting {
+    pub path: PathBuf,
+    /// What it is worth in samples under the holodeck's (vlf+holodeck).
+    pub prior: f32,
+}
+
 /// How to compare.
 #[derive(Clone, Debug)]
 pub struct Settings {
@@ -86,7 +94,7 @@ pub struct Settings {
     pub holodeck: Option<PathBuf>,
     /// The baked light field of the vlf methods (`holocave vlf bake`), and what it is
     /// worth in samples under the holodeck's.
-    pub vlf: Option<(PathBuf, f32)>,
+    pub vlf: Option<VlfSetting>,
 }
 
 /// The display's holodeck options in a comparison: a request every frame (so what is
@@ -203,7 +211,7 @@ impl Compare<'_> {
                 if method == Method::VlfHolodeck {
                     builder.light_field = Some(LightField {
                         base: self.vlf_base(s)?,
-                        prior: s.vlf.as_ref().map_or(0.0, |v| v.1),
+                        prior: s.vlf.as_ref().map_or(0.0, |v| v.prior),
                     });
                 }
                 let display = builder.build(Feed::Holodeck(source))?;
@@ -220,7 +228,7 @@ impl Compare<'_> {
 
     /// The light field of the vlf methods, opened for this scene.
     fn vlf_base(&self, s: &Settings) -> Result<Arc<VlfBase>, CompareError> {
-        let (path, _) = s.vlf.as_ref().ok_or(CompareError::NoVlf)?;
+        let path = &s.vlf.as_ref().ok_or(CompareError::NoVlf)?.path;
         Ok(Arc::new(VlfBase::open(path, self.scene.clone())?))
     }
 

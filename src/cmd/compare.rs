@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use holocave_cave::{Cave, Wall, load_cave};
-use holocave_compare::{Compare, Method, Settings};
+use holocave_compare::{Compare, Method, Settings, VlfSetting};
 use holocave_master::head::Clock;
 use holocave_scene::Scene;
 use holocave_tracking::Pose;
@@ -151,7 +151,10 @@ pub fn run(args: CompareArgs) -> Result<()> {
         let path =
             (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
         let path = super::vlf::baked_default(&scene, &path)?;
-        Some((path, holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES))
+        Some(VlfSetting {
+            path,
+            prior: holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES,
+        })
     } else {
         None
     };
@@ -184,7 +187,7 @@ fn compare_wall(
     scene: Arc<Scene>,
     methods: &[Method],
     poses: &[Pose],
-    vlf: Option<(PathBuf, f32)>,
+    vlf: Option<VlfSetting>,
     out: PathBuf,
 ) -> Result<()> {
     let frames = poses.len() as u64;
