@@ -43,18 +43,7 @@ fn parse_layout(s: &str) -> Result<Layout, String> {
 }
 
 fn parse_position(s: &str) -> Result<[i32; 2], String> {
-    let v: Vec<i32> = s
-        .split(',')
-        .map(|p| {
-            p.trim()
-                .parse::<i32>()
-                .map_err(|e| format!("{p:?} in {s:?}: {e}"))
-        })
-        .collect::<Result<_, _>>()?;
-    match v[..] {
-        [x, y] => Ok([x, y]),
-        _ => Err(format!("{s:?}: expected X,Y in pixels")),
-    }
+    super::parse::list(s, "X,Y in pixels")
 }
 
 impl WindowArgs {
