@@ -47,18 +47,9 @@ fn moving_viewer_error_stays_within_twice_a_path_traced_frame() {
 }
 
 fn follow_a_recorded_trace(check_error: bool) {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let log_path = root.join("../shared/tracking/pred6dof/1.csv");
-    if !log_path.exists() {
-        // CI sets HOLOCAVE_REQUIRE_SHARED=1: there, a missing trace is a failure.
-        assert!(
-            std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "HOLOCAVE_REQUIRE_SHARED=1 and {} is absent",
-            log_path.display()
-        );
-        eprintln!("SKIPPED: {} is absent", log_path.display());
+    let Some(log_path) = common::require::shared("tracking/pred6dof/1.csv") else {
         return;
-    }
+    };
     let log = read_csv(&log_path, None).expect("read the trace");
     let samples = log.samples;
     let t0 = samples[0].t_ns;
@@ -148,7 +139,7 @@ fn follow_a_recorded_trace(check_error: bool) {
                  clamped at 1: {clamped:.4} (a {spp} spp path-traced frame: {baseline:.4})"
             );
             errors.push((clamped, baseline));
-            let e = holocave_render_node::display::lit_exposure(&reference).unwrap_or(1.0);
+            let e = reference.auto_exposure();
             sheet.push(vec![
                 img.to_preview(e),
                 display.cache.image(1).to_preview(e),
