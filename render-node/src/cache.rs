@@ -779,3 +779,116 @@ mod tests {
         assert_eq!(over, vec![1, 2]);
     }
 }
+
+/// The structs uploaded to the cache's shaders against their WGSL declarations, parsed
+/// as the pipelines compile them (`common.wgsl` first).
+#[cfg(test)]
+mod layout_tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::{EyeParams, GpuPoint, InsertParams, Lookup, NewSample, VlfParams, insert, vlf};
+    use crate::gpu::layout::assert_same_layout;
+    use crate::gpu::with_common;
+
+    #[test]
+    fn common_wgsl_point_and_eye_params_are_laid_out_as_in_rust() {
+        let src = with_common(insert::SOURCE);
+        assert_same_layout(
+            &src,
+            "Point",
+            size_of::<GpuPoint>(),
+            &[
+                ("pos", offset_of!(GpuPoint, pos)),
+                ("rad", offset_of!(GpuPoint, rad)),
+                ("origin", offset_of!(GpuPoint, origin)),
+            ],
+        );
+        assert_same_layout(
+            &src,
+            "EyeParams",
+            size_of::<EyeParams>(),
+            &[
+                ("view_proj", offset_of!(EyeParams, view_proj)),
+                ("eye", offset_of!(EyeParams, eye)),
+                ("width", offset_of!(EyeParams, width)),
+                ("height", offset_of!(EyeParams, height)),
+                ("npoints", offset_of!(EyeParams, npoints)),
+                ("target_samples", offset_of!(EyeParams, target_samples)),
+                ("max_chosen", offset_of!(EyeParams, max_chosen)),
+                ("frame", offset_of!(EyeParams, frame)),
+                ("eye_index", offset_of!(EyeParams, eye_index)),
+                ("index_bits", offset_of!(EyeParams, index_bits)),
+            ],
+        );
+    }
+
+    #[test]
+    fn insert_wgsl_new_sample_and_insert_params_are_laid_out_as_in_rust() {
+        let src = with_common(insert::SOURCE);
+        assert_same_layout(
+            &src,
+            "NewSample",
+            size_of::<NewSample>(),
+            &[
+                ("pos", offset_of!(NewSample, pos)),
+                ("rad", offset_of!(NewSample, rad)),
+                ("origin", offset_of!(NewSample, origin)),
+                ("weight", offset_of!(NewSample, weight)),
+            ],
+        );
+        assert_same_layout(
+            &src,
+            "InsertParams",
+            size_of::<InsertParams>(),
+            &[
+                ("count", offset_of!(InsertParams, count)),
+                ("cursor", offset_of!(InsertParams, cursor)),
+                ("ngroups", offset_of!(InsertParams, ngroups)),
+                ("group_size", offset_of!(InsertParams, group_size)),
+                ("npoints", offset_of!(InsertParams, npoints)),
+                ("index_bits", offset_of!(InsertParams, index_bits)),
+                ("width", offset_of!(InsertParams, width)),
+                ("height", offset_of!(InsertParams, height)),
+            ],
+        );
+    }
+
+    #[test]
+    fn vlf_wgsl_lookup_and_params_are_laid_out_as_in_rust() {
+        let src = with_common(vlf::SOURCE);
+        // `holocave_vlf::Lookup`'s colour arrays are three scalars each in the WGSL.
+        let (w, e) = (offset_of!(Lookup, weight), offset_of!(Lookup, emitted));
+        assert_same_layout(
+            &src,
+            "Lookup",
+            size_of::<Lookup>(),
+            &[
+                ("base", offset_of!(Lookup, base)),
+                ("res", offset_of!(Lookup, res)),
+                ("u", offset_of!(Lookup, u)),
+                ("v", offset_of!(Lookup, v)),
+                ("wr", w),
+                ("wg", w + 4),
+                ("wb", w + 8),
+                ("er", e),
+                ("eg", e + 4),
+                ("eb", e + 8),
+                ("tile", offset_of!(Lookup, tile)),
+                ("bins", offset_of!(Lookup, bins)),
+                ("x", offset_of!(Lookup, x)),
+                ("y", offset_of!(Lookup, y)),
+            ],
+        );
+        assert_same_layout(
+            &src,
+            "VlfParams",
+            size_of::<VlfParams>(),
+            &[
+                ("width", offset_of!(VlfParams, width)),
+                ("height", offset_of!(VlfParams, height)),
+                ("index_bits", offset_of!(VlfParams, index_bits)),
+                ("prior", offset_of!(VlfParams, prior)),
+            ],
+        );
+    }
+}

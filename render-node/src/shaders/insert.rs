@@ -6,6 +6,9 @@ use crate::gpu::{Binding, ComputePass, Gpu};
 
 use super::Recorder;
 
+/// The shader (compiled after `common.wgsl`: `gpu::with_common`).
+pub(super) const SOURCE: &str = include_str!("insert.wgsl");
+
 /// `@workgroup_size` of the shader's entry points.
 const WORKGROUP: u32 = 64;
 
@@ -17,7 +20,7 @@ impl Insert {
         use Binding::{Storage, Uniform};
         let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
         let bindings = [Uniform, rw, ro, ro, rw];
-        let source = include_str!("insert.wgsl");
+        let source = SOURCE;
         let entries = ["match_samples", "place_samples"];
         Insert(ComputePass::new(gpu, "insert", source, &bindings, entries))
     }

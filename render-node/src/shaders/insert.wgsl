@@ -53,10 +53,6 @@ const MIN_COUNT: f32 = 2.0;
 // are resampled sooner (the render cache's premature aging of stale points).
 const CHANGE_AGING: f32 = 16.0;
 
-fn lum(c: vec3<f32>) -> f32 {
-    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
-}
-
 fn age_neighbourhood(pixel: u32) {
     let x = i32(pixel % Q.width);
     let y = i32(pixel / Q.width);
@@ -96,8 +92,8 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let moved = distance(p.origin.xyz, s.origin.xyz);
     if (moved > SAME_ORIGIN && p.rad.w >= MIN_COUNT) {
-        let a = lum(p.rad.xyz) + 1.0e-3;
-        let b = lum(s.rad.xyz) + 1.0e-3;
+        let a = luminance(p.rad.xyz) + 1.0e-3;
+        let b = luminance(s.rad.xyz) + 1.0e-3;
         if (a > CHANGE_FACTOR * b || b > CHANGE_FACTOR * a) {
             age_neighbourhood(bitcast<u32>(s.pos.w));
             p.pos.w = points[idx].pos.w;
