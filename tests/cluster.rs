@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 
-use common::{Proc, holocave, root, scratch, start_master};
+use common::{Proc, holocave, require, root, scratch, start_master};
 use holocave_cave::{CaveFrusta, load_cave};
 use holocave_master::frame_state::{FrameTimes, frame_state};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
@@ -640,18 +640,10 @@ fn garbage_from_the_master_makes_a_node_reconnect_and_serve_the_honest_master() 
 #[test]
 fn replay_sends_the_same_frame_states_bit_for_bit() {
     let dir = scratch("replay");
-    let log = root().join("../shared/tracking/pred6dof/2.csv");
-    let tracker = if log.exists() {
-        format!("file:{}", log.display())
-    } else {
-        // CI sets HOLOCAVE_REQUIRE_SHARED=1: there, a missing trace is a failure.
-        assert!(
-            std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "HOLOCAVE_REQUIRE_SHARED=1 and {} is absent",
-            log.display()
-        );
-        eprintln!("{} absent: replaying a synthetic shake", log.display());
-        "synthetic:shake".to_owned()
+    let tracker = match require::shared_or("tracking/pred6dof/2.csv", "replaying a synthetic shake")
+    {
+        Some(log) => format!("file:{}", log.display()),
+        None => "synthetic:shake".to_owned(),
     };
     let run = |name: &str, tracker: &str| {
         let states = dir.join(name);

@@ -92,14 +92,10 @@ pub struct Summary {
     pub dropped: u64,
 }
 
-/// The `q` quantile (0..1) of durations.
+/// The `q` quantile (0..1) of durations ([`holocave_protocol::stats::quantile`]: linear
+/// interpolation, numpy's default); zero for none.
 pub fn quantile(v: &[Duration], q: f64) -> Duration {
-    if v.is_empty() {
-        return Duration::ZERO;
-    }
-    let mut s = v.to_vec();
-    s.sort();
-    s[((s.len() - 1) as f64 * q).round() as usize]
+    holocave_protocol::stats::quantile_duration(v, q).unwrap_or_default()
 }
 
 enum Event {

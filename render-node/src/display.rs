@@ -1,7 +1,6 @@
 //! One frame of the display process for all eyes of a wall: draw from the cache, choose
 //! pixels, have them traced, insert the samples; and the files a headless node writes.
 
-use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -10,7 +9,7 @@ use holocave_tracer::film::Image;
 use crate::cache::{RenderCache, StepTimes};
 use crate::holodeck::HolodeckSource;
 use crate::source::{PixelTracer, TracerThread};
-use crate::{EyeView, RenderNodeError, VlfBase};
+use crate::{EyeView, VlfBase};
 
 /// What one frame did.
 #[derive(Clone, Debug, Default)]
@@ -160,11 +159,11 @@ impl DisplayProcess {
         report
     }
 
-    /// The exposure for PNG previews: the log-average luminance of the lit pixels mapped
-    /// to middle grey, set from the first image with any, then held steady unless it
-    /// changes by more than a factor of two (so the previews do not pump).
+    /// The exposure for PNG previews ([`Image::lit_exposure`]), set from the first image
+    /// with any lit pixel, then held steady unless it changes by more than a factor of two
+    /// (so the previews do not pump).
     pub fn exposure(&mut self, image: &Image) -> f32 {
-        let Some(now) = lit_exposure(image) else {
+        let Some(now) = image.lit_exposure() else {
             return self.exposure.unwrap_or(1.0);
         };
         match self.exposure {
@@ -175,43 +174,6 @@ impl DisplayProcess {
             }
         }
     }
-}
-
-/// Middle grey over the log-average luminance of the pixels that are not black (holes and
-/// escaped rays would otherwise wash the picture out); `None` for a black image.
-pub fn lit_exposure(image: &Image) -> Option<f32> {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for p in &image.pixels {
-        let l = p.dot(glam::Vec3::new(0.2126, 0.7152, 0.0722));
-        if l > 1e-6 {
-            sum += f64::from(l).ln();
-            n += 1;
-        }
-    }
-    (n > 0).then(|| (0.18 / (sum / n as f64).exp()) as f32)
-}
-
-/// Writes `image` as `<stem>.exr` (linear) and `<stem>.png` (preview at `exposure`).
-pub fn write_image(
-    dir: &Path,
-    stem: &str,
-    image: &Image,
-    exposure: f32,
-) -> Result<(), RenderNodeError> {
-    std::fs::create_dir_all(dir).map_err(|e| RenderNodeError::Write {
-        path: dir.display().to_string(),
-        message: e.to_string(),
-    })?;
-    let err = |e: holocave_tracer::film::FilmError| RenderNodeError::Write {
-        path: dir.join(stem).display().to_string(),
-        message: e.to_string(),
-    };
-    image
-        .write_exr(&dir.join(format!("{stem}.exr")))
-        .map_err(err)?;
-    image
-        .write_png(&dir.join(format!("{stem}.png")), exposure)
-        .map_err(err)
 }
 
 /// Tiles previews into one picture for looking at: one row per entry of `rows`, each image

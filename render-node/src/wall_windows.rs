@@ -204,12 +204,10 @@ pub struct Skew {
 }
 
 impl Skew {
-    /// The `q` quantile (0..=1, nearest rank) of the spreads; `None` when there are none.
+    /// The `q` quantile (0..=1) of the spreads ([`holocave_protocol::stats::quantile`]:
+    /// linear interpolation, numpy's default); `None` when there are none.
     pub fn quantile(&self, q: f64) -> Option<f64> {
-        let mut v = self.spreads.clone();
-        v.sort_by(f64::total_cmp);
-        let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len().max(1)) - 1;
-        v.get(i).copied()
+        holocave_protocol::stats::quantile(&self.spreads, q)
     }
 }
 
@@ -262,8 +260,10 @@ mod tests {
         std::fs::write(&b, "1 1500000\n2 2000000\n").unwrap();
         let skew = present_skew(&[("a".into(), a.clone()), ("b".into(), b)]).unwrap();
         assert_eq!(skew.spreads, vec![0.5, 0.0], "frame 3 is not on every wall");
-        assert_eq!(skew.quantile(0.5), Some(0.0));
-        assert_eq!(skew.quantile(0.99), Some(0.5));
+        // Linear interpolation between the two spreads, 0 and 0.5 ms.
+        assert_eq!(skew.quantile(0.5), Some(0.25));
+        assert!((skew.quantile(0.99).unwrap() - 0.495).abs() < 1e-12);
+        assert_eq!(skew.quantile(1.0), Some(0.5));
         std::fs::write(&a, "1 x\n").unwrap();
         let e = present_skew(&[("a".into(), a)]).unwrap_err();
         assert!(e.contains("time \"x\""), "{e}");

@@ -58,9 +58,8 @@ fn still_viewer_converges_to_the_path_traced_reference() {
         let dir = PathBuf::from(dir);
         let img = display.cache.image(0);
         let exposure = reference.auto_exposure();
-        holocave_render_node::display::write_image(&dir, "still-cache", &img, exposure).unwrap();
-        holocave_render_node::display::write_image(&dir, "still-reference", &reference, exposure)
-            .unwrap();
+        common::write_image(&dir, "still-cache", &img, exposure);
+        common::write_image(&dir, "still-reference", &reference, exposure);
     }
     assert!(
         err < TARGET,

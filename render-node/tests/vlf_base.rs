@@ -163,7 +163,7 @@ fn a_cold_start_shows_the_light_field_and_a_still_viewer_converges() {
         let dir = PathBuf::from(dir);
         let exposure = reference.auto_exposure();
         let img = display.cache.image(0);
-        holocave_render_node::display::write_image(&dir, "vlf-still", &img, exposure).unwrap();
+        common::write_image(&dir, "vlf-still", &img, exposure);
     }
     assert!(
         err < TARGET.min(first * 0.5),

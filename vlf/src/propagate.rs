@@ -213,7 +213,7 @@ pub fn flux(b: &[[f32; 3]], area: &[f32]) -> f64 {
     b.iter()
         .zip(area)
         .map(|(b, a)| {
-            let l = 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2];
+            let l = holocave_scene::luminance(Vec3::from(*b));
             f64::from(l) * f64::from(*a) * std::f64::consts::PI
         })
         .sum()
