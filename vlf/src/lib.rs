@@ -14,6 +14,8 @@
 //! - [`tiles`]: directional radiance tiles for glossy surfaces (which surfaces, how an
 //!   element maps to its tile, the BSDF integrated into the bins);
 //! - [`direct`]: small emitters, punctual lights and the sun by next-event estimation;
+//! - [`pixel_direct`]: the direct light per pixel (the walls' exact part; the bake keeps
+//!   the same part apart so that a view drawing it here takes only the rest);
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
 //! - [`bake`]: the whole bake, its stopping rule and its checkpoints;
 //! - [`file`]: the `.vlf` file;
@@ -42,6 +44,7 @@ pub mod directions;
 pub mod elements;
 pub mod file;
 pub mod octahedral;
+pub mod pixel_direct;
 pub mod propagate;
 pub mod reflection;
 pub mod remote;
@@ -56,5 +59,6 @@ pub use bake::{
 pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
+pub use pixel_direct::{Accumulator, DirectPoint, PixelDirect};
 pub use tiles::Tiles;
 pub use view::{Lookup, Visibility};
