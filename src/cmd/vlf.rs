@@ -447,13 +447,7 @@ fn view(a: ViewArgs) -> Result<()> {
             a.frames.max(1),
             a.aa.max(1).pow(2)
         );
-        vis.render_with_direct(
-            &view,
-            &f.state.indirect_values(),
-            a.aa,
-            &direct,
-            a.frames,
-        )
+        vis.render_with_direct(&view, &f.state.indirect_values(), a.aa, &direct, a.frames)
     };
     let secs = start.elapsed().as_secs_f64();
     image.write_exr(&a.out)?;
@@ -468,9 +462,9 @@ fn view(a: ViewArgs) -> Result<()> {
     if let Some(r) = &a.reference {
         let reference = super::render::read_reference(r, &image)?;
         println!(
-            "relative MSE against {}: {:.5}",
+            "against {}: {}",
             r.display(),
-            image.relative_mse(&reference)
+            holocave_vlf::accuracy::figures(&image, &reference, 16)
         );
     }
     Ok(())

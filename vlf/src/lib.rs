@@ -2,6 +2,7 @@
 //! global-illumination solution that every wall draws at a cost independent of the
 //! lighting.
 //!
+//! - [`accuracy`]: an image's figures against a converged reference;
 //! - [`directions`]: directions spread evenly over the sphere (a geodesic sphere), paired
 //!   into line orientations;
 //! - [`subfield`]: one orientation's parallel subfield — an `N × N` grid of lines over
@@ -38,6 +39,7 @@
 //! tiles at all. The lines are not grouped into the paper's tiles: each line keeps its own
 //! crossings.
 
+pub mod accuracy;
 pub mod bake;
 pub mod direct;
 pub mod directions;

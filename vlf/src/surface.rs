@@ -391,5 +391,4 @@ mod tests {
             assert!(got.max_element() <= 1.0);
         }
     }
-
 }

@@ -180,7 +180,10 @@ impl Visibility {
     /// One lookup per pixel of `view`, through the pixel's centre, rows from the top. The
     /// first hits are found in packets of neighbouring pixels (coherent rays).
     pub fn pixels(&self, view: &WallView) -> Vec<Lookup> {
-        self.pixels_and_points(view).into_iter().map(|(l, _)| l).collect()
+        self.pixels_and_points(view)
+            .into_iter()
+            .map(|(l, _)| l)
+            .collect()
     }
 
     /// As [`Visibility::pixels`], with each pixel's point for the per-pixel direct light.

@@ -145,7 +145,8 @@ fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
     // direction in the disc gives L Ω cos θ_d, which differs from it by at most the
     // relative change of cos θ over the disc, tan θ_s sin r + (1 − cos r) = 0.27 %.
     let s = sun_direction();
-    let lit = f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
+    let lit =
+        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
     let q = quadrature(-0.577, 400);
     assert!(
         (q - lit).abs() < 1e-4 * lit,
@@ -259,18 +260,10 @@ fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
 // lamp's back is black, so the light field's remainder is zero and the whole picture is
 // the direct light.
 fn highlight() -> Scene {
-    let floor = common::quad(
-        Vec3::new(-2.0, 0.0, -2.0),
-        Vec3::Z * 4.0,
-        Vec3::X * 4.0,
-    );
+    let floor = common::quad(Vec3::new(-2.0, 0.0, -2.0), Vec3::Z * 4.0, Vec3::X * 4.0);
     let a = 0.1;
     // The lamp faces −y (a × b = x × z = −y).
-    let lamp = common::quad(
-        Vec3::new(-a, 1.0, -a),
-        Vec3::X * 2.0 * a,
-        Vec3::Z * 2.0 * a,
-    );
+    let lamp = common::quad(Vec3::new(-a, 1.0, -a), Vec3::X * 2.0 * a, Vec3::Z * 2.0 * a);
     let metal = Material {
         name: "metal".into(),
         base_color: Vec4::new(0.9, 0.8, 0.6, 1.0),
@@ -327,7 +320,10 @@ fn drawn(
 ) -> Image {
     let mut image = Image::new(view.width, view.height);
     for (i, px) in image.pixels.iter_mut().enumerate() {
-        let (x, y) = ((i as u32 % view.width) as f32, (i as u32 / view.width) as f32);
+        let (x, y) = (
+            (i as u32 % view.width) as f32,
+            (i as u32 / view.width) as f32,
+        );
         let mut sum = Vec3::ZERO;
         for s in 0..AA * AA {
             let o = Vec2::new(
@@ -365,14 +361,23 @@ fn a_lamps_highlight_on_a_glossy_plane_matches_the_path_tracer() {
     // of both has a quarter of it.
     let frames = 64;
     let a = drawn(&vis, &direct, &view, &state.indirect_values(), 0, frames);
-    let b = drawn(&vis, &direct, &view, &state.indirect_values(), u64::from(frames), frames);
+    let b = drawn(
+        &vis,
+        &direct,
+        &view,
+        &state.indirect_values(),
+        u64::from(frames),
+        frames,
+    );
     let own = a.relative_mse(&b) / 4.0;
     let mut image = Image::new(SIZE, SIZE);
     for (r, (a, b)) in image.pixels.iter_mut().zip(a.pixels.iter().zip(&b.pixels)) {
         *r = (*a + *b) * 0.5;
     }
     let split = image.relative_mse(&reference);
-    let old = vis.render(&view, &state.values(), AA).relative_mse(&reference);
+    let old = vis
+        .render(&view, &state.values(), AA)
+        .relative_mse(&reference);
     let mean = |im: &Image| im.pixels.iter().map(|p| f64::from(p.x)).sum::<f64>();
     let peak = |im: &Image| im.pixels.iter().map(|p| p.x).fold(0f32, f32::max);
     eprintln!(
