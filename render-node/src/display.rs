@@ -1,4 +1,4 @@
-//! One frame of the display process for all eyes of a wall: draw from the cache, choose
+//! A wall display ([`WallDisplay`]) and one frame of it for all eyes: draw from the cache, choose
 //! pixels, have them traced, insert the samples; and the files a headless node writes.
 
 use std::sync::Arc;
@@ -30,8 +30,8 @@ pub struct FrameReport {
     pub vlf: Duration,
 }
 
-/// Where a display process gets its samples.
-pub enum Sampler {
+/// Where a wall display gets its samples (its live feed).
+pub enum SampleFeed {
     /// Traced between frames, on the display's thread (deterministic).
     Inline(PixelTracer),
     /// Traced on a thread of its own: frames never wait for rays.
@@ -42,27 +42,27 @@ pub enum Sampler {
 }
 
 /// The render cache and its sample source.
-pub struct DisplayProcess {
+pub struct WallDisplay {
     pub cache: RenderCache,
-    pub sampler: Sampler,
+    pub feed: SampleFeed,
     /// Samples asked for per eye and frame.
     pub samples_per_eye: u32,
     exposure: Option<f32>,
     vlf: Option<Arc<VlfBase>>,
 }
 
-impl DisplayProcess {
+impl WallDisplay {
     /// True when the samples' source is a holodeck server that is no longer reachable
     /// (the cache still draws; no new samples arrive).
     pub fn source_lost(&self) -> bool {
-        matches!(&self.sampler, Sampler::Holodeck(h) if !h.is_connected())
+        matches!(&self.feed, SampleFeed::Holodeck(h) if !h.is_connected())
     }
 
     /// Traces between frames (synchronous, deterministic).
     pub fn new(cache: RenderCache, source: PixelTracer, samples_per_eye: u32) -> Self {
-        DisplayProcess {
+        WallDisplay {
             cache,
-            sampler: Sampler::Inline(source),
+            feed: SampleFeed::Inline(source),
             samples_per_eye,
             exposure: None,
             vlf: None,
@@ -73,9 +73,9 @@ impl DisplayProcess {
     /// frame inserts whatever has arrived.
     pub fn threaded(cache: RenderCache, source: PixelTracer, samples_per_eye: u32) -> Self {
         let eyes = cache.eye_count();
-        DisplayProcess {
+        WallDisplay {
             cache,
-            sampler: Sampler::Thread(TracerThread::spawn(source, eyes)),
+            feed: SampleFeed::Thread(TracerThread::spawn(source, eyes)),
             samples_per_eye,
             exposure: None,
             vlf: None,
@@ -84,9 +84,9 @@ impl DisplayProcess {
 
     /// Draws from a holodeck server's samples (see [`HolodeckSource`]).
     pub fn holodeck(cache: RenderCache, source: HolodeckSource, samples_per_eye: u32) -> Self {
-        DisplayProcess {
+        WallDisplay {
             cache,
-            sampler: Sampler::Holodeck(source),
+            feed: SampleFeed::Holodeck(source),
             samples_per_eye,
             exposure: None,
             vlf: None,
@@ -108,10 +108,10 @@ impl DisplayProcess {
     pub fn frame(&mut self, views: &[EyeView], timed: bool) -> FrameReport {
         let mut report = FrameReport::default();
         let start = Instant::now();
-        let arrived = match &mut self.sampler {
-            Sampler::Inline(_) => Vec::new(),
-            Sampler::Thread(t) => t.collect(),
-            Sampler::Holodeck(h) => h.collect(),
+        let arrived = match &mut self.feed {
+            SampleFeed::Inline(_) => Vec::new(),
+            SampleFeed::Thread(t) => t.collect(),
+            SampleFeed::Holodeck(h) => h.collect(),
         };
         for (eye, samples) in arrived {
             if eye < self.cache.eye_count() {
@@ -131,15 +131,15 @@ impl DisplayProcess {
         let targets = vec![self.samples_per_eye; views.len()];
         let chosen = self.cache.draw(views, &targets, timed, &mut report.steps);
         report.draw = t.elapsed();
-        if let Sampler::Holodeck(h) = &mut self.sampler {
+        if let SampleFeed::Holodeck(h) = &mut self.feed {
             report.chosen = chosen.iter().map(Vec::len).collect();
             h.submit(views, chosen);
             return report;
         }
         for (eye, (view, pixels)) in views.iter().zip(chosen).enumerate() {
             report.chosen.push(pixels.len());
-            match &mut self.sampler {
-                Sampler::Inline(source) => {
+            match &mut self.feed {
+                SampleFeed::Inline(source) => {
                     let t = Instant::now();
                     let samples = source.sample(view, &pixels);
                     report.trace += t.elapsed();
@@ -148,12 +148,12 @@ impl DisplayProcess {
                     self.cache.insert(eye, &samples);
                     report.insert += t.elapsed();
                 }
-                Sampler::Thread(thread) => {
+                SampleFeed::Thread(thread) => {
                     if !thread.busy(eye) {
                         thread.submit(eye, *view, pixels);
                     }
                 }
-                Sampler::Holodeck(_) => unreachable!("handled above"),
+                SampleFeed::Holodeck(_) => unreachable!("handled above"),
             }
         }
         report

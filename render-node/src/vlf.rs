@@ -14,8 +14,8 @@
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
-use holocave_scene::Scene;
 use holocave_cave::WallView;
+use holocave_scene::Scene;
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::{Accumulator, Lookup, PixelDirect, Visibility};
 

@@ -14,7 +14,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache};
+use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, WallDisplay};
 use holocave_tracer::film::Image;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_tracking::csv_log::read_csv;
@@ -138,7 +138,7 @@ fn follow_a_recorded_trace(run: u64) -> Option<Vec<(f64, f64)>> {
     let n = SIZE * SIZE;
     let budget = n / 16;
     let cache = RenderCache::new(gpu, &[(SIZE, SIZE), (SIZE, SIZE)], 2 * n * 5 / 4, budget);
-    let mut display = DisplayProcess::new(cache, PixelTracer::new(tracer.clone(), 3 + run), budget);
+    let mut display = WallDisplay::new(cache, PixelTracer::new(tracer.clone(), 3 + run), budget);
 
     let mut next = 0usize;
     let mut worst = Duration::ZERO;

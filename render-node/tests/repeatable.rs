@@ -15,7 +15,7 @@ mod common;
 use std::sync::Arc;
 
 use glam::Vec3;
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache};
+use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, WallDisplay};
 use holocave_tracer::{TraceSettings, Tracer};
 
 const SIZE: u32 = 128;
@@ -33,7 +33,7 @@ fn run(tracer: &Arc<Tracer>) -> Run {
     let n = SIZE * SIZE;
     let budget = n / 16;
     let cache = RenderCache::new(gpu, &[(SIZE, SIZE), (SIZE, SIZE)], n * 2, budget);
-    let mut display = DisplayProcess::new(cache, PixelTracer::new(tracer.clone(), 11), budget);
+    let mut display = WallDisplay::new(cache, PixelTracer::new(tracer.clone(), 11), budget);
     let mut chosen = Vec::new();
     for frame in 0..FRAMES {
         let head = common::EYE + Vec3::new(0.01, 0.0, -0.005) * frame as f32;

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache};
+use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, WallDisplay};
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 
 const SIZE: u32 = 64;
@@ -32,7 +32,7 @@ fn still_viewer_converges_to_the_path_traced_reference() {
     eprintln!("adapter: {}", gpu.adapter);
     let n = SIZE * SIZE;
     let cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n + n / 4, n);
-    let mut display = DisplayProcess::new(cache, PixelTracer::new(tracer, 1), n);
+    let mut display = WallDisplay::new(cache, PixelTracer::new(tracer, 1), n);
     let view = EyeView::looking_at(wall, 0.05).unwrap();
 
     let start = Instant::now();

@@ -10,9 +10,9 @@ use std::path::Path;
 use std::sync::Arc;
 
 use glam::{DVec3, Vec2, Vec3, Vec4};
+use holocave_cave::WallView;
 use holocave_scene::{Daylight, Material, Ray, Scene, SceneParts, Sun, TriangleShading};
 use holocave_tracer::film::Image;
-use holocave_cave::WallView;
 use holocave_vlf::{PixelDirect, Settings, Visibility};
 
 fn scene_with(
