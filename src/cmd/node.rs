@@ -183,7 +183,8 @@ pub fn run(args: NodeArgs) -> Result<()> {
                     .join(", ")
             )
         })?;
-    // `--layout` and `--window-*` for this run; a standalone wall draws the layout's eyes.
+    // `--layout` and `--window-*` for this run; a standalone wall keeps its own eyes when
+    // they include the layout's.
     let wall = args.window.wall_for_run(&wall, args.master.is_none())?;
     let size = args.size.unwrap_or((wall.pixels[0], wall.pixels[1]));
     let samples = args
