@@ -3,14 +3,21 @@
 //! exposure, so that the pictures compare by eye: `figures REFERENCE.exr IMAGE.exr…`.
 //! A reference given as `A.exr+B.exr` (two renders with different seeds) is their mean,
 //! written as `A.mean.exr`, and its own noise (a quarter of their relative MSE against
-//! each other) is printed.
+//! each other) is printed. With `--montage OUT.png` first, the reference and the images
+//! are also written side by side into one PNG (at the reference's exposure).
 
 use std::path::Path;
 
 use holocave_tracer::film::Image;
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let montage =
+        (args.first().map(String::as_str) == Some("--montage") && args.len() > 1).then(|| {
+            let out = args[1].clone();
+            args.drain(..2);
+            out
+        });
     let Some((reference, images)) = args.split_first() else {
         eprintln!("usage: figures REFERENCE.exr IMAGE.exr…");
         std::process::exit(2);
@@ -40,12 +47,32 @@ fn main() {
         None => read(reference),
     };
     let exposure = r.auto_exposure();
+    let mut all = vec![r.clone()];
     for p in images {
         let image = read(p);
+        all.push(image.clone());
         println!("{p}: {}", holocave_vlf::accuracy::figures(&image, &r, 16));
         let png = Path::new(p).with_extension("same.png");
         if let Err(e) = image.write_png(&png, exposure) {
             eprintln!("{}: {e}", png.display());
+        }
+    }
+    if let Some(out) = montage {
+        // Side by side with a 4-pixel black gap.
+        let gap = 4;
+        let (w, h) = (r.width, r.height);
+        let n = all.len() as u32;
+        let mut m = Image::new(n * w + (n - 1) * gap, h);
+        for (k, im) in all.iter().enumerate() {
+            for y in 0..h {
+                for x in 0..w {
+                    let at = (y * m.width + k as u32 * (w + gap) + x) as usize;
+                    m.pixels[at] = im.at(x, y);
+                }
+            }
+        }
+        if let Err(e) = m.write_png(Path::new(&out), exposure) {
+            eprintln!("{out}: {e}");
         }
     }
 }

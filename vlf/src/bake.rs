@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use crate::direct::direct_irradiance;
 use crate::directions::Directions;
 use crate::elements::{Elements, cell_index};
+use crate::pools::Pools;
 use crate::propagate::{Lines, Sending, bounce, flux};
 use crate::reflection::Reflection;
 use crate::subfield::{Grid, Sphere, Subfield, cast};
@@ -552,7 +553,9 @@ pub fn bake_with<E>(
     let start = Instant::now();
     let line_dirs = &directions.lines;
     let reflection = Reflection::new(&tiles);
+    let pools = Pools::new(scene, elements, &tiles, &area, &needed, least);
     let lines = Lines {
+        pools: Some(&pools),
         subfields: &subfields,
         dirs: line_dirs,
         weight: &weight,

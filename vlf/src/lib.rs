@@ -50,6 +50,7 @@ pub mod elements;
 pub mod file;
 pub mod octahedral;
 pub mod pixel_direct;
+pub mod pools;
 pub mod propagate;
 pub mod reflection;
 pub mod remote;

@@ -229,8 +229,9 @@ impl Visibility {
 
     /// `view` drawn as the walls draw it: the light field's remainder (`values`:
     /// [`crate::State::indirect_values`]) plus the direct light computed per pixel
-    /// (`direct`), each of the `k × k` lookups per pixel with the mean of `frames`
-    /// estimates — what a still wall shows after `frames` frames.
+    /// (`direct`), each of the `k × k` lookups per pixel with the mean of the estimates a
+    /// still wall has after `frames` frames ([`PixelDirect::first_estimates`] on the
+    /// first, one on each later one).
     pub fn render_with_direct(
         &self,
         view: &WallView,
@@ -240,7 +241,7 @@ impl Visibility {
         frames: u32,
     ) -> Image {
         let k = k.max(1);
-        let frames = frames.max(1);
+        let estimates = direct.first_estimates() + frames.max(1) - 1;
         let mut image = Image::new(view.width, view.height);
         let w = view.width as usize;
         image.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
@@ -255,7 +256,7 @@ impl Visibility {
                 sum += shade_one(&l, values);
                 if let Some(p) = p {
                     let seed = (i as u64) * u64::from(k * k) + u64::from(s);
-                    sum += direct.mean(&p, seed, 0, frames);
+                    sum += direct.mean(&p, seed, 0, estimates);
                 }
             }
             *px = sum / (k * k) as f32;
