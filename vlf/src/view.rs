@@ -209,22 +209,7 @@ impl Visibility {
     /// image for comparison with a path-traced one; the render node uses one).
     /// `values`: the elements' irradiance, then the tiles' radiance ([`crate::State::values`]).
     pub fn render(&self, view: &WallView, values: &[[f32; 3]], k: u32) -> Image {
-        let k = k.max(1);
-        let mut image = Image::new(view.width, view.height);
-        let w = view.width as usize;
-        image.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
-            let (x, y) = ((i % w) as f32, (i / w) as f32);
-            let mut sum = Vec3::ZERO;
-            for s in 0..k * k {
-                let o = Vec2::new(
-                    ((s % k) as f32 + 0.5) / k as f32,
-                    ((s / k) as f32 + 0.5) / k as f32,
-                );
-                sum += shade_one(&self.lookup(view.ray(Vec2::new(x, y) + o)), values);
-            }
-            *px = sum / (k * k) as f32;
-        });
-        image
+        self.render_lookups(view, values, k, None, 1)
     }
 
     /// `view` drawn as the walls draw it: the light field's remainder (`values`:
@@ -240,8 +225,20 @@ impl Visibility {
         direct: &PixelDirect,
         frames: u32,
     ) -> Image {
+        self.render_lookups(view, values, k, Some(direct), frames)
+    }
+
+    /// `k × k` lookups per pixel, each with the direct light per pixel when given.
+    fn render_lookups(
+        &self,
+        view: &WallView,
+        values: &[[f32; 3]],
+        k: u32,
+        direct: Option<&PixelDirect>,
+        frames: u32,
+    ) -> Image {
         let k = k.max(1);
-        let estimates = direct.first_estimates() + frames.max(1) - 1;
+        let estimates = direct.map_or(0, |d| d.first_estimates() + frames.max(1) - 1);
         let mut image = Image::new(view.width, view.height);
         let w = view.width as usize;
         image.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
@@ -252,7 +249,12 @@ impl Visibility {
                     ((s % k) as f32 + 0.5) / k as f32,
                     ((s / k) as f32 + 0.5) / k as f32,
                 );
-                let (l, p) = self.lookup_and_point(view.ray(Vec2::new(x, y) + o));
+                let ray = view.ray(Vec2::new(x, y) + o);
+                let Some(direct) = direct else {
+                    sum += shade_one(&self.lookup(ray), values);
+                    continue;
+                };
+                let (l, p) = self.lookup_and_point(ray);
                 sum += shade_one(&l, values);
                 if let Some(p) = p {
                     let seed = (i as u64) * u64::from(k * k) + u64::from(s);

@@ -6,12 +6,11 @@
 
 mod common;
 
-use std::path::Path;
 use std::sync::Arc;
 
 use glam::{DVec3, Vec2, Vec3, Vec4};
 use holocave_cave::WallView;
-use holocave_scene::{Daylight, Material, Ray, Scene, SceneParts, Sun, TriangleShading};
+use holocave_scene::{Daylight, Material, Ray, Scene, Sun};
 use holocave_tracer::film::Image;
 use holocave_vlf::{PixelDirect, Settings, Visibility};
 
@@ -21,22 +20,7 @@ fn scene_with(
     materials: Vec<Material>,
     daylight: Daylight,
 ) -> Scene {
-    let parts = SceneParts {
-        name: name.into(),
-        positions: triangles.iter().map(|(t, _)| *t).collect(),
-        shading: triangles
-            .iter()
-            .map(|&(_, material)| TriangleShading {
-                normals: None,
-                uvs: [Vec2::ZERO; 3],
-                material,
-            })
-            .collect(),
-        materials,
-        daylight,
-        ..SceneParts::default()
-    };
-    Scene::from_parts(parts, Path::new(name)).expect("a valid test scene")
+    common::scene_of(name, triangles, materials, |p| p.daylight = daylight)
 }
 
 // The slit: an opaque plane at height H with a gap of width W along z, over a Lambertian

@@ -30,14 +30,15 @@ pub fn quad(o: Vec3, a: Vec3, b: Vec3) -> [[Vec3; 3]; 2] {
     [[o, o + a, o + b], [o + a + b, o + b, o + a]]
 }
 
-/// A scene of `(triangle, material)` pairs.
-pub fn scene(
+/// A scene of `(triangle, material)` pairs, with `more` filling in the rest of its parts
+/// (lights, daylight).
+pub fn scene_of(
     name: &str,
     triangles: &[([Vec3; 3], u32)],
     materials: Vec<Material>,
-    lights: Vec<PunctualLight>,
+    more: impl FnOnce(&mut SceneParts),
 ) -> Scene {
-    let parts = SceneParts {
+    let mut parts = SceneParts {
         name: name.into(),
         positions: triangles.iter().map(|(t, _)| *t).collect(),
         shading: triangles
@@ -49,10 +50,20 @@ pub fn scene(
             })
             .collect(),
         materials,
-        lights,
         ..SceneParts::default()
     };
+    more(&mut parts);
     Scene::from_parts(parts, Path::new(name)).expect("a valid test scene")
+}
+
+/// A scene of `(triangle, material)` pairs lit by `lights`.
+pub fn scene(
+    name: &str,
+    triangles: &[([Vec3; 3], u32)],
+    materials: Vec<Material>,
+    lights: Vec<PunctualLight>,
+) -> Scene {
+    scene_of(name, triangles, materials, |p| p.lights = lights)
 }
 
 /// The cube `[0, side]³`, every face facing inwards, all of one material.
