@@ -392,6 +392,28 @@ impl GpuRays {
     }
 }
 
+/// The adapter under `gpu`: name, backend and driver, type, every feature it offers and
+/// its limits (what a GPU figure is read beside).
+pub fn adapter_report(gpu: &Gpu) -> String {
+    let info = gpu.raw_adapter.get_info();
+    format!(
+        "adapter: {} ({:?}, {:?}, driver {} {}, vendor {:#06x}, device {:#06x})\n\
+         features: {:?}\nlimits: {:#?}\ndevice limits requested: max storage buffer binding {} B, \
+         max compute workgroups per dimension {}",
+        info.name,
+        info.device_type,
+        info.backend,
+        info.driver,
+        info.driver_info,
+        info.vendor,
+        info.device,
+        gpu.raw_adapter.features(),
+        gpu.raw_adapter.limits(),
+        gpu.device.limits().max_storage_buffer_binding_size,
+        gpu.device.limits().max_compute_workgroups_per_dimension,
+    )
+}
+
 /// How far two roundings of Möller–Trumbore, one of them on the GPU, may part for a ray
 /// (unit direction) meeting `tri` at `t`: in `t`, `u` and `v` (see the module's
 /// "Exactness"). To first order each product and sum errs by a few ε of its terms'
