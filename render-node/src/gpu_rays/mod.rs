@@ -12,19 +12,21 @@
 //!   eight, eight child words (inner node, leaf of one to four triangles, or empty) and, per
 //!   octant of ray directions, the order the children are met in. 32 bytes per child box,
 //!   as in a binary BVH (two boxes and two links in 64 bytes), but a seventh as many nodes:
-//!   each visit is eight independent box tests, a loop of fixed length that a walker
-//!   without subgroup operations runs in lock step across invocations (lavapipe compiles
-//!   invocations to the lanes of the CPU's SIMD registers, so a loop whose trip count
-//!   varies per lane costs every lane the longest; the fixed eight-slot loop does not
-//!   diverge), and a seventh as many pops of the stack, where lanes do diverge;
+//!   each visit is the eight children's box tests as two four-lane tests read with twelve
+//!   16-byte loads (the CPU's SIMD test, written in `vec4`s; testing slot by slot with
+//!   4-byte loads ran Sponza's primary rays three times slower on lavapipe), the same work
+//!   for every invocation, so a walker without subgroup operations runs it in lock step
+//!   (lavapipe compiles invocations to the lanes of the CPU's SIMD registers: a loop whose
+//!   trip count varies per lane costs every lane the longest), and a seventh as many pops
+//!   of the stack, where lanes do diverge;
 //! - **a triangle slot is 48 bytes**: first vertex and the scene's triangle index, two
 //!   edges, four slots per leaf block (the CPU's blocks, lane by lane), so the GPU runs the
 //!   CPU's Möller–Trumbore with its widened edges on the same numbers;
 //! - **the stack**: a walk pushes every child it enters (far to near, by the node's stored
 //!   order for the ray's octant, no sort) and pops the nearest; at most seven entries per
-//!   level plus eight, [`holocave_scene::bvh::FlatBvh::stack_size`] (e.g. 78 entries for a
-//!   tree eleven levels deep), eight bytes each (child word, entry distance) for closest hit
-//!   and four for any hit, in private memory. A binary tree of the same scene is three times
+//!   level plus eight, [`holocave_scene::bvh::FlatBvh::stack_size`] (Sponza: 92 entries; its
+//!   ray sets hold at most 27), eight bytes each (child word, entry distance) for closest
+//!   hit and four for any hit, in private memory. A binary tree of the same scene is three times
 //!   as deep and needs a stack of its depth, smaller, but pays three times the pops.
 //!
 //! Why not a compressed wide BVH (Ylitie et al. 2017, 80 bytes a node with boxes quantised

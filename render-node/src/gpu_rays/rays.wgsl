@@ -2,12 +2,13 @@
 // over the scene's eight-wide BVH (holocave_scene::bvh::FlatBvh), one ray per invocation.
 // The Rust side prepends `const RAY_STACK: u32 = …;` (the tree's stack size).
 
-// One node: child `slot`'s box in planes[8 * row + slot] (rows min x, y, z, max x, y, z),
+// One node: child `slot`'s box in plane rows min x, y, z, max x, y, z of eight lanes each,
+// read four lanes at a time (planes[2 * row + half] holds slots 4 · half to 4 · half + 3),
 // the children's words, and per octant the slots from the one met last to the one met first.
 struct RayNode {
-    planes: array<f32, 48>,
-    children: array<u32, 8>,
-    order: array<u32, 8>,
+    planes: array<vec4<f32>, 12>,
+    children: array<vec4<u32>, 2>,
+    order: array<vec4<u32>, 2>,
 }
 
 // One triangle slot: first vertex and the caller's triangle index, the two edges.
@@ -87,27 +88,34 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(1.0) / select(m, -m, d < vec3<f32>(0.0));
 }
 
-// Enters child `slot` of `node` before `bound`? Returns the entry distance, or -1 for a
-// miss. `o` origin, `inv` inverse direction, `neg` which axes run negative.
-fn enter(node: u32, slot: u32, o: vec3<f32>, inv: vec3<f32>, neg: vec3<bool>, bound: f32) -> f32 {
-    let lo = vec3<f32>(
-        ray_nodes[node].planes[slot],
-        ray_nodes[node].planes[8u + slot],
-        ray_nodes[node].planes[16u + slot],
-    );
-    let hi = vec3<f32>(
-        ray_nodes[node].planes[24u + slot],
-        ray_nodes[node].planes[32u + slot],
-        ray_nodes[node].planes[40u + slot],
-    );
-    let a = (select(lo, hi, neg) - o) * inv;
-    let b = (select(hi, lo, neg) - o) * inv;
-    let t_near = max(max(a.x, a.y), max(a.z, 0.0));
-    let t_far = min(min(b.x, b.y), b.z) * FAR_GROW;
-    if (t_near <= min(t_far, bound)) {
-        return t_near;
-    }
-    return -1.0;
+// The entry distances of a node's eight children (slots 0-3, 4-7), -1 for a child the
+// ray does not enter before `bound`: the CPU's slab test four lanes at a time. `o` origin,
+// `inv` inverse direction, `neg` which axes run negative.
+struct Entries {
+    lo: vec4<f32>,
+    hi: vec4<f32>,
+}
+
+fn enter_half(node: u32, half: u32, o: vec3<f32>, inv: vec3<f32>, neg: vec3<bool>, bound: f32) -> vec4<f32> {
+    let min_x = ray_nodes[node].planes[half];
+    let min_y = ray_nodes[node].planes[2u + half];
+    let min_z = ray_nodes[node].planes[4u + half];
+    let max_x = ray_nodes[node].planes[6u + half];
+    let max_y = ray_nodes[node].planes[8u + half];
+    let max_z = ray_nodes[node].planes[10u + half];
+    let ax = (select(min_x, max_x, neg.x) - o.x) * inv.x;
+    let ay = (select(min_y, max_y, neg.y) - o.y) * inv.y;
+    let az = (select(min_z, max_z, neg.z) - o.z) * inv.z;
+    let bx = (select(max_x, min_x, neg.x) - o.x) * inv.x;
+    let by = (select(max_y, min_y, neg.y) - o.y) * inv.y;
+    let bz = (select(max_z, min_z, neg.z) - o.z) * inv.z;
+    let t_near = max(max(ax, ay), max(az, vec4<f32>(0.0)));
+    let t_far = min(min(bx, by), bz) * FAR_GROW;
+    return select(vec4<f32>(-1.0), t_near, t_near <= min(t_far, vec4<f32>(bound)));
+}
+
+fn enter(node: u32, o: vec3<f32>, inv: vec3<f32>, neg: vec3<bool>, bound: f32) -> Entries {
+    return Entries(enter_half(node, 0u, o, inv, neg, bound), enter_half(node, 1u, o, inv, neg, bound));
 }
 
 struct TriHit {
@@ -176,14 +184,15 @@ fn closest(r: GpuRay) -> vec4<u32> {
             continue;
         }
         if ((child & CHILD_LEAF) == 0u) {
+            let e = enter(child, o, inv, neg, best);
+            var order = ray_nodes[child].order;
+            var children = ray_nodes[child].children;
             for (var k = 0u; k < 8u; k += 1u) {
-                let slot = (ray_nodes[child].order[k] >> shift) & 7u;
-                let c = ray_nodes[child].children[slot];
-                if (c == CHILD_EMPTY) {
-                    continue;
-                }
-                let t = enter(child, slot, o, inv, neg, best);
-                if (t >= 0.0 && top < RAY_STACK) {
+                let slot = (order[k / 4u][k % 4u] >> shift) & 7u;
+                let t = select(e.lo[slot % 4u], e.hi[slot % 4u], slot >= 4u);
+                let c = children[slot / 4u][slot % 4u];
+                // An empty slot's box is inverted (never entered); its word is checked too.
+                if (t >= 0.0 && c != CHILD_EMPTY && top < RAY_STACK) {
                     stack_child[top] = c;
                     stack_t[top] = t;
                     top += 1u;
@@ -236,13 +245,14 @@ fn any_hit(r: GpuRay) -> u32 {
         top -= 1u;
         let child = stack[top];
         if ((child & CHILD_LEAF) == 0u) {
+            let e = enter(child, o, inv, neg, r.tmax);
+            var order = ray_nodes[child].order;
+            var children = ray_nodes[child].children;
             for (var k = 0u; k < 8u; k += 1u) {
-                let slot = (ray_nodes[child].order[k] >> shift) & 7u;
-                let c = ray_nodes[child].children[slot];
-                if (c == CHILD_EMPTY) {
-                    continue;
-                }
-                if (enter(child, slot, o, inv, neg, r.tmax) >= 0.0 && top < RAY_STACK) {
+                let slot = (order[k / 4u][k % 4u] >> shift) & 7u;
+                let t = select(e.lo[slot % 4u], e.hi[slot % 4u], slot >= 4u);
+                let c = children[slot / 4u][slot % 4u];
+                if (t >= 0.0 && c != CHILD_EMPTY && top < RAY_STACK) {
                     stack[top] = c;
                     top += 1u;
                 }
