@@ -36,6 +36,14 @@ impl Watched {
         Ok(Watched { name, child })
     }
 
+    /// Watches `child`, started elsewhere, as `name`.
+    pub fn adopt(name: impl Into<String>, child: Child) -> Watched {
+        Watched {
+            name: name.into(),
+            child,
+        }
+    }
+
     /// Waits up to `limit` for the child to exit by itself; `None` if it has not.
     pub fn wait_for(&mut self, limit: Duration) -> Option<ExitStatus> {
         let end = Instant::now() + limit;

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 
-use common::{Proc, holocave, root, scratch, start_master};
+use common::{Watched, holocave, require, root, scratch, start_master};
 use holocave_cave::{CaveFrusta, load_cave};
 use holocave_master::frame_state::{FrameTimes, frame_state};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
@@ -35,7 +35,7 @@ const RATE: f64 = 20.0;
 const DEAD_NODE_MS: u64 = 1000;
 
 /// Starts `holocave master` on an ephemeral port; returns it, its address and its stdout.
-fn master(extra: &[&str], secret: &str) -> (Proc, String, BufReader<ChildStdout>) {
+fn master(extra: &[&str], secret: &str) -> (Watched, String, BufReader<ChildStdout>) {
     let mut c = holocave();
     c.args(["master", "--config", CONFIG, "--listen", "127.0.0.1:0"])
         .args(["--rate", &RATE.to_string()])
@@ -46,18 +46,19 @@ fn master(extra: &[&str], secret: &str) -> (Proc, String, BufReader<ChildStdout>
 }
 
 /// Starts a render node for `wall` that writes images of frame 0 only.
-fn node(addr: &str, wall: &str, out: &Path, secret: &str) -> Proc {
+fn node(addr: &str, wall: &str, out: &Path, secret: &str) -> Watched {
     node_every(addr, wall, out, secret, 1_000_000)
 }
 
 /// Starts a render node for `wall` that writes its images every `every` frames.
-fn node_every(addr: &str, wall: &str, out: &Path, secret: &str, every: u64) -> Proc {
+fn node_every(addr: &str, wall: &str, out: &Path, secret: &str, every: u64) -> Watched {
     node_with(addr, wall, out, secret, &["--every", &every.to_string()])
 }
 
 /// Starts a render node for `wall` with extra arguments.
-fn node_with(addr: &str, wall: &str, out: &Path, secret: &str, extra: &[&str]) -> Proc {
-    Proc(
+fn node_with(addr: &str, wall: &str, out: &Path, secret: &str, extra: &[&str]) -> Watched {
+    Watched::adopt(
+        "node",
         holocave()
             .args(["node", "--master", addr, "--wall", wall, "--headless"])
             .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
@@ -127,7 +128,7 @@ fn lockstep_run(
         &["--frames", &frames.to_string(), "--wait-for-walls", "60"],
         SECRET,
     );
-    let nodes: Vec<Proc> = WALLS
+    let nodes: Vec<Watched> = WALLS
         .iter()
         .map(|w| {
             let args = extra(w);
@@ -136,13 +137,13 @@ fn lockstep_run(
         })
         .collect();
     let (status, _, err) = m.finish(Duration::from_secs(120));
-    assert!(status.success(), "master failed: {err}");
+    assert!(status.is_some_and(|s| s.success()), "master failed: {err}");
     let mut summary = String::new();
     stdout.read_to_string(&mut summary).unwrap();
     println!("{summary}");
     for n in nodes {
         let (status, _, err) = n.finish(Duration::from_secs(30));
-        assert!(status.success(), "a node failed: {err}");
+        assert!(status.is_some_and(|s| s.success()), "a node failed: {err}");
     }
     let logs: Vec<Vec<u64>> = WALLS.iter().map(|w| presented(&out, w)).collect();
     for (wall, log) in WALLS.iter().zip(&logs) {
@@ -215,12 +216,12 @@ fn a_slow_wall_holds_every_wall_on_the_same_frames_and_sets_the_pace() {
 fn a_hung_node_is_declared_out_at_the_timeout_and_rejoins_when_it_resumes() {
     let out = scratch("hung");
     let (m, addr, _stdout) = master(&["--seconds", "60", "--wait-for-walls", "60"], SECRET);
-    let nodes: Vec<Proc> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
+    let nodes: Vec<Watched> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
     wait_until(Duration::from_secs(60), "every wall presenting", || {
         WALLS.iter().all(|w| presented(&out, w).len() >= 10)
     });
     // SIGSTOP the front node: its socket stays open, it just stops answering.
-    let pid = nodes[0].0.id().to_string();
+    let pid = nodes[0].child.id().to_string();
     let signal = |s: &str| {
         let ok = Command::new("kill").args([s, &pid]).status().unwrap();
         assert!(ok.success(), "kill {s} {pid}");
@@ -282,7 +283,7 @@ fn a_hung_node_is_declared_out_at_the_timeout_and_rejoins_when_it_resumes() {
 fn a_killed_node_leaves_the_others_at_full_rate_and_its_restart_rejoins() {
     let out = scratch("kill");
     let (m, addr, _stdout) = master(&["--seconds", "60", "--wait-for-walls", "60"], SECRET);
-    let mut nodes: Vec<Option<Proc>> = WALLS
+    let mut nodes: Vec<Option<Watched>> = WALLS
         .iter()
         .map(|w| Some(node(&addr, w, &out, SECRET)))
         .collect();
@@ -290,7 +291,7 @@ fn a_killed_node_leaves_the_others_at_full_rate_and_its_restart_rejoins() {
         WALLS.iter().all(|w| presented(&out, w).len() >= 20)
     });
     // SIGKILL the front node: no goodbye, the socket just dies.
-    nodes[0].take().unwrap().0.kill().unwrap();
+    nodes[0].take().unwrap().child.kill().unwrap();
     let killed_at = *presented(&out, "front").last().unwrap();
     let others = &WALLS[1..];
     let start = others
@@ -365,14 +366,14 @@ fn a_node_with_a_wrong_secret_is_refused_and_the_master_says_why() {
     let (m, addr, _stdout) = master(&["--seconds", "20"], SECRET);
     let (status, _, err) =
         node(&addr, "front", &out, "not-the-secret").finish(Duration::from_secs(60));
-    assert!(!status.success());
+    assert!(status.is_some_and(|s| !s.success()));
     assert!(err.contains("authentication"), "node said: {err}");
     // No secret at all: the node refuses to start, naming the setting.
     let (status, _, err) = node(&addr, "left", &out, "").finish(Duration::from_secs(60));
-    assert!(!status.success());
+    assert!(status.is_some_and(|s| !s.success()));
     assert!(err.contains("cluster.secret"), "node said: {err}");
     let mut m = m;
-    m.0.kill().unwrap();
+    m.child.kill().unwrap();
     let (_, _, master_err) = m.finish(Duration::from_secs(10));
     assert!(
         master_err.contains("refused a connection") && master_err.contains("authentication"),
@@ -427,7 +428,7 @@ fn attack(addr: &str, kind: u64, rng: &mut XorShift) {
 fn garbage_sent_to_the_master_does_not_disturb_the_honest_nodes() {
     let out = scratch("fuzz-master");
     let (m, addr, _stdout) = master(&["--seconds", "60", "--wait-for-walls", "60"], SECRET);
-    let nodes: Vec<Proc> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
+    let nodes: Vec<Watched> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
     wait_until(Duration::from_secs(60), "every wall presenting", || {
         WALLS.iter().all(|w| presented(&out, w).len() >= 10)
     });
@@ -463,7 +464,7 @@ fn garbage_sent_to_the_master_does_not_disturb_the_honest_nodes() {
         );
     }
     let mut m = m;
-    m.0.kill().unwrap();
+    m.child.kill().unwrap();
     let (_, _, err) = m.finish(Duration::from_secs(10));
     let refused = err.matches("refused a connection").count();
     println!(
@@ -543,7 +544,7 @@ fn injected_and_replayed_messages_to_the_master_are_refused() {
     s2.write_all(&sealed).unwrap();
     s2.write_all(&sealed).unwrap();
     let (status, _, err) = m.finish(Duration::from_secs(30));
-    assert!(status.success(), "master failed: {err}");
+    assert!(status.is_some_and(|s| s.success()), "master failed: {err}");
     let forged: Vec<&str> = err
         .lines()
         .filter(|l| l.contains("failed authentication"))
@@ -625,7 +626,7 @@ fn garbage_from_the_master_makes_a_node_reconnect_and_serve_the_honest_master() 
     };
     sealer.write(&mut s, &bye, MAX_CLUSTER_FRAME).unwrap();
     let (status, _, err) = n.finish(Duration::from_secs(30));
-    assert!(status.success(), "node failed: {err}");
+    assert!(status.is_some_and(|s| s.success()), "node failed: {err}");
     // Frame 2 was drawn once (the replay of its state was refused, not shown).
     assert_eq!(presented(&out, "front"), (100..110).collect::<Vec<_>>());
     assert!(err.matches("reconnecting").count() >= 5, "node said: {err}");
@@ -640,18 +641,10 @@ fn garbage_from_the_master_makes_a_node_reconnect_and_serve_the_honest_master() 
 #[test]
 fn replay_sends_the_same_frame_states_bit_for_bit() {
     let dir = scratch("replay");
-    let log = root().join("../shared/tracking/pred6dof/2.csv");
-    let tracker = if log.exists() {
-        format!("file:{}", log.display())
-    } else {
-        // CI sets HOLOCAVE_REQUIRE_SHARED=1: there, a missing trace is a failure.
-        assert!(
-            std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "HOLOCAVE_REQUIRE_SHARED=1 and {} is absent",
-            log.display()
-        );
-        eprintln!("{} absent: replaying a synthetic shake", log.display());
-        "synthetic:shake".to_owned()
+    let tracker = match require::shared_or("tracking/pred6dof/2.csv", "replaying a synthetic shake")
+    {
+        Some(log) => format!("file:{}", log.display()),
+        None => "synthetic:shake".to_owned(),
     };
     let run = |name: &str, tracker: &str| {
         let states = dir.join(name);
@@ -669,7 +662,7 @@ fn replay_sends_the_same_frame_states_bit_for_bit() {
             SECRET,
         );
         let (status, _, err) = m.finish(Duration::from_secs(60));
-        assert!(status.success(), "{err}");
+        assert!(status.is_some_and(|s| s.success()), "{err}");
         std::fs::read(states).unwrap()
     };
     let (a, b) = (run("a.bin", &tracker), run("b.bin", &tracker));
@@ -682,7 +675,7 @@ fn replay_sends_the_same_frame_states_bit_for_bit() {
 
 /// Starts `holocave master` hosting the holodeck `hdk`; returns it, its address for nodes
 /// and the holodeck's address for workers (from its stdout).
-fn holodeck_master(hdk: &Path, frames: u64) -> (Proc, String, String, BufReader<ChildStdout>) {
+fn holodeck_master(hdk: &Path, frames: u64) -> (Watched, String, String, BufReader<ChildStdout>) {
     let hdk = hdk.to_str().unwrap();
     let (m, addr, mut out) = master(
         &[
@@ -725,19 +718,19 @@ fn coverage(png: &Path) -> f64 {
 /// Waits for the master and then its nodes to exit successfully; the master's stdout (its
 /// summary) and each node's stderr.
 fn finish_all(
-    m: Proc,
+    m: Watched,
     mut m_out: BufReader<ChildStdout>,
-    nodes: Vec<Proc>,
+    nodes: Vec<Watched>,
 ) -> (String, Vec<String>) {
     let (status, _, err) = m.finish(Duration::from_secs(120));
-    assert!(status.success(), "master failed: {err}");
+    assert!(status.is_some_and(|s| s.success()), "master failed: {err}");
     let mut summary = String::new();
     m_out.read_to_string(&mut summary).unwrap();
     let errs = nodes
         .into_iter()
         .map(|n| {
             let (status, _, err) = n.finish(Duration::from_secs(30));
-            assert!(status.success(), "node failed: {err}");
+            assert!(status.is_some_and(|s| s.success()), "node failed: {err}");
             err
         })
         .collect();
@@ -759,7 +752,8 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
     // Run 1: an empty holodeck in the master, one worker process tracing what the walls
     // ask for.
     let (m, addr, holodeck, m_out) = holodeck_master(&hdk, 60);
-    let worker = Proc(
+    let worker = Watched::adopt(
+        "holocave",
         holocave()
             .args(["worker", "--server", &holodeck, "--scene", SCENE])
             .env("HOLOCAVE_SECRET", SECRET)
@@ -769,7 +763,7 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
             .expect("start holocave worker"),
     );
     let run1 = out.join("run1");
-    let nodes: Vec<Proc> = walls
+    let nodes: Vec<Watched> = walls
         .iter()
         .map(|w| node_every(&addr, w, &run1, SECRET, 20))
         .collect();
@@ -792,7 +786,7 @@ fn the_masters_holodeck_feeds_the_nodes_and_a_second_run_starts_from_it() {
     // core: the margin is for a machine slower to answer the walls' requests.
     let (m, addr, holodeck, m_out) = holodeck_master(&hdk, 20);
     let run2 = out.join("run2");
-    let nodes: Vec<Proc> = walls
+    let nodes: Vec<Watched> = walls
         .iter()
         .map(|w| node_every(&addr, w, &run2, SECRET, 1))
         .collect();
@@ -848,7 +842,7 @@ fn a_node_whose_holodeck_dies_goes_on_tracing_locally() {
         SECRET,
     );
     let (status, _, err) = m.finish(Duration::from_secs(60));
-    assert!(status.success(), "master failed: {err}");
+    assert!(status.is_some_and(|s| s.success()), "master failed: {err}");
 
     // The holodeck on its own host, the master pointing the nodes at it.
     let mut serve = holocave()
@@ -874,7 +868,7 @@ fn a_node_whose_holodeck_dies_goes_on_tracing_locally() {
         .strip_prefix("holodeck workers and displays may connect to ")
         .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
         .to_owned();
-    let mut serve = Proc(serve);
+    let mut serve = Watched::adopt("holodeck serve", serve);
     let frames = 100;
     let (m, addr, m_out) = master(
         &[
@@ -887,13 +881,13 @@ fn a_node_whose_holodeck_dies_goes_on_tracing_locally() {
         ],
         SECRET,
     );
-    let nodes: Vec<Proc> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
+    let nodes: Vec<Watched> = WALLS.iter().map(|w| node(&addr, w, &out, SECRET)).collect();
     wait_until(Duration::from_secs(60), "20 frames", || {
         presented(&out, "front").len() >= 20
     });
     // The holodeck's host dies.
-    serve.0.kill().unwrap();
-    serve.0.wait().unwrap();
+    serve.child.kill().unwrap();
+    serve.child.wait().unwrap();
     let killed_at = *presented(&out, "front").last().unwrap();
 
     let (summary, errs) = finish_all(m, m_out, nodes);

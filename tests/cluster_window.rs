@@ -11,7 +11,7 @@ use std::path::Path;
 use std::process::{ChildStdout, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{Proc, holocave, scratch, start_master};
+use common::{Watched, holocave, scratch, start_master};
 use xvfb::{WindowManager, Xvfb};
 
 const CONFIG: &str = "configs/cave4-room.toml";
@@ -22,7 +22,7 @@ const RATE: &str = "20";
 /// Generous: a loaded CI machine must not declare a live node out.
 const DEAD_NODE_MS: &str = "1000";
 
-fn master(frames: u64) -> (Proc, String, BufReader<ChildStdout>) {
+fn master(frames: u64) -> (Watched, String, BufReader<ChildStdout>) {
     let mut c = holocave();
     c.args(["master", "--config", CONFIG, "--listen", "127.0.0.1:0"])
         .args(["--rate", RATE, "--dead-node-ms", DEAD_NODE_MS])
@@ -34,7 +34,7 @@ fn master(frames: u64) -> (Proc, String, BufReader<ChildStdout>) {
 
 /// A node for `wall` writing its presented log under `out`: in a window on `x` (placed so
 /// the four do not overlap), or headless.
-fn node(addr: &str, wall: &str, out: &Path, x: Option<&Xvfb>) -> Proc {
+fn node(addr: &str, wall: &str, out: &Path, x: Option<&Xvfb>) -> Watched {
     let mut c = holocave();
     c.args(["node", "--master", addr, "--wall", wall])
         .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
@@ -59,7 +59,7 @@ fn node(addr: &str, wall: &str, out: &Path, x: Option<&Xvfb>) -> Proc {
             c.arg("--headless");
         }
     }
-    Proc(c.spawn().expect("start holocave node"))
+    Watched::adopt("node", c.spawn().expect("start holocave node"))
 }
 
 fn presented(out: &Path, wall: &str) -> Vec<u64> {
@@ -70,16 +70,19 @@ fn presented(out: &Path, wall: &str) -> Vec<u64> {
 fn lockstep(name: &str, frames: u64, x: Option<&Xvfb>) -> Vec<Vec<u64>> {
     let out = scratch(name);
     let (m, addr, mut stdout) = master(frames);
-    let nodes: Vec<Proc> = WALLS.iter().map(|w| node(&addr, w, &out, x)).collect();
+    let nodes: Vec<Watched> = WALLS.iter().map(|w| node(&addr, w, &out, x)).collect();
     let (status, _, err) = m.finish(Duration::from_secs(180));
-    assert!(status.success(), "{name}: master failed: {err}");
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "{name}: master failed: {err}"
+    );
     let mut summary = String::new();
     stdout.read_to_string(&mut summary).unwrap();
     println!("{name}:\n{summary}");
     for (wall, n) in WALLS.iter().zip(nodes) {
         let (status, out, err) = n.finish(Duration::from_secs(30));
         assert!(
-            status.success(),
+            status.is_some_and(|s| s.success()),
             "{name}: node {wall} failed:\n{out}\n{err}"
         );
         if x.is_some() {
@@ -137,7 +140,7 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
     let out = scratch("cluster-window-close");
     let frames = 100_000;
     let (m, addr, mut stdout) = master(frames);
-    let mut nodes: Vec<Option<Proc>> = WALLS
+    let mut nodes: Vec<Option<Watched>> = WALLS
         .iter()
         .map(|w| Some(node(&addr, w, &out, Some(&x))))
         .collect();
@@ -156,7 +159,7 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
         let n = nodes[i].take().unwrap();
         let (status, nout, nerr) = n.finish(Duration::from_secs(30));
         assert!(
-            status.success(),
+            status.is_some_and(|s| s.success()),
             "the closed {wall} node failed:\n{nout}\n{nerr}"
         );
         assert!(
@@ -193,7 +196,7 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
     // Stop the master (it would run 100 000 frames) and read its log: the closed node
     // told it that it leaves, so it was never declared out.
     let mut m = m;
-    let _ = m.0.kill();
+    let _ = m.child.kill();
     let (_, _, log) = m.finish(Duration::from_secs(10));
     let mut said = String::new();
     let _ = stdout.read_to_string(&mut said);

@@ -18,7 +18,7 @@ const H: u32 = 24;
 const BUDGET: u32 = W * H / 16;
 
 fn lum(p: Vec3) -> f32 {
-    p.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+    holocave_scene::luminance(p)
 }
 
 /// Fraction of the pixels with some light.

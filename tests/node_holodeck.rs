@@ -14,7 +14,7 @@ use glam::{Quat, Vec3};
 use holocave_cave::WallView;
 use holocave_cave::load_cave;
 use holocave_cave::{Eye, eye_position};
-use holocave_scene::{LoadOptions, Scene};
+use holocave_scene::{LoadOptions, Scene, luminance};
 use holocave_tracer::film::Image;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_tracking::Pose;
@@ -69,21 +69,20 @@ fn left_frames(dir: &Path) -> Vec<(u64, Image)> {
 
 /// Fraction of the pixels lit in the reference that are black in `img`.
 fn holes(img: &Image, reference: &Image) -> f64 {
-    let lum = |p: Vec3| p.dot(Vec3::new(0.2126, 0.7152, 0.0722));
     let lit: Vec<(Vec3, Vec3)> = img
         .pixels
         .iter()
         .zip(&reference.pixels)
-        .filter(|(_, r)| lum(**r) > 1e-3)
+        .filter(|(_, r)| luminance(**r) > 1e-3)
         .map(|(a, r)| (*a, *r))
         .collect();
-    lit.iter().filter(|(a, _)| lum(*a) <= 0.0).count() as f64 / lit.len().max(1) as f64
+    lit.iter().filter(|(a, _)| luminance(*a) <= 0.0).count() as f64 / lit.len().max(1) as f64
 }
 
 /// Median, over the reference's lit pixels, of the relative luminance error: robust to
 /// the single fireflies that dominate a mean squared error.
 fn median_error(img: &Image, reference: &Image) -> f64 {
-    let lum = |p: &Vec3| p.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+    let lum = |p: &Vec3| luminance(*p);
     let mut d: Vec<f32> = img
         .pixels
         .iter()
@@ -169,14 +168,13 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
         std::fs::create_dir_all(&out).unwrap();
         let last = &frames.last().unwrap().1;
         let e = reference.auto_exposure();
-        let lum = |p: Vec3| p.dot(Vec3::new(0.2126, 0.7152, 0.0722));
         let mut mask = Image::new(W, H);
         for (m, (a, r)) in mask
             .pixels
             .iter_mut()
             .zip(last.pixels.iter().zip(&reference.pixels))
         {
-            if lum(*r) > 1e-3 && lum(*a) <= 0.0 {
+            if luminance(*r) > 1e-3 && luminance(*a) <= 0.0 {
                 *m = Vec3::ONE;
             }
         }

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use holocave_cave::WallView;
 use holocave_holodeck::run::{RayAllowance, Running};
-use holocave_render_node::{DisplayProcess, EyeView, RenderCache, Sampler, VlfBase};
+use holocave_render_node::{EyeView, RenderCache, SampleFeed, VlfBase, WallDisplay};
 use holocave_tracer::Tracer;
 use holocave_tracer::film::Image;
 use holocave_tracer::render::render;
@@ -100,7 +100,7 @@ pub enum Drawer {
     },
     /// The cache fed `paths` paths per sample.
     Cache {
-        display: DisplayProcess,
+        display: WallDisplay,
         paths: u32,
     },
     /// The light field alone: a render cache used only for its light-field pass.
@@ -110,7 +110,7 @@ pub enum Drawer {
     },
     /// The render cache fed by a holodeck whose threads are held to `allowance`.
     Holodeck {
-        display: DisplayProcess,
+        display: WallDisplay,
         server: Running,
         allowance: Arc<RayAllowance>,
         /// Rays granted per frame: the budget of every eye.
@@ -221,7 +221,7 @@ impl Drawer {
                 let settled = allowance.settle();
                 // And the display has taken in every sample the server handed it (so the
                 // next frame's request counts them as there), however fast its thread.
-                if let Sampler::Holodeck(h) = &display.sampler {
+                if let SampleFeed::Holodeck(h) = &display.feed {
                     let handed = server.display_tally(0).samples;
                     let t = Instant::now();
                     while h.counts().received < handed && t.elapsed() < REQUEST_WAIT {

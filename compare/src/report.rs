@@ -51,34 +51,34 @@ pub fn write_csv(path: &Path, rows: &[Row]) -> std::io::Result<()> {
     std::fs::write(path, s)
 }
 
+/// The columns of `views.csv`: one number per field, so any CSV reader (Python's `csv`,
+/// pandas, a spreadsheet) reads each coordinate as a column of its own.
+pub const VIEW_COLUMNS: [&str; 16] = [
+    "frame", "eye", "eye_x", "eye_y", "eye_z", "pa_x", "pa_y", "pa_z", "pb_x", "pb_y", "pb_z",
+    "pc_x", "pc_y", "pc_z", "width", "height",
+];
+
 /// Writes every measured view: frame, eye, eye position and wall corners (scene
-/// coordinates), image size.
+/// coordinates, `pa` lower-left, `pb` lower-right, `pc` upper-left), image size; the
+/// columns of [`VIEW_COLUMNS`]. Coordinates are written in Rust's shortest round-trip form,
+/// so a reader parsing them as `f32` gets the values exactly.
 pub fn write_views(path: &Path, views: &[(u64, usize, WallView)]) -> std::io::Result<()> {
-    let mut s = String::from("frame,eye,eye_x,eye_y,eye_z,pa;pb;pc,width,height\n");
-    let v3 = |v: glam::Vec3| format!("{},{},{}", v.x, v.y, v.z);
+    let mut s = VIEW_COLUMNS.join(",");
+    s.push('\n');
     for (frame, eye, w) in views {
-        let _ = writeln!(
-            s,
-            "{frame},{eye},{},{};{};{},{},{}",
-            v3(w.eye),
-            v3(w.pa),
-            v3(w.pb),
-            v3(w.pc),
-            w.width,
-            w.height
-        );
+        let mut fields = vec![frame.to_string(), eye.to_string()];
+        for v in [w.eye, w.pa, w.pb, w.pc] {
+            fields.extend(v.to_array().map(|c| c.to_string()));
+        }
+        fields.extend([w.width.to_string(), w.height.to_string()]);
+        let _ = writeln!(s, "{}", fields.join(","));
     }
     std::fs::write(path, s)
 }
 
-/// The `q` quantile (0..1) of `v` (0 for none).
+/// The `q` quantile (0..1) of `v` ([`holocave_protocol::stats::quantile`]; 0 for none).
 fn quantile(v: &[f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    s[((s.len() - 1) as f64 * q).round() as usize]
+    holocave_protocol::stats::quantile(v, q).unwrap_or(0.0)
 }
 
 /// One method's line of the summary.
@@ -271,6 +271,65 @@ mod tests {
         assert_eq!(s.at_end, 0.1);
         assert_eq!(s.fast_p95, Some(0.1));
         assert_eq!(s.rays, 300);
+    }
+
+    #[test]
+    fn views_csv_reads_back_as_written_with_a_csv_parser() {
+        // Negative, fractional and long coordinates: each must come back in its own column.
+        let views = [
+            (
+                0u64,
+                0usize,
+                WallView {
+                    eye: glam::Vec3::new(-0.032, 1.45, 0.1),
+                    pa: glam::Vec3::new(-1.5, -1.0, 0.2),
+                    pb: glam::Vec3::new(1.5, -1.0, 0.2),
+                    pc: glam::Vec3::new(-1.5, 2.0, 0.2),
+                    width: 256,
+                    height: 192,
+                },
+            ),
+            (
+                15,
+                1,
+                WallView {
+                    eye: glam::Vec3::new(0.1 / 3.0, 1e-7, -3.4e5),
+                    pa: glam::Vec3::new(-1.5, 0.0, -1.5),
+                    pb: glam::Vec3::new(1.5, 0.0, -1.5),
+                    pc: glam::Vec3::new(-1.5, 3.0, -1.5),
+                    width: 1024,
+                    height: 768,
+                },
+            ),
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("views.csv");
+        write_views(&path, &views).unwrap();
+        let mut reader = csv::Reader::from_path(&path).unwrap();
+        let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
+        assert_eq!(header, VIEW_COLUMNS);
+        let records: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
+        assert_eq!(records.len(), views.len());
+        for (r, (frame, eye, w)) in records.iter().zip(&views) {
+            assert_eq!(r.len(), VIEW_COLUMNS.len(), "{r:?}");
+            let field = |name: &str| &r[VIEW_COLUMNS.iter().position(|c| *c == name).unwrap()];
+            let f32_of = |name: &str| field(name).parse::<f32>().unwrap();
+            let v3 = |p: &str| {
+                glam::Vec3::new(
+                    f32_of(&format!("{p}_x")),
+                    f32_of(&format!("{p}_y")),
+                    f32_of(&format!("{p}_z")),
+                )
+            };
+            assert_eq!(field("frame").parse::<u64>().unwrap(), *frame);
+            assert_eq!(field("eye").parse::<usize>().unwrap(), *eye);
+            assert_eq!(v3("eye"), w.eye);
+            assert_eq!(v3("pa"), w.pa);
+            assert_eq!(v3("pb"), w.pb);
+            assert_eq!(v3("pc"), w.pc);
+            assert_eq!(field("width").parse::<u32>().unwrap(), w.width);
+            assert_eq!(field("height").parse::<u32>().unwrap(), w.height);
+        }
     }
 
     #[test]

@@ -276,12 +276,6 @@ impl Section {
         )
     }
 
-    /// Cells per axis of a wall.
-    pub fn wall_grid(&self, wall: u8) -> [u32; 2] {
-        let (_, u, v) = wall_axes(wall);
-        [self.grid[u], self.grid[v]]
-    }
-
     /// Where the (infinite, directed) line through `origin` along `dir` crosses the section,
     /// or `None` if it misses it, only touches it, or `dir` is zero or not finite. Rays
     /// starting inside or beyond the section are stored by the line they lie on: the entry

@@ -16,7 +16,13 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use holocave_cave::{Cave, parse_cave};
-use holocave_master::cluster::{MasterOptions, Summary, quantile, run};
+use holocave_master::cluster::{MasterOptions, Summary, run};
+use holocave_protocol::stats::quantile_duration;
+
+/// The `q` quantile of durations (zero for none).
+fn quantile(v: &[Duration], q: f64) -> Duration {
+    quantile_duration(v, q).unwrap_or_default()
+}
 use holocave_master::head::{Clock, Head};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats};
 use holocave_protocol::handshake::{Role, connect};

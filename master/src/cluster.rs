@@ -20,6 +20,7 @@ use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
 use holocave_protocol::frame::{FrameError, encode};
 use holocave_protocol::handshake::{self, Role, Welcome};
 use holocave_protocol::session::{Opener, Sealer, SessionKeys};
+use holocave_protocol::stats::quantile_duration;
 use tokio::io::AsyncWriteExt;
 use tokio::net::tcp::OwnedWriteHalf;
 use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
@@ -90,16 +91,6 @@ pub struct Summary {
     pub refused: u64,
     /// Connections dropped for bad messages (too large, undecodable) or write failures.
     pub dropped: u64,
-}
-
-/// The `q` quantile (0..1) of durations.
-pub fn quantile(v: &[Duration], q: f64) -> Duration {
-    if v.is_empty() {
-        return Duration::ZERO;
-    }
-    let mut s = v.to_vec();
-    s.sort();
-    s[((s.len() - 1) as f64 * q).round() as usize]
 }
 
 enum Event {
@@ -501,7 +492,10 @@ impl Master<'_> {
         let recent = &self.summary.barrier[n.saturating_sub(120)..];
         line += &format!(
             " barrier p50 {:.2} ms | tracker {tracker_hz:.0} Hz, {}",
-            quantile(recent, 0.5).as_secs_f64() * 1e3,
+            quantile_duration(recent, 0.5)
+                .unwrap_or_default()
+                .as_secs_f64()
+                * 1e3,
             head.fault_line()
         );
         line

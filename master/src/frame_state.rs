@@ -24,15 +24,6 @@ fn wire_eye(e: Eye) -> WireEye {
     }
 }
 
-/// The eye of the master's frustum code for a wire eye.
-pub fn eye_of(e: WireEye) -> Eye {
-    match e {
-        WireEye::Left => Eye::Left,
-        WireEye::Right => Eye::Right,
-        WireEye::Centre => Eye::Centre,
-    }
-}
-
 /// Frame `frame`'s state from the current frusta (already updated for `head`).
 pub fn frame_state(
     cave: &Cave,

@@ -8,11 +8,13 @@
 //!   numbered: no injection, no replay).
 //! - [`cluster`]: master ↔ render node messages (frame state, ready, swap).
 //! - [`holodeck`]: holodeck server ↔ worker messages (hello, ray packets, sample packets).
+//! - [`stats`]: the one quantile the cluster's figures (p50, p99) are quoted with.
 
 pub mod cluster;
 pub mod frame;
 pub mod handshake;
 pub mod holodeck;
 pub mod session;
+pub mod stats;
 
 pub use frame::{FrameError, MAX_FRAME_BYTES};

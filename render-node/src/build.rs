@@ -7,9 +7,7 @@ use std::sync::Arc;
 
 use holocave_tracer::Tracer;
 
-use crate::{
-    DisplayProcess, Gpu, HolodeckSource, PixelTracer, RenderCache, RenderNodeError, VlfBase,
-};
+use crate::{Gpu, HolodeckSource, PixelTracer, RenderCache, RenderNodeError, VlfBase, WallDisplay};
 
 /// Where a display's samples come from.
 pub enum Feed {
@@ -79,13 +77,13 @@ impl DisplayBuilder {
     }
 
     /// A display fed by `feed`, with the light field under it when there is one.
-    pub fn build(&self, feed: Feed) -> Result<DisplayProcess, RenderNodeError> {
+    pub fn build(&self, feed: Feed) -> Result<WallDisplay, RenderNodeError> {
         let cache = self.cache()?;
         let tracer = || PixelTracer::new(self.tracer.clone(), self.seed).with_paths(self.paths);
         let display = match feed {
-            Feed::Inline => DisplayProcess::new(cache, tracer(), self.samples),
-            Feed::Thread => DisplayProcess::threaded(cache, tracer(), self.samples),
-            Feed::Holodeck(source) => DisplayProcess::holodeck(cache, source, self.samples),
+            Feed::Inline => WallDisplay::new(cache, tracer(), self.samples),
+            Feed::Thread => WallDisplay::threaded(cache, tracer(), self.samples),
+            Feed::Holodeck(source) => WallDisplay::holodeck(cache, source, self.samples),
         };
         Ok(match &self.light_field {
             Some(lf) => display.with_vlf(lf.base.clone(), lf.prior),

@@ -381,9 +381,11 @@ impl RenderCache {
                 let dither_bg = passes
                     .dither
                     .bind_group(&gpu, [&params, &priority, &counters, &chosen]);
-                let insert_bg = passes
-                    .insert
-                    .bind_group(&gpu, [&insert_params, &points, &samples, &key, &matched]);
+                let aging = gpu.storage("aging", 4 * n);
+                let insert_bg = passes.insert.bind_group(
+                    &gpu,
+                    [&insert_params, &points, &samples, &key, &matched, &aging],
+                );
                 EyeBuffers {
                     width,
                     height,
@@ -588,9 +590,20 @@ impl RenderCache {
             .map(|(i, e)| {
                 let bytes = gpu.map_read(&e.staging);
                 let words: &[u32] = bytemuck::cast_slice(&bytes);
+                // The dither appends in whatever order its tiles run: sorted, the choice
+                // is the same on every run. A choice that overflowed the list lost pixels
+                // that depend on that order: it is dropped, and `exactly` chooses instead.
                 let mut chosen = match words {
-                    [_, count, _, _, list @ ..] => {
-                        list[..(*count as usize).min(max_chosen as usize)].to_vec()
+                    [_, count, _, _, list @ ..] if *count <= max_chosen => {
+                        let mut c = list[..*count as usize].to_vec();
+                        c.sort_unstable();
+                        c
+                    }
+                    [_, count, ..] => {
+                        tracing::debug!(
+                            "eye {i}: the dither chose {count} pixels, more than the {max_chosen} listed; choosing evenly instead"
+                        );
+                        Vec::new()
                     }
                     _ => {
                         // No read-back (a lost device): nothing chosen.
@@ -630,8 +643,11 @@ impl RenderCache {
                 .queue
                 .write_buffer(&self.samples, 0, bytemuck::cast_slice(chunk));
             let mut r = Recorder::new(&self.gpu, false);
-            let bg = &self.eyes[eye].insert_bg;
-            self.passes.insert.insert(&mut r, bg, chunk.len() as u32);
+            let e = &self.eyes[eye];
+            let pixels = e.width * e.height;
+            self.passes
+                .insert
+                .insert(&mut r, &e.insert_bg, chunk.len() as u32, pixels);
             r.submit();
         }
     }
@@ -699,15 +715,31 @@ impl RenderCache {
 /// Makes the dither's choice exactly `target` of the `pixels` (or all of them), so every
 /// frame spends its budget, no more and no less. The dither's count is the target only
 /// to within its rounding: each 8 × 8 tile starts from a random error and may hand half a
-/// sample on or lose it, so it may choose a few pixels more (the last ones it listed
-/// are dropped) or fewer. And it takes at most one sample per pixel: where a tile's
+/// sample on or lose it, so it may choose a few pixels more (as many are dropped, spread
+/// evenly over the list from a start that moves with `seed`) or fewer. And it takes at most one sample per pixel: where a tile's
 /// priority asks for more than its pixels, the excess is lost, and a budget near one
 /// sample per pixel came out about half spent. The rest goes to pixels not yet chosen,
 /// spread evenly from a start that moves with `seed`.
 fn exactly(chosen: &mut Vec<u32>, target: u32, pixels: u32, taken: &mut Vec<bool>, seed: u32) {
     let target = target.min(pixels) as usize;
     if chosen.len() >= target {
-        chosen.truncate(target);
+        let (n, drop) = (chosen.len(), chosen.len() - target);
+        if drop > 0 {
+            // Drop positions ⌊(j + f)·n / drop⌋, j = 0..drop, f in [0, 1) from the seed:
+            // one in each n/drop of the list, none twice.
+            let f = f64::from(seed.wrapping_mul(0x9E37_79B9) >> 8) / f64::from(1u32 << 24);
+            let mut j = 0;
+            let mut k = 0;
+            chosen.retain(|_| {
+                let at = ((j as f64 + f) * n as f64 / drop as f64) as usize;
+                let keep = !(j < drop && k == at);
+                if !keep {
+                    j += 1;
+                }
+                k += 1;
+                keep
+            });
+        }
         return;
     }
     // `taken` is all false on entry, and left so: only the chosen pixels are set, and
@@ -773,9 +805,141 @@ mod tests {
         let mut all = vec![3];
         exactly(&mut all, 100, 64, &mut Vec::new(), 9);
         assert_eq!(all.len(), 64);
-        // More than enough: cut to the target, first listed kept.
-        let mut over = vec![1, 2, 3];
-        exactly(&mut over, 2, 64, &mut Vec::new(), 9);
-        assert_eq!(over, vec![1, 2]);
+        // More than enough: cut to the target, the pixels dropped spread over the list,
+        // in order, with a start that moves with the seed.
+        let over: Vec<u32> = (0..100).collect();
+        let mut dropped_first = std::collections::BTreeSet::new();
+        for seed in 0..50 {
+            let mut cut = over.clone();
+            exactly(&mut cut, 90, 1000, &mut Vec::new(), seed);
+            assert_eq!(cut.len(), 90);
+            assert!(cut.windows(2).all(|w| w[0] < w[1]), "kept in order");
+            let dropped: Vec<u32> = over.iter().copied().filter(|p| !cut.contains(p)).collect();
+            for (j, &d) in dropped.iter().enumerate() {
+                assert_eq!(
+                    d / 10,
+                    j as u32,
+                    "seed {seed}: one dropped in each tenth: {dropped:?}"
+                );
+            }
+            dropped_first.insert(dropped[0]);
+        }
+        assert!(
+            dropped_first.len() > 5,
+            "the start moves with the seed: {dropped_first:?}"
+        );
+    }
+}
+
+/// The structs uploaded to the cache's shaders against their WGSL declarations, parsed
+/// as the pipelines compile them (`common.wgsl` first).
+#[cfg(test)]
+mod layout_tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::{EyeParams, GpuPoint, InsertParams, Lookup, NewSample, VlfParams, insert, vlf};
+    use crate::gpu::layout::assert_same_layout;
+    use crate::gpu::with_common;
+
+    #[test]
+    fn common_wgsl_point_and_eye_params_are_laid_out_as_in_rust() {
+        let src = with_common(insert::SOURCE);
+        assert_same_layout(
+            &src,
+            "Point",
+            size_of::<GpuPoint>(),
+            &[
+                ("pos", offset_of!(GpuPoint, pos)),
+                ("rad", offset_of!(GpuPoint, rad)),
+                ("origin", offset_of!(GpuPoint, origin)),
+            ],
+        );
+        assert_same_layout(
+            &src,
+            "EyeParams",
+            size_of::<EyeParams>(),
+            &[
+                ("view_proj", offset_of!(EyeParams, view_proj)),
+                ("eye", offset_of!(EyeParams, eye)),
+                ("width", offset_of!(EyeParams, width)),
+                ("height", offset_of!(EyeParams, height)),
+                ("npoints", offset_of!(EyeParams, npoints)),
+                ("target_samples", offset_of!(EyeParams, target_samples)),
+                ("max_chosen", offset_of!(EyeParams, max_chosen)),
+                ("frame", offset_of!(EyeParams, frame)),
+                ("eye_index", offset_of!(EyeParams, eye_index)),
+                ("index_bits", offset_of!(EyeParams, index_bits)),
+            ],
+        );
+    }
+
+    #[test]
+    fn insert_wgsl_new_sample_and_insert_params_are_laid_out_as_in_rust() {
+        let src = with_common(insert::SOURCE);
+        assert_same_layout(
+            &src,
+            "NewSample",
+            size_of::<NewSample>(),
+            &[
+                ("pos", offset_of!(NewSample, pos)),
+                ("rad", offset_of!(NewSample, rad)),
+                ("origin", offset_of!(NewSample, origin)),
+                ("weight", offset_of!(NewSample, weight)),
+            ],
+        );
+        assert_same_layout(
+            &src,
+            "InsertParams",
+            size_of::<InsertParams>(),
+            &[
+                ("count", offset_of!(InsertParams, count)),
+                ("cursor", offset_of!(InsertParams, cursor)),
+                ("ngroups", offset_of!(InsertParams, ngroups)),
+                ("group_size", offset_of!(InsertParams, group_size)),
+                ("npoints", offset_of!(InsertParams, npoints)),
+                ("index_bits", offset_of!(InsertParams, index_bits)),
+                ("width", offset_of!(InsertParams, width)),
+                ("height", offset_of!(InsertParams, height)),
+            ],
+        );
+    }
+
+    #[test]
+    fn vlf_wgsl_lookup_and_params_are_laid_out_as_in_rust() {
+        let src = with_common(vlf::SOURCE);
+        // `holocave_vlf::Lookup`'s colour arrays are three scalars each in the WGSL.
+        let (w, e) = (offset_of!(Lookup, weight), offset_of!(Lookup, emitted));
+        assert_same_layout(
+            &src,
+            "Lookup",
+            size_of::<Lookup>(),
+            &[
+                ("base", offset_of!(Lookup, base)),
+                ("res", offset_of!(Lookup, res)),
+                ("u", offset_of!(Lookup, u)),
+                ("v", offset_of!(Lookup, v)),
+                ("wr", w),
+                ("wg", w + 4),
+                ("wb", w + 8),
+                ("er", e),
+                ("eg", e + 4),
+                ("eb", e + 8),
+                ("tile", offset_of!(Lookup, tile)),
+                ("bins", offset_of!(Lookup, bins)),
+                ("x", offset_of!(Lookup, x)),
+                ("y", offset_of!(Lookup, y)),
+            ],
+        );
+        assert_same_layout(
+            &src,
+            "VlfParams",
+            size_of::<VlfParams>(),
+            &[
+                ("width", offset_of!(VlfParams, width)),
+                ("height", offset_of!(VlfParams, height)),
+                ("index_bits", offset_of!(VlfParams, index_bits)),
+                ("prior", offset_of!(VlfParams, prior)),
+            ],
+        );
     }
 }

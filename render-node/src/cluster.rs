@@ -12,7 +12,7 @@ use holocave_protocol::cluster::{FrameState, MAX_CLUSTER_FRAME, MasterMsg, NodeM
 use holocave_protocol::handshake::{self, Role, Welcome};
 use holocave_protocol::session::Sealer;
 
-use crate::{DisplayProcess, EyeView};
+use crate::{EyeView, WallDisplay};
 
 /// How long the handshake may take.
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(2);
@@ -156,9 +156,9 @@ pub fn eye_views(state: &FrameState, wall: &Wall, size: (u32, u32)) -> Option<Ve
 /// frame state comes first.
 pub trait Presentation {
     /// After drawing, before Ready.
-    fn prepare(&mut self, _state: &FrameState, _display: &mut DisplayProcess) {}
+    fn prepare(&mut self, _state: &FrameState, _display: &mut WallDisplay) {}
     /// On the frame's Swap.
-    fn show(&mut self, state: &FrameState, display: &mut DisplayProcess) -> Result<(), String>;
+    fn show(&mut self, state: &FrameState, display: &mut WallDisplay) -> Result<(), String>;
     /// The prepared frame will not be swapped.
     fn abandon(&mut self, _state: &FrameState) {}
     /// The user asked the node to stop (a window closed): `Some(reason)`.
@@ -169,9 +169,9 @@ pub trait Presentation {
 
 impl<F> Presentation for F
 where
-    F: FnMut(&FrameState, &mut DisplayProcess) -> Result<(), String>,
+    F: FnMut(&FrameState, &mut WallDisplay) -> Result<(), String>,
 {
-    fn show(&mut self, state: &FrameState, display: &mut DisplayProcess) -> Result<(), String> {
+    fn show(&mut self, state: &FrameState, display: &mut WallDisplay) -> Result<(), String> {
         self(state, display)
     }
 }
@@ -204,7 +204,7 @@ pub enum Ended {
 #[allow(clippy::too_many_arguments)]
 pub fn follow(
     link: &mut MasterLink,
-    display: &mut DisplayProcess,
+    display: &mut WallDisplay,
     wall: &Wall,
     size: (u32, u32),
     slow_by: Duration,

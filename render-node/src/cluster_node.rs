@@ -17,7 +17,7 @@ use holocave_tracer::Tracer;
 
 use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
 use crate::{
-    DisplayBuilder, DisplayProcess, Feed, Gpu, HolodeckSource, LightField, RenderNodeError, VlfBase,
+    DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, RenderNodeError, VlfBase, WallDisplay,
 };
 
 /// Pause between attempts to reach the master.
@@ -49,7 +49,7 @@ pub struct Membership {
     pub slow_by: Duration,
 }
 
-/// Makes the node's display process for the holodeck the master names.
+/// Makes the wall display for the holodeck the master names.
 pub struct DisplayMaker {
     /// The wall's displays, tracing locally when there is no holodeck.
     builder: DisplayBuilder,
@@ -164,7 +164,7 @@ impl DisplayMaker {
         &self,
         holodeck: Option<&str>,
         vlf: Option<&str>,
-    ) -> Result<(Option<String>, DisplayProcess), RenderNodeError> {
+    ) -> Result<(Option<String>, WallDisplay), RenderNodeError> {
         let mut builder = self.builder.clone();
         builder.light_field = self.vlf.as_ref().and_then(|c| {
             Some(LightField {
@@ -218,7 +218,7 @@ pub fn run(
 ) -> Result<(NodeCounters, String), NodeError> {
     let wall = &member.wall;
     // The display and the holodeck it draws from (`None`: tracing locally).
-    let mut display: Option<(Option<String>, DisplayProcess)> = None;
+    let mut display: Option<(Option<String>, WallDisplay)> = None;
     let mut counters = NodeCounters::default();
     let mut since = Instant::now();
     let mut warned = false;

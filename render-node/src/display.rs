@@ -1,7 +1,6 @@
-//! One frame of the display process for all eyes of a wall: draw from the cache, choose
+//! A wall display ([`WallDisplay`]) and one frame of it for all eyes: draw from the cache, choose
 //! pixels, have them traced, insert the samples; and the files a headless node writes.
 
-use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -10,7 +9,7 @@ use holocave_tracer::film::Image;
 use crate::cache::{RenderCache, StepTimes};
 use crate::holodeck::HolodeckSource;
 use crate::source::{PixelTracer, TracerThread};
-use crate::{EyeView, RenderNodeError, VlfBase};
+use crate::{EyeView, VlfBase};
 
 /// What one frame did.
 #[derive(Clone, Debug, Default)]
@@ -31,8 +30,8 @@ pub struct FrameReport {
     pub vlf: Duration,
 }
 
-/// Where a display process gets its samples.
-pub enum Sampler {
+/// Where a wall display gets its samples (its live feed).
+pub enum SampleFeed {
     /// Traced between frames, on the display's thread (deterministic).
     Inline(PixelTracer),
     /// Traced on a thread of its own: frames never wait for rays.
@@ -43,27 +42,27 @@ pub enum Sampler {
 }
 
 /// The render cache and its sample source.
-pub struct DisplayProcess {
+pub struct WallDisplay {
     pub cache: RenderCache,
-    pub sampler: Sampler,
+    pub feed: SampleFeed,
     /// Samples asked for per eye and frame.
     pub samples_per_eye: u32,
     exposure: Option<f32>,
     vlf: Option<Arc<VlfBase>>,
 }
 
-impl DisplayProcess {
+impl WallDisplay {
     /// True when the samples' source is a holodeck server that is no longer reachable
     /// (the cache still draws; no new samples arrive).
     pub fn source_lost(&self) -> bool {
-        matches!(&self.sampler, Sampler::Holodeck(h) if !h.is_connected())
+        matches!(&self.feed, SampleFeed::Holodeck(h) if !h.is_connected())
     }
 
     /// Traces between frames (synchronous, deterministic).
     pub fn new(cache: RenderCache, source: PixelTracer, samples_per_eye: u32) -> Self {
-        DisplayProcess {
+        WallDisplay {
             cache,
-            sampler: Sampler::Inline(source),
+            feed: SampleFeed::Inline(source),
             samples_per_eye,
             exposure: None,
             vlf: None,
@@ -74,9 +73,9 @@ impl DisplayProcess {
     /// frame inserts whatever has arrived.
     pub fn threaded(cache: RenderCache, source: PixelTracer, samples_per_eye: u32) -> Self {
         let eyes = cache.eye_count();
-        DisplayProcess {
+        WallDisplay {
             cache,
-            sampler: Sampler::Thread(TracerThread::spawn(source, eyes)),
+            feed: SampleFeed::Thread(TracerThread::spawn(source, eyes)),
             samples_per_eye,
             exposure: None,
             vlf: None,
@@ -85,9 +84,9 @@ impl DisplayProcess {
 
     /// Draws from a holodeck server's samples (see [`HolodeckSource`]).
     pub fn holodeck(cache: RenderCache, source: HolodeckSource, samples_per_eye: u32) -> Self {
-        DisplayProcess {
+        WallDisplay {
             cache,
-            sampler: Sampler::Holodeck(source),
+            feed: SampleFeed::Holodeck(source),
             samples_per_eye,
             exposure: None,
             vlf: None,
@@ -109,10 +108,10 @@ impl DisplayProcess {
     pub fn frame(&mut self, views: &[EyeView], timed: bool) -> FrameReport {
         let mut report = FrameReport::default();
         let start = Instant::now();
-        let arrived = match &mut self.sampler {
-            Sampler::Inline(_) => Vec::new(),
-            Sampler::Thread(t) => t.collect(),
-            Sampler::Holodeck(h) => h.collect(),
+        let arrived = match &mut self.feed {
+            SampleFeed::Inline(_) => Vec::new(),
+            SampleFeed::Thread(t) => t.collect(),
+            SampleFeed::Holodeck(h) => h.collect(),
         };
         for (eye, samples) in arrived {
             if eye < self.cache.eye_count() {
@@ -132,15 +131,15 @@ impl DisplayProcess {
         let targets = vec![self.samples_per_eye; views.len()];
         let chosen = self.cache.draw(views, &targets, timed, &mut report.steps);
         report.draw = t.elapsed();
-        if let Sampler::Holodeck(h) = &mut self.sampler {
+        if let SampleFeed::Holodeck(h) = &mut self.feed {
             report.chosen = chosen.iter().map(Vec::len).collect();
             h.submit(views, chosen);
             return report;
         }
         for (eye, (view, pixels)) in views.iter().zip(chosen).enumerate() {
             report.chosen.push(pixels.len());
-            match &mut self.sampler {
-                Sampler::Inline(source) => {
+            match &mut self.feed {
+                SampleFeed::Inline(source) => {
                     let t = Instant::now();
                     let samples = source.sample(view, &pixels);
                     report.trace += t.elapsed();
@@ -149,22 +148,22 @@ impl DisplayProcess {
                     self.cache.insert(eye, &samples);
                     report.insert += t.elapsed();
                 }
-                Sampler::Thread(thread) => {
+                SampleFeed::Thread(thread) => {
                     if !thread.busy(eye) {
                         thread.submit(eye, *view, pixels);
                     }
                 }
-                Sampler::Holodeck(_) => unreachable!("handled above"),
+                SampleFeed::Holodeck(_) => unreachable!("handled above"),
             }
         }
         report
     }
 
-    /// The exposure for PNG previews: the log-average luminance of the lit pixels mapped
-    /// to middle grey, set from the first image with any, then held steady unless it
-    /// changes by more than a factor of two (so the previews do not pump).
+    /// The exposure for PNG previews ([`Image::lit_exposure`]), set from the first image
+    /// with any lit pixel, then held steady unless it changes by more than a factor of two
+    /// (so the previews do not pump).
     pub fn exposure(&mut self, image: &Image) -> f32 {
-        let Some(now) = lit_exposure(image) else {
+        let Some(now) = image.lit_exposure() else {
             return self.exposure.unwrap_or(1.0);
         };
         match self.exposure {
@@ -175,43 +174,6 @@ impl DisplayProcess {
             }
         }
     }
-}
-
-/// Middle grey over the log-average luminance of the pixels that are not black (holes and
-/// escaped rays would otherwise wash the picture out); `None` for a black image.
-pub fn lit_exposure(image: &Image) -> Option<f32> {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for p in &image.pixels {
-        let l = p.dot(glam::Vec3::new(0.2126, 0.7152, 0.0722));
-        if l > 1e-6 {
-            sum += f64::from(l).ln();
-            n += 1;
-        }
-    }
-    (n > 0).then(|| (0.18 / (sum / n as f64).exp()) as f32)
-}
-
-/// Writes `image` as `<stem>.exr` (linear) and `<stem>.png` (preview at `exposure`).
-pub fn write_image(
-    dir: &Path,
-    stem: &str,
-    image: &Image,
-    exposure: f32,
-) -> Result<(), RenderNodeError> {
-    std::fs::create_dir_all(dir).map_err(|e| RenderNodeError::Write {
-        path: dir.display().to_string(),
-        message: e.to_string(),
-    })?;
-    let err = |e: holocave_tracer::film::FilmError| RenderNodeError::Write {
-        path: dir.join(stem).display().to_string(),
-        message: e.to_string(),
-    };
-    image
-        .write_exr(&dir.join(format!("{stem}.exr")))
-        .map_err(err)?;
-    image
-        .write_png(&dir.join(format!("{stem}.png")), exposure)
-        .map_err(err)
 }
 
 /// Tiles previews into one picture for looking at: one row per entry of `rows`, each image

@@ -8,6 +8,17 @@ use wgpu::util::DeviceExt;
 
 use crate::RenderNodeError;
 
+#[cfg(test)]
+#[path = "shaders/layout.rs"]
+pub(crate) mod layout;
+
+/// The WGSL a pipeline of the node is made from: `shaders/common.wgsl` (the cache's
+/// structs and helpers, the one `luminance()`), then the shader's own `source`. The
+/// layout tests parse this same text (`shaders/layout.rs`).
+pub(crate) fn with_common(source: &str) -> String {
+    format!("{}\n{}", include_str!("shaders/common.wgsl"), source)
+}
+
 /// A device and its queue, on whichever adapter exists (a real GPU, or Mesa's lavapipe
 /// or llvmpipe on machines without one). Cloning shares the same device.
 #[derive(Clone)]
@@ -187,7 +198,7 @@ impl Gpu {
         layout: &wgpu::BindGroupLayout,
         entries: &[&str],
     ) -> Vec<wgpu::ComputePipeline> {
-        let code = format!("{}\n{}", include_str!("shaders/common.wgsl"), source);
+        let code = with_common(source);
         let module = self
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {

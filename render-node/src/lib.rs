@@ -10,7 +10,7 @@
 //! - [`holodeck`]: chosen pixels → beam requests → a holodeck server → new samples;
 //! - [`tonemap`]: Ward Larson's histogram adjustment (camera and human modes), at display;
 //! - [`build`]: the one builder of a wall's display (cache, sample feed, light field);
-//! - [`display`]: one frame of the display process for all eyes, and its output files;
+//! - [`display`]: a wall display (cache and sample feed) and one frame of it for all eyes;
 //! - [`cluster`]: the node's link to the master and the frame cycle (ready, swap);
 //! - [`cluster_node`]: joining, reconnecting, and the display for the named holodeck;
 //! - [`standalone`]: one wall by itself, on its own clock and head poses;
@@ -45,7 +45,7 @@ pub mod window;
 
 pub use build::{DisplayBuilder, Feed, LightField};
 pub use cache::{NewSample, RenderCache, StepTimes};
-pub use display::{DisplayProcess, FrameReport, Sampler};
+pub use display::{FrameReport, SampleFeed, WallDisplay};
 pub use gpu::Gpu;
 pub use holodeck::{HolodeckOptions, HolodeckSource};
 pub use source::{PixelTracer, TracerThread};

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use holocave_cave::Eye;
 
 use crate::display::contact_sheet;
-use crate::{DisplayProcess, RenderNodeError, ToneMapper};
+use crate::{RenderNodeError, ToneMapper, WallDisplay};
 
 /// The presented-frame log's name in a wall's folder.
 pub const PRESENTED_LOG: &str = "presented.log";
@@ -49,7 +49,7 @@ pub fn write_frame(
     dir: &Path,
     frame: u64,
     eyes: &[Eye],
-    display: &mut DisplayProcess,
+    display: &mut WallDisplay,
     tone: &mut Option<ToneMapper>,
     debug: bool,
 ) -> Result<(), RenderNodeError> {

@@ -287,11 +287,6 @@ impl Presenter {
         Prepared::Ready
     }
 
-    /// True while a prepared frame waits to be shown.
-    pub fn has_pending(&self) -> bool {
-        self.pending.is_some()
-    }
-
     /// Presents the prepared frame (nothing if none is prepared). True when presented.
     pub fn show(&mut self) -> bool {
         let Some(texture) = self.pending.take() else {

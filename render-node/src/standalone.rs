@@ -17,7 +17,7 @@ use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
 use holocave_tracking::Pose;
 
 use crate::{
-    DisplayBuilder, DisplayProcess, EyeView, Feed, HolodeckOptions, HolodeckSource, RenderNodeError,
+    DisplayBuilder, EyeView, Feed, HolodeckOptions, HolodeckSource, RenderNodeError, WallDisplay,
 };
 
 /// The holodeck a standalone wall draws from, served in its own process.
@@ -34,7 +34,7 @@ pub struct OwnHolodeck<'a> {
 
 /// A standalone wall's display and the holodeck it serves itself, if any.
 pub struct StandaloneWall {
-    pub display: DisplayProcess,
+    pub display: WallDisplay,
     pub holodeck: Option<Running>,
     /// What the holodeck opened holds (its [`CaveHolodeck::describe`]).
     pub holodeck_described: Option<String>,
@@ -123,14 +123,14 @@ pub struct Totals {
 /// `present` receives every presented frame's number and the display holding its images.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
-    display: &mut DisplayProcess,
+    display: &mut WallDisplay,
     cave: &Cave,
     wall: &Wall,
     size: (u32, u32),
     schedule: Schedule,
     head: &mut dyn FnMut(u64) -> Pose,
     stop: &dyn Fn() -> bool,
-    present: &mut dyn FnMut(u64, &mut DisplayProcess) -> Result<(), String>,
+    present: &mut dyn FnMut(u64, &mut WallDisplay) -> Result<(), String>,
 ) -> Result<Totals, String> {
     let eyes = Eye::for_mode(wall.stereo);
     let mut views: Vec<EyeView> = Vec::new();

@@ -57,8 +57,9 @@ enum Curve {
     Linear { log_scale: f32 },
 }
 
+/// World luminance (cd/m²) of scene radiance `c`.
 fn luminance(c: Vec3) -> f32 {
-    LUMINOUS_EFFICACY * c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+    LUMINOUS_EFFICACY * holocave_scene::luminance(c)
 }
 
 /// Ferwerda's threshold-versus-intensity: log10 of the just-noticeable luminance difference

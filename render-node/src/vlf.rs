@@ -3,13 +3,21 @@
 //! one ray per pixel of each eye (visibility, continued through mirrors and glass:
 //! `holocave_vlf::view`) and the GPU shades each pixel's lookup and blends it under the
 //! render cache's exact samples (`shaders/vlf.wgsl`, through [`crate::RenderCache`]).
+//!
+//! The direct light of the sun, punctual lights and emissive triangles is computed per
+//! pixel on the same threads, for the point each pixel's ray found
+//! ([`holocave_vlf::pixel_direct`]: `1 + P + 1` shadow rays per pixel and frame, averaged
+//! per surface point while the view stays still), and handed to the shader inside the
+//! lookup's `emitted` light; the light field then gives only the rest
+//! ([`holocave_vlf::State::indirect_values`]), so nothing is counted twice.
 
 use std::path::Path;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
+use holocave_cave::WallView;
 use holocave_scene::Scene;
 use holocave_vlf::baked::{self, Opened};
-use holocave_vlf::{Lookup, Visibility};
+use holocave_vlf::{Accumulator, Lookup, PixelDirect, Visibility};
 
 use crate::{EyeView, RenderNodeError};
 
@@ -23,11 +31,23 @@ use crate::{EyeView, RenderNodeError};
 /// per pixel (see README, "The VLF under the render cache").
 pub const DEFAULT_PRIOR_SAMPLES: f32 = 256.0;
 
+/// Views whose per-pixel direct light is being averaged at once (a node's walls times
+/// two eyes); a view not drawn for longer is dropped first.
+const HISTORIES: usize = 8;
+
 /// A baked light field and the scene it was baked for.
 pub struct VlfBase {
     visibility: Visibility,
-    /// The elements' irradiance, then the tiles' radiance (what the lookups read).
+    /// The elements' irradiance, then the tiles' radiance (what the lookups read): all
+    /// of it, or without the next-event part when `direct` computes that per pixel.
     values: Vec<[f32; 3]>,
+    /// Both, to switch between them.
+    total: Vec<[f32; 3]>,
+    indirect: Vec<[f32; 3]>,
+    direct: Option<PixelDirect>,
+    /// The running means of the direct light, per view drawn (exactly that view: a still
+    /// eye), with the frame each was last drawn.
+    history: Mutex<Vec<(u64, WallView, Accumulator)>>,
 }
 
 impl VlfBase {
@@ -45,10 +65,44 @@ impl VlfBase {
                 f.state.bounces
             );
         }
+        let direct = PixelDirect::new(scene.clone());
+        let direct = (!direct.is_empty()).then_some(direct);
+        let (total, indirect) = (f.state.values(), f.state.indirect_values());
         Ok(VlfBase {
-            values: f.state.values(),
+            values: if direct.is_some() {
+                indirect.clone()
+            } else {
+                total.clone()
+            },
+            total,
+            indirect,
+            direct,
+            history: Mutex::new(Vec::new()),
             visibility: Visibility::new(scene, elements, tiles),
         })
+    }
+
+    /// With `on` false, the light field alone as baked (its direct light included, no
+    /// shadow rays); with `on` true (as opened), the direct light per pixel and the light
+    /// field's remainder. Choose before handing the values to the GPU.
+    pub fn with_direct(mut self, on: bool) -> Self {
+        if !on {
+            self.direct = None;
+        } else if self.direct.is_none() {
+            let d = PixelDirect::new(self.visibility.scene().clone());
+            self.direct = (!d.is_empty()).then_some(d);
+        }
+        self.values = if self.direct.is_some() {
+            self.indirect.clone()
+        } else {
+            self.total.clone()
+        };
+        self
+    }
+
+    /// Whether the direct light is computed per pixel.
+    pub fn direct_per_pixel(&self) -> bool {
+        self.direct.is_some()
     }
 
     /// What the lookups read: the elements' irradiance, then the glossy tiles' radiance.
@@ -56,8 +110,41 @@ impl VlfBase {
         &self.values
     }
 
-    /// What each pixel of `view` sees (the node's own ray casts, on all cores).
+    /// What each pixel of `view` sees (the node's own ray casts, on all cores), with the
+    /// direct light per pixel in its `emitted` light: this frame's estimate averaged with
+    /// those of earlier frames of the same view at the same surface point.
     pub fn lookups(&self, view: &EyeView) -> Vec<Lookup> {
-        self.visibility.pixels(&view.wall)
+        let Some(direct) = &self.direct else {
+            return self.visibility.pixels(&view.wall);
+        };
+        let (mut lookups, points): (Vec<Lookup>, Vec<_>) = self
+            .visibility
+            .pixels_and_points(&view.wall)
+            .into_iter()
+            .unzip();
+        // This view's history (taken out while it is used: other views may be drawn on
+        // other threads meanwhile), or a new one in place of the least recently drawn.
+        let mut acc = {
+            let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+            match h.iter().position(|e| e.1 == view.wall) {
+                Some(i) => h.swap_remove(i).2,
+                None => {
+                    if h.len() >= HISTORIES
+                        && let Some(oldest) = (0..h.len()).min_by_key(|&i| h[i].0)
+                    {
+                        h.swap_remove(oldest);
+                    }
+                    Accumulator::new()
+                }
+            }
+        };
+        let radiance = acc.add(direct, &points);
+        for (l, d) in lookups.iter_mut().zip(radiance) {
+            l.emitted = (glam::Vec3::from(l.emitted) + d).to_array();
+        }
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        let now = h.iter().map(|e| e.0).max().unwrap_or(0) + 1;
+        h.push((now, view.wall, acc));
+        lookups
     }
 }

@@ -14,7 +14,7 @@ use holocave_protocol::cluster::FrameState;
 use crate::cluster::Presentation;
 use crate::present::{Histogrammer, Prepared, layout_eyes};
 use crate::window::{Screens, WindowError};
-use crate::{DisplayProcess, ToneMapper};
+use crate::{ToneMapper, WallDisplay};
 
 /// A cluster node's windows: each frame prepared before Ready, shown on Swap (then `then`
 /// runs, e.g. the presented log), abandoned when a newer state comes first.
@@ -25,13 +25,13 @@ pub struct ClusterWindows<'a, F> {
 
 impl<F> Presentation for ClusterWindows<'_, F>
 where
-    F: FnMut(&FrameState, &mut DisplayProcess) -> Result<(), String>,
+    F: FnMut(&FrameState, &mut WallDisplay) -> Result<(), String>,
 {
-    fn prepare(&mut self, _: &FrameState, display: &mut DisplayProcess) {
+    fn prepare(&mut self, _: &FrameState, display: &mut WallDisplay) {
         self.output.prepare(display);
     }
 
-    fn show(&mut self, state: &FrameState, display: &mut DisplayProcess) -> Result<(), String> {
+    fn show(&mut self, state: &FrameState, display: &mut WallDisplay) -> Result<(), String> {
         if self.output.show(state.frame)? {
             (self.then)(state, display)?;
         }
@@ -106,7 +106,7 @@ impl<'a> WindowOutput<'a> {
 
     /// Draws the display's images into every window and waits for the GPU (before Ready);
     /// how many windows have a frame ready.
-    pub fn prepare(&mut self, display: &DisplayProcess) -> usize {
+    pub fn prepare(&mut self, display: &WallDisplay) -> usize {
         // The histogram of the first eye's image, as the headless previews take it.
         let t = Instant::now();
         // The histogram made on the GPU: the frame itself is never read back.
@@ -155,7 +155,7 @@ impl<'a> WindowOutput<'a> {
 
     /// Keeps the last frame on screen for `seconds` (redrawn at `fps`, so a resized or
     /// uncovered window shows it again), or until a window is closed.
-    pub fn linger(&mut self, display: &DisplayProcess, seconds: f64, fps: f64, frame: u64) {
+    pub fn linger(&mut self, display: &WallDisplay, seconds: f64, fps: f64, frame: u64) {
         let end = Instant::now() + Duration::from_secs_f64(seconds.max(0.0));
         let period = Duration::from_secs_f64(1.0 / fps.clamp(1.0, 240.0));
         while Instant::now() < end && !self.screens.closed() {
@@ -204,12 +204,10 @@ pub struct Skew {
 }
 
 impl Skew {
-    /// The `q` quantile (0..=1, nearest rank) of the spreads; `None` when there are none.
+    /// The `q` quantile (0..=1) of the spreads ([`holocave_protocol::stats::quantile`]:
+    /// linear interpolation, numpy's default); `None` when there are none.
     pub fn quantile(&self, q: f64) -> Option<f64> {
-        let mut v = self.spreads.clone();
-        v.sort_by(f64::total_cmp);
-        let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len().max(1)) - 1;
-        v.get(i).copied()
+        holocave_protocol::stats::quantile(&self.spreads, q)
     }
 }
 
@@ -262,8 +260,10 @@ mod tests {
         std::fs::write(&b, "1 1500000\n2 2000000\n").unwrap();
         let skew = present_skew(&[("a".into(), a.clone()), ("b".into(), b)]).unwrap();
         assert_eq!(skew.spreads, vec![0.5, 0.0], "frame 3 is not on every wall");
-        assert_eq!(skew.quantile(0.5), Some(0.0));
-        assert_eq!(skew.quantile(0.99), Some(0.5));
+        // Linear interpolation between the two spreads, 0 and 0.5 ms.
+        assert_eq!(skew.quantile(0.5), Some(0.25));
+        assert!((skew.quantile(0.99).unwrap() - 0.495).abs() < 1e-12);
+        assert_eq!(skew.quantile(1.0), Some(0.5));
         std::fs::write(&a, "1 x\n").unwrap();
         let e = present_skew(&[("a".into(), a)]).unwrap_err();
         assert!(e.contains("time \"x\""), "{e}");

@@ -14,7 +14,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache};
+use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, WallDisplay};
 use holocave_tracer::film::Image;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_tracking::csv_log::read_csv;
@@ -23,42 +23,106 @@ const SIZE: u32 = 64;
 const FRAMES: u64 = 120;
 const FPS: f64 = 60.0;
 const IPD: f32 = 0.064;
+/// How many times a path-traced frame's error (with as many rays) the cache's may be at
+/// any of frames 29/59/89/119, and summed over the four (`overall_ratio`). Derived from
+/// `moving_viewer_error_ratios_over_runs` (lavapipe, 2026-12-03), runs 0..20 (tracer and
+/// reference seeds varied):
+/// - M, a run's largest ratio over the four frames: 2.06 2.10 1.48 2.69 2.37 1.93 2.06
+///   1.44 1.81 2.03 2.12 2.43 1.96 2.09 1.59 1.60 2.22 1.36 2.37 1.93; ln M of mean 0.668,
+///   standard deviation 0.186 (n = 20);
+/// - S, the four frames' errors summed over the path-traced frames': 1.56 1.36 1.24 1.49
+///   1.59 1.44 1.51 1.19 1.32 1.17 1.57 1.31 1.44 1.54 1.29 1.36 1.36 1.22 1.31 1.44;
+///   ln S of mean 0.321, standard deviation 0.095.
+///
+/// Taking ln M and ln S as normal, a new run stays below the one-sided 99% prediction
+/// bound exp(mean + t(19, 0.99) · sd · √(1 + 1/n)), t(19, 0.99) = 2.539:
+///   M: exp(0.668 + 2.539 · 0.186 · 1.025) = exp(1.152) = 3.16, rounded up to 3.2;
+///   S: exp(0.321 + 2.539 · 0.095 · 1.025) = exp(0.568) = 1.76, rounded up to 1.8.
+/// (The old bound, 2× at every frame, was exceeded by 11 of the 20 runs.) A cache with a
+/// fifth of the points (`2 * n / 4`) scores M 3.07 and S 2.05: S catches it.
+const ERROR_RATIO_BOUND: f64 = 3.2;
+const OVERALL_RATIO_BOUND: f64 = 1.8;
 
 #[test]
 fn moving_viewer_follows_a_recorded_trace() {
-    follow_a_recorded_trace(false);
+    follow_a_recorded_trace(0);
 }
 
-/// The cache's picture during motion against a path-traced frame with the same rays.
-/// Failed since the tracer samples light through mirrors (2026-12-02): the references lost
-/// the mirror box's caustic noise that both errors shared, the path-traced frames' error
-/// fell from 0.25 to 0.16, and the cache's (about 0.3–0.4) was 2.5× it. Since samples of
-/// Lambertian surfaces join a point seen from any eye position (and holes are filled from
-/// up to four pixels away), the cache's error at frames 29/59/89/119, mean of four runs, is
-/// 0.33/0.27/0.26/0.31 against 0.31/0.21/0.16/0.18 (before: 0.33/0.31/0.38/0.42, two runs),
-/// and the test passed in 10 of 14 runs; the other four failed at frame 119 (0.38–0.46
-/// against 0.36). Runs differ although the CPU side is seeded: the cache's GPU passes
-/// insert samples into shared points in parallel, in no fixed order. Kept, not loosened,
-/// until it passes every time.
+/// The cache's error during motion against a path-traced frame with as many rays, at
+/// frames 29/59/89/119 (clamped relative MSE, see below): within [`ERROR_RATIO_BOUND`] at
+/// each, and within [`OVERALL_RATIO_BOUND`] summed over the four.
+///
+/// Repeatable: the CPU side is seeded and the cache's GPU passes give the same result in
+/// any order (before, the insert pass aged points racily and the dither's list came back
+/// in thread order, so runs differed and the test, then bounded at 2×, passed in about 7
+/// runs of 10). Run 0's ratios are 1.08/1.62/1.83/2.06, 1.56 summed.
+///
+/// The bound is derived from how the ratio varies with the seeds, not from run 0: the
+/// ignored `moving_viewer_error_ratios_over_runs` plays runs 0..20 (tracer and reference
+/// seeds varied) and prints each run's largest ratio over the four frames, M (the
+/// figures and the maths at [`ERROR_RATIO_BOUND`]).
 #[test]
-#[ignore = "passes in about seven runs of ten: the cache during motion is up to 2.5x a path-traced frame's error in single frames (README, Tests)"]
-fn moving_viewer_error_stays_within_twice_a_path_traced_frame() {
-    follow_a_recorded_trace(true);
+fn moving_viewer_error_stays_within_a_bound_of_a_path_traced_frame() {
+    let Some(errors) = follow_a_recorded_trace(0) else {
+        return;
+    };
+    let s = overall_ratio(&errors);
+    assert!(
+        s < OVERALL_RATIO_BOUND,
+        "the cache's errors at the four frames sum to {s:.2}× the path-traced frames' \
+         (bound {OVERALL_RATIO_BOUND}×): {errors:.4?}"
+    );
+    for (k, &(e, baseline)) in errors.iter().enumerate() {
+        assert!(
+            e < ERROR_RATIO_BOUND * baseline,
+            "frame {}: clamped relative MSE {e:.4}, {:.2}× a path-traced frame's {baseline:.4} \
+             with as many rays (bound {ERROR_RATIO_BOUND}×)",
+            30 * k + 29,
+            e / baseline
+        );
+    }
 }
 
-fn follow_a_recorded_trace(check_error: bool) {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let log_path = root.join("../shared/tracking/pred6dof/1.csv");
-    if !log_path.exists() {
-        // CI sets HOLOCAVE_REQUIRE_SHARED=1: there, a missing trace is a failure.
-        assert!(
-            std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "HOLOCAVE_REQUIRE_SHARED=1 and {} is absent",
-            log_path.display()
-        );
-        eprintln!("SKIPPED: {} is absent", log_path.display());
-        return;
+/// Not a check: the distribution behind [`ERROR_RATIO_BOUND`] (`cargo test --release -p
+/// holocave-render-node --test moving_viewer -- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn moving_viewer_error_ratios_over_runs() {
+    let (mut worst, mut overall) = (Vec::new(), Vec::new());
+    for run in 0..20 {
+        let Some(errors) = follow_a_recorded_trace(run) else {
+            return;
+        };
+        let ratios: Vec<f64> = errors.iter().map(|(e, b)| e / b).collect();
+        let m = ratios.iter().copied().fold(0.0, f64::max);
+        let s = overall_ratio(&errors);
+        println!("run {run}: ratios {ratios:.3?}, largest {m:.3}, overall {s:.3}");
+        worst.push(m);
+        overall.push(s);
     }
+    for (name, v) in [("largest ratio", &worst), ("overall ratio", &overall)] {
+        let logs: Vec<f64> = v.iter().map(|m| m.ln()).collect();
+        let n = logs.len() as f64;
+        let mean = logs.iter().sum::<f64>() / n;
+        let sd = (logs.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        println!(
+            "{name} per run: min {:.3}, max {:.3}; ln: mean {mean:.4}, sd {sd:.4}",
+            v.iter().copied().fold(f64::INFINITY, f64::min),
+            v.iter().copied().fold(0.0, f64::max)
+        );
+    }
+}
+
+/// The cache's errors summed over the measured frames over the path-traced frames'.
+fn overall_ratio(errors: &[(f64, f64)]) -> f64 {
+    errors.iter().map(|(e, _)| e).sum::<f64>() / errors.iter().map(|(_, b)| b).sum::<f64>()
+}
+
+/// Plays the trace (run `run`: the tracer's and the references' seeds); the clamped
+/// errors of the cache and of a path-traced frame with as many rays at frames 29, 59, 89
+/// and 119, or `None` when the trace is absent (skipped).
+fn follow_a_recorded_trace(run: u64) -> Option<Vec<(f64, f64)>> {
+    let log_path = common::require::shared("tracking/pred6dof/1.csv")?;
     let log = read_csv(&log_path, None).expect("read the trace");
     let samples = log.samples;
     let t0 = samples[0].t_ns;
@@ -74,7 +138,7 @@ fn follow_a_recorded_trace(check_error: bool) {
     let n = SIZE * SIZE;
     let budget = n / 16;
     let cache = RenderCache::new(gpu, &[(SIZE, SIZE), (SIZE, SIZE)], 2 * n * 5 / 4, budget);
-    let mut display = DisplayProcess::new(cache, PixelTracer::new(tracer.clone(), 3), budget);
+    let mut display = WallDisplay::new(cache, PixelTracer::new(tracer.clone(), 3 + run), budget);
 
     let mut next = 0usize;
     let mut worst = Duration::ZERO;
@@ -132,7 +196,7 @@ fn follow_a_recorded_trace(check_error: bool) {
             // The image shown this frame was drawn before this frame's samples came in:
             // compare it with the reference of this frame's left view.
             let img = display.cache.image(0);
-            let reference = render(&tracer, &views[0].wall, 256, frame, &|| {});
+            let reference = render(&tracer, &views[0].wall, 256, frame + (run << 32), &|| {});
             let err = img.relative_mse(&reference);
             // Path-traced fireflies dominate the relative MSE of images of a few samples
             // per pixel (a black image scores about 1); radiance clamped at 1 compares what
@@ -141,14 +205,20 @@ fn follow_a_recorded_trace(check_error: bool) {
             // The same number of rays spent on a whole path-traced frame of this view
             // (what the cache has had per pixel so far, had nothing moved).
             let spp = ((frame + 1) * u64::from(budget)).div_ceil(u64::from(n)) as u32;
-            let same_rays = render(&tracer, &views[0].wall, spp, frame + 99, &|| {});
+            let same_rays = render(
+                &tracer,
+                &views[0].wall,
+                spp,
+                frame + 99 + (run << 32),
+                &|| {},
+            );
             let baseline = clamp(&same_rays).relative_mse(&clamp(&reference));
             eprintln!(
                 "frame {frame}: head moved {travelled:.3} m so far; relative MSE {err:.3}, \
                  clamped at 1: {clamped:.4} (a {spp} spp path-traced frame: {baseline:.4})"
             );
             errors.push((clamped, baseline));
-            let e = holocave_render_node::display::lit_exposure(&reference).unwrap_or(1.0);
+            let e = reference.auto_exposure();
             sheet.push(vec![
                 img.to_preview(e),
                 display.cache.image(1).to_preview(e),
@@ -175,13 +245,7 @@ fn follow_a_recorded_trace(check_error: bool) {
     }
     // For information only: speed is measured by the `display` benchmark.
     eprintln!("worst frame time {:.1} ms", worst.as_secs_f64() * 1e3);
-    for &(e, baseline) in errors.iter().filter(|_| check_error) {
-        assert!(
-            e < 2.0 * baseline,
-            "clamped relative MSE {e}: more than twice a path-traced frame's {baseline} \
-             with as many rays"
-        );
-    }
+    Some(errors)
 }
 
 fn clamp(img: &Image) -> Image {

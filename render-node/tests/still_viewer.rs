@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache};
+use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, WallDisplay};
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 
 const SIZE: u32 = 64;
@@ -32,7 +32,7 @@ fn still_viewer_converges_to_the_path_traced_reference() {
     eprintln!("adapter: {}", gpu.adapter);
     let n = SIZE * SIZE;
     let cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n + n / 4, n);
-    let mut display = DisplayProcess::new(cache, PixelTracer::new(tracer, 1), n);
+    let mut display = WallDisplay::new(cache, PixelTracer::new(tracer, 1), n);
     let view = EyeView::looking_at(wall, 0.05).unwrap();
 
     let start = Instant::now();
@@ -58,9 +58,8 @@ fn still_viewer_converges_to_the_path_traced_reference() {
         let dir = PathBuf::from(dir);
         let img = display.cache.image(0);
         let exposure = reference.auto_exposure();
-        holocave_render_node::display::write_image(&dir, "still-cache", &img, exposure).unwrap();
-        holocave_render_node::display::write_image(&dir, "still-reference", &reference, exposure)
-            .unwrap();
+        common::write_image(&dir, "still-cache", &img, exposure);
+        common::write_image(&dir, "still-reference", &reference, exposure);
     }
     assert!(
         err < TARGET,

@@ -7,7 +7,7 @@ mod common;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache, Sampler};
+use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, SampleFeed, WallDisplay};
 use holocave_tracer::{TraceSettings, Tracer};
 
 /// Frames the display must draw, on average, per batch of samples that arrives. A display
@@ -31,7 +31,7 @@ fn frames_do_not_wait_for_the_tracer() {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let n = size * size;
     let cache = RenderCache::new(gpu, &[(size, size)], n * 2, n);
-    let mut display = DisplayProcess::threaded(cache, PixelTracer::new(tracer, 5), n);
+    let mut display = WallDisplay::threaded(cache, PixelTracer::new(tracer, 5), n);
 
     let start = Instant::now();
     let (mut frames, mut arrivals) = (0u32, 0u32);
@@ -49,7 +49,7 @@ fn frames_do_not_wait_for_the_tracer() {
          display waited for the tracer"
     );
     // Let the last batch land; the picture is mostly drawn by now.
-    if let Sampler::Thread(t) = &mut display.sampler {
+    if let SampleFeed::Thread(t) = &mut display.feed {
         for (eye, s) in t.finish() {
             display.cache.insert(eye, &s);
         }

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use holocave_cave::WallView;
-use holocave_render_node::{DisplayProcess, EyeView, Gpu, PixelTracer, RenderCache, VlfBase};
+use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, VlfBase, WallDisplay};
 use holocave_scene::Scene;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_vlf::file::VlfFile;
@@ -126,7 +126,7 @@ fn a_cold_start_shows_the_light_field_and_a_still_viewer_converges() {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let n = SIZE * SIZE;
     let cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n + n / 4, n);
-    let mut display = DisplayProcess::new(cache, PixelTracer::new(tracer, 1), n / 16).with_vlf(
+    let mut display = WallDisplay::new(cache, PixelTracer::new(tracer, 1), n / 16).with_vlf(
         Arc::new(base),
         holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES,
     );
@@ -163,7 +163,7 @@ fn a_cold_start_shows_the_light_field_and_a_still_viewer_converges() {
         let dir = PathBuf::from(dir);
         let exposure = reference.auto_exposure();
         let img = display.cache.image(0);
-        holocave_render_node::display::write_image(&dir, "vlf-still", &img, exposure).unwrap();
+        common::write_image(&dir, "vlf-still", &img, exposure);
     }
     assert!(
         err < TARGET.min(first * 0.5),

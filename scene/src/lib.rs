@@ -3,10 +3,12 @@
 //! One concept per module: [`load`] reads glTF into [`SceneParts`] (in [`parts`]) and
 //! builds a [`Scene`] from them; [`Scene`] holds the
 //! world-space triangles and answers ray queries through [`bvh`]; [`material`],
-//! [`texture`], [`light`], [`daylight`] and [`camera`] describe what the tracer shades.
+//! [`texture`], [`light`], [`daylight`] and [`camera`] describe what the tracer shades;
+//! [`color`] holds the one Rec. 709 luminance.
 
 pub mod bvh;
 pub mod camera;
+pub mod color;
 pub mod daylight;
 pub mod empty_box;
 pub mod error;
@@ -20,6 +22,7 @@ pub mod scene;
 pub mod texture;
 
 pub use camera::NamedCamera;
+pub use color::luminance;
 pub use daylight::{Daylight, Sky, SkyModel, Sun};
 pub use error::SceneError;
 pub use light::{PunctualKind, PunctualLight};

@@ -9,8 +9,9 @@ use anyhow::{Context, Result, anyhow};
 use clap::Args;
 use holocave_cave::{Cave, load_cave};
 use holocave_holodeck::auth::Credentials;
-use holocave_master::cluster::{MasterOptions, Summary, pacer_since, quantile, run as run_master};
+use holocave_master::cluster::{MasterOptions, Summary, pacer_since, run as run_master};
 use holocave_master::head::{Clock, Head};
+use holocave_protocol::stats::quantile_duration;
 use holocave_tracking::source::SourceSpec;
 
 use holocave_tracer::cave_holodeck::{HostSpec, Hosted};
@@ -195,6 +196,7 @@ pub fn open_head(
 /// The end-of-run summary.
 pub fn print_summary(s: &Summary) {
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    let quantile = |v: &[Duration], q: f64| quantile_duration(v, q).unwrap_or_default();
     println!(
         "{} frames in {:.2} s ({:.1} Hz); {} with every wall",
         s.frames,

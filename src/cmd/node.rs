@@ -26,8 +26,8 @@ use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWa
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
 use holocave_render_node::{
-    DisplayBuilder, DisplayProcess, Gpu, LightField, RenderCache, Sampler, ToneMapper, ToneMode,
-    VlfBase,
+    DisplayBuilder, Gpu, LightField, RenderCache, SampleFeed, ToneMapper, ToneMode, VlfBase,
+    WallDisplay,
 };
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
@@ -183,7 +183,8 @@ pub fn run(args: NodeArgs) -> Result<()> {
                     .join(", ")
             )
         })?;
-    // `--layout` and `--window-*` for this run; a standalone wall draws the layout's eyes.
+    // `--layout` and `--window-*` for this run; a standalone wall keeps its own eyes when
+    // they include the layout's.
     let wall = args.window.wall_for_run(&wall, args.master.is_none())?;
     let size = args.size.unwrap_or((wall.pixels[0], wall.pixels[1]));
     let samples = args
@@ -347,7 +348,7 @@ fn standalone(
         holodeck.as_ref().is_some_and(Running::stopping)
             || closed.as_ref().is_some_and(|c| c.load(Ordering::Acquire))
     };
-    let mut present = |frame: u64, display: &mut DisplayProcess| match &mut output {
+    let mut present = |frame: u64, display: &mut WallDisplay| match &mut output {
         Some(o) => {
             o.prepare(display);
             o.show(frame).map(|_| ())
@@ -380,8 +381,8 @@ fn standalone(
         print!("{}", o.summary());
     }
     drop(output);
-    let holo_counts = match &display.sampler {
-        Sampler::Holodeck(h) => Some(h.counts()),
+    let holo_counts = match &display.feed {
+        SampleFeed::Holodeck(h) => Some(h.counts()),
         _ => None,
     };
     drop(display);
@@ -449,7 +450,7 @@ fn in_cluster(
     let mut log = PresentedLog::append(&dir)?;
     let every = args.every.max(1);
     let windowed = windows.is_some();
-    let mut present = |state: &FrameState, display: &mut DisplayProcess| -> Result<(), String> {
+    let mut present = |state: &FrameState, display: &mut WallDisplay| -> Result<(), String> {
         log.presented(state.frame).map_err(|e| e.to_string())?;
         if !windowed && state.frame.is_multiple_of(every) {
             write_frame(

@@ -5,37 +5,41 @@ use glam::{DVec3, Vec3};
 
 /// `X,Y,Z`: three finite numbers.
 pub fn vec3(s: &str) -> Result<Vec3, String> {
-    let v: Vec<f32> = s
+    let [x, y, z] = numbers::<3>(s)?;
+    let v = DVec3::new(x, y, z).as_vec3();
+    match v.is_finite() {
+        true => Ok(v),
+        false => Err(format!(
+            "{s:?}: coordinates must be finite in single precision"
+        )),
+    }
+}
+
+/// `N` comma-separated values of type `T`, each error naming the value.
+pub fn list<T: std::str::FromStr, const N: usize>(s: &str, what: &str) -> Result<[T; N], String>
+where
+    T::Err: std::fmt::Display,
+{
+    let v: Vec<T> = s
         .split(',')
         .map(|p| {
             p.trim()
-                .parse::<f32>()
+                .parse::<T>()
                 .map_err(|e| format!("{p:?} in {s:?}: {e}"))
         })
         .collect::<Result<_, _>>()?;
-    match v[..] {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
-        [_, _, _] => Err(format!("{s:?}: coordinates must be finite")),
-        _ => Err(format!("{s:?}: expected three numbers X,Y,Z")),
-    }
+    let n = v.len();
+    v.try_into()
+        .map_err(|_| format!("{s:?}: {n} values, expected {what}"))
 }
 
 /// `N` comma-separated finite numbers.
 fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| {
-            p.trim()
-                .parse::<f64>()
-                .map_err(|e| format!("{p:?} in {s:?}: {e}"))
-        })
-        .collect::<Result<_, _>>()?;
+    let v: [f64; N] = list(s, &format!("{N} numbers"))?;
     if v.iter().any(|x| !x.is_finite()) {
         return Err(format!("{s:?}: values must be finite"));
     }
-    let n = v.len();
-    v.try_into()
-        .map_err(|_| format!("{s:?}: {n} values, expected {N}"))
+    Ok(v)
 }
 
 /// `X0,Y0,Z0,X1,Y1,Z1`: a box's lower and upper corners, each coordinate of the first
@@ -98,8 +102,9 @@ mod tests {
     #[test]
     fn bad_values_are_named() {
         assert_eq!(vec3("1, 2,3").unwrap(), Vec3::new(1.0, 2.0, 3.0));
-        assert!(vec3("1,2").unwrap_err().contains("expected three numbers"));
+        assert!(vec3("1,2").unwrap_err().contains("expected 3 numbers"));
         assert!(vec3("1,2,inf").unwrap_err().contains("finite"));
+        assert!(vec3("1,2,1e39").unwrap_err().contains("finite"));
         assert!(vec3("1,x,3").unwrap_err().contains("\"x\""));
         assert!(screen("0,0,0;1,0,0;0,1,0").is_ok());
         assert!(
@@ -117,7 +122,11 @@ mod tests {
         assert!(size("0x48").unwrap_err().contains("positive"));
         assert!(size("65536x65536").unwrap_err().contains("2^28"));
         assert_eq!(aabb("0,0,0,1,2,3").unwrap()[1], DVec3::new(1.0, 2.0, 3.0));
-        assert!(aabb("0,0,0,1,2").unwrap_err().contains("5 values"));
+        assert!(
+            aabb("0,0,0,1,2")
+                .unwrap_err()
+                .contains("5 values, expected 6 numbers")
+        );
         assert!(aabb("0,0,0,1,-2,3").unwrap_err().contains("below"));
         assert_eq!(grid("4,5,6").unwrap(), [4, 5, 6]);
         assert!(grid("4,0,6").unwrap_err().contains("at least 1"));

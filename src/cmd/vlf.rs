@@ -100,6 +100,14 @@ pub struct ViewArgs {
     /// A converged render of the same view (EXR): print the relative MSE against it.
     #[arg(long)]
     pub reference: Option<PathBuf>,
+    /// Leave out the direct light computed per pixel: draw the light field alone, its
+    /// baked direct light included (as before the walls computed it).
+    #[arg(long)]
+    pub no_direct: bool,
+    /// Frames of per-pixel direct light averaged (what a still wall shows after that
+    /// many frames; 1: the first frame).
+    #[arg(long, default_value_t = 1)]
+    pub frames: u32,
 }
 
 pub fn run(c: VlfCommand) -> Result<()> {
@@ -356,11 +364,20 @@ fn view(a: ViewArgs) -> Result<()> {
     } = baked::open(&a.file, &scene)?;
     let view = a.view.view(Some((&scene, &a.scene)), a.size)?;
     let start = std::time::Instant::now();
-    let image = Visibility::new(std::sync::Arc::new(scene), elements, tiles).render(
-        &view,
-        &f.state.values(),
-        a.aa,
-    );
+    let scene = std::sync::Arc::new(scene);
+    let direct = holocave_vlf::PixelDirect::new(scene.clone());
+    let vis = Visibility::new(scene, elements, tiles);
+    let image = if a.no_direct || direct.is_empty() {
+        vis.render(&view, &f.state.values(), a.aa)
+    } else {
+        println!(
+            "direct light per pixel: {} shadow rays per lookup and frame, {} frame(s), {} lookups per pixel",
+            direct.shadow_rays(),
+            a.frames.max(1),
+            a.aa.max(1).pow(2)
+        );
+        vis.render_with_direct(&view, &f.state.indirect_values(), a.aa, &direct, a.frames)
+    };
     let secs = start.elapsed().as_secs_f64();
     image.write_exr(&a.out)?;
     let png = a.out.with_extension("png");
@@ -374,9 +391,9 @@ fn view(a: ViewArgs) -> Result<()> {
     if let Some(r) = &a.reference {
         let reference = super::render::read_reference(r, &image)?;
         println!(
-            "relative MSE against {}: {:.5}",
+            "against {}: {}",
             r.display(),
-            image.relative_mse(&reference)
+            holocave_vlf::accuracy::figures(&image, &reference, 16)
         );
     }
     Ok(())

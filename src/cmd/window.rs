@@ -19,8 +19,9 @@ pub struct WindowArgs {
     #[arg(long, conflicts_with = "headless")]
     pub window: bool,
     /// The stereo layout for this run: mono, left, right, side-by-side, top-bottom or
-    /// anaglyph (one window, replacing the config's). A standalone wall draws the eyes it
-    /// needs; headless, the images written are those eyes'.
+    /// anaglyph (one window, replacing the config's). It chooses what is shown, not what
+    /// is drawn: a standalone wall draws its own eyes (so a window shows what the node
+    /// writes headless), or the layout's where it shows an eye the wall does not draw.
     #[arg(long, value_parser = parse_layout)]
     pub layout: Option<Layout>,
     /// After the last frame, keep it on screen this many seconds (windows only).
@@ -43,28 +44,20 @@ fn parse_layout(s: &str) -> Result<Layout, String> {
 }
 
 fn parse_position(s: &str) -> Result<[i32; 2], String> {
-    let v: Vec<i32> = s
-        .split(',')
-        .map(|p| {
-            p.trim()
-                .parse::<i32>()
-                .map_err(|e| format!("{p:?} in {s:?}: {e}"))
-        })
-        .collect::<Result<_, _>>()?;
-    match v[..] {
-        [x, y] => Ok([x, y]),
-        _ => Err(format!("{s:?}: expected X,Y in pixels")),
-    }
+    super::parse::list(s, "X,Y in pixels")
 }
 
 impl WindowArgs {
-    /// The wall as this run draws it: with `--layout`, a standalone wall draws exactly the
-    /// layout's eyes (`adapt_stereo`); in a cluster the master's states decide, and the
-    /// layout must show eyes the wall draws.
+    /// The wall as this run draws it: with `--layout`, a standalone wall (`adapt_stereo`)
+    /// keeps its eyes if they include the layout's (the render cache's eyes share their
+    /// samples, so drawing fewer eyes would show another picture) and draws the layout's
+    /// eyes otherwise; in a cluster the master's states decide, and the layout must show
+    /// eyes the wall draws.
     pub fn wall_for_run(&self, wall: &Wall, adapt_stereo: bool) -> Result<Wall> {
         let mut wall = wall.clone();
         if let Some(layout) = self.layout {
-            if adapt_stereo {
+            let drawn = Eye::for_mode(wall.stereo);
+            if adapt_stereo && !layout.eyes().iter().all(|e| drawn.contains(e)) {
                 wall.stereo = layout.stereo();
             }
             wall.windows = vec![WindowSettings::with_layout(layout)];

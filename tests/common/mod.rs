@@ -4,10 +4,13 @@
 
 #![allow(dead_code)]
 
-use std::io::{BufRead, BufReader, Read};
+pub mod require;
+
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdout, Command, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{ChildStdout, Command, Stdio};
+
+pub use holocave::launch::Watched;
 
 /// The checkout: configs and scenes are named relative to it.
 pub fn root() -> &'static Path {
@@ -44,45 +47,9 @@ pub fn scratch(name: &str) -> PathBuf {
     d
 }
 
-/// A child process killed when dropped (a failing test leaves nothing running).
-pub struct Proc(pub Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-impl Proc {
-    /// Waits (polling) for the process to exit by itself within `limit`; its status, and
-    /// whatever of its stdout and stderr was piped and not taken.
-    pub fn finish(mut self, limit: Duration) -> (ExitStatus, String, String) {
-        let end = Instant::now() + limit;
-        let status = loop {
-            if let Some(s) = self.0.try_wait().unwrap() {
-                break s;
-            }
-            assert!(
-                Instant::now() < end,
-                "process did not exit within {limit:?}"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        };
-        let (mut out, mut err) = (String::new(), String::new());
-        if let Some(mut o) = self.0.stdout.take() {
-            let _ = o.read_to_string(&mut out);
-        }
-        if let Some(mut e) = self.0.stderr.take() {
-            let _ = e.read_to_string(&mut err);
-        }
-        (status, out, err)
-    }
-}
-
 /// Starts `master` (a `holocave master …` command listening on port 0) with its output
 /// piped; returns it, the address its first line names, and the rest of its stdout.
-pub fn start_master(mut master: Command) -> (Proc, String, BufReader<ChildStdout>) {
+pub fn start_master(mut master: Command) -> (Watched, String, BufReader<ChildStdout>) {
     let mut child = master
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -96,5 +63,5 @@ pub fn start_master(mut master: Command) -> (Proc, String, BufReader<ChildStdout
         .strip_prefix("master listening on ")
         .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
         .to_owned();
-    (Proc(child), addr, out)
+    (Watched::adopt("master", child), addr, out)
 }

@@ -2,13 +2,15 @@
 //!
 //! Windowed runs of the binary happen under it as subprocesses (winit wants the main
 //! thread). Without Xvfb or xwd a test skips with a message, except where
-//! HOLOCAVE_REQUIRE_SHARED=1 (CI), where it fails.
+//! HOLOCAVE_REQUIRE_SHARED=1 (CI), where it fails (`common::require`).
 
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader, Read};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+
+use crate::common::require;
 
 /// A running Xvfb; killed when dropped.
 pub struct Xvfb {
@@ -24,26 +26,12 @@ impl Drop for Xvfb {
     }
 }
 
-fn on_path(program: &str) -> bool {
-    std::env::var_os("PATH")
-        .is_some_and(|paths| std::env::split_paths(&paths).any(|d| d.join(program).is_file()))
-}
-
 impl Xvfb {
     /// Starts Xvfb on a free display (it picks one and tells us: `-displayfd`), with one
     /// `width`x`height` 24-bit screen. `None` (after saying why) where Xvfb or xwd is
     /// missing and HOLOCAVE_REQUIRE_SHARED is not 1.
     pub fn start(width: u32, height: u32) -> Option<Xvfb> {
-        let missing: Vec<&str> = ["Xvfb", "xwd"]
-            .into_iter()
-            .filter(|p| !on_path(p))
-            .collect();
-        if !missing.is_empty() {
-            assert!(
-                std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
-                "HOLOCAVE_REQUIRE_SHARED=1 and {missing:?} not found (apt-get install xvfb x11-apps)"
-            );
-            eprintln!("skipping: {missing:?} not found (apt-get install xvfb x11-apps)");
+        if !require::programs(&["Xvfb", "xwd"], "apt-get install xvfb x11-apps") {
             return None;
         }
         let mut child = Command::new("Xvfb")

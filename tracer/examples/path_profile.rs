@@ -37,7 +37,7 @@ fn vec3(s: &str) -> Result<Vec3, String> {
 }
 
 fn luminance(c: [f32; 3]) -> f64 {
-    f64::from(0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
+    f64::from(holocave_scene::luminance(Vec3::from(c)))
 }
 
 fn main() -> Result<(), String> {

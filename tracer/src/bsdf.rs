@@ -14,7 +14,7 @@
 //! Opaque components are two-sided: they see both directions mirrored to `wo`'s side.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::SurfaceParams;
+use holocave_scene::{SurfaceParams, luminance};
 use std::f32::consts::FRAC_1_PI;
 
 use crate::fresnel;
@@ -45,10 +45,6 @@ pub struct Bsdf {
     spec_f90: Vec3,
     spec_on: bool,
     ior: f32,
-}
-
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
 /// Pdf of sampling the visible normal `m` (m.z > 0) from `w` on either side.

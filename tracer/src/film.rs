@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use glam::Vec3;
+use holocave_scene::luminance;
 
 /// A display value in [0, 1] (clamped) as an 8-bit sRGB code: the sRGB transfer curve,
 /// rounded to the nearest code.
@@ -75,24 +76,32 @@ impl Image {
         Ok(image.layer_data.channel_data.pixels)
     }
 
-    /// The exposure that maps the log-average luminance to middle grey.
+    /// The one auto-exposure rule of the PNG previews (every command's and the node's):
+    /// middle grey (0.18) over the log-average luminance of the pixels that are not black
+    /// (luminance above 1e-6; holes and escaped rays would otherwise wash the picture
+    /// out). `None` for an image with no such pixel.
+    pub fn lit_exposure(&self) -> Option<f32> {
+        let (mut sum, mut n) = (0.0f64, 0usize);
+        for &p in &self.pixels {
+            let l = luminance(p);
+            if l > 1e-6 {
+                sum += f64::from(l).ln();
+                n += 1;
+            }
+        }
+        (n > 0).then(|| (0.18 / (sum / n as f64).exp()) as f32)
+    }
+
+    /// [`Image::lit_exposure`], or 1 for a black image.
     pub fn auto_exposure(&self) -> f32 {
-        let lum = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
-        let n = self.pixels.len().max(1) as f64;
-        let log_avg = self
-            .pixels
-            .iter()
-            .map(|&c| f64::from(lum(c).max(0.0) + 1e-4).ln())
-            .sum::<f64>()
-            / n;
-        (0.18 / log_avg.exp()) as f32
+        self.lit_exposure().unwrap_or(1.0)
     }
 
     /// An 8-bit sRGB preview: exposure, Reinhard's `x / (1 + x)` on luminance, sRGB curve.
     pub fn to_preview(&self, exposure: f32) -> image::RgbImage {
         image::RgbImage::from_fn(self.width, self.height, |x, y| {
             let c = self.at(x, y) * exposure;
-            let l = c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+            let l = luminance(c);
             let c = if l > 0.0 {
                 c * (1.0 / (1.0 + l))
             } else {
@@ -150,6 +159,21 @@ impl Image {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn auto_exposure_maps_the_lit_pixels_log_average_to_middle_grey() {
+        // Half black, a quarter at 0.02 and a quarter at 0.5: the log-average of the lit
+        // half is 0.1 (black pixels do not count), so the exposure is 0.18 / 0.1.
+        let mut img = Image::new(4, 2);
+        img.pixels[4..6].fill(Vec3::splat(0.02));
+        img.pixels[6..8].fill(Vec3::splat(0.5));
+        let e = img.lit_exposure().unwrap();
+        assert!((e - 1.8).abs() < 1e-5, "{e}");
+        assert_eq!(img.auto_exposure(), e);
+        let black = Image::new(4, 2);
+        assert_eq!(black.lit_exposure(), None);
+        assert_eq!(black.auto_exposure(), 1.0);
+    }
 
     #[test]
     fn errors_of_hand_made_images() {

@@ -4,7 +4,7 @@
 //! it, so a scene without, say, punctual lights never loops over them.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{Hit, PunctualKind, PunctualLight, Scene, Sky, Sun};
+use holocave_scene::{Hit, PunctualKind, PunctualLight, Scene, Sky, Sun, luminance};
 use std::f32::consts::PI;
 
 use crate::few_lights::FewLights;
@@ -135,10 +135,6 @@ pub struct SkySampler {
 
 const SKY_THETA: usize = 32;
 const SKY_PHI: usize = 64;
-
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
 
 fn sky_dir(cos_t: f32, phi: f32) -> Vec3 {
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();

@@ -19,7 +19,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
 fn luminance(c: Vec3) -> f64 {
-    f64::from(c.dot(Vec3::new(0.2126, 0.7152, 0.0722)))
+    f64::from(holocave_scene::luminance(c))
 }
 
 fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> Vec<[Vec3; 3]> {

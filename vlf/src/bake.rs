@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use crate::direct::direct_irradiance;
 use crate::directions::Directions;
 use crate::elements::{Elements, cell_index};
+use crate::pools::Pools;
 use crate::propagate::{Lines, Sending, bounce, flux};
 use crate::reflection::Reflection;
 use crate::subfield::{Grid, Sphere, Subfield, cast};
@@ -90,6 +91,12 @@ pub struct State {
     pub tiles: Vec<[f32; 3]>,
     /// The tiles' radiance of the last bounce (what the next bounce propagates).
     pub tiles_last: Vec<[f32; 3]>,
+    /// The part of `irradiance` that came by next-event estimation from emissive
+    /// triangles, punctual lights and the sun (`direct`): what a view that computes the
+    /// direct light per pixel ([`crate::pixel_direct`]) leaves out of the light field.
+    pub direct: Vec<[f32; 3]>,
+    /// The same part of `tiles`.
+    pub tiles_direct: Vec<[f32; 3]>,
     /// The flux (luminance) that first reached the surfaces: direct light, the sky along
     /// the lines, what delta surfaces show.
     pub arrived: f64,
@@ -103,6 +110,25 @@ impl State {
     /// elements' irradiance, then the tiles' radiance.
     pub fn values(&self) -> Vec<[f32; 3]> {
         [self.irradiance.as_slice(), self.tiles.as_slice()].concat()
+    }
+
+    /// What the lookups read when the direct light is computed per pixel: [`State::values`]
+    /// less the next-event part ([`State::direct`], [`State::tiles_direct`]), which the
+    /// bake keeps exactly as computed (the smoothing leaves it alone), so the difference
+    /// is the sky along the lines, caustics and the inter-reflected light. Negative
+    /// values can only be the rounding of that subtraction, and are made zero.
+    pub fn indirect_values(&self) -> Vec<[f32; 3]> {
+        let less = |a: &[[f32; 3]], b: &[[f32; 3]]| -> Vec<[f32; 3]> {
+            a.iter()
+                .zip(b)
+                .map(|(a, b)| (Vec3::from(*a) - Vec3::from(*b)).max(Vec3::ZERO).to_array())
+                .collect()
+        };
+        [
+            less(&self.irradiance, &self.direct),
+            less(&self.tiles, &self.tiles_direct),
+        ]
+        .concat()
     }
 
     /// The light the last bounce sent out, relative to the light that first arrived.
@@ -527,7 +553,9 @@ pub fn bake_with<E>(
     let start = Instant::now();
     let line_dirs = &directions.lines;
     let reflection = Reflection::new(&tiles);
+    let pools = Pools::new(scene, elements, &tiles, &area, &needed, least);
     let lines = Lines {
+        pools: Some(&pools),
         subfields: &subfields,
         dirs: line_dirs,
         weight: &weight,
@@ -561,7 +589,7 @@ pub fn bake_with<E>(
     // with it.
     let caustics = subfields.iter().any(|s| !s.links.is_empty()).then(|| {
         let no_ends = vec![(Vec3::ZERO, Vec3::ZERO); ends.len()];
-        let caustics = bounce(
+        bounce(
             &Lines {
                 ends: &no_ends,
                 ..lines
@@ -571,21 +599,16 @@ pub fn bake_with<E>(
                 tiles: &zero_tiles,
                 first_bounce: true,
             },
-        );
-        (
-            add(&direct, &caustics.irradiance),
-            add(&direct_tiles, &caustics.tiles),
         )
     });
-    // Without mirrors or glass, the direct light itself (not a copy: the tiles' can be a
-    // gigabyte).
-    let (sharp, sharp_tiles): (&[[f32; 3]], &[[f32; 3]]) = match &caustics {
-        Some((e, t)) => (e, t),
-        None => (&direct, &direct_tiles),
-    };
     stats.propagation += start.elapsed();
     let mut state = match resume {
-        Some(s) => s,
+        Some(mut s) => {
+            // Deterministic: the same as the saved one.
+            s.direct = direct;
+            s.tiles_direct = direct_tiles;
+            s
+        }
         None => {
             let arrived = flux(&first, &area) / std::f64::consts::PI;
             let last = reflect(&first, &first_tiles);
@@ -596,6 +619,8 @@ pub fn bake_with<E>(
                 last,
                 tiles: first_tiles.clone(),
                 tiles_last: first_tiles,
+                direct,
+                tiles_direct: direct_tiles,
                 arrived,
                 residuals: vec![residual],
                 converged: false,
@@ -603,6 +628,18 @@ pub fn bake_with<E>(
             save(&s)?;
             s
         }
+    };
+    let caustics = caustics.map(|c| {
+        (
+            add(&state.direct, &c.irradiance),
+            add(&state.tiles_direct, &c.tiles),
+        )
+    });
+    // Without mirrors or glass, the direct light itself (not a copy: the tiles' can be a
+    // gigabyte).
+    let (sharp, sharp_tiles): (&[[f32; 3]], &[[f32; 3]]) = match &caustics {
+        Some((e, t)) => (e, t),
+        None => (&state.direct, &state.tiles_direct),
     };
     let start = Instant::now();
     while !state.converged {

@@ -8,10 +8,14 @@
 //! element count, tile entry count, bounces, residuals), `IRRA` (the irradiance of every
 //! element, 3 × f32), `LAST` (the radiance of the last bounce, what a resumed bake
 //! propagates next), `TILE` (the glossy tiles' radiance, `tiles × k²` bins of 3 × f32;
-//! empty without glossy surfaces) and `TLST` (the tiles' last bounce).
+//! empty without glossy surfaces), `TLST` (the tiles' last bounce), `DIRE` (the part of
+//! `IRRA` that came by next-event estimation: what a view computing the direct light per
+//! pixel leaves out) and `TDIR` (the same part of `TILE`).
 //!
 //! Version 2 added the glossy tiles (the threshold and bins in `META`, `TILE`, `TLST`);
-//! a version 1 file is refused (bake it again).
+//! version 3 the direct parts (`DIRE`, `TDIR`). An older file is refused with the
+//! version it has (bake it again): read as a version 3 it would draw its direct light
+//! twice.
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -22,11 +26,11 @@ use holocave_scene::Scene;
 use crate::bake::{Settings, State};
 
 const MAGIC: &[u8; 8] = b"HOLOVLF\0";
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 const HEADER: usize = 16;
 const CHUNK_HEADER: usize = 16;
-/// Chunks in a file: META, IRRA, LAST, TILE, TLST.
-const CHUNKS: u32 = 5;
+/// Chunks in a file: META, IRRA, LAST, TILE, TLST, DIRE, TDIR.
+const CHUNKS: u32 = 7;
 
 #[derive(Debug, thiserror::Error)]
 pub enum VlfError {
@@ -176,12 +180,18 @@ impl VlfFile {
         put_f32s(&mut tile, &self.state.tiles);
         let mut tlst = Vec::new();
         put_f32s(&mut tlst, &self.state.tiles_last);
+        let mut dire = Vec::new();
+        put_f32s(&mut dire, &self.state.direct);
+        let mut tdir = Vec::new();
+        put_f32s(&mut tdir, &self.state.tiles_direct);
         for (tag, payload) in [
             (b"META", self.meta()),
             (b"IRRA", irra),
             (b"LAST", last),
             (b"TILE", tile),
             (b"TLST", tlst),
+            (b"DIRE", dire),
+            (b"TDIR", tdir),
         ] {
             bytes.extend_from_slice(tag);
             bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
@@ -412,10 +422,12 @@ impl Reader<'_> {
         let last = self.array(&mut at, "LAST", count)?;
         let tiles = self.array(&mut at, "TILE", tile_count)?;
         let tiles_last = self.array(&mut at, "TLST", tile_count)?;
+        let direct = self.array(&mut at, "DIRE", count)?;
+        let tiles_direct = self.array(&mut at, "TDIR", tile_count)?;
         if at != self.bytes.len() {
             return Err(VlfError::Malformed {
                 path: path.into(),
-                chunk: "TLST".into(),
+                chunk: "TDIR".into(),
                 offset: at as u64,
                 what: format!("{} bytes after the last chunk", self.bytes.len() - at),
             });
@@ -440,6 +452,8 @@ impl Reader<'_> {
                 last,
                 tiles,
                 tiles_last,
+                direct,
+                tiles_direct,
                 arrived,
                 residuals,
                 converged,

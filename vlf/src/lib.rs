@@ -2,6 +2,7 @@
 //! global-illumination solution that every wall draws at a cost independent of the
 //! lighting.
 //!
+//! - [`accuracy`]: an image's figures against a converged reference;
 //! - [`directions`]: directions spread evenly over the sphere (a geodesic sphere), paired
 //!   into line orientations;
 //! - [`subfield`]: one orientation's parallel subfield — an `N × N` grid of lines over
@@ -14,6 +15,8 @@
 //! - [`tiles`]: directional radiance tiles for glossy surfaces (which surfaces, how an
 //!   element maps to its tile, the BSDF integrated into the bins);
 //! - [`direct`]: small emitters, punctual lights and the sun by next-event estimation;
+//! - [`pixel_direct`]: the direct light per pixel (the walls' exact part; the bake keeps
+//!   the same part apart so that a view drawing it here takes only the rest);
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
 //! - [`bake`]: the whole bake, its stopping rule and its checkpoints;
 //! - [`file`]: the `.vlf` file, and [`baked`]: its life on disk (settings checked, bakes
@@ -38,6 +41,7 @@
 //! tiles at all. The lines are not grouped into the paper's tiles: each line keeps its own
 //! crossings.
 
+pub mod accuracy;
 pub mod bake;
 pub mod baked;
 pub mod direct;
@@ -45,6 +49,8 @@ pub mod directions;
 pub mod elements;
 pub mod file;
 pub mod octahedral;
+pub mod pixel_direct;
+pub mod pools;
 pub mod propagate;
 pub mod reflection;
 pub mod remote;
@@ -59,5 +65,6 @@ pub use bake::{
 pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
+pub use pixel_direct::{Accumulator, DirectPoint, PixelDirect};
 pub use tiles::Tiles;
 pub use view::{Lookup, Visibility};

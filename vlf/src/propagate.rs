@@ -29,6 +29,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::pools::Pools;
 use crate::reflection::Reflection;
 use crate::subfield::{Crossing, DELTA, Link, Subfield};
 use crate::tiles::Tiles;
@@ -57,6 +58,8 @@ pub struct Lines<'a> {
     pub tiles: &'a Tiles,
     /// The tiles' BSDFs between bins.
     pub reflection: &'a Reflection,
+    /// Small elements pooled with their neighbours (`None`: each alone).
+    pub pools: Option<&'a Pools>,
 }
 
 /// What the previous bounce sends out: diffuse elements' radiance `B` and the glossy
@@ -186,6 +189,27 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
             }
         }
     }
+    // Pooled tiles (`pools`; none at present: see there) reflect the light that arrived
+    // at their whole pool.
+    let pooled: Vec<Vec<Vec3>> = match lines.pools {
+        Some(p) => p
+            .members
+            .iter()
+            .map(|m| {
+                let mut sum = vec![Vec3::ZERO; if tiles.of(m[0]).is_some() { bins } else { 0 }];
+                for &e in m {
+                    if let Some(h) = tiles.of(e) {
+                        let at = h as usize * bins;
+                        for (s, x) in sum.iter_mut().zip(&incoming[at..at + bins]) {
+                            *s += *x;
+                        }
+                    }
+                }
+                sum
+            })
+            .collect(),
+        None => Vec::new(),
+    };
     // The BSDF applied once per tile to all the light that arrived.
     let tiles_out = incoming
         .par_chunks(bins.max(1))
@@ -193,17 +217,28 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
         .enumerate()
         .flat_map_iter(|(g, (arrived, t))| {
             let mut out = vec![Vec3::ZERO; bins];
+            let e = t.element as usize;
+            let (arrived, a) = match lines.pools.map(|p| (p, p.of[e])) {
+                Some((p, k)) if k != u32::MAX => (
+                    pooled[k as usize].as_slice(),
+                    p.area[k as usize].max(p.least),
+                ),
+                _ => (arrived, lines.area[e]),
+            };
             lines.reflection.apply(tiles, g as u32, arrived, &mut out);
-            let a = lines.area[t.element as usize];
             out.into_iter().map(move |l| (l / a).to_array())
         })
         .collect();
-    Received {
-        irradiance: irradiance
+    let irradiance = match lines.pools {
+        Some(p) => p.irradiance(&irradiance, lines.area),
+        None => irradiance
             .iter()
             .zip(lines.area)
             .map(|(e, a)| (*e / *a).to_array())
             .collect(),
+    };
+    Received {
+        irradiance,
         tiles: tiles_out,
     }
 }
@@ -213,7 +248,7 @@ pub fn flux(b: &[[f32; 3]], area: &[f32]) -> f64 {
     b.iter()
         .zip(area)
         .map(|(b, a)| {
-            let l = 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2];
+            let l = holocave_scene::luminance(Vec3::from(*b));
             f64::from(l) * f64::from(*a) * std::f64::consts::PI
         })
         .sum()

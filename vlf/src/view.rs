@@ -20,6 +20,7 @@ use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
 use holocave_scene::bvh::PACKET;
 use holocave_scene::{Ray, Scene};
+use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::film::Image;
 use holocave_tracer::lights::Lights;
 use rayon::prelude::*;
@@ -27,6 +28,7 @@ use rayon::prelude::*;
 use crate::bake::environment;
 use crate::elements::{Elements, interpolate};
 use crate::octahedral;
+use crate::pixel_direct::{DirectPoint, PixelDirect};
 use crate::surface::{Chain, diffuse_albedo, follow, follow_from, side_facing};
 use crate::tiles::Tiles;
 
@@ -98,6 +100,11 @@ impl Visibility {
         Visibility::new(scene, elements, tiles)
     }
 
+    /// The scene drawn.
+    pub fn scene(&self) -> &Arc<Scene> {
+        &self.scene
+    }
+
     /// The element layout.
     pub fn elements(&self) -> &Elements {
         &self.elements
@@ -110,16 +117,32 @@ impl Visibility {
 
     /// What `ray` sees.
     pub fn lookup(&self, ray: Ray) -> Lookup {
+        self.lookup_and_point(ray).0
+    }
+
+    /// What `ray` sees, and the non-delta point it ends on for the per-pixel direct light
+    /// ([`crate::pixel_direct`]).
+    pub fn lookup_and_point(&self, ray: Ray) -> (Lookup, Option<DirectPoint>) {
         let env = environment(&self.lights);
         self.lookup_chain(follow(&self.scene, ray, &env))
     }
 
-    fn lookup_chain(&self, chain: Chain) -> Lookup {
+    fn lookup_chain(&self, chain: Chain) -> (Lookup, Option<DirectPoint>) {
         let Some((s, r)) = chain.end else {
-            return Lookup {
+            let none = Lookup {
                 emitted: chain.emitted.to_array(),
                 ..Lookup::NONE
             };
+            return (none, None);
+        };
+        let point = DirectPoint {
+            triangle: s.hit.triangle,
+            position: s.position,
+            normal: s.normal,
+            shading_normal: s.shading_normal,
+            wo: -r.dir,
+            bsdf: Bsdf::new(&s.params),
+            weight: chain.weight,
         };
         let cells = self.elements.triangles[s.hit.triangle as usize];
         let side = side_facing(s.normal, r.dir);
@@ -130,7 +153,7 @@ impl Visibility {
         if let Some(g) = self.tiles.of(element) {
             let (x, y) = self.tiles.view_coords(g, r.dir, s.shading_normal);
             let k = self.tiles.bins;
-            return Lookup {
+            let l = Lookup {
                 weight: chain.weight.to_array(),
                 emitted,
                 tile: self.tiles.elements + g * k * k,
@@ -139,8 +162,9 @@ impl Visibility {
                 y,
                 ..Lookup::NONE
             };
+            return (l, Some(point));
         }
-        Lookup {
+        let l = Lookup {
             base: cells.base(side),
             res: cells.res,
             u: s.hit.u,
@@ -149,17 +173,26 @@ impl Visibility {
                 .to_array(),
             emitted,
             ..Lookup::NONE
-        }
+        };
+        (l, Some(point))
     }
 
     /// One lookup per pixel of `view`, through the pixel's centre, rows from the top. The
     /// first hits are found in packets of neighbouring pixels (coherent rays).
     pub fn pixels(&self, view: &WallView) -> Vec<Lookup> {
+        self.pixels_and_points(view)
+            .into_iter()
+            .map(|(l, _)| l)
+            .collect()
+    }
+
+    /// As [`Visibility::pixels`], with each pixel's point for the per-pixel direct light.
+    pub fn pixels_and_points(&self, view: &WallView) -> Vec<(Lookup, Option<DirectPoint>)> {
         let w = view.width as usize;
         let n = w * view.height as usize;
         let env = environment(&self.lights);
         let chunk = 8 * PACKET;
-        let mut out = vec![Lookup::NONE; n];
+        let mut out = vec![(Lookup::NONE, None); n];
         out.par_chunks_mut(chunk).enumerate().for_each(|(c, out)| {
             let rays: Vec<Ray> = (c * chunk..(c * chunk + out.len()))
                 .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
@@ -188,6 +221,43 @@ impl Visibility {
                     ((s / k) as f32 + 0.5) / k as f32,
                 );
                 sum += shade_one(&self.lookup(view.ray(Vec2::new(x, y) + o)), values);
+            }
+            *px = sum / (k * k) as f32;
+        });
+        image
+    }
+
+    /// `view` drawn as the walls draw it: the light field's remainder (`values`:
+    /// [`crate::State::indirect_values`]) plus the direct light computed per pixel
+    /// (`direct`), each of the `k × k` lookups per pixel with the mean of the estimates a
+    /// still wall has after `frames` frames ([`PixelDirect::first_estimates`] on the
+    /// first, one on each later one).
+    pub fn render_with_direct(
+        &self,
+        view: &WallView,
+        values: &[[f32; 3]],
+        k: u32,
+        direct: &PixelDirect,
+        frames: u32,
+    ) -> Image {
+        let k = k.max(1);
+        let estimates = direct.first_estimates() + frames.max(1) - 1;
+        let mut image = Image::new(view.width, view.height);
+        let w = view.width as usize;
+        image.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
+            let (x, y) = ((i % w) as f32, (i / w) as f32);
+            let mut sum = Vec3::ZERO;
+            for s in 0..k * k {
+                let o = Vec2::new(
+                    ((s % k) as f32 + 0.5) / k as f32,
+                    ((s / k) as f32 + 0.5) / k as f32,
+                );
+                let (l, p) = self.lookup_and_point(view.ray(Vec2::new(x, y) + o));
+                sum += shade_one(&l, values);
+                if let Some(p) = p {
+                    let seed = (i as u64) * u64::from(k * k) + u64::from(s);
+                    sum += direct.mean(&p, seed, 0, estimates);
+                }
             }
             *px = sum / (k * k) as f32;
         });

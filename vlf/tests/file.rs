@@ -116,7 +116,7 @@ fn a_truncated_file_names_the_chunk_and_offset() {
     let chunks = chunks(&bytes);
     assert_eq!(
         chunks.iter().map(|c| c.0.as_str()).collect::<Vec<_>>(),
-        ["META", "IRRA", "LAST", "TILE", "TLST"]
+        ["META", "IRRA", "LAST", "TILE", "TLST", "DIRE", "TDIR"]
     );
     // Cuts in the header (in the magic number, in the version and count after it), and in
     // each chunk's header, at its payload's start, in its payload and at its last byte.
@@ -178,16 +178,23 @@ fn a_damaged_byte_names_the_chunk() {
     }
     let (p, r) = flip(8);
     let e = r.unwrap_err();
-    assert!(matches!(e, VlfError::Version { found: 18, .. }), "{e:?}");
+    assert!(matches!(e, VlfError::Version { found: 19, .. }), "{e:?}");
     names_file(&e, &p);
-    // A version 1 file (before the glossy tiles) is refused, saying to bake it again.
-    let mut old = bytes.clone();
-    old[8..12].copy_from_slice(&1u32.to_le_bytes());
-    let (p, r) = read_bytes(dir.path(), "old.vlf", &old);
-    let e = r.unwrap_err();
-    assert!(matches!(e, VlfError::Version { found: 1, .. }), "{e:?}");
-    assert!(e.to_string().contains("bake it again"), "{e}");
-    names_file(&e, &p);
+    // A version 1 file (before the glossy tiles) and a version 2 one (before the direct
+    // part was kept apart: read now, its direct light would be drawn twice) are refused,
+    // saying to bake it again.
+    for version in [1u32, 2] {
+        let mut old = bytes.clone();
+        old[8..12].copy_from_slice(&version.to_le_bytes());
+        let (p, r) = read_bytes(dir.path(), "old.vlf", &old);
+        let e = r.unwrap_err();
+        assert!(
+            matches!(e, VlfError::Version { found, .. } if found == version),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("bake it again"), "{e}");
+        names_file(&e, &p);
+    }
 
     // The chunk count.
     let (p, r) = flip(12);
@@ -204,7 +211,7 @@ fn a_damaged_byte_names_the_chunk() {
     let e = r.unwrap_err();
     names_file(&e, &p);
     assert!(
-        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "TLST" && *offset == bytes.len() as u64),
+        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "TDIR" && *offset == bytes.len() as u64),
         "{e:?}"
     );
 
@@ -365,7 +372,12 @@ fn glossy_tiles_read_back_equal_and_damage_in_them_is_named() {
 
     let bytes = std::fs::read(&path).unwrap();
     let chunks = chunks(&bytes);
-    for (tag, at, len) in chunks.iter().skip(3) {
+    // The chunks of the tiles: their radiance, last bounce and direct part.
+    let tile_chunks = chunks
+        .iter()
+        .filter(|c| ["TILE", "TLST", "TDIR"].contains(&c.0.as_str()));
+    assert_eq!(tile_chunks.clone().count(), 3);
+    for (tag, at, len) in tile_chunks {
         assert_eq!(*len, tiles.len() * 12, "{tag}");
         // A damaged byte in the payload: that chunk's checksum.
         let mut b = bytes.clone();

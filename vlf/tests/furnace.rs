@@ -14,7 +14,7 @@ use std::time::Instant;
 use glam::Vec3;
 use holocave_scene::Ray;
 use holocave_vlf::view::shade_one;
-use holocave_vlf::{Directions, Settings, Visibility, layout};
+use holocave_vlf::{Directions, PixelDirect, Settings, Visibility, layout};
 
 const LE: f32 = 1.0;
 const RHO: f32 = 0.5;
@@ -199,4 +199,111 @@ fn closed_furnace_draws_le_over_one_minus_rho() {
         "worst ray {worst:.4} above 4σ = {}",
         4.0 * sigma
     );
+}
+
+/// The split: the light field's remainder (`State::indirect_values`) plus the direct light
+/// computed per pixel (`pixel_direct`) draws the same furnace as the light field alone,
+/// its direct light included: the same rays, the same interior points, their mean
+/// relative difference within the noise of the two direct estimates.
+#[test]
+fn the_split_draws_what_the_total_draws() {
+    let scene = Arc::new(common::closed_box(
+        "furnace",
+        SIDE,
+        common::lambert("glowing", RHO, Vec3::splat(LE)),
+    ));
+    let settings = Settings {
+        directions: 92,
+        resolution: 48,
+        element_size: Some(0.1),
+        direct_samples: 1024,
+        tolerance: 1e-3,
+        max_bounces: 200,
+        ..Settings::default()
+    };
+    let (state, _) = common::bake_quiet(&scene, &settings);
+    assert!(state.converged);
+    // The direct part is kept as computed: every element's total holds it, and what is
+    // left is the inter-reflected light, ρ c/(1 − ρ c) of the direct light at most.
+    let values = state.values();
+    let indirect = state.indirect_values();
+    assert_eq!(values.len(), indirect.len());
+    let (mut direct_sum, mut indirect_sum) = (0f64, 0f64);
+    for ((t, i), d) in values.iter().zip(&indirect).zip(&state.direct) {
+        for c in 0..3 {
+            assert!(
+                (t[c] - i[c] - d[c]).abs() <= 1e-5 * t[c] && i[c] >= 0.0,
+                "total {t:?}, indirect {i:?}, direct {d:?}"
+            );
+        }
+        direct_sum += f64::from(d[0]);
+        indirect_sum += f64::from(i[0]);
+    }
+    // In the furnace the direct irradiance is π Le and the indirect π ρ Le/(1 − ρ) (no
+    // quadrature factor: the bound is loose), so indirect/direct ≈ ρ/(1 − ρ) = 1.
+    let ratio = indirect_sum / direct_sum;
+    assert!(
+        (ratio - f64::from(RHO / (1.0 - RHO))).abs() < 0.1,
+        "indirect/direct {ratio:.3}"
+    );
+
+    let vis = Visibility::of(scene.clone(), &settings);
+    let direct = PixelDirect::new(scene.clone());
+    let samples = 1024;
+    let exact = f64::from(LE / (1.0 - RHO));
+    let elements = layout(&scene, &settings);
+    let mut diffs = Vec::new();
+    let (mut old_sum, mut new_sum) = (0f64, 0f64);
+    let mut seen = HashSet::new();
+    for (o, origin) in [Vec3::splat(0.5), Vec3::new(0.2, 0.3, 0.7)]
+        .into_iter()
+        .enumerate()
+    {
+        for (k, dir) in sphere_points(500).into_iter().enumerate() {
+            let ray = Ray::new(origin * SIDE, dir);
+            let (lookup, point) = vis.lookup_and_point(ray);
+            let point = point.expect("a closed box");
+            if distance_to_edge(point.position) <= 2.0 * elements.element_size {
+                continue;
+            }
+            let old = f64::from(shade_one(&lookup, &values).x);
+            let new = f64::from(
+                (shade_one(&lookup, &indirect)
+                    + direct.mean(&point, (o * 1000 + k) as u64, 0, samples))
+                .x,
+            );
+            diffs.push((new - old) / exact);
+            old_sum += old;
+            new_sum += new;
+            seen.insert((
+                point.triangle,
+                (lookup.u * 15.0) as u32,
+                (lookup.v * 15.0) as u32,
+            ));
+        }
+    }
+    let n = diffs.len() as f64;
+    let mean = diffs.iter().sum::<f64>() / n;
+    let rms = (diffs.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / n).sqrt();
+    eprintln!(
+        "split against total: {} rays over {} elements, mean difference {mean:.5}, spread {rms:.4}; means {:.4} and {:.4} (exact {exact})",
+        diffs.len(),
+        seen.len(),
+        old_sum / n,
+        new_sum / n
+    );
+    // Each side's direct light is a next-event estimate of ρ Le with 1024 samples (an
+    // element's, interpolated, and a point's), per-sample spread ≤ 1.5 (see above),
+    // weighted by ρ(1 − ρ) in L: σ ≤ 0.25 × 1.5/√1024 = 1.2 % each, so their difference
+    // has σ_d ≤ 1.7 % per ray (the rest of the light field is the same on both sides);
+    // the mean over rays that see K different elements is within 4 σ_d/√K of zero.
+    let sigma_d = 2f64.sqrt() * 0.25 * 1.5 / f64::from(samples).sqrt();
+    let k = seen.len() as f64;
+    assert!(n > 300.0, "{n} interior rays");
+    assert!(
+        mean.abs() < 4.0 * sigma_d / k.sqrt(),
+        "the split's sum differs from the total by {mean:.5} on average (bound {:.5})",
+        4.0 * sigma_d / k.sqrt()
+    );
+    assert!(rms < sigma_d, "spread {rms:.4} above σ_d {sigma_d:.4}");
 }

@@ -31,6 +31,8 @@ fn tail_of_a_geometric_series_is_what_is_left() {
         last: vec![],
         tiles: vec![],
         tiles_last: vec![],
+        direct: vec![],
+        tiles_direct: vec![],
         arrived: 1.0,
         residuals: r[..3].to_vec(),
         converged: false,

@@ -9,9 +9,15 @@
 //          the cap, since what such a surface sends does not depend on where it is seen
 //          from;
 //          a sample from another eye position whose colour differs a lot from the
-//          pixel's well-sampled point ages the points around it (premature aging);
+//          pixel's well-sampled point asks for the points around it to be aged
+//          (premature aging), counted per pixel;
+//   age:   the points shown in pixels so asked are aged (one invocation per pixel);
 //   place: every other sample becomes a new point, replacing the oldest point of a
 //          group of GROUP points chosen round robin (the render cache's replacement).
+// Each pass writes every point from at most one invocation (a batch's pixels are distinct
+// and a point is shown in at most one pixel; a batch has at most one sample per group),
+// so the result does not depend on the order the GPU runs invocations in: a run is
+// repeatable on any adapter and any number of GPU threads.
 
 struct NewSample {
     pos: vec4<f32>,    // xyz hit position, w pixel index (bitcast u32)
@@ -37,6 +43,9 @@ struct InsertParams {
 @group(0) @binding(2) var<storage, read> samples: array<NewSample>;
 @group(0) @binding(3) var<storage, read> key_img: array<u32>;
 @group(0) @binding(4) var<storage, read_write> matched: array<u32>;
+// Per pixel of the eye: how many samples asked for its point to be aged (zero between
+// batches: `age_changed` clears what it applies).
+@group(0) @binding(5) var<storage, read_write> aging: array<atomic<u32>>;
 
 // Ray origins closer than this (m) count as the same eye position.
 const SAME_ORIGIN: f32 = 1.0e-4;
@@ -49,14 +58,12 @@ const MOVING_MAX_COUNT: f32 = 16.0;
 // pixel's point (of at least MIN_COUNT samples) by more than this factor either way ...
 const CHANGE_FACTOR: f32 = 4.0;
 const MIN_COUNT: f32 = 2.0;
-// ... ages the points shown in the pixel's 3x3 neighbourhood by this many frames, so they
-// are resampled sooner (the render cache's premature aging of stale points).
+// ... ages the points shown in the pixel's 3x3 neighbourhood by this many frames (per
+// sample asking), so they are resampled sooner (the render cache's premature aging of
+// stale points).
 const CHANGE_AGING: f32 = 16.0;
 
-fn lum(c: vec3<f32>) -> f32 {
-    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
-}
-
+// Asks for the points shown around `pixel` to be aged (applied by `age_changed`).
 fn age_neighbourhood(pixel: u32) {
     let x = i32(pixel % Q.width);
     let y = i32(pixel / Q.width);
@@ -67,12 +74,7 @@ fn age_neighbourhood(pixel: u32) {
             if (xx < 0 || yy < 0 || xx >= i32(Q.width) || yy >= i32(Q.height)) {
                 continue;
             }
-            let k = key_img[u32(yy) * Q.width + u32(xx)];
-            if (k != EMPTY) {
-                let j = key_index(k, Q.index_bits);
-                // Not atomic: two samples ageing one point may lose one bump; harmless.
-                points[j].pos.w = min(points[j].pos.w + CHANGE_AGING, MAX_AGE - 1.0);
-            }
+            atomicAdd(&aging[u32(yy) * Q.width + u32(xx)], 1u);
         }
     }
 }
@@ -96,11 +98,10 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let moved = distance(p.origin.xyz, s.origin.xyz);
     if (moved > SAME_ORIGIN && p.rad.w >= MIN_COUNT) {
-        let a = lum(p.rad.xyz) + 1.0e-3;
-        let b = lum(s.rad.xyz) + 1.0e-3;
+        let a = luminance(p.rad.xyz) + 1.0e-3;
+        let b = luminance(s.rad.xyz) + 1.0e-3;
         if (a > CHANGE_FACTOR * b || b > CHANGE_FACTOR * a) {
             age_neighbourhood(bitcast<u32>(s.pos.w));
-            p.pos.w = points[idx].pos.w;
         }
     }
     let w = max(s.weight.x, 1.0);
@@ -127,6 +128,26 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
     p.pos.w = 0.0;
     points[idx] = p;
     matched[i] = 1u;
+}
+
+// One invocation per pixel of the eye: the point shown there is aged as many times as
+// samples asked (after `match_samples` has written every matched point).
+@compute @workgroup_size(64)
+fn age_changed(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= Q.width * Q.height) {
+        return;
+    }
+    let asked = atomicLoad(&aging[i]);
+    if (asked == 0u) {
+        return;
+    }
+    atomicStore(&aging[i], 0u);
+    let k = key_img[i];
+    if (k != EMPTY) {
+        let j = key_index(k, Q.index_bits);
+        points[j].pos.w = min(points[j].pos.w + CHANGE_AGING * f32(asked), MAX_AGE - 1.0);
+    }
 }
 
 @compute @workgroup_size(64)

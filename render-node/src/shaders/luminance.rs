@@ -9,6 +9,9 @@ use crate::tonemap::{LogHistogram, TONE_BINS};
 /// `MAX_BINS` in the shader.
 const _: () = assert!(TONE_BINS <= 128);
 
+/// The shader (compiled after `common.wgsl`: `gpu::with_common`).
+const SOURCE: &str = include_str!("luminance.wgsl");
+
 /// `@workgroup_size` of both entry points.
 const WORKGROUP: u32 = 64;
 /// Pixels per invocation (`CHUNK` in the shader).
@@ -40,7 +43,7 @@ impl Histogrammer {
         let pass = ComputePass::new(
             gpu,
             "luminance",
-            include_str!("luminance.wgsl"),
+            SOURCE,
             &[Uniform, Storage { read_only: true }, rw, rw, rw],
             ["reduce", "histogram"],
         );
@@ -120,6 +123,23 @@ mod tests {
     use super::*;
     use glam::Vec3;
     use holocave_tracer::film::Image;
+
+    #[test]
+    fn luminance_wgsl_params_are_laid_out_as_in_rust() {
+        use std::mem::{offset_of, size_of};
+        let p = offset_of!(LumParams, pad);
+        crate::gpu::layout::assert_same_layout(
+            &crate::gpu::with_common(SOURCE),
+            "LumParams",
+            size_of::<LumParams>(),
+            &[
+                ("n", offset_of!(LumParams, n)),
+                ("bins", offset_of!(LumParams, bins)),
+                ("_pad0", p),
+                ("_pad1", p + 4),
+            ],
+        );
+    }
 
     #[test]
     fn the_gpu_histogram_is_the_cpu_one() {

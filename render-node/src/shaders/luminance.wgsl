@@ -17,14 +17,13 @@ struct LumParams {
 @group(0) @binding(3) var<storage, read_write> partial: array<f32>;
 @group(0) @binding(4) var<storage, read_write> hist: array<atomic<u32>>;
 
-const LUMINOUS_EFFICACY: f32 = 179.0;
 const L_FLOOR: f32 = 1e-4;
 const LOG10_2: f32 = 0.30102999566;
 
 // log10 of the pixel's luminance (cd/m²), or a value below -1e30 for black or non-finite.
 fn log_lum(i: u32) -> f32 {
     let c = pixels[i].xyz;
-    let l = LUMINOUS_EFFICACY * dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+    let l = LUMINOUS_EFFICACY * luminance(c);
     if (l > L_FLOOR && l < 3.0e38) {
         return log2(l) * LOG10_2;
     }

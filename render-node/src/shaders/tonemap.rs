@@ -4,8 +4,11 @@
 use bytemuck::{Pod, Zeroable};
 use holocave_cave::{Layout, WindowSettings};
 
-use crate::gpu::Gpu;
+use crate::gpu::{Gpu, with_common};
 use crate::tonemap::{TONE_BINS, ToneCurve};
+
+/// The shader (compiled after `common.wgsl`, as the compute passes are).
+pub(crate) const SOURCE: &str = include_str!("tonemap.wgsl");
 
 /// `Screen` in `tonemap.wgsl`.
 #[repr(C)]
@@ -74,7 +77,7 @@ impl ScreenPass {
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("tonemap"),
-                source: wgpu::ShaderSource::Wgsl(include_str!("tonemap.wgsl").into()),
+                source: wgpu::ShaderSource::Wgsl(with_common(SOURCE).into()),
             });
         let pl = gpu
             .device
@@ -220,6 +223,29 @@ mod tests {
     use crate::tonemap::{ToneMapper, ToneMode};
     use glam::Vec3;
     use holocave_tracer::film::Image;
+
+    #[test]
+    fn tonemap_wgsl_screen_is_laid_out_as_in_rust() {
+        use std::mem::{offset_of, size_of};
+        crate::gpu::layout::assert_same_layout(
+            &with_common(SOURCE),
+            "Screen",
+            size_of::<Screen>(),
+            &[
+                ("window", offset_of!(Screen, window)),
+                ("eye_size", offset_of!(Screen, eye_size)),
+                ("arrangement", offset_of!(Screen, arrangement)),
+                ("first", offset_of!(Screen, first)),
+                ("second", offset_of!(Screen, second)),
+                ("flags", offset_of!(Screen, flags)),
+                ("linear", offset_of!(Screen, linear)),
+                ("log_min", offset_of!(Screen, log_min)),
+                ("log_max", offset_of!(Screen, log_max)),
+                ("log_scale", offset_of!(Screen, log_scale)),
+                ("cdf", offset_of!(Screen, cdf)),
+            ],
+        );
+    }
 
     const W: u32 = 24;
     const H: u32 = 16;

@@ -24,7 +24,6 @@ struct Screen {
 @group(0) @binding(1) var<storage, read> eye0: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> eye1: array<vec4<f32>>;
 
-const LUMINOUS_EFFICACY: f32 = 179.0;
 const LD_MAX: f32 = 100.0;
 const L_FLOOR: f32 = 1e-4;
 const BINS: u32 = 100u;
@@ -69,7 +68,7 @@ fn tone(c: vec3<f32>) -> vec3<f32> {
     if ((s.flags & 8u) == 0u) {
         return vec3<f32>(0.0);
     }
-    let lw = LUMINOUS_EFFICACY * dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+    let lw = LUMINOUS_EFFICACY * luminance(c);
     let ld = display_luminance(lw);
     var scale = 0.0;
     if (lw > 0.0) {

@@ -5,6 +5,9 @@ use crate::gpu::{Binding, ComputePass, Gpu};
 
 use super::Recorder;
 
+/// The shader (compiled after `common.wgsl`: `gpu::with_common`).
+pub(super) const SOURCE: &str = include_str!("vlf.wgsl");
+
 /// `@workgroup_size` of the shader's entry points.
 const WORKGROUP: u32 = 256;
 
@@ -16,7 +19,7 @@ impl VlfPass {
         use Binding::{Storage, Uniform};
         let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
         let bindings = [Uniform, ro, ro, ro, ro, rw, rw, rw];
-        let source = include_str!("vlf.wgsl");
+        let source = SOURCE;
         VlfPass(ComputePass::new(
             gpu,
             "vlf",

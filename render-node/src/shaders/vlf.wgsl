@@ -131,8 +131,7 @@ fn blend(@builtin(global_invocation_id) gid: vec3<u32>) {
     let shown = (V.prior * vlf + n * c.xyz) / max(V.prior + n, 1.0e-6);
     color[i] = vec4<f32>(shown, c.w);
     if (c.w > 0.0) {
-        let lum = vec3<f32>(0.2126, 0.7152, 0.0722);
-        let d = abs(dot(c.xyz - vlf, lum)) / (dot(vlf, lum) + 0.05);
+        let d = abs(luminance(c.xyz - vlf)) / (luminance(vlf) + 0.05);
         let extra = DISAGREE_SCALE * min(d, 1.0);
         priority[i] += extra;
         atomicAdd(&counters[0], u32(extra * SUM_SCALE + 0.5));

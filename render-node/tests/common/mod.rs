@@ -5,6 +5,10 @@ use glam::Vec3;
 use holocave_cave::WallView;
 use holocave_scene::{LoadOptions, Scene};
 
+/// Skip or fail without `../shared` (`tests/common/require.rs` of the checkout).
+#[path = "../../../tests/common/require.rs"]
+pub mod require;
+
 /// The README's eye: in front of the box, at standing height.
 pub const EYE: Vec3 = Vec3::new(0.0, 1.0, 3.4);
 
@@ -25,4 +29,20 @@ pub fn front_wall(eye: Vec3, size: u32) -> WallView {
         width: size,
         height: size,
     }
+}
+
+/// Writes `image` as `DIR/<stem>.exr` (linear) and `DIR/<stem>.png` (preview at
+/// `exposure`), for looking at a test's pictures (`HOLOCAVE_TEST_OUT`).
+#[allow(dead_code)]
+pub fn write_image(
+    dir: &std::path::Path,
+    stem: &str,
+    image: &holocave_tracer::film::Image,
+    exposure: f32,
+) {
+    std::fs::create_dir_all(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    image.write_exr(&dir.join(format!("{stem}.exr"))).unwrap();
+    image
+        .write_png(&dir.join(format!("{stem}.png")), exposure)
+        .unwrap();
 }

@@ -10,25 +10,14 @@ pub fn project_path(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
 }
 
+#[path = "../../../tests/common/require.rs"]
+mod require;
+
 /// A file of the read-only shared scenes beside the checkout (`../shared/scenes`), or
-/// `None` (with a message saying the test is skipped) when they are absent. With
-/// `HOLOCAVE_REQUIRE_SHARED=1` (as CI sets it) an absent file fails the test instead.
+/// `None` when they are absent: the test is skipped, or fails where
+/// `HOLOCAVE_REQUIRE_SHARED=1` (CI), as `require` says.
 pub fn shared_scene(rel: &str) -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
-    let p = root.join(rel);
-    if p.exists() {
-        return Some(p);
-    }
-    let why = format!(
-        "{} is absent (the shared scenes live in ../shared/scenes beside the checkout)",
-        p.display()
-    );
-    assert!(
-        std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
-        "HOLOCAVE_REQUIRE_SHARED=1 and {why}"
-    );
-    eprintln!("SKIPPED: {why}");
-    None
+    require::shared(&format!("scenes/{rel}"))
 }
 
 /// Loads a scene leniently; a load error is a test failure that shows the error.

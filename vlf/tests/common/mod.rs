@@ -121,6 +121,10 @@ pub fn assert_same_bits(a: &State, b: &State, what: &str) {
         bits(&a.tiles_last) == bits(&b.tiles_last),
         "{what}: glossy tiles' last bounce differs"
     );
+    assert!(
+        bits(&a.direct) == bits(&b.direct) && bits(&a.tiles_direct) == bits(&b.tiles_direct),
+        "{what}: the direct parts differ"
+    );
 }
 
 /// The Cornell box with its white walls made a glossy metal (GGX α = 0.09): every part

@@ -1,0 +1,399 @@
+//! The direct light per pixel (`pixel_direct`) against exact answers: the sun through a
+//! slit onto a floor (the lit patch and the umbra exact from the first frame, the
+//! penumbra and the edge's position after a still view's frames, against a quadrature of
+//! the sun's disc), and a lamp's highlight on a glossy plane against the path tracer
+//! (where the light field alone, its tiles' lobes widened, blurs it).
+
+mod common;
+
+use std::path::Path;
+use std::sync::Arc;
+
+use glam::{DVec3, Vec2, Vec3, Vec4};
+use holocave_cave::WallView;
+use holocave_scene::{Daylight, Material, Ray, Scene, SceneParts, Sun, TriangleShading};
+use holocave_tracer::film::Image;
+use holocave_vlf::{PixelDirect, Settings, Visibility};
+
+fn scene_with(
+    name: &str,
+    triangles: &[([Vec3; 3], u32)],
+    materials: Vec<Material>,
+    daylight: Daylight,
+) -> Scene {
+    let parts = SceneParts {
+        name: name.into(),
+        positions: triangles.iter().map(|(t, _)| *t).collect(),
+        shading: triangles
+            .iter()
+            .map(|&(_, material)| TriangleShading {
+                normals: None,
+                uvs: [Vec2::ZERO; 3],
+                material,
+            })
+            .collect(),
+        materials,
+        daylight,
+        ..SceneParts::default()
+    };
+    Scene::from_parts(parts, Path::new(name)).expect("a valid test scene")
+}
+
+// The slit: an opaque plane at height H with a gap of width W along z, over a Lambertian
+// floor; the sun 30° from the zenith, tilted towards +x, with the real sun's angular
+// radius.
+const H: f32 = 1.0;
+const W: f32 = 1.0;
+const RHO: f32 = 0.5;
+const SUN_L: f32 = 1000.0;
+const SUN_R: f32 = 0.004_65;
+const TILT: f32 = std::f32::consts::FRAC_PI_6;
+
+fn sun_direction() -> Vec3 {
+    Vec3::new(TILT.sin(), TILT.cos(), 0.0)
+}
+
+fn slit() -> Scene {
+    let big = 3.0;
+    // The floor faces +y (a × b = z × x); the plates face −y.
+    let floor = common::quad(
+        Vec3::new(-big, 0.0, -big),
+        Vec3::Z * 2.0 * big,
+        Vec3::X * 2.0 * big,
+    );
+    let left = common::quad(
+        Vec3::new(-big, H, -big),
+        Vec3::X * (big - W / 2.0),
+        Vec3::Z * 2.0 * big,
+    );
+    let right = common::quad(
+        Vec3::new(W / 2.0, H, -big),
+        Vec3::X * (big - W / 2.0),
+        Vec3::Z * 2.0 * big,
+    );
+    let mut tris = Vec::new();
+    for t in floor {
+        tris.push((t, 0));
+    }
+    for t in left.into_iter().chain(right) {
+        tris.push((t, 1));
+    }
+    let daylight = Daylight {
+        sun: Some(Sun {
+            direction: sun_direction(),
+            angular_radius: SUN_R,
+            radiance: Vec3::splat(SUN_L),
+        }),
+        sky: None,
+    };
+    scene_with(
+        "slit",
+        &tris,
+        vec![
+            common::lambert("floor", RHO, Vec3::ZERO),
+            common::lambert("plate", 0.0, Vec3::ZERO),
+        ],
+        daylight,
+    )
+}
+
+/// The floor's exact irradiance at `(x, 0, 0)`: `L ∫ V(ω) cos θ dω` over the sun's disc,
+/// by a midpoint rule in polar coordinates about the disc's centre (`n × n` cells), in
+/// f64. A direction `d` passes the slit when `|x + H d_x / d_y| < W/2`.
+fn quadrature(x: f64, n: usize) -> f64 {
+    let s = sun_direction().as_dvec3();
+    let e1 = DVec3::Y.cross(s).normalize().cross(s).normalize();
+    let e2 = s.cross(e1);
+    let r = f64::from(SUN_R);
+    let mut sum = 0.0;
+    for i in 0..n {
+        let rho = (i as f64 + 0.5) / n as f64 * r;
+        let area = rho.sin() * (r / n as f64) * (std::f64::consts::TAU / n as f64);
+        for j in 0..n {
+            let phi = (j as f64 + 0.5) / n as f64 * std::f64::consts::TAU;
+            let d = s * rho.cos() + (e1 * phi.cos() + e2 * phi.sin()) * rho.sin();
+            let hit = x + f64::from(H) * d.x / d.y;
+            if hit.abs() < f64::from(W) / 2.0 {
+                sum += d.y * area;
+            }
+        }
+    }
+    sum * f64::from(SUN_L)
+}
+
+/// The floor's irradiance at `(x, 0, 0)` as the direct pass estimates it, seen from above
+/// (the radiance is `ρ/π E` on the Lambertian floor): the mean of estimates
+/// `first .. first + count`.
+fn estimated(vis: &Visibility, direct: &PixelDirect, x: f32, first: u64, count: u32) -> f64 {
+    let p = Vec3::new(x, 0.0, 0.0);
+    let eye = Vec3::new(x + 0.01, 0.5, 0.02);
+    let (_, point) = vis.lookup_and_point(Ray::new(eye, (p - eye).normalize()));
+    let point = point.expect("the floor");
+    assert!((point.position - p).length() < 1e-4, "{}", point.position);
+    let seed = (x * 1e4) as u64;
+    f64::from(direct.mean(&point, seed, first, count).x) * std::f64::consts::PI / f64::from(RHO)
+}
+
+#[test]
+fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
+    let scene = Arc::new(slit());
+    let vis = Visibility::of(scene.clone(), &Settings::default());
+    let direct = PixelDirect::new(scene.clone());
+    assert_eq!(direct.shadow_rays(), 1);
+
+    // Lit: E = L (s·n) π sin² r exactly (the disc's cosine-weighted solid angle); one
+    // direction in the disc gives L Ω cos θ_d, which differs from it by at most the
+    // relative change of cos θ over the disc, tan θ_s sin r + (1 − cos r) = 0.27 %.
+    let s = sun_direction();
+    let lit =
+        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
+    let q = quadrature(-0.577, 400);
+    assert!(
+        (q - lit).abs() < 1e-4 * lit,
+        "quadrature {q} against the closed form {lit}"
+    );
+    let one = f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos()));
+    // The geometric edges (the disc's centre grazing the plates) and the penumbra's half
+    // width about them: x_e = −H tan θ_s ± W/2, h = H (tan(θ_s + r) − tan θ_s).
+    let centre = -H * TILT.tan();
+    let edges = [centre - W / 2.0, centre + W / 2.0];
+    let half = H * ((TILT + SUN_R).tan() - TILT.tan());
+    eprintln!("lit E {lit:.4}, edges {edges:?}, penumbra half width {half:.4} m");
+
+    // The first frame (estimate 0 of each pixel's sequence): exact in the lit patch and
+    // in the umbra, wherever the point is more than the penumbra's half width (with a
+    // margin of 1 mm for the slant of the plates' edges seen from the point) from an edge.
+    let mut lit_n = 0;
+    let mut umbra_n = 0;
+    for k in 0..400 {
+        let x = -2.5 + 4.0 * (k as f32 + 0.5) / 400.0;
+        let from_edge = edges.iter().map(|e| (x - e).abs()).fold(f32::MAX, f32::min);
+        if from_edge < half + 1e-3 {
+            continue;
+        }
+        let e = estimated(&vis, &direct, x, 0, 1);
+        if x > edges[0] && x < edges[1] {
+            lit_n += 1;
+            assert!(
+                (e - lit).abs() <= one * lit,
+                "x = {x}: first frame {e}, lit {lit} ± {:.2} %",
+                100.0 * one
+            );
+        } else {
+            umbra_n += 1;
+            assert_eq!(e, 0.0, "x = {x}: first frame in the umbra");
+        }
+    }
+    assert!(lit_n > 50 && umbra_n > 50, "{lit_n} lit, {umbra_n} umbra");
+
+    // The penumbrae after N frames: each estimate is the disc's radiance times a
+    // visibility of 0 or 1 (times the cosine), of variance at most E_lit²/4 (1 + 0.27 %)²;
+    // the mean of N has σ ≤ E_lit (1.003) / (2 √N) (the low-discrepancy sequence does
+    // better; this bound holds for independent samples too). Every point across the two
+    // penumbrae is within 4σ plus the quadrature's error (the 400 × 400 midpoint rule
+    // cuts ≈ 2 × 400 cells at the slit's edge, each off by at most half its weight:
+    // ≤ 1/400 of E_lit) of the exact value.
+    let frames = 1024u32;
+    let sigma = lit * (1.0 + one) / (2.0 * f64::from(frames).sqrt());
+    let tolerance = 4.0 * sigma + lit / 400.0;
+    let mut worst = 0f64;
+    let mut crossings = Vec::new();
+    for edge in edges {
+        let steps = 48;
+        let xs: Vec<f32> = (0..=steps)
+            .map(|k| edge - 1.2 * half + 2.4 * half * k as f32 / steps as f32)
+            .collect();
+        let profile: Vec<(f64, f64)> = xs
+            .iter()
+            .map(|&x| {
+                (
+                    estimated(&vis, &direct, x, 0, frames),
+                    quadrature(f64::from(x), 400),
+                )
+            })
+            .collect();
+        for (x, (e, q)) in xs.iter().zip(&profile) {
+            worst = worst.max((e - q).abs() / lit);
+            assert!(
+                (e - q).abs() <= tolerance,
+                "x = {x}: {frames} frames give {e:.4}, exact {q:.4} ± {tolerance:.4}"
+            );
+        }
+        // Where the irradiance crosses half the lit value (linear between the scan's
+        // points), estimated and exact.
+        let cross = |f: &dyn Fn(usize) -> f64| -> f64 {
+            let target = lit / 2.0;
+            (0..steps)
+                .find_map(|k| {
+                    let (a, b) = (f(k) - target, f(k + 1) - target);
+                    (a * b <= 0.0 && a != b).then(|| {
+                        f64::from(xs[k]) + (f64::from(xs[k + 1]) - f64::from(xs[k])) * a / (a - b)
+                    })
+                })
+                .expect("a crossing")
+        };
+        let got = cross(&|k| profile[k].0);
+        let want = cross(&|k| profile[k].1);
+        crossings.push((got, want));
+    }
+    // The edge's position: near the middle of a penumbra the irradiance rises with slope
+    // E_lit (2/π)/h (a straight cut across a uniform disc), so an error of 4σ in E moves
+    // the crossing by at most 4σ π h / (2 E_lit) (plus the scan's linear interpolation
+    // of a curve that is straight to second order there: negligible).
+    let position = 4.0 * sigma * std::f64::consts::PI * f64::from(half) / (2.0 * lit)
+        + f64::from(half) / 400.0;
+    for (got, want) in &crossings {
+        assert!(
+            (got - want).abs() <= position,
+            "edge at {got:.5} m, exact {want:.5} m ± {position:.5}"
+        );
+    }
+    eprintln!(
+        "penumbrae after {frames} frames: worst error {:.4} of E_lit (bound {:.4}); edges {crossings:?} (bound {position:.5} m)",
+        worst,
+        tolerance / lit
+    );
+}
+
+// The highlight: a glossy metal plane (GGX α = 0.04) under a small square lamp, seen
+// around the lamp's mirror image. Nothing else in the scene: the plane is flat and the
+// lamp's back is black, so the light field's remainder is zero and the whole picture is
+// the direct light.
+fn highlight() -> Scene {
+    let floor = common::quad(Vec3::new(-2.0, 0.0, -2.0), Vec3::Z * 4.0, Vec3::X * 4.0);
+    let a = 0.1;
+    // The lamp faces −y (a × b = x × z = −y).
+    let lamp = common::quad(Vec3::new(-a, 1.0, -a), Vec3::X * 2.0 * a, Vec3::Z * 2.0 * a);
+    let metal = Material {
+        name: "metal".into(),
+        base_color: Vec4::new(0.9, 0.8, 0.6, 1.0),
+        metallic: 1.0,
+        roughness: 0.2,
+        ..Material::default()
+    };
+    let mut tris = Vec::new();
+    for t in floor {
+        tris.push((t, 0));
+    }
+    for t in lamp {
+        tris.push((t, 1));
+    }
+    scene_with(
+        "highlight",
+        &tris,
+        vec![metal, common::lambert("lamp", 0.0, Vec3::splat(20.0))],
+        Daylight::default(),
+    )
+}
+
+const SIZE: u32 = 32;
+const AA: u32 = 4;
+
+fn highlight_view() -> WallView {
+    // The eye at (0, 1, 1.5) sees the lamp's image at z = 0.75 on the floor; the screen,
+    // 0.6 m across, looks down at it.
+    let eye = Vec3::new(0.0, 1.0, 1.5);
+    let at = Vec3::new(0.0, 0.0, 0.75);
+    let f = (at - eye).normalize();
+    let right = f.cross(Vec3::Y).normalize();
+    let up = right.cross(f);
+    let c = eye + f;
+    WallView {
+        eye,
+        pa: c - right * 0.3 - up * 0.3,
+        pb: c + right * 0.3 - up * 0.3,
+        pc: c - right * 0.3 + up * 0.3,
+        width: SIZE,
+        height: SIZE,
+    }
+}
+
+/// `view` drawn from `values` plus the direct light per pixel: `AA × AA` lookups per
+/// pixel, each the mean of estimates `first .. first + frames`.
+fn drawn(
+    vis: &Visibility,
+    direct: &PixelDirect,
+    view: &WallView,
+    values: &[[f32; 3]],
+    first: u64,
+    frames: u32,
+) -> Image {
+    let mut image = Image::new(view.width, view.height);
+    for (i, px) in image.pixels.iter_mut().enumerate() {
+        let (x, y) = (
+            (i as u32 % view.width) as f32,
+            (i as u32 / view.width) as f32,
+        );
+        let mut sum = Vec3::ZERO;
+        for s in 0..AA * AA {
+            let o = Vec2::new(
+                ((s % AA) as f32 + 0.5) / AA as f32,
+                ((s / AA) as f32 + 0.5) / AA as f32,
+            );
+            let (l, p) = vis.lookup_and_point(view.ray(Vec2::new(x, y) + o));
+            sum += holocave_vlf::view::shade_one(&l, values);
+            if let Some(p) = p {
+                sum += direct.mean(&p, (i as u64) * 64 + u64::from(s), first, frames);
+            }
+        }
+        *px = sum / (AA * AA) as f32;
+    }
+    image
+}
+
+#[test]
+fn a_lamps_highlight_on_a_glossy_plane_matches_the_path_tracer() {
+    let scene = Arc::new(highlight());
+    let view = highlight_view();
+    let settings = Settings {
+        directions: 42,
+        resolution: 32,
+        ..Settings::default()
+    };
+    let (state, stats) = common::bake_quiet(&scene, &settings);
+    assert!(stats.tiles > 0, "the metal plane has glossy tiles");
+    let vis = Visibility::of(scene.clone(), &settings);
+    let direct = PixelDirect::new(scene.clone());
+    let (reference, noise, _) = common::two_seed_reference(&scene, &view, 2048);
+
+    // Two independent halves of a still view's frames (the sequence's first and second
+    // 64): their relative MSE against each other is twice one half's noise, so the mean
+    // of both has a quarter of it.
+    let frames = 64;
+    let a = drawn(&vis, &direct, &view, &state.indirect_values(), 0, frames);
+    let b = drawn(
+        &vis,
+        &direct,
+        &view,
+        &state.indirect_values(),
+        u64::from(frames),
+        frames,
+    );
+    let own = a.relative_mse(&b) / 4.0;
+    let mut image = Image::new(SIZE, SIZE);
+    for (r, (a, b)) in image.pixels.iter_mut().zip(a.pixels.iter().zip(&b.pixels)) {
+        *r = (*a + *b) * 0.5;
+    }
+    let split = image.relative_mse(&reference);
+    let old = vis
+        .render(&view, &state.values(), AA)
+        .relative_mse(&reference);
+    let mean = |im: &Image| im.pixels.iter().map(|p| f64::from(p.x)).sum::<f64>();
+    let peak = |im: &Image| im.pixels.iter().map(|p| p.x).fold(0f32, f32::max);
+    eprintln!(
+        "highlight: per-pixel direct relative MSE {split:.5} (its noise {own:.5}, the reference's {noise:.5}); light field alone {old:.5}; peak {} / reference {}; sum {:.3} / {:.3}",
+        peak(&image),
+        peak(&reference),
+        mean(&image),
+        mean(&reference)
+    );
+    // Both are unbiased estimates of the same pixel means, so the expected relative MSE
+    // between them is the sum of their noises: held to twice that (a bias of a tenth of
+    // the noise's root would already show as +1 %).
+    assert!(
+        split <= 2.0 * (noise + own),
+        "relative MSE {split:.5} against the path tracer, above 2 × (n̂ {noise:.5} + own {own:.5})"
+    );
+    // The light field alone blurs the highlight far outside that bound.
+    assert!(old > 10.0 * (noise + own), "light field alone {old:.5}");
+}
