@@ -136,6 +136,15 @@ pub struct GpuRays {
     triangle_slots: usize,
 }
 
+/// The kernels' WGSL for a tree whose walk needs `stack` entries.
+fn source(stack: usize) -> String {
+    format!(
+        "const RAY_STACK: u32 = {}u;\n{}",
+        stack.max(1),
+        include_str!("rays.wgsl")
+    )
+}
+
 /// The dispatch grid for `n` rays: workgroups in x and y, and invocations per row.
 fn grid(n: u32) -> (u32, u32, u32) {
     let groups = n.div_ceil(WORKGROUP).max(1);
@@ -179,15 +188,10 @@ impl GpuRays {
             gpu.storage_init("gpu rays: triangles", bytemuck::cast_slice(&flat.triangles));
         use Binding::{Storage, Uniform};
         let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
-        let source = format!(
-            "const RAY_STACK: u32 = {}u;\n{}",
-            flat.stack_size.max(1),
-            include_str!("rays.wgsl")
-        );
         let pass = ComputePass::new(
             gpu,
             "gpu rays",
-            &source,
+            &source(flat.stack_size),
             &[Uniform, ro, ro, rw, rw],
             ["generate", "closest_hit", "occluded"],
         );
@@ -434,4 +438,63 @@ pub fn rounding(tri: &[glam::Vec3; 3], ray: &Ray, t: f32) -> (f32, f32, f32) {
         scale * e2 * (s + e1),
         scale * e1 * (s + e2),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::*;
+    use crate::gpu::layout::assert_same_layout;
+    use crate::gpu::with_common;
+
+    #[test]
+    fn the_wgsl_structs_are_laid_out_as_in_rust() {
+        let src = with_common(&source(8));
+        assert_same_layout(
+            &src,
+            "GpuRay",
+            size_of::<GpuRay>(),
+            &[
+                ("origin", offset_of!(GpuRay, origin)),
+                ("tmax", offset_of!(GpuRay, tmax)),
+                ("dir", offset_of!(GpuRay, dir)),
+                ("pad", offset_of!(GpuRay, pad)),
+            ],
+        );
+        let pad = offset_of!(RayParams, pad);
+        assert_same_layout(
+            &src,
+            "RayParams",
+            size_of::<RayParams>(),
+            &[
+                ("count", offset_of!(RayParams, count)),
+                ("row", offset_of!(RayParams, row)),
+                ("width", offset_of!(RayParams, width)),
+                ("height", offset_of!(RayParams, height)),
+                ("eye", offset_of!(RayParams, eye)),
+                ("pa", offset_of!(RayParams, pa)),
+                ("pb", offset_of!(RayParams, pb)),
+                ("pc", offset_of!(RayParams, pc)),
+                ("tmax", offset_of!(RayParams, tmax)),
+                ("pad0", pad),
+                ("pad1", pad + 4),
+                ("pad2", pad + 8),
+            ],
+        );
+        // The scene's words (holocave_scene::bvh::FlatBvh): a node's planes, children and
+        // orders at words 0, 48 and 56; a triangle slot's three vec4s.
+        assert_same_layout(
+            &src,
+            "RayNode",
+            4 * FLAT_NODE_WORDS,
+            &[("planes", 0), ("children", 4 * 48), ("order", 4 * 56)],
+        );
+        assert_same_layout(
+            &src,
+            "RayTriangle",
+            4 * FLAT_TRIANGLE_WORDS,
+            &[("v0_id", 0), ("e1", 16), ("e2", 32)],
+        );
+    }
 }
