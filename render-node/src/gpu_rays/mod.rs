@@ -111,6 +111,42 @@ struct RayParams {
     pad: [f32; 3],
 }
 
+/// Where a node's per-pixel rays are traced (`--rays auto|gpu|cpu`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Rays {
+    /// The GPU on a hardware adapter, the CPU on a software one (lavapipe runs compute on
+    /// the CPU's own cores, where the CPU's walk is ten to twenty times faster: the
+    /// `gpu_rays` bench).
+    #[default]
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+impl Rays {
+    /// Whether rays go to `gpu`'s adapter.
+    pub fn on_gpu(self, gpu: &Gpu) -> bool {
+        match self {
+            Rays::Gpu => true,
+            Rays::Cpu => false,
+            Rays::Auto => gpu.raw_adapter.get_info().device_type != wgpu::DeviceType::Cpu,
+        }
+    }
+}
+
+impl std::str::FromStr for Rays {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Rays, String> {
+        match s {
+            "auto" => Ok(Rays::Auto),
+            "gpu" => Ok(Rays::Gpu),
+            "cpu" => Ok(Rays::Cpu),
+            _ => Err(format!("--rays takes auto, gpu or cpu, not {s:?}")),
+        }
+    }
+}
+
 /// The queries a batch of rays can be put.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Query {
