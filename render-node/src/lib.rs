@@ -2,6 +2,8 @@
 //! Drettakis & Parker, `papers/render-cache.md`) over path-traced samples, in stereo.
 //!
 //! - [`gpu`]: the wgpu device (any adapter, Mesa's software ones included) and helpers;
+//! - [`gpu_rays`]: rays on the GPU: closest and any hit over the scene's BVH, and a wall's
+//!   pixel rays, in WGSL compute (the CPU's BVH walk is their reference);
 //! - [`cache`]: the point cache and the per-eye compute passes (WGSL in `shaders/`);
 //! - [`view`]: an eye's projection and its pixel rays;
 //! - [`source`]: chosen pixels → eye rays → the path tracer → new samples;
@@ -28,6 +30,7 @@ pub mod cluster;
 pub mod cluster_node;
 pub mod display;
 pub mod gpu;
+pub mod gpu_rays;
 pub mod holodeck;
 pub mod mosaic;
 pub mod output;

@@ -10,16 +10,21 @@
 //! per surface point while the view stays still), and handed to the shader inside the
 //! lookup's `emitted` light; the light field then gives only the rest
 //! ([`holocave_vlf::State::indirect_values`]), so nothing is counted twice.
+//!
+//! With [`VlfBase::with_rays`] choosing the GPU, each pixel's first hit is found on the GPU
+//! instead ([`crate::gpu_rays`]: the wall's rays made and traced there, the hits read
+//! back), and mirrors, glass and the lookups follow on the CPU as before.
 
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use holocave_cave::WallView;
-use holocave_scene::Scene;
+use holocave_scene::{Hit, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::{Accumulator, Lookup, PixelDirect, Visibility};
 
-use crate::{EyeView, RenderNodeError};
+use crate::gpu_rays::{GpuRays, Query, Rays};
+use crate::{EyeView, Gpu, RenderNodeError};
 
 /// How many samples the light field is worth in a pixel unless told. Blending `n`
 /// samples of variance `σ²` with a base of squared error `b²` as `(kV + nC)/(k + n)`
@@ -48,6 +53,8 @@ pub struct VlfBase {
     /// The running means of the direct light, per view drawn (exactly that view: a still
     /// eye), with the frame each was last drawn.
     history: Mutex<Vec<(u64, WallView, Accumulator)>>,
+    /// Where the pixels' first hits are found: on this GPU, or (`None`) on the CPU.
+    gpu_rays: Option<(Gpu, Mutex<GpuRays>)>,
 }
 
 impl VlfBase {
@@ -78,6 +85,7 @@ impl VlfBase {
             indirect,
             direct,
             history: Mutex::new(Vec::new()),
+            gpu_rays: None,
             visibility: Visibility::new(scene, elements, tiles),
         })
     }
@@ -105,6 +113,43 @@ impl VlfBase {
         self.direct.is_some()
     }
 
+    /// Finds the pixels' first hits where `rays` says: on `gpu` (the scene's BVH uploaded
+    /// to it once, here) or on the CPU; `auto` takes the GPU on a hardware adapter.
+    pub fn with_rays(mut self, gpu: &Gpu, rays: Rays) -> Result<Self, RenderNodeError> {
+        self.gpu_rays = if rays.on_gpu(gpu) {
+            let engine = GpuRays::for_scene(gpu, self.visibility.scene())?;
+            Some((gpu.clone(), Mutex::new(engine)))
+        } else {
+            None
+        };
+        Ok(self)
+    }
+
+    /// Whether the pixels' first hits are found on the GPU.
+    pub fn rays_on_gpu(&self) -> bool {
+        self.gpu_rays.is_some()
+    }
+
+    /// The first hit of each pixel of `wall` found on the GPU, when that is where they are
+    /// found.
+    fn gpu_first_hits(&self, wall: &WallView) -> Option<Vec<Option<Hit>>> {
+        let (gpu, engine) = self.gpu_rays.as_ref()?;
+        let mut engine = engine.lock().unwrap_or_else(|e| e.into_inner());
+        let n = engine.trace_wall(gpu, wall, f32::INFINITY, Query::ClosestHit);
+        Some(engine.read_hits(gpu, n))
+    }
+
+    /// Each pixel's lookup and point, the first hits found where chosen.
+    fn pixels_and_points(
+        &self,
+        wall: &WallView,
+    ) -> Vec<(Lookup, Option<holocave_vlf::DirectPoint>)> {
+        match self.gpu_first_hits(wall) {
+            Some(hits) => self.visibility.pixels_and_points_from(wall, &hits),
+            None => self.visibility.pixels_and_points(wall),
+        }
+    }
+
     /// What the lookups read: the elements' irradiance, then the glossy tiles' radiance.
     pub fn values(&self) -> &[[f32; 3]] {
         &self.values
@@ -115,13 +160,18 @@ impl VlfBase {
     /// those of earlier frames of the same view at the same surface point.
     pub fn lookups(&self, view: &EyeView) -> Vec<Lookup> {
         let Some(direct) = &self.direct else {
-            return self.visibility.pixels(&view.wall);
+            return match self.gpu_first_hits(&view.wall) {
+                Some(hits) => self
+                    .visibility
+                    .pixels_and_points_from(&view.wall, &hits)
+                    .into_iter()
+                    .map(|(l, _)| l)
+                    .collect(),
+                None => self.visibility.pixels(&view.wall),
+            };
         };
-        let (mut lookups, points): (Vec<Lookup>, Vec<_>) = self
-            .visibility
-            .pixels_and_points(&view.wall)
-            .into_iter()
-            .unzip();
+        let (mut lookups, points): (Vec<Lookup>, Vec<_>) =
+            self.pixels_and_points(&view.wall).into_iter().unzip();
         // This view's history (taken out while it is used: other views may be drawn on
         // other threads meanwhile), or a new one in place of the least recently drawn.
         let mut acc = {

@@ -14,6 +14,7 @@
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod collapse;
+mod flat;
 mod packet;
 mod spatial_split;
 mod triangle;
@@ -26,6 +27,9 @@ use glam::{Vec3, Vec3A};
 use obvhs::triangle::Triangle;
 
 use crate::ray::{Hit, Ray};
+pub use flat::{
+    FLAT_COUNT_SHIFT, FLAT_EMPTY, FLAT_LEAF, FLAT_NODE_WORDS, FLAT_TRIANGLE_WORDS, FlatBvh,
+};
 pub use packet::PACKET;
 pub use triangle::EDGE_TOLERANCE;
 use triangle::{BlockRay, IsectTriangle, TriangleBlock};

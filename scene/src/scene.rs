@@ -184,6 +184,12 @@ impl Scene {
         &self.shading[i as usize]
     }
 
+    /// The BVH every ray query goes through (for walkers outside this crate, e.g. on a
+    /// GPU, through [`Bvh::flat`]).
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
     pub fn bvh_build_time(&self) -> Duration {
         self.bvh.build_time()
     }

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
 use holocave_scene::bvh::PACKET;
-use holocave_scene::{Ray, Scene};
+use holocave_scene::{Hit, Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::film::Image;
 use holocave_tracer::lights::Lights;
@@ -188,6 +188,33 @@ impl Visibility {
 
     /// As [`Visibility::pixels`], with each pixel's point for the per-pixel direct light.
     pub fn pixels_and_points(&self, view: &WallView) -> Vec<(Lookup, Option<DirectPoint>)> {
+        self.pixels_with(view, &|rays, _| {
+            self.scene.closest_hits(rays, f32::INFINITY)
+        })
+    }
+
+    /// As [`Visibility::pixels_and_points`], with each pixel's first hit found elsewhere
+    /// (on the GPU): `hits[i]` is the closest hit of pixel `i`'s ray (rows from the top,
+    /// through the pixel's centre, as [`WallView::ray`] makes it); mirrors and glass are
+    /// followed from there as always.
+    pub fn pixels_and_points_from(
+        &self,
+        view: &WallView,
+        hits: &[Option<Hit>],
+    ) -> Vec<(Lookup, Option<DirectPoint>)> {
+        assert_eq!(hits.len(), (view.width * view.height) as usize);
+        self.pixels_with(view, &|rays, first| {
+            hits[first..first + rays.len()].to_vec()
+        })
+    }
+
+    /// The pixels' lookups and points, with `first_hits(rays, i)` the closest hits of the
+    /// rays of pixels `i` to `i + rays.len() − 1`.
+    fn pixels_with(
+        &self,
+        view: &WallView,
+        first_hits: &FirstHits,
+    ) -> Vec<(Lookup, Option<DirectPoint>)> {
         let w = view.width as usize;
         let n = w * view.height as usize;
         let env = environment(&self.lights);
@@ -197,7 +224,7 @@ impl Visibility {
             let rays: Vec<Ray> = (c * chunk..(c * chunk + out.len()))
                 .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
                 .collect();
-            let hits = self.scene.closest_hits(&rays, f32::INFINITY);
+            let hits = first_hits(&rays, c * chunk);
             for ((o, ray), hit) in out.iter_mut().zip(rays).zip(hits) {
                 *o = self.lookup_chain(follow_from(&self.scene, ray, hit, &env));
             }
@@ -266,6 +293,10 @@ impl Visibility {
         image
     }
 }
+
+/// How [`Visibility`] is given the closest hits of a run of pixel rays (the rays, and the
+/// first one's pixel index).
+type FirstHits<'a> = dyn Fn(&[Ray], usize) -> Vec<Option<Hit>> + Sync + 'a;
 
 /// The radiance of one lookup; `values`: the elements' irradiance, then the tiles'
 /// radiance.

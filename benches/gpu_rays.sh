@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# The GPU ray engine's figure on this machine's GPU, in one call:
+#
+#   benches/gpu_rays.sh [SCALE]
+#
+# 1. The machine: CPU, and the GPU as the driver sees it (nvidia-smi, vulkaninfo --summary,
+#    where installed).
+# 2. `cargo bench -p holocave-render-node --bench gpu_rays`: the adapter wgpu opens (name,
+#    type, backend, driver), every feature it offers and its limits, then Mrays/s (criterion's
+#    Melem/s) for the room's and Sponza's primary, shadow and diffuse sets: the GPU walk alone
+#    (`*_gpu`), with upload and read-back (`*_gpu_readback`), the wall's rays made on the GPU
+#    and traced (`primary_gpu_wall`), and the CPU BVH on one thread and on every core
+#    (`*_cpu_1t`, `*_cpu_all`), on the same rays.
+# 3. A table of those rates, rays per second, from criterion's estimates.
+#
+# SCALE (default 2) multiplies Sponza's 1024 × 576 primary rays in each axis (2: 2048 × 1152,
+# 2.4 M rays, enough to fill a large GPU; 1: the same rays as `scene`'s ray_sets bench).
+# WGPU_BACKEND (vulkan, gl) chooses the backend as everywhere in holocave. Sponza comes from
+# ../shared/scenes/sponza beside the checkout; without it only the room is measured.
+# On a machine without a GPU, wgpu opens lavapipe and the "GPU" figures are the CPU's cores
+# running the compiled shader (DESIGN.md, "GPUs and software adapters").
+set -euo pipefail
+
+root=$(cd "$(dirname "$0")/.." && pwd)
+scale=${1:-2}
+cd "$root"
+
+echo "== machine"
+uname -srm
+grep -m1 'model name' /proc/cpuinfo || true
+echo "cores: $(nproc)"
+if command -v nvidia-smi >/dev/null 2>&1; then
+    nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm,clocks.max.mem \
+        --format=csv || true
+else
+    echo "nvidia-smi: not installed"
+fi
+if command -v vulkaninfo >/dev/null 2>&1; then
+    vulkaninfo --summary 2>/dev/null | sed -n '/Devices:/,$p' || true
+else
+    echo "vulkaninfo: not installed"
+fi
+
+echo "== bench (Sponza scale $scale)"
+log=$(mktemp)
+HOLOCAVE_GPU_RAYS_SCALE=$scale cargo bench -p holocave-render-node --bench gpu_rays 2>&1 |
+    tee "$log"
+
+echo "== Mrays/s (criterion's mid estimate)"
+# criterion prints "gpu_rays_<scene>/<set>_<walk>" then "thrpt: [lo mid hi]" lines.
+awk '
+    /^gpu_rays_[a-z]+\/[a-z_0-9]+/ { name = $1 }
+    /thrpt:/ && !/%/ {
+        v = $(NF - 3); u = $(NF - 2)
+        if (u ~ /^Gelem/) v *= 1000; else if (u ~ /^Kelem/) v /= 1000; else if (u ~ /^elem/) v /= 1e6
+        printf "%-40s %10.2f Mrays/s\n", name, v
+    }
+' "$log"
+rm -f "$log"

@@ -1,0 +1,536 @@
+//! Rays on the GPU: closest hit and any hit over the scene's BVH in WGSL compute
+//! (`rays.wgsl` beside this file), one ray per invocation, and a wall's pixel rays made on
+//! the GPU so that they never cross the bus. Compute only: no ray-query extension (Mesa
+//! 22.3's lavapipe has none) and no raster pipeline.
+//!
+//! # Layout: the CPU's eight-wide nodes, as they are
+//!
+//! The GPU walks the very tree the CPU walks: [`holocave_scene::bvh::FlatBvh`], the SBVH
+//! collapsed to eight-wide nodes, uploaded word for word once per scene:
+//!
+//! - **a node is 256 bytes**: the eight children's boxes in full `f32` as six plane rows of
+//!   eight, eight child words (inner node, leaf of one to four triangles, or empty) and, per
+//!   octant of ray directions, the order the children are met in. 32 bytes per child box,
+//!   as in a binary BVH (two boxes and two links in 64 bytes), but a seventh as many nodes:
+//!   each visit is the eight children's box tests as two four-lane tests read with twelve
+//!   16-byte loads (the CPU's SIMD test, written in `vec4`s; testing slot by slot with
+//!   4-byte loads ran Sponza's primary rays three times slower on lavapipe), the same work
+//!   for every invocation, so a walker without subgroup operations runs it in lock step
+//!   (lavapipe compiles invocations to the lanes of the CPU's SIMD registers: a loop whose
+//!   trip count varies per lane costs every lane the longest), and a seventh as many pops
+//!   of the stack, where lanes do diverge;
+//! - **a triangle slot is 48 bytes**: first vertex and the scene's triangle index, two
+//!   edges, four slots per leaf block (the CPU's blocks, lane by lane), so the GPU runs the
+//!   CPU's Möller–Trumbore with its widened edges on the same numbers;
+//! - **the stack**: a walk pushes every child it enters (far to near, by the node's stored
+//!   order for the ray's octant, no sort) and pops the nearest; at most seven entries per
+//!   level plus eight, [`holocave_scene::bvh::FlatBvh::stack_size`] (Sponza: 92 entries; its
+//!   ray sets hold at most 27), eight bytes each (child word, entry distance) for closest
+//!   hit and four for any hit, in private memory. A binary tree of the same scene is three times
+//!   as deep and needs a stack of its depth, smaller, but pays three times the pops.
+//!
+//! Why not a compressed wide BVH (Ylitie et al. 2017, 80 bytes a node with boxes quantised
+//! to bytes): it is the better layout where node traffic bounds the walk (a real GPU), but
+//! on the CPU its decoding cost 88% of a Sponza primary ray, and exactness is simplest to
+//! test on the one tree both walks share. Quantised boxes only grow outward, so it can come
+//! later behind the same interface with the same answers.
+//!
+//! # Exactness
+//!
+//! The box test is the CPU's robust slab test with a larger guard: a zero direction
+//! component becomes ±1e-30 before inverting (no `0 · ∞`, and `-0.0` behaves as `+0.0`:
+//! obvhs' pitfall cannot happen), and the far distance grows by `1 + 16 ε` (Ize's `1 + 2γ₃`
+//! assumes correctly rounded operations; Vulkan allows 2.5 ulp for a division), so no box
+//! that holds a hit is missed for rounding. The triangle test is the CPU's operations in the
+//! CPU's order; the shader compiler may fuse multiply-adds and the division may be off by
+//! 2.5 ulp, so for the same triangle
+//!
+//! `|t_gpu − t_cpu| ≤ 32 ε |e1| |e2| (|s| + t) / |det|`
+//!
+//! (`e1`, `e2` the triangle's edges, `s` origin minus first vertex, `det` the determinant:
+//! twice the CPU's own bound between two roundings of the test, as both sides err), and the
+//! barycentrics part by `32 ε |e2| (|s| + |e1|) / |det|` (u) and `32 ε |e1| (|s| + |e2|) /
+//! |det|` (v) — [`rounding`]. A hit or miss may only differ for a ray that meets a triangle
+//! within that of its widened edge, or of `t = 0` or `tmax`; and where two triangles meet
+//! the ray at one point (a shared edge, a triangle in two leaves of the SBVH) either may be
+//! named. The tests count these cases and check each.
+
+use bytemuck::{Pod, Zeroable};
+use holocave_cave::WallView;
+use holocave_scene::bvh::{Bvh, FLAT_EMPTY, FLAT_NODE_WORDS, FLAT_TRIANGLE_WORDS};
+use holocave_scene::{Hit, Ray, Scene};
+
+use crate::RenderNodeError;
+use crate::gpu::{Binding, ComputePass, Gpu};
+
+/// `@workgroup_size` of the kernels (`WORKGROUP` in the shader).
+const WORKGROUP: u32 = 64;
+/// The largest stack a tree may need (a tree of 72 levels; real scenes need under 100).
+pub const MAX_STACK: usize = 512;
+/// The triangle word of a miss (`NO_HIT` in the shader).
+const NO_HIT: u32 = u32::MAX;
+
+/// One ray as the kernels read it: origin and `tmax`, unit direction.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuRay {
+    pub origin: [f32; 3],
+    pub tmax: f32,
+    pub dir: [f32; 3],
+    pub pad: f32,
+}
+
+impl GpuRay {
+    pub fn new(ray: &Ray, tmax: f32) -> GpuRay {
+        GpuRay {
+            origin: ray.origin.to_array(),
+            tmax,
+            dir: ray.dir.to_array(),
+            pad: 0.0,
+        }
+    }
+
+    pub fn ray(&self) -> Ray {
+        Ray::new(self.origin.into(), self.dir.into())
+    }
+}
+
+/// `RayParams` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct RayParams {
+    count: u32,
+    row: u32,
+    width: u32,
+    height: u32,
+    eye: [f32; 4],
+    pa: [f32; 4],
+    pb: [f32; 4],
+    pc: [f32; 4],
+    tmax: f32,
+    pad: [f32; 3],
+}
+
+/// Where a node's per-pixel rays are traced (`--rays auto|gpu|cpu`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Rays {
+    /// The GPU on a hardware adapter, the CPU on a software one (lavapipe runs compute on
+    /// the CPU's own cores, where the CPU's walk is ten to twenty times faster: the
+    /// `gpu_rays` bench).
+    #[default]
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+impl Rays {
+    /// Whether rays go to `gpu`'s adapter.
+    pub fn on_gpu(self, gpu: &Gpu) -> bool {
+        match self {
+            Rays::Gpu => true,
+            Rays::Cpu => false,
+            Rays::Auto => gpu.raw_adapter.get_info().device_type != wgpu::DeviceType::Cpu,
+        }
+    }
+}
+
+impl std::str::FromStr for Rays {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Rays, String> {
+        match s {
+            "auto" => Ok(Rays::Auto),
+            "gpu" => Ok(Rays::Gpu),
+            "cpu" => Ok(Rays::Cpu),
+            _ => Err(format!("--rays takes auto, gpu or cpu, not {s:?}")),
+        }
+    }
+}
+
+/// The queries a batch of rays can be put.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Query {
+    /// Four words a ray in the output buffer: `t`, triangle (`u32::MAX` on a miss), `u`, `v`.
+    ClosestHit,
+    /// One word a ray: a triangle found before `tmax`, or `u32::MAX`.
+    AnyHit,
+}
+
+/// The scene's BVH on the GPU and room for a batch of rays and their answers.
+pub struct GpuRays {
+    pass: ComputePass<3>,
+    params: wgpu::Buffer,
+    nodes: wgpu::Buffer,
+    triangles: wgpu::Buffer,
+    rays: wgpu::Buffer,
+    out: wgpu::Buffer,
+    bind: wgpu::BindGroup,
+    /// Rays the ray and output buffers have room for.
+    capacity: u32,
+    stack: usize,
+    node_count: usize,
+    triangle_slots: usize,
+}
+
+/// The kernels' WGSL for a tree whose walk needs `stack` entries.
+fn source(stack: usize) -> String {
+    format!(
+        "const RAY_STACK: u32 = {}u;\n{}",
+        stack.max(1),
+        include_str!("rays.wgsl")
+    )
+}
+
+/// The dispatch grid for `n` rays: workgroups in x and y, and invocations per row.
+fn grid(n: u32) -> (u32, u32, u32) {
+    let groups = n.div_ceil(WORKGROUP).max(1);
+    let x = groups.min(65_535);
+    (x, groups.div_ceil(x), x * WORKGROUP)
+}
+
+impl GpuRays {
+    /// Uploads `scene`'s BVH and triangles.
+    pub fn for_scene(gpu: &Gpu, scene: &Scene) -> Result<GpuRays, RenderNodeError> {
+        GpuRays::new(gpu, scene.bvh())
+    }
+
+    /// Uploads `bvh` (its tree and triangle blocks, once) and builds the kernels.
+    pub fn new(gpu: &Gpu, bvh: &Bvh) -> Result<GpuRays, RenderNodeError> {
+        let mut flat = bvh.flat();
+        if flat.stack_size > MAX_STACK {
+            return Err(RenderNodeError::Device(format!(
+                "the scene's BVH needs a walk stack of {} entries; the GPU ray engine has {MAX_STACK}",
+                flat.stack_size
+            )));
+        }
+        if flat.nodes.is_empty() {
+            // No triangles: one node of empty slots, which every ray misses.
+            let mut empty = [0u32; FLAT_NODE_WORDS];
+            empty[48..56].fill(FLAT_EMPTY);
+            flat.nodes.push(empty);
+        }
+        if flat.triangles.is_empty() {
+            flat.triangles.push([0; FLAT_TRIANGLE_WORDS]);
+        }
+        let limit = gpu.device.limits().max_storage_buffer_binding_size;
+        let tri_bytes = (flat.triangles.len() * 4 * FLAT_TRIANGLE_WORDS) as u64;
+        if tri_bytes > limit {
+            return Err(RenderNodeError::Device(format!(
+                "the scene's triangles take {tri_bytes} bytes; the adapter binds at most {limit}"
+            )));
+        }
+        let nodes = gpu.storage_init("gpu rays: nodes", bytemuck::cast_slice(&flat.nodes));
+        let triangles =
+            gpu.storage_init("gpu rays: triangles", bytemuck::cast_slice(&flat.triangles));
+        use Binding::{Storage, Uniform};
+        let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
+        let pass = ComputePass::new(
+            gpu,
+            "gpu rays",
+            &source(flat.stack_size),
+            &[Uniform, ro, ro, rw, rw],
+            ["generate", "closest_hit", "occluded"],
+        );
+        let params = gpu.uniform("gpu rays: params", std::mem::size_of::<RayParams>() as u64);
+        let rays = gpu.storage("gpu rays: rays", 32);
+        let out = gpu.storage("gpu rays: answers", 16);
+        let bind = pass.bind_group(gpu, &[&params, &nodes, &triangles, &rays, &out]);
+        Ok(GpuRays {
+            pass,
+            params,
+            nodes,
+            triangles,
+            rays,
+            out,
+            bind,
+            capacity: 1,
+            stack: flat.stack_size,
+            node_count: flat.nodes.len(),
+            triangle_slots: flat.triangles.len(),
+        })
+    }
+
+    /// Entries of the per-invocation stack.
+    pub fn stack_size(&self) -> usize {
+        self.stack
+    }
+
+    /// Bytes of the tree and of the triangles on the GPU.
+    pub fn scene_bytes(&self) -> (usize, usize) {
+        (
+            self.node_count * 4 * FLAT_NODE_WORDS,
+            self.triangle_slots * 4 * FLAT_TRIANGLE_WORDS,
+        )
+    }
+
+    /// The rays of the current batch (`GpuRay` each), for kernels that make or read them.
+    pub fn rays_buffer(&self) -> &wgpu::Buffer {
+        &self.rays
+    }
+
+    /// The answers of the last query (see [`Query`]), for kernels that read them.
+    pub fn answers_buffer(&self) -> &wgpu::Buffer {
+        &self.out
+    }
+
+    /// Makes room for `n` rays (keeps the current ones only if there was room already).
+    fn reserve(&mut self, gpu: &Gpu, n: u32) {
+        if n <= self.capacity {
+            return;
+        }
+        self.rays = gpu.storage("gpu rays: rays", 32 * u64::from(n));
+        self.out = gpu.storage("gpu rays: answers", 16 * u64::from(n));
+        self.capacity = n;
+        self.bind = self.pass.bind_group(
+            gpu,
+            &[
+                &self.params,
+                &self.nodes,
+                &self.triangles,
+                &self.rays,
+                &self.out,
+            ],
+        );
+    }
+
+    fn set_params(&self, gpu: &Gpu, n: u32, view: Option<&WallView>, tmax: f32) {
+        let (_, _, row) = grid(n);
+        let v4 = |v: glam::Vec3| [v.x, v.y, v.z, 0.0];
+        let mut p = RayParams {
+            count: n,
+            row,
+            width: 1,
+            height: 1,
+            eye: [0.0; 4],
+            pa: [0.0; 4],
+            pb: [0.0; 4],
+            pc: [0.0; 4],
+            tmax,
+            pad: [0.0; 3],
+        };
+        if let Some(v) = view {
+            (p.width, p.height) = (v.width, v.height);
+            (p.eye, p.pa, p.pb, p.pc) = (v4(v.eye), v4(v.pa), v4(v.pb), v4(v.pc));
+        }
+        gpu.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
+    }
+
+    fn dispatch(&self, enc: &mut wgpu::CommandEncoder, entry: usize, n: u32) {
+        let (x, y, _) = grid(n);
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&self.pass.pipelines[entry]);
+        pass.set_bind_group(0, &self.bind, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+
+    fn entry(query: Query) -> usize {
+        match query {
+            Query::ClosestHit => 1,
+            Query::AnyHit => 2,
+        }
+    }
+
+    /// Copies `rays` (each with `tmax`) into the ray buffer as the current batch.
+    pub fn upload(&mut self, gpu: &Gpu, rays: &[Ray], tmax: f32) {
+        let n = rays.len() as u32;
+        self.reserve(gpu, n);
+        let data: Vec<GpuRay> = rays.iter().map(|r| GpuRay::new(r, tmax)).collect();
+        gpu.queue
+            .write_buffer(&self.rays, 0, bytemuck::cast_slice(&data));
+        self.set_params(gpu, n, None, tmax);
+    }
+
+    /// Makes `view`'s pixel rays (row by row from the top-left, each with `tmax`) in the
+    /// ray buffer, on the GPU, as the current batch, and puts `query` to them, all in one
+    /// submission; returns the number of rays.
+    pub fn trace_wall(&mut self, gpu: &Gpu, view: &WallView, tmax: f32, query: Query) -> u32 {
+        let n = view.width * view.height;
+        self.reserve(gpu, n);
+        self.set_params(gpu, n, Some(view), tmax);
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        self.dispatch(&mut enc, 0, n);
+        self.dispatch(&mut enc, Self::entry(query), n);
+        gpu.queue.submit([enc.finish()]);
+        n
+    }
+
+    /// Makes `view`'s pixel rays on the GPU (as [`GpuRays::trace_wall`]) without tracing
+    /// them.
+    pub fn generate_wall(&mut self, gpu: &Gpu, view: &WallView, tmax: f32) -> u32 {
+        let n = view.width * view.height;
+        self.reserve(gpu, n);
+        self.set_params(gpu, n, Some(view), tmax);
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        self.dispatch(&mut enc, 0, n);
+        gpu.queue.submit([enc.finish()]);
+        n
+    }
+
+    /// Puts `query` to the current batch's first `n` rays (submitted, not waited for).
+    pub fn trace(&self, gpu: &Gpu, n: u32, query: Query) {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        self.dispatch(&mut enc, Self::entry(query), n);
+        gpu.queue.submit([enc.finish()]);
+    }
+
+    /// The current batch's first `n` rays, read back.
+    pub fn read_rays(&self, gpu: &Gpu, n: u32) -> Vec<GpuRay> {
+        bytemuck::cast_slice(&gpu.read(&self.rays, 32 * u64::from(n.max(1))))[..n as usize].to_vec()
+    }
+
+    /// The closest hits of the last [`Query::ClosestHit`] over `n` rays, read back.
+    pub fn read_hits(&self, gpu: &Gpu, n: u32) -> Vec<Option<Hit>> {
+        let words: Vec<u32> =
+            bytemuck::cast_slice(&gpu.read(&self.out, 16 * u64::from(n.max(1)))).to_vec();
+        words
+            .chunks_exact(4)
+            .take(n as usize)
+            .map(|w| {
+                (w[1] != NO_HIT).then(|| Hit {
+                    triangle: w[1],
+                    t: f32::from_bits(w[0]),
+                    u: f32::from_bits(w[2]),
+                    v: f32::from_bits(w[3]),
+                })
+            })
+            .collect()
+    }
+
+    /// The occluders found by the last [`Query::AnyHit`] over `n` rays, read back.
+    pub fn read_occluders(&self, gpu: &Gpu, n: u32) -> Vec<Option<u32>> {
+        let words: Vec<u32> =
+            bytemuck::cast_slice(&gpu.read(&self.out, 4 * u64::from(n.max(1)))).to_vec();
+        words
+            .into_iter()
+            .take(n as usize)
+            .map(|w| (w != NO_HIT).then_some(w))
+            .collect()
+    }
+
+    /// The closest hit of each ray before `tmax` (as [`Bvh::closest_hit`]).
+    pub fn closest_hits(&mut self, gpu: &Gpu, rays: &[Ray], tmax: f32) -> Vec<Option<Hit>> {
+        self.upload(gpu, rays, tmax);
+        let n = rays.len() as u32;
+        self.trace(gpu, n, Query::ClosestHit);
+        self.read_hits(gpu, n)
+    }
+
+    /// For each ray, a triangle that lies on it before `tmax`, if any (the ray is occluded,
+    /// as [`Bvh::occluded`], when there is one).
+    pub fn occluders(&mut self, gpu: &Gpu, rays: &[Ray], tmax: f32) -> Vec<Option<u32>> {
+        self.upload(gpu, rays, tmax);
+        let n = rays.len() as u32;
+        self.trace(gpu, n, Query::AnyHit);
+        self.read_occluders(gpu, n)
+    }
+
+    /// Whether something lies on each ray before `tmax` (as [`Bvh::occluded`]).
+    pub fn occluded(&mut self, gpu: &Gpu, rays: &[Ray], tmax: f32) -> Vec<bool> {
+        self.occluders(gpu, rays, tmax)
+            .into_iter()
+            .map(|o| o.is_some())
+            .collect()
+    }
+}
+
+/// The adapter under `gpu`: name, backend and driver, type, every feature it offers and
+/// its limits (what a GPU figure is read beside).
+pub fn adapter_report(gpu: &Gpu) -> String {
+    let info = gpu.raw_adapter.get_info();
+    format!(
+        "adapter: {} ({:?}, {:?}, driver {} {}, vendor {:#06x}, device {:#06x})\n\
+         features: {:?}\nlimits: {:#?}\ndevice limits requested: max storage buffer binding {} B, \
+         max compute workgroups per dimension {}",
+        info.name,
+        info.device_type,
+        info.backend,
+        info.driver,
+        info.driver_info,
+        info.vendor,
+        info.device,
+        gpu.raw_adapter.features(),
+        gpu.raw_adapter.limits(),
+        gpu.device.limits().max_storage_buffer_binding_size,
+        gpu.device.limits().max_compute_workgroups_per_dimension,
+    )
+}
+
+/// How far two roundings of Möller–Trumbore, one of them on the GPU, may part for a ray
+/// (unit direction) meeting `tri` at `t`: in `t`, `u` and `v` (see the module's
+/// "Exactness"). To first order each product and sum errs by a few ε of its terms'
+/// magnitudes: `s · p` (`p = d × e2`, `|p| ≤ |e2|`) by ε |s| |e2|, `d · q` (`q = s × e1`)
+/// by ε |s| |e1|, `e2 · q` by ε |e2| |s| |e1|, and the determinant by ε |e1| |e2|, which a
+/// quotient carries as that relative error times itself; dividing by `|det|` amplifies all
+/// of it. 16 ε covers the handful of roundings of one side (fused or not, the division's
+/// 2.5 ulp included), 32 ε both sides.
+pub fn rounding(tri: &[glam::Vec3; 3], ray: &Ray, t: f32) -> (f32, f32, f32) {
+    let (e1, e2, s) = (tri[1] - tri[0], tri[2] - tri[0], ray.origin - tri[0]);
+    let det = e1.dot(ray.dir.cross(e2)).abs();
+    let (e1, e2, s) = (e1.length(), e2.length(), s.length());
+    let scale = 32.0 * f32::EPSILON / det;
+    (
+        scale * e1 * e2 * (s + t.abs()),
+        scale * e2 * (s + e1),
+        scale * e1 * (s + e2),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::*;
+    use crate::gpu::layout::assert_same_layout;
+    use crate::gpu::with_common;
+
+    #[test]
+    fn the_wgsl_structs_are_laid_out_as_in_rust() {
+        let src = with_common(&source(8));
+        assert_same_layout(
+            &src,
+            "GpuRay",
+            size_of::<GpuRay>(),
+            &[
+                ("origin", offset_of!(GpuRay, origin)),
+                ("tmax", offset_of!(GpuRay, tmax)),
+                ("dir", offset_of!(GpuRay, dir)),
+                ("pad", offset_of!(GpuRay, pad)),
+            ],
+        );
+        let pad = offset_of!(RayParams, pad);
+        assert_same_layout(
+            &src,
+            "RayParams",
+            size_of::<RayParams>(),
+            &[
+                ("count", offset_of!(RayParams, count)),
+                ("row", offset_of!(RayParams, row)),
+                ("width", offset_of!(RayParams, width)),
+                ("height", offset_of!(RayParams, height)),
+                ("eye", offset_of!(RayParams, eye)),
+                ("pa", offset_of!(RayParams, pa)),
+                ("pb", offset_of!(RayParams, pb)),
+                ("pc", offset_of!(RayParams, pc)),
+                ("tmax", offset_of!(RayParams, tmax)),
+                ("pad0", pad),
+                ("pad1", pad + 4),
+                ("pad2", pad + 8),
+            ],
+        );
+        // The scene's words (holocave_scene::bvh::FlatBvh): a node's planes, children and
+        // orders at words 0, 48 and 56; a triangle slot's three vec4s.
+        assert_same_layout(
+            &src,
+            "RayNode",
+            4 * FLAT_NODE_WORDS,
+            &[("planes", 0), ("children", 4 * 48), ("order", 4 * 56)],
+        );
+        assert_same_layout(
+            &src,
+            "RayTriangle",
+            4 * FLAT_TRIANGLE_WORDS,
+            &[("v0_id", 0), ("e1", 16), ("e2", 32)],
+        );
+    }
+}

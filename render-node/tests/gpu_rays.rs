@@ -1,0 +1,445 @@
+//! The GPU ray engine against the CPU BVH (`cargo test --release -p holocave-render-node
+//! --test gpu_rays`), on whatever adapter exists (lavapipe without a GPU): closest hits
+//! against `Scene::closest_hit`, any hits against `Scene::occluded`, wall rays made on the
+//! GPU against `WallView::ray`.
+//!
+//! Every ray's answers are compared under the bound of `gpu_rays::rounding`: the same
+//! triangle at `t` within it (and `u`, `v` within theirs); where the two name different
+//! triangles at one distance (a shared edge, a triangle in two leaves), the GPU's must
+//! really meet the ray there; and where one hits and the other does not (or hits farther),
+//! the hit must be a graze: within rounding of the widened test's edge, of `t = 0` or of
+//! `tmax`. Grazes are counted and must be rare (at most one ray in a thousand, plus one).
+
+mod ray_sets;
+
+use glam::{Vec2, Vec3};
+use holocave_cave::WallView;
+use holocave_render_node::Gpu;
+use holocave_render_node::gpu_rays::{GpuRays, Query, rounding};
+use holocave_scene::bvh::{Bvh, EDGE_TOLERANCE};
+use holocave_scene::{Hit, Ray, Scene};
+use ray_sets::{RaySets, camera_view, project_scene, sponza, sun};
+
+fn gpu() -> Gpu {
+    Gpu::new().expect("a GPU adapter (lavapipe where there is no GPU)")
+}
+
+/// Möller–Trumbore in f64, unbounded: `(t, u, v)`, or `None` for a ray in the plane.
+fn exact(tri: &[Vec3; 3], ray: &Ray) -> Option<(f64, f64, f64)> {
+    let [a, b, c] = tri.map(|p| p.as_dvec3());
+    let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let s = o - a;
+    let q = s.cross(e1);
+    Some((e2.dot(q) / det, s.dot(p) / det, d.dot(q) / det))
+}
+
+/// Whether `tri` meets `ray` before `tmax` by the widened test, to within rounding.
+fn meets(tri: &[Vec3; 3], ray: &Ray, tmax: f32) -> bool {
+    let Some((t, u, v)) = exact(tri, ray) else {
+        return false;
+    };
+    let (dt, du, dv) = rounding(tri, ray, t as f32);
+    let (dt, du, dv) = (f64::from(dt), f64::from(du), f64::from(dv));
+    let tol = f64::from(EDGE_TOLERANCE);
+    u >= -tol - du
+        && u <= 1.0 + tol + du
+        && v >= -tol - dv
+        && u + v <= 1.0 + tol + du + dv
+        && t >= -dt
+        && t < f64::from(tmax) + dt
+}
+
+/// Whether `tri` meets `ray` within rounding of an edge of the widened test, of `t = 0` or
+/// of `tmax`: a hit two correct roundings may disagree on.
+fn grazes(tri: &[Vec3; 3], ray: &Ray, tmax: f32) -> bool {
+    let Some((t, u, v)) = exact(tri, ray) else {
+        return false;
+    };
+    let (dt, du, dv) = rounding(tri, ray, t as f32);
+    let (dt, du, dv) = (f64::from(dt), f64::from(du), f64::from(dv));
+    let tol = f64::from(EDGE_TOLERANCE);
+    let near = |a: f64, b: f64, d: f64| (a - b).abs() <= d;
+    meets(tri, ray, tmax)
+        && (near(u, -tol, du)
+            || near(u, 1.0 + tol, du)
+            || near(v, -tol, dv)
+            || near(u + v, 1.0 + tol, du + dv)
+            || near(t, 0.0, dt)
+            || (tmax.is_finite() && near(t, f64::from(tmax), dt)))
+}
+
+/// What a comparison found.
+#[derive(Debug, Default)]
+struct Tally {
+    rays: usize,
+    /// Both hit the same triangle (or both missed / both occluded).
+    agree: usize,
+    /// Both hit, different triangles at one distance.
+    other_triangle: usize,
+    /// One hit where the other did not (or hit farther): grazes.
+    grazes: usize,
+    /// Disagreements no rounding explains, and the first few described.
+    bad: usize,
+    examples: Vec<String>,
+}
+
+impl Tally {
+    fn fail(&mut self, s: String) {
+        self.bad += 1;
+        if self.examples.len() < 6 {
+            self.examples.push(s);
+        }
+    }
+
+    fn check(self, what: &str) -> Tally {
+        self.check_ties(what, 100)
+    }
+
+    /// As [`Tally::check`], allowing one ray in `per` (plus one) to name another triangle at
+    /// the same distance (each such is checked to meet the ray there): rays aimed straight
+    /// at triangles find the coplanar, overlapping ones a scene has (the room has some).
+    fn check_ties(self, what: &str, per: usize) -> Tally {
+        eprintln!(
+            "{what}: {} rays, {} agree, {} other triangle at the same distance, {} grazes, {} bad",
+            self.rays, self.agree, self.other_triangle, self.grazes, self.bad
+        );
+        assert!(
+            self.bad == 0,
+            "{what}: {} disagreements beyond rounding, e.g. {:#?}",
+            self.bad,
+            self.examples
+        );
+        assert!(
+            self.grazes <= self.rays / 1000 + 1,
+            "{what}: {} grazing disagreements in {} rays",
+            self.grazes,
+            self.rays
+        );
+        assert!(
+            self.other_triangle <= self.rays / per + 1,
+            "{what}: {} rays named another triangle",
+            self.other_triangle
+        );
+        self
+    }
+}
+
+/// The GPU's closest hits against the CPU's on `rays`.
+fn compare_closest(scene: &Scene, rays: &[Ray], tmax: f32, gpu: &[Option<Hit>]) -> Tally {
+    assert_eq!(gpu.len(), rays.len());
+    let mut tally = Tally {
+        rays: rays.len(),
+        ..Tally::default()
+    };
+    for (i, (ray, g)) in rays.iter().zip(gpu).enumerate() {
+        let c = scene.closest_hit(ray, tmax);
+        let tri = |h: &Hit| scene.triangle(h.triangle);
+        match (g, &c) {
+            (None, None) => tally.agree += 1,
+            (Some(g), Some(c)) if g.triangle == c.triangle => {
+                let (dt, du, dv) = rounding(tri(c), ray, c.t);
+                if (g.t - c.t).abs() <= dt && (g.u - c.u).abs() <= du && (g.v - c.v).abs() <= dv {
+                    tally.agree += 1;
+                } else {
+                    tally.fail(format!(
+                        "ray {i} {ray:?}: GPU {g:?}, CPU {c:?} (bounds {dt}, {du}, {dv})"
+                    ));
+                }
+            }
+            (Some(g), Some(c)) => {
+                let bound = rounding(tri(g), ray, g.t).0 + rounding(tri(c), ray, c.t).0;
+                let nearer = if g.t <= c.t { g } else { c };
+                if (g.t - c.t).abs() <= bound && meets(tri(g), ray, tmax) {
+                    tally.other_triangle += 1;
+                } else if grazes(tri(nearer), ray, tmax) {
+                    tally.grazes += 1;
+                } else {
+                    tally.fail(format!("ray {i} {ray:?}: GPU {g:?}, CPU {c:?}"));
+                }
+            }
+            (Some(h), None) | (None, Some(h)) => {
+                if grazes(tri(h), ray, tmax) {
+                    tally.grazes += 1;
+                } else {
+                    tally.fail(format!("ray {i} {ray:?}: GPU {g:?}, CPU {c:?}"));
+                }
+            }
+        }
+    }
+    tally
+}
+
+/// The GPU's occluders against the CPU's occlusion on `rays`.
+fn compare_occluded(scene: &Scene, rays: &[Ray], tmax: f32, gpu: &[Option<u32>]) -> Tally {
+    assert_eq!(gpu.len(), rays.len());
+    let mut tally = Tally {
+        rays: rays.len(),
+        ..Tally::default()
+    };
+    let mut hits = Vec::new();
+    for (i, (ray, g)) in rays.iter().zip(gpu).enumerate() {
+        let c = scene.occluded(ray, tmax);
+        match (g, c) {
+            (None, false) => tally.agree += 1,
+            (Some(id), true) => {
+                if meets(scene.triangle(*id), ray, tmax) {
+                    tally.agree += 1;
+                } else {
+                    tally.fail(format!(
+                        "ray {i} {ray:?}: GPU names triangle {id}, not on it"
+                    ));
+                }
+            }
+            (Some(id), false) => {
+                if grazes(scene.triangle(*id), ray, tmax) {
+                    tally.grazes += 1;
+                } else {
+                    tally.fail(format!("ray {i} {ray:?}: GPU occluded by {id}, CPU not"));
+                }
+            }
+            (None, true) => {
+                scene.all_hits(ray, tmax, &mut hits);
+                if hits
+                    .iter()
+                    .all(|h| grazes(scene.triangle(h.triangle), ray, tmax))
+                {
+                    tally.grazes += 1;
+                } else {
+                    tally.fail(format!("ray {i} {ray:?}: CPU occluded ({hits:?}), GPU not"));
+                }
+            }
+        }
+    }
+    tally
+}
+
+/// Rays from points scattered through `scene`'s bounds in directions over the sphere,
+/// and the six axis directions written with `-0.0` components, from the bounds' centre.
+fn scattered_rays(scene: &Scene, n: usize) -> Vec<Ray> {
+    let (lo, hi) = scene.bounds();
+    let mut rays: Vec<Ray> = (0..n as u64)
+        .map(|i| {
+            let (a, b) = ray_sets::uniform2(3 * i + 1_000_000);
+            let (c, _) = ray_sets::uniform2(3 * i + 1_000_001);
+            let (u, v) = ray_sets::uniform2(3 * i + 1_000_002);
+            let origin = lo + (hi - lo) * Vec3::new(a, b, c);
+            let z = 1.0 - 2.0 * u;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = std::f32::consts::TAU * v;
+            Ray::new(origin, Vec3::new(r * phi.cos(), r * phi.sin(), z))
+        })
+        .collect();
+    let centre = (lo + hi) * 0.5;
+    for axis in 0..3 {
+        for sign in [1.0f32, -1.0] {
+            let mut d = Vec3::splat(-0.0);
+            d[axis] = sign;
+            rays.push(Ray::new(centre, d));
+        }
+    }
+    rays
+}
+
+/// A ray at every `stride`-th triangle of `scene`: from a little off its face (on either
+/// side, in turn) straight at its centroid. Every triangle that is there is hit by its own
+/// ray unless something lies in the gap; a triangle lost on the way to the GPU is not.
+fn aimed_rays(scene: &Scene, stride: usize) -> Vec<Ray> {
+    (0..scene.triangle_count() as u32)
+        .step_by(stride)
+        .map(|i| {
+            let [a, b, c] = *scene.triangle(i);
+            let centre = (a + b + c) / 3.0;
+            let size = (b - a).length().max((c - a).length());
+            let n = scene.face_normal(i) * if i % 2 == 0 { 1.0 } else { -1.0 };
+            Ray::new(centre + n * (0.01 * size), -n)
+        })
+        .collect()
+}
+
+/// The sets of a scene's camera view, the scattered rays (with and without an end), and
+/// shadow rays towards a point (ending short of it), closest and any hit.
+fn check_scene(name: &str, scene: &Scene, width: u32, height: u32) {
+    let gpu = gpu();
+    let mut engine = GpuRays::for_scene(&gpu, scene).expect("upload the scene");
+    eprintln!(
+        "{name}: {} triangles, GPU {}, stack {} entries, tree {} B, triangles {} B",
+        scene.triangle_count(),
+        gpu.adapter,
+        engine.stack_size(),
+        engine.scene_bytes().0,
+        engine.scene_bytes().1
+    );
+    let view = camera_view(scene, width, height);
+    let sets = RaySets::new(scene, &view, sun());
+    let scattered = scattered_rays(scene, 2000);
+    let aimed = aimed_rays(scene, 1);
+    let (lo, hi) = scene.bounds();
+    let short = 0.3 * lo.distance(hi);
+    for (set, rays, tmax) in [
+        ("primary", &sets.primary, f32::INFINITY),
+        ("diffuse", &sets.diffuse, f32::INFINITY),
+        ("scattered", &scattered, f32::INFINITY),
+        ("scattered, short", &scattered, short),
+        ("aimed", &aimed, f32::INFINITY),
+    ] {
+        let hits = engine.closest_hits(&gpu, rays, tmax);
+        let per = if set == "aimed" { 10 } else { 100 };
+        compare_closest(scene, rays, tmax, &hits)
+            .check_ties(&format!("{name} {set} closest hit"), per);
+        let occluders = engine.occluders(&gpu, rays, tmax);
+        compare_occluded(scene, rays, tmax, &occluders).check(&format!("{name} {set} any hit"));
+    }
+    let sun_rays = engine.occluders(&gpu, &sets.shadow, f32::INFINITY);
+    compare_occluded(scene, &sets.shadow, f32::INFINITY, &sun_rays)
+        .check(&format!("{name} shadow (sun) any hit"));
+    // Towards a lamp at the camera, each ray ending a millimetre short of it.
+    let lamp = view.eye;
+    for (i, ray) in sets.diffuse.iter().enumerate().step_by(7) {
+        let to = lamp - ray.origin;
+        let ray = Ray::new(ray.origin, to.normalize());
+        let tmax = to.length() - 1e-3;
+        let g = engine.occluders(&gpu, &[ray], tmax);
+        let t = compare_occluded(scene, &[ray], tmax, &g);
+        assert!(t.bad == 0, "{name} lamp ray {i}: {:?}", t.examples);
+    }
+}
+
+#[test]
+fn gpu_hits_are_the_cpu_hits_in_the_room() {
+    check_scene("room", &project_scene("room.gltf"), 48, 32);
+}
+
+#[test]
+fn gpu_hits_are_the_cpu_hits_in_the_cornell_box() {
+    check_scene("cornell", &project_scene("cornell.gltf"), 48, 32);
+}
+
+#[test]
+fn gpu_hits_are_the_cpu_hits_on_sponzas_ray_sets() {
+    let Some(scene) = sponza() else {
+        return;
+    };
+    let gpu = gpu();
+    let mut engine = GpuRays::for_scene(&gpu, &scene).expect("upload Sponza");
+    // The bench's sets at an eighth of its resolution (1024 × 576) each way: 9,216 primary
+    // rays.
+    let view = camera_view(&scene, 128, 72);
+    let sets = RaySets::new(&scene, &view, sun());
+    eprintln!(
+        "Sponza: {} triangles, stack {} entries, tree {} B, triangles {} B; {} primary, {} shadow, {} diffuse rays",
+        scene.triangle_count(),
+        engine.stack_size(),
+        engine.scene_bytes().0,
+        engine.scene_bytes().1,
+        sets.primary.len(),
+        sets.shadow.len(),
+        sets.diffuse.len()
+    );
+    let inf = f32::INFINITY;
+    let hits = engine.closest_hits(&gpu, &sets.primary, inf);
+    compare_closest(&scene, &sets.primary, inf, &hits).check("Sponza primary closest hit");
+    let occluders = engine.occluders(&gpu, &sets.shadow, inf);
+    compare_occluded(&scene, &sets.shadow, inf, &occluders).check("Sponza shadow any hit");
+    let hits = engine.closest_hits(&gpu, &sets.diffuse, inf);
+    compare_closest(&scene, &sets.diffuse, inf, &hits).check("Sponza diffuse closest hit");
+    // And one ray at each of its triangles.
+    let aimed = aimed_rays(&scene, 1);
+    let hits = engine.closest_hits(&gpu, &aimed, inf);
+    compare_closest(&scene, &aimed, inf, &hits).check_ties("Sponza aimed closest hit", 10);
+    let occluders = engine.occluders(&gpu, &aimed, inf);
+    compare_occluded(&scene, &aimed, inf, &occluders).check("Sponza aimed any hit");
+}
+
+#[test]
+fn a_wall_traced_on_the_gpu_is_the_cpus_wall() {
+    // The room seen through a wall: rays made on the GPU (never uploaded), traced there.
+    let scene = project_scene("room.gltf");
+    let gpu = gpu();
+    let mut engine = GpuRays::for_scene(&gpu, &scene).expect("upload the room");
+    let cam = camera_view(&scene, 61, 37);
+    let view = WallView {
+        eye: cam.eye + Vec3::new(0.05, -0.02, 0.03),
+        ..cam
+    };
+    for query in [Query::ClosestHit, Query::AnyHit] {
+        let n = engine.trace_wall(&gpu, &view, f32::INFINITY, query);
+        assert_eq!(n, 61 * 37);
+        let made = engine.read_rays(&gpu, n);
+        // The rays: the eye exactly, directions within a few float steps of the CPU's.
+        let mut worst = 0.0f32;
+        for (i, r) in made.iter().enumerate() {
+            let (x, y) = (i as u32 % view.width, i as u32 / view.width);
+            let cpu = view.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            assert_eq!(Vec3::from(r.origin), cpu.origin, "pixel ({x}, {y})");
+            let off = (Vec3::from(r.dir) - cpu.dir).abs().max_element();
+            worst = worst.max(off);
+            assert!(
+                off <= 8.0 * f32::EPSILON,
+                "pixel ({x}, {y}): {r:?} vs {cpu:?}"
+            );
+            assert_eq!(r.tmax, f32::INFINITY);
+        }
+        eprintln!("wall rays: directions within {worst:e} of the CPU's");
+        let rays: Vec<Ray> = made.iter().map(|r| r.ray()).collect();
+        match query {
+            Query::ClosestHit => {
+                let hits = engine.read_hits(&gpu, n);
+                compare_closest(&scene, &rays, f32::INFINITY, &hits).check("room wall closest");
+                assert!(hits.iter().flatten().count() > (n as usize) / 2);
+            }
+            Query::AnyHit => {
+                let o = engine.read_occluders(&gpu, n);
+                compare_occluded(&scene, &rays, f32::INFINITY, &o).check("room wall any hit");
+            }
+        }
+    }
+}
+
+#[test]
+fn negative_zeros_bad_rays_and_tmax_on_a_quad() {
+    // A unit square at z = 0 (two triangles) and a second one at z = −2.
+    let (a, b, c, d) = (Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y);
+    let mut tris = vec![[a, b, c], [a, c, d]];
+    tris.extend(tris.clone().iter().map(|t| t.map(|p| p - 2.0 * Vec3::Z)));
+    let bvh = Bvh::build(&tris);
+    let gpu = gpu();
+    let mut engine = GpuRays::new(&gpu, &bvh).unwrap();
+    let down = Vec3::new(-0.0, -0.0, -1.0);
+    let rays = [
+        Ray::new(Vec3::new(0.25, 0.6, 1.0), down),
+        Ray::new(Vec3::new(0.7, 0.2, 1.0), down),
+        Ray::new(Vec3::new(0.5, 0.5, 1.0), Vec3::ZERO),
+        Ray::new(Vec3::new(0.5, 0.5, 1.0), Vec3::new(f32::NAN, 0.0, -1.0)),
+        Ray::new(Vec3::new(0.5, 0.5, 1.0), Vec3::INFINITY),
+        Ray::new(Vec3::new(f32::INFINITY, 0.5, 1.0), down),
+        Ray::new(Vec3::new(0.5, 0.5, -1.0), Vec3::new(0.0, -0.0, 1.0)),
+        Ray::new(Vec3::new(1.5, 0.5, 1.0), down),
+    ];
+    for tmax in [f32::INFINITY, 0.999, 1.001, 2.5, f32::NAN] {
+        let hits = engine.closest_hits(&gpu, &rays, tmax);
+        let occluded = engine.occluded(&gpu, &rays, tmax);
+        for (i, ray) in rays.iter().enumerate() {
+            let cpu = bvh.closest_hit(ray, tmax);
+            assert_eq!(
+                hits[i].map(|h| h.triangle),
+                cpu.map(|h| h.triangle),
+                "ray {i}, {tmax}"
+            );
+            if let (Some(g), Some(c)) = (hits[i], cpu) {
+                assert!((g.t - c.t).abs() <= 1e-6, "ray {i}: {g:?} vs {c:?}");
+                assert!((g.u - c.u).abs() <= 1e-6 && (g.v - c.v).abs() <= 1e-6);
+            }
+            assert_eq!(occluded[i], bvh.occluded(ray, tmax), "ray {i}, tmax {tmax}");
+        }
+    }
+    // The first two rays hit at t = 1 through -0.0 components; the bad rays nothing.
+    let hits = engine.closest_hits(&gpu, &rays, f32::INFINITY);
+    assert!(hits[0].is_some() && hits[1].is_some() && hits[6].is_some());
+    assert!(hits[2..6].iter().all(|h| h.is_none()) && hits[7].is_none());
+}
