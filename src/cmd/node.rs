@@ -21,6 +21,7 @@ use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
 use holocave_protocol::cluster::FrameState;
 use holocave_render_node::cluster_node::{self, DisplayMaker, Membership};
+use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::output::{PresentedLog, write_frame};
 use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWall};
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
@@ -95,6 +96,11 @@ pub struct NodeArgs {
     /// unless this is given.
     #[arg(long)]
     pub(crate) vlf: Option<PathBuf>,
+    /// Where the light field's per-pixel rays (each pixel's first hit) are traced: `auto`
+    /// (the GPU on a hardware adapter, the CPU on a software one such as lavapipe, where the
+    /// CPU's walk is faster), `gpu` or `cpu`. With --standalone.
+    #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]
+    pub(crate) rays: Rays,
     /// How many samples the light field is worth in a pixel (0: the samples alone).
     #[arg(long, default_value_t = holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES)]
     pub(crate) vlf_prior: f32,
@@ -283,10 +289,10 @@ fn standalone(
         None => Gpu::new()?,
     };
     let mut builder = DisplayBuilder::new(size, eyes.len(), samples, tracer);
-    builder.gpu = Some(gpu);
+    builder.gpu = Some(gpu.clone());
     if let Some(path) = &args.vlf {
         builder.light_field = Some(LightField {
-            base: Arc::new(VlfBase::open(path, scene.clone())?),
+            base: Arc::new(VlfBase::open(path, scene.clone())?.with_rays(&gpu, args.rays)?),
             prior: args.vlf_prior,
         });
     }
