@@ -16,7 +16,7 @@
 //! shadow are exact from the first frame. What is left stochastic — the penumbrae (a band
 //! `2 d tan r` wide, 9 mm behind an edge 1 m away) and area lamps — is averaged per
 //! surface point over frames ([`Accumulator`]): a still view converges. A pixel takes
-//! one estimate a frame, and four on the frame it comes to a new point when the scene
+//! one estimate a frame, and two on the frame it comes to a new point when the scene
 //! has area lamps ([`PixelDirect::first_estimates`]: one sample of a lamp is visibly
 //! noisy). More per frame would lower that variance in proportion to the shadow rays,
 //! which already cost as much as the visibility itself (measured on two cores: the
@@ -98,14 +98,17 @@ impl PixelDirect {
         !self.lights.has_area() && self.lights.punctual.is_empty() && self.lights.sun.is_none()
     }
 
-    /// Estimates a pixel takes on the frame it starts over at a new point: 4 when the
+    /// Estimates a pixel takes on the frame it starts over at a new point: 2 when the
     /// scene has emissive triangles, else 1 (the sun and punctual lights are exact in
     /// one, but for the penumbrae). One sample of an area lamp per pixel is visibly noisy:
     /// the Cornell box's first frame under the render cache (64², `render-node`'s
     /// `vlf_base` test) was at relative MSE 0.0216 with one estimate and 0.0158 with four
-    /// (the light field's own part ≈ 0.014): the lamp's noise from 0.008 to 0.002.
+    /// (the light field's own part ≈ 0.014; the lamp's noise 0.008 with one), 0.0175
+    /// with two. In motion every pixel starts over every frame, and four estimates made
+    /// `sim`'s nodes (the room: a lamp and the sun, two shadow rays each) too slow to
+    /// draw every frame on a shared two-core machine; two is the compromise.
     pub fn first_estimates(&self) -> u32 {
-        if self.lights.has_area() { 4 } else { 1 }
+        if self.lights.has_area() { 2 } else { 1 }
     }
 
     /// Shadow rays per estimate (at most: a sample facing away from the point needs none).
