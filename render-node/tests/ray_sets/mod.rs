@@ -3,11 +3,14 @@
 //! with a camera, and the scenes they are made on.
 #![allow(dead_code)]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
 use holocave_scene::{LoadOptions, Ray, Scene};
+
+#[path = "../../../tests/common/require.rs"]
+mod require;
 
 /// A scene of the project's `scenes/` folder.
 pub fn project_scene(name: &str) -> Scene {
@@ -17,21 +20,11 @@ pub fn project_scene(name: &str) -> Scene {
     Scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
-/// Sponza of the shared scenes beside the checkout, or `None` (saying the caller is
-/// skipped) when it is absent; with `HOLOCAVE_REQUIRE_SHARED=1` (as CI sets it) its absence
-/// is a failure.
+/// Sponza of the shared scenes beside the checkout, or `None` (the caller is skipped)
+/// when it is absent; with `HOLOCAVE_REQUIRE_SHARED=1` (as CI sets it) its absence is a
+/// failure (the project's one skip-or-fail rule, `tests/common/require.rs`).
 pub fn sponza() -> Option<Scene> {
-    let path: PathBuf =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes/sponza/Sponza.gltf");
-    if !path.exists() {
-        assert!(
-            std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "HOLOCAVE_REQUIRE_SHARED=1 and {} is absent",
-            path.display()
-        );
-        eprintln!("SKIPPED: {} is absent", path.display());
-        return None;
-    }
+    let path = require::shared("scenes/sponza/Sponza.gltf")?;
     Some(Scene::load(&path, &LoadOptions::default()).expect("load Sponza"))
 }
 
