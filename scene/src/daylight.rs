@@ -15,7 +15,8 @@
 //! ground_albedo = 0.2           # directions below the horizon see a diffuse ground
 //! ```
 //!
-//! Radiance is linear RGB in the scene's emission units.
+//! Radiance is linear RGB in the scene's emission units; an optional `[photometry]` table
+//! gives their luminous efficacy ([`crate::photometry`]).
 
 use std::f32::consts::PI;
 use std::path::{Path, PathBuf};
@@ -24,6 +25,7 @@ use glam::Vec3;
 use serde::Deserialize;
 
 use crate::error::SceneError;
+use crate::photometry::Photometry;
 
 /// The sun: a disk of uniform radiance.
 #[derive(Clone, Debug, PartialEq)]
@@ -151,6 +153,8 @@ impl Sky {
 pub struct Daylight {
     pub sun: Option<Sun>,
     pub sky: Option<Sky>,
+    /// The scene's photometric units (`[photometry]`; Radiance's 179 lm/W if absent).
+    pub photometry: Photometry,
 }
 
 #[derive(Deserialize)]
@@ -180,6 +184,13 @@ struct SkyToml {
 struct DaylightToml {
     sun: Option<SunToml>,
     sky: Option<SkyToml>,
+    photometry: Option<PhotometryToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PhotometryToml {
+    efficacy: f32,
 }
 
 fn rgb(field: &str, v: [f32; 3], path: &Path) -> Result<Vec3, SceneError> {
@@ -216,7 +227,23 @@ impl Daylight {
             None => None,
             Some(s) => Some(Self::parse_sky(s, sun.as_ref(), path)?),
         };
-        Ok(Self { sun, sky })
+        let photometry = match t.photometry {
+            None => Photometry::default(),
+            Some(p) if p.efficacy.is_finite() && p.efficacy > 0.0 => Photometry {
+                efficacy: p.efficacy,
+            },
+            Some(p) => {
+                return Err(err(format!(
+                    "photometry.efficacy must be finite and positive, got {}",
+                    p.efficacy
+                )));
+            }
+        };
+        Ok(Self {
+            sun,
+            sky,
+            photometry,
+        })
     }
 
     fn parse_sun(s: SunToml, path: &Path) -> Result<Sun, SceneError> {

@@ -313,3 +313,17 @@ fn daylight_files_beside_scenes_and_on_the_command_line() {
     let e = Scene::load(&scene_path, &opts).err().unwrap().to_string();
     assert!(e.contains("absent.toml"), "{e}");
 }
+
+#[test]
+fn photometry_defaults_to_radiance_white_and_can_be_overridden() {
+    assert_eq!(parse(SUN).unwrap().photometry.efficacy, 179.0);
+    let d = parse(&format!("{SUN}[photometry]\nefficacy = 683.0\n")).unwrap();
+    assert_eq!(d.photometry.efficacy, 683.0);
+    for bad in ["0.0", "-1.0", "nan", "inf"] {
+        parse_err(
+            &format!("{SUN}[photometry]\nefficacy = {bad}\n"),
+            &["photometry.efficacy", "positive"],
+        );
+    }
+    parse_err(&format!("{SUN}[photometry]\nlumens = 3.0\n"), &["lumens"]);
+}

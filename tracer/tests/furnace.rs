@@ -317,6 +317,7 @@ fn lambert_plane_under_sun_and_sky_gives_rho_e_over_pi() {
     let scene = scene_from(
         vec![(plane, lambert(rho, Vec3::ZERO, false))],
         Daylight {
+            photometry: Default::default(),
             sun: Some(sun),
             sky: Some(sky),
         },

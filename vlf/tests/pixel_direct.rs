@@ -63,6 +63,7 @@ fn slit() -> Scene {
         tris.push((t, 1));
     }
     let daylight = Daylight {
+        photometry: Default::default(),
         sun: Some(Sun {
             direction: sun_direction(),
             angular_radius: SUN_R,

@@ -39,6 +39,7 @@ fn floor_of_small_triangles() -> Scene {
             shading,
             materials: vec![common::lambert("floor", 0.5, Vec3::ZERO)],
             daylight: Daylight {
+                photometry: Default::default(),
                 sun: None,
                 sky: Some(Sky {
                     model: SkyModel::Uniform(Vec3::splat(SKY)),
