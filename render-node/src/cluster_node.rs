@@ -16,6 +16,7 @@ use holocave_scene::Scene;
 use holocave_tracer::Tracer;
 
 use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
+use crate::gpu_rays::Rays;
 use crate::{
     DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, RenderNodeError, VlfBase, WallDisplay,
 };
@@ -67,6 +68,10 @@ struct VlfChoice {
     scene: Arc<Scene>,
     own: Option<PathBuf>,
     prior: f32,
+    /// Where each pixel's first hit is traced, and the device for the GPU's rays (the
+    /// window's, else one of the light field's own).
+    rays: Rays,
+    gpu: Option<Gpu>,
     loaded: Mutex<Option<(PathBuf, Arc<VlfBase>)>>,
 }
 
@@ -81,7 +86,7 @@ impl VlfChoice {
         {
             return Some(b.clone());
         }
-        match VlfBase::open(&path, self.scene.clone()) {
+        match self.open(&path) {
             Ok(b) => {
                 let b = Arc::new(b);
                 *loaded = Some((path, b.clone()));
@@ -92,6 +97,19 @@ impl VlfChoice {
                 None
             }
         }
+    }
+
+    /// Opens the file and places its pixels' first rays where `rays` says.
+    fn open(&self, path: &std::path::Path) -> Result<VlfBase, RenderNodeError> {
+        let base = VlfBase::open(path, self.scene.clone())?;
+        if self.rays == Rays::Cpu {
+            return Ok(base);
+        }
+        let gpu = match &self.gpu {
+            Some(g) => g.clone(),
+            None => Gpu::new()?,
+        };
+        base.with_rays(&gpu, self.rays)
     }
 }
 
@@ -131,12 +149,21 @@ impl DisplayMaker {
     }
 
     /// Draws a light field under the samples: `own` if given, else the one the master
-    /// names; it must have been baked for `scene`.
-    pub fn with_vlf(mut self, scene: Arc<Scene>, own: Option<PathBuf>, prior: f32) -> DisplayMaker {
+    /// names; it must have been baked for `scene`. Its pixels' first hits are traced where
+    /// `rays` says, on the display's device when [`Self::with_gpu`] came first.
+    pub fn with_vlf(
+        mut self,
+        scene: Arc<Scene>,
+        own: Option<PathBuf>,
+        prior: f32,
+        rays: Rays,
+    ) -> DisplayMaker {
         let choice = VlfChoice {
             scene,
             own,
             prior,
+            rays,
+            gpu: self.builder.gpu.clone(),
             loaded: Mutex::new(None),
         };
         // The node's own file is read now, before it joins: reading it after the welcome

@@ -122,6 +122,13 @@ impl VlfBase {
         } else {
             None
         };
+        let adapter = gpu.raw_adapter.get_info().name;
+        match self.gpu_rays {
+            Some(_) => tracing::info!("light field: each pixel's first hit traced on {adapter}"),
+            None => tracing::info!(
+                "light field: each pixel's first hit traced on the CPU (--rays {rays}, adapter {adapter})"
+            ),
+        }
         Ok(self)
     }
 

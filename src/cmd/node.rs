@@ -98,7 +98,7 @@ pub struct NodeArgs {
     pub(crate) vlf: Option<PathBuf>,
     /// Where the light field's per-pixel rays (each pixel's first hit) are traced: `auto`
     /// (the GPU on a hardware adapter, the CPU on a software one such as lavapipe, where the
-    /// CPU's walk is faster), `gpu` or `cpu`. With --standalone.
+    /// CPU's walk is faster), `gpu` or `cpu`.
     #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]
     pub(crate) rays: Rays,
     /// How many samples the light field is worth in a pixel (0: the samples alone).
@@ -479,14 +479,13 @@ fn in_cluster(
         give_up_after: args.seconds.map(Duration::from_secs_f64),
         slow_by: Duration::from_millis(args.slow_ms),
     };
-    let mut maker = DisplayMaker::new(&member, display_id, size, samples, tracer).with_vlf(
-        scene,
-        args.vlf.clone(),
-        args.vlf_prior,
-    );
+    let mut maker = DisplayMaker::new(&member, display_id, size, samples, tracer);
+    if let Some(w) = &windows {
+        maker = maker.with_gpu(w.screens.gpu.clone());
+    }
+    let maker = maker.with_vlf(scene, args.vlf.clone(), args.vlf_prior, args.rays);
     let (counters, reason) = match windows {
         Some(Windows { screens, tone }) => {
-            maker = maker.with_gpu(screens.gpu.clone());
             let output = WindowOutput::new(
                 screens,
                 &member.wall,

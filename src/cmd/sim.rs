@@ -15,6 +15,7 @@ use clap::Args;
 use holocave::launch::{Group, Watched, worker_command};
 use holocave_cave::{Cave, Eye, Unfolded, load_cave, unfold};
 use holocave_master::cluster::{MasterOptions, run as run_master};
+use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::mosaic::cave_mosaic;
 use holocave_render_node::output::{PRESENTED_LOG, frame_png, read_presented};
 use holocave_render_node::wall_windows::present_skew;
@@ -71,6 +72,9 @@ pub struct SimArgs {
     /// No light field: the walls show the render cache alone.
     #[arg(long, conflicts_with = "vlf")]
     pub no_vlf: bool,
+    /// Where each node traces its light field's per-pixel rays (`node --rays`).
+    #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]
+    pub rays: Rays,
     #[command(flatten)]
     pub windows: super::window::SimWindowArgs,
 }
@@ -185,6 +189,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
                 vlf.iter()
                     .flat_map(|p| [std::ffi::OsStr::new("--vlf"), p.as_os_str()]),
             )
+            .args(["--rays", &args.rays.to_string()])
             .env(credentials::SECRET_VAR, &secret)
             // Four nodes share this machine's cores: one tracing thread each.
             .env("RAYON_NUM_THREADS", "1")

@@ -103,9 +103,12 @@ pub fn fingerprint(scene: &Scene) -> u64 {
         }
         eat(&scene.triangle_shading(t).material.to_le_bytes());
     }
+    // The daylight's sun and sky alone, in the words of a `Daylight { sun, sky }`: its
+    // photometry changes units, not radiance, so no bake depends on it.
+    let d = &scene.daylight;
     eat(format!(
-        "{:?}{:?}{:?}",
-        scene.materials, scene.lights, scene.daylight
+        "{:?}{:?}Daylight {{ sun: {:?}, sky: {:?} }}",
+        scene.materials, scene.lights, d.sun, d.sky
     )
     .as_bytes());
     for t in &scene.textures {

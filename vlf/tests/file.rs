@@ -414,3 +414,17 @@ fn glossy_tiles_read_back_equal_and_damage_in_them_is_named() {
         "{e:?}"
     );
 }
+
+#[test]
+fn photometric_units_are_not_part_of_the_fingerprint_but_the_sky_is() {
+    let scene = furnace("grey box", 0.5);
+    let mut units = furnace("grey box", 0.5);
+    units.daylight.photometry.efficacy = 683.0;
+    assert_eq!(fingerprint(&scene), fingerprint(&units));
+    let mut sky = furnace("grey box", 0.5);
+    sky.daylight.sky = Some(holocave_scene::Sky {
+        model: holocave_scene::SkyModel::Uniform(Vec3::ONE),
+        ground: Vec3::ZERO,
+    });
+    assert_ne!(fingerprint(&scene), fingerprint(&sky));
+}

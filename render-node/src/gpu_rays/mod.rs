@@ -147,6 +147,17 @@ impl std::str::FromStr for Rays {
     }
 }
 
+impl std::fmt::Display for Rays {
+    /// The flag's word, what [`std::str::FromStr`] reads back.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Rays::Auto => "auto",
+            Rays::Gpu => "gpu",
+            Rays::Cpu => "cpu",
+        })
+    }
+}
+
 /// The queries a batch of rays can be put.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Query {
@@ -483,6 +494,14 @@ mod tests {
     use super::*;
     use crate::gpu::layout::assert_same_layout;
     use crate::gpu::with_common;
+
+    #[test]
+    fn the_rays_flag_reads_back_what_it_writes() {
+        for r in [Rays::Auto, Rays::Gpu, Rays::Cpu] {
+            assert_eq!(r.to_string().parse::<Rays>(), Ok(r));
+        }
+        assert!("GPU".parse::<Rays>().unwrap_err().contains("\"GPU\""));
+    }
 
     #[test]
     fn the_wgsl_structs_are_laid_out_as_in_rust() {
