@@ -71,6 +71,9 @@ pub struct VlfSetting {
     pub path: PathBuf,
     /// What it is worth in samples under the holodeck's (vlf+holodeck).
     pub prior: f32,
+    /// The direct light computed per pixel, as the walls draw it (false: the light field
+    /// alone, its baked direct light included).
+    pub direct: bool,
 }
 
 /// How to compare.
@@ -228,8 +231,10 @@ impl Compare<'_> {
 
     /// The light field of the vlf methods, opened for this scene.
     fn vlf_base(&self, s: &Settings) -> Result<Arc<VlfBase>, CompareError> {
-        let path = &s.vlf.as_ref().ok_or(CompareError::NoVlf)?.path;
-        Ok(Arc::new(VlfBase::open(path, self.scene.clone())?))
+        let v = s.vlf.as_ref().ok_or(CompareError::NoVlf)?;
+        Ok(Arc::new(
+            VlfBase::open(&v.path, self.scene.clone())?.with_direct(v.direct),
+        ))
     }
 
     /// The holodeck method's file: the given one if it exists (warm), else a new one for

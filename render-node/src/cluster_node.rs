@@ -64,13 +64,24 @@ pub struct DisplayMaker {
     vlf: Option<VlfChoice>,
 }
 
+/// How a cluster node draws its light field.
+#[derive(Clone, Debug)]
+pub struct VlfOptions {
+    /// The node's own file; `None`: the one the master names.
+    pub own: Option<PathBuf>,
+    /// How many samples the light field is worth in a pixel.
+    pub prior: f32,
+    /// Where each pixel's first hit is traced.
+    pub rays: Rays,
+    /// The direct light per pixel (false: the light field alone, its baked direct light
+    /// included).
+    pub direct: bool,
+}
+
 struct VlfChoice {
     scene: Arc<Scene>,
-    own: Option<PathBuf>,
-    prior: f32,
-    /// Where each pixel's first hit is traced, and the device for the GPU's rays (the
-    /// window's, else one of the light field's own).
-    rays: Rays,
+    options: VlfOptions,
+    /// The device for the GPU's rays (the window's, else one of the light field's own).
     gpu: Option<Gpu>,
     loaded: Mutex<Option<(PathBuf, Arc<VlfBase>)>>,
 }
@@ -79,7 +90,7 @@ impl VlfChoice {
     /// The light field to draw given what the master names; `None` when there is none or
     /// it cannot be read (said in the log: the wall then shows its samples alone).
     fn base(&self, named: Option<&str>) -> Option<Arc<VlfBase>> {
-        let path = self.own.clone().or_else(|| named.map(PathBuf::from))?;
+        let path = (self.options.own.clone()).or_else(|| named.map(PathBuf::from))?;
         let mut loaded = self.loaded.lock().unwrap_or_else(|p| p.into_inner());
         if let Some((p, b)) = loaded.as_ref()
             && *p == path
@@ -101,15 +112,15 @@ impl VlfChoice {
 
     /// Opens the file and places its pixels' first rays where `rays` says.
     fn open(&self, path: &std::path::Path) -> Result<VlfBase, RenderNodeError> {
-        let base = VlfBase::open(path, self.scene.clone())?;
-        if self.rays == Rays::Cpu {
+        let base = VlfBase::open(path, self.scene.clone())?.with_direct(self.options.direct);
+        if self.options.rays == Rays::Cpu {
             return Ok(base);
         }
         let gpu = match &self.gpu {
             Some(g) => g.clone(),
             None => Gpu::new()?,
         };
-        base.with_rays(&gpu, self.rays)
+        base.with_rays(&gpu, self.options.rays)
     }
 }
 
@@ -148,27 +159,19 @@ impl DisplayMaker {
         }
     }
 
-    /// Draws a light field under the samples: `own` if given, else the one the master
-    /// names; it must have been baked for `scene`. Its pixels' first hits are traced where
-    /// `rays` says, on the display's device when [`Self::with_gpu`] came first.
-    pub fn with_vlf(
-        mut self,
-        scene: Arc<Scene>,
-        own: Option<PathBuf>,
-        prior: f32,
-        rays: Rays,
-    ) -> DisplayMaker {
+    /// Draws a light field under the samples, as `options` say; it must have been baked
+    /// for `scene`. Its pixels' first rays go to the display's device when
+    /// [`Self::with_gpu`] came first.
+    pub fn with_vlf(mut self, scene: Arc<Scene>, options: VlfOptions) -> DisplayMaker {
         let choice = VlfChoice {
             scene,
-            own,
-            prior,
-            rays,
+            options,
             gpu: self.builder.gpu.clone(),
             loaded: Mutex::new(None),
         };
         // The node's own file is read now, before it joins: reading it after the welcome
         // would hold up the cluster's first frames.
-        if choice.own.is_some() {
+        if choice.options.own.is_some() {
             choice.base(None);
         }
         self.vlf = Some(choice);
@@ -196,7 +199,7 @@ impl DisplayMaker {
         builder.light_field = self.vlf.as_ref().and_then(|c| {
             Some(LightField {
                 base: c.base(vlf)?,
-                prior: c.prior,
+                prior: c.options.prior,
             })
         });
         let Some(addr) = holodeck else {

@@ -55,6 +55,10 @@ pub struct CompareArgs {
     /// settings for the scene as compared — scaled and moved — when missing).
     #[arg(long)]
     pub vlf: Option<PathBuf>,
+    /// Leave out the direct light computed per pixel in the vlf methods: the light field
+    /// alone, its baked direct light included.
+    #[arg(long)]
+    pub no_direct: bool,
     /// Rays per eye and frame for every method (default: one per pixel).
     #[arg(long)]
     pub budget: Option<u32>,
@@ -154,6 +158,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
         Some(VlfSetting {
             path,
             prior: holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES,
+            direct: !args.no_direct,
         })
     } else {
         None

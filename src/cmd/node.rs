@@ -20,7 +20,7 @@ use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
 use holocave_protocol::cluster::FrameState;
-use holocave_render_node::cluster_node::{self, DisplayMaker, Membership};
+use holocave_render_node::cluster_node::{self, DisplayMaker, Membership, VlfOptions};
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::output::{PresentedLog, write_frame};
 use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWall};
@@ -101,6 +101,10 @@ pub struct NodeArgs {
     /// CPU's walk is faster), `gpu` or `cpu`.
     #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]
     pub(crate) rays: Rays,
+    /// Leave out the direct light computed per pixel: draw the light field alone, its
+    /// baked direct light included.
+    #[arg(long)]
+    pub(crate) no_direct: bool,
     /// How many samples the light field is worth in a pixel (0: the samples alone).
     #[arg(long, default_value_t = holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES)]
     pub(crate) vlf_prior: f32,
@@ -292,7 +296,11 @@ fn standalone(
     builder.gpu = Some(gpu.clone());
     if let Some(path) = &args.vlf {
         builder.light_field = Some(LightField {
-            base: Arc::new(VlfBase::open(path, scene.clone())?.with_rays(&gpu, args.rays)?),
+            base: Arc::new(
+                VlfBase::open(path, scene.clone())?
+                    .with_direct(!args.no_direct)
+                    .with_rays(&gpu, args.rays)?,
+            ),
             prior: args.vlf_prior,
         });
     }
@@ -483,7 +491,15 @@ fn in_cluster(
     if let Some(w) = &windows {
         maker = maker.with_gpu(w.screens.gpu.clone());
     }
-    let maker = maker.with_vlf(scene, args.vlf.clone(), args.vlf_prior, args.rays);
+    let maker = maker.with_vlf(
+        scene,
+        VlfOptions {
+            own: args.vlf.clone(),
+            prior: args.vlf_prior,
+            rays: args.rays,
+            direct: !args.no_direct,
+        },
+    );
     let (counters, reason) = match windows {
         Some(Windows { screens, tone }) => {
             let output = WindowOutput::new(
