@@ -11,6 +11,7 @@ pub mod cave_section;
 pub mod display;
 pub mod distance_code;
 pub mod file;
+pub mod free_space;
 pub mod proximity;
 pub mod requests;
 pub mod rgbe;
@@ -18,6 +19,7 @@ pub mod run;
 pub mod sample;
 pub mod section;
 pub mod server;
+pub mod serving;
 pub mod view;
 pub mod worker;
 

@@ -39,6 +39,7 @@ use holocave_holodeck::cache::BeamMap;
 use holocave_holodeck::display::{DisplayClient, DisplayError, EyeRequest};
 use holocave_holodeck::distance_code::DistanceCode;
 use holocave_holodeck::proximity::EyeSphere;
+use holocave_holodeck::serving::serving_section;
 use holocave_holodeck::view::WorldSample;
 use holocave_holodeck::{PackedSample, Section};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
@@ -258,8 +259,8 @@ struct Sum {
 }
 
 impl Worker {
-    /// The beam a jittered eye ray through `pixel` belongs to: the first section the ray's
-    /// line crosses ahead of the eye.
+    /// The beam a jittered eye ray through `pixel` belongs to, in the section serving it
+    /// ([`serving_section`]: the one holding the eye, else the first the ray enters).
     fn beam_of(&mut self, view: &EyeView, pixel: u32) -> Option<BeamKey> {
         let w = view.wall.width;
         let j = Vec2::new(self.rng.random(), self.rng.random());
@@ -267,10 +268,7 @@ impl Worker {
             .wall
             .ray(Vec2::new((pixel % w) as f32, (pixel / w) as f32) + j);
         let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
-        self.sections.iter().enumerate().find_map(|(i, s)| {
-            let c = s.crossing(o, d)?;
-            (c.t_exit > 0.0).then_some(BeamKey::new(i as u16, c.beam))
-        })
+        serving_section(&self.sections, o, d).map(|(i, c)| BeamKey::new(i as u16, c.beam))
     }
 
     fn add(&mut self, (views, chosen): Job) {

@@ -1,5 +1,5 @@
-//! `holocave holodeck info|check|optimize|serve`: inspecting, repairing, compacting and
-//! serving a holodeck file.
+//! `holocave holodeck info|check|optimize|serve|view|sections`: inspecting, repairing,
+//! compacting, serving and viewing a holodeck file, and proposing its sections.
 
 use std::net::TcpListener;
 use std::path::PathBuf;
@@ -14,11 +14,13 @@ use holocave_holodeck::auth::Port;
 use holocave_holodeck::file::check::{check, holds, salvage};
 use holocave_holodeck::file::info::Info;
 use holocave_holodeck::file::optimize::optimize;
+use holocave_holodeck::free_space::{FreeSpaceOptions, propose_sections};
 use holocave_holodeck::run::{RunOptions, run as run_server};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::view::{ViewOptions, reconstruct};
 
 use super::view::ViewFlags;
+use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
 
 #[derive(Subcommand)]
@@ -43,6 +45,34 @@ pub enum HolodeckCommand {
     Serve(ServeArgs),
     /// Make a picture of one view from the stored samples alone (reprojection, no tracing).
     View(ViewArgs),
+    /// Propose interior sections from the scene's free space at standing height, one per
+    /// room, printed as `--section` boxes for `fill`, `master` and `sim`.
+    Sections(SectionsArgs),
+}
+
+#[derive(Args)]
+pub struct SectionsArgs {
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Grid cell of the floor plan, metres.
+    #[arg(long, default_value_t = 0.1)]
+    pub cell: f64,
+    /// Eye height above the floor, metres.
+    #[arg(long, default_value_t = 1.6)]
+    pub eye_height: f64,
+    /// Openings up to this wide (metres) separate rooms.
+    #[arg(long, default_value_t = 1.2)]
+    pub doorway: f64,
+    /// How far a standing person keeps from walls and furniture, metres.
+    #[arg(long, default_value_t = 0.25)]
+    pub clearance: f64,
+    /// The floor's height (default: the lowest height with about the most upward-facing
+    /// area).
+    #[arg(long)]
+    pub floor: Option<f64>,
+    /// Leave out rooms with less free floor than this, m².
+    #[arg(long, default_value_t = 2.0)]
+    pub min_area: f64,
 }
 
 #[derive(Args)]
@@ -176,6 +206,7 @@ pub struct ServeArgs {
 
 pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
     match c {
+        HolodeckCommand::Sections(a) => sections(&a)?,
         HolodeckCommand::Info { file } => {
             let h = HoloFile::open(&file)?;
             print!("{}", Info::of(&h));
@@ -277,5 +308,39 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
             );
         }
     }
+    Ok(())
+}
+
+fn sections(a: &SectionsArgs) -> anyhow::Result<()> {
+    let scene = Scene::load(&a.scene, &LoadOptions::default())
+        .with_context(|| format!("--scene {}", a.scene.display()))?;
+    let options = FreeSpaceOptions {
+        cell: a.cell,
+        eye_height: a.eye_height,
+        clearance: a.clearance,
+        doorway: a.doorway,
+        floor: a.floor,
+        min_area: a.min_area,
+    };
+    let rooms =
+        propose_sections(&scene, &options).with_context(|| a.scene.display().to_string())?;
+    let mut args = String::new();
+    for (i, r) in rooms.iter().enumerate() {
+        println!(
+            "room {i}: {:.1} m² of floor, {:.0}% of it under its {} section(s)",
+            r.area,
+            100.0 * r.covered,
+            r.sections.len()
+        );
+        for b in &r.sections {
+            let (lo, hi) = (b.lo, b.hi);
+            println!("  {lo:.2} .. {hi:.2}");
+            args += &format!(
+                " --section {:.3},{:.3},{:.3},{:.3},{:.3},{:.3}",
+                lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+            );
+        }
+    }
+    println!("{args}");
     Ok(())
 }
