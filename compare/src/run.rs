@@ -256,6 +256,7 @@ impl Compare<'_> {
             self.scene_path,
             Some(&self.scene),
             "compare",
+            &[],
         )
         .map_err(|e| CompareError::Holodeck(e.to_string()))
     }

@@ -61,8 +61,9 @@ impl StandaloneWall {
         let hd = |e: holocave_tracer::cave_holodeck::CaveHolodeckError| {
             RenderNodeError::Holodeck(e.to_string())
         };
-        let opened = CaveHolodeck::open_or_create(h.path, cave, h.scene_path, Some(scene), "node")
-            .map_err(hd)?;
+        let opened =
+            CaveHolodeck::open_or_create(h.path, cave, h.scene_path, Some(scene), "node", &[])
+                .map_err(hd)?;
         let described = opened.describe();
         let running = opened
             .serve(Serving {

@@ -7,6 +7,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
 use clap::Args;
+use glam::DVec3;
 use holocave_cave::{Cave, load_cave};
 use holocave_holodeck::auth::Credentials;
 use holocave_master::cluster::{MasterOptions, Summary, pacer_since, run as run_master};
@@ -70,6 +71,11 @@ pub struct HolodeckArgs {
     /// more).
     #[arg(long, default_value_t = 0, requires = "holodeck")]
     pub tracer_threads: usize,
+    /// An interior section a new holodeck file gets besides the CAVE's,
+    /// `x0,y0,z0,x1,y1,z1` in scene coordinates (repeatable; `holocave holodeck sections`
+    /// proposes them, one per room).
+    #[arg(long, requires = "holodeck", value_parser = super::parse::aabb)]
+    pub section: Vec<[DVec3; 2]>,
     /// The nodes draw from a holodeck served elsewhere (`holocave holodeck serve
     /// --interactive`) at HOST:PORT.
     #[arg(long)]
@@ -103,6 +109,7 @@ impl HolodeckArgs {
             listen,
             credentials,
             made_by,
+            sections: &self.section,
             stop: super::interrupt::ctrl_c_flag(),
         })?;
         let addr = hosted.addr.to_string();

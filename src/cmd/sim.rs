@@ -12,6 +12,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use glam::DVec3;
 use holocave::launch::{Group, Watched, worker_command};
 use holocave_cave::{Cave, Eye, Unfolded, load_cave, unfold};
 use holocave_master::cluster::{MasterOptions, run as run_master};
@@ -62,6 +63,11 @@ pub struct SimArgs {
     /// No holodeck: each node traces its own samples and keeps none.
     #[arg(long, conflicts_with = "holodeck")]
     pub no_holodeck: bool,
+    /// An interior section a new holodeck file gets besides the CAVE's,
+    /// `x0,y0,z0,x1,y1,z1` in scene coordinates (repeatable; `holocave holodeck sections`
+    /// proposes them).
+    #[arg(long, conflicts_with = "no_holodeck", value_parser = super::parse::aabb)]
+    pub section: Vec<[DVec3; 2]>,
     /// Worker processes tracing for the holodeck.
     #[arg(long, default_value_t = 2)]
     pub workers: usize,
@@ -132,6 +138,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             listen: "127.0.0.1:0",
             credentials: credentials.clone(),
             made_by: "sim",
+            sections: &args.section,
             stop: super::interrupt::ctrl_c_flag(),
         })?)
     };

@@ -9,14 +9,16 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
+use glam::DVec3;
 use holocave_cave::Cave;
-use holocave_holodeck::HoloFile;
 use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::cave_section::CaveSection;
 use holocave_holodeck::file::DistanceKind;
 use holocave_holodeck::run::{RayAllowance, RunOptions, Running, start, start_held};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::SampleSource;
+use holocave_holodeck::{HoloFile, Section, ViewClass};
+use holocave_scene::empty_box::{Aabb, triangles_inside};
 use holocave_scene::{LoadOptions, Scene};
 
 use crate::holodeck::{HolodeckTracer, file_settings, scene_name};
@@ -63,9 +65,9 @@ pub struct Serving {
 }
 
 impl CaveHolodeck {
-    /// Opens the holodeck at `path`, or creates it for `cave` (one section, its
-    /// [`CaveSection`]) when it does not exist; creating needs `scene`, loaded from
-    /// `scene_path`. Opening warns when the file was made for another scene or another
+    /// Opens the holodeck at `path`, or creates it for `cave` (its [`CaveSection`], then
+    /// an interior section for each box of `more`) when it does not exist; creating needs
+    /// `scene`, loaded from `scene_path`. Opening warns when the file was made for another scene or another
     /// CAVE. `made_by` names the command in a new file's settings.
     pub fn open_or_create(
         path: &Path,
@@ -73,6 +75,7 @@ impl CaveHolodeck {
         scene_path: &Path,
         scene: Option<&Scene>,
         made_by: &str,
+        more: &[[DVec3; 2]],
     ) -> Result<CaveHolodeck, CaveHolodeckError> {
         let bad = |message: String| CaveHolodeckError::File {
             path: path.display().to_string(),
@@ -96,6 +99,15 @@ impl CaveHolodeck {
                     path.display()
                 );
             }
+            if !more.is_empty() && file.sections().len() != 1 + more.len() {
+                tracing::warn!(
+                    "{} exists with {} section(s): the {} section(s) asked for apply to a new \
+                     file only",
+                    path.display(),
+                    file.sections().len(),
+                    more.len()
+                );
+            }
             return Ok(CaveHolodeck {
                 path: path.to_owned(),
                 file,
@@ -110,9 +122,23 @@ impl CaveHolodeck {
         }
         let cs =
             CaveSection::new(cave, scene).map_err(|e| CaveHolodeckError::Section(e.to_string()))?;
+        let mut sections = vec![cs.section.clone()];
+        for &[lo, hi] in more {
+            let inside = triangles_inside(scene, &Aabb { lo, hi });
+            if inside > 0 {
+                tracing::warn!(
+                    "section {lo:.2} .. {hi:.2}: {inside} triangles of the scene reach into it \
+                     and will vanish from views inside it (`holocave holodeck sections` proposes \
+                     empty ones)"
+                );
+            }
+            sections.push(
+                Section::of_box(lo, hi, None, ViewClass::Interior)
+                    .map_err(|e| CaveHolodeckError::Section(format!("{lo} .. {hi}: {e}")))?,
+            );
+        }
         let settings = file_settings(&name, DistanceKind::Virtual, made_by);
-        let file = HoloFile::create(path, vec![cs.section.clone()], settings)
-            .map_err(|e| bad(e.to_string()))?;
+        let file = HoloFile::create(path, sections, settings).map_err(|e| bad(e.to_string()))?;
         Ok(CaveHolodeck {
             path: path.to_owned(),
             file,
@@ -222,6 +248,9 @@ pub struct HostSpec<'a> {
     pub credentials: Credentials,
     /// The command that creates a new file (`master`, `sim`).
     pub made_by: &'a str,
+    /// Interior sections a new file gets besides the CAVE's (boxes `lo, hi` in scene
+    /// coordinates: the rooms a walk-through goes to).
+    pub sections: &'a [[DVec3; 2]],
     pub stop: Arc<AtomicBool>,
 }
 
@@ -247,6 +276,7 @@ impl HostSpec<'_> {
             self.scene_path,
             scene.as_deref(),
             self.made_by,
+            self.sections,
         )?;
         let described = holodeck.describe();
         let hosted = holodeck.host(
