@@ -348,6 +348,19 @@ mod tests {
         eyes: [&wgpu::Buffer; 2],
         curve: Option<&ToneCurve>,
     ) -> image::RgbImage {
+        draw_eyes(gpu, format, size, settings, eyes, (W, H), curve)
+    }
+
+    /// [`draw`] of eyes of `eye_size` pixels.
+    fn draw_eyes(
+        gpu: &Gpu,
+        format: wgpu::TextureFormat,
+        size: (u32, u32),
+        settings: &WindowSettings,
+        eyes: [&wgpu::Buffer; 2],
+        eye_size: (u32, u32),
+        curve: Option<&ToneCurve>,
+    ) -> image::RgbImage {
         let mut pass = ScreenPass::new(gpu, format);
         let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("offscreen"),
@@ -372,7 +385,7 @@ mod tests {
             mapped_at_creation: false,
         });
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        pass.draw(gpu, &mut enc, &view, size, settings, eyes, (W, H), curve);
+        pass.draw(gpu, &mut enc, &view, size, settings, eyes, eye_size, curve);
         enc.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
                 texture: &texture,
@@ -535,5 +548,44 @@ mod tests {
         );
         let want = image::RgbImage::from_fn(W * 3, H * 2, |x, y| *l8.get_pixel(x / 3, y / 2));
         assert!(max_diff(&got, &want) <= 1);
+    }
+
+    #[test]
+    fn false_colour_and_its_legend_are_drawn_as_the_cpu_draws_them() {
+        let gpu = Gpu::new().expect("a GPU adapter (lavapipe without a GPU)");
+        // Big enough for a legend (64 pixels high); luminances over and beyond the scale.
+        let (w, h) = (96u32, 72u32);
+        let mut img = Image::new(w, h);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            let t = ((i * 37) % 101) as f32 / 100.0;
+            *p = Vec3::new(1.0, 0.7, 0.4) * 10f32.powf(-4.0 + 10.0 * t) / 179.0;
+            if i % 29 == 0 {
+                *p = Vec3::ZERO;
+            }
+        }
+        let tone = ToneMapper::with_efficacy(ToneMode::FalseColor, 179.0);
+        let want = tone.apply(&img);
+        let buf = upload(&gpu, &img);
+        let s = WindowSettings::with_layout(Layout::Left);
+        for format in [
+            wgpu::TextureFormat::Rgba8Unorm,
+            wgpu::TextureFormat::Rgba8UnormSrgb,
+        ] {
+            let got = draw_eyes(
+                &gpu,
+                format,
+                (w, h),
+                &s,
+                [&buf, &buf],
+                (w, h),
+                tone.curve().as_ref(),
+            );
+            let d = max_diff(&got, &want);
+            assert!(d <= 1, "{format:?}: {d} 8-bit steps off");
+        }
+        // The legend is there: the top-left corner is black background, the bar's top red.
+        assert_eq!(want.get_pixel(0, 0).0, [0, 0, 0]);
+        let red = want.get_pixel(4, 11).0;
+        assert!(red[0] > 200 && red[2] < 20, "{red:?}");
     }
 }
