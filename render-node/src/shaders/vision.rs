@@ -192,6 +192,19 @@ impl VisionPass {
         }
         gpu.queue.submit([enc.finish()]);
     }
+
+    /// The bright foveal samples of the image last [`VisionPass::run`] on `fovea`, for the
+    /// other walls' veils ([`VeilSources::export`] of the foveal means read back: 32 bytes
+    /// per one-degree sample, not the frame).
+    pub fn sources(&self, gpu: &Gpu, fovea: &Fovea) -> VeilSources {
+        let bytes = gpu.read(&self.foveal, FOVEAL_BYTES * fovea.len() as u64);
+        let cells: &[[f32; 8]] = bytemuck::cast_slice(&bytes);
+        let means: Vec<glam::Vec3> = cells
+            .iter()
+            .map(|c| glam::Vec3::new(c[0], c[1], c[2]))
+            .collect();
+        VeilSources::export(fovea, &means)
+    }
 }
 
 #[cfg(test)]
@@ -326,6 +339,14 @@ mod tests {
                 .max()
                 .unwrap();
             assert!(d <= 1, "{d} 8-bit steps apart");
+            // The sources shared with other walls: the same samples, the same flux.
+            let shared = pass.sources(&gpu, &fovea);
+            assert_eq!(shared.0.len(), cpu.sources.0.len());
+            assert!(!shared.0.is_empty(), "the window is a source");
+            for (g, c) in shared.0.iter().zip(&cpu.sources.0) {
+                assert_eq!(g.dir, c.dir);
+                assert!((g.flux - c.flux).abs().max_element() <= 1e-5 * c.flux.max_element());
+            }
         }
     }
 }
