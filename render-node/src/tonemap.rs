@@ -576,4 +576,24 @@ mod tests {
         brighter.pixels.iter_mut().for_each(|p| *p *= 4.0);
         assert!(t.update(&brighter, false), "more than a stop: recomputed");
     }
+
+    #[test]
+    fn human_mode_shows_a_dim_coloured_view_grey_and_camera_mode_in_colour() {
+        // A 40° view of a red-orange wall at 0.002 cd/m², below the scotopic limit.
+        let img = {
+            let mut i = ramp(1.0, 1.0);
+            let c = Vec3::new(1.0, 0.4, 0.2);
+            let k = 0.002 / (LUMINOUS_EFFICACY * holocave_scene::luminance(c));
+            i.pixels.iter_mut().for_each(|p| *p = c * k);
+            i
+        };
+        let dirs = |p: Vec2| Vec3::new(-0.36 + 0.72 * p.x / 64.0, 0.02 - 0.01 * p.y, -1.0);
+        let none = VeilSources::none();
+        let (human, _) = ToneMapper::new(ToneMode::Human).map_view(&img, &dirs, &none, true);
+        let (camera, _) = ToneMapper::new(ToneMode::Camera).map_view(&img, &dirs, &none, true);
+        for (h, c) in human.pixels().zip(camera.pixels()) {
+            assert!(h[0].abs_diff(h[2]) <= 1, "human mode: {h:?} is not grey");
+            assert!(c[0] > c[2] + 50, "camera mode: {c:?} lost its colour");
+        }
+    }
 }

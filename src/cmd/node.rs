@@ -51,6 +51,16 @@ pub enum Tone {
 }
 
 impl Tone {
+    /// The flag's value naming this mode.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Tone::Camera => "camera",
+            Tone::Human => "human",
+            Tone::Falsecolor => "falsecolor",
+            Tone::Reinhard => "reinhard",
+        }
+    }
+
     /// The tone mapper of a scene whose radiance is `efficacy` lm/W (`None`: the tracer's
     /// Reinhard preview).
     pub(crate) fn mapper(self, efficacy: f32) -> Option<ToneMapper> {

@@ -71,6 +71,10 @@ pub struct SimArgs {
     /// No light field: the walls show the render cache alone.
     #[arg(long, conflicts_with = "vlf")]
     pub no_vlf: bool,
+    /// Every wall's tone mapping (windows and PNG frames): `camera`, `human` (what a person
+    /// would see), `falsecolor` (cd/m² with a legend), or `reinhard` (PNG frames only).
+    #[arg(long, value_enum, default_value_t = super::node::Tone::Camera)]
+    pub tone: super::node::Tone,
     #[command(flatten)]
     pub windows: super::window::SimWindowArgs,
 }
@@ -173,6 +177,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .arg(&args.scene)
             .arg("--out")
             .arg(&args.out)
+            .args(["--tone", args.tone.name()])
             .args([
                 "--size",
                 &format!("{}x{}", size(wall.pixels[0]), size(wall.pixels[1])),
