@@ -133,7 +133,8 @@ fn eye_pixel(p: vec2<f32>, origin: vec2<f32>, size: vec2<f32>) -> vec2<u32> {
 fn shade(eye: u32, xy: vec2<u32>) -> vec3<f32> {
     if ((s.flags & 24u) == 24u && xy.x < s.legend_w && xy.y < s.legend_h) {
         let code = legend[xy.y * s.legend_w + xy.x];
-        let c = vec3<f32>(f32(code & 255u), f32((code >> 8u) & 255u), f32((code >> 16u) & 255u)) / 255.0;
+        let rgb = vec3<u32>(code & 255u, (code >> 8u) & 255u, (code >> 16u) & 255u);
+        let c = vec3<f32>(rgb) / 255.0;
         return vec3<f32>(srgb_decode(c.x), srgb_decode(c.y), srgb_decode(c.z));
     }
     let i = xy.y * s.eye_size.x + xy.x;

@@ -247,7 +247,8 @@ fn perceive(@builtin(global_invocation_id) g: vec3<u32>) {
     }
     let s = c * (1.0 - vp.veil_uniform) + v;
     // `scotopic::mesopic`.
-    let f = clamp((vp.efficacy * luminance(s) - BOT_MESOPIC) / (TOP_MESOPIC - BOT_MESOPIC), 0.0, 1.0);
+    let l = vp.efficacy * luminance(s);
+    let f = clamp((l - BOT_MESOPIC) / (TOP_MESOPIC - BOT_MESOPIC), 0.0, 1.0);
     var out = s;
     if (f < 1.0) {
         let grey = scotopic(s) / scotopic(vec3<f32>(1.0));

@@ -1,11 +1,11 @@
-//! Loss of acuity in dim light (Ward Larson, Rushmeier & Piatko 1997, §5; Radiance
-//! `pcond4.c`): the finest grating a person resolves, in cycles per degree, falls with the
-//! adaptation luminance, after Shaler's (1937) measurements. Each pixel shows the picture
-//! blurred so that finer detail than that is gone: its value is read from a box pyramid
-//! of the image (level `k` = means of `2^k × 2^k` pixel blocks) at the level whose block is
-//! one cycle of the finest visible grating, `log2(pixels per degree / cycles per degree)`,
-//! bilinear within a level and linear between levels (`pcond`'s `acusample`). Where that is
-//! under a pixel the pixel is left as it is.
+//! Loss of acuity in dim light (Ward Larson, Rushmeier & Piatko 1997, human visual limits;
+//! Radiance `pcond4.c`): the finest grating a person resolves, in cycles per degree, falls
+//! with the adaptation luminance, after Shaler's (1937) measurements. Each pixel shows the
+//! picture blurred so that finer detail than that is gone: its value is read from a box
+//! pyramid of the image (level `k` = means of `2^k × 2^k` pixel blocks) at the level whose
+//! block is one cycle of the finest visible grating, `log2(pixels per degree / cycles per
+//! degree)`, bilinear within a level and linear between levels (`pcond`'s `acusample`).
+//! Where that is under a pixel the pixel is left as it is.
 
 use glam::Vec3;
 use holocave_tracer::film::Image;

@@ -1,4 +1,4 @@
-//! The foveal image (Ward Larson, Rushmeier & Piatko 1997, §3 and §5): the picture reduced
+//! The foveal image (Ward Larson, Rushmeier & Piatko 1997): the picture reduced
 //! to samples about one degree across — the size of the fovea — each the mean of the
 //! pixels under it, with the direction it lies in seen from the eye and the solid angle it
 //! covers. Veiling glare, the adaptation luminance that sets acuity, and the sources a wall

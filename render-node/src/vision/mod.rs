@@ -1,6 +1,7 @@
 //! What a person would see (Ward Larson, Rushmeier & Piatko 1997, "A visibility matching
-//! tone reproduction operator", §5; Radiance `pcond -h`): the world's radiance changed by
-//! the eye before the human-mode histogram adjustment maps it to the display —
+//! tone reproduction operator", its human visual limits; Radiance `pcond -h`): the world's
+//! radiance changed by the eye before the human-mode histogram adjustment maps it to the
+//! display —
 //!
 //! 1. [`acuity`]: detail finer than the adaptation luminance lets one resolve is blurred
 //!    away;

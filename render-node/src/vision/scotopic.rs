@@ -1,7 +1,7 @@
-//! Loss of colour in dim light (Ward Larson, Rushmeier & Piatko 1997, §5; Radiance
-//! `pcond3.c`): below the mesopic range only the rods see, and they see no colour. A pixel
-//! of photopic luminance `L` keeps the fraction `f = (L − L_bot)/(L_top − L_bot)` (clamped to
-//! 0..1) of its colour and shows the rest as a grey of its scotopic luminance:
+//! Loss of colour in dim light (Ward Larson, Rushmeier & Piatko 1997, human visual limits;
+//! Radiance `pcond3.c`): below the mesopic range only the rods see, and they see no colour.
+//! A pixel of photopic luminance `L` keeps the fraction `f = (L − L_bot)/(L_top − L_bot)`
+//! (clamped to 0..1) of its colour and shows the rest as a grey of its scotopic luminance:
 //!
 //! ```text
 //! out = f · c + (1 − f) · S(c)/S(white) · (1, 1, 1)

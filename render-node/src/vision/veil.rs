@@ -1,6 +1,6 @@
-//! Veiling glare (Ward Larson, Rushmeier & Piatko 1997, §5; Radiance `pcond4.c`): light
-//! scattered in the eye from bright sources lays a veil over what lies near them, by the
-//! Holladay–Stiles (Moon & Spencer) formula
+//! Veiling glare (Ward Larson, Rushmeier & Piatko 1997, its veiling luminance; Radiance
+//! `pcond4.c`): light scattered in the eye from bright sources lays a veil over what lies
+//! near them, by the Holladay–Stiles (Moon & Spencer) formula
 //!
 //! ```text
 //! L_v = K · Σ_i E_i / θ_i²,   K = 10 cd·m⁻²·lx⁻¹·deg²  (θ in degrees)
