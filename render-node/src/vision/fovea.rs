@@ -15,6 +15,11 @@ use holocave_tracer::film::Image;
 pub const FOVEA_DEG: f32 = 1.0;
 /// At most this many foveal samples along a side (a 180° view at one degree).
 pub const MAX_CELLS: u32 = 180;
+/// A foveal sample is at least this many pixels across: a smaller picture (a simulated
+/// CAVE's 128-pixel walls) gets samples of more than a degree. Its pixels cannot show
+/// detail at one degree anyway, and the veil's cost, samples², falls from 44 M terms per
+/// eye to under a million.
+pub const MIN_CELL_PIXELS: u32 = 4;
 
 /// The direction from the eye through a point of the image (pixels from the top-left
 /// corner, fractional: `(0.5, 0.5)` is the first pixel's centre). Need not be normalised.
@@ -39,13 +44,15 @@ pub struct Fovea {
 impl Fovea {
     /// The grid of a `width × height` image seen through `dirs`: as many cells along each
     /// side as the view's angle across that side's middle in degrees (one cell per
-    /// [`FOVEA_DEG`]), at least one, at most [`MAX_CELLS`] and the pixels.
+    /// [`FOVEA_DEG`]), at least one, at most [`MAX_CELLS`] and one per
+    /// [`MIN_CELL_PIXELS`] pixels.
     pub fn new(width: u32, height: u32, dirs: PixelDirections) -> Fovea {
         let (w, h) = (width as f32, height as f32);
         let d = |x: f32, y: f32| dirs(Vec2::new(x, y)).normalize_or_zero();
         let across = |a: Vec3, b: Vec3| a.angle_between(b).to_degrees();
         let count = |deg: f32, px: u32| {
-            ((deg / FOVEA_DEG).round() as u32).clamp(1, MAX_CELLS.min(px.max(1)))
+            let most = MAX_CELLS.min(px / MIN_CELL_PIXELS).max(1);
+            ((deg / FOVEA_DEG).round() as u32).clamp(1, most)
         };
         let cols = count(across(d(0.0, h * 0.5), d(w, h * 0.5)), width);
         let rows = count(across(d(w * 0.5, 0.0), d(w * 0.5, h)), height);
@@ -149,8 +156,9 @@ mod tests {
     fn a_ninety_degree_wall_has_ninety_one_degree_cells_that_cover_it() {
         // A 2 m wide screen 1 m in front of the eye spans 90°: 90 cells across; their solid
         // angles sum to the screen's (4·asin(sin a·sin b) for a rectangle of half-angles a, b).
-        let (w, h) = (360u32, 180u32);
-        let dirs = |p: Vec2| Vec3::new(-1.0 + 2.0 * p.x / w as f32, 0.5 - p.y / h as f32, -1.0);
+        let (w, h) = (720u32, 360u32);
+        let dirs =
+            move |p: Vec2| Vec3::new(-1.0 + 2.0 * p.x / w as f32, 0.5 - p.y / h as f32, -1.0);
         let f = Fovea::new(w, h, &dirs);
         assert_eq!((f.cols, f.rows), (90, 53));
         let total: f32 = f.omega.iter().sum();
@@ -160,11 +168,15 @@ mod tests {
             (total - want).abs() < 2e-3 * want,
             "cells cover {total} sr, the screen {want} sr"
         );
-        // Pixels per degree at the centre: 180 px per metre at 1 m, one degree = 17.45 mm.
+        // Pixels per degree at the centre: 360 px per metre at 1 m, one degree = 17.45 mm.
         let centre = f.pixels_per_degree[(26 * 90 + 45) as usize];
         assert!(
-            (centre - 180.0 * 1f32.to_radians().tan()).abs() < 0.05,
+            (centre - 360.0 * 1f32.to_radians().tan()).abs() < 0.05,
             "{centre}"
         );
+        // Half the pixels: 45 rows (four pixels a sample at least), still 90 columns.
+        let half = |p: Vec2| dirs(p * 2.0);
+        let g = Fovea::new(w / 2, h / 2, &half);
+        assert_eq!((g.cols, g.rows), (90, 45));
     }
 }

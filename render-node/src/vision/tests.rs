@@ -26,16 +26,16 @@ fn screen_ppd(ppd: f32, px: u32, py: u32) -> impl Fn(Vec2) -> Vec3 {
     screen(pitch * px as f32, pitch * py as f32, 1.0, px, py)
 }
 
-/// The centre pixel of foveal cell `(i, j)` when cells are 3 × 3 pixels: where the
+/// The centre pixel of foveal cell `(i, j)` when cells are 5 × 5 pixels: where the
 /// bilinear interpolation of the cells gives that cell's value alone.
 fn centre(i: u32, j: u32) -> (u32, u32) {
-    (3 * i + 1, 3 * j + 1)
+    (5 * i + 2, 5 * j + 2)
 }
 
-/// The front wall of the veil tests: 2 m × 1 m at 1 m, 90 × 53 one-degree cells of 3 × 3
+/// The front wall of the veil tests: 2 m × 1 m at 1 m, 90 × 53 one-degree cells of 5 × 5
 /// pixels, black but for one white pixel of radiance 1000 at the centre of cell (20, 26).
 fn front_with_a_source() -> (Image, impl Fn(Vec2) -> Vec3, Fovea, Vec3, Vec3) {
-    let (w, h) = (270, 159);
+    let (w, h) = (450, 265);
     let dirs = screen(2.0, 1.0, 1.0, w, h);
     let fovea = Fovea::new(w, h, &dirs);
     assert_eq!((fovea.cols, fovea.rows), (90, 53));
@@ -43,8 +43,8 @@ fn front_with_a_source() -> (Image, impl Fn(Vec2) -> Vec3, Fovea, Vec3, Vec3) {
     let (sx, sy) = centre(20, 26);
     img.pixels[(sy * w + sx) as usize] = Vec3::splat(1000.0);
     let cell = (26 * 90 + 20) as usize;
-    // The source as the veil sees it: its cell's mean (1/9 of the pixel) over the cell.
-    let flux = Vec3::splat(1000.0 / 9.0) * fovea.omega[cell];
+    // The source as the veil sees it: its cell's mean (1/25 of the pixel) over the cell.
+    let flux = Vec3::splat(1000.0 / 25.0) * fovea.omega[cell];
     let dir = fovea.dirs[cell];
     (img, dirs, fovea, flux, dir)
 }
@@ -103,7 +103,7 @@ fn a_source_on_another_wall_veils_this_one_through_the_shared_sources() {
     assert!((shared.dir - src).length() < 1e-6);
     assert!((shared.flux - flux).abs().max_element() < 1e-4 * flux.x);
     // The left wall (x = −1 m, from z = +1 behind the eye to z = −1 at the front), black.
-    let (w, h) = (270, 159);
+    let (w, h) = (450, 265);
     let left = move |p: Vec2| Vec3::new(-1.0, 0.5 - p.y / h as f32, 1.0 - 2.0 * p.x / w as f32);
     let black = Image::new(w, h);
     let alone = perceive(&black, &left, &VeilSources::none(), EFFICACY);
