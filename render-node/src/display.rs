@@ -49,6 +49,9 @@ pub struct WallDisplay {
     pub samples_per_eye: u32,
     exposure: Option<f32>,
     vlf: Option<Arc<VlfBase>>,
+    /// The views of the last frame drawn, per eye (each pixel's direction from the eye,
+    /// for the human-vision tone mapping).
+    pub views: Vec<EyeView>,
 }
 
 impl WallDisplay {
@@ -66,6 +69,7 @@ impl WallDisplay {
             samples_per_eye,
             exposure: None,
             vlf: None,
+            views: Vec::new(),
         }
     }
 
@@ -79,6 +83,7 @@ impl WallDisplay {
             samples_per_eye,
             exposure: None,
             vlf: None,
+            views: Vec::new(),
         }
     }
 
@@ -90,6 +95,7 @@ impl WallDisplay {
             samples_per_eye,
             exposure: None,
             vlf: None,
+            views: Vec::new(),
         }
     }
 
@@ -107,6 +113,7 @@ impl WallDisplay {
     /// holodeck, insert the samples that have arrived and send this frame's pixels.
     pub fn frame(&mut self, views: &[EyeView], timed: bool) -> FrameReport {
         let mut report = FrameReport::default();
+        self.views = views.to_vec();
         let start = Instant::now();
         let arrived = match &mut self.feed {
             SampleFeed::Inline(_) => Vec::new(),

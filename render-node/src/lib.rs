@@ -8,7 +8,11 @@
 //! - [`view`]: an eye's projection and its pixel rays;
 //! - [`source`]: chosen pixels → eye rays → the path tracer → new samples;
 //! - [`holodeck`]: chosen pixels → beam requests → a holodeck server → new samples;
-//! - [`tonemap`]: Ward Larson's histogram adjustment (camera and human modes), at display;
+//! - [`tonemap`]: Ward Larson's histogram adjustment (camera and human modes) and false
+//!   colour, at display;
+//! - [`vision`]: what a person would see (veiling glare, acuity, colour loss), for the
+//!   human mode, on the CPU and the GPU;
+//! - [`falsecolor`]: luminance on a logarithmic colour scale with a legend;
 //! - [`build`]: the one builder of a wall's display (cache, sample feed, light field);
 //! - [`display`]: a wall display (cache and sample feed) and one frame of it for all eyes;
 //! - [`cluster`]: the node's link to the master and the frame cycle (ready, swap);
@@ -29,6 +33,7 @@ pub mod cache;
 pub mod cluster;
 pub mod cluster_node;
 pub mod display;
+pub mod falsecolor;
 pub mod gpu;
 pub mod gpu_rays;
 pub mod holodeck;
@@ -39,6 +44,7 @@ pub mod source;
 pub mod standalone;
 pub mod tonemap;
 pub mod view;
+pub mod vision;
 pub mod vlf;
 pub mod wall_windows;
 pub mod window;

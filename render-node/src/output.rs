@@ -10,7 +10,9 @@ use std::path::{Path, PathBuf};
 use holocave_cave::Eye;
 
 use crate::display::contact_sheet;
-use crate::{RenderNodeError, ToneMapper, WallDisplay};
+use crate::tonemap::wall_directions;
+use crate::vision::{VeilSources, perceive};
+use crate::{RenderNodeError, ToneMapper, ToneMode, WallDisplay};
 
 /// The presented-frame log's name in a wall's folder.
 pub const PRESENTED_LOG: &str = "presented.log";
@@ -42,8 +44,9 @@ fn write_error(path: &Path, e: impl std::fmt::Display) -> RenderNodeError {
 }
 
 /// Writes frame `frame`'s images of every eye into `dir`: `.exr` (linear) and `.png`
-/// (tone-mapped by `tone`, or the tracer's Reinhard preview at the display's exposure
-/// without one), and with `debug` the priority image, the chosen pixels and a contact
+/// (tone-mapped by `tone` — in human mode what a person would see from the eye's view of
+/// the last frame — or the tracer's Reinhard preview at the display's exposure without
+/// one), and with `debug` the priority image, the chosen pixels and a contact
 /// sheet of all three.
 pub fn write_frame(
     dir: &Path,
@@ -64,10 +67,18 @@ pub fn write_frame(
         img.write_exr(&exr).map_err(|e| write_error(&exr, e))?;
         let preview = match tone {
             Some(tm) => {
-                if i == 0 && tm.update(&img, false) {
+                // Human mode: the image as a person would see it from this eye's view.
+                let seen = match (tm.mode, display.views.get(i)) {
+                    (ToneMode::Human, Some(view)) => {
+                        let dirs = wall_directions(&view.wall);
+                        perceive(&img, &dirs, &VeilSources::none(), tm.efficacy).image
+                    }
+                    _ => img.clone(),
+                };
+                if i == 0 && tm.update(&seen, false) {
                     tracing::debug!("frame {frame}: tone mapping recomputed");
                 }
-                tm.apply(&img)
+                tm.apply(&seen)
             }
             None => {
                 let exposure = display.exposure(&img);

@@ -14,7 +14,6 @@ use std::time::{Duration, Instant};
 
 use holocave_cave::{Eye, PresentMode, WindowSettings};
 
-use crate::RenderCache;
 use crate::gpu::Gpu;
 use crate::tonemap::ToneCurve;
 
@@ -215,13 +214,14 @@ impl Presenter {
         self.reconfigure();
     }
 
-    /// Draws `eyes` of `cache` (its eye indices of the layout's first and second eye,
-    /// see [`layout_eyes`]) into the next surface texture under `curve`, submits and waits
-    /// for the GPU. A frame prepared before and not shown is abandoned first.
+    /// Draws `eyes` (the images, `eye_size` pixels each, of the layout's first and second
+    /// eye, see [`layout_eyes`]: the cache's colour buffers, or those images as seen in
+    /// human mode) into the next surface texture under `curve`, submits and waits for the
+    /// GPU. A frame prepared before and not shown is abandoned first.
     pub fn prepare(
         &mut self,
-        cache: &RenderCache,
-        eyes: [usize; 2],
+        eyes: [&wgpu::Buffer; 2],
+        eye_size: (u32, u32),
         curve: Option<&ToneCurve>,
     ) -> Prepared {
         self.abandon();
@@ -275,8 +275,8 @@ impl Presenter {
             &view,
             (self.config.width, self.config.height),
             &self.settings,
-            [cache.color_buffer(eyes[0]), cache.color_buffer(eyes[1])],
-            cache.eye_size(eyes[0]),
+            eyes,
+            eye_size,
             curve,
         );
         self.gpu.queue.submit([enc.finish()]);

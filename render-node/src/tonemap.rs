@@ -1,8 +1,14 @@
 //! Tone mapping at display only: Ward Larson's histogram adjustment (Ward Larson, Rushmeier
 //! & Piatko 1997; the holodeck paper §2.4.6), in *camera* mode (every luminance level made
 //! visible, contrast never exaggerated) and *human* mode (contrast limited by the
-//! threshold-versus-intensity function of human vision). Glare, colour sensitivity and
-//! acuity loss of the full human model are not simulated.
+//! threshold-versus-intensity function of human vision), and *false colour* (luminance on
+//! a fixed logarithmic scale with a legend, [`crate::falsecolor`]). In human mode the
+//! image is first changed as the eye changes it — veiling glare, acuity and colour loss
+//! ([`crate::vision`], [`ToneMapper::map_view`]) — and the mapping is made from that.
+//!
+//! World luminance is `efficacy` × the Rec. 709 luminance of the scene's radiance (cd/m²);
+//! the efficacy is the tone mapper's (default Radiance's 179 lm/W, or a scene's
+//! `holocave_scene::Photometry`).
 //!
 //! A scene whose world-luminance range fits the display's, or one whose histogram cannot
 //! be brought under the ceiling (the adjusted mapping would be steeper than linear), is
@@ -16,15 +22,18 @@
 //! then held: [`ToneMapper::update`] recomputes it only on request or when the image's
 //! log-mean luminance moves by more than a stop, so the picture does not pump.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use holocave_tracer::film::{Image, srgb8};
+
+use crate::falsecolor::{FalseColor, Legend};
+use crate::vision::{self, PixelDirections, VeilSources};
 
 const BINS: usize = 100;
 /// Display luminance range (cd/m²).
 const LD_MIN: f32 = 1.0;
 const LD_MAX: f32 = 100.0;
-/// Scene radiance (W/sr/m², linear RGB) to cd/m², as Radiance does.
-pub const LUMINOUS_EFFICACY: f32 = 179.0;
+/// Scene radiance (W/sr/m², linear RGB) to cd/m², as Radiance does: the default.
+pub const LUMINOUS_EFFICACY: f32 = holocave_scene::photometry::RADIANCE_WHITE_EFFICACY;
 /// Luminances below this (cd/m²) are treated as black and left out of the histogram.
 const L_FLOOR: f32 = 1e-4;
 /// When ceiling trimming leaves at most this fraction of the histogram, the scene needs no
@@ -36,6 +45,8 @@ const CVRATIO: f32 = 0.025;
 pub enum ToneMode {
     Camera,
     Human,
+    /// Luminance on a logarithmic false-colour scale with a legend.
+    FalseColor,
 }
 
 /// A brightness mapping: the cumulative histogram of log world luminance, or linear.
@@ -57,9 +68,9 @@ enum Curve {
     Linear { log_scale: f32 },
 }
 
-/// World luminance (cd/m²) of scene radiance `c`.
-fn luminance(c: Vec3) -> f32 {
-    LUMINOUS_EFFICACY * holocave_scene::luminance(c)
+/// World luminance (cd/m²) of scene radiance `c` at `efficacy` lm/W.
+fn luminance(c: Vec3, efficacy: f32) -> f32 {
+    efficacy * holocave_scene::luminance(c)
 }
 
 /// Ferwerda's threshold-versus-intensity: log10 of the just-noticeable luminance difference
@@ -94,12 +105,12 @@ pub struct LogHistogram {
 }
 
 impl LogHistogram {
-    /// The histogram of `image` (None when it has nothing above black).
-    pub fn of_image(image: &Image) -> Option<LogHistogram> {
+    /// The histogram of `image` at `efficacy` lm/W (None when it has nothing above black).
+    pub fn of_image(image: &Image, efficacy: f32) -> Option<LogHistogram> {
         let logs: Vec<f32> = image
             .pixels
             .iter()
-            .map(|&c| luminance(c))
+            .map(|&c| luminance(c, efficacy))
             .filter(|&l| l > L_FLOOR && l.is_finite())
             .map(f32::log10)
             .collect();
@@ -130,9 +141,10 @@ impl LogHistogram {
 }
 
 impl Mapping {
-    /// The histogram adjustment of `image` (None when it has nothing above black).
-    pub fn new(image: &Image, mode: ToneMode) -> Option<Mapping> {
-        LogHistogram::of_image(image).and_then(|h| Mapping::from_histogram(&h, mode))
+    /// The histogram adjustment of `image` at `efficacy` lm/W (None when it has nothing
+    /// above black).
+    pub fn new(image: &Image, mode: ToneMode, efficacy: f32) -> Option<Mapping> {
+        LogHistogram::of_image(image, efficacy).and_then(|h| Mapping::from_histogram(&h, mode))
     }
 
     /// The histogram adjustment for a histogram of `BINS` bins (None when it is empty
@@ -150,7 +162,7 @@ impl Mapping {
             let log_scale = match mode {
                 // The log-mean at the display's log-middle; a range that fits is moved
                 // just enough to be shown whole.
-                ToneMode::Camera => {
+                ToneMode::Camera | ToneMode::FalseColor => {
                     let s = 0.5 * (ldmin + ldmax) - log_mean;
                     let (lo, hi) = (ldmin - log_min, ldmax - log_max);
                     if fits && lo <= hi { s.clamp(lo, hi) } else { s }
@@ -195,7 +207,7 @@ impl Mapping {
             let mut trimmed = 0.0;
             for b in 0..BINS {
                 let ceiling = match mode {
-                    ToneMode::Camera => total * db / (ldmax - ldmin),
+                    ToneMode::Camera | ToneMode::FalseColor => total * db / (ldmax - ldmin),
                     ToneMode::Human => {
                         let lw = log_min + (b as f32 + 0.5) * db;
                         let p = 0.5 * (cdf[b] + cdf[b + 1]);
@@ -248,7 +260,7 @@ impl Mapping {
 }
 
 /// A mapping as a shader applies it (`shaders/tonemap.wgsl`): the same curve as
-/// [`Mapping::display_luminance`], in numbers.
+/// [`Mapping::display_luminance`], in numbers, or the false-colour scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToneCurve {
     /// Linear (`log_scale`) instead of the histogram's cumulative distribution (`cdf`).
@@ -258,6 +270,10 @@ pub struct ToneCurve {
     pub log_scale: f32,
     /// The cumulative distribution at each bin's lower edge (`BINS + 1` entries).
     pub cdf: [f32; BINS + 1],
+    /// lm/W: scene radiance to cd/m².
+    pub efficacy: f32,
+    /// False colour on this scale instead of the curve.
+    pub false_color: Option<FalseColor>,
 }
 
 /// Bins of the log-luminance histogram.
@@ -265,13 +281,15 @@ pub const TONE_BINS: usize = BINS;
 
 impl Mapping {
     /// The curve in the numbers a shader takes.
-    pub fn curve(&self) -> ToneCurve {
+    pub fn curve(&self, efficacy: f32) -> ToneCurve {
         let mut c = ToneCurve {
             linear: false,
             log_min: self.log_min,
             log_max: self.log_max,
             log_scale: 0.0,
             cdf: [0.0; BINS + 1],
+            efficacy,
+            false_color: None,
         };
         match &self.curve {
             Curve::Linear { log_scale } => {
@@ -288,35 +306,51 @@ impl Mapping {
 #[derive(Clone, Debug)]
 pub struct ToneMapper {
     pub mode: ToneMode,
+    /// lm/W: cd/m² per unit of the scene's radiance luminance.
+    pub efficacy: f32,
+    /// The false-colour scale (used in [`ToneMode::FalseColor`]).
+    pub false_color: FalseColor,
     mapping: Option<Mapping>,
 }
 
 impl ToneMapper {
+    /// A tone mapper at Radiance's 179 lm/W.
     pub fn new(mode: ToneMode) -> Self {
+        Self::with_efficacy(mode, LUMINOUS_EFFICACY)
+    }
+
+    /// A tone mapper for a scene whose radiance is `efficacy` lm/W
+    /// (`holocave_scene::Photometry::efficacy`).
+    pub fn with_efficacy(mode: ToneMode, efficacy: f32) -> Self {
         ToneMapper {
             mode,
+            efficacy,
+            false_color: FalseColor::default(),
             mapping: None,
         }
     }
 
     /// Recomputes the mapping from `image` if there is none, if `force`, or if the image's
     /// log-mean luminance differs from the mapping's by more than a stop. True when
-    /// recomputed.
+    /// recomputed. (False colour has a fixed scale: never.)
     pub fn update(&mut self, image: &Image, force: bool) -> bool {
+        if self.mode == ToneMode::FalseColor {
+            return false;
+        }
         let stale = match &self.mapping {
             None => true,
             Some(m) => {
                 let (sum, n) = image
                     .pixels
                     .iter()
-                    .map(|&c| luminance(c))
+                    .map(|&c| luminance(c, self.efficacy))
                     .filter(|&l| l > L_FLOOR && l.is_finite())
                     .fold((0.0f32, 0usize), |(s, n), l| (s + l.log10(), n + 1));
                 n > 0 && (sum / n as f32 - m.log_mean).abs() > 2f32.log10()
             }
         };
         if (force || stale)
-            && let Some(m) = Mapping::new(image, self.mode)
+            && let Some(m) = Mapping::new(image, self.mode, self.efficacy)
         {
             self.mapping = Some(m);
             return true;
@@ -327,6 +361,9 @@ impl ToneMapper {
     /// [`ToneMapper::update`] from an image's histogram (`None`: nothing above black, the
     /// mapping is kept).
     pub fn update_from(&mut self, h: Option<&LogHistogram>, force: bool) -> bool {
+        if self.mode == ToneMode::FalseColor {
+            return false;
+        }
         let Some(h) = h.filter(|h| h.count > 0) else {
             return false;
         };
@@ -344,25 +381,74 @@ impl ToneMapper {
     }
 
     /// The current mapping's curve for a shader (`None`: no mapping yet; the picture is
-    /// black).
+    /// black). False colour always has one.
     pub fn curve(&self) -> Option<ToneCurve> {
-        self.mapping.as_ref().map(Mapping::curve)
+        if self.mode == ToneMode::FalseColor {
+            let mut c = Mapping {
+                log_min: 0.0,
+                log_max: 1.0,
+                curve: Curve::Linear { log_scale: 0.0 },
+                log_mean: 0.0,
+            }
+            .curve(self.efficacy);
+            c.false_color = Some(self.false_color);
+            return Some(c);
+        }
+        self.mapping.as_ref().map(|m| m.curve(self.efficacy))
     }
 
-    /// The 8-bit sRGB picture of `image` under the current mapping (black without one).
+    /// The 8-bit sRGB picture of `image` under the current mapping (black without one), or
+    /// in false colour with its legend.
     pub fn apply(&self, image: &Image) -> image::RgbImage {
+        if self.mode == ToneMode::FalseColor {
+            let legend = Legend::new(&self.false_color, image.width, image.height);
+            return image::RgbImage::from_fn(image.width, image.height, |x, y| {
+                if let Some(c) = legend.as_ref().and_then(|l| l.at(x, y)) {
+                    return image::Rgb(c);
+                }
+                let lw = luminance(image.at(x, y), self.efficacy);
+                image::Rgb(self.false_color.colour(lw))
+            });
+        }
         image::RgbImage::from_fn(image.width, image.height, |x, y| {
             let c = image.at(x, y);
             let Some(m) = &self.mapping else {
                 return image::Rgb([0, 0, 0]);
             };
-            let lw = luminance(c);
+            let lw = luminance(c, self.efficacy);
             let ld = m.display_luminance(lw);
             let scale = if lw > 0.0 { ld / lw / LD_MAX } else { 0.0 };
-            let d = c * LUMINOUS_EFFICACY * scale;
+            let d = c * self.efficacy * scale;
             image::Rgb([srgb8(d.x), srgb8(d.y), srgb8(d.z)])
         })
     }
+
+    /// The picture of `image`, seen through `dirs` (each pixel's direction from the eye):
+    /// in human mode what a person would see ([`vision::perceive`], with the veil of the
+    /// other walls' `imported` sources) mapped by a mapping made from it (updated as
+    /// [`ToneMapper::update`] says, `force` to remake it); otherwise [`ToneMapper::update`]
+    /// and [`ToneMapper::apply`]. Also this view's sources for the other walls' veils (none
+    /// outside human mode).
+    pub fn map_view(
+        &mut self,
+        image: &Image,
+        dirs: PixelDirections,
+        imported: &VeilSources,
+        force: bool,
+    ) -> (image::RgbImage, VeilSources) {
+        if self.mode != ToneMode::Human {
+            self.update(image, force);
+            return (self.apply(image), VeilSources::none());
+        }
+        let seen = vision::perceive(image, dirs, imported, self.efficacy);
+        self.update(&seen.image, force);
+        (self.apply(&seen.image), seen.sources)
+    }
+}
+
+/// The directions of a wall view's pixels, for [`ToneMapper::map_view`].
+pub fn wall_directions(view: &holocave_cave::WallView) -> impl Fn(Vec2) -> Vec3 + '_ {
+    move |p| view.ray(p).dir
 }
 
 #[cfg(test)]
@@ -382,7 +468,7 @@ mod tests {
     fn mapping_is_monotonic_and_within_the_display_range() {
         for mode in [ToneMode::Camera, ToneMode::Human] {
             let img = ramp(1e-2, 1e5);
-            let m = Mapping::new(&img, mode).unwrap();
+            let m = Mapping::new(&img, mode, LUMINOUS_EFFICACY).unwrap();
             let mut last = 0.0;
             for k in 0..=70 {
                 let lw = 10f32.powf(-2.0 + k as f32 / 10.0);
@@ -406,7 +492,7 @@ mod tests {
         // is, 2:1, not stretched over the display's whole range.
         for mode in [ToneMode::Camera, ToneMode::Human] {
             let img = ramp(50.0, 100.0);
-            let m = Mapping::new(&img, mode).unwrap();
+            let m = Mapping::new(&img, mode, LUMINOUS_EFFICACY).unwrap();
             let (lo, mid, hi) = (
                 m.display_luminance(50.0),
                 m.display_luminance(75.0),
@@ -455,7 +541,7 @@ mod tests {
             (1.0, 1e3),
             (1e-2, 1e5),
         ] {
-            let m = Mapping::new(&ramp(lo, hi), ToneMode::Camera).unwrap();
+            let m = Mapping::new(&ramp(lo, hi), ToneMode::Camera, LUMINOUS_EFFICACY).unwrap();
             for k in 0..40 {
                 let a = lo * (hi / lo).powf(k as f32 / 40.0);
                 let b = lo * (hi / lo).powf((k + 1) as f32 / 40.0);
@@ -473,8 +559,8 @@ mod tests {
         // A dim (mesopic) scene with a modest range: the camera brightens it to fill the
         // display; human vision sees it dim.
         let img = ramp(1e-2, 1.0);
-        let cam = Mapping::new(&img, ToneMode::Camera).unwrap();
-        let hum = Mapping::new(&img, ToneMode::Human).unwrap();
+        let cam = Mapping::new(&img, ToneMode::Camera, LUMINOUS_EFFICACY).unwrap();
+        let hum = Mapping::new(&img, ToneMode::Human, LUMINOUS_EFFICACY).unwrap();
         let mid = 0.1;
         assert!(hum.display_luminance(mid) < cam.display_luminance(mid));
     }
@@ -489,5 +575,25 @@ mod tests {
         assert!(!t.update(&brighter, false), "half a stop: held");
         brighter.pixels.iter_mut().for_each(|p| *p *= 4.0);
         assert!(t.update(&brighter, false), "more than a stop: recomputed");
+    }
+
+    #[test]
+    fn human_mode_shows_a_dim_coloured_view_grey_and_camera_mode_in_colour() {
+        // A 40° view of a red-orange wall at 0.002 cd/m², below the scotopic limit.
+        let img = {
+            let mut i = ramp(1.0, 1.0);
+            let c = Vec3::new(1.0, 0.4, 0.2);
+            let k = 0.002 / (LUMINOUS_EFFICACY * holocave_scene::luminance(c));
+            i.pixels.iter_mut().for_each(|p| *p = c * k);
+            i
+        };
+        let dirs = |p: Vec2| Vec3::new(-0.36 + 0.72 * p.x / 64.0, 0.02 - 0.01 * p.y, -1.0);
+        let none = VeilSources::none();
+        let (human, _) = ToneMapper::new(ToneMode::Human).map_view(&img, &dirs, &none, true);
+        let (camera, _) = ToneMapper::new(ToneMode::Camera).map_view(&img, &dirs, &none, true);
+        for (h, c) in human.pixels().zip(camera.pixels()) {
+            assert!(h[0].abs_diff(h[2]) <= 1, "human mode: {h:?} is not grey");
+            assert!(c[0] > c[2] + 50, "camera mode: {c:?} lost its colour");
+        }
     }
 }

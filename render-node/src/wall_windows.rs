@@ -13,8 +13,11 @@ use holocave_protocol::cluster::FrameState;
 
 use crate::cluster::Presentation;
 use crate::present::{Histogrammer, Prepared, layout_eyes};
+use crate::tonemap::wall_directions;
+use crate::vision::gpu::VisionPass;
+use crate::vision::{Fovea, VeilSources};
 use crate::window::{Screens, WindowError};
-use crate::{ToneMapper, WallDisplay};
+use crate::{ToneMapper, ToneMode, WallDisplay};
 
 /// A cluster node's windows: each frame prepared before Ready, shown on Swap (then `then`
 /// runs, e.g. the presented log), abandoned when a newer state comes first.
@@ -62,6 +65,10 @@ pub struct WindowOutput<'a> {
     tone_time: Duration,
     tone_updates: u64,
     histogrammer: Histogrammer,
+    /// Human mode: each eye's image as a person would see it, made on the GPU.
+    vision: Vec<VisionPass>,
+    /// Human mode: the other walls' bright sources, veiling this wall too.
+    pub imported: VeilSources,
 }
 
 impl<'a> WindowOutput<'a> {
@@ -101,6 +108,8 @@ impl<'a> WindowOutput<'a> {
             shown: 0,
             tone_time: Duration::ZERO,
             tone_updates: 0,
+            vision: Vec::new(),
+            imported: VeilSources::none(),
         })
     }
 
@@ -109,18 +118,48 @@ impl<'a> WindowOutput<'a> {
     pub fn prepare(&mut self, display: &WallDisplay) -> usize {
         // The histogram of the first eye's image, as the headless previews take it.
         let t = Instant::now();
+        let gpu = display.cache.gpu();
+        let eye_count = display.cache.eye_count();
+        // Human mode: every eye seen as a person would see it, on the GPU, from the views
+        // of the frame drawn (their pixels' directions give the foveal grid).
+        let human = self.tone.mode == ToneMode::Human && display.views.len() == eye_count;
+        if human {
+            while self.vision.len() < eye_count {
+                self.vision.push(VisionPass::new(gpu));
+            }
+            for (eye, view) in display.views.iter().enumerate() {
+                let (w, h) = display.cache.eye_size(eye);
+                let fovea = Fovea::new(w, h, &wall_directions(&view.wall));
+                self.vision[eye].run(
+                    gpu,
+                    display.cache.color_buffer(eye),
+                    &fovea,
+                    &self.imported,
+                    self.tone.efficacy,
+                );
+            }
+        }
+        let buffer = |eye: usize| {
+            if human {
+                &self.vision[eye].seen
+            } else {
+                display.cache.color_buffer(eye)
+            }
+        };
         // The histogram made on the GPU: the frame itself is never read back.
         let (w, h) = display.cache.eye_size(0);
-        let hist =
-            self.histogrammer
-                .histogram(display.cache.gpu(), display.cache.color_buffer(0), w * h);
+        let hist = self
+            .histogrammer
+            .histogram(gpu, buffer(0), w * h, self.tone.efficacy);
         self.tone.update_from(hist.as_ref(), false);
         self.tone_time += t.elapsed();
         self.tone_updates += 1;
         let curve = self.tone.curve();
         let mut ready = 0;
         for (p, eyes) in self.screens.presenters.iter_mut().zip(&self.eyes) {
-            if p.prepare(&display.cache, *eyes, curve.as_ref()) == Prepared::Ready {
+            let bufs = [buffer(eyes[0]), buffer(eyes[1])];
+            let size = display.cache.eye_size(eyes[0]);
+            if p.prepare(bufs, size, curve.as_ref()) == Prepared::Ready {
                 ready += 1;
             }
         }

@@ -41,20 +41,36 @@ use super::master::open_head;
 pub enum Tone {
     /// Ward Larson's histogram adjustment, as a camera would.
     Camera,
-    /// Ward Larson's histogram adjustment with human contrast sensitivity.
+    /// What a person would see: Ward Larson's histogram adjustment with human contrast
+    /// sensitivity, veiling glare, acuity and colour loss.
     Human,
+    /// Luminance in cd/m² in false colour (0.001 to 100 000, logarithmic) with a legend.
+    Falsecolor,
     /// The tracer's Reinhard preview (PNG previews only).
     Reinhard,
 }
 
 impl Tone {
-    /// The PNG previews' tone mapper (`None`: the tracer's Reinhard preview).
-    fn mapper(self) -> Option<ToneMapper> {
+    /// The flag's value naming this mode.
+    pub(crate) fn name(self) -> &'static str {
         match self {
-            Tone::Camera => Some(ToneMapper::new(ToneMode::Camera)),
-            Tone::Human => Some(ToneMapper::new(ToneMode::Human)),
-            Tone::Reinhard => None,
+            Tone::Camera => "camera",
+            Tone::Human => "human",
+            Tone::Falsecolor => "falsecolor",
+            Tone::Reinhard => "reinhard",
         }
+    }
+
+    /// The tone mapper of a scene whose radiance is `efficacy` lm/W (`None`: the tracer's
+    /// Reinhard preview).
+    pub(crate) fn mapper(self, efficacy: f32) -> Option<ToneMapper> {
+        let mode = match self {
+            Tone::Camera => ToneMode::Camera,
+            Tone::Human => ToneMode::Human,
+            Tone::Falsecolor => ToneMode::FalseColor,
+            Tone::Reinhard => return None,
+        };
+        Some(ToneMapper::with_efficacy(mode, efficacy))
     }
 }
 
@@ -202,8 +218,9 @@ pub fn run(args: NodeArgs) -> Result<()> {
         .unwrap_or_else(|| RenderCache::default_samples(size));
     if args.window.window {
         // Windows take only the histogram tone curves: checked before any window opens.
-        let tone = args.tone.mapper().context(
-            "--tone reinhard is for PNG previews; windows tone-map with camera or human",
+        // The scene's efficacy is set once it is loaded.
+        let tone = args.tone.mapper(179.0).context(
+            "--tone reinhard is for PNG previews; windows tone-map with camera, human or falsecolor",
         )?;
         let specs = args.window.specs(&wall, size);
         return holocave_render_node::window::run(&specs, |mut screens| match &args.master {
@@ -346,7 +363,12 @@ fn standalone(
         display.cache.gpu().adapter
     );
 
-    let mut tone = args.tone.mapper();
+    let efficacy = scene.daylight.photometry.efficacy;
+    let mut tone = args.tone.mapper(efficacy);
+    let windows = windows.map(|mut w| {
+        w.tone.efficacy = efficacy;
+        w
+    });
     let closed = windows.as_ref().map(|w| w.screens.closed_flag());
     let mut output = windows
         .map(|w| WindowOutput::new(w.screens, wall, w.tone, args.window.present_log.as_deref()))
@@ -459,7 +481,12 @@ fn in_cluster(
         .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
     let (scene, tracer) = load_tracer(&args.scene)?;
     let eyes = Eye::for_mode(wall.stereo);
-    let mut tone = args.tone.mapper();
+    let efficacy = scene.daylight.photometry.efficacy;
+    let mut tone = args.tone.mapper(efficacy);
+    let windows = windows.map(|mut w| {
+        w.tone.efficacy = efficacy;
+        w
+    });
     let dir = args.out.join(&wall.name);
     let mut log = PresentedLog::append(&dir)?;
     let every = args.every.max(1);

@@ -36,6 +36,9 @@ pub struct RenderArgs {
     pub strict: bool,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Tone mapping of the PNG preview (default: the tracer's auto-exposed Reinhard).
+    #[arg(long, value_enum)]
+    pub tone: Option<super::node::Tone>,
 }
 
 pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Result<Scene> {
@@ -66,6 +69,7 @@ pub fn read_reference(
 
 pub fn run(args: RenderArgs) -> Result<()> {
     let scene = load_scene(&args.scene, args.daylight.clone(), args.strict)?;
+    let efficacy = scene.daylight.photometry.efficacy;
     let (width, height) = args.size;
     let view = args.view.view(Some((&scene, &args.scene)), args.size)?;
     let tracer = Tracer::new(Arc::new(scene), TraceSettings::default());
@@ -82,7 +86,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let paths = f64::from(width) * f64::from(height) * f64::from(args.spp);
     image.write_exr(&args.out)?;
     let png = args.out.with_extension("png");
-    image.write_png(&png, image.auto_exposure())?;
+    super::view::write_preview(&image, &view, args.tone, efficacy, &png)?;
     println!(
         "wrote {} and {} ({:.1} s, {:.2} M paths/s)",
         args.out.display(),

@@ -81,6 +81,10 @@ pub struct SimArgs {
     /// Where each node traces its light field's per-pixel rays (`node --rays`).
     #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]
     pub rays: Rays,
+    /// Every wall's tone mapping (windows and PNG frames): `camera`, `human` (what a person
+    /// would see), `falsecolor` (cd/m² with a legend), or `reinhard` (PNG frames only).
+    #[arg(long, value_enum, default_value_t = super::node::Tone::Camera)]
+    pub tone: super::node::Tone,
     #[command(flatten)]
     pub windows: super::window::SimWindowArgs,
 }
@@ -184,6 +188,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .arg(&args.scene)
             .arg("--out")
             .arg(&args.out)
+            .args(["--tone", args.tone.name()])
             .args([
                 "--size",
                 &format!("{}x{}", size(wall.pixels[0]), size(wall.pixels[1])),

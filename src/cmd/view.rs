@@ -7,7 +7,35 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
 use holocave_cave::WallView;
+use holocave_render_node::tonemap::wall_directions;
+use holocave_render_node::vision::VeilSources;
 use holocave_scene::Scene;
+use holocave_tracer::film::Image;
+
+use super::node::Tone;
+
+/// Writes the PNG preview of `image` (drawn through `view`) to `png`: tone-mapped by
+/// `tone` (in human mode, seen from the view's eye) at the scene's `efficacy`, or the
+/// tracer's auto-exposed preview without one.
+pub fn write_preview(
+    image: &Image,
+    view: &WallView,
+    tone: Option<Tone>,
+    efficacy: f32,
+    png: &Path,
+) -> Result<()> {
+    match tone.and_then(|t| t.mapper(efficacy)) {
+        Some(mut tm) => {
+            let dirs = wall_directions(view);
+            let (picture, _) = tm.map_view(image, &dirs, &VeilSources::none(), true);
+            picture
+                .save(png)
+                .with_context(|| format!("writing {}", png.display()))?;
+        }
+        None => image.write_png(png, image.auto_exposure())?,
+    }
+    Ok(())
+}
 
 /// Which view of a scene: an eye and a screen, or a glTF camera.
 #[derive(Args)]

@@ -97,6 +97,9 @@ pub struct ViewArgs {
     pub aa: u32,
     #[arg(long)]
     pub out: PathBuf,
+    /// Tone mapping of the PNG preview (default: the tracer's auto-exposed Reinhard).
+    #[arg(long, value_enum)]
+    pub tone: Option<super::node::Tone>,
     /// A converged render of the same view (EXR): print the relative MSE against it.
     #[arg(long)]
     pub reference: Option<PathBuf>,
@@ -363,6 +366,7 @@ fn view(a: ViewArgs) -> Result<()> {
         tiles,
     } = baked::open(&a.file, &scene)?;
     let view = a.view.view(Some((&scene, &a.scene)), a.size)?;
+    let efficacy = scene.daylight.photometry.efficacy;
     let start = std::time::Instant::now();
     let scene = std::sync::Arc::new(scene);
     let direct = holocave_vlf::PixelDirect::new(scene.clone());
@@ -381,7 +385,7 @@ fn view(a: ViewArgs) -> Result<()> {
     let secs = start.elapsed().as_secs_f64();
     image.write_exr(&a.out)?;
     let png = a.out.with_extension("png");
-    image.write_png(&png, image.auto_exposure())?;
+    super::view::write_preview(&image, &view, a.tone, efficacy, &png)?;
     println!(
         "wrote {} and {} ({:.2} s)",
         a.out.display(),

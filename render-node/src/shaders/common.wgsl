@@ -1,8 +1,5 @@
 // Shared by every shader of the render node (prepended by the Rust side: `gpu::with_common`).
 
-// Scene radiance (W/sr/m², linear RGB) to cd/m², as Radiance does (`tonemap::LUMINOUS_EFFICACY`).
-const LUMINOUS_EFFICACY: f32 = 179.0;
-
 // Rec. 709 luminance of linear RGB (`holocave_scene::color::luminance` on the CPU).
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));

@@ -22,7 +22,8 @@ const CHUNK: u32 = 256;
 struct LumParams {
     n: u32,
     bins: u32,
-    pad: [u32; 2],
+    efficacy: f32,
+    pad: u32,
 }
 
 /// Makes [`LogHistogram`]s of images in GPU buffers (`vec4<f32>` per pixel).
@@ -57,8 +58,15 @@ impl Histogrammer {
         }
     }
 
-    /// The histogram of the `n` pixels in `image` (None when none is above black).
-    pub fn histogram(&mut self, gpu: &Gpu, image: &wgpu::Buffer, n: u32) -> Option<LogHistogram> {
+    /// The histogram of the `n` pixels in `image` at `efficacy` lm/W (None when none is
+    /// above black).
+    pub fn histogram(
+        &mut self,
+        gpu: &Gpu,
+        image: &wgpu::Buffer,
+        n: u32,
+        efficacy: f32,
+    ) -> Option<LogHistogram> {
         let invocations = n.div_ceil(CHUNK).max(1);
         let groups = invocations.div_ceil(WORKGROUP);
         if n > self.capacity {
@@ -68,7 +76,8 @@ impl Histogrammer {
         let params = LumParams {
             n,
             bins: TONE_BINS as u32,
-            pad: [0; 2],
+            efficacy,
+            pad: 0,
         };
         gpu.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
@@ -127,7 +136,6 @@ mod tests {
     #[test]
     fn luminance_wgsl_params_are_laid_out_as_in_rust() {
         use std::mem::{offset_of, size_of};
-        let p = offset_of!(LumParams, pad);
         crate::gpu::layout::assert_same_layout(
             &crate::gpu::with_common(SOURCE),
             "LumParams",
@@ -135,8 +143,8 @@ mod tests {
             &[
                 ("n", offset_of!(LumParams, n)),
                 ("bins", offset_of!(LumParams, bins)),
-                ("_pad0", p),
-                ("_pad1", p + 4),
+                ("efficacy", offset_of!(LumParams, efficacy)),
+                ("_pad", offset_of!(LumParams, pad)),
             ],
         );
     }
@@ -159,9 +167,9 @@ mod tests {
         img.pixels[5] = Vec3::splat(f32::INFINITY);
         let data: Vec<[f32; 4]> = img.pixels.iter().map(|p| [p.x, p.y, p.z, 1.0]).collect();
         let buf = gpu.storage_init("image", bytemuck::cast_slice(&data));
-        let cpu = LogHistogram::of_image(&img).unwrap();
+        let cpu = LogHistogram::of_image(&img, 179.0).unwrap();
         for _ in 0..2 {
-            let g = h.histogram(&gpu, &buf, 1000).unwrap();
+            let g = h.histogram(&gpu, &buf, 1000, 179.0).unwrap();
             assert_eq!(g.count, cpu.count);
             assert!((g.log_min - cpu.log_min).abs() < 1e-5, "{g:?}\n{cpu:?}");
             assert!((g.log_max - cpu.log_max).abs() < 1e-5);
@@ -179,7 +187,7 @@ mod tests {
         }
         // A black image: no histogram.
         let black = gpu.storage_init("black", bytemuck::cast_slice(&vec![[0f32; 4]; 300]));
-        assert!(h.histogram(&gpu, &black, 300).is_none());
+        assert!(h.histogram(&gpu, &black, 300, 179.0).is_none());
     }
 }
 
@@ -207,7 +215,7 @@ mod timing {
         let buf = gpu.storage_init("image", bytemuck::cast_slice(&data));
         for _ in 0..3 {
             let t = std::time::Instant::now();
-            let g = h.histogram(&gpu, &buf, n as u32).unwrap();
+            let g = h.histogram(&gpu, &buf, n as u32, 179.0).unwrap();
             let gpu_ms = t.elapsed().as_secs_f64() * 1e3;
             let t = std::time::Instant::now();
             let bytes = gpu.read(&buf, 16 * n as u64);
@@ -216,7 +224,7 @@ mod timing {
             for (d, s) in img.pixels.iter_mut().zip(px) {
                 *d = Vec3::new(s[0], s[1], s[2]);
             }
-            let c = LogHistogram::of_image(&img).unwrap();
+            let c = LogHistogram::of_image(&img, 179.0).unwrap();
             let cpu_ms = t.elapsed().as_secs_f64() * 1e3;
             assert_eq!(g.count, c.count);
             println!("GPU histogram {gpu_ms:.1} ms, read-back + CPU histogram {cpu_ms:.1} ms");

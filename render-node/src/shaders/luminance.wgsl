@@ -6,8 +6,9 @@
 struct LumParams {
     n: u32,
     bins: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // lm/W: scene radiance to cd/m² (`ToneMapper::efficacy`).
+    efficacy: f32,
+    _pad: u32,
 };
 
 @group(0) @binding(0) var<uniform> lp: LumParams;
@@ -23,7 +24,7 @@ const LOG10_2: f32 = 0.30102999566;
 // log10 of the pixel's luminance (cd/m²), or a value below -1e30 for black or non-finite.
 fn log_lum(i: u32) -> f32 {
     let c = pixels[i].xyz;
-    let l = LUMINOUS_EFFICACY * luminance(c);
+    let l = lp.efficacy * luminance(c);
     if (l > L_FLOOR && l < 3.0e38) {
         return log2(l) * LOG10_2;
     }

@@ -4,6 +4,7 @@
 use bytemuck::{Pod, Zeroable};
 use holocave_cave::{Layout, WindowSettings};
 
+use crate::falsecolor::{FalseColor, Legend};
 use crate::gpu::{Gpu, with_common};
 use crate::tonemap::{TONE_BINS, ToneCurve};
 
@@ -25,12 +26,19 @@ struct Screen {
     log_max: f32,
     log_scale: f32,
     cdf: [[f32; 4]; 26],
+    efficacy: f32,
+    fc_log_min: f32,
+    fc_decades: f32,
+    legend_w: u32,
+    legend_h: u32,
+    pad: [u32; 3],
 }
 
 const FLIP_X: u32 = 1;
 const FLIP_Y: u32 = 2;
 const ENCODE_SRGB: u32 = 4;
 const HAS_MAPPING: u32 = 8;
+const FALSE_COLOR: u32 = 16;
 
 /// The render pipeline for one surface format.
 pub struct ScreenPass {
@@ -40,6 +48,19 @@ pub struct ScreenPass {
     /// The surface stores sRGB codes itself (an `*Srgb` format): the shader writes
     /// linear values.
     srgb_target: bool,
+    /// The false-colour legend's pixels on the GPU, for the eye size and scale it was made
+    /// for.
+    legend: wgpu::Buffer,
+    legend_for: Option<((u32, u32), FalseColor)>,
+    legend_size: (u32, u32),
+}
+
+/// A legend's pixels as the shader reads them: `0x00BBGGRR` per pixel.
+fn legend_words(l: &Legend) -> Vec<u32> {
+    l.pixels
+        .iter()
+        .map(|p| u32::from(p[0]) | u32::from(p[1]) << 8 | u32::from(p[2]) << 16)
+        .collect()
 }
 
 impl ScreenPass {
@@ -71,6 +92,7 @@ impl ScreenPass {
                     },
                     storage(1),
                     storage(2),
+                    storage(3),
                 ],
             });
         let module = gpu
@@ -119,6 +141,9 @@ impl ScreenPass {
             layout,
             uniform,
             srgb_target: format.is_srgb(),
+            legend: gpu.storage("false-colour legend", 16),
+            legend_for: None,
+            legend_size: (0, 0),
         }
     }
 
@@ -127,7 +152,7 @@ impl ScreenPass {
     /// `curve` (`None`: black).
     #[allow(clippy::too_many_arguments)]
     pub fn draw(
-        &self,
+        &mut self,
         gpu: &Gpu,
         enc: &mut wgpu::CommandEncoder,
         target: &wgpu::TextureView,
@@ -164,8 +189,32 @@ impl ScreenPass {
             log_max: 1.0,
             log_scale: 0.0,
             cdf: [[0.0; 4]; 26],
+            efficacy: 179.0,
+            fc_log_min: 0.0,
+            fc_decades: 1.0,
+            legend_w: 0,
+            legend_h: 0,
+            pad: [0; 3],
         };
+        if let Some(fc) = curve.and_then(|c| c.false_color) {
+            screen.flags |= FALSE_COLOR;
+            screen.fc_log_min = fc.log_min;
+            screen.fc_decades = fc.decades;
+            if self.legend_for != Some((eye_size, fc)) {
+                let legend = Legend::new(&fc, eye_size.0, eye_size.1);
+                self.legend_size = legend.as_ref().map_or((0, 0), |l| (l.width, l.height));
+                if let Some(l) = legend {
+                    self.legend = gpu.storage_init(
+                        "false-colour legend",
+                        bytemuck::cast_slice(&legend_words(&l)),
+                    );
+                }
+                self.legend_for = Some((eye_size, fc));
+            }
+            (screen.legend_w, screen.legend_h) = self.legend_size;
+        }
         if let Some(c) = curve {
+            screen.efficacy = c.efficacy;
             screen.flags |= HAS_MAPPING;
             screen.linear = u32::from(c.linear);
             screen.log_min = c.log_min;
@@ -192,6 +241,10 @@ impl ScreenPass {
                 wgpu::BindGroupEntry {
                     binding: 2,
                     resource: eyes[1].as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: self.legend.as_entire_binding(),
                 },
             ],
         });
@@ -243,6 +296,14 @@ mod tests {
                 ("log_max", offset_of!(Screen, log_max)),
                 ("log_scale", offset_of!(Screen, log_scale)),
                 ("cdf", offset_of!(Screen, cdf)),
+                ("efficacy", offset_of!(Screen, efficacy)),
+                ("fc_log_min", offset_of!(Screen, fc_log_min)),
+                ("fc_decades", offset_of!(Screen, fc_decades)),
+                ("legend_w", offset_of!(Screen, legend_w)),
+                ("legend_h", offset_of!(Screen, legend_h)),
+                ("_pad0", offset_of!(Screen, pad)),
+                ("_pad1", offset_of!(Screen, pad) + 4),
+                ("_pad2", offset_of!(Screen, pad) + 8),
             ],
         );
     }
@@ -287,7 +348,20 @@ mod tests {
         eyes: [&wgpu::Buffer; 2],
         curve: Option<&ToneCurve>,
     ) -> image::RgbImage {
-        let pass = ScreenPass::new(gpu, format);
+        draw_eyes(gpu, format, size, settings, eyes, (W, H), curve)
+    }
+
+    /// [`draw`] of eyes of `eye_size` pixels.
+    fn draw_eyes(
+        gpu: &Gpu,
+        format: wgpu::TextureFormat,
+        size: (u32, u32),
+        settings: &WindowSettings,
+        eyes: [&wgpu::Buffer; 2],
+        eye_size: (u32, u32),
+        curve: Option<&ToneCurve>,
+    ) -> image::RgbImage {
+        let mut pass = ScreenPass::new(gpu, format);
         let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("offscreen"),
             size: wgpu::Extent3d {
@@ -311,7 +385,7 @@ mod tests {
             mapped_at_creation: false,
         });
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        pass.draw(gpu, &mut enc, &view, size, settings, eyes, (W, H), curve);
+        pass.draw(gpu, &mut enc, &view, size, settings, eyes, eye_size, curve);
         enc.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
                 texture: &texture,
@@ -474,5 +548,44 @@ mod tests {
         );
         let want = image::RgbImage::from_fn(W * 3, H * 2, |x, y| *l8.get_pixel(x / 3, y / 2));
         assert!(max_diff(&got, &want) <= 1);
+    }
+
+    #[test]
+    fn false_colour_and_its_legend_are_drawn_as_the_cpu_draws_them() {
+        let gpu = Gpu::new().expect("a GPU adapter (lavapipe without a GPU)");
+        // Big enough for a legend (64 pixels high); luminances over and beyond the scale.
+        let (w, h) = (96u32, 72u32);
+        let mut img = Image::new(w, h);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            let t = ((i * 37) % 101) as f32 / 100.0;
+            *p = Vec3::new(1.0, 0.7, 0.4) * 10f32.powf(-4.0 + 10.0 * t) / 179.0;
+            if i % 29 == 0 {
+                *p = Vec3::ZERO;
+            }
+        }
+        let tone = ToneMapper::with_efficacy(ToneMode::FalseColor, 179.0);
+        let want = tone.apply(&img);
+        let buf = upload(&gpu, &img);
+        let s = WindowSettings::with_layout(Layout::Left);
+        for format in [
+            wgpu::TextureFormat::Rgba8Unorm,
+            wgpu::TextureFormat::Rgba8UnormSrgb,
+        ] {
+            let got = draw_eyes(
+                &gpu,
+                format,
+                (w, h),
+                &s,
+                [&buf, &buf],
+                (w, h),
+                tone.curve().as_ref(),
+            );
+            let d = max_diff(&got, &want);
+            assert!(d <= 1, "{format:?}: {d} 8-bit steps off");
+        }
+        // The legend is there: the top-left corner is black background, the bar's top red.
+        assert_eq!(want.get_pixel(0, 0).0, [0, 0, 0]);
+        let red = want.get_pixel(4, 11).0;
+        assert!(red[0] > 200 && red[2] < 20, "{red:?}");
     }
 }
