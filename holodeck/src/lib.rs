@@ -17,6 +17,7 @@ pub mod requests;
 pub mod rgbe;
 pub mod run;
 pub mod sample;
+pub mod scene_id;
 pub mod section;
 pub mod server;
 pub mod serving;

@@ -12,6 +12,7 @@ pub mod color;
 pub mod daylight;
 pub mod empty_box;
 pub mod error;
+pub mod fingerprint;
 pub mod generate;
 pub mod light;
 pub mod load;

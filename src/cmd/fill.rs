@@ -8,22 +8,21 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use glam::DVec3;
 use holocave::launch::{Group, Watched, worker_command};
 use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::file::DistanceKind;
 use holocave_holodeck::run::{RunOptions, run as run_server};
+use holocave_holodeck::scene_id::same_scene;
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
+use holocave_scene::Scene;
 use holocave_scene::empty_box::{Aabb, triangles_inside};
-use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::holodeck::file_settings;
+use holocave_tracer::holodeck::{HolodeckTracer, file_settings, scene_identity};
+use holocave_tracer::{TraceSettings, Tracer};
 use indicatif::{ProgressBar, ProgressStyle};
-
-use super::worker::load_source;
-use holocave_tracer::holodeck::scene_name;
 
 /// A section's view class.
 #[derive(Clone, Copy, ValueEnum)]
@@ -53,6 +52,9 @@ pub struct FillArgs {
     /// The scene to trace.
     #[arg(long)]
     pub scene: PathBuf,
+    /// The scene's daylight file (default: <scene>.daylight.toml beside it, if present).
+    #[arg(long)]
+    pub daylight: Option<PathBuf>,
     /// The holodeck file (created if missing, continued if present).
     #[arg(long)]
     pub holodeck: PathBuf,
@@ -127,6 +129,7 @@ fn spawn_workers(
     n: usize,
     addr: &str,
     scene: &Path,
+    daylight: Option<&Path>,
     credentials: &Credentials,
 ) -> anyhow::Result<Group> {
     let exe = std::env::current_exe().context("finding the holocave executable")?;
@@ -134,7 +137,7 @@ fn spawn_workers(
         .map(|i| {
             Watched::spawn(
                 format!("worker {i}"),
-                &mut worker_command(&exe, addr, scene, credentials),
+                &mut worker_command(&exe, addr, scene, daylight, credentials),
             )
         })
         .collect::<std::io::Result<_>>()?;
@@ -142,7 +145,12 @@ fn spawn_workers(
 }
 
 pub fn run(args: FillArgs) -> anyhow::Result<()> {
-    let name = scene_name(&args.scene);
+    let scene = Arc::new(super::render::load_scene(
+        &args.scene,
+        args.daylight.clone(),
+        false,
+    )?);
+    let identity = scene_identity(&args.scene, &scene);
     let file = if args.holodeck.exists() {
         let h = HoloFile::open_rw(&args.holodeck)?;
         if !args.section.is_empty() || args.grid.is_some() {
@@ -151,11 +159,13 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
                 args.holodeck.display()
             );
         }
-        if h.settings().get("scene").is_some_and(|s| *s != name) {
-            tracing::warn!(
-                "{} was made with scene {:?}, filling with {name:?}",
-                args.holodeck.display(),
-                h.settings()["scene"]
+        if let Some(recorded) = h.settings().get("scene")
+            && !same_scene(recorded, &identity)
+        {
+            bail!(
+                "{} holds samples of scene {recorded:?}, not of {identity:?} (another scene, \
+                 or the same under another daylight): filling it would mix the two",
+                args.holodeck.display()
             );
         }
         let kind = h.distance_kind()?;
@@ -170,10 +180,8 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         h
     } else {
         let distance = args.distance.map_or(DistanceKind::Virtual, Distance::kind);
-        let scene = Scene::load(&args.scene, &LoadOptions::default())
-            .with_context(|| format!("loading scene {}", args.scene.display()))?;
         let sections = make_sections(&args, &scene)?;
-        let settings = file_settings(&name, distance, "fill");
+        let settings = file_settings(&identity, distance, "fill");
         HoloFile::create(&args.holodeck, sections, settings)?
     };
     for (i, s) in file.sections().iter().enumerate() {
@@ -193,6 +201,7 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         file.total_samples(),
         file.distance_kind()?.name()
     );
+    let file_scene = file.settings().get("scene").cloned().unwrap_or(identity);
     let config = ServerConfig {
         cache_bytes: args.cache_mb << 20,
         ..Default::default()
@@ -224,11 +233,18 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
             .listener
             .local_addr()?
             .to_string();
-        children = spawn_workers(processes, &addr, &args.scene, &credentials)?;
+        children = spawn_workers(
+            processes,
+            &addr,
+            &args.scene,
+            args.daylight.as_deref(),
+            &credentials,
+        )?;
         (0, None)
     } else {
-        let src: Arc<dyn holocave_holodeck::worker::SampleSource> =
-            Arc::new(load_source(&args.scene)?);
+        let src: Arc<dyn holocave_holodeck::worker::SampleSource> = Arc::new(HolodeckTracer(
+            Tracer::new(scene.clone(), TraceSettings::default()),
+        ));
         (args.threads, Some(src))
     };
     let limit = args.time.map(Duration::from_secs_f64);
@@ -249,7 +265,7 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         threads,
         source,
         listener,
-        scene: name,
+        scene: file_scene,
         commit_every: Duration::from_secs_f64(args.commit_every.max(0.1)),
         stop: super::interrupt::ctrl_c_flag(),
     };

@@ -67,6 +67,9 @@ pub struct HolodeckArgs {
     /// cluster.holodeck).
     #[arg(long, requires = "holodeck")]
     pub holodeck_listen: Option<String>,
+    /// The scene's daylight file (default: <scene>.daylight.toml beside it, if present).
+    #[arg(long, requires = "holodeck")]
+    pub daylight: Option<PathBuf>,
     /// Tracer threads in the master for the hosted holodeck (workers on other hosts add
     /// more).
     #[arg(long, default_value_t = 0, requires = "holodeck")]
@@ -108,6 +111,7 @@ impl HolodeckArgs {
             threads: self.tracer_threads,
             listen,
             credentials,
+            daylight: self.daylight.as_deref(),
             made_by,
             sections: &self.section,
             stop: super::interrupt::ctrl_c_flag(),

@@ -30,7 +30,7 @@ use holocave_render_node::{
     DisplayBuilder, Gpu, LightField, RenderCache, SampleFeed, ToneMapper, ToneMode, VlfBase,
     WallDisplay,
 };
-use holocave_scene::{LoadOptions, Scene};
+use holocave_scene::Scene;
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
 
@@ -98,6 +98,9 @@ pub struct NodeArgs {
     /// The scene (glTF).
     #[arg(long)]
     pub(crate) scene: PathBuf,
+    /// The scene's daylight file (default: <scene>.daylight.toml beside it, if present).
+    #[arg(long)]
+    pub(crate) daylight: Option<PathBuf>,
     /// Draw from this holodeck file (created if missing: one interior section, the CAVE's
     /// inside volume in scene coordinates), served in this process by `--threads` tracer
     /// threads that add every ray they trace to it. Without it the node traces its own
@@ -256,11 +259,8 @@ pub fn run(args: NodeArgs) -> Result<()> {
     }
 }
 
-fn load_tracer(path: &Path) -> Result<(Arc<Scene>, Arc<Tracer>)> {
-    let scene = Arc::new(
-        Scene::load(path, &LoadOptions::default())
-            .with_context(|| format!("loading {}", path.display()))?,
-    );
+fn load_tracer(path: &Path, daylight: Option<PathBuf>) -> Result<(Arc<Scene>, Arc<Tracer>)> {
+    let scene = Arc::new(super::render::load_scene(path, daylight, false)?);
     let tracer = Arc::new(Tracer::new(scene.clone(), TraceSettings::default()));
     Ok((scene, tracer))
 }
@@ -285,7 +285,7 @@ fn standalone(
         );
     }
     let eyes = Eye::for_mode(wall.stereo);
-    let (scene, tracer) = load_tracer(&args.scene)?;
+    let (scene, tracer) = load_tracer(&args.scene, args.daylight.clone())?;
     // The replay clock: frame k shows the head at k / fps after the first sample.
     let mut head = match args.still {
         Some(_) => None,
@@ -479,7 +479,7 @@ fn in_cluster(
     let secret = cave
         .secret()
         .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
-    let (scene, tracer) = load_tracer(&args.scene)?;
+    let (scene, tracer) = load_tracer(&args.scene, args.daylight.clone())?;
     let eyes = Eye::for_mode(wall.stereo);
     let efficacy = scene.daylight.photometry.efficacy;
     let mut tone = args.tone.mapper(efficacy);

@@ -38,6 +38,10 @@ pub struct SimArgs {
     /// The scene (glTF).
     #[arg(long, default_value = "scenes/room.gltf")]
     pub scene: PathBuf,
+    /// The scene's daylight file, for every node, worker and bake (default:
+    /// <scene>.daylight.toml beside it, if present).
+    #[arg(long)]
+    pub daylight: Option<PathBuf>,
     #[command(flatten)]
     pub head: HeadArgs,
     /// Frames to run.
@@ -126,7 +130,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     } else {
         let path =
             (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
-        let scene = super::render::load_scene(&args.scene, None, false)?;
+        let scene = super::render::load_scene(&args.scene, args.daylight.clone(), false)?;
         Some(super::vlf::baked_default(&scene, &path)?)
     };
     let hosted = if args.no_holodeck {
@@ -141,6 +145,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             threads: 0,
             listen: "127.0.0.1:0",
             credentials: credentials.clone(),
+            daylight: args.daylight.as_deref(),
             made_by: "sim",
             sections: &args.section,
             stop: super::interrupt::ctrl_c_flag(),
@@ -150,7 +155,13 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     if let Some(h) = &hosted {
         for i in 0..args.workers {
             let log = std::fs::File::create(args.out.join(format!("worker{i}.log")))?;
-            let mut command = worker_command(&exe, &h.addr.to_string(), &args.scene, &credentials);
+            let mut command = worker_command(
+                &exe,
+                &h.addr.to_string(),
+                &args.scene,
+                args.daylight.as_deref(),
+                &credentials,
+            );
             command
                 .stdout(log.try_clone()?)
                 .stderr(log)
@@ -186,6 +197,10 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .arg(&args.config)
             .arg("--scene")
             .arg(&args.scene)
+            .args(
+                (args.daylight.iter())
+                    .flat_map(|d| [std::ffi::OsStr::new("--daylight"), d.as_os_str()]),
+            )
             .arg("--out")
             .arg(&args.out)
             .args(["--tone", args.tone.name()])

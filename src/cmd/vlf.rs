@@ -8,7 +8,7 @@ use clap::{Args, Subcommand};
 use holocave_scene::Scene;
 use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
-use holocave_vlf::file::{VlfFile, fingerprint};
+use holocave_vlf::file::VlfFile;
 use holocave_vlf::remote::Workers;
 use holocave_vlf::{Casting, Threads, Visibility};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -270,7 +270,7 @@ fn bake(a: BakeArgs) -> Result<()> {
                 cluster: credentials.cluster,
                 secret: credentials.secret,
                 local: a.threads != Some(0),
-                fingerprint: fingerprint(&scene),
+                fingerprint: scene.fingerprint(),
                 settings,
             };
             run_bake(&job, false, &workers)?;

@@ -8,8 +8,7 @@ use std::sync::Arc;
 use anyhow::Context;
 use clap::Args;
 use holocave_holodeck::worker::run_remote;
-use holocave_scene::{LoadOptions, Scene};
-use holocave_tracer::holodeck::{HolodeckTracer, scene_name};
+use holocave_tracer::holodeck::{HolodeckTracer, scene_identity};
 use holocave_tracer::{TraceSettings, Tracer};
 
 #[derive(Args)]
@@ -31,10 +30,9 @@ pub struct WorkerArgs {
     pub daylight: Option<PathBuf>,
 }
 
-/// Loads a scene and makes its sample generator.
-pub fn load_source(scene: &Path) -> anyhow::Result<HolodeckTracer> {
-    let s = Scene::load(scene, &LoadOptions::default())
-        .with_context(|| format!("loading scene {}", scene.display()))?;
+/// Loads a scene (with `daylight`, else the file beside it) and makes its sample generator.
+pub fn load_source(scene: &Path, daylight: Option<PathBuf>) -> anyhow::Result<HolodeckTracer> {
+    let s = super::render::load_scene(scene, daylight, false)?;
     Ok(HolodeckTracer(Tracer::new(
         Arc::new(s),
         TraceSettings::default(),
@@ -55,13 +53,13 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
         tracing::info!("bake worker done: {cast} subfields cast");
         return Ok(());
     }
-    let source = load_source(&args.scene)?;
+    let source = load_source(&args.scene, args.daylight.clone())?;
     let name = format!("pid {}", std::process::id());
     let report = run_remote(
         &args.server,
         &credentials,
         &name,
-        &scene_name(&args.scene),
+        &scene_identity(&args.scene, source.0.scene()),
         &source,
     )?;
     tracing::info!(

@@ -15,13 +15,14 @@ use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::cave_section::CaveSection;
 use holocave_holodeck::file::DistanceKind;
 use holocave_holodeck::run::{RayAllowance, RunOptions, Running, start, start_held};
+use holocave_holodeck::scene_id::same_scene;
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::SampleSource;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_scene::empty_box::{Aabb, triangles_inside};
 use holocave_scene::{LoadOptions, Scene};
 
-use crate::holodeck::{HolodeckTracer, file_settings, scene_name};
+use crate::holodeck::{HolodeckTracer, file_settings, scene_identity};
 use crate::{TraceSettings, Tracer};
 
 /// Why a CAVE's holodeck could not be opened, created or served.
@@ -46,7 +47,7 @@ pub struct CaveHolodeck {
     pub file: HoloFile,
     /// The section this run made, when it created the file.
     pub created: Option<CaveSection>,
-    /// The scene's name as the file records it and TCP workers are checked against.
+    /// The scene's identity as the file records it and TCP workers are checked against.
     pub scene: String,
 }
 
@@ -81,14 +82,17 @@ impl CaveHolodeck {
             path: path.display().to_string(),
             message,
         };
-        let name = scene_name(scene_path);
+        let identity = scene.map(|s| scene_identity(scene_path, s));
         if path.exists() {
             let file = HoloFile::open_rw(path).map_err(|e| bad(e.to_string()))?;
-            if file.settings().get("scene").is_some_and(|s| *s != name) {
+            let recorded = file.settings().get("scene").cloned();
+            if let (Some(r), Some(id)) = (&recorded, &identity)
+                && !same_scene(r, id)
+            {
                 tracing::warn!(
-                    "{} was made with scene {:?}, drawing with {name:?}",
+                    "{} was made with scene {r:?}, drawing with {id:?}: its samples are of \
+                     another scene (or another daylight)",
                     path.display(),
-                    file.settings()["scene"]
                 );
             }
             let inside = cave.room_to_scene.transform_point3(cave.inside);
@@ -112,7 +116,7 @@ impl CaveHolodeck {
                 path: path.to_owned(),
                 file,
                 created: None,
-                scene: name,
+                scene: recorded.or(identity).unwrap_or_default(),
             });
         }
         let scene =
@@ -137,6 +141,7 @@ impl CaveHolodeck {
                     .map_err(|e| CaveHolodeckError::Section(format!("{lo} .. {hi}: {e}")))?,
             );
         }
+        let name = scene_identity(scene_path, scene);
         let settings = file_settings(&name, DistanceKind::Virtual, made_by);
         let file = HoloFile::create(path, sections, settings).map_err(|e| bad(e.to_string()))?;
         Ok(CaveHolodeck {
@@ -246,6 +251,8 @@ pub struct HostSpec<'a> {
     /// The address to listen on, and what workers and displays must prove.
     pub listen: &'a str,
     pub credentials: Credentials,
+    /// The scene's daylight file (`None`: the one beside the scene, if any).
+    pub daylight: Option<&'a Path>,
     /// The command that creates a new file (`master`, `sim`).
     pub made_by: &'a str,
     /// Interior sections a new file gets besides the CAVE's (boxes `lo, hi` in scene
@@ -260,12 +267,15 @@ impl HostSpec<'_> {
     /// file to remote workers does without it). Also returns [`CaveHolodeck::describe`].
     pub fn host(self) -> Result<(Hosted, String), CaveHolodeckError> {
         let scene = if self.threads > 0 || !self.path.exists() {
-            let s = Scene::load(self.scene_path, &LoadOptions::default()).map_err(|e| {
-                CaveHolodeckError::File {
+            let options = LoadOptions {
+                daylight: self.daylight.map(Path::to_path_buf),
+                ..LoadOptions::default()
+            };
+            let s =
+                Scene::load(self.scene_path, &options).map_err(|e| CaveHolodeckError::File {
                     path: self.scene_path.display().to_string(),
                     message: e.to_string(),
-                }
-            })?;
+                })?;
             Some(Arc::new(s))
         } else {
             None

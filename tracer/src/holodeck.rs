@@ -32,17 +32,18 @@ impl SampleSource for HolodeckTracer {
     }
 }
 
-/// A scene's name as holodeck files record it and servers check their workers against: the
-/// scene file's name.
-pub fn scene_name(scene: &std::path::Path) -> String {
-    scene.file_name().map_or_else(
-        || scene.display().to_string(),
+/// A scene's identity as holodeck files record it and servers check their workers
+/// against: the scene file's name and the scene's fingerprint (daylight included).
+pub fn scene_identity(path: &std::path::Path, scene: &holocave_scene::Scene) -> String {
+    let name = path.file_name().map_or_else(
+        || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
-    )
+    );
+    holocave_holodeck::scene_id::scene_id(&name, scene.fingerprint())
 }
 
 /// The settings a new holodeck file filled by [`HolodeckTracer`] records: the scene's
-/// name (checked against every worker's), the generator, the distance it stores, and the
+/// identity ([`scene_identity`], checked against every worker's), the generator, the distance it stores, and the
 /// command that made it (`made_by`, e.g. `fill` or `sim`).
 pub fn file_settings(
     scene: &str,

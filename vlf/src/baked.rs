@@ -10,7 +10,7 @@ use holocave_scene::Scene;
 
 use crate::bake::{Casting, Settings, Stage, State, Stats, bake_with, layout, tiles};
 use crate::elements::Elements;
-use crate::file::{VlfError, VlfFile, fingerprint};
+use crate::file::{VlfError, VlfFile};
 use crate::tiles::Tiles;
 
 /// Why a light field could not be baked or opened.
@@ -167,7 +167,7 @@ impl BakeJob<'_> {
         };
         let file = |state: State| VlfFile {
             scene: self.scene.name.clone(),
-            fingerprint: fingerprint(self.scene),
+            fingerprint: self.scene.fingerprint(),
             settings: self.settings,
             element_size: crate::bake::element_size(self.scene, &self.settings),
             state,

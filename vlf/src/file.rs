@@ -85,38 +85,6 @@ pub struct VlfFile {
     pub state: State,
 }
 
-/// A fingerprint of everything a bake depends on: geometry, materials, lights, daylight
-/// (FNV-1a, 64 bits).
-pub fn fingerprint(scene: &Scene) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |bytes: &[u8]| {
-        for b in bytes {
-            h ^= u64::from(*b);
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    };
-    for t in 0..scene.triangle_count() as u32 {
-        for p in scene.triangle(t) {
-            for c in p.to_array() {
-                eat(&c.to_le_bytes());
-            }
-        }
-        eat(&scene.triangle_shading(t).material.to_le_bytes());
-    }
-    // The daylight's sun and sky alone, in the words of a `Daylight { sun, sky }`: its
-    // photometry changes units, not radiance, so no bake depends on it.
-    let d = &scene.daylight;
-    eat(format!(
-        "{:?}{:?}Daylight {{ sun: {:?}, sky: {:?} }}",
-        scene.materials, scene.lights, d.sun, d.sky
-    )
-    .as_bytes());
-    for t in &scene.textures {
-        eat(t.name.as_bytes());
-    }
-    h
-}
-
 fn put_f32s(out: &mut Vec<u8>, v: &[[f32; 3]]) {
     out.reserve(v.len() * 12);
     for x in v.iter().flatten() {
@@ -130,7 +98,7 @@ impl VlfFile {
     pub fn of(scene: &Scene, settings: Settings, state: State) -> VlfFile {
         VlfFile {
             scene: scene.name.clone(),
-            fingerprint: fingerprint(scene),
+            fingerprint: scene.fingerprint(),
             settings,
             element_size: crate::bake::layout(scene, &settings).element_size,
             state,
@@ -234,7 +202,7 @@ impl VlfFile {
     /// Reads a file and checks that it was baked for `scene`.
     pub fn read_for(path: &Path, scene: &Scene) -> Result<VlfFile, VlfError> {
         let f = VlfFile::read(path)?;
-        let wanted = fingerprint(scene);
+        let wanted = scene.fingerprint();
         if f.fingerprint != wanted {
             return Err(VlfError::WrongScene {
                 path: path.into(),

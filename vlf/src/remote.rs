@@ -21,7 +21,6 @@ use holocave_scene::Scene;
 use serde::{Deserialize, Serialize};
 
 use crate::bake::{Caster, Casting, Settings};
-use crate::file::fingerprint;
 use crate::subfield::{Crossing, Link, Subfield};
 
 /// The largest message: one subfield's lines (a 4096² subfield of a deep scene fits).
@@ -408,7 +407,7 @@ pub fn work(addr: &str, cluster: &str, secret: &[u8], scene: &Scene) -> Result<u
         } => (fingerprint, Settings::from(settings)),
         _ => return Err(RemoteError::Unexpected),
     };
-    let mine = fingerprint(scene);
+    let mine = scene.fingerprint();
     if wanted != mine {
         let why = format!(
             "the worker's scene {} (fingerprint {mine:016x}) is not the bake's (fingerprint {wanted:016x})",

@@ -8,7 +8,6 @@ use std::path::Path;
 
 use glam::Vec3;
 use holocave_scene::Scene;
-use holocave_vlf::file::fingerprint;
 use holocave_vlf::{Settings, VlfError, VlfFile, layout};
 
 fn settings() -> Settings {
@@ -302,7 +301,7 @@ fn a_file_baked_for_another_scene_is_refused_naming_both() {
     baked(&scene).write(&path).unwrap();
     // The same geometry with another albedo: another scene for the light field.
     let other = furnace("pale box", 0.6);
-    assert_ne!(fingerprint(&scene), fingerprint(&other));
+    assert_ne!(scene.fingerprint(), other.fingerprint());
     let e = VlfFile::read_for(&path, &other).unwrap_err();
     names_file(&e, &path);
     let VlfError::WrongScene {
@@ -318,7 +317,7 @@ fn a_file_baked_for_another_scene_is_refused_naming_both() {
     assert_eq!((baked_for.as_str(), s.as_str()), ("grey box", "pale box"));
     assert_eq!(
         (*baked, *wanted),
-        (fingerprint(&scene), fingerprint(&other))
+        (scene.fingerprint(), other.fingerprint())
     );
     let m = e.to_string();
     assert!(m.contains("grey box") && m.contains("pale box"), "{m}");
@@ -420,11 +419,11 @@ fn photometric_units_are_not_part_of_the_fingerprint_but_the_sky_is() {
     let scene = furnace("grey box", 0.5);
     let mut units = furnace("grey box", 0.5);
     units.daylight.photometry.efficacy = 683.0;
-    assert_eq!(fingerprint(&scene), fingerprint(&units));
+    assert_eq!(scene.fingerprint(), units.fingerprint());
     let mut sky = furnace("grey box", 0.5);
     sky.daylight.sky = Some(holocave_scene::Sky {
         model: holocave_scene::SkyModel::Uniform(Vec3::ONE),
         ground: Vec3::ZERO,
     });
-    assert_ne!(fingerprint(&scene), fingerprint(&sky));
+    assert_ne!(scene.fingerprint(), sky.fingerprint());
 }

@@ -13,6 +13,7 @@ use tokio::io::AsyncWriteExt;
 
 use super::listener::{ConnError, Link, reader};
 use super::state::State;
+use crate::scene_id::same_scene;
 use crate::server::WorkerId;
 
 pub(crate) async fn serve(
@@ -27,12 +28,13 @@ pub(crate) async fn serve(
             hello.protocol
         )));
     }
-    if !scene.is_empty() && hello.scene != scene {
-        tracing::warn!(
-            "worker {} traces scene {:?}; the holodeck was made with {scene:?}",
-            hello.name,
-            hello.scene
-        );
+    // Samples of another scene (or the same file under another daylight) would spoil
+    // every view that reads them: such a worker is sent away.
+    if !scene.is_empty() && !same_scene(scene, &hello.scene) {
+        return Err(ConnError::Protocol(format!(
+            "worker {} traces scene {:?}; the holodeck holds scene {scene:?}",
+            hello.name, hello.scene
+        )));
     }
     let id: WorkerId = st.lock().add_worker();
     tracing::info!("worker {id} ({}) joined", hello.name);
