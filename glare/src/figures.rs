@@ -196,3 +196,46 @@ pub fn evaluate_with(
         sources,
     })
 }
+
+impl Figures {
+    /// The figures as lines of text: Ev, DGP (with its glare class, and a note when it
+    /// is below its range), UGR, the background and the sources.
+    pub fn report(&self) -> String {
+        let class = match self.dgp {
+            d if d < 0.35 => "imperceptible",
+            d if d < 0.40 => "perceptible",
+            d if d < 0.45 => "disturbing",
+            _ => "intolerable",
+        };
+        let mut s = format!("Ev   {:.1} lx\n", self.ev_lux);
+        s += &format!("DGP  {:.3} ({class})", self.dgp);
+        if !self.dgp_in_range() {
+            s += "; below 0.2, outside the range DGP was fitted on";
+        }
+        s += "\n";
+        s += &match self.ugr {
+            Some(u) => format!("UGR  {u:.1}\n"),
+            None => "UGR  undefined (no background luminance)\n".into(),
+        };
+        s += &format!(
+            "background {:.1} cd/m², mean {:.1} cd/m², source threshold {:.1} cd/m²\n",
+            self.background_cd_m2, self.average_cd_m2, self.threshold_cd_m2
+        );
+        s += &format!("{} glare source(s)\n", self.sources.len());
+        for (i, src) in self.sources.iter().enumerate() {
+            let d = src.direction;
+            s += &format!(
+                "  {:>2}. direction ({:.3}, {:.3}, {:.3}), {:.3e} sr, {:.0} cd/m², P {:.2}{}\n",
+                i + 1,
+                d.x,
+                d.y,
+                d.z,
+                src.solid_angle_sr,
+                src.luminance_cd_m2,
+                src.position_index,
+                if src.peak { " (peak)" } else { "" }
+            );
+        }
+        s
+    }
+}
