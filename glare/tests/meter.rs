@@ -1,0 +1,147 @@
+//! The live meter on a generated sky scene, and the per-frame log and its summary.
+
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+use glam::{Quat, Vec3};
+use holocave_glare::draw::Drawing;
+use holocave_glare::figures::Figures;
+use holocave_glare::log::{GlareLog, HEADER, Summary};
+use holocave_glare::meter::GlareMeter;
+use holocave_glare::{GlareError, Rules};
+use holocave_scene::generate::GltfWriter;
+use holocave_scene::{LoadOptions, Photometry, Scene};
+use holocave_tracer::{TraceSettings, Tracer};
+
+/// One small grey square 100 m below the eye under a uniform sky of radiance 1.
+fn sky_scene() -> Arc<Scene> {
+    let dir = tempfile::tempdir().unwrap();
+    let mut w = GltfWriter::default();
+    let m = w.material(serde_json::json!({
+        "name": "grey",
+        "pbrMetallicRoughness": { "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0 }
+    }));
+    let p = [
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+    ];
+    let mesh = w.mesh("floor", &p, &[Vec3::Y; 4], &[0, 2, 1, 0, 3, 2], m);
+    w.node(
+        "floor",
+        mesh,
+        Vec3::new(0.0, -100.0, 0.0),
+        Quat::IDENTITY,
+        Vec3::ONE,
+    );
+    let scene = dir.path().join("sky.gltf");
+    std::fs::write(&scene, w.finish()).unwrap();
+    let daylight = dir.path().join("sky.daylight.toml");
+    std::fs::write(
+        &daylight,
+        "[sky]\nmodel = \"uniform\"\nradiance = [1.0, 1.0, 1.0]\nground_albedo = 0.0\n",
+    )
+    .unwrap();
+    let opts = LoadOptions {
+        daylight: Some(daylight),
+        ..LoadOptions::default()
+    };
+    Arc::new(Scene::load(&scene, &opts).unwrap())
+}
+
+/// Looking up into the sky from any head position, Ev = π·179 lx within the fisheye's
+/// discretisation (2.5 π²/N², `figures.rs`) — also looking straight along the meter's
+/// up, where the meter takes another axis as the fisheye's up. Looking at the horizon
+/// the lower half sees the black ground (albedo 0): Ev is half, within the same bound
+/// plus the rim pixels' band around the horizon line (`√2/2 px · 2c px · k²` sr, cos ≤ 1,
+/// radiance 1: `√2 k` of π).
+#[test]
+fn meter_measures_each_pose() {
+    let scene = sky_scene();
+    let tracer = Tracer::new(scene, TraceSettings::default());
+    let drawing = Drawing::PathTraced {
+        tracer,
+        spp: 1,
+        seed: 7,
+    };
+    let n = 48;
+    let meter =
+        GlareMeter::new(drawing, n, Vec3::Y, Rules::default(), Photometry::default()).unwrap();
+    let l = 179.0;
+    let bound = 2.5 * PI * PI / f64::from(n * n);
+    for (eye, look) in [
+        (Vec3::ZERO, Vec3::Y),
+        (Vec3::new(3.0, 1.0, -2.0), Vec3::new(0.0, 1.0, 0.0)),
+        (Vec3::ZERO, Vec3::new(0.1, 1.0, 0.0)),
+    ] {
+        let f = meter.measure(eye, look).unwrap();
+        let up_cos = f64::from(look.normalize().y);
+        // A tilted view sees some ground near its rim: Ev = L·π·(1 + cos tilt)/2 for a
+        // black ground (the sky's part of the tilted hemisphere, cosine-weighted).
+        let expect = PI * l * (1.0 + up_cos) / 2.0;
+        let rim = 2f64.sqrt() * (PI / f64::from(n));
+        assert!(
+            ((f.ev_lux - expect) / expect).abs() < bound + rim,
+            "{look}: {} against {expect}",
+            f.ev_lux
+        );
+        assert!(f.sources.is_empty());
+    }
+    let half = meter.measure(Vec3::ZERO, Vec3::X).unwrap();
+    let expect = PI * l / 2.0;
+    let rim = 2f64.sqrt() * (PI / f64::from(n));
+    assert!(
+        ((half.ev_lux - expect) / expect).abs() < 2.0 * (bound + rim),
+        "{}",
+        half.ev_lux
+    );
+    assert!(matches!(
+        meter.measure(Vec3::ZERO, Vec3::ZERO),
+        Err(GlareError::BadView(_))
+    ));
+}
+
+fn figures(dgp: f64) -> Figures {
+    Figures {
+        ev_lux: 1234.5,
+        dgp,
+        ugr: if dgp > 0.2 { Some(21.0) } else { None },
+        background_cd_m2: 100.0,
+        average_cd_m2: 150.0,
+        threshold_cd_m2: 2000.0,
+        sources: Vec::new(),
+    }
+}
+
+/// Frames at 0, 1, 2 and 3 s with DGP 0.5, 0.3, 0.42, 0.1: each holds until the next,
+/// so DGP is above 0.35 and 0.40 during [0, 1) and [2, 3) (2/3 of the session) and
+/// above 0.45 during [0, 1) (1/3); the CSV has the header and one line per frame.
+#[test]
+fn log_and_summary() {
+    let mut log = GlareLog::new(Vec::new(), std::path::Path::new("mem")).unwrap();
+    for (i, d) in [0.5, 0.3, 0.42, 0.1].into_iter().enumerate() {
+        log.record(i as u64, i as u64 * 1_000_000_000, &figures(d))
+            .unwrap();
+    }
+    let (bytes, summary) = log.finish().unwrap();
+    let text = String::from_utf8(bytes).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], HEADER);
+    assert_eq!(lines.len(), 5);
+    assert_eq!(lines[1], "0,0,1234.500,0.50000,21.000,0");
+    assert_eq!(lines[4], "3,3000000000,1234.500,0.10000,,0");
+    let [a, b, c] = summary.fractions_above();
+    let close = |x: f64, y: f64| (x - y).abs() < 1e-12;
+    assert!(
+        close(a, 2.0 / 3.0) && close(b, 2.0 / 3.0) && close(c, 1.0 / 3.0),
+        "{a} {b} {c}"
+    );
+    assert_eq!(summary.frames, 4);
+    assert!(close(summary.max_dgp, 0.5));
+    assert!(summary.to_string().contains("66.7%"));
+    // One frame: the fraction of frames.
+    let mut one = Summary::default();
+    one.add(5, 0.41);
+    assert_eq!(one.fractions_above(), [1.0, 1.0, 0.0]);
+}
