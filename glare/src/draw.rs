@@ -28,7 +28,8 @@ pub enum Drawing {
     /// [`holocave_vlf::State::indirect_values`], else all of them,
     /// [`holocave_vlf::State::values`]).
     LightField {
-        visibility: Visibility,
+        /// Boxed: the variant would otherwise be far larger than the other.
+        visibility: Box<Visibility>,
         values: Vec<[f32; 3]>,
         direct: Option<PixelDirect>,
         /// Direct-light estimates averaged per lookup (what a still wall has after
@@ -94,7 +95,7 @@ impl Drawing {
         };
         let estimates = direct.first_estimates() + frames.max(1) - 1;
         Drawing::LightField {
-            visibility: Visibility::new(scene, opened.elements, opened.tiles),
+            visibility: Box::new(Visibility::new(scene, opened.elements, opened.tiles)),
             values,
             direct: use_direct.then_some(direct),
             estimates,
