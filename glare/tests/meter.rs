@@ -15,6 +15,11 @@ use holocave_tracer::{TraceSettings, Tracer};
 
 /// One small grey square 100 m below the eye under a uniform sky of radiance 1.
 fn sky_scene() -> Arc<Scene> {
+    scene_with("[sky]\nmodel = \"uniform\"\nradiance = [1.0, 1.0, 1.0]\nground_albedo = 0.0\n")
+}
+
+/// The same square under the daylight `daylight` (TOML).
+fn scene_with(daylight_toml: &str) -> Arc<Scene> {
     let dir = tempfile::tempdir().unwrap();
     let mut w = GltfWriter::default();
     let m = w.material(serde_json::json!({
@@ -38,11 +43,7 @@ fn sky_scene() -> Arc<Scene> {
     let scene = dir.path().join("sky.gltf");
     std::fs::write(&scene, w.finish()).unwrap();
     let daylight = dir.path().join("sky.daylight.toml");
-    std::fs::write(
-        &daylight,
-        "[sky]\nmodel = \"uniform\"\nradiance = [1.0, 1.0, 1.0]\nground_albedo = 0.0\n",
-    )
-    .unwrap();
+    std::fs::write(&daylight, daylight_toml).unwrap();
     let opts = LoadOptions {
         daylight: Some(daylight),
         ..LoadOptions::default()
@@ -144,4 +145,44 @@ fn log_and_summary() {
     let mut one = Summary::default();
     one.add(5, 0.41);
     assert_eq!(one.fractions_above(), [1.0, 1.0, 0.0]);
+}
+
+/// A sun of normal irradiance 1 (179 lx) and nothing else, 30° from the line of sight:
+/// Ev = 179 cos 30° at every size, though the disc (0.53°) is far smaller than a pixel
+/// at 16 × 16 (11°) and not at 256 × 256: its rays count the disc's `L ω` exactly
+/// (`draw`), spread over the pixels they fall in, whose cosines are taken at their
+/// centres — within half a pixel's diagonal, `k √2/2` rad, of the sun's: an error of at
+/// most `179 · sin 30° · k √2/2` lx (plus rounding).
+#[test]
+fn the_sun_is_counted_once_at_any_size() {
+    let scene = scene_with(
+        "[sun]\ndirection = [0.5, 0.0, -0.8660254]\nangular_diameter_deg = 0.53\nirradiance = [1.0, 1.0, 1.0]\n",
+    );
+    // With several rays a pixel some fall in the disc: they must not count it again.
+    for (n, spp) in [(16, 1), (37, 4), (64, 16), (256, 64)] {
+        let tracer = Tracer::new(scene.clone(), TraceSettings::default());
+        let drawing = Drawing::PathTraced {
+            tracer,
+            spp,
+            seed: 3,
+        };
+        let meter =
+            GlareMeter::new(drawing, n, Vec3::Y, Rules::default(), Photometry::default()).unwrap();
+        let f = meter.measure(Vec3::ZERO, Vec3::NEG_Z).unwrap();
+        let expect = 179.0 * 30f64.to_radians().cos();
+        let k = PI / f64::from(n);
+        let bound = 179.0 * 0.5 * k * 2f64.sqrt() / 2.0 + 1e-3;
+        assert!(
+            (f.ev_lux - expect).abs() < bound,
+            "{n}: Ev {} against {expect} ± {bound}",
+            f.ev_lux
+        );
+        // The sun is a source (at 16 × 16 its pixels are 0.2 rad apart, over the merging
+        // radius, so it may be two).
+        assert!(
+            !f.sources.is_empty() && f.sources.len() <= 2,
+            "{n}: {:?}",
+            f.sources
+        );
+    }
 }
