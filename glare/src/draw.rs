@@ -96,9 +96,9 @@ fn to_f32(d: DVec3) -> Vec3 {
 }
 
 impl Drawing {
-    /// The light field drawn as the walls draw it, from a light field opened for `scene`
-    /// (`state` its baked state): with the direct light per pixel unless `no_direct` or
-    /// the scene has no light that pass computes.
+    /// The light field drawn as the walls draw it, from a light field opened for `scene`:
+    /// with the direct light per pixel unless `no_direct` or the scene has no light that
+    /// pass computes.
     pub fn light_field(
         scene: Arc<Scene>,
         opened: holocave_vlf::baked::Opened,
@@ -106,9 +106,21 @@ impl Drawing {
         frames: u32,
         k: u32,
     ) -> Self {
-        let direct = PixelDirect::new(scene.clone());
+        let visibility = Visibility::new(scene, opened.elements, opened.tiles);
+        Drawing::from_state(visibility, &opened.file.state, no_direct, frames, k)
+    }
+
+    /// As [`Drawing::light_field`], from a bake's state and its visibility (its element
+    /// layout and tiles for the scene).
+    pub fn from_state(
+        visibility: Visibility,
+        state: &holocave_vlf::State,
+        no_direct: bool,
+        frames: u32,
+        k: u32,
+    ) -> Self {
+        let direct = PixelDirect::new(visibility.scene().clone());
         let use_direct = !no_direct && !direct.is_empty();
-        let state = &opened.file.state;
         let values = if use_direct {
             state.indirect_values()
         } else {
@@ -116,7 +128,7 @@ impl Drawing {
         };
         let estimates = direct.first_estimates() + frames.max(1) - 1;
         Drawing::LightField {
-            visibility: Box::new(Visibility::new(scene, opened.elements, opened.tiles)),
+            visibility: Box::new(visibility),
             values,
             direct: use_direct.then_some(direct),
             estimates,

@@ -186,3 +186,42 @@ fn the_sun_is_counted_once_at_any_size() {
         );
     }
 }
+
+/// The light field's drawing (its lookups, the direct light per pixel) of a uniform sky of
+/// radiance 1 and a sun of normal irradiance 1 at 30° from the zenith, looking up: the
+/// sky is the lookups' `emitted` light, exact, and the sun is counted once by its disc's
+/// rays, so Ev = 179 (π + cos 30°) within the sky's discretisation (`2.5 π²/N²` of
+/// 179 π, `figures.rs`) and the sun's half-pixel cosine (`179 · sin 30° · k √2/2`).
+#[test]
+fn light_field_drawing_of_sky_and_sun() {
+    let scene = scene_with(
+        "[sun]\ndirection = [0.5, 0.8660254, 0.0]\nangular_diameter_deg = 0.53\nirradiance = [1.0, 1.0, 1.0]\n\n[sky]\nmodel = \"uniform\"\nradiance = [1.0, 1.0, 1.0]\nground_albedo = 0.0\n",
+    );
+    let settings = holocave_vlf::Settings {
+        directions: 42,
+        resolution: 16,
+        ..holocave_vlf::Settings::default()
+    };
+    let (state, _) =
+        holocave_vlf::bake(&scene, &settings, None, &|_| {}, &mut |_| Ok::<(), ()>(())).unwrap();
+    let visibility = holocave_vlf::Visibility::of(scene.clone(), &settings);
+    let drawing = Drawing::from_state(visibility, &state, false, 1, 2);
+    let n = 64;
+    let meter = GlareMeter::new(
+        drawing,
+        n,
+        Vec3::NEG_Z,
+        Rules::default(),
+        Photometry::default(),
+    )
+    .unwrap();
+    let f = meter.measure(Vec3::ZERO, Vec3::Y).unwrap();
+    let expect = 179.0 * (PI + 30f64.to_radians().cos());
+    let k = PI / f64::from(n);
+    let bound = 2.5 * PI * PI / f64::from(n * n) * 179.0 * PI + 179.0 * 0.5 * k * 2f64.sqrt() / 2.0;
+    assert!(
+        (f.ev_lux - expect).abs() < bound,
+        "Ev {} against {expect} ± {bound}",
+        f.ev_lux
+    );
+}
