@@ -2,7 +2,7 @@
 //! field's remainder plus the exact direct light per pixel, `vlf`'s
 //! [`Visibility::lookup_and_point`], [`shade_one`] and [`PixelDirect::mean`], the same
 //! calls `holocave vlf view` makes through a wall) or by path tracing (the tracer's
-//! [`Tracer::trace_serial`], the reference). Both take their rays by direction, so no
+//! [`Tracer::trace_one`], the reference). Both take their rays by direction, so no
 //! planar view is needed.
 //!
 //! Each pixel is the mean of `k × k` (light field) or `spp` (path tracing) rays through
