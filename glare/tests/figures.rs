@@ -369,8 +369,18 @@ fn bad_input_is_an_error_naming_it() {
     let e = LuminanceMap::from_radiance(f.clone(), &img, &p).unwrap_err();
     assert!(e.to_string().contains("pixel (1, 1)"), "{e}");
     let map = LuminanceMap::new(f, vec![1.0; 64]).unwrap();
+    for r in [-0.1, 0.0, 0.6, f64::NAN] {
+        let bad = Rules {
+            search_radius: r,
+            ..Rules::default()
+        };
+        assert!(
+            matches!(evaluate(&map, &bad), Err(GlareError::BadRules(_))),
+            "{r}"
+        );
+    }
     let bad = Rules {
-        search_radius: -0.1,
+        peak_limit: Some(-1.0),
         ..Rules::default()
     };
     assert!(matches!(evaluate(&map, &bad), Err(GlareError::BadRules(_))));

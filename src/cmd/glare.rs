@@ -66,7 +66,7 @@ pub struct GlareArgs {
     /// factor of the view's mean luminance.
     #[arg(long, default_value_t = 2000.0, allow_negative_numbers = true)]
     pub threshold: f64,
-    /// Search radius for merging source pixels, radians (evalglare's -r).
+    /// Search radius for merging source pixels, radians (evalglare's -r), at most 0.5.
     #[arg(long, default_value_t = 0.2, allow_negative_numbers = true)]
     pub search_radius: f64,
     /// No peak extraction (evalglare's -x); otherwise pixels from 50 000 cd/m² up are
