@@ -50,6 +50,9 @@ enum Command {
     /// Run time against error: replay a head trace through one wall with every display
     /// method at the same ray budget, against converged references.
     Compare(cmd::compare::CompareArgs),
+    /// Glare figures of one view (Ev, DGP, UGR, the glare sources, as evalglare) from its
+    /// 180° fisheye, drawn from the light field or path-traced (EXR + PNG, or --json).
+    Glare(cmd::glare::GlareArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -75,5 +78,6 @@ fn main() -> anyhow::Result<()> {
         Command::Node(a) => cmd::node::run(a),
         Command::Compare(a) => cmd::compare::run(a),
         Command::Vlf(c) => cmd::vlf::run(c),
+        Command::Glare(a) => cmd::glare::run(a),
     }
 }

@@ -4,6 +4,7 @@ pub mod cave;
 pub mod compare;
 pub mod credentials;
 pub mod fill;
+pub mod glare;
 pub mod holodeck;
 pub mod interrupt;
 pub mod master;

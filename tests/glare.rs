@@ -1,0 +1,136 @@
+//! `holocave glare` end to end on a generated scene: a uniform sky seen straight up gives
+//! Ev = π·L·efficacy, the JSON is one object with the figures, and bad flags are errors
+//! that name them.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::holocave;
+use glam::{Quat, Vec3};
+use holocave_scene::generate::GltfWriter;
+
+/// The sky's radiance (scene units, white) and the scene's luminous efficacy (its
+/// `[photometry]` override of Radiance's 179 lm/W, so the test sees it used).
+const SKY: f32 = 2.0;
+const EFFICACY: f64 = 100.0;
+
+/// A scene of one small grey square 100 m below the eye and a uniform sky: looking up,
+/// the eye sees only sky.
+fn sky_scene(dir: &Path) -> (PathBuf, PathBuf) {
+    let mut w = GltfWriter::default();
+    let m = w.material(serde_json::json!({
+        "name": "grey",
+        "pbrMetallicRoughness": { "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 }
+    }));
+    let positions = [
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+    ];
+    let mesh = w.mesh("floor", &positions, &[Vec3::Y; 4], &[0, 2, 1, 0, 3, 2], m);
+    w.node(
+        "floor",
+        mesh,
+        Vec3::new(0.0, -100.0, 0.0),
+        Quat::IDENTITY,
+        Vec3::ONE,
+    );
+    let scene = dir.join("sky.gltf");
+    std::fs::write(&scene, w.finish()).unwrap();
+    let daylight = dir.join("sky.daylight.toml");
+    std::fs::write(
+        &daylight,
+        format!(
+            "[sky]\nmodel = \"uniform\"\nradiance = [{SKY}, {SKY}, {SKY}]\nground_albedo = 0.2\n\n[photometry]\nefficacy = {EFFICACY}\n"
+        ),
+    )
+    .unwrap();
+    (scene, daylight)
+}
+
+fn glare(scene: &Path, daylight: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    holocave()
+        .args(["glare", "--scene"])
+        .arg(scene)
+        .arg("--daylight")
+        .arg(daylight)
+        .args(["--eye", "0,1.5,0", "--out"])
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+/// Looking straight up at a uniform sky of luminance L = efficacy × SKY cd/m², every
+/// pixel in the view sees L exactly (escaping paths return the sky's radiance, no noise),
+/// so Ev = π L but for the fisheye's discretisation: at most `2.5 π²/N²` relative (the
+/// pixels the circle's edge crosses, `2π²/N²`, and each pixel's cosine taken at its
+/// centre, `π²/(2N²)`; derived in `glare/tests/figures.rs`). No source (L is under
+/// 2000 cd/m²), so DGP is `0.16 + 5.87e-5 Ev` with the low-light factor.
+#[test]
+fn sky_seen_straight_up_gives_pi_l() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, daylight) = sky_scene(dir.path());
+    let out = dir.path().join("up.exr");
+    let n = 64u32;
+    let size = n.to_string();
+    let o = glare(
+        &scene,
+        &daylight,
+        &out,
+        &[
+            "--look", "0,1,0", "--up", "0,0,-1", "--size", &size, "--spp", "1", "--json",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+    let ev = v["ev_lux"].as_f64().unwrap();
+    let l = EFFICACY * f64::from(SKY);
+    let expect = std::f64::consts::PI * l;
+    let bound = 2.5 * std::f64::consts::PI.powi(2) / f64::from(n * n);
+    assert!(
+        ((ev - expect) / expect).abs() < bound,
+        "Ev {ev} against {expect}"
+    );
+    assert!(v["sources"].as_array().unwrap().is_empty());
+    let e = (0.024 * ev - 4.0).exp();
+    let dgp = (0.16 + 5.87e-5 * ev) * e / (1.0 + e);
+    assert!((v["dgp"].as_f64().unwrap() - dgp).abs() < 1e-9);
+    assert_eq!(v["ugr"].as_f64(), Some(0.0));
+    assert!(out.is_file() && out.with_extension("png").is_file());
+}
+
+/// Bad flags stop the command with a message naming them, never a panic.
+#[test]
+fn bad_flags_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, daylight) = sky_scene(dir.path());
+    let out = dir.path().join("x.exr");
+    for (flags, says) in [
+        (vec!["--look", "0,0,0"], "look direction"),
+        (vec!["--look", "0,1,0"], "along the look direction"),
+        (vec!["--look", "1,0,0", "--size", "0"], "--size"),
+        (vec!["--look", "1,0,0", "--eye", "1,nan,0"], "--eye"),
+        (vec!["--look", "1,0,0", "--threshold", "-3"], "threshold"),
+    ] {
+        let o = glare(&scene, &daylight, &out, &flags);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{flags:?} was accepted");
+        assert!(err.contains(says), "{flags:?}: {err}");
+        assert!(!err.contains("panicked"), "{flags:?}: {err}");
+    }
+    let o = glare(
+        &scene,
+        &daylight,
+        &dir.path().join("x.png"),
+        &["--look", "1,0,0"],
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains(".exr"));
+}
