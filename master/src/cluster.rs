@@ -29,6 +29,9 @@ use tokio::time::timeout_at;
 use crate::barrier::{Barrier, NodeId};
 use crate::frame_state::{FrameTimes, frame_state};
 use crate::head::{Clock, Head};
+use crate::navigation::log::NavigationLog;
+use crate::navigation::placement::Placement;
+use crate::navigation::run::NavigationRun;
 use crate::pacing::Pacer;
 use holocave_cave::Cave;
 use holocave_cave::CaveFrusta;
@@ -66,6 +69,10 @@ pub struct MasterOptions {
     /// Appended to each status line (the holodeck's fill and ray rate, when the master
     /// hosts it).
     pub status_extra: Option<Box<dyn FnMut() -> String + Send>>,
+    /// Navigation from input devices; `None`: the config's start transform every frame.
+    pub navigation: Option<NavigationRun>,
+    /// Write each frame's room → scene transform to this `navigation.csv`.
+    pub navigation_log: Option<PathBuf>,
 }
 
 /// What a run measured.
@@ -574,6 +581,12 @@ async fn run_frames(
         Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p)?)),
         None => None,
     };
+    let mut nav_log = match &opts.navigation_log {
+        Some(p) => Some(NavigationLog::create(p)?),
+        None => None,
+    };
+    // The frame's CAVE: the config's, with the navigation's room → scene transform.
+    let mut placed = cave.clone();
     let mut m = Master {
         cave,
         events,
@@ -623,13 +636,23 @@ async fn run_frames(
         head.advance(master_ns);
         let (pose, tracker_ns) = head.pose_at(display_ns);
         tracing::trace!("frame {frame}: head {:?}", pose.position);
-        frusta.update(cave, &pose);
+        let place = match &mut opts.navigation {
+            Some(nav) => nav.frame(master_ns, &pose),
+            None => Placement::from_mat4(&cave.room_to_scene),
+        };
+        if opts.navigation.is_some() {
+            placed.room_to_scene = place.to_mat4();
+        }
+        if let Some(log) = &mut nav_log {
+            log.row(frame, master_ns, &place)?;
+        }
+        frusta.update(&placed, &pose);
         let times = FrameTimes {
             master_ns,
             display_ns,
             tracker_ns,
         };
-        let msg = MasterMsg::Frame(frame_state(cave, &frusta, frame, times, &pose));
+        let msg = MasterMsg::Frame(frame_state(&placed, &frusta, frame, times, &pose));
         if let Some(w) = &mut states {
             let bytes = encode(&msg, MAX_CLUSTER_FRAME)
                 .map_err(|e| std::io::Error::other(e.to_string()))?;
@@ -666,6 +689,9 @@ async fn run_frames(
             // Far behind (a stall): start again from now rather than racing to catch up.
             next_tick = now;
         }
+    }
+    if let Some(log) = &mut nav_log {
+        log.flush()?;
     }
     m.send(
         &MasterMsg::Shutdown {

@@ -147,7 +147,7 @@ pub fn record_session(
         let t0 = *first[k].get_or_insert(t);
         limit_ns.is_some_and(|l| t.saturating_sub(t0) > l)
     };
-    while !done.iter().all(|d| *d) && !wall_end.is_some_and(|e| Instant::now() >= e) {
+    while !done.iter().all(|d| *d) && wall_end.is_none_or(|e| Instant::now() < e) {
         let deadline = Instant::now() + POLL;
         if !done[0] {
             match head.next(deadline) {

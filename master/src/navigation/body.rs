@@ -35,6 +35,15 @@ fn exact(scene: &Scene, tri: u32, origin: DVec3, dir: DVec3) -> Option<(f64, DVe
     Some((t, n))
 }
 
+/// The body's size for collisions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Body {
+    /// How close it comes to a wall (m).
+    pub radius: f64,
+    /// The highest step it climbs (m).
+    pub step_height: f64,
+}
+
 /// What stops a motion.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Blocked {

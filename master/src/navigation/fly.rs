@@ -4,7 +4,7 @@
 use glam::DVec3;
 use holocave_scene::Scene;
 
-use super::body::travel;
+use super::body::{Body, travel};
 use super::placement::Placement;
 
 /// Moves the user whose feet are at `feet` (room) by `speed` m/s along `dir` (room, any
@@ -16,13 +16,12 @@ pub fn fly(
     speed: f64,
     dt: f64,
     scene: Option<&Scene>,
-    radius: f64,
-    step_height: f64,
+    body: Body,
 ) {
     let d = place.dir(dir).normalize_or_zero();
     let wanted = d * (speed * dt);
     let moved = match scene {
-        Some(s) => travel(s, place.point(feet), wanted, radius, step_height),
+        Some(s) => travel(s, place.point(feet), wanted, body.radius, body.step_height),
         None => wanted,
     };
     place.shift(moved);

@@ -78,6 +78,10 @@ impl Navigator {
         let head_at = head.position.as_dvec3();
         let feet = DVec3::new(head_at.x, 0.0, head_at.z);
         let dt = if dt.is_finite() { dt.max(0.0) } else { 0.0 };
+        let body = body::Body {
+            radius: s.radius,
+            step_height: s.step_height,
+        };
 
         let held = input.held(s.grab_button);
         let grabbing = held && self.grab_before;
@@ -104,8 +108,7 @@ impl Navigator {
                     forward * s.walk_speed,
                     dt,
                     scene,
-                    s.radius,
-                    s.step_height,
+                    body,
                 ),
                 TravelMode::Fly => fly::fly(
                     &mut self.place,
@@ -114,8 +117,7 @@ impl Navigator {
                     forward * s.fly_speed,
                     dt,
                     scene,
-                    s.radius,
-                    s.step_height,
+                    body,
                 ),
                 TravelMode::None => {}
             }

@@ -5,12 +5,61 @@
 use std::sync::Arc;
 
 use glam::DMat4;
+use holocave_cave::Cave;
 use holocave_scene::Scene;
 use holocave_tracking::Pose;
+use holocave_tracking::input::InputEvent;
+use holocave_tracking::input_source::{InputError, open_input, open_wand};
+use holocave_tracking::session_log::{is_session, read_session};
+use holocave_tracking::source::Pacing;
+use holocave_tracking::vrpn_input::InputKind;
 
 use super::Navigator;
 use super::input::Inputs;
 use super::placement::Placement;
+use crate::head::Clock;
+
+/// Where the input devices come from (source strings: `vrpn://…`, `file:…`); each falls
+/// back on the config's `[navigation]` key.
+#[derive(Clone, Debug, Default)]
+pub struct Devices {
+    pub wand: Option<String>,
+    pub buttons: Option<String>,
+    pub axes: Option<String>,
+}
+
+impl Devices {
+    /// These devices, each one not given taken from the config, and then, when none is
+    /// bound at all and the head's `tracker` is a session log, the devices that log holds.
+    pub fn resolve(&self, cave: &Cave, tracker: Option<&str>) -> Result<Devices, InputError> {
+        let n = &cave.navigation;
+        let mut d = Devices {
+            wand: self.wand.clone().or_else(|| n.wand.clone()),
+            buttons: self.buttons.clone().or_else(|| n.buttons.clone()),
+            axes: self.axes.clone().or_else(|| n.axes.clone()),
+        };
+        if d.is_empty()
+            && let Some(spec) = tracker
+            && let Some(path) = spec.strip_prefix("file:")
+            && std::fs::read_to_string(path).is_ok_and(|t| is_session(&t))
+        {
+            let log = read_session(std::path::Path::new(path))?;
+            let has = |axes: bool| {
+                log.inputs
+                    .iter()
+                    .any(|e| matches!(e.event, InputEvent::Axes(_)) == axes)
+            };
+            d.wand = (!log.wand.is_empty()).then(|| spec.to_owned());
+            d.buttons = has(false).then(|| spec.to_owned());
+            d.axes = has(true).then(|| spec.to_owned());
+        }
+        Ok(d)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.wand.is_none() && self.buttons.is_none() && self.axes.is_none()
+    }
+}
 
 /// The navigation the master runs each frame.
 pub struct NavigationRun {
@@ -22,6 +71,41 @@ pub struct NavigationRun {
 }
 
 impl NavigationRun {
+    /// Opens `devices` (already resolved) on `clock`; `None` when no device is bound (the
+    /// room then stays at the config's start transform).
+    pub fn open(
+        cave: &Cave,
+        devices: &Devices,
+        clock: Clock,
+        scene: Option<Arc<Scene>>,
+    ) -> Result<Option<NavigationRun>, InputError> {
+        if devices.is_empty() {
+            return Ok(None);
+        }
+        let pacing = match clock {
+            Clock::Live => Pacing::RealTime,
+            Clock::Replay => Pacing::AsFastAsPossible,
+        };
+        let wand = devices
+            .wand
+            .as_deref()
+            .map(|w| open_wand(w, pacing))
+            .transpose()?;
+        let buttons = devices
+            .buttons
+            .as_deref()
+            .map(|b| open_input(b, InputKind::Buttons))
+            .transpose()?;
+        let axes = devices
+            .axes
+            .as_deref()
+            .map(|a| open_input(a, InputKind::Analog))
+            .transpose()?;
+        let inputs = Inputs::new(clock, wand, buttons, axes, cave.tracker_to_room);
+        let navigator = Navigator::new(cave.navigation.clone(), &cave.room_to_scene);
+        Ok(Some(NavigationRun::new(navigator, inputs, scene)))
+    }
+
     pub fn new(navigator: Navigator, inputs: Inputs, scene: Option<Arc<Scene>>) -> Self {
         NavigationRun {
             navigator,

@@ -5,12 +5,12 @@
 use glam::DVec3;
 use holocave_scene::Scene;
 
-use super::body::{floor_under, travel};
+use super::body::{Body, floor_under, travel};
 use super::placement::{Placement, horizontal};
 
 /// Moves the user whose feet are at `feet` (room) by `speed` m/s (negative: backwards) for
 /// `dt` s along the horizontal part of `heading` (room); with a scene, walls stop it at
-/// `radius`.
+/// the body's radius.
 pub fn walk(
     place: &mut Placement,
     heading: DVec3,
@@ -18,15 +18,14 @@ pub fn walk(
     speed: f64,
     dt: f64,
     scene: Option<&Scene>,
-    radius: f64,
-    step_height: f64,
+    body: Body,
 ) {
     let Some(h) = horizontal(place.dir(heading)) else {
         return;
     };
     let wanted = h * (speed * dt);
     let moved = match scene {
-        Some(s) => travel(s, place.point(feet), wanted, radius, step_height),
+        Some(s) => travel(s, place.point(feet), wanted, body.radius, body.step_height),
         None => wanted,
     };
     place.shift(moved);
