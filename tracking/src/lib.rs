@@ -18,6 +18,7 @@ pub mod pose;
 pub mod predict;
 pub mod record;
 pub mod rotation;
+pub mod scripted;
 pub mod session_log;
 pub mod source;
 pub mod synthetic;

@@ -11,9 +11,12 @@
 use glam::{DVec3, Vec3};
 use holocave_scene::{Ray, Scene};
 
-/// Heights above the feet (m) of the rays that look for walls, besides one just over the
-/// highest step: a hip and a head height, so a table or a low lintel stops the user too.
-const BODY_HEIGHTS: [f64; 2] = [1.0, 1.7];
+/// The rays that look for walls start just over the highest step and go up this far above
+/// the feet (m), a head's height...
+const BODY_TOP: f64 = 1.9;
+/// ...every this many metres, so a table top or a lintel thinner than a hand stops the user
+/// too (about 60 rays a frame: microseconds).
+const BODY_SPACING: f64 = 0.025;
 
 /// The smallest cosine between the motion and a wall's normal the rays look far enough
 /// ahead for (about 87°).
@@ -70,10 +73,11 @@ pub fn blocked(
     radius: f64,
     step_height: f64,
 ) -> Option<Blocked> {
-    let heights = [step_height + 0.05, BODY_HEIGHTS[0], BODY_HEIGHTS[1]];
-    heights
-        .iter()
-        .filter_map(|&h| {
+    let low = step_height + 0.05;
+    let n = ((BODY_TOP - low) / BODY_SPACING).ceil().max(0.0) as usize;
+    (0..=n)
+        .map(|k| (low + k as f64 * BODY_SPACING).min(BODY_TOP.max(low)))
+        .filter_map(|h| {
             let origin = feet + DVec3::Y * h;
             let reach = dist + radius / MIN_APPROACH;
             let hit = scene.closest_hit(&ray(origin, dir), reach as f32)?;
