@@ -68,6 +68,8 @@ pub struct NavigationRun {
     /// What walking, flying and teleporting collide with (`None`: no collisions, no floor).
     pub scene: Option<Arc<Scene>>,
     last_ns: Option<u64>,
+    /// The buttons held at the last frame (changes are logged).
+    held: Vec<bool>,
 }
 
 impl NavigationRun {
@@ -112,6 +114,7 @@ impl NavigationRun {
             inputs,
             scene,
             last_ns: None,
+            held: Vec::new(),
         }
     }
 
@@ -122,7 +125,18 @@ impl NavigationRun {
             .last_ns
             .map_or(0.0, |t| now_ns.saturating_sub(t) as f64 * 1e-9);
         self.last_ns = Some(now_ns);
+        let before = self.held.clone();
         let input = self.inputs.advance(now_ns).clone();
+        for (b, &down) in input.buttons.iter().enumerate() {
+            if before.get(b).copied().unwrap_or(false) != down {
+                tracing::info!(
+                    "navigation at {:.3} s: button {b} {}",
+                    now_ns as f64 * 1e-9,
+                    if down { "held" } else { "released" }
+                );
+            }
+        }
+        self.held.clone_from(&input.buttons);
         self.navigator.step(head, &input, dt, self.scene.as_deref())
     }
 
