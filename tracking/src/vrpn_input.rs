@@ -188,10 +188,11 @@ mod tests {
                 pressed: true
             })
         );
+        // Button 2 released: the state is the second word, not the first.
         assert_eq!(
-            decode_button_change(&[0, 0, 0, 0, 0, 0, 0, 0]),
+            decode_button_change(&[0, 0, 0, 2, 0, 0, 0, 0]),
             Ok(InputEvent::Button {
-                index: 0,
+                index: 2,
                 pressed: false
             })
         );
