@@ -587,6 +587,11 @@ async fn run_frames(
     };
     // The frame's CAVE: the config's, with the navigation's room → scene transform.
     let mut placed = cave.clone();
+    // With navigation the frusta are kept in room coordinates (the room as the scene) and
+    // placed in the scene each frame, so a wall holding its last good views (an eye on or
+    // behind it) holds them where the room is now, not where it was.
+    let mut in_room = cave.clone();
+    in_room.room_to_scene = glam::DMat4::IDENTITY;
     let mut m = Master {
         cave,
         events,
@@ -597,7 +602,10 @@ async fn run_frames(
         summary: Summary::default(),
     };
     m.wait_for_walls(opts.wait_for_walls).await;
-    let mut frusta = CaveFrusta::new(cave);
+    let mut frusta = match opts.navigation {
+        Some(_) => CaveFrusta::new(&in_room),
+        None => CaveFrusta::new(cave),
+    };
     let period = cave.frame_period();
     let dead_node = cave.dead_node_timeout();
     let mut pacer = Pacer::new(period);
@@ -646,13 +654,25 @@ async fn run_frames(
         if let Some(log) = &mut nav_log {
             log.row(frame, master_ns, &place)?;
         }
-        frusta.update(&placed, &pose);
         let times = FrameTimes {
             master_ns,
             display_ns,
             tracker_ns,
         };
-        let msg = MasterMsg::Frame(frame_state(&placed, &frusta, frame, times, &pose));
+        let msg = if opts.navigation.is_some() {
+            frusta.update(&in_room, &pose);
+            let to_room = placed.room_to_scene.inverse();
+            let mut placed_frusta = frusta.clone();
+            for views in &mut placed_frusta.walls {
+                for (_, f) in &mut views.eyes {
+                    f.view *= to_room;
+                }
+            }
+            MasterMsg::Frame(frame_state(&placed, &placed_frusta, frame, times, &pose))
+        } else {
+            frusta.update(&placed, &pose);
+            MasterMsg::Frame(frame_state(&placed, &frusta, frame, times, &pose))
+        };
         if let Some(w) = &mut states {
             let bytes = encode(&msg, MAX_CLUSTER_FRAME)
                 .map_err(|e| std::io::Error::other(e.to_string()))?;

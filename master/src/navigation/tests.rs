@@ -370,3 +370,33 @@ fn teleport_stands_the_user_on_the_floor_where_the_wand_points() {
     nav.step(&head(), &held, DT, Some(&sc));
     assert_eq!(nav.placement(), p);
 }
+
+/// The master keeps the frusta in room coordinates when navigating and places each frame's
+/// views in the scene afterwards (`view · navigation⁻¹`): that is the very product the
+/// projection computes with the navigation inside, bit for bit, so the frame states are
+/// the same as if every frustum were computed in the scene.
+#[test]
+fn frusta_placed_after_the_fact_equal_frusta_computed_in_the_scene() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../configs/cave4.toml"
+    ))
+    .unwrap();
+    let cave = holocave_cave::parse_cave(&text, "cave4.toml").unwrap();
+    let nav = DMat4::from_rotation_translation(
+        DQuat::from_rotation_y(2.1) * DQuat::from_rotation_x(0.1),
+        DVec3::new(12.5, -0.3, -40.25),
+    );
+    let eye = DVec3::new(0.3, 1.55, -0.2);
+    for wall in &cave.walls {
+        let direct = holocave_cave::off_axis(wall, eye, cave.near, &nav).unwrap();
+        let room = holocave_cave::off_axis(wall, eye, cave.near, &DMat4::IDENTITY).unwrap();
+        assert_eq!(
+            (room.view * nav.inverse()).to_cols_array(),
+            direct.view.to_cols_array(),
+            "wall {}",
+            wall.name
+        );
+        assert_eq!(room.proj, direct.proj);
+    }
+}
