@@ -34,6 +34,8 @@ use crate::vrpn_input::{MAX_BUTTONS, MAX_CHANNELS};
 
 /// The comment line that marks a session log.
 pub const SESSION_LINE: &str = "# session: head, wand, buttons, axes";
+/// The farthest apart (s) the first rows of two devices of one session may be.
+pub const MAX_CLOCK_SPREAD_S: f64 = 86_400.0;
 /// The head rows' header.
 pub const HEADER: &str = "timestamp,x,y,z,qx,qy,qz,qw";
 
@@ -104,6 +106,8 @@ pub fn parse_session(text: &str, path: &Path) -> Result<SessionLog, SessionError
     let mut unit = TimeUnit::Nanoseconds;
     let mut rows = Vec::new();
     let mut last: [Option<i128>; 4] = [None; 4];
+    // Each device's first time and line.
+    let mut first: [Option<(i128, usize)>; 4] = [None; 4];
     for (i, raw) in text.lines().enumerate() {
         let line = raw.trim();
         let bad = |problem: String| SessionError::Row {
@@ -134,6 +138,7 @@ pub fn parse_session(text: &str, path: &Path) -> Result<SessionLog, SessionError
             )));
         }
         *prev = Some(t);
+        first[device as usize].get_or_insert((t, i + 1));
         rows.push(row);
     }
     let origin = rows
@@ -152,6 +157,25 @@ pub fn parse_session(text: &str, path: &Path) -> Result<SessionLog, SessionError
         .ok_or_else(|| SessionError::Empty {
             path: path.to_owned(),
         })?;
+    // Devices on different clocks (a synthetic head from 0 and a VRPN server's Unix time)
+    // would never meet in a replay: more than a day apart is refused.
+    if let Some((t0, l0)) = first[Device::Head as usize] {
+        for d in [Device::Wand, Device::Buttons, Device::Axes] {
+            if let Some((t, line)) = first[d as usize]
+                && ((t - t0) as f64 * unit.ns()).abs() > MAX_CLOCK_SPREAD_S * 1e9
+            {
+                return Err(SessionError::Row {
+                    path: path.to_owned(),
+                    line,
+                    row: format!("{d:?} at {t}"),
+                    problem: format!(
+                        "the {d:?} rows start {:.0} s away from the head's (line {l0}): the devices are not on one clock",
+                        (t - t0) as f64 * unit.ns() * 1e-9
+                    ),
+                });
+            }
+        }
+    }
     let ns = |t: i128| ((t - origin).max(0) as f64 * unit.ns()).round() as u64;
     let mut log = SessionLog::default();
     for row in rows {
@@ -391,6 +415,10 @@ mod tests {
             ),
             ("10,0,NaN,0,0,0,0,1\n", "y `NaN`"),
             ("axes,-5,0,0\n", "before the Axes row before it"),
+            (
+                "wand,1796301471584801000,0,1,0,0,0,0,1\n",
+                "not on one clock",
+            ),
         ];
         for (row, what) in cases {
             let text = format!("{good}{row}");
