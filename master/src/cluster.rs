@@ -645,7 +645,7 @@ async fn run_frames(
         let (pose, tracker_ns) = head.pose_at(display_ns);
         tracing::trace!("frame {frame}: head {:?}", pose.position);
         let place = match &mut opts.navigation {
-            Some(nav) => nav.frame(master_ns, &pose),
+            Some(nav) => nav.frame(master_ns, &pose, head.recentring()),
             None => Placement::from_mat4(&cave.room_to_scene),
         };
         if opts.navigation.is_some() {

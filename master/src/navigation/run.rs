@@ -119,14 +119,18 @@ impl NavigationRun {
     }
 
     /// The transform of the frame at `now_ns` on the master's clock, for the head at `head`
-    /// (room). The first frame's step is zero long.
-    pub fn frame(&mut self, now_ns: u64, head: &Pose) -> Placement {
+    /// (room); the wand is moved by `recentring` as the head was. The first frame's step is
+    /// zero long.
+    pub fn frame(&mut self, now_ns: u64, head: &Pose, recentring: glam::Vec3) -> Placement {
         let dt = self
             .last_ns
             .map_or(0.0, |t| now_ns.saturating_sub(t) as f64 * 1e-9);
         self.last_ns = Some(now_ns);
         let before = self.held.clone();
-        let input = self.inputs.advance(now_ns).clone();
+        let mut input = self.inputs.advance(now_ns).clone();
+        if let Some(w) = &mut input.wand {
+            w.position += recentring.as_dvec3();
+        }
         for (b, &down) in input.buttons.iter().enumerate() {
             if before.get(b).copied().unwrap_or(false) != down {
                 tracing::info!(
