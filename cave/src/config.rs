@@ -14,9 +14,10 @@ pub struct CaveFile {
     #[serde(default)]
     pub user: UserConfig,
     pub tracking: TrackingSection,
-    /// Room → scene: where the physical room sits in the scene (navigation).
+    /// Room → scene at the start (where the physical room sits in the scene), and the
+    /// devices and settings of travel.
     #[serde(default)]
-    pub navigation: RigidTransform,
+    pub navigation: crate::navigation::NavigationSection,
     #[serde(rename = "wall")]
     pub walls: Vec<WallConfig>,
     #[serde(default)]

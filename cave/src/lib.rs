@@ -10,6 +10,7 @@
 
 pub mod config;
 pub mod frustum;
+pub mod navigation;
 pub mod screen;
 pub mod unfolded;
 pub mod validate;
@@ -17,6 +18,7 @@ pub mod window;
 
 pub use config::CaveFile;
 pub use frustum::{CaveFrusta, Eye, Frustum, FrustumFault, eye_position, off_axis, wall_frusta};
+pub use navigation::{Navigation, NavigationSection, TravelMode};
 pub use screen::WallView;
 pub use unfolded::{Place, Unfolded, unfold};
 pub use validate::{Cave, ConfigError, MIN_EYE_DISTANCE, Wall, load_cave, parse_cave};

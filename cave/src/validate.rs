@@ -104,7 +104,10 @@ pub struct Cave {
     pub head_to_eyes: DVec3,
     pub source: SourceSpec,
     pub tracker_to_room: DMat4,
+    /// Room → scene at the start (the config's `[navigation]` transform).
     pub room_to_scene: DMat4,
+    /// How the user travels from there.
+    pub navigation: crate::navigation::Navigation,
     pub tracking: TrackingParams,
     pub cluster: ClusterConfig,
 }
@@ -328,7 +331,8 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
         "tracking.tracker_to_room",
         &mut problems,
     );
-    let room_to_scene = transform(&file.navigation, "navigation", &mut problems);
+    let room_to_scene = transform(&file.navigation.start(), "navigation", &mut problems);
+    let navigation = crate::navigation::check(&file.navigation, &mut problems);
     let c = &file.cluster;
     if let Err(e) = check_rate(c.rate_hz) {
         problems.push(format!("cluster.rate_hz: {e}"));
@@ -358,6 +362,7 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
         source,
         tracker_to_room,
         room_to_scene,
+        navigation,
         tracking: TrackingParams {
             guard: file.tracking.guard,
             filter: file.tracking.filter,

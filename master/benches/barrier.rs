@@ -99,6 +99,8 @@ fn cluster(frames: u64) -> Summary {
             stop: Arc::new(AtomicBool::new(false)),
             wait_for_walls: Duration::from_secs(10),
             status_extra: None,
+            navigation: None,
+            navigation_log: None,
         },
     )
     .unwrap();

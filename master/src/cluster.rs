@@ -29,6 +29,9 @@ use tokio::time::timeout_at;
 use crate::barrier::{Barrier, NodeId};
 use crate::frame_state::{FrameTimes, frame_state};
 use crate::head::{Clock, Head};
+use crate::navigation::log::NavigationLog;
+use crate::navigation::placement::Placement;
+use crate::navigation::run::NavigationRun;
 use crate::pacing::Pacer;
 use holocave_cave::Cave;
 use holocave_cave::CaveFrusta;
@@ -66,6 +69,10 @@ pub struct MasterOptions {
     /// Appended to each status line (the holodeck's fill and ray rate, when the master
     /// hosts it).
     pub status_extra: Option<Box<dyn FnMut() -> String + Send>>,
+    /// Navigation from input devices; `None`: the config's start transform every frame.
+    pub navigation: Option<NavigationRun>,
+    /// Write each frame's room → scene transform to this `navigation.csv`.
+    pub navigation_log: Option<PathBuf>,
 }
 
 /// What a run measured.
@@ -574,6 +581,17 @@ async fn run_frames(
         Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p)?)),
         None => None,
     };
+    let mut nav_log = match &opts.navigation_log {
+        Some(p) => Some(NavigationLog::create(p)?),
+        None => None,
+    };
+    // The frame's CAVE: the config's, with the navigation's room → scene transform.
+    let mut placed = cave.clone();
+    // With navigation the frusta are kept in room coordinates (the room as the scene) and
+    // placed in the scene each frame, so a wall holding its last good views (an eye on or
+    // behind it) holds them where the room is now, not where it was.
+    let mut in_room = cave.clone();
+    in_room.room_to_scene = glam::DMat4::IDENTITY;
     let mut m = Master {
         cave,
         events,
@@ -584,7 +602,10 @@ async fn run_frames(
         summary: Summary::default(),
     };
     m.wait_for_walls(opts.wait_for_walls).await;
-    let mut frusta = CaveFrusta::new(cave);
+    let mut frusta = match opts.navigation {
+        Some(_) => CaveFrusta::new(&in_room),
+        None => CaveFrusta::new(cave),
+    };
     let period = cave.frame_period();
     let dead_node = cave.dead_node_timeout();
     let mut pacer = Pacer::new(period);
@@ -623,13 +644,35 @@ async fn run_frames(
         head.advance(master_ns);
         let (pose, tracker_ns) = head.pose_at(display_ns);
         tracing::trace!("frame {frame}: head {:?}", pose.position);
-        frusta.update(cave, &pose);
+        let place = match &mut opts.navigation {
+            Some(nav) => nav.frame(master_ns, &pose, head.recentring()),
+            None => Placement::from_mat4(&cave.room_to_scene),
+        };
+        if opts.navigation.is_some() {
+            placed.room_to_scene = place.to_mat4();
+        }
+        if let Some(log) = &mut nav_log {
+            log.row(frame, master_ns, &place)?;
+        }
         let times = FrameTimes {
             master_ns,
             display_ns,
             tracker_ns,
         };
-        let msg = MasterMsg::Frame(frame_state(cave, &frusta, frame, times, &pose));
+        let msg = if opts.navigation.is_some() {
+            frusta.update(&in_room, &pose);
+            let to_room = placed.room_to_scene.inverse();
+            let mut placed_frusta = frusta.clone();
+            for views in &mut placed_frusta.walls {
+                for (_, f) in &mut views.eyes {
+                    f.view *= to_room;
+                }
+            }
+            MasterMsg::Frame(frame_state(&placed, &placed_frusta, frame, times, &pose))
+        } else {
+            frusta.update(&placed, &pose);
+            MasterMsg::Frame(frame_state(&placed, &frusta, frame, times, &pose))
+        };
         if let Some(w) = &mut states {
             let bytes = encode(&msg, MAX_CLUSTER_FRAME)
                 .map_err(|e| std::io::Error::other(e.to_string()))?;
@@ -666,6 +709,9 @@ async fn run_frames(
             // Far behind (a stall): start again from now rather than racing to catch up.
             next_tick = now;
         }
+    }
+    if let Some(log) = &mut nav_log {
+        log.flush()?;
     }
     m.send(
         &MasterMsg::Shutdown {

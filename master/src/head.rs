@@ -193,6 +193,15 @@ impl Head {
         (self.last, Some(arrival))
     }
 
+    /// How far `--recenter` moved the tracker's positions (room metres): other devices on
+    /// the same tracker (a wand) move with the head. Zero without recentring.
+    pub fn recentring(&self) -> Vec3 {
+        match (self.recenter, self.origin) {
+            (Some(inside), Some(o)) => inside - o,
+            _ => Vec3::ZERO,
+        }
+    }
+
     /// True once a recorded source has no more samples.
     pub fn ended(&self) -> bool {
         self.ended && self.pending.is_none()
@@ -285,6 +294,31 @@ mod tests {
         assert!(
             age >= waited.as_nanos() as u64 && age <= most.as_nanos() as u64,
             "arrived {age} ns before the frame read it; it waited {waited:?}"
+        );
+    }
+
+    #[test]
+    fn recentring_is_the_shift_between_the_recentred_and_the_plain_head() {
+        let c = cave("synthetic:walk");
+        let mut plain = Head::open(&c, None, Clock::Replay, false, false).unwrap();
+        let mut moved = Head::open(&c, None, Clock::Replay, false, true).unwrap();
+        assert_eq!(moved.recentring(), Vec3::ZERO, "nothing read yet");
+        for k in 0..30u64 {
+            let now = k * 16_666_667;
+            plain.advance(now);
+            moved.advance(now);
+            let (a, b) = (plain.pose_at(now).0, moved.pose_at(now).0);
+            // f32 positions of about a metre: a few ulps.
+            assert!(
+                (b.position - moved.recentring() - a.position).length() < 1e-6,
+                "frame {k}: {} vs {}",
+                b.position - moved.recentring(),
+                a.position
+            );
+        }
+        assert!(
+            moved.recentring().length() > 0.1,
+            "the walk starts away from the inside point"
         );
     }
 

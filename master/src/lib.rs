@@ -6,4 +6,5 @@ pub mod barrier;
 pub mod cluster;
 pub mod frame_state;
 pub mod head;
+pub mod navigation;
 pub mod pacing;

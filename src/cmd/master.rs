@@ -12,6 +12,8 @@ use holocave_cave::{Cave, load_cave};
 use holocave_holodeck::auth::Credentials;
 use holocave_master::cluster::{MasterOptions, Summary, pacer_since, run as run_master};
 use holocave_master::head::{Clock, Head};
+use holocave_master::navigation::log::FILE_NAME as NAVIGATION_CSV;
+use holocave_master::navigation::run::{Devices, NavigationRun};
 use holocave_protocol::stats::quantile_duration;
 use holocave_tracking::source::SourceSpec;
 
@@ -36,6 +38,9 @@ pub struct MasterArgs {
     /// Append every frame state, as sent, to this file.
     #[arg(long)]
     pub states: Option<PathBuf>,
+    /// Output folder: DIR/navigation.csv, the room → scene transform of every frame.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     /// A baked light field (`holocave vlf bake`) the walls draw under their samples: its
     /// path is told to every node, which reads it there.
     #[arg(long)]
@@ -60,8 +65,9 @@ pub struct HolodeckArgs {
     /// render nodes draw from it and `holocave worker` processes fill it. Needs --scene.
     #[arg(long, conflicts_with = "holodeck_server")]
     pub holodeck: Option<PathBuf>,
-    /// The scene the hosted holodeck is traced from (the nodes' scene).
-    #[arg(long, requires = "holodeck")]
+    /// The scene the hosted holodeck is traced from (the nodes' scene), and that walking,
+    /// flying and teleporting collide with (without it, navigation has no walls or floor).
+    #[arg(long)]
     pub scene: Option<PathBuf>,
     /// Accept the holodeck's workers and render nodes here (default: the config's
     /// cluster.holodeck).
@@ -160,6 +166,18 @@ pub struct HeadArgs {
     /// for bit.
     #[arg(long)]
     pub replay: bool,
+    /// The wand: a tracker sensor (vrpn://Wand0@HOST#1) or a session log (file:PATH);
+    /// default: the config's navigation.wand, or the --tracker session log's wand rows.
+    #[arg(long)]
+    pub wand: Option<String>,
+    /// The wand's buttons: vrpn://Buttons0@HOST or file:PATH (a session log); default: the
+    /// config's navigation.buttons.
+    #[arg(long)]
+    pub buttons: Option<String>,
+    /// The joystick's axes: vrpn://Joystick0@HOST or file:PATH (a session log); default:
+    /// the config's navigation.axes.
+    #[arg(long)]
+    pub axes: Option<String>,
 }
 
 impl HeadArgs {
@@ -170,6 +188,49 @@ impl HeadArgs {
         } else {
             Clock::Live
         }
+    }
+
+    /// The input devices bound: these flags, else the config's, else the devices of a
+    /// `--tracker` session log.
+    pub fn devices(&self, cave: &Cave) -> Result<Devices> {
+        let given = Devices {
+            wand: self.wand.clone(),
+            buttons: self.buttons.clone(),
+            axes: self.axes.clone(),
+        };
+        Ok(given.resolve(cave, self.tracker.as_deref())?)
+    }
+
+    /// Navigation from the devices bound (`None` without any); `scene` loads what it
+    /// collides with.
+    pub fn navigation(
+        &self,
+        cave: &Cave,
+        scene: Option<&std::path::Path>,
+    ) -> Result<Option<NavigationRun>> {
+        let devices = self.devices(cave)?;
+        if devices.is_empty() {
+            return Ok(None);
+        }
+        let scene = match scene {
+            Some(p) => Some(std::sync::Arc::new(super::render::load_scene(
+                p, None, false,
+            )?)),
+            None => None,
+        };
+        println!(
+            "navigation: {:?} mode; wand {}, buttons {}, axes {}{}",
+            cave.navigation.mode,
+            devices.wand.as_deref().unwrap_or("none"),
+            devices.buttons.as_deref().unwrap_or("none"),
+            devices.axes.as_deref().unwrap_or("none"),
+            if scene.is_some() {
+                ""
+            } else {
+                " (no scene: no walls, no floor)"
+            }
+        );
+        Ok(NavigationRun::open(cave, &devices, self.clock(), scene)?)
     }
 
     pub fn open(&self, cave: &Cave) -> Result<Head> {
@@ -271,6 +332,16 @@ pub fn run(args: MasterArgs) -> Result<()> {
     // Tests and scripts read the address from the first line.
     std::io::Write::flush(&mut std::io::stdout())?;
     let head = args.head.open(&cave)?;
+    let navigation = args
+        .head
+        .navigation(&cave, args.holodeck.scene.as_deref())?;
+    let navigation_log = match &args.out {
+        Some(dir) => {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+            Some(dir.join(NAVIGATION_CSV))
+        }
+        None => None,
+    };
     let (hosted, holodeck) = args.holodeck.start(&cave, credentials.clone(), "master")?;
     let summary = run_master(
         &cave,
@@ -289,8 +360,13 @@ pub fn run(args: MasterArgs) -> Result<()> {
             stop: super::interrupt::ctrl_c_flag(),
             wait_for_walls: Duration::from_secs_f64(args.wait_for_walls),
             status_extra: hosted.as_ref().map(Hosted::status),
+            navigation,
+            navigation_log: navigation_log.clone(),
         },
     );
+    if let Some(p) = navigation_log {
+        println!("room → scene transform of every frame in {}", p.display());
+    }
     // The holodeck commits what was traced even when the master failed.
     if let Some(h) = hosted {
         stop_hosted(h)?;

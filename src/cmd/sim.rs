@@ -228,6 +228,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .push(Watched::spawn(format!("node {}", wall.name), &mut command)?);
     }
     let head = args.head.open(&cave)?;
+    let navigation = args.head.navigation(&cave, Some(&args.scene))?;
     let summary = run_master(
         &cave,
         head,
@@ -245,6 +246,8 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             stop: super::interrupt::ctrl_c_flag(),
             wait_for_walls: Duration::from_secs(60),
             status_extra: hosted.as_ref().map(Hosted::status),
+            navigation,
+            navigation_log: Some(args.out.join(holocave_master::navigation::log::FILE_NAME)),
         },
     );
     // Stopping the holodeck commits its samples and tells the workers goodbye, also when
@@ -302,10 +305,11 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         println!("mosaic {}", p.display());
     }
     println!(
-        "{} mosaics in {}; frame states in {}",
+        "{} mosaics in {}; frame states in {}; room → scene transforms in {}",
         mosaics.len(),
         args.out.join("mosaic").display(),
-        args.out.join("states.bin").display()
+        args.out.join("states.bin").display(),
+        args.out.join("navigation.csv").display()
     );
     Ok(())
 }

@@ -9,14 +9,20 @@ use clap::{Args, Subcommand};
 use holocave_tracking::TrackingParams;
 use holocave_tracking::csv_log::TimeUnit;
 use holocave_tracking::eval::{self, CSV_HEADER};
+use holocave_tracking::input_source::{open_input, open_wand};
 use holocave_tracking::pose::Sample;
-use holocave_tracking::record::record;
-use holocave_tracking::source::{Next, Pacing, SourceSpec, open};
+use holocave_tracking::record::{SessionSources, record, record_session};
+use holocave_tracking::source::{Next, Pacing, SourceSpec, TrackerSource, open};
+use holocave_tracking::vrpn_input::InputKind;
 
 #[derive(Subcommand)]
 pub enum TrackingCommand {
-    /// Record a source to CSV (timestamp in ns, x, y, z, qx, qy, qz, qw).
+    /// Record a source to CSV (timestamp in ns, x, y, z, qx, qy, qz, qw); with --wand,
+    /// --buttons or --axes, a session log of every device.
     Record(RecordArgs),
+    /// Write a scripted session log: a user standing still, the wand held ahead, the
+    /// joystick following --step SECONDS:FORWARD:TURN steps.
+    Script(ScriptArgs),
     /// Evaluate prediction on recorded traces (resampled to 200 Hz).
     Eval(EvalArgs),
     /// Grid-search the predictors' smoothing time constants on recorded traces.
@@ -40,6 +46,29 @@ pub struct RecordArgs {
     /// Time unit of a CSV source: ns, us, ms, s or ticks (default: detected).
     #[arg(long)]
     time_unit: Option<TimeUnit>,
+    /// Also record a wand: vrpn://Wand0@HOST#1, a session log (file:PATH) or synthetic:NAME.
+    #[arg(long)]
+    wand: Option<String>,
+    /// Also record buttons: vrpn://Buttons0@HOST or file:PATH (a session log).
+    #[arg(long)]
+    buttons: Option<String>,
+    /// Also record joystick axes: vrpn://Joystick0@HOST or file:PATH (a session log).
+    #[arg(long)]
+    axes: Option<String>,
+}
+
+#[derive(Args)]
+pub struct ScriptArgs {
+    /// Output session log (CSV).
+    #[arg(long)]
+    out: PathBuf,
+    /// A step of the joystick: SECONDS:FORWARD:TURN (deflections in −1..1; turn +1: to the
+    /// right); repeat for each step, in order.
+    #[arg(long = "step", required = true)]
+    steps: Vec<holocave_tracking::scripted::Step>,
+    /// Head and wand rows per second.
+    #[arg(long, default_value_t = 2.0)]
+    pose_rate: f64,
 }
 
 #[derive(Args)]
@@ -76,6 +105,7 @@ pub struct TuneArgs {
 pub fn run(cmd: TrackingCommand) -> Result<()> {
     match cmd {
         TrackingCommand::Record(a) => run_record(a),
+        TrackingCommand::Script(a) => run_script(a),
         TrackingCommand::Eval(a) => run_eval(a),
         TrackingCommand::Tune(a) => run_tune(a),
     }
@@ -93,12 +123,73 @@ fn run_record(a: RecordArgs) -> Result<()> {
         Pacing::AsFastAsPossible
     };
     let mut source = open(&spec, pacing, a.time_unit)?;
+    if a.wand.is_some() || a.buttons.is_some() || a.axes.is_some() {
+        return record_devices(&a, source.as_mut(), pacing);
+    }
     let report = record(source.as_mut(), &a.out, a.seconds)?;
     println!(
         "{}: {} samples written; guard: {}",
         a.out.display(),
         report.written,
         report.guard
+    );
+    Ok(())
+}
+
+/// Records the head and the other devices into one session log.
+fn record_devices(a: &RecordArgs, head: &mut dyn TrackerSource, pacing: Pacing) -> Result<()> {
+    let mut wand = a
+        .wand
+        .as_deref()
+        .map(|w| open_wand(w, pacing))
+        .transpose()?;
+    let mut buttons = (a.buttons.as_deref())
+        .map(|b| open_input(b, InputKind::Buttons))
+        .transpose()?;
+    let mut axes = (a.axes.as_deref())
+        .map(|x| open_input(x, InputKind::Analog))
+        .transpose()?;
+    let report = record_session(
+        SessionSources {
+            head,
+            wand: wand.as_mut().map(|w| w.as_mut() as &mut dyn TrackerSource),
+            buttons: buttons.as_mut(),
+            axes: axes.as_mut(),
+        },
+        &a.out,
+        a.seconds,
+    )?;
+    println!(
+        "{}: session log of {} head samples (guard: {}), {} wand samples (guard: {}), {} button and axis events",
+        a.out.display(),
+        report.head.written,
+        report.head.guard,
+        report.wand.written,
+        report.wand.guard,
+        report.inputs
+    );
+    Ok(())
+}
+
+fn run_script(a: ScriptArgs) -> Result<()> {
+    if !(a.pose_rate > 0.0 && a.pose_rate <= 1000.0) {
+        bail!(
+            "--pose-rate {}: expected 0 to 1000 rows a second",
+            a.pose_rate
+        );
+    }
+    let file =
+        std::fs::File::create(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    let rows = holocave_tracking::scripted::write_script(
+        std::io::BufWriter::new(file),
+        &a.steps,
+        a.pose_rate,
+    )
+    .with_context(|| format!("writing {}", a.out.display()))?;
+    let seconds: f64 = a.steps.iter().map(|s| s.seconds).sum();
+    println!(
+        "{}: scripted session of {seconds} s, {rows} rows",
+        a.out.display()
     );
     Ok(())
 }

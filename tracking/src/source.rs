@@ -79,6 +79,8 @@ pub enum SourceError {
     Csv(#[from] CsvError),
     #[error(transparent)]
     VrpnLog(#[from] VrpnLogError),
+    #[error(transparent)]
+    Session(#[from] crate::session_log::SessionError),
 }
 
 /// What a source has next.
@@ -113,6 +115,11 @@ pub fn open(
             target.clone(),
             ClientOptions::default(),
         ))),
+        SourceSpec::Csv(path) if is_session_file(path) => {
+            // A session log is read strictly: a garbage row is an error naming it.
+            let log = crate::session_log::read_session(path)?;
+            Box::new(Replay::new(log.head, pacing))
+        }
         SourceSpec::Csv(path) => {
             let log = read_csv(path, unit)?;
             if log.malformed_count > 0 {
@@ -142,6 +149,12 @@ pub fn open(
             start: None,
         }),
     })
+}
+
+/// True when `path` reads as a session log (unreadable files are left to the CSV reader,
+/// which names the problem).
+fn is_session_file(path: &std::path::Path) -> bool {
+    std::fs::read_to_string(path).is_ok_and(|t| crate::session_log::is_session(&t))
 }
 
 /// Plays a list of samples.
@@ -240,6 +253,8 @@ impl TrackerSource for VrpnSource {
                     tracing::info!("connected to VRPN server {addr}")
                 }
                 Ok(VrpnEvent::Disconnected(e)) => tracing::warn!("{e}"),
+                // A tracker client reports no input events.
+                Ok(VrpnEvent::Input(..)) => {}
                 Err(_) => return Next::Idle,
             }
         }

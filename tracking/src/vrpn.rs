@@ -1,5 +1,6 @@
-//! A VRPN tracker client over TCP (`Tracker0@host:port`, sensor selectable), as a background
-//! thread that hands samples and connection events to the caller through a channel.
+//! A VRPN client over TCP, as a background thread that hands reports and connection events
+//! to the caller through a channel: a tracker's sensor (`Tracker0@host:port#1`: the head,
+//! a wand), or a button or analog device (`Buttons0@host`, `Joystick0@host`).
 //!
 //! The session follows VRPN's own client: connect, send our cookie, check the server's,
 //! announce our sender and the message type we use, then read the server's descriptions
@@ -15,7 +16,9 @@ use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::thread::JoinHandle;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
+use crate::input::InputSample;
 use crate::pose::Sample;
+use crate::vrpn_input::{InputKind, InputSelector, InputWireError};
 use crate::vrpn_wire::{
     Message, POS_QUAT, RemoteNames, SENDER_DESCRIPTION, StreamDecoder, TYPE_DESCRIPTION,
     TrackerSelector, WireError, cookie,
@@ -84,8 +87,22 @@ pub enum VrpnError {
     Io { addr: String, source: io::Error },
     #[error("VRPN server {addr} broke the protocol: {source}")]
     Protocol { addr: String, source: WireError },
+    #[error("VRPN server {addr} sent a bad input report: {source}")]
+    Input {
+        addr: String,
+        source: InputWireError,
+    },
     #[error("VRPN server {addr} closed the connection")]
     Closed { addr: String },
+}
+
+/// What a client follows on its device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Follow {
+    /// `Pos_Quat` reports of the target's sensor.
+    Tracker,
+    /// Button or analog reports.
+    Input(InputKind),
 }
 
 /// What the client thread reports.
@@ -96,6 +113,9 @@ pub enum VrpnEvent {
     /// A report of the selected device and sensor (time: the server's clock), and when it
     /// was read off the socket here.
     Sample(Sample, std::time::Instant),
+    /// A button or analog report of the device (time: the server's clock), and when it was
+    /// read off the socket here.
+    Input(InputSample, std::time::Instant),
     /// The connection ended (or could not be made); the client retries.
     Disconnected(VrpnError),
 }
@@ -130,13 +150,22 @@ pub struct VrpnClient {
 }
 
 impl VrpnClient {
-    /// Starts connecting to `target` in the background.
+    /// Starts connecting to `target`'s tracker sensor in the background.
     pub fn spawn(target: VrpnTarget, options: ClientOptions) -> VrpnClient {
+        Self::spawn_following(target, Follow::Tracker, options)
+    }
+
+    /// Starts connecting to `target` in the background, following `follow`.
+    pub fn spawn_following(
+        target: VrpnTarget,
+        follow: Follow,
+        options: ClientOptions,
+    ) -> VrpnClient {
         let (tx, events) = mpsc::channel();
         let (stop, stop_rx) = mpsc::channel();
         let thread = std::thread::Builder::new()
             .name(format!("vrpn {target}"))
-            .spawn(move || run(target, options, tx, stop_rx))
+            .spawn(move || run(target, follow, options, tx, stop_rx))
             .expect("spawning the VRPN client thread");
         VrpnClient {
             events,
@@ -169,11 +198,17 @@ fn stop_requested(stop: &Receiver<()>) -> bool {
     !matches!(stop.try_recv(), Err(TryRecvError::Empty))
 }
 
-fn run(target: VrpnTarget, options: ClientOptions, tx: Sender<VrpnEvent>, stop: Receiver<()>) {
+fn run(
+    target: VrpnTarget,
+    follow: Follow,
+    options: ClientOptions,
+    tx: Sender<VrpnEvent>,
+    stop: Receiver<()>,
+) {
     let mut backoff = options.retry_min;
     let mut failing = false;
     loop {
-        match session(&target, &options, &tx, &stop) {
+        match session(&target, follow, &options, &tx, &stop) {
             Ok(Stop::Requested) => return,
             Err((error, was_connected)) => {
                 if was_connected {
@@ -200,6 +235,7 @@ fn run(target: VrpnTarget, options: ClientOptions, tx: Sender<VrpnEvent>, stop: 
 /// handshake had completed.
 fn session(
     target: &VrpnTarget,
+    follow: Follow,
     options: &ClientOptions,
     tx: &Sender<VrpnEvent>,
     stop: &Receiver<()>,
@@ -223,11 +259,24 @@ fn session(
     let mut stream = TcpStream::connect_timeout(&sock, options.connect_timeout).map_err(io)?;
     stream.set_nodelay(true).map_err(io)?;
     stream.set_read_timeout(Some(options.poll)).map_err(io)?;
-    stream.write_all(&hello(&target.device)).map_err(io)?;
+    let types: &[&str] = match follow {
+        Follow::Tracker => &[POS_QUAT],
+        Follow::Input(kind) => kind.types(),
+    };
+    stream
+        .write_all(&hello(&target.device, types))
+        .map_err(io)?;
 
     let selector = TrackerSelector {
         device: target.device.clone(),
         sensor: target.sensor,
+    };
+    let inputs = match follow {
+        Follow::Tracker => None,
+        Follow::Input(kind) => Some(InputSelector {
+            device: target.device.clone(),
+            kind,
+        }),
     };
     let mut decoder = StreamDecoder::new();
     let mut names = RemoteNames::default();
@@ -288,8 +337,26 @@ fn session(
             if names.absorb(&msg).map_err(protocol)? {
                 continue;
             }
-            if let Some(sample) = selector.sample(&names, &msg).map_err(protocol)?
-                && tx.send(VrpnEvent::Sample(sample, arrived)).is_err()
+            let event = match &inputs {
+                None => selector
+                    .sample(&names, &msg)
+                    .map_err(protocol)?
+                    .map(|s| VrpnEvent::Sample(s, arrived)),
+                Some(inputs) => inputs
+                    .event(&names, &msg)
+                    .map_err(|source| {
+                        (
+                            VrpnError::Input {
+                                addr: addr.clone(),
+                                source,
+                            },
+                            true,
+                        )
+                    })?
+                    .map(|e| VrpnEvent::Input(e, arrived)),
+            };
+            if let Some(event) = event
+                && tx.send(event).is_err()
             {
                 return Ok(Stop::Requested);
             }
@@ -301,15 +368,19 @@ fn session(
 }
 
 /// What the client sends first: its cookie, a sender description of the device it wants,
-/// and the type description of the reports it understands (as VRPN's clients do).
-fn hello(device: &str) -> Vec<u8> {
+/// and the type descriptions of the reports it understands (as VRPN's clients do).
+fn hello(device: &str, types: &[&str]) -> Vec<u8> {
     let now = SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .unwrap_or_default();
     let time = (now.as_secs() as u32, now.subsec_micros());
     let mut out = cookie(0).to_vec();
     out.extend(Message::description(SENDER_DESCRIPTION, 0, device, 0, time).encode());
-    out.extend(Message::description(TYPE_DESCRIPTION, 0, POS_QUAT, 1, time).encode());
+    for (id, name) in types.iter().enumerate() {
+        out.extend(
+            Message::description(TYPE_DESCRIPTION, id as i32, name, id as u32 + 1, time).encode(),
+        );
+    }
     out
 }
 
@@ -375,6 +446,11 @@ pub(crate) mod tests {
 
         /// Accepts one client (guarded) and checks what it sends first.
         fn accept(&self, device: &str) -> Conn {
+            self.accept_announcing(device, POS_QUAT)
+        }
+
+        /// Accepts one client that announces `device` and, as its type 0, `first_type`.
+        fn accept_announcing(&self, device: &str, first_type: &str) -> Conn {
             let listener = self.listener.try_clone().unwrap();
             let (tx, rx) = mpsc::channel();
             std::thread::spawn(move || {
@@ -391,7 +467,7 @@ pub(crate) mod tests {
             let mut dec = StreamDecoder::new();
             dec.feed(&c);
             let mut names = RemoteNames::default();
-            while names.kind(0) != Some(POS_QUAT) {
+            while names.kind(0) != Some(first_type) {
                 let mut b = [0u8; 256];
                 let n = stream.read(&mut b).unwrap();
                 assert!(n > 0, "client closed during its descriptions");
@@ -466,6 +542,74 @@ pub(crate) mod tests {
         match next(client) {
             VrpnEvent::Sample(s, _) => s,
             other => panic!("expected a sample, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_button_client_reads_changes_and_states_of_its_device_and_refuses_a_bad_one() {
+        use crate::input::InputEvent;
+        use crate::vrpn_input::{
+            BUTTON_CHANGE, BUTTON_STATES, encode_button_change, encode_button_states,
+        };
+        let server = FakeServer::bind("127.0.0.1:0");
+        let target = VrpnTarget {
+            device: "Buttons0".into(),
+            host: "127.0.0.1".into(),
+            port: server.addr().port(),
+            sensor: 0,
+        };
+        let client = VrpnClient::spawn_following(
+            target,
+            Follow::Input(InputKind::Buttons),
+            ClientOptions::default(),
+        );
+        let mut conn = server.accept_announcing("Buttons0", BUTTON_CHANGE);
+        conn.stream.write_all(&cookie(0)).unwrap();
+        let d = |kind, id, name: &str| Message::description(kind, id, name, 0, (0, 0)).payload;
+        conn.send(
+            4,
+            SENDER_DESCRIPTION,
+            d(SENDER_DESCRIPTION, 4, "Buttons0"),
+            0,
+        );
+        conn.send(
+            9,
+            TYPE_DESCRIPTION,
+            d(TYPE_DESCRIPTION, 9, BUTTON_CHANGE),
+            0,
+        );
+        conn.send(
+            8,
+            TYPE_DESCRIPTION,
+            d(TYPE_DESCRIPTION, 8, BUTTON_STATES),
+            0,
+        );
+        conn.send(4, 8, encode_button_states(&[0, 0]), 1);
+        conn.send(4, 9, encode_button_change(1, 1), 2);
+        conn.send(4, 9, vec![0, 0, 0, 1], 3); // 4 bytes short
+        assert!(matches!(next(&client), VrpnEvent::Connected { .. }));
+        let inputs: Vec<_> = (0..2)
+            .map(|_| match next(&client) {
+                VrpnEvent::Input(e, _) => e,
+                other => panic!("expected an input, got {other:?}"),
+            })
+            .collect();
+        assert_eq!(inputs[0].event, InputEvent::Buttons(vec![false, false]));
+        assert_eq!(
+            (inputs[1].t_ns, &inputs[1].event),
+            (
+                2_000_000,
+                &InputEvent::Button {
+                    index: 1,
+                    pressed: true
+                }
+            )
+        );
+        match next(&client) {
+            VrpnEvent::Disconnected(e @ VrpnError::Input { .. }) => {
+                assert!(e.to_string().contains("4 bytes, expected 8"), "{e}")
+            }
+            other => panic!("expected an input error, got {other:?}"),
         }
     }
 

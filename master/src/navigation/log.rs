@@ -1,0 +1,87 @@
+//! `navigation.csv`: the room → scene transform each frame used, one row per frame:
+//! `frame,time_ns,tx,ty,tz,qx,qy,qz,qw` (time on the master's clock; translation in scene
+//! metres; rotation a unit quaternion). Numbers are written in their shortest exact form,
+//! so equal transforms give equal files.
+
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use super::placement::Placement;
+
+/// The file's header line.
+pub const HEADER: &str = "frame,time_ns,tx,ty,tz,qx,qy,qz,qw";
+/// Its name in an output folder.
+pub const FILE_NAME: &str = "navigation.csv";
+
+/// Writes `navigation.csv`.
+pub struct NavigationLog {
+    out: BufWriter<std::fs::File>,
+    path: PathBuf,
+}
+
+impl NavigationLog {
+    pub fn create(path: &Path) -> std::io::Result<NavigationLog> {
+        let mut out = BufWriter::new(std::fs::File::create(path)?);
+        writeln!(out, "{HEADER}")?;
+        Ok(NavigationLog {
+            out,
+            path: path.to_owned(),
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn row(&mut self, frame: u64, time_ns: u64, p: &Placement) -> std::io::Result<()> {
+        let (t, q) = (p.translation, p.rotation);
+        writeln!(
+            self.out,
+            "{frame},{time_ns},{},{},{},{},{},{},{}",
+            t.x, t.y, t.z, q.x, q.y, q.z, q.w
+        )
+    }
+
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// One row read back.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Row {
+    pub frame: u64,
+    pub time_ns: u64,
+    pub translation: [f64; 3],
+    pub rotation: [f64; 4],
+}
+
+/// Reads a `navigation.csv`; a bad row is an error naming its line.
+pub fn read(text: &str) -> Result<Vec<Row>, String> {
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, h)) if h == HEADER => {}
+        other => {
+            return Err(format!(
+                "line 1: expected the header `{HEADER}`, got {other:?}"
+            ));
+        }
+    }
+    lines
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| {
+            let f: Vec<&str> = l.split(',').collect();
+            let bad = || format!("line {}: `{l}` is not a navigation row", i + 1);
+            if f.len() != 9 {
+                return Err(bad());
+            }
+            let n = |k: usize| f[k].parse::<f64>().map_err(|_| bad());
+            Ok(Row {
+                frame: f[0].parse().map_err(|_| bad())?,
+                time_ns: f[1].parse().map_err(|_| bad())?,
+                translation: [n(2)?, n(3)?, n(4)?],
+                rotation: [n(5)?, n(6)?, n(7)?, n(8)?],
+            })
+        })
+        .collect()
+}
