@@ -3,9 +3,9 @@
 //! ([`draw`]), its luminance in cd/m² by the scene's photometry ([`luminance`]), and from
 //! it the vertical eye illuminance Ev, the daylight glare probability DGP, the unified
 //! glare rating UGR and the glare sources ([`figures`], [`sources`], [`position_index`],
-//! by the [`rules`]). [`meter`] measures a moving head frame after frame and [`log`]
-//! writes the figures per frame and a session's summary; [`picture`] draws the fisheye
-//! for a person to look at, the sources outlined. Usage and the limits of validity:
+//! by the [`rules`]). [`meter`] measures a moving head frame after frame, [`log`] writes
+//! the figures per frame and a session's summary, [`session`] does both for a recorded
+//! session; [`picture`] draws the fisheye for a person to look at, the sources outlined. Usage and the limits of validity:
 //! `docs/usage/glare.md`.
 
 pub mod draw;
@@ -18,6 +18,7 @@ pub mod meter;
 pub mod picture;
 pub mod position_index;
 pub mod rules;
+pub mod session;
 pub mod sources;
 
 pub use error::GlareError;

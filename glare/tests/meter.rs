@@ -225,3 +225,55 @@ fn light_field_drawing_of_sky_and_sun() {
         f.ev_lux
     );
 }
+
+/// A session's frames measured in parallel come out in frame order, each line the meter's
+/// own figures for that frame's view, and the summary counts every frame.
+#[test]
+fn a_session_is_measured_frame_by_frame_in_order() {
+    use holocave_glare::session::{FrameView, measure_session};
+    let scene = sky_scene();
+    let drawing = Drawing::PathTraced {
+        tracer: Tracer::new(scene, TraceSettings::default()),
+        spp: 1,
+        seed: 7,
+    };
+    let meter = GlareMeter::new(
+        drawing,
+        24,
+        Vec3::Y,
+        Rules::default(),
+        Photometry::default(),
+    )
+    .unwrap();
+    // Tilting from the horizon to the zenith: Ev grows frame by frame.
+    let views: Vec<FrameView> = (0..6u64)
+        .map(|k| {
+            let a = k as f32 * 0.3;
+            FrameView {
+                frame: 10 + k,
+                time_ns: k * 33_333_333,
+                eye: Vec3::ZERO,
+                look: Vec3::new(a.cos(), a.sin(), 0.0),
+            }
+        })
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("glare.csv");
+    let summary = measure_session(&meter, &views, &csv).unwrap();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(HEADER));
+    let mut last_ev = 0.0;
+    for (v, line) in views.iter().zip(lines) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f[0].parse::<u64>().unwrap(), v.frame);
+        assert_eq!(f[1].parse::<u64>().unwrap(), v.time_ns);
+        let ev: f64 = f[2].parse().unwrap();
+        let own = meter.measure(v.eye, v.look).unwrap().ev_lux;
+        assert!((ev - own).abs() <= 5e-4 * own.max(1.0), "{line}: {own}");
+        assert!(ev > last_ev, "{line} after Ev {last_ev}");
+        last_ev = ev;
+    }
+    assert_eq!(text.lines().count(), 1 + views.len());
+    assert_eq!(summary.frames, views.len() as u64);
+}

@@ -15,7 +15,13 @@ use clap::Args;
 use glam::DVec3;
 use holocave::launch::{Group, Watched, worker_command};
 use holocave_cave::{Cave, Eye, Unfolded, load_cave, unfold};
+use holocave_glare::Rules;
+use holocave_glare::draw::Drawing;
+use holocave_glare::meter::GlareMeter;
+use holocave_glare::session::{FrameView, measure_session};
 use holocave_master::cluster::{MasterOptions, run as run_master};
+use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg};
+use holocave_protocol::frame::{FrameError, read_frame};
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::mosaic::cave_mosaic;
 use holocave_render_node::output::{PRESENTED_LOG, frame_png, read_presented};
@@ -82,6 +88,11 @@ pub struct SimArgs {
     /// No light field: the walls show the render cache alone.
     #[arg(long, conflicts_with = "vlf")]
     pub no_vlf: bool,
+    /// Also measure the glare of every frame's view (a SIZE×SIZE fisheye drawn from the
+    /// light field with the direct light per pixel): `glare.csv` and a summary, computed
+    /// after the run from the frame states, so the walls are not slowed.
+    #[arg(long, value_name = "SIZE", conflicts_with = "no_vlf")]
+    pub glare: Option<u32>,
     /// Where each node traces its light field's per-pixel rays (`node --rays`).
     #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]
     pub rays: Rays,
@@ -311,7 +322,63 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         args.out.join("states.bin").display(),
         args.out.join("navigation.csv").display()
     );
+    if let (Some(size), Some(vlf)) = (args.glare, &vlf) {
+        measure_glare(&args, vlf, size)?;
+    }
     Ok(())
+}
+
+/// The glare of every frame's view, from the frame states the master wrote.
+fn measure_glare(args: &SimArgs, vlf: &Path, size: u32) -> Result<()> {
+    let scene = std::sync::Arc::new(super::render::load_scene(
+        &args.scene,
+        args.daylight.clone(),
+        false,
+    )?);
+    let opened = holocave_vlf::baked::open(vlf, &scene)?;
+    let photometry = scene.daylight.photometry;
+    let drawing = Drawing::light_field(scene, opened, false, 1, 1);
+    let meter = GlareMeter::new(drawing, size, glam::Vec3::Y, Rules::default(), photometry)?;
+    let states = args.out.join("states.bin");
+    let views = frame_views(&states)?;
+    let csv = args.out.join("glare.csv");
+    let summary = measure_session(&meter, &views, &csv)?;
+    println!(
+        "glare of {} frames in {}: {summary}",
+        views.len(),
+        csv.display()
+    );
+    Ok(())
+}
+
+/// Each frame state's viewer: between the eyes and looking ahead, in scene coordinates.
+fn frame_views(states: &Path) -> Result<Vec<FrameView>> {
+    let mut r = std::io::BufReader::new(
+        std::fs::File::open(states).with_context(|| format!("{}", states.display()))?,
+    );
+    let mut views = Vec::new();
+    loop {
+        let msg = match read_frame::<_, MasterMsg>(&mut r, MAX_CLUSTER_FRAME) {
+            Ok(m) => m,
+            Err(FrameError::Closed) => break,
+            Err(e) => return Err(anyhow::anyhow!("{}: {e}", states.display())),
+        };
+        let MasterMsg::Frame(f) = msg else { continue };
+        let eyes = f.walls.first().map_or(&[][..], |w| &w.eyes[..]);
+        if eyes.is_empty() {
+            continue;
+        }
+        let mid = eyes.iter().map(|e| DVec3::from(e.position)).sum::<DVec3>() / eyes.len() as f64;
+        let nav = glam::DMat4::from_cols_array(&f.navigation);
+        let head = glam::Quat::from_array(f.head.orientation).as_dquat();
+        views.push(FrameView {
+            frame: f.frame,
+            time_ns: f.display_time_ns,
+            eye: mid.as_vec3(),
+            look: nav.transform_vector3(head * DVec3::NEG_Z).as_vec3(),
+        });
+    }
+    Ok(views)
 }
 
 /// Each wall's presented frames in this run (its `presented.log`).
