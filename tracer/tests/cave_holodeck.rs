@@ -8,6 +8,11 @@ use holocave_cave::load_cave;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::cave_holodeck::{CaveHolodeck, CaveHolodeckError};
 
+fn room_cave() -> holocave_cave::Cave {
+    let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/cave4-room.toml");
+    load_cave(&config).unwrap()
+}
+
 fn room_scene(dir: &Path) -> (Scene, std::path::PathBuf) {
     let path = dir.join("room.gltf");
     let (_, gltf) = (holocave_scene::generate::all().into_iter())
@@ -21,12 +26,7 @@ fn room_scene(dir: &Path) -> (Scene, std::path::PathBuf) {
 fn a_new_file_holds_the_caves_section_then_each_room_given() {
     let dir = tempfile::tempdir().unwrap();
     let (scene, scene_path) = room_scene(dir.path());
-    let cave = load_cave(
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../configs/cave4-room.toml")
-            .as_path(),
-    )
-    .unwrap();
+    let cave = room_cave();
     let rooms = [
         [DVec3::new(-2.0, 1.0, -1.5), DVec3::new(0.0, 2.5, 1.5)],
         [DVec3::new(0.5, 1.0, -1.5), DVec3::new(2.0, 2.5, 1.5)],
@@ -54,12 +54,7 @@ fn a_new_file_holds_the_caves_section_then_each_room_given() {
 fn a_flat_box_is_refused_naming_it() {
     let dir = tempfile::tempdir().unwrap();
     let (scene, scene_path) = room_scene(dir.path());
-    let cave = load_cave(
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../configs/cave4-room.toml")
-            .as_path(),
-    )
-    .unwrap();
+    let cave = room_cave();
     let flat = [[DVec3::new(0.0, 1.0, 0.0), DVec3::new(1.0, 1.0, 1.0)]];
     let path = dir.path().join("flat.hdk");
     let e = CaveHolodeck::open_or_create(&path, &cave, &scene_path, Some(&scene), "test", &flat)
