@@ -1,0 +1,90 @@
+//! A wall's per-pixel work per frame, both eyes, with each pixel's first hit traced on the
+//! CPU and on the GPU (`--rays cpu|gpu`): the light field's lookups with the direct light
+//! per pixel (`VlfBase::lookups`: first hits, mirrors and glass, 1 + P + 1 shadow rays,
+//! the running means), at 128×96 and 1024×768 per eye, in the room, on whatever adapter
+//! wgpu finds (lavapipe where there is no GPU). The render cache's passes at these sizes
+//! are `benches/display.rs`; a wall's frame is the two together.
+
+use std::sync::Arc;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use glam::Vec3;
+use holocave_cave::WallView;
+use holocave_render_node::gpu_rays::Rays;
+use holocave_render_node::{EyeView, Gpu, VlfBase};
+use holocave_scene::{LoadOptions, Scene};
+use holocave_vlf::{Settings, VlfFile, bake};
+
+fn views(w: u32, h: u32) -> Vec<EyeView> {
+    [-0.032f32, 0.032]
+        .iter()
+        .map(|&dx| {
+            EyeView::looking_at(
+                WallView {
+                    eye: Vec3::new(dx, 1.5, 0.0),
+                    pa: Vec3::new(-1.5, 0.0, -1.5),
+                    pb: Vec3::new(1.5, 0.0, -1.5),
+                    pc: Vec3::new(-1.5, 3.0, -1.5),
+                    width: w,
+                    height: h,
+                },
+                0.05,
+            )
+            .expect("the eye is in front of the wall")
+        })
+        .collect()
+}
+
+/// The room's light field, baked coarsely (its values do not change the lookups' cost;
+/// its element layout is the default's).
+fn room_field(dir: &std::path::Path) -> (Arc<Scene>, std::path::PathBuf) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
+    let scene = Arc::new(Scene::load(&path, &LoadOptions::default()).expect("the room"));
+    let settings = Settings {
+        directions: 12,
+        resolution: 16,
+        ..Settings::default()
+    };
+    let (state, _) =
+        bake::<std::convert::Infallible>(&scene, &settings, None, &|_| {}, &mut |_| Ok(()))
+            .unwrap_or_else(|e| match e {});
+    let file = dir.join("room.vlf");
+    VlfFile::of(&scene, settings, state)
+        .write(&file)
+        .expect("write the light field");
+    (scene, file)
+}
+
+fn bench(c: &mut Criterion) {
+    let gpu = match Gpu::new() {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("skipping: {e}");
+            return;
+        }
+    };
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let (scene, file) = room_field(dir.path());
+    eprintln!("adapter: {}", gpu.adapter);
+    for rays in [Rays::Cpu, Rays::Gpu] {
+        let base = VlfBase::open(&file, scene.clone())
+            .and_then(|b| b.with_rays(&gpu, rays))
+            .expect("open the light field");
+        for (w, h) in [(128, 96), (1024, 768)] {
+            let views = views(w, h);
+            let mut g = c.benchmark_group(format!("wall_frame/{w}x{h}"));
+            g.sample_size(10);
+            g.bench_function(format!("rays {rays}"), |b| {
+                b.iter(|| {
+                    for v in &views {
+                        std::hint::black_box(base.lookups(v));
+                    }
+                })
+            });
+            g.finish();
+        }
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
