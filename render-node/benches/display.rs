@@ -7,30 +7,12 @@
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use glam::{Vec2, Vec3};
-use holocave_cave::WallView;
+
+mod common;
+use common::views;
+use glam::Vec2;
 use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
 use holocave_vlf::Lookup;
-
-fn views(w: u32, h: u32) -> Vec<EyeView> {
-    [-0.032f32, 0.032]
-        .iter()
-        .map(|&dx| {
-            EyeView::looking_at(
-                WallView {
-                    eye: Vec3::new(dx, 1.5, 0.0),
-                    pa: Vec3::new(-1.5, 0.0, -1.5),
-                    pb: Vec3::new(1.5, 0.0, -1.5),
-                    pc: Vec3::new(-1.5, 3.0, -1.5),
-                    width: w,
-                    height: h,
-                },
-                0.05,
-            )
-            .expect("the eye is in front of the wall")
-        })
-        .collect()
-}
 
 /// The room's light field as a node draws it: the default bake's element layout (the
 /// irradiance values do not change the cost) and each eye's lookups from the node's own

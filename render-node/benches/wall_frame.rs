@@ -8,32 +8,13 @@
 use std::sync::Arc;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use glam::Vec3;
-use holocave_cave::WallView;
+
+mod common;
+use common::views;
 use holocave_render_node::gpu_rays::Rays;
-use holocave_render_node::{EyeView, Gpu, VlfBase};
+use holocave_render_node::{Gpu, VlfBase};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_vlf::{Settings, VlfFile, bake};
-
-fn views(w: u32, h: u32) -> Vec<EyeView> {
-    [-0.032f32, 0.032]
-        .iter()
-        .map(|&dx| {
-            EyeView::looking_at(
-                WallView {
-                    eye: Vec3::new(dx, 1.5, 0.0),
-                    pa: Vec3::new(-1.5, 0.0, -1.5),
-                    pb: Vec3::new(1.5, 0.0, -1.5),
-                    pc: Vec3::new(-1.5, 3.0, -1.5),
-                    width: w,
-                    height: h,
-                },
-                0.05,
-            )
-            .expect("the eye is in front of the wall")
-        })
-        .collect()
-}
 
 /// The room's light field, baked coarsely (its values do not change the lookups' cost;
 /// its element layout is the default's).
