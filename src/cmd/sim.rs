@@ -63,6 +63,12 @@ pub struct SimArgs {
     /// default is below a real CAVE's (whose config says 60 Hz).
     #[arg(long, default_value_t = 30.0)]
     pub rate: f64,
+    /// The dead-node timeout (ms). Four nodes, their tracers, the holodeck's workers and,
+    /// with --window, four presenting windows share this machine's cores, so a wall
+    /// normally takes longer than a real CAVE's node; the default waits for it rather than
+    /// declaring it out (the config's `dead_node_ms` is for a real cluster).
+    #[arg(long, default_value_t = 2000.0)]
+    pub dead_node_ms: f64,
     /// Write every wall's images (and a mosaic) every K frames.
     #[arg(long, default_value_t = 30)]
     pub every: u64,
@@ -106,6 +112,8 @@ pub struct SimArgs {
 
 pub fn run(mut args: SimArgs) -> Result<()> {
     let mut cave = load_cave(&args.config)?;
+    cave.set_dead_node_ms(args.dead_node_ms)
+        .map_err(|e| anyhow::anyhow!("--dead-node-ms {e}"))?;
     cave.set_rate(args.rate)
         .map_err(|e| anyhow::anyhow!("--rate {e}"))?;
     args.windows.check()?;
