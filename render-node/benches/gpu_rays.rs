@@ -29,7 +29,7 @@ use holocave_render_node::Gpu;
 use holocave_render_node::gpu_rays::{GpuRays, Query, adapter_report};
 use holocave_scene::bvh::{EDGE_TOLERANCE, FLAT_COUNT_SHIFT, FLAT_EMPTY, FLAT_LEAF, FlatBvh};
 use holocave_scene::{Ray, Scene};
-use ray_sets::{RaySets, camera_view, project_scene, sponza, sun};
+use ray_sets::{camera_view, project_scene, ray_sets as sets_through, sponza};
 use rayon::prelude::*;
 
 /// What the GPU walk does for a ray, counted by the same walk on the CPU (`rays.wgsl`'s
@@ -152,7 +152,7 @@ fn print_counts(name: &str, set: &str, flat: &FlatBvh, rays: &[Ray], closest: bo
 fn bench_scene(c: &mut Criterion, gpu: &Gpu, name: &str, scene: &Scene, width: u32, height: u32) {
     let mut engine = GpuRays::for_scene(gpu, scene).expect("upload the scene");
     let view = camera_view(scene, width, height);
-    let sets = RaySets::new(scene, &view, sun());
+    let sets = sets_through(scene, &view);
     eprintln!(
         "gpu_rays bench: {name}, {} triangles, tree {} B + triangles {} B on the GPU, stack {}; \
          {} primary, {} shadow, {} diffuse rays",

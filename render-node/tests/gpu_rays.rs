@@ -17,8 +17,9 @@ use holocave_cave::WallView;
 use holocave_render_node::Gpu;
 use holocave_render_node::gpu_rays::{GpuRays, Query, rounding};
 use holocave_scene::bvh::{Bvh, EDGE_TOLERANCE};
+use holocave_scene::ray_sets::uniform2;
 use holocave_scene::{Hit, Ray, Scene};
-use ray_sets::{RaySets, camera_view, project_scene, sponza, sun};
+use ray_sets::{camera_view, project_scene, ray_sets as sets_through, sponza};
 
 fn gpu() -> Gpu {
     Gpu::new().expect("a GPU adapter (lavapipe where there is no GPU)")
@@ -225,9 +226,9 @@ fn scattered_rays(scene: &Scene, n: usize) -> Vec<Ray> {
     let (lo, hi) = scene.bounds();
     let mut rays: Vec<Ray> = (0..n as u64)
         .map(|i| {
-            let (a, b) = ray_sets::uniform2(3 * i + 1_000_000);
-            let (c, _) = ray_sets::uniform2(3 * i + 1_000_001);
-            let (u, v) = ray_sets::uniform2(3 * i + 1_000_002);
+            let (a, b) = uniform2(3 * i + 1_000_000);
+            let (c, _) = uniform2(3 * i + 1_000_001);
+            let (u, v) = uniform2(3 * i + 1_000_002);
             let origin = lo + (hi - lo) * Vec3::new(a, b, c);
             let z = 1.0 - 2.0 * u;
             let r = (1.0 - z * z).max(0.0).sqrt();
@@ -276,7 +277,7 @@ fn check_scene(name: &str, scene: &Scene, width: u32, height: u32) {
         engine.scene_bytes().1
     );
     let view = camera_view(scene, width, height);
-    let sets = RaySets::new(scene, &view, sun());
+    let sets = sets_through(scene, &view);
     let scattered = scattered_rays(scene, 2000);
     let aimed = aimed_rays(scene, 1);
     let (lo, hi) = scene.bounds();
@@ -330,7 +331,7 @@ fn gpu_hits_are_the_cpu_hits_on_sponzas_ray_sets() {
     // The bench's sets at an eighth of its resolution (1024 × 576) each way: 9,216 primary
     // rays.
     let view = camera_view(&scene, 128, 72);
-    let sets = RaySets::new(&scene, &view, sun());
+    let sets = sets_through(&scene, &view);
     eprintln!(
         "Sponza: {} triangles, stack {} entries, tree {} B, triangles {} B; {} primary, {} shadow, {} diffuse rays",
         scene.triangle_count(),

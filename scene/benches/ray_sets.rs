@@ -31,34 +31,17 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use glam::Vec3;
+use holocave_scene::ray_sets::sun;
 use holocave_scene::{LoadOptions, Ray, Scene};
 
 const WIDTH: u32 = 1024;
 const HEIGHT: u32 = 576;
 
-/// Direction towards the sun: high over the atrium, so that it lights part of the floor.
-fn sun() -> Vec3 {
-    Vec3::new(0.25, 1.0, 0.15).normalize()
-}
-
-/// Two uniform numbers in [0, 1) from an index (splitmix64).
-fn uniform2(i: u64) -> (f32, f32) {
-    let mut z = i.wrapping_add(1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^= z >> 31;
-    let a = (z >> 40) as f32 / (1u64 << 24) as f32;
-    let b = ((z >> 8) & 0xff_ffff) as f32 / (1u64 << 24) as f32;
-    (a, b)
-}
-
+/// The sets through the first camera, and the primary rays reordered into 4-wide tiles of
+/// a packet each.
 struct RaySets {
-    primary: Vec<Ray>,
-    /// The primary rays reordered into 4-wide tiles of a packet each.
+    sets: holocave_scene::ray_sets::RaySets,
     primary_tiled: Vec<Ray>,
-    shadow: Vec<Ray>,
-    diffuse: Vec<Ray>,
 }
 
 fn ray_sets(scene: &Scene) -> Option<RaySets> {
@@ -84,33 +67,9 @@ fn ray_sets(scene: &Scene) -> Option<RaySets> {
             }
         }
     }
-    let (mut shadow, mut diffuse) = (Vec::new(), Vec::new());
-    for (i, ray) in primary.iter().enumerate() {
-        let Some(hit) = scene.closest_hit(ray, f32::INFINITY) else {
-            continue;
-        };
-        let sp = scene.surface(&hit);
-        // The face normal on the side the ray arrives from.
-        let n = if sp.geometric_normal.dot(ray.dir) > 0.0 {
-            -sp.geometric_normal
-        } else {
-            sp.geometric_normal
-        };
-        if n.dot(sun()) > 0.0 {
-            shadow.push(Ray::leaving(sp.position, n, sun()));
-        }
-        let (u1, u2) = uniform2(i as u64);
-        let (r, phi) = (u1.sqrt(), std::f32::consts::TAU * u2);
-        let (b1, b2) = n.any_orthonormal_pair();
-        let wi = (b1 * (r * phi.cos()) + b2 * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt())
-            .normalize();
-        diffuse.push(Ray::leaving(sp.position, n, wi));
-    }
     Some(RaySets {
-        primary,
+        sets: holocave_scene::ray_sets::RaySets::from_primary(scene, primary, sun()),
         primary_tiled,
-        shadow,
-        diffuse,
     })
 }
 
@@ -144,9 +103,9 @@ fn dump(scene: &Scene, sets: &RaySets, dir: &Path) {
     let occluded = |r: &Ray| f32::from(u8::from(scene.occluded(r, f32::INFINITY)));
     type Answer<'a> = &'a dyn Fn(&Ray) -> f32;
     let all: [(&str, &Vec<Ray>, Answer); 3] = [
-        ("primary", &sets.primary, &closest),
-        ("shadow", &sets.shadow, &occluded),
-        ("diffuse", &sets.diffuse, &closest),
+        ("primary", &sets.sets.primary, &closest),
+        ("shadow", &sets.sets.shadow, &occluded),
+        ("diffuse", &sets.sets.diffuse, &closest),
     ];
     for (name, rays, answer) in all {
         write_f32s(
@@ -220,9 +179,9 @@ fn ray_rates(c: &mut Criterion) {
         "ray_sets bench: Sponza, {} triangles, camera {:?}: {} primary, {} shadow, {} diffuse rays",
         scene.triangle_count(),
         scene.cameras[0].name,
-        sets.primary.len(),
-        sets.shadow.len(),
-        sets.diffuse.len()
+        sets.sets.primary.len(),
+        sets.sets.shadow.len(),
+        sets.sets.diffuse.len()
     );
     if let Some(dir) = std::env::var_os("HOLOCAVE_RAY_DUMP") {
         dump(&scene, &sets, &PathBuf::from(dir));
@@ -249,9 +208,9 @@ fn ray_rates(c: &mut Criterion) {
 
     type Query<'a> = &'a (dyn Fn(&[Ray]) -> f32 + Sync);
     let benches: [(&str, &Vec<Ray>, Query); 4] = [
-        ("primary", &sets.primary, &closest),
-        ("shadow", &sets.shadow, &occluded),
-        ("diffuse", &sets.diffuse, &closest),
+        ("primary", &sets.sets.primary, &closest),
+        ("shadow", &sets.sets.shadow, &occluded),
+        ("diffuse", &sets.sets.diffuse, &closest),
         ("primary_packets", &sets.primary_tiled, &packets),
     ];
     for cpu_time in [false, true] {

@@ -20,6 +20,7 @@ pub mod material;
 pub mod parts;
 pub mod photometry;
 pub mod ray;
+pub mod ray_sets;
 pub mod scene;
 pub mod texture;
 

@@ -155,10 +155,11 @@ fn octant(d: vec3<f32>) -> u32 {
     return select(0u, 4u, d.x < 0.0) | select(0u, 2u, d.y < 0.0) | select(0u, 1u, d.z < 0.0);
 }
 
-// The closest hit before `r.tmax`: pops the nearest pending child, pushes the children a
+// The walk both queries share: pops the nearest pending child, pushes the children a
 // node's ray enters from the one met last to the one met first (the node's stored order for
-// the ray's octant), skips whatever lies beyond the nearest hit so far.
-fn closest(r: GpuRay) -> vec4<u32> {
+// the ray's octant), skips whatever lies beyond the nearest hit so far. With `any`, the
+// first hit before `r.tmax` ends it. Answers as `closest` does.
+fn walk(r: GpuRay, any: bool) -> vec4<u32> {
     let miss = vec4<u32>(bitcast<u32>(r.tmax), NO_HIT, 0u, 0u);
     if (!usable(r)) {
         return miss;
@@ -208,7 +209,13 @@ fn closest(r: GpuRay) -> vec4<u32> {
                     best_slot = first + i;
                     bu = h.u;
                     bv = h.v;
+                    if (any) {
+                        break;
+                    }
                 }
+            }
+            if (any && best_slot != NO_HIT) {
+                break;
             }
         }
     }
@@ -228,46 +235,14 @@ fn closest(r: GpuRay) -> vec4<u32> {
     );
 }
 
-// Something before `r.tmax`? The triangle found, or NO_HIT. Children in any order.
+// The closest hit before `r.tmax`: t, triangle (NO_HIT on a miss), u, v.
+fn closest(r: GpuRay) -> vec4<u32> {
+    return walk(r, false);
+}
+
+// Something before `r.tmax`? The triangle found, or NO_HIT.
 fn any_hit(r: GpuRay) -> u32 {
-    if (!usable(r)) {
-        return NO_HIT;
-    }
-    let o = r.origin;
-    let d = r.dir;
-    let inv = safe_inverse(d);
-    let neg = inv < vec3<f32>(0.0);
-    let shift = 3u * octant(d);
-    var stack: array<u32, RAY_STACK>;
-    var top = 1u;
-    stack[0] = 0u;
-    while (top > 0u) {
-        top -= 1u;
-        let child = stack[top];
-        if ((child & CHILD_LEAF) == 0u) {
-            let e = enter(child, o, inv, neg, r.tmax);
-            var order = ray_nodes[child].order;
-            var children = ray_nodes[child].children;
-            for (var k = 0u; k < 8u; k += 1u) {
-                let slot = (order[k / 4u][k % 4u] >> shift) & 7u;
-                let t = select(e.lo[slot % 4u], e.hi[slot % 4u], slot >= 4u);
-                let c = children[slot / 4u][slot % 4u];
-                if (t >= 0.0 && c != CHILD_EMPTY && top < RAY_STACK) {
-                    stack[top] = c;
-                    top += 1u;
-                }
-            }
-        } else {
-            let first = 4u * (child & FIRST_MASK);
-            let count = (child & ~CHILD_LEAF) >> COUNT_SHIFT;
-            for (var i = 0u; i < count; i += 1u) {
-                if (intersect(first + i, o, d, r.tmax).hit) {
-                    return bitcast<u32>(ray_tris[first + i].v0_id.w);
-                }
-            }
-        }
-    }
-    return NO_HIT;
+    return walk(r, true).y;
 }
 
 // A wall's pixel rays, row by row from the top-left: through pixel centre (x + ½, y + ½),
