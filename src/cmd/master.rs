@@ -7,6 +7,8 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
 use clap::Args;
+
+use super::render::SharedScene;
 use glam::DVec3;
 use holocave_cave::{Cave, load_cave};
 use holocave_holodeck::auth::Credentials;
@@ -201,23 +203,18 @@ impl HeadArgs {
         Ok(given.resolve(cave, self.tracker.as_deref())?)
     }
 
-    /// Navigation from the devices bound (`None` without any); `scene` loads what it
-    /// collides with.
+    /// Navigation from the devices bound (`None` without any); `scene` is what it
+    /// collides with (loaded only when a device is bound).
     pub fn navigation(
         &self,
         cave: &Cave,
-        scene: Option<&std::path::Path>,
+        scene: Option<&SharedScene>,
     ) -> Result<Option<NavigationRun>> {
         let devices = self.devices(cave)?;
         if devices.is_empty() {
             return Ok(None);
         }
-        let scene = match scene {
-            Some(p) => Some(std::sync::Arc::new(super::render::load_scene(
-                p, None, false,
-            )?)),
-            None => None,
-        };
+        let scene = scene.map(SharedScene::get).transpose()?;
         println!(
             "navigation: {:?} mode; wand {}, buttons {}, axes {}{}",
             cave.navigation.mode,
@@ -332,9 +329,14 @@ pub fn run(args: MasterArgs) -> Result<()> {
     // Tests and scripts read the address from the first line.
     std::io::Write::flush(&mut std::io::stdout())?;
     let head = args.head.open(&cave)?;
-    let navigation = args
-        .head
-        .navigation(&cave, args.holodeck.scene.as_deref())?;
+    let navigation = args.head.navigation(
+        &cave,
+        args.holodeck
+            .scene
+            .as_deref()
+            .map(|p| SharedScene::new(p, args.holodeck.daylight.clone()))
+            .as_ref(),
+    )?;
     let navigation_log = match &args.out {
         Some(dir) => {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

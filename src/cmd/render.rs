@@ -47,6 +47,32 @@ pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Resul
     Scene::load(path, &opts).with_context(|| format!("loading scene {}", path.display()))
 }
 
+/// A scene loaded the first time a command needs it and shared after that (a large scene's
+/// BVH takes seconds to build).
+pub struct SharedScene {
+    path: PathBuf,
+    daylight: Option<PathBuf>,
+    loaded: std::cell::OnceCell<std::sync::Arc<Scene>>,
+}
+
+impl SharedScene {
+    pub fn new(path: &Path, daylight: Option<PathBuf>) -> Self {
+        SharedScene {
+            path: path.to_owned(),
+            daylight,
+            loaded: std::cell::OnceCell::new(),
+        }
+    }
+
+    pub fn get(&self) -> Result<std::sync::Arc<Scene>> {
+        if let Some(s) = self.loaded.get() {
+            return Ok(s.clone());
+        }
+        let s = std::sync::Arc::new(load_scene(&self.path, self.daylight.clone(), false)?);
+        Ok(self.loaded.get_or_init(|| s).clone())
+    }
+}
+
 /// A converged render to compare `image` with: read from `path`, the same size.
 pub fn read_reference(
     path: &Path,

@@ -128,6 +128,8 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             args.head.tracker = Some("synthetic:walk".into());
         }
     }
+    // The scene, loaded once if this process needs it (a bake, navigation, glare).
+    let scene = super::render::SharedScene::new(&args.scene, args.daylight.clone());
     // A fresh secret for this run; the nodes and workers get it through their environment.
     let credentials = credentials::fresh(&cave.cluster.id)?;
     let secret = credentials::secret_text(&credentials);
@@ -149,8 +151,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     } else {
         let path =
             (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
-        let scene = super::render::load_scene(&args.scene, args.daylight.clone(), false)?;
-        Some(super::vlf::baked_default(&scene, &path)?)
+        Some(super::vlf::baked_default(&*scene.get()?, &path)?)
     };
     let hosted = if args.no_holodeck {
         None
@@ -247,7 +248,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .push(Watched::spawn(format!("node {}", wall.name), &mut command)?);
     }
     let head = args.head.open(&cave)?;
-    let navigation = args.head.navigation(&cave, Some(&args.scene))?;
+    let navigation = args.head.navigation(&cave, Some(&scene))?;
     let summary = run_master(
         &cave,
         head,
@@ -331,21 +332,21 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         args.out.join("navigation.csv").display()
     );
     if let (Some(size), Some(vlf)) = (args.glare, &vlf) {
-        measure_glare(&args, vlf, size)?;
+        measure_glare(&args, &scene.get()?, vlf, size)?;
     }
     Ok(())
 }
 
 /// The glare of every frame's view, from the frame states the master wrote.
-fn measure_glare(args: &SimArgs, vlf: &Path, size: u32) -> Result<()> {
-    let scene = std::sync::Arc::new(super::render::load_scene(
-        &args.scene,
-        args.daylight.clone(),
-        false,
-    )?);
-    let opened = holocave_vlf::baked::open(vlf, &scene)?;
+fn measure_glare(
+    args: &SimArgs,
+    scene: &std::sync::Arc<holocave_scene::Scene>,
+    vlf: &Path,
+    size: u32,
+) -> Result<()> {
+    let opened = holocave_vlf::baked::open(vlf, scene)?;
     let photometry = scene.daylight.photometry;
-    let drawing = Drawing::light_field(scene, opened, false, 1, 1);
+    let drawing = Drawing::light_field(scene.clone(), opened, false, 1, 1);
     let meter = GlareMeter::new(drawing, size, glam::Vec3::Y, Rules::default(), photometry)?;
     let states = args.out.join("states.bin");
     let views = frame_views(&states)?;
