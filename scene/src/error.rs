@@ -32,6 +32,8 @@ pub enum SceneError {
     },
     #[error("{path}: the scene has no triangles")]
     Empty { path: PathBuf },
+    #[error("{path}: movable objects: {message}")]
+    Objects { path: PathBuf, message: String },
     #[error("{path}: daylight: {message}")]
     Daylight { path: PathBuf, message: String },
 }

@@ -22,6 +22,7 @@ use crate::daylight::Daylight;
 use crate::error::SceneError;
 use crate::light::{PunctualKind, PunctualLight};
 use crate::material::{Material, TextureRef};
+use crate::objects::{ObjectParts, Placement};
 use crate::parts::{SceneParts, TriangleShading};
 use crate::scene::Scene;
 use crate::texture::{Encoding, Texture};
@@ -43,6 +44,18 @@ pub struct LoadOptions {
     /// Daylight file; when `None`, `<scene stem>.daylight.toml` beside the scene is used
     /// if it exists.
     pub daylight: Option<PathBuf>,
+    /// Movable objects, besides the nodes the file marks movable (see [`ObjectSpec`]).
+    pub objects: Vec<ObjectSpec>,
+}
+
+/// A movable object: the named glTF nodes, each with its whole sub-tree. A node marked
+/// `"extras": {"holocave": {"movable": true}}` in the file is an object too, named as
+/// the node, unless a spec already claims it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ObjectSpec {
+    pub name: String,
+    /// glTF node names; the first node's placement is the object's rest placement.
+    pub nodes: Vec<String>,
 }
 
 /// The daylight file looked for beside a scene.
@@ -56,6 +69,12 @@ struct Loader<'a> {
     doc: &'a Document,
     buffers: &'a [gltf::buffer::Data],
     parts: SceneParts,
+    /// Per glTF node, the object it names directly (its sub-tree follows it).
+    claims: Vec<Option<usize>>,
+    /// Per object, the node whose world transform gives its rest placement.
+    first_nodes: Vec<usize>,
+    /// Lights and cameras found under movable nodes (they stay static).
+    static_under_objects: usize,
 }
 
 impl Scene {
@@ -83,10 +102,14 @@ fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
     let (textures, texture_map, tex_warnings) = load_textures(path, &gltf.document, base, &buffers);
     warnings.extend(tex_warnings);
 
+    let (objects, claims, first_nodes) = resolve_objects(path, &gltf.document, &opts.objects)?;
     let mut loader = Loader {
         path,
         doc: &gltf.document,
         buffers: &buffers,
+        claims,
+        first_nodes,
+        static_under_objects: 0,
         parts: SceneParts {
             name: path
                 .file_stem()
@@ -95,6 +118,7 @@ fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
                 .into(),
             textures,
             warnings,
+            objects,
             ..Default::default()
         },
     };
@@ -110,13 +134,15 @@ fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
         .document
         .default_scene()
         .or_else(|| gltf.document.scenes().next());
-    match scene {
+    let seen = match scene {
         Some(scene) => loader.visit_scene(&scene)?,
         None => {
             let w = "the file has no scene; nothing to draw".to_string();
             tracing::warn!("{}: {w}", path.display());
+            vec![false; gltf.document.nodes().len()]
         }
-    }
+    };
+    loader.finish_objects(&seen)?;
 
     let daylight_path = opts
         .daylight
@@ -130,6 +156,97 @@ fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
     }
     let parts = loader.parts;
     Scene::from_parts(parts, path)
+}
+
+/// The objects (still empty), the object each node names directly, and each object's
+/// first node.
+type ResolvedObjects = (Vec<ObjectParts>, Vec<Option<usize>>, Vec<usize>);
+
+/// The movable objects asked for by `specs` and marked in the file. Refuses a node name that is not in the file or names several nodes, and a node
+/// claimed by two objects.
+fn resolve_objects(
+    path: &Path,
+    doc: &Document,
+    specs: &[ObjectSpec],
+) -> Result<ResolvedObjects, SceneError> {
+    let err = |message: String| SceneError::Objects {
+        path: path.into(),
+        message,
+    };
+    let mut objects: Vec<ObjectParts> = Vec::new();
+    let mut claims: Vec<Option<usize>> = vec![None; doc.nodes().len()];
+    let mut first_nodes = Vec::new();
+    let mut claim = |objects: &[ObjectParts], node: usize, k: usize| match claims[node] {
+        Some(other) if other != k => Err(err(format!(
+            "node {node} is claimed by two objects, {:?} and {:?}",
+            objects[other].name, objects[k].name
+        ))),
+        _ => {
+            claims[node] = Some(k);
+            Ok(())
+        }
+    };
+    for spec in specs {
+        let k = objects.len();
+        objects.push(ObjectParts {
+            name: spec.name.clone(),
+            ..Default::default()
+        });
+        if spec.nodes.is_empty() {
+            return Err(err(format!("object {:?} names no nodes", spec.name)));
+        }
+        for name in &spec.nodes {
+            let found: Vec<usize> = doc
+                .nodes()
+                .filter(|n| n.name() == Some(name.as_str()))
+                .map(|n| n.index())
+                .collect();
+            let node = match found[..] {
+                [node] => node,
+                [] => {
+                    return Err(err(format!(
+                        "object {:?}: node {name:?} is not in the scene",
+                        spec.name
+                    )));
+                }
+                _ => {
+                    return Err(err(format!(
+                        "object {:?}: node name {name:?} is ambiguous ({} nodes have it)",
+                        spec.name,
+                        found.len()
+                    )));
+                }
+            };
+            claim(&objects, node, k)?;
+            if first_nodes.len() == k {
+                first_nodes.push(node);
+            }
+        }
+    }
+    for node in doc.nodes() {
+        if claims[node.index()].is_some() || !marked_movable(&node) {
+            continue;
+        }
+        let name = node
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("node {}", node.index()));
+        claims[node.index()] = Some(objects.len());
+        first_nodes.push(node.index());
+        objects.push(ObjectParts {
+            name,
+            ..Default::default()
+        });
+    }
+    Ok((objects, claims, first_nodes))
+}
+
+/// Whether a node's extras say `{"holocave": {"movable": true}}`.
+fn marked_movable(node: &gltf::Node) -> bool {
+    node.extras().as_ref().is_some_and(|raw| {
+        serde_json::from_str::<serde_json::Value>(raw.get())
+            .is_ok_and(|v| v.pointer("/holocave/movable") == Some(&serde_json::Value::Bool(true)))
+    })
 }
 
 /// Unsupported required extensions: an error under strict loading, else warnings.
@@ -383,14 +500,18 @@ fn convert_material(m: &gltf::Material, textures: &HashMap<usize, u32>) -> Mater
     }
 }
 
+/// A mesh as errors name it: its name, or `#` and its index.
+fn mesh_label(mesh: &gltf::Mesh) -> String {
+    mesh.name()
+        .map(str::to_string)
+        .unwrap_or_else(|| format!("#{}", mesh.index()))
+}
+
 impl Loader<'_> {
     fn geometry_error(&self, mesh: &gltf::Mesh, primitive: usize, message: String) -> SceneError {
         SceneError::Geometry {
             path: self.path.into(),
-            mesh: mesh
-                .name()
-                .map(str::to_string)
-                .unwrap_or_else(|| format!("#{}", mesh.index())),
+            mesh: mesh_label(mesh),
             primitive,
             message,
         }
@@ -400,14 +521,17 @@ impl Loader<'_> {
     /// with an explicit stack so that deep hierarchies cannot overflow the call stack.
     /// A node reached twice (a cycle, or a node with two parents, both invalid glTF) is
     /// an error: following it could loop forever or multiply the work exponentially.
-    fn visit_scene(&mut self, scene: &gltf::Scene) -> Result<(), SceneError> {
+    ///
+    /// A node goes to the object that claims it or an ancestor; one under another
+    /// object's node is an error. Returns which nodes were reached.
+    fn visit_scene(&mut self, scene: &gltf::Scene) -> Result<Vec<bool>, SceneError> {
         let mut seen = vec![false; self.doc.nodes().len()];
-        let mut stack: Vec<(gltf::Node, Mat4)> = scene
+        let mut stack: Vec<(gltf::Node, Mat4, Option<usize>)> = scene
             .nodes()
-            .map(|n| (n, Mat4::IDENTITY))
+            .map(|n| (n, Mat4::IDENTITY, None))
             .collect::<Vec<_>>();
         stack.reverse();
-        while let Some((node, parent)) = stack.pop() {
+        while let Some((node, parent, inherited)) = stack.pop() {
             if std::mem::replace(&mut seen[node.index()], true) {
                 return Err(SceneError::Invalid {
                     path: self.path.into(),
@@ -419,22 +543,85 @@ impl Loader<'_> {
                     ),
                 });
             }
-            let world = self.visit(&node, parent)?;
+            let owner = match (self.claims[node.index()], inherited) {
+                (Some(own), Some(above)) if own != above => {
+                    return Err(SceneError::Objects {
+                        path: self.path.into(),
+                        message: format!(
+                            "node {} is claimed by two objects, {:?} and {:?} (it lies under the other's node)",
+                            node.index(),
+                            self.parts.objects[above].name,
+                            self.parts.objects[own].name
+                        ),
+                    });
+                }
+                (own, above) => own.or(above),
+            };
+            let world = self.visit(&node, parent, owner)?;
             let first = stack.len();
-            stack.extend(node.children().map(|c| (c, world)));
+            stack.extend(node.children().map(|c| (c, world, owner)));
             stack[first..].reverse();
+        }
+        Ok(seen)
+    }
+
+    /// Checks every object's nodes were reached, warns of lights and cameras under
+    /// them, and moves each object's triangles into its own frame.
+    fn finish_objects(&mut self, seen: &[bool]) -> Result<(), SceneError> {
+        for (k, &node) in self.first_nodes.iter().enumerate() {
+            let unreached = (0..seen.len()).find(|&n| self.claims[n] == Some(k) && !seen[n]);
+            if let Some(n) = unreached.or((!seen[node]).then_some(node)) {
+                return Err(SceneError::Objects {
+                    path: self.path.into(),
+                    message: format!(
+                        "object {:?}: node {n} ({:?}) is not in the scene that is drawn",
+                        self.parts.objects[k].name,
+                        self.doc.nodes().nth(n).and_then(|n| n.name()).unwrap_or("")
+                    ),
+                });
+            }
+        }
+        if self.static_under_objects > 0 {
+            self.parts.warnings.push(format!(
+                "{} lights and cameras lie under movable objects; they stay where they are loaded",
+                self.static_under_objects
+            ));
+        }
+        for o in &mut self.parts.objects {
+            let rest = o.rest;
+            for (p, s) in o.positions.iter_mut().zip(&mut o.shading) {
+                *p = p.map(|v| rest.to_local_point(v));
+                if let Some(n) = &mut s.normals {
+                    *n = n.map(|v| rest.to_local_dir(v));
+                }
+            }
         }
         Ok(())
     }
 
-    /// Adds one node's mesh, light and camera; returns its world transform.
-    fn visit(&mut self, node: &gltf::Node, parent: Mat4) -> Result<Mat4, SceneError> {
+    /// Adds one node's mesh (to `owner`, the movable object it belongs to, if any),
+    /// light and camera; returns its world transform.
+    fn visit(
+        &mut self,
+        node: &gltf::Node,
+        parent: Mat4,
+        owner: Option<usize>,
+    ) -> Result<Mat4, SceneError> {
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
+        if let Some(k) = owner
+            && self.first_nodes[k] == node.index()
+        {
+            self.parts.objects[k].rest = Placement::rigid_part(&world);
+        }
         if let Some(mesh) = node.mesh() {
             for (i, prim) in mesh.primitives().enumerate() {
-                self.add_primitive(&mesh, i, &prim, &world)?;
+                self.add_primitive(&mesh, i, &prim, &world, owner)?;
             }
+        }
+        if owner.is_some() {
+            self.static_under_objects +=
+                usize::from(node.light().is_some()) + usize::from(node.camera().is_some());
         }
         let (_, rotation, position) = world.to_scale_rotation_translation();
         if let Some(light) = node.light() {
@@ -564,6 +751,7 @@ impl Loader<'_> {
         index: usize,
         prim: &gltf::Primitive,
         world: &Mat4,
+        owner: Option<usize>,
     ) -> Result<(), SceneError> {
         let err = |this: &Self, m: String| this.geometry_error(mesh, index, m);
         let mode = prim.mode();
@@ -670,6 +858,14 @@ impl Loader<'_> {
             .index()
             .unwrap_or(self.parts.materials.len() - 1) as u32;
         let material = material.min(self.parts.materials.len() as u32 - 1);
+        let path = self.path;
+        let (out_positions, out_shading) = match owner {
+            Some(k) => {
+                let o = &mut self.parts.objects[k];
+                (&mut o.positions, &mut o.shading)
+            }
+            None => (&mut self.parts.positions, &mut self.parts.shading),
+        };
         for tri in triangles {
             let tri = if mirrored {
                 [tri[0], tri[2], tri[1]]
@@ -678,7 +874,12 @@ impl Loader<'_> {
             };
             let p = tri.map(|i| world.transform_point3(positions[i as usize]));
             if p.iter().any(|v| !v.is_finite()) {
-                return Err(err(self, "a transformed vertex is not finite".into()));
+                return Err(SceneError::Geometry {
+                    path: path.into(),
+                    mesh: mesh_label(mesh),
+                    primitive: index,
+                    message: "a transformed vertex is not finite".into(),
+                });
             }
             let n = normals
                 .as_ref()
@@ -690,8 +891,8 @@ impl Loader<'_> {
                 .map(|t| tri.map(|i| t[i as usize]))
                 .filter(|t| t.iter().all(|v| v.is_finite()))
                 .unwrap_or([Vec2::ZERO; 3]);
-            self.parts.positions.push(p);
-            self.parts.shading.push(TriangleShading {
+            out_positions.push(p);
+            out_shading.push(TriangleShading {
                 normals: n,
                 uvs: uv,
                 material,

@@ -7,6 +7,7 @@ use crate::camera::NamedCamera;
 use crate::daylight::Daylight;
 use crate::light::PunctualLight;
 use crate::material::Material;
+use crate::objects::ObjectParts;
 use crate::texture::Texture;
 
 /// Per-triangle data used for shading (not for intersection).
@@ -30,4 +31,6 @@ pub struct SceneParts {
     pub cameras: Vec<NamedCamera>,
     pub daylight: Daylight,
     pub warnings: Vec<String>,
+    /// The movable objects, apart from the static triangles above.
+    pub objects: Vec<ObjectParts>,
 }

@@ -12,6 +12,7 @@ use crate::daylight::Daylight;
 use crate::error::SceneError;
 use crate::light::PunctualLight;
 use crate::material::Material;
+use crate::objects::MovableObject;
 use crate::parts::{SceneParts, TriangleShading};
 use crate::ray::{Hit, Ray};
 use crate::texture::Texture;
@@ -34,13 +35,13 @@ pub struct SurfacePoint {
 /// A triangle's unit face normal, and whether its vertex normals all equal it (see
 /// [`SurfacePoint::flat`]).
 #[derive(Clone, Copy, Debug)]
-struct Face {
-    normal: Vec3,
-    flat: bool,
+pub(crate) struct Face {
+    pub(crate) normal: Vec3,
+    pub(crate) flat: bool,
 }
 
 impl Face {
-    fn new(p: &[Vec3; 3], s: &TriangleShading) -> Self {
+    pub(crate) fn new(p: &[Vec3; 3], s: &TriangleShading) -> Self {
         let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
         let flat = s
             .normals
@@ -52,10 +53,10 @@ impl Face {
 /// A loaded scene.
 pub struct Scene {
     pub name: String,
-    positions: Vec<[Vec3; 3]>,
-    shading: Vec<TriangleShading>,
+    pub(crate) positions: Vec<[Vec3; 3]>,
+    pub(crate) shading: Vec<TriangleShading>,
     /// Per triangle, what every hit on it needs and its vertices fix: computed once.
-    faces: Vec<Face>,
+    pub(crate) faces: Vec<Face>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub lights: Vec<PunctualLight>,
@@ -63,8 +64,10 @@ pub struct Scene {
     pub daylight: Daylight,
     /// What the loader ignored or repaired, one line each (also logged).
     pub warnings: Vec<String>,
-    bvh: Bvh,
+    pub(crate) bvh: Bvh,
     bounds: (Vec3, Vec3),
+    /// The movable objects, apart from the static triangles above (see [`crate::objects`]).
+    pub(crate) objects: Vec<MovableObject>,
 }
 
 impl Scene {
@@ -100,32 +103,23 @@ impl Scene {
                 .collect(),
             daylight: self.daylight,
             warnings: self.warnings,
+            objects: self
+                .objects
+                .into_iter()
+                .map(|o| o.into_parts().transformed(scale, offset))
+                .collect(),
         };
         Scene::from_parts(parts, Path::new(&self.name))
     }
 
     /// Builds a scene from its parts: drops degenerate triangles (one warning with the
-    /// count) and builds the BVH. `source` names the input in errors.
+    /// count), builds the BVH, and builds each movable object (see
+    /// [`crate::objects`]). `source` names the input in errors.
     pub fn from_parts(mut parts: SceneParts, source: &Path) -> Result<Scene, SceneError> {
         assert_eq!(parts.positions.len(), parts.shading.len());
-        let before = parts.positions.len();
-        let mut keep_pos = Vec::with_capacity(before);
-        let mut keep_shading = Vec::with_capacity(before);
-        for (p, s) in parts.positions.iter().zip(&parts.shading) {
-            let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
-            let area2 = e1.cross(e2).length();
-            let scale = e1.length_squared().max(e2.length_squared());
-            if area2 > 1e-10 * scale && area2.is_finite() {
-                keep_pos.push(*p);
-                keep_shading.push(*s);
-            }
-        }
-        let dropped = before - keep_pos.len();
-        if dropped > 0 {
-            let w = format!("dropped {dropped} degenerate (zero-area) triangles");
-            tracing::warn!("{}: {w}", source.display());
-            parts.warnings.push(w);
-        }
+        let mut dropped = 0;
+        let (keep_pos, keep_shading) =
+            drop_degenerate(&parts.positions, &parts.shading, &mut dropped);
         if keep_pos.is_empty() {
             return Err(SceneError::Empty {
                 path: source.into(),
@@ -134,18 +128,22 @@ impl Scene {
         if parts.materials.is_empty() {
             parts.materials.push(Material::default());
         }
-        let mut lo = Vec3::splat(f32::INFINITY);
-        let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for p in keep_pos.iter().flatten() {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
+        let objects = MovableObject::build_all(
+            std::mem::take(&mut parts.objects),
+            keep_pos.len(),
+            &parts.materials,
+            &mut dropped,
+            &mut parts.warnings,
+            source,
+        )?;
+        if dropped > 0 {
+            let w = format!("dropped {dropped} degenerate (zero-area) triangles");
+            tracing::warn!("{}: {w}", source.display());
+            parts.warnings.push(w);
         }
+        let bounds = bounds_of(&keep_pos);
         let bvh = Bvh::build(&keep_pos);
-        let faces = keep_pos
-            .iter()
-            .zip(&keep_shading)
-            .map(|(p, s)| Face::new(p, s))
-            .collect();
+        let faces = faces_of(&keep_pos, &keep_shading);
         Ok(Scene {
             name: parts.name,
             positions: keep_pos,
@@ -158,11 +156,12 @@ impl Scene {
             daylight: parts.daylight,
             warnings: parts.warnings,
             bvh,
-            bounds: (lo, hi),
+            bounds,
+            objects,
         })
     }
 
-    /// World-space axis-aligned bounds of the geometry.
+    /// World-space axis-aligned bounds of the static geometry.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         self.bounds
     }
@@ -217,39 +216,89 @@ impl Scene {
 
     /// The surface point of a hit.
     pub fn surface(&self, hit: &Hit) -> SurfacePoint {
-        let p = &self.positions[hit.triangle as usize];
-        let s = &self.shading[hit.triangle as usize];
-        let Face { normal: ng, flat } = self.faces[hit.triangle as usize];
-        let w = Vec3::new(1.0 - hit.u - hit.v, hit.u, hit.v);
-        let ns = match &s.normals {
-            Some(n) => {
-                let ns = (n[0] * w.x + n[1] * w.y + n[2] * w.z).normalize_or_zero();
-                if ns == Vec3::ZERO {
-                    ng
-                } else if ns.dot(ng) < 0.0 {
-                    -ns
-                } else {
-                    ns
-                }
-            }
-            None => ng,
-        };
-        let uv = s.uvs[0] * w.x + s.uvs[1] * w.y + s.uvs[2] * w.z;
-        SurfacePoint {
-            // From the vertices, not `origin + t·dir`: exact on the surface even for
-            // rays that start far away.
-            position: p[0] * w.x + p[1] * w.y + p[2] * w.z,
-            geometric_normal: ng,
-            shading_normal: ns,
-            uv,
-            material: s.material,
-            flat,
-        }
+        let i = hit.triangle as usize;
+        surface_point(&self.positions[i], &self.shading[i], self.faces[i], hit)
     }
 
     /// Area of triangle `i`.
     pub fn triangle_area(&self, i: u32) -> f32 {
         let p = &self.positions[i as usize];
         0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+    }
+}
+
+/// The triangles that are not degenerate (zero area, or not finite), with their shading;
+/// adds the number dropped to `dropped`.
+pub(crate) fn drop_degenerate(
+    positions: &[[Vec3; 3]],
+    shading: &[TriangleShading],
+    dropped: &mut usize,
+) -> (Vec<[Vec3; 3]>, Vec<TriangleShading>) {
+    let mut keep_pos = Vec::with_capacity(positions.len());
+    let mut keep_shading = Vec::with_capacity(positions.len());
+    for (p, s) in positions.iter().zip(shading) {
+        let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+        let area2 = e1.cross(e2).length();
+        let scale = e1.length_squared().max(e2.length_squared());
+        if area2 > 1e-10 * scale && area2.is_finite() {
+            keep_pos.push(*p);
+            keep_shading.push(*s);
+        }
+    }
+    *dropped += positions.len() - keep_pos.len();
+    (keep_pos, keep_shading)
+}
+
+/// The axis-aligned bounds of triangles.
+pub(crate) fn bounds_of(positions: &[[Vec3; 3]]) -> (Vec3, Vec3) {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for p in positions.iter().flatten() {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    (lo, hi)
+}
+
+pub(crate) fn faces_of(positions: &[[Vec3; 3]], shading: &[TriangleShading]) -> Vec<Face> {
+    positions
+        .iter()
+        .zip(shading)
+        .map(|(p, s)| Face::new(p, s))
+        .collect()
+}
+
+/// The surface point of `hit` on triangle `p` with shading `s` and face `face`.
+pub(crate) fn surface_point(
+    p: &[Vec3; 3],
+    s: &TriangleShading,
+    face: Face,
+    hit: &Hit,
+) -> SurfacePoint {
+    let Face { normal: ng, flat } = face;
+    let w = Vec3::new(1.0 - hit.u - hit.v, hit.u, hit.v);
+    let ns = match &s.normals {
+        Some(n) => {
+            let ns = (n[0] * w.x + n[1] * w.y + n[2] * w.z).normalize_or_zero();
+            if ns == Vec3::ZERO {
+                ng
+            } else if ns.dot(ng) < 0.0 {
+                -ns
+            } else {
+                ns
+            }
+        }
+        None => ng,
+    };
+    let uv = s.uvs[0] * w.x + s.uvs[1] * w.y + s.uvs[2] * w.z;
+    SurfacePoint {
+        // From the vertices, not `origin + t·dir`: exact on the surface even for
+        // rays that start far away.
+        position: p[0] * w.x + p[1] * w.y + p[2] * w.z,
+        geometric_normal: ng,
+        shading_normal: ns,
+        uv,
+        material: s.material,
+        flat,
     }
 }

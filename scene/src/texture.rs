@@ -16,6 +16,7 @@ pub enum Encoding {
 }
 
 /// An RGBA8 image.
+#[derive(Clone)]
 pub struct Texture {
     pub name: String,
     width: u32,

@@ -42,7 +42,11 @@ pub struct RenderArgs {
 }
 
 pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Result<Scene> {
-    let opts = LoadOptions { strict, daylight };
+    let opts = LoadOptions {
+        strict,
+        daylight,
+        ..Default::default()
+    };
     // The loader logs its own warnings.
     Scene::load(path, &opts).with_context(|| format!("loading scene {}", path.display()))
 }

@@ -117,6 +117,7 @@ fn ten_million_samples_over_every_scene_are_finite() {
             &LoadOptions {
                 strict: false,
                 daylight,
+                ..Default::default()
             },
         )
         .unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -4,7 +4,7 @@
 mod cornell;
 mod gltf_writer;
 mod room;
-mod shapes;
+pub(crate) mod shapes;
 
 pub use gltf_writer::GltfWriter;
 

@@ -31,6 +31,7 @@ pub fn load(path: &Path, daylight: Option<PathBuf>) -> Arc<Scene> {
     let opts = LoadOptions {
         strict: false,
         daylight,
+        ..Default::default()
     };
     match Scene::load(path, &opts) {
         Ok(s) => Arc::new(s),
