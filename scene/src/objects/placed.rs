@@ -1,6 +1,5 @@
 //! A scene with its movable objects placed for one frame: the ray queries of a render
-//! node, which must see the objects where they stand now. Two levels: the static BVH,
-//! then each object's own BVH with the ray carried into the object's frame.
+//! node, which must see the objects where they stand now, without rebuilding anything.
 
 use glam::Vec3;
 

@@ -146,7 +146,7 @@ fn two_level_queries_match_the_flat_scene() {
                     .sum::<usize>()
         );
         let placed = scene.placed(&placements);
-        let rays: Vec<Ray> = (0..3000)
+        let mut rays: Vec<Ray> = (0..3000)
             .map(|_| {
                 let o = Vec3::new(
                     rng.range(-0.95, 0.95),
@@ -156,6 +156,19 @@ fn two_level_queries_match_the_flat_scene() {
                 Ray::new(o, rng.unit())
             })
             .collect();
+        // And rays at the objects' corners and edges, where culling by bounds would err.
+        for _ in 0..1000 {
+            let id = static_count
+                + (rng.next() * (flat.triangle_count() as u32 - static_count) as f32) as u32;
+            let p = flat.triangle(id.min(flat.triangle_count() as u32 - 1));
+            let target = p[0] * 0.98 + p[1] * 0.01 + p[2] * 0.01;
+            let o = Vec3::new(
+                rng.range(-0.95, 0.95),
+                rng.range(0.05, 1.95),
+                rng.range(1.0, 2.5),
+            );
+            rays.push(Ray::new(o, (target - o).normalize()));
+        }
         let batch = placed.closest_hits(&rays, f32::INFINITY);
         for (ray, from_batch) in rays.iter().zip(&batch) {
             let a = placed.closest_hit(ray, f32::INFINITY);
