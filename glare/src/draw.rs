@@ -119,6 +119,7 @@ impl Drawing {
         frames: u32,
         k: u32,
     ) -> Self {
+        visibility.light_objects(&state.values());
         let direct = PixelDirect::new(visibility.scene().clone());
         let use_direct = !no_direct && !direct.is_empty();
         let values = if use_direct {
@@ -165,12 +166,15 @@ impl Drawing {
                 let (l, p) = visibility.lookup_and_point(*ray);
                 let mut c = shade_one(&l, values);
                 if let (Some(direct), Some(p)) = (direct, p) {
-                    c += direct.mean(
-                        &p,
-                        seed.wrapping_mul(0x1_0000).wrapping_add(index),
-                        0,
-                        *estimates,
-                    );
+                    c += visibility.with_placed(|placed| {
+                        direct.mean(
+                            placed,
+                            &p,
+                            seed.wrapping_mul(0x1_0000).wrapping_add(index),
+                            0,
+                            *estimates,
+                        )
+                    });
                 }
                 c
             }

@@ -101,6 +101,7 @@ fn cluster(frames: u64) -> Summary {
             status_extra: None,
             navigation: None,
             navigation_log: None,
+            objects: None,
         },
     )
     .unwrap();

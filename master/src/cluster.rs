@@ -73,6 +73,8 @@ pub struct MasterOptions {
     pub navigation: Option<NavigationRun>,
     /// Write each frame's room → scene transform to this `navigation.csv`.
     pub navigation_log: Option<PathBuf>,
+    /// The moving objects' paths; `None`: the scene has none, or they stand still.
+    pub objects: Option<crate::objects::ObjectMotion>,
 }
 
 /// What a run measured.
@@ -659,6 +661,10 @@ async fn run_frames(
             display_ns,
             tracker_ns,
         };
+        let objects = opts
+            .objects
+            .as_ref()
+            .map_or_else(Vec::new, |o| o.at(display_ns));
         let msg = if opts.navigation.is_some() {
             frusta.update(&in_room, &pose);
             let to_room = placed.room_to_scene.inverse();
@@ -668,10 +674,17 @@ async fn run_frames(
                     f.view *= to_room;
                 }
             }
-            MasterMsg::Frame(frame_state(&placed, &placed_frusta, frame, times, &pose))
+            MasterMsg::Frame(frame_state(
+                &placed,
+                &placed_frusta,
+                frame,
+                times,
+                &pose,
+                objects,
+            ))
         } else {
             frusta.update(&placed, &pose);
-            MasterMsg::Frame(frame_state(&placed, &frusta, frame, times, &pose))
+            MasterMsg::Frame(frame_state(&placed, &frusta, frame, times, &pose, objects))
         };
         if let Some(w) = &mut states {
             let bytes = encode(&msg, MAX_CLUSTER_FRAME)

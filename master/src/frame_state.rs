@@ -1,7 +1,7 @@
 //! The frame's state as the master sends it: the predicted head pose and every wall's eye
 //! views (scene coordinates), from [`CaveFrusta`].
 
-use holocave_protocol::cluster::{EyeState, FrameState, WallState, WireEye, WirePose};
+use holocave_protocol::cluster::{EyeState, FrameState, WallState, WireEye, WireObject, WirePose};
 use holocave_tracking::Pose;
 
 use holocave_cave::Cave;
@@ -24,13 +24,15 @@ fn wire_eye(e: Eye) -> WireEye {
     }
 }
 
-/// Frame `frame`'s state from the current frusta (already updated for `head`).
+/// Frame `frame`'s state from the current frusta (already updated for `head`), with the
+/// moving objects where they are at its display time.
 pub fn frame_state(
     cave: &Cave,
     frusta: &CaveFrusta,
     frame: u64,
     times: FrameTimes,
     head: &Pose,
+    objects: Vec<WireObject>,
 ) -> FrameState {
     let walls = cave
         .walls
@@ -62,5 +64,6 @@ pub fn frame_state(
         },
         walls,
         navigation: cave.room_to_scene.to_cols_array(),
+        objects,
     }
 }

@@ -64,6 +64,18 @@ pub struct FrameState {
     pub walls: Vec<WallState>,
     /// Room → scene (the navigation transform), column-major.
     pub navigation: [f64; 16],
+    /// Where each moving object is this frame (scene coordinates); every wall draws the
+    /// same placement.
+    pub objects: Vec<WireObject>,
+}
+
+/// A moving object's placement: the object named `name` (as the scene names it) turned by
+/// `orientation` (unit quaternion `x, y, z, w`) and then moved to `position` (metres).
+#[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
+pub struct WireObject {
+    pub name: String,
+    pub position: [f32; 3],
+    pub orientation: [f32; 4],
 }
 
 impl FrameState {

@@ -928,6 +928,7 @@ mod layout_tests {
                 ("bins", offset_of!(Lookup, bins)),
                 ("x", offset_of!(Lookup, x)),
                 ("y", offset_of!(Lookup, y)),
+                ("samples", offset_of!(Lookup, samples)),
             ],
         );
         assert_same_layout(

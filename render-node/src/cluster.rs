@@ -252,6 +252,7 @@ pub fn follow(
             )));
         };
         let t = Instant::now();
+        display.place_objects(&state.objects);
         let report = display.frame(&views, false);
         if !slow_by.is_zero() {
             std::thread::sleep(slow_by);

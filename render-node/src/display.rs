@@ -4,6 +4,9 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use glam::{Quat, Vec3};
+use holocave_protocol::cluster::WireObject;
+use holocave_scene::{ObjectPaths, Placement};
 use holocave_tracer::film::Image;
 
 use crate::cache::{RenderCache, StepTimes};
@@ -105,6 +108,42 @@ impl WallDisplay {
         self.cache.set_vlf(base.values(), prior);
         self.vlf = Some(base);
         self
+    }
+
+    /// Puts the scene's moving objects where a frame state says (by name; an object the
+    /// state does not name, or names with a broken placement, stays where it was). Drawn
+    /// over the light field only: without one there is nothing to do.
+    pub fn place_objects(&mut self, objects: &[WireObject]) {
+        let Some(base) = &self.vlf else { return };
+        let scene = base.scene();
+        if scene.objects().is_empty() {
+            return;
+        }
+        let mut at = base.placements();
+        for o in objects {
+            let p = Placement::new(
+                Vec3::from_array(o.position),
+                Quat::from_array(o.orientation),
+            );
+            let sane = p.translation.is_finite()
+                && p.rotation.is_finite()
+                && (p.rotation.length() - 1.0).abs() < 1e-3;
+            match scene.object_index(&o.name) {
+                Some(k) if sane => at[k] = Placement::new(p.translation, p.rotation.normalize()),
+                Some(_) => {
+                    tracing::warn!("object {:?}: placement {p:?} is not rigid; ignored", o.name)
+                }
+                None => tracing::warn!("object {:?} is not a moving object of this scene", o.name),
+            }
+        }
+        base.place_objects(&at);
+    }
+
+    /// Puts the scene's moving objects where `paths` has them at `t` seconds.
+    pub fn place_objects_on_paths(&mut self, paths: &ObjectPaths, t: f64) {
+        if let Some(base) = &self.vlf {
+            base.place_objects(&paths.placements_at(base.scene(), t));
+        }
     }
 
     /// One frame: draw every eye and choose its pixels; inline, trace and insert them (the

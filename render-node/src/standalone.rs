@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use holocave_cave::{Cave, Eye, Wall, wall_frusta};
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
-use holocave_scene::Scene;
+use holocave_scene::{ObjectPaths, Scene};
 use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
 use holocave_tracking::Pose;
 
@@ -120,8 +120,9 @@ pub struct Totals {
 }
 
 /// Runs `wall` of `cave` at `size` pixels per eye until the schedule ends or `stop` says
-/// so. `head` gives the head pose (room coordinates) at a time in ns from the start;
-/// `present` receives every presented frame's number and the display holding its images.
+/// so. `head` gives the head pose (room coordinates) at a time in ns from the start, and
+/// `objects` the moving objects' paths over the same time; `present` receives every
+/// presented frame's number and the display holding its images.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     display: &mut WallDisplay,
@@ -130,6 +131,7 @@ pub fn run(
     size: (u32, u32),
     schedule: Schedule,
     head: &mut dyn FnMut(u64) -> Pose,
+    objects: Option<&ObjectPaths>,
     stop: &dyn Fn() -> bool,
     present: &mut dyn FnMut(u64, &mut WallDisplay) -> Result<(), String>,
 ) -> Result<Totals, String> {
@@ -153,6 +155,9 @@ pub fn run(
         if views.is_empty() {
             frame += 1;
             continue;
+        }
+        if let Some(paths) = objects {
+            display.place_objects_on_paths(paths, ns as f64 * 1e-9);
         }
         let report = display.frame(&views, false);
         totals.draw += report.draw;

@@ -19,7 +19,7 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use holocave_cave::WallView;
-use holocave_scene::{Hit, Scene};
+use holocave_scene::{Hit, Placement, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::{Accumulator, Lookup, PixelDirect, Visibility};
 
@@ -75,6 +75,8 @@ impl VlfBase {
         let direct = PixelDirect::new(scene.clone());
         let direct = (!direct.is_empty()).then_some(direct);
         let (total, indirect) = (f.state.values(), f.state.indirect_values());
+        let visibility = Visibility::new(scene, elements, tiles);
+        visibility.light_objects(&total);
         Ok(VlfBase {
             values: if direct.is_some() {
                 indirect.clone()
@@ -86,8 +88,30 @@ impl VlfBase {
             direct,
             history: Mutex::new(Vec::new()),
             gpu_rays: None,
-            visibility: Visibility::new(scene, elements, tiles),
+            visibility,
         })
+    }
+
+    /// The scene drawn.
+    pub fn scene(&self) -> &Arc<Scene> {
+        self.visibility.scene()
+    }
+
+    /// Where the scene's moving objects stand now.
+    pub fn placements(&self) -> Vec<Placement> {
+        self.visibility.placements()
+    }
+
+    /// Puts the scene's moving objects at `placements` (one per object, in the scene's
+    /// order) for the frames drawn from now on. When one moved, every view's direct light
+    /// starts averaging again (its shadows moved under points that stayed put).
+    pub fn place_objects(&self, placements: &[Placement]) {
+        if self.visibility.place_objects(placements) {
+            let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+            for (_, _, acc) in h.iter_mut() {
+                acc.restart();
+            }
+        }
     }
 
     /// With `on` false, the light field alone as baked (its direct light included, no
@@ -195,9 +219,14 @@ impl VlfBase {
                 }
             }
         };
-        let radiance = acc.add(direct, &points);
-        for (l, d) in lookups.iter_mut().zip(radiance) {
-            l.emitted = (glam::Vec3::from(l.emitted) + d).to_array();
+        let estimates = self
+            .visibility
+            .with_placed(|placed| acc.add(direct, placed, &points));
+        for (l, d) in lookups.iter_mut().zip(estimates) {
+            l.emitted = (glam::Vec3::from(l.emitted) + d.radiance).to_array();
+            if d.object_shadow {
+                l.samples = 0.0;
+            }
         }
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
         let now = h.iter().map(|e| e.0).max().unwrap_or(0) + 1;

@@ -155,6 +155,10 @@ pub struct Daylight {
     pub sky: Option<Sky>,
     /// The scene's photometric units (`[photometry]`; Radiance's 179 lm/W if absent).
     pub photometry: Photometry,
+    /// The scene's movable objects (`[[object]]`: `name`, `nodes`), besides the nodes the
+    /// glTF marks movable: the file is the scene's settings, read by every process that
+    /// loads the scene, so all of them agree on what is static.
+    pub objects: Vec<crate::load::ObjectSpec>,
 }
 
 #[derive(Deserialize)]
@@ -185,6 +189,15 @@ struct DaylightToml {
     sun: Option<SunToml>,
     sky: Option<SkyToml>,
     photometry: Option<PhotometryToml>,
+    #[serde(default)]
+    object: Vec<ObjectToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ObjectToml {
+    name: String,
+    nodes: Vec<String>,
 }
 
 #[derive(Deserialize)]
@@ -239,10 +252,30 @@ impl Daylight {
                 )));
             }
         };
+        let mut objects = Vec::new();
+        for o in t.object {
+            if o.name.is_empty() || o.nodes.is_empty() {
+                return Err(err(format!(
+                    "[[object]] {:?}: an object needs a name and at least one node",
+                    o.name
+                )));
+            }
+            if objects
+                .iter()
+                .any(|s: &crate::load::ObjectSpec| s.name == o.name)
+            {
+                return Err(err(format!("[[object]] {:?} is named twice", o.name)));
+            }
+            objects.push(crate::load::ObjectSpec {
+                name: o.name,
+                nodes: o.nodes,
+            });
+        }
         Ok(Self {
             sun,
             sky,
             photometry,
+            objects,
         })
     }
 

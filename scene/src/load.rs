@@ -102,7 +102,19 @@ fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
     let (textures, texture_map, tex_warnings) = load_textures(path, &gltf.document, base, &buffers);
     warnings.extend(tex_warnings);
 
-    let (objects, claims, first_nodes) = resolve_objects(path, &gltf.document, &opts.objects)?;
+    // The daylight file is the scene's settings: its `[[object]]`s join the options'.
+    let daylight_path = opts
+        .daylight
+        .clone()
+        .or_else(|| Some(default_daylight_path(path)).filter(|p| p.exists()));
+    let daylight = daylight_path
+        .as_deref()
+        .map(Daylight::load)
+        .transpose()?
+        .unwrap_or_default();
+    let mut specs = opts.objects.clone();
+    specs.extend(daylight.objects.iter().cloned());
+    let (objects, claims, first_nodes) = resolve_objects(path, &gltf.document, &specs)?;
     let mut loader = Loader {
         path,
         doc: &gltf.document,
@@ -143,14 +155,7 @@ fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
         }
     };
     loader.finish_objects(&seen)?;
-
-    let daylight_path = opts
-        .daylight
-        .clone()
-        .or_else(|| Some(default_daylight_path(path)).filter(|p| p.exists()));
-    if let Some(p) = daylight_path {
-        loader.parts.daylight = Daylight::load(&p)?;
-    }
+    loader.parts.daylight = daylight;
     for w in &loader.parts.warnings {
         tracing::warn!("{}: {w}", path.display());
     }

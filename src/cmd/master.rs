@@ -47,6 +47,11 @@ pub struct MasterArgs {
     /// path is told to every node, which reads it there.
     #[arg(long)]
     pub vlf: Option<PathBuf>,
+    /// Move the scene's moving objects along these paths (CSV
+    /// `object,time_s,tx,ty,tz,qx,qy,qz,qw`, time from the first frame); every frame state
+    /// carries their placements. Needs --scene.
+    #[arg(long, value_name = "FILE", requires = "scene")]
+    pub objects: Option<PathBuf>,
     /// Frame rate (default: the config's cluster.rate_hz).
     #[arg(long)]
     pub rate: Option<f64>,
@@ -76,7 +81,7 @@ pub struct HolodeckArgs {
     #[arg(long, requires = "holodeck")]
     pub holodeck_listen: Option<String>,
     /// The scene's daylight file (default: <scene>.daylight.toml beside it, if present).
-    #[arg(long, requires = "holodeck")]
+    #[arg(long, requires = "scene")]
     pub daylight: Option<PathBuf>,
     /// Tracer threads in the master for the hosted holodeck (workers on other hosts add
     /// more).
@@ -329,14 +334,20 @@ pub fn run(args: MasterArgs) -> Result<()> {
     // Tests and scripts read the address from the first line.
     std::io::Write::flush(&mut std::io::stdout())?;
     let head = args.head.open(&cave)?;
-    let navigation = args.head.navigation(
-        &cave,
-        args.holodeck
-            .scene
-            .as_deref()
-            .map(|p| SharedScene::new(p, args.holodeck.daylight.clone()))
-            .as_ref(),
-    )?;
+    let scene = args
+        .holodeck
+        .scene
+        .as_deref()
+        .map(|p| SharedScene::new(p, args.holodeck.daylight.clone()));
+    let navigation = args.head.navigation(&cave, scene.as_ref())?;
+    let objects = match (&args.objects, &scene) {
+        (Some(path), Some(scene)) => {
+            let scene = scene.get()?;
+            let paths = super::render::read_object_paths(path, &scene)?;
+            Some(holocave_master::objects::ObjectMotion::new(&scene, paths)?)
+        }
+        _ => None,
+    };
     let navigation_log = match &args.out {
         Some(dir) => {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -364,6 +375,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
             status_extra: hosted.as_ref().map(Hosted::status),
             navigation,
             navigation_log: navigation_log.clone(),
+            objects,
         },
     );
     if let Some(p) = navigation_log {

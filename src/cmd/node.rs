@@ -101,6 +101,11 @@ pub struct NodeArgs {
     /// The scene's daylight file (default: <scene>.daylight.toml beside it, if present).
     #[arg(long)]
     pub(crate) daylight: Option<PathBuf>,
+    /// Standalone: move the scene's moving objects along these paths (CSV
+    /// `object,time_s,tx,ty,tz,qx,qy,qz,qw`, on the frames' clock). In a cluster the
+    /// master's frame states place them.
+    #[arg(long, value_name = "FILE", requires = "standalone")]
+    pub(crate) objects: Option<PathBuf>,
     /// Draw from this holodeck file (created if missing: one interior section, the CAVE's
     /// inside volume in scene coordinates), served in this process by `--threads` tracer
     /// threads that add every ray they trace to it. Without it the node traces its own
@@ -286,6 +291,16 @@ fn standalone(
     }
     let eyes = Eye::for_mode(wall.stereo);
     let (scene, tracer) = load_tracer(&args.scene, args.daylight.clone())?;
+    let objects = args
+        .objects
+        .as_deref()
+        .map(|p| super::render::read_object_paths(p, &scene))
+        .transpose()?;
+    if !scene.objects().is_empty() && args.vlf.is_none() {
+        tracing::warn!(
+            "the scene's moving objects are drawn over a light field only: give --vlf to see them"
+        );
+    }
     // The replay clock: frame k shows the head at k / fps after the first sample.
     let mut head = match args.still {
         Some(_) => None,
@@ -399,6 +414,7 @@ fn standalone(
         size,
         schedule,
         &mut pose_at,
+        objects.as_ref(),
         &stopping,
         &mut present,
     )

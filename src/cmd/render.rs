@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 
 use super::view::ViewFlags;
-use holocave_scene::{LoadOptions, Scene};
+use holocave_scene::{LoadOptions, ObjectPaths, Placement, Scene};
 use holocave_tracer::render::render;
 use holocave_tracer::{TraceSettings, Tracer};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -39,6 +39,47 @@ pub struct RenderArgs {
     /// Tone mapping of the PNG preview (default: the tracer's auto-exposed Reinhard).
     #[arg(long, value_enum)]
     pub tone: Option<super::node::Tone>,
+    #[command(flatten)]
+    pub objects: ObjectsAt,
+}
+
+/// Where a still image puts the scene's moving objects.
+#[derive(Args, Clone, Debug)]
+pub struct ObjectsAt {
+    /// Moving objects' paths (CSV `object,time_s,tx,ty,tz,qx,qy,qz,qw`); without it the
+    /// objects stand where the scene has them.
+    #[arg(long, value_name = "FILE")]
+    pub objects: Option<PathBuf>,
+    /// The time on the paths (seconds) the objects are taken at.
+    #[arg(long, default_value_t = 0.0, requires = "objects")]
+    pub time: f64,
+}
+
+impl ObjectsAt {
+    /// Every moving object's placement, in the scene's order.
+    pub fn placements(&self, scene: &Scene) -> Result<Vec<Placement>> {
+        Ok(match &self.objects {
+            Some(path) => read_object_paths(path, scene)?.placements_at(scene, self.time),
+            None => scene.rest_placements(),
+        })
+    }
+}
+
+/// Reads a moving objects' path file and checks it against `scene`.
+pub fn read_object_paths(path: &Path, scene: &Scene) -> Result<ObjectPaths> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("reading the objects' paths {}", path.display()))?;
+    if scene.objects().is_empty() {
+        bail!(
+            "{}: scene {} has no moving objects (mark glTF nodes with \
+             extras.holocave.movable, or name them in [[object]] of its daylight file)",
+            path.display(),
+            scene.name
+        );
+    }
+    let paths = ObjectPaths::parse(&text, path)?;
+    paths.check(scene)?;
+    Ok(paths)
 }
 
 pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Result<Scene> {
@@ -99,6 +140,12 @@ pub fn read_reference(
 
 pub fn run(args: RenderArgs) -> Result<()> {
     let scene = load_scene(&args.scene, args.daylight.clone(), args.strict)?;
+    // The path tracer sees the moving objects where they stand, as part of the scene.
+    let scene = if scene.objects().is_empty() {
+        scene
+    } else {
+        scene.with_objects_at(&args.objects.placements(&scene)?)?
+    };
     let efficacy = scene.daylight.photometry.efficacy;
     let (width, height) = args.size;
     let view = args.view.view(Some((&scene, &args.scene)), args.size)?;

@@ -48,6 +48,11 @@ pub struct SimArgs {
     /// <scene>.daylight.toml beside it, if present).
     #[arg(long)]
     pub daylight: Option<PathBuf>,
+    /// Move the scene's moving objects along these paths (CSV
+    /// `object,time_s,tx,ty,tz,qx,qy,qz,qw`, time from the run's start); the master sends
+    /// their placements with every frame.
+    #[arg(long, value_name = "FILE")]
+    pub objects: Option<PathBuf>,
     #[command(flatten)]
     pub head: HeadArgs,
     /// Frames to run.
@@ -249,6 +254,14 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     }
     let head = args.head.open(&cave)?;
     let navigation = args.head.navigation(&cave, Some(&scene))?;
+    let objects = match &args.objects {
+        Some(path) => {
+            let scene = scene.get()?;
+            let paths = super::render::read_object_paths(path, &scene)?;
+            Some(holocave_master::objects::ObjectMotion::new(&scene, paths)?)
+        }
+        None => None,
+    };
     let summary = run_master(
         &cave,
         head,
@@ -268,6 +281,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             status_extra: hosted.as_ref().map(Hosted::status),
             navigation,
             navigation_log: Some(args.out.join(holocave_master::navigation::log::FILE_NAME)),
+            objects,
         },
     );
     // Stopping the holodeck commits its samples and tells the workers goodbye, also when

@@ -111,6 +111,8 @@ pub struct ViewArgs {
     /// many frames; 1: the first frame).
     #[arg(long, default_value_t = 1)]
     pub frames: u32,
+    #[command(flatten)]
+    pub objects: super::render::ObjectsAt,
 }
 
 pub fn run(c: VlfCommand) -> Result<()> {
@@ -370,7 +372,9 @@ fn view(a: ViewArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let scene = std::sync::Arc::new(scene);
     let direct = holocave_vlf::PixelDirect::new(scene.clone());
-    let vis = Visibility::new(scene, elements, tiles);
+    let vis = Visibility::new(scene.clone(), elements, tiles);
+    vis.light_objects(&f.state.values());
+    vis.place_objects(&a.objects.placements(&scene)?);
     let image = if a.no_direct || direct.is_empty() {
         vis.render(&view, &f.state.values(), a.aa)
     } else {

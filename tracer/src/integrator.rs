@@ -14,30 +14,43 @@ use crate::mirrors::ViaMirror;
 use crate::sampling::{is_positive_finite, power_heuristic};
 use crate::{TraceSettings, TracedRay};
 
-/// Whether nothing blocks the segment from surface point `p` (face normal `ng`) to
-/// `target`. The ray starts just off the surface and is aimed at the target itself from
-/// there, stopping short of it: keeping the direction from `p` would run parallel to the
-/// true segment and cross a light's plane `eps / cos θl` early, so that at grazing angles
-/// (cos θl < 1/2) the light occluded itself.
-pub(crate) fn segment_clear(scene: &Scene, p: Vec3, ng: Vec3, target: Vec3) -> bool {
+/// The shadow ray from surface point `p` (face normal `ng`) to `target`, and how far it
+/// may go before it reaches the target; `None` when there is no such segment (the target
+/// is on the point). The ray starts just off the surface and is aimed at the target itself
+/// from there, stopping short of it: keeping the direction from `p` would run parallel to
+/// the true segment and cross a light's plane `eps / cos θl` early, so that at grazing
+/// angles (cos θl < 1/2) the light occluded itself.
+fn segment_ray(p: Vec3, ng: Vec3, target: Vec3) -> Option<(Ray, f32)> {
     let origin = leave_surface(p, ng, target - p);
     let d = target - origin;
     let len = d.length();
     if !is_positive_finite(len) {
-        return false;
+        return None;
     }
     let margin = surface_epsilon(target);
-    !scene.occluded(&Ray::new(origin, d / len), (len - margin).max(0.0))
+    Some((Ray::new(origin, d / len), (len - margin).max(0.0)))
 }
 
-/// Whether nothing blocks light sample `ls` from surface point `p` (face normal `ng`):
-/// the segment to the light point, or for the sun and sky the whole ray.
-pub fn light_unblocked(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3) -> bool {
+/// Whether nothing blocks the segment from surface point `p` (face normal `ng`) to
+/// `target` (see [`segment_ray`]).
+pub(crate) fn segment_clear(scene: &Scene, p: Vec3, ng: Vec3, target: Vec3) -> bool {
+    segment_ray(p, ng, target).is_some_and(|(ray, tmax)| !scene.occluded(&ray, tmax))
+}
+
+/// The shadow ray of light sample `ls` from surface point `p` (face normal `ng`) and its
+/// length: the segment to the light point, or for the sun and sky the whole ray. `None`:
+/// blocked by construction (the light point lies on `p`).
+pub fn shadow_ray(ls: &LightSample, p: Vec3, ng: Vec3) -> Option<(Ray, f32)> {
     if ls.dist.is_finite() {
-        segment_clear(scene, p, ng, p + ls.wi * ls.dist)
+        segment_ray(p, ng, p + ls.wi * ls.dist)
     } else {
-        !scene.occluded(&Ray::leaving(p, ng, ls.wi), f32::INFINITY)
+        Some((Ray::leaving(p, ng, ls.wi), f32::INFINITY))
     }
+}
+
+/// Whether nothing blocks light sample `ls` from surface point `p` (face normal `ng`).
+pub fn light_unblocked(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3) -> bool {
+    shadow_ray(ls, p, ng).is_some_and(|(ray, tmax)| !scene.occluded(&ray, tmax))
 }
 
 fn u2(rng: &mut Pcg32) -> Vec2 {

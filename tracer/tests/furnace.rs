@@ -317,9 +317,9 @@ fn lambert_plane_under_sun_and_sky_gives_rho_e_over_pi() {
     let scene = scene_from(
         vec![(plane, lambert(rho, Vec3::ZERO, false))],
         Daylight {
-            photometry: Default::default(),
             sun: Some(sun),
             sky: Some(sky),
+            ..Default::default()
         },
     );
     let mut rng = Pcg32::seed_from_u64(17);

@@ -23,6 +23,8 @@
 //!   saved per bounce and resumed, old versions baked again, the one `open` that checks a
 //!   file against its scene);
 //! - [`remote`]: bake workers in other processes (subfields handed out as work);
+//! - [`objects`]: moving objects as the walls draw them (placed, lit from probes, shadowing);
+//! - [`probe`]: irradiance probes (order-2 harmonics) lighting what the field does not hold;
 //! - [`view`]: per-pixel visibility and the lookup (the render node does the lookup on
 //!   the GPU).
 //!
@@ -48,9 +50,11 @@ pub mod direct;
 pub mod directions;
 pub mod elements;
 pub mod file;
+pub mod objects;
 pub mod octahedral;
 pub mod pixel_direct;
 pub mod pools;
+pub mod probe;
 pub mod propagate;
 pub mod reflection;
 pub mod remote;
@@ -65,6 +69,6 @@ pub use bake::{
 pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
-pub use pixel_direct::{Accumulator, DirectPoint, PixelDirect};
+pub use pixel_direct::{Accumulator, DirectPoint, Estimate, PixelDirect};
 pub use tiles::Tiles;
 pub use view::{Lookup, Visibility};

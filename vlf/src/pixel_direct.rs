@@ -29,12 +29,17 @@
 //! (Cranley–Patterson rotation): successive frames fill the disc and the lamps evenly, so
 //! a penumbra's error falls nearly as `1/n` rather than `1/√n`, and neighbouring pixels'
 //! errors are not correlated.
+//!
+//! **Moving objects.** Shadow rays see the moving objects where the frame places them
+//! (static BVH first, then each object's), so an object casts exact shadows on the room
+//! and on itself, and the room shadows it. An estimate says whether an object blocked one
+//! of its rays: there the static caches' samples (which never see objects) are wrong.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::Scene;
+use holocave_scene::{PlacedScene, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::frame::Frame;
-use holocave_tracer::integrator::light_unblocked;
+use holocave_tracer::integrator::shadow_ray;
 use holocave_tracer::lights::{LightSample, Lights};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -118,56 +123,99 @@ impl PixelDirect {
             + u32::from(self.lights.sun.is_some())
     }
 
-    /// The radiance one light sample sends from `p` towards its viewer (before `p.weight`).
-    fn add(&self, p: &DirectPoint, frame: &Frame, ls: &LightSample) -> Vec3 {
+    /// The radiance one light sample sends from `p` towards its viewer (before
+    /// `p.weight`), and whether a moving object is what blocked it.
+    fn add(
+        &self,
+        placed: &PlacedScene,
+        p: &DirectPoint,
+        frame: &Frame,
+        ls: &LightSample,
+    ) -> Estimate {
         let ng = p.normal;
         // Opaque surfaces only receive light on the side they are seen from.
         if !p.bsdf.transmits() && ng.dot(ls.wi) * ng.dot(p.wo) <= 0.0 {
-            return Vec3::ZERO;
+            return Estimate::default();
         }
         let (f, _) = p.bsdf.eval(frame.to_local(p.wo), frame.to_local(ls.wi));
         let c = f * frame.n.dot(ls.wi).abs() * ls.contribution;
         if c.max_element() <= 0.0 || !c.is_finite() {
-            return Vec3::ZERO;
+            return Estimate::default();
         }
-        if !light_unblocked(&self.scene, ls, p.position, ng) {
-            return Vec3::ZERO;
+        let Some((ray, tmax)) = shadow_ray(ls, p.position, ng) else {
+            return Estimate::default();
+        };
+        if self.scene.occluded(&ray, tmax) {
+            return Estimate::default();
         }
-        c
+        if placed.objects_occluded(&ray, tmax) {
+            return Estimate {
+                radiance: Vec3::ZERO,
+                object_shadow: true,
+            };
+        }
+        Estimate {
+            radiance: c,
+            object_shadow: false,
+        }
     }
 
-    /// The `n`-th estimate at `p` of pixel `seed`'s sequence: the direct radiance towards
-    /// the eye, `p.weight` included.
-    pub fn estimate(&self, p: &DirectPoint, seed: u64, n: u64) -> Vec3 {
+    /// The `n`-th estimate at `p` of pixel `seed`'s sequence, with the moving objects
+    /// where `placed` puts them: the direct radiance towards the eye, `p.weight`
+    /// included.
+    pub fn estimate(&self, placed: &PlacedScene, p: &DirectPoint, seed: u64, n: u64) -> Estimate {
         let frame = Frame::new(p.shading_normal);
-        let mut sum = Vec3::ZERO;
+        let mut sum = Estimate::default();
         let l = &self.lights;
         if l.has_area() {
             let uc = r_sequence(R3, 3, 0, n, seed);
             let u = Vec2::new(r_sequence(R3, 3, 1, n, seed), r_sequence(R3, 3, 2, n, seed));
             if let Some(ls) = l.sample_area(&self.scene, p.position, uc, u) {
-                sum += self.add(p, &frame, &ls);
+                sum += self.add(placed, p, &frame, &ls);
             }
         }
         for i in 0..l.punctual.len() {
             if let Some(ls) = l.sample_punctual(i, p.position) {
-                sum += self.add(p, &frame, &ls);
+                sum += self.add(placed, p, &frame, &ls);
             }
         }
         let u = Vec2::new(r_sequence(R2, 2, 0, n, seed), r_sequence(R2, 2, 1, n, seed));
         if let Some(ls) = l.sample_sun(u) {
-            sum += self.add(p, &frame, &ls);
+            sum += self.add(placed, p, &frame, &ls);
         }
-        sum * p.weight
+        sum.radiance *= p.weight;
+        sum
     }
 
-    /// The mean of estimates `first .. first + count` at `p` (pixel `seed`).
-    pub fn mean(&self, p: &DirectPoint, seed: u64, first: u64, count: u32) -> Vec3 {
+    /// The mean radiance of estimates `first .. first + count` at `p` (pixel `seed`).
+    pub fn mean(
+        &self,
+        placed: &PlacedScene,
+        p: &DirectPoint,
+        seed: u64,
+        first: u64,
+        count: u32,
+    ) -> Vec3 {
         let count = count.max(1);
         (first..first + u64::from(count))
-            .map(|n| self.estimate(p, seed, n))
+            .map(|n| self.estimate(placed, p, seed, n).radiance)
             .sum::<Vec3>()
             / count as f32
+    }
+}
+
+/// One estimate of the direct light at a point.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Estimate {
+    pub radiance: Vec3,
+    /// A moving object blocked one of its shadow rays.
+    pub object_shadow: bool,
+}
+
+impl std::ops::AddAssign for Estimate {
+    fn add_assign(&mut self, o: Estimate) {
+        self.radiance += o.radiance;
+        self.object_shadow |= o.object_shadow;
     }
 }
 
@@ -175,10 +223,12 @@ impl PixelDirect {
 /// the point it saw last and the mean of its estimates there, adding one estimate a
 /// frame; when a pixel sees another point (the view moved, another surface came in
 /// front), its mean starts again from that frame's [`PixelDirect::first_estimates`].
+/// Moving an object changes the light at points that stay put: [`Accumulator::restart`]
+/// starts every mean again.
 #[derive(Default)]
 pub struct Accumulator {
     seen: Vec<Option<(u32, Vec3)>>,
-    sum: Vec<Vec3>,
+    sum: Vec<Estimate>,
     count: Vec<u32>,
 }
 
@@ -194,13 +244,25 @@ impl Accumulator {
         Accumulator::default()
     }
 
-    /// Adds one frame's estimate at every pixel's point (`None`: nothing non-delta seen)
-    /// and returns every pixel's running mean (zero where there is no point).
-    pub fn add(&mut self, direct: &PixelDirect, points: &[Option<DirectPoint>]) -> Vec<Vec3> {
+    /// Forgets every pixel's mean (the light changed: an object moved).
+    pub fn restart(&mut self) {
+        self.seen.iter_mut().for_each(|s| *s = None);
+    }
+
+    /// Adds one frame's estimate at every pixel's point (`None`: nothing non-delta seen),
+    /// with the moving objects where `placed` puts them, and returns every pixel's
+    /// running mean (zero where there is no point), each marked if a moving object
+    /// blocked any of its estimates.
+    pub fn add(
+        &mut self,
+        direct: &PixelDirect,
+        placed: &PlacedScene,
+        points: &[Option<DirectPoint>],
+    ) -> Vec<Estimate> {
         let n = points.len();
         if self.seen.len() != n {
             self.seen = vec![None; n];
-            self.sum = vec![Vec3::ZERO; n];
+            self.sum = vec![Estimate::default(); n];
             self.count = vec![0; n];
         }
         points
@@ -212,22 +274,25 @@ impl Accumulator {
             .map(|(i, (((p, seen), sum), count))| {
                 let Some(p) = p else {
                     *seen = None;
-                    (*sum, *count) = (Vec3::ZERO, 0);
-                    return Vec3::ZERO;
+                    (*sum, *count) = (Estimate::default(), 0);
+                    return Estimate::default();
                 };
                 let same = seen.is_some_and(|(t, q)| t == p.triangle && same_point(q, p.position));
                 let take = if same {
                     1
                 } else {
                     *seen = Some((p.triangle, p.position));
-                    (*sum, *count) = (Vec3::ZERO, 0);
+                    (*sum, *count) = (Estimate::default(), 0);
                     direct.first_estimates()
                 };
                 for _ in 0..take {
-                    *sum += direct.estimate(p, i as u64, u64::from(*count));
+                    *sum += direct.estimate(placed, p, i as u64, u64::from(*count));
                     *count += 1;
                 }
-                *sum / *count as f32
+                Estimate {
+                    radiance: sum.radiance / *count as f32,
+                    object_shadow: sum.object_shadow,
+                }
             })
             .collect()
     }

@@ -152,6 +152,8 @@ pub fn cast(
     environment: &dyn Fn(Vec3) -> Vec3,
 ) -> Subfield {
     let mut out = Subfield::default();
+    // The light field is of the static scene: moving objects are never baked.
+    let statics = scene.statics();
     let tmax = grid.sphere.radius * 2.1;
     let mut hits: Vec<Hit> = Vec::new();
     out.line_start.push(0);
@@ -171,7 +173,7 @@ pub fn cast(
                     continue;
                 }
                 last_t = h.t;
-                let s = seen(scene, *h, d);
+                let s = seen(&statics, *h, d);
                 let minus = side_facing(s.normal, d);
                 let plus = 1 - minus;
                 let crossing = if s.delta {
@@ -180,7 +182,7 @@ pub fn cast(
                         // Started back along the line by four surface gaps, so that it
                         // meets this surface again even where the line grazes it.
                         let probe = Ray::new(p - arriving * (4.0 * surface_epsilon(p)), arriving);
-                        let chain = follow(scene, probe, environment);
+                        let chain = follow(&statics, probe, environment);
                         let (element, emitted, toward) = match chain.end {
                             Some((end, r)) => (
                                 elements.element(

@@ -13,7 +13,7 @@ use std::collections::HashMap;
 use std::sync::{OnceLock, RwLock};
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{Hit, Ray, Scene, SurfaceParams};
+use holocave_scene::{Hit, PlacedScene, Ray, Scene, SurfaceParams};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::fresnel;
 use holocave_tracer::microfacet::Ggx;
@@ -169,12 +169,13 @@ pub fn seen_at(scene: &Scene, triangle: u32, u: f32, v: f32) -> Seen {
         u,
         v,
     };
-    seen(scene, hit, Vec3::ZERO)
+    seen(&scene.statics(), hit, Vec3::ZERO)
 }
 
-/// The surface at `hit` seen along `dir`.
-pub fn seen(scene: &Scene, hit: Hit, dir: Vec3) -> Seen {
-    let sp = scene.surface(&hit);
+/// The surface at `hit` seen along `dir` (on a moving object where `placed` puts it).
+pub fn seen(placed: &PlacedScene, hit: Hit, dir: Vec3) -> Seen {
+    let sp = placed.surface(&hit);
+    let scene = placed.scene();
     let material = &scene.materials[sp.material as usize];
     let params = material.params(&scene.textures, sp.uv);
     let towards_viewer = sp.geometric_normal.dot(dir) < 0.0;
@@ -243,13 +244,13 @@ pub struct Chain {
     pub emitted: Vec3,
 }
 
-pub fn follow(scene: &Scene, ray: Ray, environment: &dyn Fn(Vec3) -> Vec3) -> Chain {
+pub fn follow(scene: &PlacedScene, ray: Ray, environment: &dyn Fn(Vec3) -> Vec3) -> Chain {
     walk(scene, ray, None, environment, MAX_DELTA_DEPTH)
 }
 
 /// As [`follow`], with the ray's first hit already found (eye rays are cast in packets).
 pub fn follow_from(
-    scene: &Scene,
+    scene: &PlacedScene,
     ray: Ray,
     first: Option<Hit>,
     environment: &dyn Fn(Vec3) -> Vec3,
@@ -258,7 +259,7 @@ pub fn follow_from(
 }
 
 fn walk(
-    scene: &Scene,
+    scene: &PlacedScene,
     mut ray: Ray,
     mut first: Option<Option<Hit>>,
     environment: &dyn Fn(Vec3) -> Vec3,

@@ -14,12 +14,12 @@
 //! values, the elements' irradiance followed by the tiles' radiance
 //! ([`crate::State::values`]).
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock, RwLock};
 
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
 use holocave_scene::bvh::PACKET;
-use holocave_scene::{Hit, Ray, Scene};
+use holocave_scene::{Hit, PlacedScene, Placement, Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::film::Image;
 use holocave_tracer::lights::Lights;
@@ -27,6 +27,7 @@ use rayon::prelude::*;
 
 use crate::bake::environment;
 use crate::elements::{Elements, interpolate};
+use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, PixelDirect};
 use crate::surface::{Chain, diffuse_albedo, follow, follow_from, side_facing};
@@ -57,6 +58,10 @@ pub struct Lookup {
     /// Map coordinates in the tile of the direction towards the eye (`[0, k]²`).
     pub x: f32,
     pub y: f32,
+    /// How much the render cache's samples count here: 1, or 0 where a moving object
+    /// changes what the static caches hold (the object itself, its shadows, its
+    /// surroundings), so the pixel shows this lookup's light alone.
+    pub samples: f32,
 }
 
 impl Lookup {
@@ -71,26 +76,83 @@ impl Lookup {
         bins: 1,
         x: 0.0,
         y: 0.0,
+        samples: 1.0,
     };
 }
 
-/// The scene's side of drawing: the element layout and the light the eye sees directly.
+/// The scene's side of drawing: the element layout, the light the eye sees directly, and
+/// where the moving objects are ([`crate::objects`]).
 pub struct Visibility {
     scene: Arc<Scene>,
     elements: Elements,
     tiles: Tiles,
     lights: Lights,
+    objects: RwLock<ObjectLight>,
+    /// The light field's values (all of its light) the objects' probes gather.
+    light: OnceLock<Vec<[f32; 3]>>,
 }
 
 impl Visibility {
+    /// The objects start at rest, unlit until [`Visibility::light_objects`].
     pub fn new(scene: Arc<Scene>, elements: Elements, tiles: Tiles) -> Self {
         let lights = Lights::new(&scene);
         Visibility {
+            objects: RwLock::new(ObjectLight::at_rest(&scene)),
             scene,
             elements,
             tiles,
             lights,
+            light: OnceLock::new(),
         }
+    }
+
+    /// Lights the moving objects from the light field's `values` (all of its light:
+    /// [`crate::State::values`]); the first call counts.
+    pub fn light_objects(&self, values: &[[f32; 3]]) {
+        if self.scene.objects().is_empty() || self.light.set(values.to_vec()).is_err() {
+            return;
+        }
+        let mut o = self.objects.write().unwrap_or_else(|e| e.into_inner());
+        let at = o.placements.clone();
+        let values = self.light.get().expect("set above");
+        o.place(&self.scene, &at, Some(&|p, d| self.incoming(p, d, values)));
+    }
+
+    /// Where the moving objects stand now.
+    pub fn placements(&self) -> Vec<Placement> {
+        let o = self.objects.read().unwrap_or_else(|e| e.into_inner());
+        o.placements.clone()
+    }
+
+    /// Puts the moving objects at `placements` (one per object of the scene); returns
+    /// whether any moved.
+    pub fn place_objects(&self, placements: &[Placement]) -> bool {
+        let mut o = self.objects.write().unwrap_or_else(|e| e.into_inner());
+        match self.light.get() {
+            Some(values) => o.place(
+                &self.scene,
+                placements,
+                Some(&|p, d| self.incoming(p, d, values)),
+            ),
+            None => o.place(&self.scene, placements, None),
+        }
+    }
+
+    /// The radiance arriving at `at` from direction `dir` that the per-pixel direct light
+    /// does not give: what the static surfaces there send back (from the light field's
+    /// `values`) and the sky, without emitters and the sun seen directly.
+    pub fn incoming(&self, at: Vec3, dir: Vec3, values: &[[f32; 3]]) -> Vec3 {
+        let sky = |d: Vec3| {
+            self.lights
+                .sky
+                .as_ref()
+                .map_or(Vec3::ZERO, |s| s.radiance(d))
+        };
+        let chain = follow(&self.scene.statics(), Ray::new(at, dir), &sky);
+        let through = chain.emitted;
+        let (mut l, _) = self.lookup_chain(chain, &ObjectLight::default(), None);
+        l.emitted = through.to_array();
+        shade_one(&l, values)
     }
 
     /// The visibility of a bake of `scene` with `settings`: its element layout and tiles.
@@ -124,10 +186,26 @@ impl Visibility {
     /// ([`crate::pixel_direct`]).
     pub fn lookup_and_point(&self, ray: Ray) -> (Lookup, Option<DirectPoint>) {
         let env = environment(&self.lights);
-        self.lookup_chain(follow(&self.scene, ray, &env))
+        let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
+        let placed = self.scene.placed(&objects.placements);
+        self.lookup_chain(follow(&placed, ray, &env), &objects, Some(&placed))
     }
 
-    fn lookup_chain(&self, chain: Chain) -> (Lookup, Option<DirectPoint>) {
+    /// Runs `f` with the scene as this frame places its moving objects.
+    pub fn with_placed<T>(&self, f: impl FnOnce(&PlacedScene) -> T) -> T {
+        let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
+        f(&self.scene.placed(&objects.placements))
+    }
+
+    /// The lookup of what a chain of surfaces ends on; `placed` tells a moving object's
+    /// surface apart (then it is lit from `objects`' probes, and the caches' samples do not
+    /// count), and darkens the light field's part near the objects.
+    fn lookup_chain(
+        &self,
+        chain: Chain,
+        objects: &ObjectLight,
+        placed: Option<&PlacedScene>,
+    ) -> (Lookup, Option<DirectPoint>) {
         let Some((s, r)) = chain.end else {
             let none = Lookup {
                 emitted: chain.emitted.to_array(),
@@ -144,6 +222,23 @@ impl Visibility {
             bsdf: Bsdf::new(&s.params),
             weight: chain.weight,
         };
+        if let Some(k) = placed.and_then(|p| p.object_of(s.hit.triangle)) {
+            let indirect = diffuse_albedo(&s.params)
+                * std::f32::consts::FRAC_1_PI
+                * objects.irradiance(k, s.shading_normal);
+            let l = Lookup {
+                emitted: (chain.emitted + chain.weight * (s.emitted + indirect)).to_array(),
+                samples: 0.0,
+                ..Lookup::NONE
+            };
+            return (l, Some(point));
+        }
+        let (open, near) = if objects.is_empty() {
+            (1.0, false)
+        } else {
+            objects.openness(s.position, s.normal * -s.normal.dot(r.dir).signum())
+        };
+        let samples = if near { 0.0 } else { 1.0 };
         let cells = self.elements.triangles[s.hit.triangle as usize];
         let side = side_facing(s.normal, r.dir);
         let emitted = (chain.emitted + chain.weight * s.emitted).to_array();
@@ -154,12 +249,13 @@ impl Visibility {
             let (x, y) = self.tiles.view_coords(g, r.dir, s.shading_normal);
             let k = self.tiles.bins;
             let l = Lookup {
-                weight: chain.weight.to_array(),
+                weight: (chain.weight * open).to_array(),
                 emitted,
                 tile: self.tiles.elements + g * k * k,
                 bins: k,
                 x,
                 y,
+                samples,
                 ..Lookup::NONE
             };
             return (l, Some(point));
@@ -169,9 +265,10 @@ impl Visibility {
             res: cells.res,
             u: s.hit.u,
             v: s.hit.v,
-            weight: (chain.weight * diffuse_albedo(&s.params) * std::f32::consts::FRAC_1_PI)
+            weight: (chain.weight * open * diffuse_albedo(&s.params) * std::f32::consts::FRAC_1_PI)
                 .to_array(),
             emitted,
+            samples,
             ..Lookup::NONE
         };
         (l, Some(point))
@@ -188,23 +285,27 @@ impl Visibility {
 
     /// As [`Visibility::pixels`], with each pixel's point for the per-pixel direct light.
     pub fn pixels_and_points(&self, view: &WallView) -> Vec<(Lookup, Option<DirectPoint>)> {
-        self.pixels_with(view, &|rays, _| {
-            self.scene.closest_hits(rays, f32::INFINITY)
+        self.pixels_with(view, &|placed, rays, _| {
+            placed.closest_hits(rays, f32::INFINITY)
         })
     }
 
     /// As [`Visibility::pixels_and_points`], with each pixel's first hit found elsewhere
     /// (on the GPU): `hits[i]` is the closest hit of pixel `i`'s ray (rows from the top,
-    /// through the pixel's centre, as [`WallView::ray`] makes it); mirrors and glass are
-    /// followed from there as always.
+    /// through the pixel's centre, as [`WallView::ray`] makes it) in the static scene; the
+    /// moving objects are tried here, and mirrors and glass followed from there as always.
     pub fn pixels_and_points_from(
         &self,
         view: &WallView,
         hits: &[Option<Hit>],
     ) -> Vec<(Lookup, Option<DirectPoint>)> {
         assert_eq!(hits.len(), (view.width * view.height) as usize);
-        self.pixels_with(view, &|rays, first| {
-            hits[first..first + rays.len()].to_vec()
+        self.pixels_with(view, &|placed, rays, first| {
+            let hits = &hits[first..first + rays.len()];
+            rays.iter()
+                .zip(hits)
+                .map(|(r, h)| placed.objects_closest_hit(r, f32::INFINITY, *h))
+                .collect()
         })
     }
 
@@ -220,13 +321,16 @@ impl Visibility {
         let env = environment(&self.lights);
         let chunk = 8 * PACKET;
         let mut out = vec![(Lookup::NONE, None); n];
+        let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
+        let placed = self.scene.placed(&objects.placements);
         out.par_chunks_mut(chunk).enumerate().for_each(|(c, out)| {
             let rays: Vec<Ray> = (c * chunk..(c * chunk + out.len()))
                 .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
                 .collect();
-            let hits = first_hits(&rays, c * chunk);
+            let hits = first_hits(&placed, &rays, c * chunk);
             for ((o, ray), hit) in out.iter_mut().zip(rays).zip(hits) {
-                *o = self.lookup_chain(follow_from(&self.scene, ray, hit, &env));
+                let chain = follow_from(&placed, ray, hit, &env);
+                *o = self.lookup_chain(chain, &objects, Some(&placed));
             }
         });
         out
@@ -285,7 +389,7 @@ impl Visibility {
                 sum += shade_one(&l, values);
                 if let Some(p) = p {
                     let seed = (i as u64) * u64::from(k * k) + u64::from(s);
-                    sum += direct.mean(&p, seed, 0, estimates);
+                    sum += self.with_placed(|placed| direct.mean(placed, &p, seed, 0, estimates));
                 }
             }
             *px = sum / (k * k) as f32;
@@ -294,9 +398,9 @@ impl Visibility {
     }
 }
 
-/// How [`Visibility`] is given the closest hits of a run of pixel rays (the rays, and the
-/// first one's pixel index).
-type FirstHits<'a> = dyn Fn(&[Ray], usize) -> Vec<Option<Hit>> + Sync + 'a;
+/// How [`Visibility`] is given the closest hits of a run of pixel rays (the scene as
+/// placed this frame, the rays, and the first one's pixel index).
+type FirstHits<'a> = dyn Fn(&PlacedScene, &[Ray], usize) -> Vec<Option<Hit>> + Sync + 'a;
 
 /// The radiance of one lookup; `values`: the elements' irradiance, then the tiles'
 /// radiance.

@@ -269,7 +269,9 @@ fn the_split_draws_what_the_total_draws() {
             let old = f64::from(shade_one(&lookup, &values).x);
             let new = f64::from(
                 (shade_one(&lookup, &indirect)
-                    + direct.mean(&point, (o * 1000 + k) as u64, 0, samples))
+                    + vis.with_placed(|s| {
+                        direct.mean(s, &point, (o * 1000 + k) as u64, 0, samples)
+                    }))
                 .x,
             );
             diffs.push((new - old) / exact);

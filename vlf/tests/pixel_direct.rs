@@ -63,13 +63,13 @@ fn slit() -> Scene {
         tris.push((t, 1));
     }
     let daylight = Daylight {
-        photometry: Default::default(),
         sun: Some(Sun {
             direction: sun_direction(),
             angular_radius: SUN_R,
             radiance: Vec3::splat(SUN_L),
         }),
         sky: None,
+        ..Default::default()
     };
     scene_with(
         "slit",
@@ -116,7 +116,11 @@ fn estimated(vis: &Visibility, direct: &PixelDirect, x: f32, first: u64, count: 
     let point = point.expect("the floor");
     assert!((point.position - p).length() < 1e-4, "{}", point.position);
     let seed = (x * 1e4) as u64;
-    f64::from(direct.mean(&point, seed, first, count).x) * std::f64::consts::PI / f64::from(RHO)
+    f64::from(
+        vis.with_placed(|s| direct.mean(s, &point, seed, first, count))
+            .x,
+    ) * std::f64::consts::PI
+        / f64::from(RHO)
 }
 
 #[test]
@@ -318,7 +322,9 @@ fn drawn(
             let (l, p) = vis.lookup_and_point(view.ray(Vec2::new(x, y) + o));
             sum += holocave_vlf::view::shade_one(&l, values);
             if let Some(p) = p {
-                sum += direct.mean(&p, (i as u64) * 64 + u64::from(s), first, frames);
+                sum += vis.with_placed(|sc| {
+                    direct.mean(sc, &p, (i as u64) * 64 + u64::from(s), first, frames)
+                });
             }
         }
         *px = sum / (AA * AA) as f32;

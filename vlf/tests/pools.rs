@@ -39,12 +39,12 @@ fn floor_of_small_triangles() -> Scene {
             shading,
             materials: vec![common::lambert("floor", 0.5, Vec3::ZERO)],
             daylight: Daylight {
-                photometry: Default::default(),
                 sun: None,
                 sky: Some(Sky {
                     model: SkyModel::Uniform(Vec3::splat(SKY)),
                     ground: Vec3::ZERO,
                 }),
+                ..Default::default()
             },
             ..SceneParts::default()
         },

@@ -7,7 +7,8 @@
 // with what the cache shows: the light field is a prior worth `prior` samples,
 //   shown = (prior · V + n · C) / (prior + n),
 // with n the samples behind the cache's value (its point's count, discounted by age;
-// half a sample for an interpolated pixel, none for an empty one). Where the two
+// half a sample for an interpolated pixel, none for an empty one), times the lookup's
+// `samples` (none where a moving object makes the static samples wrong). Where the two
 // disagree most, the priority image asks for samples first.
 
 struct Lookup {
@@ -22,6 +23,8 @@ struct Lookup {
     bins: u32,
     x: f32,
     y: f32,
+    // What the cache's samples count for here (0 where a moving object makes them stale).
+    samples: f32,
 }
 
 struct VlfParams {
@@ -128,9 +131,10 @@ fn blend(@builtin(global_invocation_id) gid: vec3<u32>) {
         // Interpolated (0.5) or filled from farther away (0.25): worth that much.
         n = c.w;
     }
+    n *= lookups[i].samples;
     let shown = (V.prior * vlf + n * c.xyz) / max(V.prior + n, 1.0e-6);
     color[i] = vec4<f32>(shown, c.w);
-    if (c.w > 0.0) {
+    if (c.w > 0.0 && lookups[i].samples > 0.0) {
         let d = abs(luminance(c.xyz - vlf)) / (luminance(vlf) + 0.05);
         let extra = DISAGREE_SCALE * min(d, 1.0);
         priority[i] += extra;

@@ -32,6 +32,17 @@ impl Scene {
     }
 }
 
+impl Scene {
+    /// The static scene alone, as a [`PlacedScene`] that sees no object: what the caches
+    /// (the light field, the holodeck) are made of.
+    pub fn statics(&self) -> PlacedScene<'_> {
+        PlacedScene {
+            scene: self,
+            placements: &[],
+        }
+    }
+}
+
 /// `ray` in the frame of an object placed at `at`: the same distances along it.
 fn local_ray(ray: &Ray, at: &Placement) -> Ray {
     Ray::new(at.to_local_point(ray.origin), at.to_local_dir(ray.dir))
@@ -73,9 +84,37 @@ impl PlacedScene<'_> {
         })
     }
 
+    /// The scene queried (its static part and its objects).
+    pub fn scene(&self) -> &Scene {
+        self.scene
+    }
+
+    /// Where each object stands (empty for [`Scene::statics`]).
+    pub fn placements(&self) -> &[Placement] {
+        self.placements
+    }
+
+    /// The closest hit among the objects before `tmax`, or `best` (a hit found
+    /// elsewhere, e.g. the static scene's on a GPU) where that is closer.
+    pub fn objects_closest_hit(&self, ray: &Ray, tmax: f32, best: Option<Hit>) -> Option<Hit> {
+        self.objects_hit(ray, tmax, best)
+    }
+
+    /// Whether an object (not the static scene) lies on the ray before `tmax`.
+    pub fn objects_occluded(&self, ray: &Ray, tmax: f32) -> bool {
+        self.scene
+            .objects
+            .iter()
+            .zip(self.placements)
+            .any(|(o, at)| {
+                let local = local_ray(ray, at);
+                may_hit_box(&local, o.bounds, tmax) && o.bvh.occluded(&local, tmax)
+            })
+    }
+
     /// The closest hit among the objects, before `tmax` and closer than `best`.
     fn objects_hit(&self, ray: &Ray, tmax: f32, mut best: Option<Hit>) -> Option<Hit> {
-        for k in 0..self.scene.objects.len() {
+        for k in 0..self.placements.len() {
             let limit = best.map_or(tmax, |h| h.t);
             if let Some(h) = self.object_hit(k, ray, limit) {
                 best = Some(h);

@@ -153,12 +153,12 @@ pub fn scene_from(groups: Vec<(Vec<[Vec3; 3]>, Material)>, daylight: Daylight) -
 /// Daylight that is a uniform sky of radiance `l` in every direction (ground included).
 pub fn uniform_sky(l: Vec3) -> Daylight {
     Daylight {
-        photometry: Default::default(),
         sun: None,
         sky: Some(Sky {
             model: SkyModel::Uniform(l),
             ground: l,
         }),
+        ..Default::default()
     }
 }
 
