@@ -185,14 +185,24 @@ mod tests {
         long.push(0);
         let mut variant = good.clone();
         variant[0] = 200;
-        for bytes in [&good[..good.len() - 1], &long[..], &bad_bool[..], &variant[..]] {
+        for bytes in [
+            &good[..good.len() - 1],
+            &long[..],
+            &bad_bool[..],
+            &variant[..],
+        ] {
             assert!(
                 matches!(decode::<NodeMsg>(bytes), Err(FrameError::Decode { .. })),
                 "{bytes:?}"
             );
         }
         // Decodable but out of range: refused by name.
-        for (f, t) in [(f32::NAN, 0.0), (0.0, 1.5), (f32::INFINITY, 0.0), (-2.0, 0.0)] {
+        for (f, t) in [
+            (f32::NAN, 0.0),
+            (0.0, 1.5),
+            (f32::INFINITY, 0.0),
+            (-2.0, 0.0),
+        ] {
             let d = DeskInput {
                 forward: f,
                 turn: t,
