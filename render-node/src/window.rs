@@ -192,16 +192,15 @@ where
                         ..
                     },
                 ..
-            } => {
-                if let Some(c) = control_of(code) {
-                    self.desk
-                        .update(|k| k.key(c, state == ElementState::Pressed));
-                }
+            } if control_of(code).is_some() => {
+                let c = control_of(code).expect("checked");
+                self.desk
+                    .update(|k| k.key(c, state == ElementState::Pressed));
             }
-            WindowEvent::CursorMoved { position, .. } => {
-                if self.drag_window.is_none_or(|w| w == id) {
-                    self.desk.update(|k| k.cursor(position.x, position.y));
-                }
+            WindowEvent::CursorMoved { position, .. }
+                if self.drag_window.is_none_or(|w| w == id) =>
+            {
+                self.desk.update(|k| k.cursor(position.x, position.y));
             }
             WindowEvent::MouseInput { state, button, .. } => {
                 let down = state == ElementState::Pressed;
