@@ -16,7 +16,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
+use holocave_protocol::cluster::{DeskInput, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
 use holocave_protocol::frame::{FrameError, encode};
 use holocave_protocol::handshake::{self, Role, Welcome};
 use holocave_protocol::session::{Opener, Sealer, SessionKeys};
@@ -245,6 +245,8 @@ struct Master<'a> {
     links: BTreeMap<NodeId, Link>,
     /// Ready arrivals for the frame being collected, in order.
     arrivals: Vec<(NodeId, Instant)>,
+    /// Desk inputs received since the last frame, in order (`None`: the node is gone).
+    desk: Vec<(NodeId, Option<DeskInput>)>,
     summary: Summary,
 }
 
@@ -284,6 +286,10 @@ impl Master<'_> {
                 }
                 self.barrier.ready(id, frame, stats);
             }
+            Event::Msg {
+                id,
+                msg: NodeMsg::DeskInput(input),
+            } => self.desk.push((id, Some(input))),
             Event::Msg {
                 id,
                 msg: NodeMsg::Leaving { reason },
@@ -422,6 +428,7 @@ impl Master<'_> {
 
     /// Removes a node from the barrier, keeping its counts in the summary.
     fn forget(&mut self, id: NodeId) {
+        self.desk.push((id, None));
         if let Some(mem) = self.barrier.leave(id) {
             let e = self.summary.walls.entry(mem.wall).or_default();
             e.0 += mem.swapped;
@@ -601,6 +608,7 @@ async fn run_frames(
         barrier: Barrier::default(),
         links: BTreeMap::new(),
         arrivals: Vec::new(),
+        desk: Vec::new(),
         summary: Summary::default(),
     };
     m.wait_for_walls(opts.wait_for_walls).await;
@@ -647,7 +655,12 @@ async fn run_frames(
         let (pose, tracker_ns) = head.pose_at(display_ns);
         tracing::trace!("frame {frame}: head {:?}", pose.position);
         let place = match &mut opts.navigation {
-            Some(nav) => nav.frame(master_ns, &pose, head.recentring()),
+            Some(nav) => {
+                for (id, input) in m.desk.drain(..) {
+                    nav.desk_message(id, input);
+                }
+                nav.frame(master_ns, &pose, head.recentring())
+            }
             None => Placement::from_mat4(&cave.room_to_scene),
         };
         if opts.navigation.is_some() {
@@ -725,6 +738,9 @@ async fn run_frames(
     }
     if let Some(log) = &mut nav_log {
         log.flush()?;
+    }
+    if let Some(nav) = &mut opts.navigation {
+        nav.finish()?;
     }
     m.send(
         &MasterMsg::Shutdown {

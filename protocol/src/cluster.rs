@@ -119,4 +119,113 @@ pub enum NodeMsg {
     Ready { frame: u64, stats: NodeStats },
     /// The node is going away (its window was closed): no longer wait for it.
     Leaving { reason: String },
+    /// A desk user's keyboard and mouse in the node's window, sent when it changes; the
+    /// master maps it onto its navigation inputs (the node computes nothing).
+    DeskInput(DeskInput),
+}
+
+/// The navigation a desk user asks for with keys and the mouse (`node --window`): the
+/// joystick's two axes and the buttons, by meaning (the master maps them onto its
+/// configured channels). Fixed size, so it decodes in bounded space.
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Default)]
+pub struct DeskInput {
+    /// Forward (+1) or back (−1), `-1..=1`.
+    pub forward: f32,
+    /// Turn right (+1) or left (−1), `-1..=1`.
+    pub turn: f32,
+    /// The grab button held.
+    pub grab: bool,
+    /// The teleport button held.
+    pub teleport: bool,
+    /// The walk/fly toggle held (each press toggles).
+    pub mode: bool,
+}
+
+impl DeskInput {
+    /// Nothing pressed.
+    pub const NEUTRAL: DeskInput = DeskInput {
+        forward: 0.0,
+        turn: 0.0,
+        grab: false,
+        teleport: false,
+        mode: false,
+    };
+
+    /// An error naming the field when an axis is not a finite number in `-1..=1`.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [("forward", self.forward), ("turn", self.turn)] {
+            if !v.is_finite() || v.abs() > 1.0 {
+                return Err(format!("desk input: {name} {v} is not a number in -1..=1"));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::{FrameError, decode, encode};
+
+    fn payload(msg: &NodeMsg) -> Vec<u8> {
+        encode(msg, MAX_CLUSTER_FRAME).unwrap()[4..].to_vec()
+    }
+
+    #[test]
+    fn desk_input_round_trips() {
+        let d = DeskInput {
+            forward: -1.0,
+            turn: 0.25,
+            grab: true,
+            teleport: false,
+            mode: true,
+        };
+        assert!(d.validate().is_ok());
+        let msg = NodeMsg::DeskInput(d);
+        assert_eq!(decode::<NodeMsg>(&payload(&msg)).unwrap(), msg);
+        let n = NodeMsg::DeskInput(DeskInput::NEUTRAL);
+        assert_eq!(decode::<NodeMsg>(&payload(&n)).unwrap(), n);
+    }
+
+    #[test]
+    fn garbage_desk_input_is_refused() {
+        let good = payload(&NodeMsg::DeskInput(DeskInput::NEUTRAL));
+        // Cut short, a trailing byte, a bool that is not 0 or 1, an unknown variant.
+        let mut bad_bool = good.clone();
+        *bad_bool.last_mut().unwrap() = 7;
+        let mut long = good.clone();
+        long.push(0);
+        let mut variant = good.clone();
+        variant[0] = 200;
+        for bytes in [
+            &good[..good.len() - 1],
+            &long[..],
+            &bad_bool[..],
+            &variant[..],
+        ] {
+            assert!(
+                matches!(decode::<NodeMsg>(bytes), Err(FrameError::Decode { .. })),
+                "{bytes:?}"
+            );
+        }
+        // Decodable but out of range: refused by name.
+        for (f, t) in [
+            (f32::NAN, 0.0),
+            (0.0, 1.5),
+            (f32::INFINITY, 0.0),
+            (-2.0, 0.0),
+        ] {
+            let d = DeskInput {
+                forward: f,
+                turn: t,
+                ..DeskInput::NEUTRAL
+            };
+            let back = decode::<NodeMsg>(&payload(&NodeMsg::DeskInput(d))).unwrap();
+            let NodeMsg::DeskInput(back) = back else {
+                panic!("{back:?}")
+            };
+            let e = back.validate().unwrap_err();
+            assert!(e.contains(if f != 0.0 { "forward" } else { "turn" }), "{e}");
+        }
+    }
 }

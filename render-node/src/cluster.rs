@@ -8,7 +8,9 @@ use std::time::{Duration, Instant};
 
 use glam::DMat4;
 use holocave_cave::Wall;
-use holocave_protocol::cluster::{FrameState, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats};
+use holocave_protocol::cluster::{
+    DeskInput, FrameState, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats,
+};
 use holocave_protocol::handshake::{self, Role, Welcome};
 use holocave_protocol::session::Sealer;
 
@@ -125,6 +127,17 @@ impl MasterLink {
             .map_err(|e| LinkError::Lost(e.to_string()))
     }
 
+    /// The desk user's keys and mouse, as navigation input.
+    pub fn desk(&mut self, input: DeskInput) -> Result<(), LinkError> {
+        self.sealer
+            .write(
+                &mut self.writer,
+                &NodeMsg::DeskInput(input),
+                MAX_CLUSTER_FRAME,
+            )
+            .map_err(|e| LinkError::Lost(e.to_string()))
+    }
+
     /// Tells the master that `frame` is drawn.
     pub fn ready(&mut self, frame: u64, stats: NodeStats) -> Result<(), LinkError> {
         self.sealer
@@ -165,6 +178,18 @@ pub trait Presentation {
     fn closed(&self) -> Option<String> {
         None
     }
+    /// The desk user's input changes since the last call (windows), oldest first.
+    fn desk_inputs(&mut self) -> Vec<DeskInput> {
+        Vec::new()
+    }
+}
+
+/// Sends the desk user's input changes to the master.
+fn send_desk(link: &mut MasterLink, present: &mut dyn Presentation) -> Result<(), LinkError> {
+    for input in present.desk_inputs() {
+        link.desk(input)?;
+    }
+    Ok(())
 }
 
 impl<F> Presentation for F
@@ -218,6 +243,9 @@ pub fn follow(
             let _ = link.leaving(&reason);
             return Ended::Closed(reason);
         }
+        if let Err(e) = send_desk(link, present) {
+            return Ended::Lost(e);
+        }
         let mut state = match next.take() {
             Some(s) => s,
             None => match link.recv(Duration::from_secs(1)) {
@@ -262,6 +290,9 @@ pub fn follow(
         stats.samples = report.inserted.min(u32::MAX as usize) as u32;
         stats.presented = counters.presented;
         stats.skipped = counters.skipped;
+        if let Err(e) = send_desk(link, present) {
+            return Ended::Lost(e);
+        }
         if let Err(e) = link.ready(state.frame, stats) {
             return Ended::Lost(e);
         }

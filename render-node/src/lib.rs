@@ -32,6 +32,7 @@ pub mod build;
 pub mod cache;
 pub mod cluster;
 pub mod cluster_node;
+pub mod desk;
 pub mod display;
 pub mod falsecolor;
 pub mod gpu;

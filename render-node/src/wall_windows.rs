@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use holocave_cave::{Eye, Wall};
-use holocave_protocol::cluster::FrameState;
+use holocave_protocol::cluster::{DeskInput, FrameState};
 
 use crate::cluster::Presentation;
 use crate::present::{Histogrammer, Prepared, layout_eyes};
@@ -50,6 +50,10 @@ where
             .screens
             .closed()
             .then(|| "its window was closed".to_owned())
+    }
+
+    fn desk_inputs(&mut self) -> Vec<DeskInput> {
+        self.output.screens.desk.take()
     }
 }
 

@@ -5,8 +5,9 @@
 //! winit runs its event loop on the main thread only, so [`run`] runs it on the calling
 //! thread and the node's frame loop on a thread of its own (scoped: it may borrow). Esc
 //! or closing a window sets a flag the frame loop reads ([`Screens::closed`]); a resize
-//! reaches the window's [`Presenter`] through its [`SharedSize`]. The event loop ends when
-//! the frame loop returns.
+//! reaches the window's [`Presenter`] through its [`SharedSize`]; the navigating keys and
+//! the mouse go to [`Screens::desk`] ([`crate::desk`]). The event loop ends when the frame
+//! loop returns.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -15,12 +16,13 @@ use std::thread::{Scope, ScopedJoinHandle};
 use holocave_cave::{Fullscreen, Monitor, WindowSettings};
 use winit::application::ApplicationHandler;
 use winit::dpi::{PhysicalPosition, PhysicalSize};
-use winit::event::{ElementState, KeyEvent, WindowEvent};
+use winit::event::{ElementState, KeyEvent, MouseButton, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop, EventLoopProxy};
-use winit::keyboard::{Key, NamedKey};
+use winit::keyboard::{Key, NamedKey, PhysicalKey};
 use winit::monitor::MonitorHandle;
 use winit::window::{Window, WindowId};
 
+use crate::desk::{DeskFeed, DeskKeys, control_of};
 use crate::present::{Presenter, SharedSize};
 use crate::{Gpu, RenderNodeError};
 
@@ -60,6 +62,8 @@ pub struct Screens {
     pub gpu: Gpu,
     pub presenters: Vec<Presenter>,
     closed: Arc<AtomicBool>,
+    /// The desk user's keys and mouse in these windows (sent to the master).
+    pub desk: DeskFeed,
 }
 
 impl Screens {
@@ -97,6 +101,9 @@ struct App<'scope, 'env, F, T> {
     sizes: Vec<(WindowId, SharedSize)>,
     closed: Arc<AtomicBool>,
     error: Option<WindowError>,
+    desk: DeskFeed,
+    /// The window a mouse drag started in (the cursor is followed there only).
+    drag_window: Option<WindowId>,
 }
 
 /// Opens `specs`' windows, then runs `body` with them on a thread of its own while this
@@ -121,6 +128,8 @@ where
             sizes: Vec::new(),
             closed: Arc::new(AtomicBool::new(false)),
             error: None,
+            desk: DeskFeed::default(),
+            drag_window: None,
         };
         let ran = event_loop.run_app(&mut app);
         if let Some(e) = app.error.take() {
@@ -174,6 +183,40 @@ where
                     },
                 ..
             } => self.closed.store(true, Ordering::Release),
+            WindowEvent::KeyboardInput {
+                event:
+                    KeyEvent {
+                        physical_key: PhysicalKey::Code(code),
+                        state,
+                        repeat: false,
+                        ..
+                    },
+                ..
+            } if control_of(code).is_some() => {
+                let c = control_of(code).expect("checked");
+                self.desk
+                    .update(|k| k.key(c, state == ElementState::Pressed));
+            }
+            WindowEvent::CursorMoved { position, .. }
+                if self.drag_window.is_none_or(|w| w == id) =>
+            {
+                self.desk.update(|k| k.cursor(position.x, position.y));
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let down = state == ElementState::Pressed;
+                match button {
+                    MouseButton::Left => {
+                        self.drag_window = down.then_some(id);
+                        self.desk.update(|k| k.left_button(down));
+                    }
+                    MouseButton::Right => self.desk.update(|k| k.right_button(down)),
+                    _ => {}
+                }
+            }
+            WindowEvent::Focused(false) => {
+                self.drag_window = None;
+                self.desk.update(DeskKeys::release_all);
+            }
             WindowEvent::Resized(size) => {
                 if let Some((_, s)) = self.sizes.iter().find(|(w, _)| *w == id) {
                     s.set(size.width, size.height);
@@ -218,6 +261,7 @@ impl<F, T> App<'_, '_, F, T> {
             gpu,
             presenters,
             closed: self.closed.clone(),
+            desk: self.desk.clone(),
         })
     }
 }

@@ -185,6 +185,11 @@ pub struct HeadArgs {
     /// the config's navigation.axes.
     #[arg(long)]
     pub axes: Option<String>,
+    /// Navigate from the keyboard and mouse of the nodes' windows (`node --window`,
+    /// `sim --window`): W/S forward and back, A/D turn, drag to steer, Space teleport, F
+    /// walk/fly (docs/usage/navigation.md); written to DIR/desk.csv with --out.
+    #[arg(long)]
+    pub desk: bool,
 }
 
 impl HeadArgs {
@@ -204,6 +209,7 @@ impl HeadArgs {
             wand: self.wand.clone(),
             buttons: self.buttons.clone(),
             axes: self.axes.clone(),
+            desk: self.desk,
         };
         Ok(given.resolve(cave, self.tracker.as_deref())?)
     }
@@ -221,11 +227,16 @@ impl HeadArgs {
         }
         let scene = scene.map(SharedScene::get).transpose()?;
         println!(
-            "navigation: {:?} mode; wand {}, buttons {}, axes {}{}",
+            "navigation: {:?} mode; wand {}, buttons {}, axes {}{}{}",
             cave.navigation.mode,
             devices.wand.as_deref().unwrap_or("none"),
             devices.buttons.as_deref().unwrap_or("none"),
             devices.axes.as_deref().unwrap_or("none"),
+            if devices.desk {
+                "; the windows' keyboard and mouse"
+            } else {
+                ""
+            },
             if scene.is_some() {
                 ""
             } else {
@@ -339,7 +350,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
         .scene
         .as_deref()
         .map(|p| SharedScene::new(p, args.holodeck.daylight.clone()));
-    let navigation = args.head.navigation(&cave, scene.as_ref())?;
+    let mut navigation = args.head.navigation(&cave, scene.as_ref())?;
     let objects = match (&args.objects, &scene) {
         (Some(path), Some(scene)) => {
             let scene = scene.get()?;
@@ -355,6 +366,9 @@ pub fn run(args: MasterArgs) -> Result<()> {
         }
         None => None,
     };
+    if let (Some(nav), Some(dir)) = (&mut navigation, &args.out) {
+        log_desk(nav, dir)?;
+    }
     let (hosted, holodeck) = args.holodeck.start(&cave, credentials.clone(), "master")?;
     let summary = run_master(
         &cave,
@@ -386,5 +400,20 @@ pub fn run(args: MasterArgs) -> Result<()> {
         stop_hosted(h)?;
     }
     print_summary(&summary?);
+    Ok(())
+}
+
+/// With `--desk`, the desk's input goes to DIR/desk.csv (a session log's button and axes
+/// rows: `--buttons file:DIR/desk.csv --axes file:DIR/desk.csv --replay` replays the walk).
+pub fn log_desk(nav: &mut NavigationRun, dir: &std::path::Path) -> Result<()> {
+    if nav.desk.is_some() {
+        let p = dir.join("desk.csv");
+        nav.log_desk(&p)
+            .with_context(|| format!("creating {}", p.display()))?;
+        println!(
+            "the desk's keys and mouse of every frame in {}",
+            p.display()
+        );
+    }
     Ok(())
 }

@@ -253,7 +253,10 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .push(Watched::spawn(format!("node {}", wall.name), &mut command)?);
     }
     let head = args.head.open(&cave)?;
-    let navigation = args.head.navigation(&cave, Some(&scene))?;
+    let mut navigation = args.head.navigation(&cave, Some(&scene))?;
+    if let Some(nav) = &mut navigation {
+        super::master::log_desk(nav, &args.out)?;
+    }
     let objects = match &args.objects {
         Some(path) => {
             let scene = scene.get()?;

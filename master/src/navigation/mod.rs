@@ -6,6 +6,7 @@
 //! eye uses the same transform and a replayed log gives the same transforms.
 
 pub mod body;
+pub mod desk;
 pub mod fly;
 pub mod grab;
 pub mod input;
@@ -63,6 +64,16 @@ impl Navigator {
 
     pub fn settings(&self) -> &Navigation {
         &self.settings
+    }
+
+    /// Walk becomes fly and fly walk (the desk's walk/fly key); `none` stays.
+    pub fn toggle_mode(&mut self) {
+        self.settings.mode = match self.settings.mode {
+            TravelMode::Walk => TravelMode::Fly,
+            TravelMode::Fly => TravelMode::Walk,
+            TravelMode::None => TravelMode::None,
+        };
+        tracing::info!("navigation: {:?}", self.settings.mode);
     }
 
     /// One frame of `dt` seconds: the head at `head` (room), the devices' state `input`,
@@ -123,9 +134,15 @@ impl Navigator {
             }
         }
 
+        // Without a wand, teleport aims where the head looks (as walking goes).
+        let aim = input.wand.unwrap_or(WandPose {
+            position: head_at,
+            orientation: head.orientation.as_dquat().normalize(),
+        });
         if input.pressed(s.teleport_button)
-            && let (Some(wand), Some(scene)) = (input.wand, scene)
+            && let Some(scene) = scene
         {
+            let wand = aim;
             teleport::teleport(
                 &mut self.place,
                 &wand,

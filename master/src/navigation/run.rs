@@ -14,7 +14,16 @@ use holocave_tracking::session_log::{is_session, read_session};
 use holocave_tracking::source::Pacing;
 use holocave_tracking::vrpn_input::InputKind;
 
+use std::fs::File;
+use std::io::{BufWriter, Write};
+
+use holocave_protocol::cluster::DeskInput;
+use holocave_tracking::Sample;
+use holocave_tracking::input::InputSample;
+use holocave_tracking::session_log::SessionWriter;
+
 use super::Navigator;
+use super::desk::{Desk, combine};
 use super::input::Inputs;
 use super::placement::Placement;
 use crate::head::Clock;
@@ -26,6 +35,8 @@ pub struct Devices {
     pub wand: Option<String>,
     pub buttons: Option<String>,
     pub axes: Option<String>,
+    /// Take the keyboard and mouse of the nodes' windows (`--desk`).
+    pub desk: bool,
 }
 
 impl Devices {
@@ -37,8 +48,9 @@ impl Devices {
             wand: self.wand.clone().or_else(|| n.wand.clone()),
             buttons: self.buttons.clone().or_else(|| n.buttons.clone()),
             axes: self.axes.clone().or_else(|| n.axes.clone()),
+            desk: self.desk,
         };
-        if d.is_empty()
+        if d.no_device()
             && let Some(spec) = tracker
             && let Some(path) = spec.strip_prefix("file:")
             && std::fs::read_to_string(path).is_ok_and(|t| is_session(&t))
@@ -56,8 +68,14 @@ impl Devices {
         Ok(d)
     }
 
-    pub fn is_empty(&self) -> bool {
+    /// No device bound; the desk alone does not count (a session log's devices are
+    /// still used with it).
+    fn no_device(&self) -> bool {
         self.wand.is_none() && self.buttons.is_none() && self.axes.is_none()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.no_device() && !self.desk
     }
 }
 
@@ -70,6 +88,10 @@ pub struct NavigationRun {
     last_ns: Option<u64>,
     /// The buttons held at the last frame (changes are logged).
     held: Vec<bool>,
+    /// The nodes' keyboards and mice (`--desk`), `None` when not taken.
+    pub desk: Option<Desk>,
+    /// Where the desk's changes are written as session-log rows (`desk.csv`).
+    desk_log: Option<SessionWriter<BufWriter<File>>>,
 }
 
 impl NavigationRun {
@@ -105,7 +127,11 @@ impl NavigationRun {
             .transpose()?;
         let inputs = Inputs::new(clock, wand, buttons, axes, cave.tracker_to_room);
         let navigator = Navigator::new(cave.navigation.clone(), &cave.room_to_scene);
-        Ok(Some(NavigationRun::new(navigator, inputs, scene)))
+        let mut run = NavigationRun::new(navigator, inputs, scene);
+        if devices.desk {
+            run.desk = Some(Desk::default());
+        }
+        Ok(Some(run))
     }
 
     pub fn new(navigator: Navigator, inputs: Inputs, scene: Option<Arc<Scene>>) -> Self {
@@ -115,6 +141,46 @@ impl NavigationRun {
             scene,
             last_ns: None,
             held: Vec::new(),
+            desk: None,
+            desk_log: None,
+        }
+    }
+
+    /// Writes the desk's input to `path` as a session log's `button` and `axes` rows,
+    /// stamped with the time of the frame that used them (after one head row at 0), so
+    /// `--buttons file:PATH --axes file:PATH` on a replay clock replays the desk walk.
+    pub fn log_desk(&mut self, path: &std::path::Path) -> std::io::Result<()> {
+        let mut w = SessionWriter::new(BufWriter::new(File::create(path)?))?;
+        w.head(&Sample::new(0, Pose::IDENTITY))?;
+        self.desk_log = Some(w);
+        Ok(())
+    }
+
+    /// A node's desk input (`None`: the node is gone). Ignored when the desk is not
+    /// taken; an invalid one is dropped with a warning naming the node and the field.
+    pub fn desk_message(&mut self, node: u64, input: Option<DeskInput>) {
+        let Some(desk) = &mut self.desk else {
+            if input.is_some() {
+                tracing::debug!("node {node}: desk input ignored (the master runs without --desk)");
+            }
+            return;
+        };
+        let s = self.navigator.settings();
+        match input {
+            Some(i) => {
+                if let Err(e) = desk.receive(s, node, i) {
+                    tracing::warn!("node {node}: {e}; dropped");
+                }
+            }
+            None => desk.forget(s, node),
+        }
+    }
+
+    /// Flushes `desk.csv`.
+    pub fn finish(&mut self) -> std::io::Result<()> {
+        match self.desk_log.take() {
+            Some(w) => w.finish()?.flush(),
+            None => Ok(()),
         }
     }
 
@@ -128,6 +194,22 @@ impl NavigationRun {
         self.last_ns = Some(now_ns);
         let before = self.held.clone();
         let mut input = self.inputs.advance(now_ns).clone();
+        if let Some(desk) = &mut self.desk {
+            let (state, toggles, events) = desk.take();
+            input = combine(&input, &state);
+            for _ in 0..toggles {
+                self.navigator.toggle_mode();
+            }
+            if let Some(w) = &mut self.desk_log {
+                for e in events {
+                    if let Err(e) = w.input(&InputSample::new(now_ns, e)) {
+                        tracing::warn!("desk.csv: {e}; no longer written");
+                        self.desk_log = None;
+                        break;
+                    }
+                }
+            }
+        }
         if let Some(w) = &mut input.wand {
             w.position += recentring.as_dvec3();
         }

@@ -400,3 +400,188 @@ fn frusta_placed_after_the_fact_equal_frusta_computed_in_the_scene() {
         assert_eq!(room.proj, direct.proj);
     }
 }
+
+mod desk {
+    use std::sync::Arc;
+
+    use holocave_protocol::cluster::DeskInput;
+
+    use super::*;
+    use crate::head::Clock;
+    use crate::navigation::desk::Desk;
+    use crate::navigation::input::Inputs;
+    use crate::navigation::run::{Devices, NavigationRun};
+
+    const PERIOD_NS: u64 = 16_666_667;
+
+    fn desk(forward: f32, turn: f32, teleport: bool) -> DeskInput {
+        DeskInput {
+            forward,
+            turn,
+            teleport,
+            ..DeskInput::NEUTRAL
+        }
+    }
+
+    /// A desk walk: ahead, ahead turning right, back turning left, a teleport tap, ahead.
+    fn script() -> Vec<DeskInput> {
+        let mut s = Vec::new();
+        s.extend(std::iter::repeat_n(desk(1.0, 0.0, false), 30));
+        s.extend(std::iter::repeat_n(desk(1.0, 1.0, false), 30));
+        s.extend(std::iter::repeat_n(desk(-1.0, -1.0, false), 20));
+        s.push(desk(0.0, 0.0, true));
+        s.extend(std::iter::repeat_n(desk(0.5, 0.0, false), 20));
+        s
+    }
+
+    fn room() -> Arc<Scene> {
+        Arc::new(scene(&[floor(0.0, -40.0, 40.0), wall(-6.0, 0.0, 3.0)]))
+    }
+
+    /// Non-default channels and signs, so the mapping onto them is exercised.
+    fn odd_settings() -> Navigation {
+        Navigation {
+            forward_axis: 3,
+            turn_axis: 1,
+            forward_sign: -1.0,
+            turn_sign: -1.0,
+            teleport_button: Some(2),
+            ..settings(TravelMode::Walk)
+        }
+    }
+
+    fn run_of(s: &Navigation, inputs: Inputs, sc: &Arc<Scene>) -> NavigationRun {
+        NavigationRun::new(
+            Navigator::new(s.clone(), &DMat4::IDENTITY),
+            inputs,
+            Some(sc.clone()),
+        )
+    }
+
+    fn no_devices() -> Inputs {
+        Inputs::new(Clock::Replay, None, None, None, DMat4::IDENTITY)
+    }
+
+    #[test]
+    fn a_desk_stream_moves_exactly_as_the_joystick_and_buttons_do() {
+        let s = odd_settings();
+        let sc = room();
+        let mut by_desk = run_of(&s, no_devices(), &sc);
+        by_desk.desk = Some(Desk::default());
+        let mut by_joystick = Navigator::new(s.clone(), &DMat4::IDENTITY);
+        let mut teleported = false;
+        for (i, d) in script().into_iter().enumerate() {
+            // The teleport is a tap shorter than a frame: down and up before the frame.
+            by_desk.desk_message(7, Some(d));
+            if d.teleport {
+                by_desk.desk_message(7, Some(desk(0.0, 0.0, false)));
+            }
+            let a = by_desk.frame(i as u64 * PERIOD_NS, &head(), Vec3::ZERO);
+            // The same travel from a joystick whose forward and right are negative.
+            let mut axes = vec![0.0; 4];
+            axes[3] = -f64::from(d.forward);
+            axes[1] = -f64::from(d.turn);
+            let state = InputState {
+                wand: None,
+                buttons: vec![false; 3],
+                presses: vec![0, 0, u32::from(d.teleport)],
+                axes,
+            };
+            let dt = if i == 0 { 0.0 } else { PERIOD_NS as f64 * 1e-9 };
+            let b = by_joystick.step(&head(), &state, dt, Some(&sc));
+            assert_eq!(a, b, "frame {i}");
+            if d.teleport {
+                teleported = true;
+                // Aimed with the head (no wand): at the wall's foot, a radius back.
+                let p = head_in_scene(&a);
+                assert!(p.z < -4.0, "teleported to {p}");
+            }
+        }
+        assert!(teleported);
+    }
+
+    #[test]
+    fn desk_csv_replays_the_desk_walk_bit_for_bit() {
+        let s = odd_settings();
+        let sc = room();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("desk.csv");
+        let mut live = run_of(&s, no_devices(), &sc);
+        live.desk = Some(Desk::default());
+        live.log_desk(&path).unwrap();
+        let mut first = Vec::new();
+        for (i, d) in script().into_iter().enumerate() {
+            live.desk_message(3, Some(d));
+            if d.teleport {
+                live.desk_message(3, Some(desk(0.0, 0.0, false)));
+            }
+            first.push(live.frame(i as u64 * PERIOD_NS, &head(), Vec3::ZERO));
+        }
+        live.finish().unwrap();
+
+        let spec = format!("file:{}", path.display());
+        let devices = Devices {
+            buttons: Some(spec.clone()),
+            axes: Some(spec),
+            ..Devices::default()
+        };
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../configs/cave4.toml"
+        ))
+        .unwrap();
+        let mut cave = holocave_cave::parse_cave(&text, "cave4.toml").unwrap();
+        cave.navigation = s;
+        cave.room_to_scene = DMat4::IDENTITY;
+        cave.tracker_to_room = DMat4::IDENTITY;
+        let mut replay = NavigationRun::open(&cave, &devices, Clock::Replay, Some(sc))
+            .unwrap()
+            .unwrap();
+        for (i, a) in first.iter().enumerate() {
+            let b = replay.frame(i as u64 * PERIOD_NS, &head(), Vec3::ZERO);
+            assert_eq!(*a, b, "frame {i}");
+        }
+    }
+
+    #[test]
+    fn garbage_is_dropped_and_a_node_that_leaves_releases_its_keys() {
+        let s = settings(TravelMode::Walk);
+        let mut d = Desk::default();
+        let nan = DeskInput {
+            forward: f32::NAN,
+            ..DeskInput::NEUTRAL
+        };
+        assert!(d.receive(&s, 1, nan).unwrap_err().contains("forward"));
+        assert_eq!(d.merged(), DeskInput::NEUTRAL);
+        d.receive(&s, 2, desk(0.0, 1.0, false)).unwrap();
+        d.receive(&s, 1, desk(1.0, -1.0, false)).unwrap();
+        // Axes: the first non-neutral node by id; node 1 turns left, node 2 right.
+        assert_eq!((d.merged().forward, d.merged().turn), (1.0, -1.0));
+        d.forget(&s, 1);
+        assert_eq!((d.merged().forward, d.merged().turn), (0.0, 1.0));
+        d.forget(&s, 2);
+        let (state, toggles, _) = d.take();
+        assert_eq!((state.axis(0), state.axis(1), toggles), (0.0, 0.0, 0));
+    }
+
+    #[test]
+    fn the_mode_key_toggles_walk_and_fly_once_a_press() {
+        let sc = room();
+        let mut run = run_of(&settings(TravelMode::Walk), no_devices(), &sc);
+        run.desk = Some(Desk::default());
+        let mode = DeskInput {
+            mode: true,
+            ..DeskInput::NEUTRAL
+        };
+        run.desk_message(1, Some(mode));
+        run.frame(0, &head(), Vec3::ZERO);
+        assert_eq!(run.navigator.settings().mode, TravelMode::Fly);
+        run.desk_message(1, Some(mode)); // held: no new press
+        run.frame(PERIOD_NS, &head(), Vec3::ZERO);
+        assert_eq!(run.navigator.settings().mode, TravelMode::Fly);
+        run.desk_message(1, Some(DeskInput::NEUTRAL));
+        run.desk_message(1, Some(mode));
+        run.frame(2 * PERIOD_NS, &head(), Vec3::ZERO);
+        assert_eq!(run.navigator.settings().mode, TravelMode::Walk);
+    }
+}
