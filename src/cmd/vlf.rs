@@ -403,6 +403,14 @@ fn view(a: ViewArgs) -> Result<()> {
             r.display(),
             holocave_vlf::accuracy::figures(&image, &reference, 16)
         );
+        if !scene.objects().is_empty() {
+            let mask = vis.object_pixels(&view);
+            let (mse, bias, n) = holocave_vlf::accuracy::masked(&image, &reference, &mask);
+            println!(
+                "on the moving objects ({n} pixels): relative MSE {mse:.5}, mean bias {:+.2} %",
+                100.0 * bias
+            );
+        }
     }
     Ok(())
 }

@@ -274,6 +274,21 @@ impl Visibility {
         (l, Some(point))
     }
 
+    /// Which pixels of `view` see a moving object through their centre.
+    pub fn object_pixels(&self, view: &WallView) -> Vec<bool> {
+        self.with_placed(|placed| {
+            (0..view.width * view.height)
+                .into_par_iter()
+                .map(|i| {
+                    let c = Vec2::new((i % view.width) as f32 + 0.5, (i / view.width) as f32 + 0.5);
+                    placed
+                        .closest_hit(&view.ray(c), f32::INFINITY)
+                        .is_some_and(|h| placed.object_of(h.triangle).is_some())
+                })
+                .collect()
+        })
+    }
+
     /// One lookup per pixel of `view`, through the pixel's centre, rows from the top. The
     /// first hits are found in packets of neighbouring pixels (coherent rays).
     pub fn pixels(&self, view: &WallView) -> Vec<Lookup> {
