@@ -191,7 +191,7 @@ impl Compare<'_> {
             Method::Vlf => {
                 let mut cache = builder.cache()?;
                 let base = self.vlf_base(s)?;
-                cache.set_vlf(base.values(), 0.0);
+                cache.set_vlf(base.values(), 0.0)?;
                 Drawer::Vlf { cache, base }
             }
             Method::Holodeck | Method::VlfHolodeck => {

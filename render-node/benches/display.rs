@@ -43,7 +43,9 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32, vlf: bool) {
     let vs = views(w, h);
     if vlf {
         let (count, lookups) = room_lookups(&vs);
-        cache.set_vlf(&vec![[1.0, 0.5, 0.25]; count], 256.0);
+        cache
+            .set_vlf(&vec![[1.0, 0.5, 0.25]; count], 256.0)
+            .expect("the values fit");
         for (e, l) in lookups.iter().enumerate() {
             cache.set_lookups(e, l);
         }

@@ -85,9 +85,9 @@ impl DisplayBuilder {
             Feed::Thread => WallDisplay::threaded(cache, tracer(), self.samples),
             Feed::Holodeck(source) => WallDisplay::holodeck(cache, source, self.samples),
         };
-        Ok(match &self.light_field {
+        match &self.light_field {
             Some(lf) => display.with_vlf(lf.base.clone(), lf.prior),
-            None => display,
-        })
+            None => Ok(display),
+        }
     }
 }

@@ -18,8 +18,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use holocave_tracer::film::Image;
 
-use crate::EyeView;
 use crate::gpu::Gpu;
+use crate::{EyeView, RenderNodeError};
 use holocave_vlf::Lookup;
 
 #[path = "shaders/age.rs"]
@@ -214,12 +214,20 @@ struct VlfParams {
     height: u32,
     index_bits: u32,
     prior: f32,
+    /// Values per light-field buffer (the last may hold fewer).
+    chunk: u32,
+    _pad: [u32; 3],
 }
+
+/// The light field's values are bound as this many storage buffers, each within the
+/// adapter's binding limit (128 MiB on lavapipe, where the breakfast room's default bake,
+/// 375 MB, needs three).
+pub const VLF_BUFFERS: usize = 4;
 
 /// The Virtual Light Field on the GPU: the baked irradiance, and per eye its lookups.
 struct VlfBuffers {
     /// Kept alive for the bind groups.
-    _irradiance: wgpu::Buffer,
+    _irradiance: Vec<wgpu::Buffer>,
     eyes: Vec<(wgpu::Buffer, wgpu::Buffer, wgpu::BindGroup)>,
 }
 
@@ -431,12 +439,25 @@ impl RenderCache {
     /// irradiance of every element then the radiance of every glossy tile's bins (from a
     /// `.vlf` file: `holocave_vlf::State::values`), worth `prior` samples in each pixel (see
     /// `shaders/vlf.wgsl`). Each frame needs every eye's lookups ([`Self::set_lookups`]).
-    pub fn set_vlf(&mut self, values: &[[f32; 3]], prior: f32) {
+    pub fn set_vlf(&mut self, values: &[[f32; 3]], prior: f32) -> Result<(), RenderNodeError> {
         let flat: &[f32] = bytemuck::cast_slice(values);
-        let data: &[f32] = if flat.is_empty() { &[0.0; 3] } else { flat };
-        let irr = self
-            .gpu
-            .storage_init("vlf irradiance", bytemuck::cast_slice(data));
+        let limit = self.gpu.device.limits().max_storage_buffer_binding_size;
+        // Floats per buffer: what one binding holds, in whole 256-byte blocks.
+        let chunk = ((limit / 4) & !63).min(u64::from(u32::MAX / VLF_BUFFERS as u32)) as usize;
+        if flat.len() > chunk * VLF_BUFFERS {
+            return Err(RenderNodeError::Vlf(format!(
+                "the light field's values take {} bytes; this adapter binds {VLF_BUFFERS} buffers of at most {limit} bytes",
+                flat.len() * 4
+            )));
+        }
+        let irr: Vec<wgpu::Buffer> = (0..VLF_BUFFERS)
+            .map(|b| {
+                let part = &flat[(b * chunk).min(flat.len())..((b + 1) * chunk).min(flat.len())];
+                let data: &[f32] = if part.is_empty() { &[0.0; 3] } else { part };
+                self.gpu
+                    .storage_init("vlf irradiance", bytemuck::cast_slice(data))
+            })
+            .collect();
         let eyes = self
             .eyes
             .iter()
@@ -450,6 +471,8 @@ impl RenderCache {
                     height: e.height,
                     index_bits: self.index_bits,
                     prior,
+                    chunk: chunk as u32,
+                    _pad: [0; 3],
                 };
                 self.gpu
                     .queue
@@ -462,12 +485,15 @@ impl RenderCache {
                     [
                         &params,
                         &lookups,
-                        &irr,
+                        &irr[0],
                         &self.points,
                         &e.key,
                         &e.color,
                         &e.priority,
                         &e.counters,
+                        &irr[1],
+                        &irr[2],
+                        &irr[3],
                     ],
                 );
                 (params, lookups, bg)
@@ -477,6 +503,7 @@ impl RenderCache {
             _irradiance: irr,
             eyes,
         });
+        Ok(())
     }
 
     /// What each pixel of eye `eye` sees of the light field this frame (one per pixel,
@@ -940,6 +967,10 @@ mod layout_tests {
                 ("height", offset_of!(VlfParams, height)),
                 ("index_bits", offset_of!(VlfParams, index_bits)),
                 ("prior", offset_of!(VlfParams, prior)),
+                ("chunk", offset_of!(VlfParams, chunk)),
+                ("pad0", offset_of!(VlfParams, _pad)),
+                ("pad1", offset_of!(VlfParams, _pad) + 4),
+                ("pad2", offset_of!(VlfParams, _pad) + 8),
             ],
         );
     }

@@ -12,7 +12,7 @@ use holocave_tracer::film::Image;
 use crate::cache::{RenderCache, StepTimes};
 use crate::holodeck::HolodeckSource;
 use crate::source::{PixelTracer, TracerThread};
-use crate::{EyeView, VlfBase};
+use crate::{EyeView, RenderNodeError, VlfBase};
 
 /// What one frame did.
 #[derive(Clone, Debug, Default)]
@@ -104,10 +104,10 @@ impl WallDisplay {
 
     /// Draws the light field `base` under the samples from now on, worth `prior` samples
     /// per pixel (see `shaders/vlf.wgsl`).
-    pub fn with_vlf(mut self, base: Arc<VlfBase>, prior: f32) -> Self {
-        self.cache.set_vlf(base.values(), prior);
+    pub fn with_vlf(mut self, base: Arc<VlfBase>, prior: f32) -> Result<Self, RenderNodeError> {
+        self.cache.set_vlf(base.values(), prior)?;
         self.vlf = Some(base);
-        self
+        Ok(self)
     }
 
     /// Puts the scene's moving objects where a frame state says (by name; an object the

@@ -76,7 +76,7 @@ fn the_gpu_lookup_equals_the_cpu_lookup() {
 
         let n = size * size;
         let mut cache = RenderCache::new(gpu.clone(), &[(size, size)], n, n);
-        cache.set_vlf(base.values(), 64.0);
+        cache.set_vlf(base.values(), 64.0).unwrap();
         cache.set_lookups(0, &lookups);
         let image = cache.vlf_image(0).expect("a light field is set");
         // The same f32 operations in the same order on both sides; a GPU may fuse a
@@ -127,10 +127,12 @@ fn a_cold_start_shows_the_light_field_and_a_still_viewer_converges() {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let n = SIZE * SIZE;
     let cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n + n / 4, n);
-    let mut display = WallDisplay::new(cache, PixelTracer::new(tracer, 1), n / 16).with_vlf(
-        Arc::new(base),
-        holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES,
-    );
+    let mut display = WallDisplay::new(cache, PixelTracer::new(tracer, 1), n / 16)
+        .with_vlf(
+            Arc::new(base),
+            holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES,
+        )
+        .unwrap();
     let view = EyeView::looking_at(wall, 0.05).unwrap();
 
     display.frame(&[view], false);

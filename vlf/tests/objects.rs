@@ -23,7 +23,10 @@ fn room_with_movable_block() -> Arc<Scene> {
         ..Default::default()
     };
     let scene = Scene::load(&path, &opts).expect("the room loads");
-    assert!(scene.lights.is_empty(), "the room's lamp is its emissive mesh only");
+    assert!(
+        scene.lights.is_empty(),
+        "the room's lamp is its emissive mesh only"
+    );
     Arc::new(scene)
 }
 
@@ -91,11 +94,23 @@ fn the_blocks_sun_shadow_is_exact_wherever_it_goes() {
         .map(|p| vis.with_placed(|s| direct.estimate(s, p, 7, 0)).radiance)
         .collect();
     let s = sun.direction.normalize();
-    let (u, v) = (s.any_orthonormal_vector(), s.any_orthonormal_vector().cross(s));
-    let rim = [s, s + u * sun.angular_radius, s - u * sun.angular_radius, s + v * sun.angular_radius, s - v * sun.angular_radius];
+    let (u, v) = (
+        s.any_orthonormal_vector(),
+        s.any_orthonormal_vector().cross(s),
+    );
+    let rim = [
+        s,
+        s + u * sun.angular_radius,
+        s - u * sun.angular_radius,
+        s + v * sun.angular_radius,
+        s - v * sun.angular_radius,
+    ];
     let target = lit[lit.len() / 2].position;
     let mut shadows = Vec::new();
-    for (k, (lift, turn)) in [(0.5f32, 0.0f32), (0.8, 0.6), (0.6, -1.1)].into_iter().enumerate() {
+    for (k, (lift, turn)) in [(0.5f32, 0.0f32), (0.8, 0.6), (0.6, -1.1)]
+        .into_iter()
+        .enumerate()
+    {
         let (lo, hi) = scene.objects()[0].local_bounds();
         let rotation = Quat::from_rotation_y(turn) * Quat::from_rotation_x(0.3 * k as f32);
         let centre = target + s * lift + Vec3::X * 0.15 * k as f32;
@@ -126,7 +141,10 @@ fn the_blocks_sun_shadow_is_exact_wherever_it_goes() {
                 );
             }
         }
-        assert!(umbra > 5 && clear > 50, "placement {k}: {umbra} in umbra, {clear} clear");
+        assert!(
+            umbra > 5 && clear > 50,
+            "placement {k}: {umbra} in umbra, {clear} clear"
+        );
         shadows.push(shadow);
     }
     assert_ne!(shadows[0], shadows[1], "the shadow moved with the block");
@@ -145,9 +163,13 @@ fn the_light_field_never_sees_the_block_and_the_walls_do() {
     let centre = rest.to_world_point(0.5 * (lo + hi));
     let eye = centre + Vec3::new(-1.5, 0.6, 1.2);
     let ray = Ray::new(eye, (centre - eye).normalize());
-    let placed_hit = vis.with_placed(|s| s.closest_hit(&ray, f32::INFINITY)).expect("a hit");
+    let placed_hit = vis
+        .with_placed(|s| s.closest_hit(&ray, f32::INFINITY))
+        .expect("a hit");
     assert!(vis.with_placed(|s| s.object_of(placed_hit.triangle)) == Some(0));
-    let static_hit = scene.closest_hit(&ray, f32::INFINITY).expect("the wall behind");
+    let static_hit = scene
+        .closest_hit(&ray, f32::INFINITY)
+        .expect("the wall behind");
     assert!(static_hit.t > placed_hit.t && (static_hit.triangle as usize) < scene.triangle_count());
     // Drawn where it stands: the lookup of that ray is the block's (no element, no
     // cache samples), and away it is the wall's again.

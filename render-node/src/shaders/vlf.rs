@@ -18,7 +18,7 @@ impl VlfPass {
     pub(super) fn new(gpu: &Gpu) -> VlfPass {
         use Binding::{Storage, Uniform};
         let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
-        let bindings = [Uniform, ro, ro, ro, ro, rw, rw, rw];
+        let bindings = [Uniform, ro, ro, ro, ro, rw, rw, rw, ro, ro, ro];
         let source = SOURCE;
         VlfPass(ComputePass::new(
             gpu,
@@ -30,8 +30,9 @@ impl VlfPass {
     }
 
     /// A bind group of `[params, lookups, irradiance, points, key, color, priority,
-    /// counters]`, in binding order.
-    pub(super) fn bind_group(&self, gpu: &Gpu, buffers: [&wgpu::Buffer; 8]) -> wgpu::BindGroup {
+    /// counters, irradiance1, irradiance2, irradiance3]`, in binding order (the light
+    /// field's values in four buffers: `crate::cache::VLF_BUFFERS`).
+    pub(super) fn bind_group(&self, gpu: &Gpu, buffers: [&wgpu::Buffer; 11]) -> wgpu::BindGroup {
         self.0.bind_group(gpu, &buffers)
     }
 

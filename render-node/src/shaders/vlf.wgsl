@@ -33,6 +33,12 @@ struct VlfParams {
     index_bits: u32,
     // The light field's worth in samples (0: the cache alone).
     prior: f32,
+    // Values per buffer: the values are split over irradiance, irradiance1..3, each
+    // within the adapter's binding limit.
+    chunk: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> V: VlfParams;
@@ -44,6 +50,9 @@ struct VlfParams {
 @group(0) @binding(5) var<storage, read_write> color: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> priority: array<f32>;
 @group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(8) var<storage, read> irradiance1: array<f32>;
+@group(0) @binding(9) var<storage, read> irradiance2: array<f32>;
+@group(0) @binding(10) var<storage, read> irradiance3: array<f32>;
 
 const NONE: u32 = 0xffffffffu;
 // A point's samples count half after this many frames without a new one.
@@ -59,8 +68,23 @@ fn cell_index(i0: u32, j0: u32, r: u32) -> u32 {
     return j * r - j * (max(j, 1u) - 1u) / 2u + i;
 }
 
+// Value i of the light field, from the buffer that holds it.
+fn value(i: u32) -> f32 {
+    let c = V.chunk;
+    if (i < c) {
+        return irradiance[i];
+    }
+    if (i < 2u * c) {
+        return irradiance1[i - c];
+    }
+    if (i < 3u * c) {
+        return irradiance2[i - 2u * c];
+    }
+    return irradiance3[i - 3u * c];
+}
+
 fn irr(e: u32) -> vec3<f32> {
-    return vec3<f32>(irradiance[3u * e], irradiance[3u * e + 1u], irradiance[3u * e + 2u]);
+    return vec3<f32>(value(3u * e), value(3u * e + 1u), value(3u * e + 2u));
 }
 
 // holocave_vlf::elements::interpolate
