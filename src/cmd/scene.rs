@@ -37,6 +37,13 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             let (lo, hi) = scene.bounds();
             println!("{}", path.display());
             println!("  triangles     {}", scene.triangle_count());
+            for o in scene.objects() {
+                println!(
+                    "  object        {:?}: {} triangles, moving (never in the caches)",
+                    o.name,
+                    o.triangle_count()
+                );
+            }
             let mut kinds = BTreeMap::new();
             for m in &scene.materials {
                 *kinds

@@ -410,6 +410,12 @@ fn view(a: ViewArgs) -> Result<()> {
                 "on the moving objects ({n} pixels): relative MSE {mse:.5}, mean bias {:+.2} %",
                 100.0 * bias
             );
+            let rest: Vec<bool> = mask.iter().map(|m| !m).collect();
+            let (mse, bias, n) = holocave_vlf::accuracy::masked(&image, &reference, &rest);
+            println!(
+                "elsewhere ({n} pixels): relative MSE {mse:.5}, mean bias {:+.2} %",
+                100.0 * bias
+            );
         }
     }
     Ok(())

@@ -57,5 +57,39 @@ fn visibility(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, visibility);
+/// Moving objects' cost: the room with its block and its table top (boxes of 12
+/// triangles, in view) static, against the same room with both moving (each ray also
+/// carried into their frames and tried against their boxes and BVHs).
+fn moving_objects(c: &mut Criterion) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
+    let object = |name: &str, nodes: &[&str]| holocave_scene::ObjectSpec {
+        name: name.into(),
+        nodes: nodes.iter().map(|n| n.to_string()).collect(),
+    };
+    let moving = LoadOptions {
+        objects: vec![
+            object("block", &["block"]),
+            object("table top", &["table top"]),
+        ],
+        ..Default::default()
+    };
+    let mut group = c.benchmark_group("vlf visibility/room.gltf objects");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(5));
+    let v = view(Vec3::new(0.0, 1.6, 0.5), -1.5, 1024, 768);
+    for (label, opts) in [("static", LoadOptions::default()), ("moving", moving)] {
+        let Ok(scene) = Scene::load(&path, &opts) else {
+            eprintln!("{label}: the room's nodes are not as this bench expects; skipped");
+            continue;
+        };
+        let vis = Visibility::of(Arc::new(scene), &Settings::default());
+        group.bench_function(
+            format!("1024x768, all cores, block and table top {label}"),
+            |b| b.iter(|| vis.pixels(&v)),
+        );
+    }
+    group.finish();
+}
+
+criterion_group!(benches, visibility, moving_objects);
 criterion_main!(benches);
