@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use glam::{Quat, Vec3};
 use holocave_protocol::cluster::WireObject;
-use holocave_scene::{ObjectPaths, Placement};
+use holocave_scene::{ObjectPaths, Placement, Scene};
 use holocave_tracer::film::Image;
 
 use crate::cache::{RenderCache, StepTimes};
@@ -115,28 +115,10 @@ impl WallDisplay {
     /// over the light field only: without one there is nothing to do.
     pub fn place_objects(&mut self, objects: &[WireObject]) {
         let Some(base) = &self.vlf else { return };
-        let scene = base.scene();
-        if scene.objects().is_empty() {
+        if base.scene().objects().is_empty() {
             return;
         }
-        let mut at = base.placements();
-        for o in objects {
-            let p = Placement::new(
-                Vec3::from_array(o.position),
-                Quat::from_array(o.orientation),
-            );
-            let sane = p.translation.is_finite()
-                && p.rotation.is_finite()
-                && (p.rotation.length() - 1.0).abs() < 1e-3;
-            match scene.object_index(&o.name) {
-                Some(k) if sane => at[k] = Placement::new(p.translation, p.rotation.normalize()),
-                Some(_) => {
-                    tracing::warn!("object {:?}: placement {p:?} is not rigid; ignored", o.name)
-                }
-                None => tracing::warn!("object {:?} is not a moving object of this scene", o.name),
-            }
-        }
-        base.place_objects(&at);
+        base.place_objects(&placements_of(base.scene(), base.placements(), objects));
     }
 
     /// Puts the scene's moving objects where `paths` has them at `t` seconds.
@@ -222,6 +204,27 @@ impl WallDisplay {
     }
 }
 
+/// The placements `now` with each object a frame state names moved where it says; an
+/// unknown name, or a placement that is not a finite rigid motion, is refused with a
+/// warning and leaves that object where it was (a frame state is checked, never trusted).
+fn placements_of(scene: &Scene, mut now: Vec<Placement>, objects: &[WireObject]) -> Vec<Placement> {
+    for o in objects {
+        let p = Placement::new(
+            Vec3::from_array(o.position),
+            Quat::from_array(o.orientation),
+        );
+        let rigid = p.translation.is_finite()
+            && p.rotation.is_finite()
+            && (p.rotation.length() - 1.0).abs() < 1e-3;
+        match scene.object_index(&o.name) {
+            Some(k) if rigid => now[k] = Placement::new(p.translation, p.rotation.normalize()),
+            Some(_) => tracing::warn!("object {:?}: placement {p:?} is not rigid; ignored", o.name),
+            None => tracing::warn!("object {:?} is not a moving object of this scene", o.name),
+        }
+    }
+    now
+}
+
 /// Tiles previews into one picture for looking at: one row per entry of `rows`, each image
 /// scaled up `zoom` times (nearest neighbour), 4-pixel grey gutters.
 pub fn contact_sheet(rows: &[Vec<image::RgbImage>], zoom: u32) -> image::RgbImage {
@@ -249,4 +252,53 @@ pub fn contact_sheet(rows: &[Vec<image::RgbImage>], zoom: u32) -> image::RgbImag
         }
     }
     sheet
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use holocave_scene::{LoadOptions, ObjectSpec};
+
+    /// A frame state's placements are taken by name; a NaN, a scaled rotation and an
+    /// unknown name are refused and leave the objects where they were.
+    #[test]
+    fn a_frame_states_placements_are_checked() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
+        let opts = LoadOptions {
+            objects: vec![ObjectSpec {
+                name: "block".into(),
+                nodes: vec!["block".into()],
+            }],
+            ..Default::default()
+        };
+        let scene = Scene::load(&path, &opts).unwrap();
+        let rest = scene.rest_placements();
+        let wire = |name: &str, position: [f32; 3], orientation: [f32; 4]| WireObject {
+            name: name.into(),
+            position,
+            orientation,
+        };
+        let turned = Quat::from_rotation_y(0.5);
+        let moved = placements_of(
+            &scene,
+            rest.clone(),
+            &[wire("block", [1.0, 0.0, -1.0], turned.to_array())],
+        );
+        assert_eq!(
+            moved[0],
+            Placement::new(Vec3::new(1.0, 0.0, -1.0), turned.normalize())
+        );
+        for bad in [
+            wire("block", [f32::NAN, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]),
+            wire("block", [0.0; 3], [0.0, 0.0, 0.0, 2.0]),
+            wire("block", [0.0; 3], [f32::INFINITY, 0.0, 0.0, 1.0]),
+            wire("sofa", [0.0; 3], [0.0, 0.0, 0.0, 1.0]),
+        ] {
+            assert_eq!(
+                placements_of(&scene, moved.clone(), &[bad.clone()]),
+                moved,
+                "{bad:?}"
+            );
+        }
+    }
 }

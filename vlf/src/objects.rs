@@ -40,6 +40,10 @@ const REGATHER: f32 = 0.25;
 /// a point's cosine-weighted hemisphere.
 const TRUSTED_OCCLUSION: f32 = 0.01;
 
+/// A share of the hemisphere too small to darken anything visibly (under an 8-bit step of
+/// a mid grey): not looked at further.
+const MATTERS: f32 = 1e-3;
+
 /// One moving object as it is lit and shadows this frame.
 #[derive(Clone, Debug)]
 struct LitObject {
@@ -159,8 +163,10 @@ impl ObjectLight {
 
     /// The share of the cosine-weighted hemisphere of a static point `p` (unit normal
     /// `n`) the objects leave open, and whether they take enough of it that the static
-    /// caches' samples there are wrong.
-    pub fn openness(&self, p: Vec3, n: Vec3) -> (f32, bool) {
+    /// caches' samples there are wrong. An object counts only where `in_sight(centre)`
+    /// says the static scene does not hide its centre from `p` (a chair in the next room
+    /// darkens nothing here); that costs one ray per point and object near it.
+    pub fn openness(&self, p: Vec3, n: Vec3, in_sight: &dyn Fn(Vec3) -> bool) -> (f32, bool) {
         let mut open = 1.0f32;
         let mut near = false;
         for o in &self.objects {
@@ -168,6 +174,10 @@ impl ObjectLight {
             let d = to.length().max(o.occluder);
             let cos = (n.dot(to) / d).clamp(0.0, 1.0);
             let covered = cos * (o.occluder / d).powi(2);
+            // Too little to matter, or behind a wall.
+            if (covered <= MATTERS && d >= o.bound) || !in_sight(o.centre) {
+                continue;
+            }
             open *= 1.0 - covered;
             near |= covered > TRUSTED_OCCLUSION || d < o.bound;
         }

@@ -236,7 +236,13 @@ impl Visibility {
         let (open, near) = if objects.is_empty() {
             (1.0, false)
         } else {
-            objects.openness(s.position, s.normal * -s.normal.dot(r.dir).signum())
+            let n = s.normal * -s.normal.dot(r.dir).signum();
+            let in_sight = |c: Vec3| {
+                let to = c - s.position;
+                let ray = Ray::leaving(s.position, s.normal, to.normalize());
+                !self.scene.occluded(&ray, to.length())
+            };
+            objects.openness(s.position, n, &in_sight)
         };
         let samples = if near { 0.0 } else { 1.0 };
         let cells = self.elements.triangles[s.hit.triangle as usize];

@@ -179,3 +179,37 @@ fn the_light_field_never_sees_the_block_and_the_walls_do() {
     let (l, _) = vis.lookup_and_point(ray);
     assert!(l.base != u32::MAX && l.samples == 1.0, "{l:?}");
 }
+
+/// An object where no pixel sees it or its light — far behind the viewer, or beyond the
+/// room's wall (out of every holodeck section) — changes nothing a wall shows: every
+/// lookup equals the one with the object away (a chair in the next room darkens nothing
+/// here, though it is within its reach through the wall).
+#[test]
+fn an_object_out_of_sight_changes_nothing_seen() {
+    let scene = room_with_movable_block();
+    let vis = Visibility::of(scene.clone(), &Settings::default());
+    let wall = holocave_cave::WallView {
+        eye: Vec3::new(0.0, 1.6, 0.5),
+        pa: Vec3::new(-1.5, 0.0, -1.5),
+        pb: Vec3::new(1.5, 0.0, -1.5),
+        pc: Vec3::new(-1.5, 3.0, -1.5),
+        width: 64,
+        height: 48,
+    };
+    vis.place_objects(&block_at(away()));
+    let seen = vis.pixels(&wall);
+    let (lo, hi) = scene.objects()[0].local_bounds();
+    let (bmin, bmax) = scene.bounds();
+    for (what, centre) in [
+        ("far behind the viewer", Vec3::new(0.0, 1.0, 60.0)),
+        ("beyond the back wall", Vec3::new(0.0, 1.0, bmax.z + 0.6)),
+        ("under the floor", Vec3::new(0.0, bmin.y - 0.6, -1.0)),
+    ] {
+        let at = Placement::new(centre - 0.5 * (lo + hi), Quat::IDENTITY);
+        vis.place_objects(&block_at(at));
+        assert!(
+            vis.pixels(&wall) == seen,
+            "the block {what} changed the view"
+        );
+    }
+}
