@@ -58,6 +58,9 @@ pub struct NavigationSection {
     pub grab_button: i64,
     /// The button that teleports to the floor the wand points at; `-1`: none.
     pub teleport_button: i64,
+    /// The button that picks up the moving object the wand points at and carries it
+    /// while held; `-1`: none.
+    pub object_button: i64,
     /// Grabbing turns the world about the vertical only (no pitch, no roll).
     pub grab_yaw_only: bool,
     /// How close the user's body comes to a wall (m).
@@ -91,6 +94,7 @@ impl Default for NavigationSection {
             dead_zone: 0.1,
             grab_button: 0,
             teleport_button: 1,
+            object_button: 2,
             grab_yaw_only: true,
             radius: 0.3,
             step_height: 0.35,
@@ -128,6 +132,7 @@ pub struct Navigation {
     pub dead_zone: f64,
     pub grab_button: Option<usize>,
     pub teleport_button: Option<usize>,
+    pub object_button: Option<usize>,
     pub grab_yaw_only: bool,
     pub radius: f64,
     pub step_height: f64,
@@ -180,6 +185,14 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
     };
     let grab_button = button("grab_button", s.grab_button);
     let teleport_button = button("teleport_button", s.teleport_button);
+    let object_button = button("object_button", s.object_button);
+    if object_button.is_some() && (object_button == grab_button || object_button == teleport_button)
+    {
+        problems.push(format!(
+            "navigation.object_button: {} is also the grab or the teleport button",
+            s.object_button
+        ));
+    }
     if grab_button.is_some() && grab_button == teleport_button {
         problems.push(format!(
             "navigation.teleport_button: {} is also the grab button",
@@ -214,6 +227,7 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
         dead_zone: s.dead_zone,
         grab_button,
         teleport_button,
+        object_button,
         grab_yaw_only: s.grab_yaw_only,
         radius: s.radius,
         step_height: s.step_height,

@@ -73,7 +73,8 @@ pub struct MasterOptions {
     pub navigation: Option<NavigationRun>,
     /// Write each frame's room → scene transform to this `navigation.csv`.
     pub navigation_log: Option<PathBuf>,
-    /// The moving objects' paths; `None`: the scene has none, or they stand still.
+    /// The moving objects (their paths, the wand that carries them); `None`: the scene
+    /// has none.
     pub objects: Option<crate::objects::ObjectMotion>,
 }
 
@@ -674,10 +675,16 @@ async fn run_frames(
             display_ns,
             tracker_ns,
         };
-        let objects = opts
-            .objects
-            .as_ref()
-            .map_or_else(Vec::new, |o| o.at(display_ns));
+        let objects = match &mut opts.objects {
+            Some(o) => {
+                let (wand, button) = opts
+                    .navigation
+                    .as_ref()
+                    .map_or((None, false), |n| n.object_hand(&place));
+                o.frame(display_ns, wand, button)
+            }
+            None => Vec::new(),
+        };
         let msg = if opts.navigation.is_some() {
             frusta.update(&in_room, &pose);
             let to_room = placed.room_to_scene.inverse();

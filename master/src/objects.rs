@@ -1,57 +1,146 @@
 //! Moving objects as the master sends them: every frame, each movable object's placement
-//! at the frame's display time, from keyframed paths (`--objects FILE`), in the frame
-//! state, so every wall draws the same placement. A replay's display times are virtual
-//! (frame × period), so a replayed path gives the same placements bit for bit.
+//! at the frame's display time, from keyframed paths (`--objects FILE`), or carried by the
+//! wand (press the object button pointing at one, carry it while held, release: it stays),
+//! in the frame state, so every wall draws the same placement. A replay's display times and
+//! wand are the log's, so a replayed session gives the same placements bit for bit.
 
+use std::sync::Arc;
+
+use glam::Quat;
 use holocave_protocol::cluster::WireObject;
 use holocave_scene::objects::PathError;
-use holocave_scene::{ObjectPaths, Placement, Scene};
+use holocave_scene::{ObjectPaths, Placement, Ray, Scene};
 
-/// The scene's movable objects and the paths that move them.
+use crate::navigation::input::WandPose;
+
+/// How far the wand picks an object (m).
+const REACH: f32 = 20.0;
+
+/// An object in the wand's hand: which, and where it sits in the wand's frame.
+#[derive(Clone, Copy, Debug)]
+struct Carried {
+    object: usize,
+    in_hand: Placement,
+}
+
+/// The scene's movable objects, the paths that move them and the wand that carries them.
 pub struct ObjectMotion {
-    names: Vec<String>,
-    rest: Vec<Placement>,
+    scene: Arc<Scene>,
     paths: ObjectPaths,
+    /// Where each object stood at the last frame.
+    now: Vec<Placement>,
+    /// Objects the wand has moved leave their paths for good.
+    off_path: Vec<bool>,
+    carried: Option<Carried>,
+    button_before: bool,
+}
+
+/// The wand as a placement (scene coordinates, f32).
+fn hand(w: &WandPose) -> Placement {
+    Placement::new(
+        w.position.as_vec3(),
+        Quat::from(w.orientation.normalize().as_quat()),
+    )
+}
+
+/// `a` after `b`: `b` in `a`'s frame placed in the world.
+fn compose(a: &Placement, b: &Placement) -> Placement {
+    Placement::new(
+        a.to_world_point(b.translation),
+        (a.rotation * b.rotation).normalize(),
+    )
+}
+
+/// `b` in the frame of `a`.
+fn relative(a: &Placement, b: &Placement) -> Placement {
+    Placement::new(
+        a.to_local_point(b.translation),
+        (a.rotation.inverse() * b.rotation).normalize(),
+    )
 }
 
 impl ObjectMotion {
-    /// Moves `scene`'s objects along `paths`; refuses paths of objects the scene does not
-    /// have.
-    pub fn new(scene: &Scene, paths: ObjectPaths) -> Result<Self, PathError> {
-        paths.check(scene)?;
+    /// Moves `scene`'s objects along `paths` (empty: they stand until carried); refuses
+    /// paths of objects the scene does not have.
+    pub fn new(scene: Arc<Scene>, paths: ObjectPaths) -> Result<Self, PathError> {
+        paths.check(&scene)?;
+        let now = scene.rest_placements();
         Ok(ObjectMotion {
-            names: scene.objects().iter().map(|o| o.name.clone()).collect(),
-            rest: scene.rest_placements(),
+            off_path: vec![false; now.len()],
+            now,
+            scene,
             paths,
+            carried: None,
+            button_before: false,
         })
     }
 
     /// Every object's placement at `display_ns` (ns since the run started), in the
-    /// scene's object order; an object without a path stays where the scene put it.
-    pub fn at(&self, display_ns: u64) -> Vec<WireObject> {
+    /// scene's object order, the wand (scene coordinates) and its object button as they
+    /// are this frame: a press picks the object the wand points at, holding carries it,
+    /// releasing leaves it there.
+    pub fn frame(
+        &mut self,
+        display_ns: u64,
+        wand: Option<WandPose>,
+        button: bool,
+    ) -> Vec<WireObject> {
         let t = display_ns as f64 * 1e-9;
-        self.names
-            .iter()
-            .zip(&self.rest)
-            .map(|(name, rest)| {
-                let p = self.paths.placement_at(name, t).unwrap_or(*rest);
-                WireObject {
-                    name: name.clone(),
-                    position: p.translation.to_array(),
-                    orientation: p.rotation.to_array(),
+        for (k, o) in self.scene.objects().iter().enumerate() {
+            if !self.off_path[k]
+                && let Some(p) = self.paths.placement_at(&o.name, t)
+            {
+                self.now[k] = p;
+            }
+        }
+        let pressed = button && !self.button_before;
+        self.button_before = button;
+        match (wand, button) {
+            (Some(w), true) => {
+                let hand = hand(&w);
+                if pressed {
+                    self.carried = self.pick(&w).map(|object| Carried {
+                        object,
+                        in_hand: relative(&hand, &self.now[object]),
+                    });
                 }
+                if let Some(c) = self.carried {
+                    self.now[c.object] = compose(&hand, &c.in_hand);
+                    self.off_path[c.object] = true;
+                }
+            }
+            _ => self.carried = None,
+        }
+        self.scene
+            .objects()
+            .iter()
+            .zip(&self.now)
+            .map(|(o, p)| WireObject {
+                name: o.name.clone(),
+                position: p.translation.to_array(),
+                orientation: p.rotation.to_array(),
             })
             .collect()
+    }
+
+    /// The moving object the wand points at, if the first thing it points at is one.
+    fn pick(&self, w: &WandPose) -> Option<usize> {
+        let dir = (w.orientation * glam::DVec3::NEG_Z).as_vec3().normalize();
+        let ray = Ray::new(w.position.as_vec3(), dir);
+        let placed = self.scene.placed(&self.now);
+        let hit = placed.closest_hit(&ray, REACH)?;
+        placed.object_of(hit.triangle)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::{DQuat, Vec3};
     use holocave_scene::{LoadOptions, ObjectSpec};
     use std::path::Path;
 
-    fn room() -> Scene {
+    fn room() -> Arc<Scene> {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
         let object = |name: &str| ObjectSpec {
             name: name.into(),
@@ -61,12 +150,12 @@ mod tests {
             objects: vec![object("block"), object("lamp")],
             ..Default::default()
         };
-        Scene::load(&path, &opts).unwrap()
+        Arc::new(Scene::load(&path, &opts).unwrap())
     }
 
     /// Every frame's placements follow the path at the frame's display time, the same
-    /// bits on every call (a replay's frame states are equal), and an object without a
-    /// path stands at rest; a path for an object the scene lacks is refused by name.
+    /// bits for the same frame (a replay's frame states are equal), and an object without
+    /// a path stands at rest; a path for an object the scene lacks is refused by name.
     #[test]
     fn frames_carry_the_paths_placements() {
         let scene = room();
@@ -74,19 +163,20 @@ mod tests {
                     block,0,0,0,0,0,0,0,1\n\
                     block,2,2,0,-4,0,0.7071068,0,0.7071068\n";
         let paths = ObjectPaths::parse(text, Path::new("path.csv")).unwrap();
-        let motion = ObjectMotion::new(&scene, paths.clone()).unwrap();
-        let at = motion.at(1_000_000_000);
+        let mut motion = ObjectMotion::new(scene.clone(), paths.clone()).unwrap();
+        let at = motion.frame(1_000_000_000, None, false);
         assert_eq!(at.len(), 2);
         assert_eq!(
             (at[0].name.as_str(), at[0].position),
             ("block", [1.0, 0.0, -2.0])
         );
-        let half = glam::Quat::from_rotation_y(std::f32::consts::FRAC_PI_4);
-        assert!(glam::Quat::from_array(at[0].orientation).dot(half).abs() > 1.0 - 1e-6);
+        let half = Quat::from_rotation_y(std::f32::consts::FRAC_PI_4);
+        assert!(Quat::from_array(at[0].orientation).dot(half).abs() > 1.0 - 1e-6);
         let rest = scene.rest_placements()[1];
         assert_eq!(at[1].position, rest.translation.to_array());
+        let mut again = ObjectMotion::new(scene.clone(), paths).unwrap();
         assert_eq!(
-            motion.at(1_000_000_000),
+            again.frame(1_000_000_000, None, false),
             at,
             "the same frame, the same bits"
         );
@@ -95,10 +185,54 @@ mod tests {
             Path::new("sofa.csv"),
         )
         .unwrap();
-        let e = ObjectMotion::new(&scene, other)
+        let e = ObjectMotion::new(scene, other)
             .err()
             .expect("refused")
             .to_string();
         assert!(e.contains("sofa") && e.contains("sofa.csv"), "{e}");
+    }
+
+    /// Pointing the wand at the block and pressing picks it up; moving and turning the
+    /// wand carries it rigidly (its offset in the hand kept); releasing leaves it where it
+    /// was carried, and the wand moves on alone. Pointing at a wall picks nothing.
+    #[test]
+    fn the_wand_carries_the_block_and_lets_it_go() {
+        let scene = room();
+        let mut motion = ObjectMotion::new(scene.clone(), ObjectPaths::default()).unwrap();
+        let (lo, hi) = scene.objects()[0].local_bounds();
+        let rest = scene.rest_placements()[0];
+        let centre = rest.to_world_point(0.5 * (lo + hi));
+        // The wand 1.5 m in front of the block (+Z side), pointing at it along −Z.
+        let from = centre + Vec3::new(0.0, 0.0, 1.5);
+        let wand = |p: Vec3, q: DQuat| WandPose {
+            position: p.as_dvec3(),
+            orientation: q,
+        };
+        let level = DQuat::IDENTITY;
+        let at = |w: &[WireObject]| Vec3::from_array(w[0].position);
+        // Pointing away (at the room, +Z): nothing picked, nothing moves.
+        let away = DQuat::from_rotation_y(std::f64::consts::PI);
+        let w = motion.frame(0, Some(wand(from, away)), true);
+        assert_eq!(at(&w), rest.translation);
+        motion.frame(1, Some(wand(from, away)), false);
+        // Press pointing at it, carry 1 m along +X and a quarter turn about the wand.
+        motion.frame(2, Some(wand(from, level)), true);
+        let turn = DQuat::from_rotation_y(std::f64::consts::FRAC_PI_2);
+        let moved_to = from + Vec3::X;
+        let w = motion.frame(3, Some(wand(moved_to, turn)), true);
+        let carried = Placement::new(
+            Vec3::from_array(w[0].position),
+            Quat::from_array(w[0].orientation),
+        );
+        let expect_centre = moved_to + turn.as_quat() * (centre - from);
+        let got_centre = carried.to_world_point(0.5 * (lo + hi));
+        assert!(
+            (got_centre - expect_centre).length() < 1e-4,
+            "{got_centre} against {expect_centre}"
+        );
+        // Released: it stays; the wand moves on alone.
+        motion.frame(4, Some(wand(moved_to, turn)), false);
+        let w = motion.frame(5, Some(wand(from - Vec3::X * 3.0, level)), false);
+        assert!((at(&w) - carried.translation).length() < 1e-6);
     }
 }

@@ -16,6 +16,7 @@ use holocave_master::cluster::{MasterOptions, Summary, pacer_since, run as run_m
 use holocave_master::head::{Clock, Head};
 use holocave_master::navigation::log::FILE_NAME as NAVIGATION_CSV;
 use holocave_master::navigation::run::{Devices, NavigationRun};
+use holocave_master::objects::ObjectMotion;
 use holocave_protocol::stats::quantile_duration;
 use holocave_tracking::source::SourceSpec;
 
@@ -351,13 +352,9 @@ pub fn run(args: MasterArgs) -> Result<()> {
         .as_deref()
         .map(|p| SharedScene::new(p, args.holodeck.daylight.clone()));
     let mut navigation = args.head.navigation(&cave, scene.as_ref())?;
-    let objects = match (&args.objects, &scene) {
-        (Some(path), Some(scene)) => {
-            let scene = scene.get()?;
-            let paths = super::render::read_object_paths(path, &scene)?;
-            Some(holocave_master::objects::ObjectMotion::new(&scene, paths)?)
-        }
-        _ => None,
+    let objects = match &scene {
+        Some(scene) => object_motion(&scene.get()?, args.objects.as_deref())?,
+        None => None,
     };
     let navigation_log = match &args.out {
         Some(dir) => {
@@ -405,6 +402,20 @@ pub fn run(args: MasterArgs) -> Result<()> {
 
 /// With `--desk`, the desk's input goes to DIR/desk.csv (a session log's button and axes
 /// rows: `--buttons file:DIR/desk.csv --axes file:DIR/desk.csv --replay` replays the walk).
+/// The scene's moving objects as the master moves them: along the paths in `paths` (if
+/// given) and carried by the wand; `None` for a scene without any.
+pub fn object_motion(
+    scene: &std::sync::Arc<holocave_scene::Scene>,
+    paths: Option<&std::path::Path>,
+) -> Result<Option<ObjectMotion>> {
+    let paths = match paths {
+        Some(p) => super::render::read_object_paths(p, scene)?,
+        None if scene.objects().is_empty() => return Ok(None),
+        None => holocave_scene::ObjectPaths::default(),
+    };
+    Ok(Some(ObjectMotion::new(scene.clone(), paths)?))
+}
+
 pub fn log_desk(nav: &mut NavigationRun, dir: &std::path::Path) -> Result<()> {
     if nav.desk.is_some() {
         let p = dir.join("desk.csv");

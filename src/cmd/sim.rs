@@ -257,14 +257,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     if let Some(nav) = &mut navigation {
         super::master::log_desk(nav, &args.out)?;
     }
-    let objects = match &args.objects {
-        Some(path) => {
-            let scene = scene.get()?;
-            let paths = super::render::read_object_paths(path, &scene)?;
-            Some(holocave_master::objects::ObjectMotion::new(&scene, paths)?)
-        }
-        None => None,
-    };
+    let objects = super::master::object_motion(&scene.get()?, args.objects.as_deref())?;
     let summary = run_master(
         &cave,
         head,

@@ -24,7 +24,7 @@ use holocave_tracking::session_log::SessionWriter;
 
 use super::Navigator;
 use super::desk::{Desk, combine};
-use super::input::Inputs;
+use super::input::{InputState, Inputs, WandPose};
 use super::placement::Placement;
 use crate::head::Clock;
 
@@ -88,6 +88,8 @@ pub struct NavigationRun {
     last_ns: Option<u64>,
     /// The buttons held at the last frame (changes are logged).
     held: Vec<bool>,
+    /// The last frame's input (the wand and buttons moving objects read).
+    last: InputState,
     /// The nodes' keyboards and mice (`--desk`), `None` when not taken.
     pub desk: Option<Desk>,
     /// Where the desk's changes are written as session-log rows (`desk.csv`).
@@ -141,6 +143,7 @@ impl NavigationRun {
             scene,
             last_ns: None,
             held: Vec::new(),
+            last: InputState::default(),
             desk: None,
             desk_log: None,
         }
@@ -223,7 +226,22 @@ impl NavigationRun {
             }
         }
         self.held.clone_from(&input.buttons);
-        self.navigator.step(head, &input, dt, self.scene.as_deref())
+        let place = self.navigator.step(head, &input, dt, self.scene.as_deref());
+        self.last = input;
+        place
+    }
+
+    /// The last frame's wand in scene coordinates (room placed by `place`), and whether
+    /// its object button is held: what carries a moving object.
+    pub fn object_hand(&self, place: &Placement) -> (Option<WandPose>, bool) {
+        let wand = self.last.wand.map(|w| WandPose {
+            position: place.point(w.position),
+            orientation: place.rotation * w.orientation,
+        });
+        (
+            wand,
+            self.last.held(self.navigator.settings().object_button),
+        )
     }
 
     /// The transform the frame state sends.
