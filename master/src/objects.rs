@@ -6,7 +6,6 @@
 
 use std::sync::Arc;
 
-use glam::Quat;
 use holocave_protocol::cluster::WireObject;
 use holocave_scene::objects::PathError;
 use holocave_scene::{ObjectPaths, Placement, Ray, Scene};
@@ -37,10 +36,7 @@ pub struct ObjectMotion {
 
 /// The wand as a placement (scene coordinates, f32).
 fn hand(w: &WandPose) -> Placement {
-    Placement::new(
-        w.position.as_vec3(),
-        Quat::from(w.orientation.normalize().as_quat()),
-    )
+    Placement::new(w.position.as_vec3(), w.orientation.normalize().as_quat())
 }
 
 /// `a` after `b`: `b` in `a`'s frame placed in the world.
@@ -136,18 +132,14 @@ impl ObjectMotion {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::{DQuat, Vec3};
+    use glam::{DQuat, Quat, Vec3};
     use holocave_scene::{LoadOptions, ObjectSpec};
     use std::path::Path;
 
     fn room() -> Arc<Scene> {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
-        let object = |name: &str| ObjectSpec {
-            name: name.into(),
-            nodes: vec![name.into()],
-        };
         let opts = LoadOptions {
-            objects: vec![object("block"), object("lamp")],
+            objects: vec![ObjectSpec::node("block"), ObjectSpec::node("lamp")],
             ..Default::default()
         };
         Arc::new(Scene::load(&path, &opts).unwrap())

@@ -98,8 +98,10 @@ pub struct NodeStats {
     pub skipped: u64,
 }
 
-/// Master → node.
+/// Master → node. (Its frame variant is the large one and the common one: a message a
+/// frame per node, decoded once and dropped, so boxing it would only add an allocation.)
 #[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
+#[allow(clippy::large_enum_variant)]
 pub enum MasterMsg {
     Frame(FrameState),
     /// Show the frame (every node that was ready for it gets the same Swap).

@@ -265,10 +265,7 @@ mod tests {
     fn a_frame_states_placements_are_checked() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
         let opts = LoadOptions {
-            objects: vec![ObjectSpec {
-                name: "block".into(),
-                nodes: vec!["block".into()],
-            }],
+            objects: vec![ObjectSpec::node("block")],
             ..Default::default()
         };
         let scene = Scene::load(&path, &opts).unwrap();
@@ -295,7 +292,7 @@ mod tests {
             wire("sofa", [0.0; 3], [0.0, 0.0, 0.0, 1.0]),
         ] {
             assert_eq!(
-                placements_of(&scene, moved.clone(), &[bad.clone()]),
+                placements_of(&scene, moved.clone(), std::slice::from_ref(&bad)),
                 moved,
                 "{bad:?}"
             );

@@ -58,6 +58,16 @@ pub struct ObjectSpec {
     pub nodes: Vec<String>,
 }
 
+impl ObjectSpec {
+    /// The object of one node, named as the node.
+    pub fn node(name: &str) -> ObjectSpec {
+        ObjectSpec {
+            name: name.into(),
+            nodes: vec![name.into()],
+        }
+    }
+}
+
 /// The daylight file looked for beside a scene.
 pub fn default_daylight_path(scene: &Path) -> PathBuf {
     let stem = scene.file_stem().unwrap_or_default().to_string_lossy();

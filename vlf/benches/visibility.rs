@@ -62,15 +62,9 @@ fn visibility(c: &mut Criterion) {
 /// carried into their frames and tried against their boxes and BVHs).
 fn moving_objects(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
-    let object = |name: &str, nodes: &[&str]| holocave_scene::ObjectSpec {
-        name: name.into(),
-        nodes: nodes.iter().map(|n| n.to_string()).collect(),
-    };
+    let node = holocave_scene::ObjectSpec::node;
     let moving = LoadOptions {
-        objects: vec![
-            object("block", &["block"]),
-            object("table top", &["table top"]),
-        ],
+        objects: vec![node("block"), node("table top")],
         ..Default::default()
     };
     let mut group = c.benchmark_group("vlf visibility/room.gltf objects");

@@ -198,10 +198,7 @@ mod tests {
     fn a_cuboids_mean_shadow_is_a_quarter_of_its_surface() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
         let opts = LoadOptions {
-            objects: vec![ObjectSpec {
-                name: "block".into(),
-                nodes: vec!["block".into()],
-            }],
+            objects: vec![ObjectSpec::node("block")],
             ..Default::default()
         };
         let scene = Scene::load(&path, &opts).unwrap();

@@ -14,12 +14,8 @@ use holocave_vlf::{DirectPoint, PixelDirect, Settings, Visibility};
 /// nothing, so with the lamp put away the sun is the only light.
 fn room_with_movable_block() -> Arc<Scene> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
-    let object = |name: &str| ObjectSpec {
-        name: name.into(),
-        nodes: vec![name.into()],
-    };
     let opts = LoadOptions {
-        objects: vec![object("block"), object("lamp")],
+        objects: vec![ObjectSpec::node("block"), ObjectSpec::node("lamp")],
         ..Default::default()
     };
     let scene = Scene::load(&path, &opts).expect("the room loads");

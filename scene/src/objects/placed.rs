@@ -140,16 +140,7 @@ impl PlacedScene<'_> {
 
     /// Whether anything, static or placed, lies on the ray before `tmax`.
     pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
-        self.scene.bvh.occluded(ray, tmax)
-            || self
-                .scene
-                .objects
-                .iter()
-                .zip(self.placements)
-                .any(|(o, at)| {
-                    let local = local_ray(ray, at);
-                    may_hit_box(&local, o.bounds, tmax) && o.bvh.occluded(&local, tmax)
-                })
+        self.scene.bvh.occluded(ray, tmax) || self.objects_occluded(ray, tmax)
     }
 
     /// The object triangle `triangle` belongs to; `None` for a static triangle.
