@@ -440,10 +440,21 @@ impl RenderCache {
     /// `.vlf` file: `holocave_vlf::State::values`), worth `prior` samples in each pixel (see
     /// `shaders/vlf.wgsl`). Each frame needs every eye's lookups ([`Self::set_lookups`]).
     pub fn set_vlf(&mut self, values: &[[f32; 3]], prior: f32) -> Result<(), RenderNodeError> {
-        let flat: &[f32] = bytemuck::cast_slice(values);
         let limit = self.gpu.device.limits().max_storage_buffer_binding_size;
         // Floats per buffer: what one binding holds, in whole 256-byte blocks.
         let chunk = ((limit / 4) & !63).min(u64::from(u32::MAX / VLF_BUFFERS as u32)) as usize;
+        self.set_vlf_split(values, prior, chunk)
+    }
+
+    /// [`Self::set_vlf`] with the values split into buffers of `chunk` floats.
+    fn set_vlf_split(
+        &mut self,
+        values: &[[f32; 3]],
+        prior: f32,
+        chunk: usize,
+    ) -> Result<(), RenderNodeError> {
+        let flat: &[f32] = bytemuck::cast_slice(values);
+        let limit = 4 * chunk;
         if flat.len() > chunk * VLF_BUFFERS {
             return Err(RenderNodeError::Vlf(format!(
                 "the light field's values take {} bytes; this adapter binds {VLF_BUFFERS} buffers of at most {limit} bytes",
@@ -806,6 +817,36 @@ fn exactly(chosen: &mut Vec<u32>, target: u32, pixels: u32, taken: &mut Vec<bool
 #[cfg(test)]
 mod tests {
     use super::exactly;
+    use super::{Lookup, RenderCache};
+    use crate::gpu::Gpu;
+
+    /// The light field's values split over the four buffers (here 300 floats each, a
+    /// value's three floats straddling a boundary at every 100th element) read as one
+    /// array: each pixel's element, looked up on the GPU, is the value the CPU holds; and
+    /// more values than four buffers hold are refused, not drawn.
+    #[test]
+    fn values_split_over_buffers_read_as_one() {
+        let gpu = Gpu::new().expect("a GPU adapter (lavapipe without a GPU)");
+        let (w, h) = (20u32, 19u32);
+        let mut cache = RenderCache::new(gpu, &[(w, h)], 64, 64);
+        let values: Vec<[f32; 3]> = (0..380).map(|i| [i as f32, 0.5 * i as f32, 1.0]).collect();
+        cache.set_vlf_split(&values, 0.0, 300).unwrap();
+        let lookups: Vec<Lookup> = (0..w * h)
+            .map(|i| Lookup {
+                base: i,
+                res: 1,
+                weight: [1.0; 3],
+                ..Lookup::NONE
+            })
+            .collect();
+        cache.set_lookups(0, &lookups);
+        let image = cache.vlf_image(0).unwrap();
+        for (i, px) in image.pixels.iter().enumerate() {
+            assert_eq!(px.to_array(), values[i], "element {i}");
+        }
+        let too_many = vec![[0.0; 3]; 401];
+        assert!(cache.set_vlf_split(&too_many, 0.0, 300).is_err());
+    }
 
     /// The dither's choice is kept, the rest of the target is added without repeating a
     /// pixel, a target beyond the image takes every pixel once, and a choice over the
