@@ -39,22 +39,6 @@ fn hand(w: &WandPose) -> Placement {
     Placement::new(w.position.as_vec3(), w.orientation.normalize().as_quat())
 }
 
-/// `a` after `b`: `b` in `a`'s frame placed in the world.
-fn compose(a: &Placement, b: &Placement) -> Placement {
-    Placement::new(
-        a.to_world_point(b.translation),
-        (a.rotation * b.rotation).normalize(),
-    )
-}
-
-/// `b` in the frame of `a`.
-fn relative(a: &Placement, b: &Placement) -> Placement {
-    Placement::new(
-        a.to_local_point(b.translation),
-        (a.rotation.inverse() * b.rotation).normalize(),
-    )
-}
-
 impl ObjectMotion {
     /// Moves `scene`'s objects along `paths` (empty: they stand until carried); refuses
     /// paths of objects the scene does not have.
@@ -97,11 +81,11 @@ impl ObjectMotion {
                 if pressed {
                     self.carried = self.pick(&w).map(|object| Carried {
                         object,
-                        in_hand: relative(&hand, &self.now[object]),
+                        in_hand: hand.relative(&self.now[object]),
                     });
                 }
                 if let Some(c) = self.carried {
-                    self.now[c.object] = compose(&hand, &c.in_hand);
+                    self.now[c.object] = hand.then(&c.in_hand);
                     self.off_path[c.object] = true;
                 }
             }

@@ -222,7 +222,7 @@ struct VlfParams {
 /// The light field's values are bound as this many storage buffers, each within the
 /// adapter's binding limit (128 MiB on lavapipe, where the breakfast room's default bake,
 /// 375 MB, needs three).
-pub const VLF_BUFFERS: usize = 4;
+const VLF_BUFFERS: usize = 4;
 
 /// The Virtual Light Field on the GPU: the baked irradiance, and per eye its lookups.
 struct VlfBuffers {

@@ -393,6 +393,9 @@ impl Visibility {
         let estimates = direct.map_or(0, |d| d.first_estimates() + frames.max(1) - 1);
         let mut image = Image::new(view.width, view.height);
         let w = view.width as usize;
+        let env = environment(&self.lights);
+        let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
+        let placed = self.scene.placed(&objects.placements);
         image.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
             let (x, y) = ((i % w) as f32, (i / w) as f32);
             let mut sum = Vec3::ZERO;
@@ -402,15 +405,11 @@ impl Visibility {
                     ((s / k) as f32 + 0.5) / k as f32,
                 );
                 let ray = view.ray(Vec2::new(x, y) + o);
-                let Some(direct) = direct else {
-                    sum += shade_one(&self.lookup(ray), values);
-                    continue;
-                };
-                let (l, p) = self.lookup_and_point(ray);
+                let (l, p) = self.lookup_chain(follow(&placed, ray, &env), &objects, Some(&placed));
                 sum += shade_one(&l, values);
-                if let Some(p) = p {
+                if let (Some(direct), Some(p)) = (direct, p) {
                     let seed = (i as u64) * u64::from(k * k) + u64::from(s);
-                    sum += self.with_placed(|placed| direct.mean(placed, &p, seed, 0, estimates));
+                    sum += direct.mean(&placed, &p, seed, 0, estimates);
                 }
             }
             *px = sum / (k * k) as f32;

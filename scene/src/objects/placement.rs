@@ -42,6 +42,24 @@ impl Placement {
         self.rotation.inverse() * d
     }
 
+    /// `inner`, a placement in this one's frame, placed in the world (a thing held in a
+    /// hand, the hand placed).
+    pub fn then(&self, inner: &Placement) -> Placement {
+        Placement::new(
+            self.to_world_point(inner.translation),
+            (self.rotation * inner.rotation).normalize(),
+        )
+    }
+
+    /// `world`, a placement in the world, in this one's frame: the inverse of
+    /// [`Placement::then`].
+    pub fn relative(&self, world: &Placement) -> Placement {
+        Placement::new(
+            self.to_local_point(world.translation),
+            (self.rotation.inverse() * world.rotation).normalize(),
+        )
+    }
+
     /// The placement a fraction `s` of the way from `self` to `to`: translation along the
     /// straight line, rotation along the shorter great arc (`s` = 0 gives `self`, 1 `to`).
     pub fn lerp(&self, to: &Placement, s: f32) -> Placement {
@@ -72,6 +90,22 @@ mod tests {
                 < 1e-6
         );
         assert_eq!(Placement::default().to_world_point(v), v);
+    }
+
+    #[test]
+    fn then_undoes_relative() {
+        let hand = Placement::new(Vec3::new(1.0, 2.0, 0.5), Quat::from_rotation_y(0.9));
+        let thing = Placement::new(Vec3::new(-0.4, 0.3, 2.0), Quat::from_rotation_x(0.4));
+        let back = hand.then(&hand.relative(&thing));
+        assert!(back.translation.distance(thing.translation) < 1e-5);
+        assert!(back.rotation.dot(thing.rotation).abs() > 1.0 - 1e-6);
+        let v = Vec3::new(0.3, -0.2, 0.1);
+        assert!(
+            hand.then(&thing)
+                .to_world_point(v)
+                .distance(hand.to_world_point(thing.to_world_point(v)))
+                < 1e-5
+        );
     }
 
     #[test]
