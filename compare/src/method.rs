@@ -31,16 +31,21 @@ pub enum Method {
     Vlf,
     /// The whole system: the holodeck's samples in the render cache over the light field.
     VlfHolodeck,
+    /// The render cache over the light field, fed by gathers: samples with the direct
+    /// light exact at the point seen and after one bounce, the field beyond
+    /// (`holocave_vlf::gather`), at the budget's samples per eye and frame.
+    VlfGather,
 }
 
 impl Method {
-    pub const ALL: [Method; 6] = [
+    pub const ALL: [Method; 7] = [
         Method::Trace,
         Method::Accumulate,
         Method::Cache,
         Method::Holodeck,
         Method::Vlf,
         Method::VlfHolodeck,
+        Method::VlfGather,
     ];
 
     pub fn name(self) -> &'static str {
@@ -51,12 +56,13 @@ impl Method {
             Method::Holodeck => "holodeck",
             Method::Vlf => "vlf",
             Method::VlfHolodeck => "vlf+holodeck",
+            Method::VlfGather => "vlf+gather",
         }
     }
 
     /// Whether the method draws a baked light field.
     pub fn needs_vlf(self) -> bool {
-        matches!(self, Method::Vlf | Method::VlfHolodeck)
+        matches!(self, Method::Vlf | Method::VlfHolodeck | Method::VlfGather)
     }
 
     /// A method by its name; the error lists the names.
@@ -269,7 +275,7 @@ mod tests {
         }
         let e = Method::parse("vlf-alone").unwrap_err();
         assert!(
-            e.contains("trace, accumulate, cache, holodeck, vlf, vlf+holodeck"),
+            e.contains("trace, accumulate, cache, holodeck, vlf, vlf+holodeck, vlf+gather"),
             "{e}"
         );
     }

@@ -12,8 +12,8 @@ use holocave_cave::WallView;
 use holocave_cave::{Cave, Eye, Wall, wall_frusta};
 use holocave_holodeck::run::RayAllowance;
 use holocave_render_node::{
-    DisplayBuilder, EyeView, Feed, HolodeckOptions, HolodeckSource, LightField, RenderNodeError,
-    VlfBase,
+    DisplayBuilder, EyeView, Feed, HolodeckOptions, HolodeckSource, LightField, Prior,
+    RenderNodeError, VlfBase,
 };
 use holocave_scene::Scene;
 use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
@@ -69,8 +69,8 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CompareError + '_ {
 #[derive(Clone, Debug)]
 pub struct VlfSetting {
     pub path: PathBuf,
-    /// What it is worth in samples under the holodeck's (vlf+holodeck).
-    pub prior: f32,
+    /// What it is worth in samples under the samples of vlf+holodeck and vlf+gather.
+    pub prior: Prior,
     /// The direct light computed per pixel, as the walls draw it (false: the light field
     /// alone, its baked direct light included).
     pub direct: bool,
@@ -188,6 +188,21 @@ impl Compare<'_> {
                 .build(Feed::Inline)?,
                 paths: spp,
             },
+            // As the cache, its samples gathers over the light field drawn under them.
+            Method::VlfGather => Drawer::Cache {
+                display: DisplayBuilder {
+                    samples: s.budget / spp,
+                    paths: spp,
+                    gather: true,
+                    light_field: Some(LightField {
+                        base: self.vlf_base(s)?,
+                        prior: s.vlf.as_ref().map_or(Prior::Samples(0.0), |v| v.prior),
+                    }),
+                    ..builder
+                }
+                .build(Feed::Inline)?,
+                paths: spp,
+            },
             Method::Vlf => {
                 let mut cache = builder.cache()?;
                 let base = self.vlf_base(s)?;
@@ -214,7 +229,7 @@ impl Compare<'_> {
                 if method == Method::VlfHolodeck {
                     builder.light_field = Some(LightField {
                         base: self.vlf_base(s)?,
-                        prior: s.vlf.as_ref().map_or(0.0, |v| v.prior),
+                        prior: s.vlf.as_ref().map_or(Prior::Samples(0.0), |v| v.prior),
                     });
                 }
                 let display = builder.build(Feed::Holodeck(source))?;

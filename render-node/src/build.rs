@@ -7,7 +7,11 @@ use std::sync::Arc;
 
 use holocave_tracer::Tracer;
 
-use crate::{Gpu, HolodeckSource, PixelTracer, RenderCache, RenderNodeError, VlfBase, WallDisplay};
+use crate::vlf::DEFAULT_PRIOR_SAMPLES;
+
+use crate::{
+    Gpu, HolodeckSource, PixelTracer, Prior, RenderCache, RenderNodeError, VlfBase, WallDisplay,
+};
 
 /// Where a display's samples come from.
 pub enum Feed {
@@ -23,8 +27,8 @@ pub enum Feed {
 #[derive(Clone)]
 pub struct LightField {
     pub base: Arc<VlfBase>,
-    /// How many samples the light field is worth in a pixel (0: the samples alone).
-    pub prior: f32,
+    /// How many samples the light field is worth in a pixel.
+    pub prior: Prior,
 }
 
 /// What every display of a wall shares, whatever feeds it.
@@ -44,6 +48,10 @@ pub struct DisplayBuilder {
     /// The device to draw on (a window's); `None`: a new one per display.
     pub gpu: Option<Gpu>,
     pub light_field: Option<LightField>,
+    /// With a light field, the tracer's samples are gathers over it (exact direct light
+    /// at the point seen and after one bounce, the field beyond: [`PixelTracer::with_gather`])
+    /// instead of full paths.
+    pub gather: bool,
 }
 
 impl DisplayBuilder {
@@ -59,6 +67,7 @@ impl DisplayBuilder {
             paths: 1,
             gpu: None,
             light_field: None,
+            gather: false,
         }
     }
 
@@ -79,15 +88,32 @@ impl DisplayBuilder {
     /// A display fed by `feed`, with the light field under it when there is one.
     pub fn build(&self, feed: Feed) -> Result<WallDisplay, RenderNodeError> {
         let cache = self.cache()?;
-        let tracer = || PixelTracer::new(self.tracer.clone(), self.seed).with_paths(self.paths);
+        // The tracer feeds' samples, and a second stream of the same kind to measure the
+        // light field's worth with (a holodeck's samples are full paths).
+        let gathers = match (&self.light_field, &feed) {
+            (Some(lf), Feed::Inline | Feed::Thread) if self.gather => Some(lf.base.clone()),
+            _ => None,
+        };
+        let tracer = |seed: u64| {
+            let t = PixelTracer::new(self.tracer.clone(), seed).with_paths(self.paths);
+            match &gathers {
+                Some(base) => t.with_gather(base.clone()),
+                None => t,
+            }
+        };
         let display = match feed {
-            Feed::Inline => WallDisplay::new(cache, tracer(), self.samples),
-            Feed::Thread => WallDisplay::threaded(cache, tracer(), self.samples),
+            Feed::Inline => WallDisplay::new(cache, tracer(self.seed), self.samples),
+            Feed::Thread => WallDisplay::threaded(cache, tracer(self.seed), self.samples),
             Feed::Holodeck(source) => WallDisplay::holodeck(cache, source, self.samples),
         };
-        match &self.light_field {
-            Some(lf) => display.with_vlf(lf.base.clone(), lf.prior),
-            None => Ok(display),
-        }
+        let Some(lf) = &self.light_field else {
+            return Ok(display);
+        };
+        Ok(match lf.prior {
+            Prior::Samples(k) => display.with_vlf(lf.base.clone(), k)?,
+            Prior::Measured => display
+                .with_vlf(lf.base.clone(), DEFAULT_PRIOR_SAMPLES)?
+                .measuring_prior(tracer(!self.seed)),
+        })
     }
 }

@@ -517,6 +517,19 @@ impl RenderCache {
         Ok(())
     }
 
+    /// What the light field is worth from now on, in samples per pixel (see
+    /// [`Self::set_vlf`]); nothing without a light field.
+    pub fn set_vlf_prior(&mut self, prior: f32) {
+        if let Some(v) = &self.vlf {
+            for (params, _, _) in &v.eyes {
+                let at = std::mem::offset_of!(VlfParams, prior) as u64;
+                self.gpu
+                    .queue
+                    .write_buffer(params, at, bytemuck::bytes_of(&prior));
+            }
+        }
+    }
+
     /// What each pixel of eye `eye` sees of the light field this frame (one per pixel,
     /// rows from the top). Does nothing without [`Self::set_vlf`].
     pub fn set_lookups(&mut self, eye: usize, lookups: &[Lookup]) {

@@ -18,7 +18,8 @@ use holocave_tracer::Tracer;
 use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
 use crate::gpu_rays::Rays;
 use crate::{
-    DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, RenderNodeError, VlfBase, WallDisplay,
+    DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderNodeError, VlfBase,
+    WallDisplay,
 };
 
 /// Pause between attempts to reach the master.
@@ -70,7 +71,9 @@ pub struct VlfOptions {
     /// The node's own file; `None`: the one the master names.
     pub own: Option<PathBuf>,
     /// How many samples the light field is worth in a pixel.
-    pub prior: f32,
+    pub prior: Prior,
+    /// Without a holodeck, the node's own samples are gathers over the light field.
+    pub gather: bool,
     /// Where each pixel's first hit is traced.
     pub rays: Rays,
     /// The direct light per pixel (false: the light field alone, its baked direct light
@@ -196,6 +199,7 @@ impl DisplayMaker {
         vlf: Option<&str>,
     ) -> Result<(Option<String>, WallDisplay), RenderNodeError> {
         let mut builder = self.builder.clone();
+        builder.gather = self.vlf.as_ref().is_some_and(|c| c.options.gather);
         builder.light_field = self.vlf.as_ref().and_then(|c| {
             Some(LightField {
                 base: c.base(vlf)?,

@@ -11,6 +11,7 @@ use holocave_tracer::film::Image;
 
 use crate::cache::{RenderCache, StepTimes};
 use crate::holodeck::HolodeckSource;
+use crate::prior;
 use crate::source::{PixelTracer, TracerThread};
 use crate::{EyeView, RenderNodeError, VlfBase};
 
@@ -52,6 +53,11 @@ pub struct WallDisplay {
     pub samples_per_eye: u32,
     exposure: Option<f32>,
     vlf: Option<Arc<VlfBase>>,
+    /// Samples made as the feed makes them, to measure the light field's worth at the
+    /// first frame drawn ([`crate::prior`]); `None` once measured, or when given.
+    measurer: Option<PixelTracer>,
+    /// What the light field is worth in samples per pixel now.
+    prior: f32,
     /// The views of the last frame drawn, per eye (each pixel's direction from the eye,
     /// for the human-vision tone mapping).
     pub views: Vec<EyeView>,
@@ -72,6 +78,8 @@ impl WallDisplay {
             samples_per_eye,
             exposure: None,
             vlf: None,
+            measurer: None,
+            prior: 0.0,
             views: Vec::new(),
         }
     }
@@ -86,6 +94,8 @@ impl WallDisplay {
             samples_per_eye,
             exposure: None,
             vlf: None,
+            measurer: None,
+            prior: 0.0,
             views: Vec::new(),
         }
     }
@@ -98,6 +108,8 @@ impl WallDisplay {
             samples_per_eye,
             exposure: None,
             vlf: None,
+            measurer: None,
+            prior: 0.0,
             views: Vec::new(),
         }
     }
@@ -106,8 +118,39 @@ impl WallDisplay {
     /// per pixel (see `shaders/vlf.wgsl`).
     pub fn with_vlf(mut self, base: Arc<VlfBase>, prior: f32) -> Result<Self, RenderNodeError> {
         self.cache.set_vlf(base.values(), prior)?;
+        self.prior = prior;
         self.vlf = Some(base);
         Ok(self)
+    }
+
+    /// Measures the light field's worth at the first frame drawn ([`crate::prior`]), with
+    /// samples `measurer` makes as the feed makes its own.
+    pub fn measuring_prior(mut self, measurer: PixelTracer) -> Self {
+        self.measurer = Some(measurer);
+        self
+    }
+
+    /// What the light field is worth in samples per pixel now (0 without one).
+    pub fn prior(&self) -> f32 {
+        self.prior
+    }
+
+    /// Measures the light field's worth on `view` when it is still to be measured.
+    fn measure_prior(&mut self, view: &EyeView) {
+        let (Some(base), Some(m)) = (&self.vlf, self.measurer.take()) else {
+            return;
+        };
+        let found = prior::measure(
+            view,
+            |rays| base.field_radiance(rays, 16),
+            |rays, seed| m.radiance(rays, seed),
+        );
+        tracing::info!(
+            "{} samples: {found}",
+            if m.gathers() { "gather" } else { "path" }
+        );
+        self.prior = found.samples;
+        self.cache.set_vlf_prior(self.prior);
     }
 
     /// Puts the scene's moving objects where a frame state says (by name; an object the
@@ -148,6 +191,9 @@ impl WallDisplay {
             }
         }
         report.insert += start.elapsed();
+        if let Some(view) = views.first() {
+            self.measure_prior(view);
+        }
         if let Some(base) = &self.vlf {
             let t = Instant::now();
             for (eye, view) in views.iter().enumerate() {

@@ -6,7 +6,8 @@
 //!   pixel rays, in WGSL compute (the CPU's BVH walk is their reference);
 //! - [`cache`]: the point cache and the per-eye compute passes (WGSL in `shaders/`);
 //! - [`view`]: an eye's projection and its pixel rays;
-//! - [`source`]: chosen pixels → eye rays → the path tracer → new samples;
+//! - [`source`]: chosen pixels → eye rays → the path tracer (full paths, or gathers over
+//!   the light field) → new samples;
 //! - [`holodeck`]: chosen pixels → beam requests → a holodeck server → new samples;
 //! - [`tonemap`]: Ward Larson's histogram adjustment (camera and human modes) and false
 //!   colour, at display;
@@ -20,6 +21,8 @@
 //! - [`standalone`]: one wall by itself, on its own clock and head poses;
 //! - [`mosaic`]: the unfolded CAVE as one picture;
 //! - [`output`]: a headless node's files (frame images, `presented.log`) and their reader;
+//! - [`prior`]: how many samples the light field is worth in a pixel, measured from the
+//!   feed's own samples;
 //! - [`vlf`]: the Virtual Light Field under the cache (visibility per pixel; shading and
 //!   blending on the GPU in `shaders/vlf.wgsl`);
 //! - [`window`]: the node's windows (winit) and their GPU device;
@@ -41,6 +44,7 @@ pub mod holodeck;
 pub mod mosaic;
 pub mod output;
 pub mod present;
+pub mod prior;
 pub mod source;
 pub mod standalone;
 pub mod tonemap;
@@ -55,6 +59,7 @@ pub use cache::{NewSample, RenderCache, StepTimes};
 pub use display::{FrameReport, SampleFeed, WallDisplay};
 pub use gpu::Gpu;
 pub use holodeck::{HolodeckOptions, HolodeckSource};
+pub use prior::Prior;
 pub use source::{PixelTracer, TracerThread};
 pub use tonemap::{ToneMapper, ToneMode};
 pub use view::EyeView;

@@ -4,13 +4,13 @@
 
 use std::sync::Arc;
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use holocave_scene::{MaterialKind, Ray};
 use holocave_tracer::Tracer;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 
-use crate::EyeView;
 use crate::cache::{BACKGROUND, NewSample};
+use crate::{EyeView, VlfBase};
 
 /// Escaped rays are placed this far along the ray (m) and marked [`BACKGROUND`].
 pub const BACKGROUND_DISTANCE: f32 = 1000.0;
@@ -25,6 +25,15 @@ pub struct PixelTracer {
     /// Per material, whether it is Lambertian (what it sends is the same seen from
     /// anywhere, so its samples are marked view-independent).
     lambertian: Vec<bool>,
+    /// Gather samples over this light field instead of full paths ([`Self::with_gather`]).
+    gather: Option<Arc<VlfBase>>,
+}
+
+/// What one sample of an eye ray found: radiance, first-hit distance, its material.
+struct Traced {
+    radiance: Vec3,
+    distance: f32,
+    material: Option<u32>,
 }
 
 impl PixelTracer {
@@ -38,7 +47,68 @@ impl PixelTracer {
             seed,
             paths: 1,
             lambertian,
+            gather: None,
         }
+    }
+
+    /// Samples that end in `base` after one bounce, the direct light exact at both points
+    /// ([`VlfBase::gather`]), instead of full paths: far less variance, and the light
+    /// field's error only after a bounce.
+    pub fn with_gather(mut self, base: Arc<VlfBase>) -> Self {
+        self.gather = Some(base);
+        self
+    }
+
+    /// Whether the samples are gathers over a light field.
+    pub fn gathers(&self) -> bool {
+        self.gather.is_some()
+    }
+
+    /// One sample along each ray, from stream `seed`: a gather, or a full path.
+    fn trace(&self, rays: &[Ray], seed: u64) -> Vec<Traced> {
+        match &self.gather {
+            Some(base) => base
+                .gather(rays, seed)
+                .into_iter()
+                .map(|g| Traced {
+                    radiance: g.radiance,
+                    distance: g.distance,
+                    material: g.material,
+                })
+                .collect(),
+            None => self
+                .tracer
+                .trace(rays, seed)
+                .into_iter()
+                .map(|t| Traced {
+                    radiance: Vec3::from(t.radiance),
+                    distance: t.distance,
+                    material: t.material,
+                })
+                .collect(),
+        }
+    }
+
+    /// `count` samples along each ray (streams from `seed`), averaged per ray.
+    pub fn mean(&self, rays: &[Ray], seed: u64, count: u32) -> Vec<Vec3> {
+        let mut sum = vec![Vec3::ZERO; rays.len()];
+        for k in 0..count.max(1) {
+            for (t, m) in sum
+                .iter_mut()
+                .zip(self.trace(rays, seed ^ (u64::from(k) << 40)))
+            {
+                *t += m.radiance;
+            }
+        }
+        sum.iter().map(|s| *s / count.max(1) as f32).collect()
+    }
+
+    /// The samples of stream `seed` along each ray (for measuring their variance).
+    pub fn radiance(&self, rays: &[Ray], seed: u64) -> Vec<Vec3> {
+        self.trace(rays, seed)
+            .into_iter()
+            .map(|t| t.radiance)
+            .collect()
     }
 
     /// Each sample the mean of `paths` paths from its eye ray (at least one): how a
@@ -62,22 +132,15 @@ impl PixelTracer {
             })
             .collect();
         self.seed = self.seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut samples = self.tracer.trace(&rays, self.seed);
+        let mut samples = self.trace(&rays, self.seed);
         if self.paths > 1 {
-            // More paths of the same eye rays (their first hit, hence distance, is the
+            // More samples of the same eye rays (their first hit, hence distance, is the
             // same), averaged.
-            let mut sum: Vec<glam::Vec3> = samples
-                .iter()
-                .map(|s| glam::Vec3::from(s.radiance))
-                .collect();
-            for k in 1..self.paths {
-                let more = self.tracer.trace(&rays, self.seed ^ (u64::from(k) << 40));
-                for (t, m) in sum.iter_mut().zip(&more) {
-                    *t += glam::Vec3::from(m.radiance);
-                }
-            }
-            for (s, t) in samples.iter_mut().zip(&sum) {
-                s.radiance = (*t / self.paths as f32).to_array();
+            for (s, m) in samples
+                .iter_mut()
+                .zip(self.mean(&rays, self.seed, self.paths))
+            {
+                s.radiance = m;
             }
         }
         rays.iter()
@@ -93,7 +156,7 @@ impl PixelTracer {
                     ray.origin,
                     ray.at(distance),
                     distance,
-                    s.radiance,
+                    s.radiance.to_array(),
                     surface,
                 );
                 match self.lambertian.get(surface as usize) {

@@ -19,9 +19,12 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use holocave_cave::WallView;
-use holocave_scene::{Hit, Placement, Scene};
+use holocave_scene::{Hit, Placement, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
+use holocave_vlf::gather::{Gathered, gather_all};
+use holocave_vlf::view::shade_one;
 use holocave_vlf::{Accumulator, Lookup, PixelDirect, Visibility};
+use rayon::prelude::*;
 
 use crate::gpu_rays::{GpuRays, Query, Rays};
 use crate::{EyeView, Gpu, RenderNodeError};
@@ -50,6 +53,9 @@ pub struct VlfBase {
     total: Vec<[f32; 3]>,
     indirect: Vec<[f32; 3]>,
     direct: Option<PixelDirect>,
+    /// The next-event estimates of gather samples ([`Self::gather`]), whether or not the
+    /// walls draw the direct light per pixel.
+    nee: PixelDirect,
     /// The running means of the direct light, per view drawn (exactly that view: a still
     /// eye), with the frame each was last drawn.
     history: Mutex<Vec<(u64, WallView, Accumulator)>>,
@@ -75,7 +81,7 @@ impl VlfBase {
         let direct = PixelDirect::new(scene.clone());
         let direct = (!direct.is_empty()).then_some(direct);
         let (total, indirect) = (f.state.values(), f.state.indirect_values());
-        let visibility = Visibility::new(scene, elements, tiles);
+        let visibility = Visibility::new(scene.clone(), elements, tiles);
         visibility.light_objects(&total);
         Ok(VlfBase {
             values: if direct.is_some() {
@@ -86,6 +92,7 @@ impl VlfBase {
             total,
             indirect,
             direct,
+            nee: PixelDirect::new(scene.clone()),
             history: Mutex::new(Vec::new()),
             gpu_rays: None,
             visibility,
@@ -179,6 +186,31 @@ impl VlfBase {
             Some(hits) => self.visibility.pixels_and_points_from(wall, &hits),
             None => self.visibility.pixels_and_points(wall),
         }
+    }
+
+    /// One gather sample along each ray ([`holocave_vlf::gather`]): the direct light
+    /// exact at the point seen and after one bounce, the light field's remainder beyond.
+    pub fn gather(&self, rays: &[Ray], seed: u64) -> Vec<Gathered> {
+        gather_all(&self.visibility, &self.nee, &self.indirect, rays, seed)
+    }
+
+    /// What a still wall shows of the light field along each ray (no samples): the lookup
+    /// shaded as the GPU shades it, with the mean of `estimates` per-pixel direct
+    /// estimates when the walls draw that.
+    pub fn field_radiance(&self, rays: &[Ray], estimates: u32) -> Vec<glam::Vec3> {
+        rays.par_iter()
+            .enumerate()
+            .map(|(i, &ray)| {
+                let (l, p) = self.visibility.lookup_and_point(ray);
+                let mut c = shade_one(&l, &self.values);
+                if let (Some(d), Some(p)) = (&self.direct, p) {
+                    c += self
+                        .visibility
+                        .with_placed(|placed| d.mean(placed, &p, i as u64, 0, estimates));
+                }
+                c
+            })
+            .collect()
     }
 
     /// What the lookups read: the elements' irradiance, then the glossy tiles' radiance.

@@ -11,6 +11,7 @@ use clap::Args;
 use holocave_cave::{Cave, Wall, load_cave};
 use holocave_compare::{Compare, Method, Settings, VlfSetting};
 use holocave_master::head::Clock;
+use holocave_render_node::Prior;
 use holocave_scene::Scene;
 use holocave_tracking::Pose;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -44,10 +45,11 @@ pub struct CompareArgs {
     /// The frame clock (Hz).
     #[arg(long, default_value_t = 30.0)]
     pub fps: f64,
-    /// Methods, comma-separated: trace, accumulate, cache, holodeck, vlf, vlf+holodeck.
+    /// Methods, comma-separated: trace, accumulate, cache, holodeck, vlf, vlf+holodeck,
+    /// vlf+gather.
     #[arg(
         long,
-        default_value = "trace,accumulate,cache,holodeck,vlf,vlf+holodeck",
+        default_value = "trace,accumulate,cache,holodeck,vlf,vlf+holodeck,vlf+gather",
         value_delimiter = ','
     )]
     pub methods: Vec<String>,
@@ -59,6 +61,11 @@ pub struct CompareArgs {
     /// alone, its baked direct light included.
     #[arg(long)]
     pub no_direct: bool,
+    /// What the light field is worth in samples under vlf+holodeck's and vlf+gather's
+    /// samples: `auto` (measured at the first frame from the method's own samples) or a
+    /// number.
+    #[arg(long, default_value = "auto", value_parser = str::parse::<Prior>)]
+    pub vlf_prior: Prior,
     /// Rays per eye and frame for every method (default: one per pixel).
     #[arg(long)]
     pub budget: Option<u32>,
@@ -157,7 +164,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
         let path = super::vlf::baked_default(&scene, &path)?;
         Some(VlfSetting {
             path,
-            prior: holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES,
+            prior: args.vlf_prior,
             direct: !args.no_direct,
         })
     } else {

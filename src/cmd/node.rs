@@ -20,6 +20,7 @@ use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
 use holocave_protocol::cluster::FrameState;
+use holocave_render_node::Prior;
 use holocave_render_node::cluster_node::{self, DisplayMaker, Membership, VlfOptions};
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::output::{PresentedLog, write_frame};
@@ -129,9 +130,16 @@ pub struct NodeArgs {
     /// baked direct light included.
     #[arg(long)]
     pub(crate) no_direct: bool,
-    /// How many samples the light field is worth in a pixel (0: the samples alone).
-    #[arg(long, default_value_t = holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES)]
-    pub(crate) vlf_prior: f32,
+    /// How many samples the light field is worth in a pixel: `auto` (measured at the first
+    /// frame from the feed's own samples: their variance against the field's disagreement
+    /// with their mean) or a number (0: the samples alone).
+    #[arg(long, default_value = "auto", value_parser = str::parse::<Prior>)]
+    pub(crate) vlf_prior: Prior,
+    /// With --vlf and no holodeck, the node's own samples are gathers over the light field
+    /// (the direct light exact at the point seen and after one bounce, the field beyond)
+    /// instead of full paths: far less noise, the field's error only after a bounce.
+    #[arg(long)]
+    pub(crate) gather: bool,
     /// Also accept holodeck workers and displays on this address (with --holodeck).
     #[arg(long)]
     pub(crate) listen: Option<String>,
@@ -326,6 +334,7 @@ fn standalone(
     };
     let mut builder = DisplayBuilder::new(size, eyes.len(), samples, tracer);
     builder.gpu = Some(gpu.clone());
+    builder.gather = args.gather;
     if let Some(path) = &args.vlf {
         builder.light_field = Some(LightField {
             base: Arc::new(
@@ -539,6 +548,7 @@ fn in_cluster(
         VlfOptions {
             own: args.vlf.clone(),
             prior: args.vlf_prior,
+            gather: args.gather,
             rays: args.rays,
             direct: !args.no_direct,
         },

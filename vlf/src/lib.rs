@@ -17,6 +17,8 @@
 //! - [`direct`]: small emitters, punctual lights and the sun by next-event estimation;
 //! - [`pixel_direct`]: the direct light per pixel (the walls' exact part; the bake keeps
 //!   the same part apart so that a view drawing it here takes only the rest);
+//! - [`gather`]: samples that help the light field: exact direct light at the point
+//!   seen and after one bounce, the field's remainder beyond;
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
 //! - [`bake`]: the whole bake, its stopping rule and its checkpoints;
 //! - [`file`]: the `.vlf` file, and [`baked`]: its life on disk (settings checked, bakes
@@ -50,6 +52,7 @@ pub mod direct;
 pub mod directions;
 pub mod elements;
 pub mod file;
+pub mod gather;
 pub mod objects;
 pub mod octahedral;
 pub mod pixel_direct;

@@ -41,8 +41,12 @@ use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::frame::Frame;
 use holocave_tracer::integrator::shadow_ray;
 use holocave_tracer::lights::{LightSample, Lights};
+use holocave_tracer::mirrors::ViaMirror;
+use holocave_tracer::sampling::power_heuristic;
 use rayon::prelude::*;
 use std::sync::Arc;
+
+use crate::view::OverMirror;
 
 /// The non-delta surface a pixel sees, as the direct pass needs it.
 #[derive(Clone, Copy, Debug)]
@@ -185,6 +189,56 @@ impl PixelDirect {
         }
         sum.radiance *= p.weight;
         sum
+    }
+
+    /// One sample of the emissive triangles over a flat mirror at `p` (the tracer's
+    /// [`Lights::sample_via_mirror`]: `u` picks the mirror, the triangle and the point),
+    /// `p.weight` included, weighted by the power heuristic against BSDF sampling, which
+    /// finds the same light ([`Self::mirror_weight`]); zero in a scene without mirrors or
+    /// lamps. Not part of [`Self::estimate`]: the walls take light over mirrors from the
+    /// light field; a gather sample takes it here and along its bounce.
+    pub fn via_mirror(&self, placed: &PlacedScene, p: &DirectPoint, u: [f32; 4]) -> Vec3 {
+        let l = &self.lights;
+        if !l.has_mirrors() {
+            return Vec3::ZERO;
+        }
+        let uv = Vec2::new(u[2], u[3]);
+        let Some(ls) = l.sample_via_mirror(&self.scene, p.position, u[0], u[1], uv) else {
+            return Vec3::ZERO;
+        };
+        let ng = p.normal;
+        if !p.bsdf.transmits() && ng.dot(ls.wi) * ng.dot(p.wo) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let frame = Frame::new(p.shading_normal);
+        let (f, bsdf_pdf) = p.bsdf.eval(frame.to_local(p.wo), frame.to_local(ls.wi));
+        let c = f * frame.n.dot(ls.wi).abs() * ls.contribution;
+        if c.max_element() <= 0.0 || !c.is_finite() {
+            return Vec3::ZERO;
+        }
+        match shadow_ray(&ls, p.position, ng) {
+            Some((ray, tmax)) if !placed.occluded(&ray, tmax) => {
+                c * power_heuristic(ls.pdf, bsdf_pdf) * p.weight
+            }
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// The weight of an emitter that BSDF sampling (density `bsdf_pdf`) found over one
+    /// delta surface, against [`Self::via_mirror`]: 1 where that cannot find it (glass,
+    /// a curved or textured mirror).
+    pub fn mirror_weight(&self, bsdf_pdf: f32, over: &OverMirror) -> f32 {
+        let l = &self.lights;
+        let Some(mirror) = l.mirror_index(over.mirror) else {
+            return 1.0;
+        };
+        let via = ViaMirror {
+            bsdf_pdf,
+            mirror,
+            distance: over.to_mirror,
+        };
+        let light_pdf = l.mirror_pdf(&via, over.emitter, over.normal, over.dir, over.beyond);
+        power_heuristic(bsdf_pdf, light_pdf)
     }
 
     /// The mean radiance of estimates `first .. first + count` at `p` (pixel `seed`).

@@ -242,6 +242,8 @@ pub struct Chain {
     pub end: Option<(Seen, Ray)>,
     pub weight: Vec3,
     pub emitted: Vec3,
+    /// Delta surfaces followed before the end.
+    pub deltas: u32,
 }
 
 pub fn follow(scene: &PlacedScene, ray: Ray, environment: &dyn Fn(Vec3) -> Vec3) -> Chain {
@@ -278,6 +280,7 @@ fn walk(
                 end: None,
                 weight,
                 emitted,
+                deltas: level,
             };
         };
         let s = seen(scene, hit, ray.dir);
@@ -286,6 +289,7 @@ fn walk(
                 end: Some((s, ray)),
                 weight,
                 emitted,
+                deltas: level,
             };
         }
         emitted += weight * s.emitted;
@@ -317,6 +321,7 @@ fn walk(
         end: None,
         weight: Vec3::ZERO,
         emitted,
+        deltas: depth + 1,
     }
 }
 

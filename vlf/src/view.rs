@@ -30,7 +30,7 @@ use crate::elements::{Elements, interpolate};
 use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, PixelDirect};
-use crate::surface::{Chain, diffuse_albedo, follow, follow_from, side_facing};
+use crate::surface::{Chain, diffuse_albedo, follow, follow_from, seen, side_facing};
 use crate::tiles::Tiles;
 
 /// What one pixel (or one ray) sees of the light field.
@@ -78,6 +78,33 @@ impl Lookup {
         y: 0.0,
         samples: 1.0,
     };
+}
+
+/// The light arriving at a point along one direction that the per-pixel direct light does
+/// not give ([`Visibility::arriving`]).
+pub struct Arriving {
+    pub radiance: Vec3,
+    /// The non-delta static point it comes from: the per-pixel pass would add its direct
+    /// light.
+    pub point: Option<DirectPoint>,
+    /// Set when the ray ends on an emitter over exactly one delta surface (a mirror when
+    /// the tracer samples lights through it).
+    pub over_mirror: Option<OverMirror>,
+}
+
+/// An emitter seen over one delta surface: that part of [`Arriving::radiance`], and the
+/// path's geometry, for weighing it against next-event estimation through mirrors.
+pub struct OverMirror {
+    pub emitted: Vec3,
+    /// The delta surface's triangle and its distance from the point.
+    pub mirror: u32,
+    pub to_mirror: f32,
+    /// The emitter's triangle, its unit face normal, the direction from the mirror and
+    /// the distance beyond it.
+    pub emitter: u32,
+    pub normal: Vec3,
+    pub dir: Vec3,
+    pub beyond: f32,
 }
 
 /// The scene's side of drawing: the element layout, the light the eye sees directly, and
@@ -140,19 +167,55 @@ impl Visibility {
 
     /// The radiance arriving at `at` from direction `dir` that the per-pixel direct light
     /// does not give: what the static surfaces there send back (from the light field's
-    /// `values`) and the sky, without emitters and the sun seen directly.
+    /// `values`) and the sky, without emitters and the sun seen directly (with those seen
+    /// through mirrors and glass, where shadow rays do not reach).
     pub fn incoming(&self, at: Vec3, dir: Vec3, values: &[[f32; 3]]) -> Vec3 {
+        self.arriving(at, dir, values).radiance
+    }
+
+    /// [`Self::incoming`], with where it comes from.
+    pub fn arriving(&self, at: Vec3, dir: Vec3, values: &[[f32; 3]]) -> Arriving {
         let sky = |d: Vec3| {
             self.lights
                 .sky
                 .as_ref()
                 .map_or(Vec3::ZERO, |s| s.radiance(d))
         };
-        let chain = follow(&self.scene.statics(), Ray::new(at, dir), &sky);
+        // Shadow rays stop at mirrors and glass: the emitters and the sun seen through
+        // them come along this ray instead.
+        let statics = self.scene.statics();
+        let ray = Ray::new(at, dir);
+        let first = statics.closest_hit(&ray, f32::INFINITY);
+        let behind_delta = first.is_some_and(|h| seen(&statics, h, dir).delta);
+        let chain = if behind_delta {
+            follow_from(&statics, ray, first, &environment(&self.lights))
+        } else {
+            follow_from(&statics, ray, first, &sky)
+        };
+        let over_mirror = match (&chain.end, first) {
+            (Some((s, r)), Some(m)) if chain.deltas == 1 && s.emitted.max_element() > 0.0 => {
+                Some(OverMirror {
+                    emitted: chain.weight * s.emitted,
+                    mirror: m.triangle,
+                    to_mirror: m.t,
+                    emitter: s.hit.triangle,
+                    normal: s.normal,
+                    dir: r.dir,
+                    beyond: s.hit.t,
+                })
+            }
+            _ => None,
+        };
         let through = chain.emitted;
-        let (mut l, _) = self.lookup_chain(chain, &ObjectLight::default(), None);
-        l.emitted = through.to_array();
-        shade_one(&l, values)
+        let (mut l, point) = self.lookup_chain(chain, &ObjectLight::default(), None);
+        if !behind_delta {
+            l.emitted = through.to_array();
+        }
+        Arriving {
+            radiance: shade_one(&l, values),
+            point,
+            over_mirror,
+        }
     }
 
     /// The visibility of a bake of `scene` with `settings`: its element layout and tiles.
@@ -189,6 +252,18 @@ impl Visibility {
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
         self.lookup_chain(follow(&placed, ray, &env), &objects, Some(&placed))
+    }
+
+    /// [`Self::lookup_and_point`], and the ray's first hit (mirrors and glass included):
+    /// the surface a sample along this ray belongs to.
+    pub fn lookup_point_and_hit(&self, ray: Ray) -> (Lookup, Option<DirectPoint>, Option<Hit>) {
+        let env = environment(&self.lights);
+        let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
+        let placed = self.scene.placed(&objects.placements);
+        let first = placed.closest_hit(&ray, f32::INFINITY);
+        let chain = follow_from(&placed, ray, first, &env);
+        let (l, p) = self.lookup_chain(chain, &objects, Some(&placed));
+        (l, p, first)
     }
 
     /// Runs `f` with the scene as this frame places its moving objects.

@@ -1,0 +1,226 @@
+//! How many samples the light field is worth in a pixel, measured from the samples.
+//!
+//! A pixel shows `(k V + n C̄) / (k + n)`: the light field's value `V` worth `k` samples,
+//! and the mean `C̄` of the `n` samples the render cache holds there (`shaders/vlf.wgsl`).
+//! The samples converge to their own mean `μ = E[C]` (a full path's is the true radiance;
+//! a gather's is the light field's error seen after one bounce); around it, the shown value
+//! has the squared error
+//!
+//! ```text
+//!   (k² (V − μ)² + n σ²) / (k + n)²
+//! ```
+//!
+//! with `σ²` one sample's variance. Its derivative in `k` is `2 n (k b² − σ²) / (k + n)³`
+//! with `b² = (V − μ)²`: least at `k = σ² / b²`, whatever `n`. Over many pixels with one
+//! `k` the same derivative summed gives `k = Σ σ² / Σ b²` (for a common `n`): the ratio of
+//! the sums, not of the means of ratios. Both are measured at the first frame a display
+//! draws, on a grid of its pixels, from the samples its own feed makes: `m` samples per
+//! pixel give `C̄` and the unbiased variance `s²`, and `(C̄ − V)² − s²/m` is an unbiased
+//! estimate of `b²` (its expectation is `b² + σ²/m − σ²/m`). Each term is weighted as the
+//! relative MSE weighs its pixel (`1 / (μ² + 0.01)`, with `C̄` for `μ`), so the `k` chosen
+//! is the one that minimises the figure the walls are judged by.
+//!
+//! One `k` per display, not per pixel: the maths would take `σ²` and `b²` per pixel, but a
+//! cached point keeps only its samples' mean and count, and `b²` of one pixel from its own
+//! few samples is noise (a pixel's `(C̄ − V)²` estimates it with the variance of a single
+//! sample squared).
+
+use std::str::FromStr;
+
+use glam::{Vec2, Vec3};
+use holocave_scene::Ray;
+
+use crate::EyeView;
+
+/// How a display values the light field under its samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Prior {
+    /// Measured at the display's first frame from its feed's own samples ([`measure`]).
+    Measured,
+    /// Worth this many samples in every pixel (0: the samples alone).
+    Samples(f32),
+}
+
+impl FromStr for Prior {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Prior, String> {
+        if s == "auto" {
+            return Ok(Prior::Measured);
+        }
+        match s.parse::<f32>() {
+            Ok(k) if k.is_finite() && k >= 0.0 => Ok(Prior::Samples(k)),
+            _ => Err(format!(
+                "{s:?} is not a prior: give `auto` (measured) or a number of samples ≥ 0"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for Prior {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Prior::Measured => f.write_str("auto"),
+            Prior::Samples(k) => write!(f, "{k}"),
+        }
+    }
+}
+
+/// The bounds of a measured `k`: at least one sample (a pixel's first sample never
+/// outweighs the field on a measure of finitely many pixels), at most what no session
+/// reaches (the field alone).
+pub const MEASURED_RANGE: (f32, f32) = (1.0, 16384.0);
+
+/// Pixels measured along each side of the view, and samples per pixel.
+pub const GRID: u32 = 32;
+pub const PER_PIXEL: u32 = 8;
+
+/// What [`measure`] found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Measured {
+    /// The light field's worth in samples, `Σ σ² / Σ b²` within [`MEASURED_RANGE`].
+    pub samples: f32,
+    /// `Σ σ²` and `Σ b²` over the pixels, weighted, per pixel and channel.
+    pub variance: f64,
+    pub bias2: f64,
+    pub pixels: usize,
+}
+
+impl std::fmt::Display for Measured {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the light field worth {:.1} samples (a sample's relative variance {:.3e}, the field's squared error against the samples' mean {:.3e}, {} pixels × {PER_PIXEL} samples)",
+            self.samples, self.variance, self.bias2, self.pixels
+        )
+    }
+}
+
+/// `k` from the field's value `field[i]` at each pixel and `samples[i]` (at least two)
+/// there.
+pub fn from_samples(field: &[Vec3], samples: &[Vec<Vec3>]) -> Measured {
+    let (mut var, mut bias2) = (0.0f64, 0.0f64);
+    let mut n = 0usize;
+    for (v, s) in field.iter().zip(samples) {
+        let m = s.len();
+        if m < 2 {
+            continue;
+        }
+        n += 1;
+        for c in 0..3 {
+            let xs = s.iter().map(|x| f64::from(x[c]));
+            let mean = xs.clone().sum::<f64>() / m as f64;
+            let s2 = xs.map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1) as f64;
+            let w = 1.0 / (mean * mean + 0.01);
+            var += w * s2;
+            bias2 += w * ((mean - f64::from(v[c])).powi(2) - s2 / m as f64);
+        }
+    }
+    let norm = (3 * n.max(1)) as f64;
+    let (var, bias2) = (var / norm, bias2 / norm);
+    let (lo, hi) = MEASURED_RANGE;
+    let k = if bias2 > 0.0 {
+        ((var / bias2) as f32).clamp(lo, hi)
+    } else {
+        hi
+    };
+    Measured {
+        samples: k,
+        variance: var,
+        bias2,
+        pixels: n,
+    }
+}
+
+/// The rays through the centres of a [`GRID`]² grid of `view`'s pixels.
+pub fn grid_rays(view: &EyeView) -> Vec<Ray> {
+    let (w, h) = (view.wall.width, view.wall.height);
+    let (gx, gy) = (GRID.min(w), GRID.min(h));
+    (0..gy)
+        .flat_map(|j| (0..gx).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let x = ((i as f32 + 0.5) * w as f32 / gx as f32).floor() + 0.5;
+            let y = ((j as f32 + 0.5) * h as f32 / gy as f32).floor() + 0.5;
+            view.wall.ray(Vec2::new(x, y))
+        })
+        .collect()
+}
+
+/// Measures `k` on `view` from the field's values along the grid's rays and
+/// [`PER_PIXEL`] samples of each made by `sample` (a batch of rays and a stream).
+pub fn measure(
+    view: &EyeView,
+    field: impl Fn(&[Ray]) -> Vec<Vec3>,
+    sample: impl Fn(&[Ray], u64) -> Vec<Vec3>,
+) -> Measured {
+    let rays = grid_rays(view);
+    let v = field(&rays);
+    let mut per_pixel = vec![Vec::with_capacity(PER_PIXEL as usize); rays.len()];
+    for k in 0..PER_PIXEL {
+        let seed = 0x5EED_0000_0000 ^ (u64::from(k) << 20);
+        for (p, s) in per_pixel.iter_mut().zip(sample(&rays, seed)) {
+            p.push(s);
+        }
+    }
+    from_samples(&v, &per_pixel)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng, rngs::SmallRng};
+
+    /// Pixels whose samples have a known variance about a known mean, and a field off by a
+    /// known amount: the measured `k` is `σ² / b²` within the sampling error of its parts.
+    #[test]
+    fn measures_the_ratio_of_variance_to_squared_bias() {
+        let mut rng = SmallRng::seed_from_u64(7);
+        let (mu, sigma, bias) = (1.0f32, 0.3f32, 0.05f32);
+        let (pixels, m) = (4000, 8);
+        let field = vec![Vec3::splat(mu + bias); pixels];
+        let samples: Vec<Vec<Vec3>> = (0..pixels)
+            .map(|_| {
+                (0..m)
+                    .map(|_| {
+                        // Uniform with standard deviation sigma.
+                        let u: f32 = rng.random::<f32>() - 0.5;
+                        Vec3::splat(mu + u * sigma * 12f32.sqrt())
+                    })
+                    .collect()
+            })
+            .collect();
+        let got = from_samples(&field, &samples);
+        let want = sigma * sigma / (bias * bias);
+        // b² is estimated as (C̄ − V)² − s²/m: its standard error over the pixels is about
+        // 2 b σ/√m / √(pixels·3) plus (σ²/m)·√(2/pixels·3) ≈ 5 % of b² here; s² is within 1 %.
+        assert!(
+            (got.samples - want).abs() < 0.15 * want,
+            "{got}: want {want}"
+        );
+    }
+
+    /// A field that agrees with the samples' mean is worth the most; one far off, the least.
+    #[test]
+    fn an_exact_field_is_worth_the_most_and_a_wrong_one_the_least() {
+        let samples: Vec<Vec<Vec3>> = (0..100)
+            .map(|i| {
+                let d = if i % 2 == 0 { 0.1 } else { -0.1 };
+                vec![Vec3::splat(1.0 + d), Vec3::splat(1.0 - d)]
+            })
+            .collect();
+        let exact = from_samples(&vec![Vec3::ONE; 100], &samples);
+        assert_eq!(exact.samples, MEASURED_RANGE.1, "{exact}");
+        let wrong = from_samples(&vec![Vec3::splat(100.0); 100], &samples);
+        assert_eq!(wrong.samples, MEASURED_RANGE.0, "{wrong}");
+    }
+
+    #[test]
+    fn priors_parse_and_a_wrong_one_says_what_to_give() {
+        assert_eq!("auto".parse::<Prior>(), Ok(Prior::Measured));
+        assert_eq!("256".parse::<Prior>(), Ok(Prior::Samples(256.0)));
+        assert_eq!("0".parse::<Prior>(), Ok(Prior::Samples(0.0)));
+        for bad in ["-1", "NaN", "inf", "lots"] {
+            let e = bad.parse::<Prior>().unwrap_err();
+            assert!(e.contains("auto") && e.contains(bad), "{e}");
+        }
+    }
+}
