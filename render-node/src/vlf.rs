@@ -13,7 +13,9 @@
 //!
 //! With [`VlfBase::with_rays`] choosing the GPU, each pixel's first hit is found on the GPU
 //! instead ([`crate::gpu_rays`]: the wall's rays made and traced there, the hits read
-//! back), and mirrors, glass and the lookups follow on the CPU as before.
+//! back), and mirrors, glass and the lookups follow on the CPU as before; the direct
+//! light's shadow rays are then traced there too, against the static scene, all of a
+//! frame's at once (the moving objects are tested on the CPU).
 
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -23,10 +25,10 @@ use holocave_scene::{Hit, Placement, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::view::shade_one;
-use holocave_vlf::{Accumulator, Lookup, PixelDirect, Visibility};
+use holocave_vlf::{Accumulator, Lookup, PixelDirect, ShadowQuery, Visibility};
 use rayon::prelude::*;
 
-use crate::gpu_rays::{GpuRays, Query, Rays};
+use crate::gpu_rays::{GpuRay, GpuRays, Query, Rays};
 use crate::{EyeView, Gpu, RenderNodeError};
 
 /// How many samples the light field is worth in a pixel unless told. Blending `n`
@@ -251,9 +253,21 @@ impl VlfBase {
                 }
             }
         };
-        let estimates = self
-            .visibility
-            .with_placed(|placed| acc.add(direct, placed, &points));
+        let estimates = self.visibility.with_placed(|placed| match &self.gpu_rays {
+            Some((gpu, engine)) => {
+                let on_gpu = |queries: &[ShadowQuery]| {
+                    let rays: Vec<GpuRay> = queries
+                        .iter()
+                        .map(|q| GpuRay::new(&q.ray, q.tmax))
+                        .collect();
+                    let mut engine = engine.lock().unwrap_or_else(|e| e.into_inner());
+                    let occluders = engine.occluders_each(gpu, &rays);
+                    occluders.iter().map(Option::is_some).collect()
+                };
+                acc.add_blocked(direct, placed, &points, &on_gpu)
+            }
+            None => acc.add(direct, placed, &points),
+        });
         for (l, d) in lookups.iter_mut().zip(estimates) {
             l.emitted = (glam::Vec3::from(l.emitted) + d.radiance).to_array();
             if d.object_shadow {

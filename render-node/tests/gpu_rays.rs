@@ -15,10 +15,11 @@ mod ray_sets;
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
 use holocave_render_node::Gpu;
-use holocave_render_node::gpu_rays::{GpuRays, Query, rounding};
+use holocave_render_node::gpu_rays::{GpuRay, GpuRays, Query, rounding};
 use holocave_scene::bvh::{Bvh, EDGE_TOLERANCE};
 use holocave_scene::ray_sets::uniform2;
 use holocave_scene::{Hit, Ray, Scene};
+use holocave_vlf::{PixelDirect, Settings, Visibility};
 use ray_sets::{camera_view, project_scene, ray_sets as sets_through, sponza};
 
 fn gpu() -> Gpu {
@@ -309,6 +310,48 @@ fn check_scene(name: &str, scene: &Scene, width: u32, height: u32) {
         let t = compare_occluded(scene, &[ray], tmax, &g);
         assert!(t.bad == 0, "{name} lamp ray {i}: {:?}", t.examples);
     }
+}
+
+/// The per-pixel direct light's shadow rays of the room's camera view (the sun's, ending
+/// nowhere, and the lamp's, each ending at its own point on the lamp), traced in one batch
+/// with each ray's own `tmax`, against the CPU.
+#[test]
+fn the_direct_lights_shadow_rays_are_the_cpus() {
+    let scene = std::sync::Arc::new(project_scene("room.gltf"));
+    let vis = Visibility::of(scene.clone(), &Settings::default());
+    let direct = PixelDirect::new(scene.clone());
+    let view = camera_view(&scene, 64, 48);
+    let mut queries = Vec::new();
+    for (i, (_, p)) in vis.pixels_and_points(&view).iter().enumerate() {
+        if let Some(p) = p {
+            for n in 0..4 {
+                direct.queries(p, i as u64, n, &mut queries);
+            }
+        }
+    }
+    let gpu = gpu();
+    let mut engine = GpuRays::for_scene(&gpu, &scene).expect("upload the scene");
+    let rays: Vec<GpuRay> = queries
+        .iter()
+        .map(|q| GpuRay::new(&q.ray, q.tmax))
+        .collect();
+    let answers = engine.occluders_each(&gpu, &rays);
+    let finite = queries.iter().filter(|q| q.tmax.is_finite()).count();
+    assert!(
+        finite > 1000 && queries.len() - finite > 1000,
+        "{finite} lamp and {} sun rays",
+        queries.len() - finite
+    );
+    let mut tally = Tally::default();
+    for (q, a) in queries.iter().zip(&answers) {
+        let t = compare_occluded(&scene, &[q.ray], q.tmax, &[*a]);
+        tally.rays += t.rays;
+        tally.agree += t.agree;
+        tally.grazes += t.grazes;
+        tally.bad += t.bad;
+        tally.examples.extend(t.examples);
+    }
+    tally.check("room direct light shadow rays");
 }
 
 #[test]

@@ -72,6 +72,6 @@ pub use bake::{
 pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
-pub use pixel_direct::{Accumulator, DirectPoint, Estimate, PixelDirect};
+pub use pixel_direct::{Accumulator, DirectPoint, Estimate, PixelDirect, ShadowQuery};
 pub use tiles::Tiles;
 pub use view::{Lookup, Visibility};

@@ -36,7 +36,7 @@
 //! of its rays: there the static caches' samples (which never see objects) are wrong.
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{PlacedScene, Scene};
+use holocave_scene::{PlacedScene, Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::frame::Frame;
 use holocave_tracer::integrator::shadow_ray;
@@ -127,67 +127,86 @@ impl PixelDirect {
             + u32::from(self.lights.sun.is_some())
     }
 
-    /// The radiance one light sample sends from `p` towards its viewer (before
-    /// `p.weight`), and whether a moving object is what blocked it.
-    fn add(
-        &self,
-        placed: &PlacedScene,
-        p: &DirectPoint,
-        frame: &Frame,
-        ls: &LightSample,
-    ) -> Estimate {
+    /// The shadow ray of one light sample at `p` and the radiance it sends towards the
+    /// viewer if nothing blocks it (`p.weight` included); `None` when it sends nothing.
+    fn query(&self, p: &DirectPoint, frame: &Frame, ls: &LightSample) -> Option<ShadowQuery> {
         let ng = p.normal;
         // Opaque surfaces only receive light on the side they are seen from.
         if !p.bsdf.transmits() && ng.dot(ls.wi) * ng.dot(p.wo) <= 0.0 {
-            return Estimate::default();
+            return None;
         }
         let (f, _) = p.bsdf.eval(frame.to_local(p.wo), frame.to_local(ls.wi));
-        let c = f * frame.n.dot(ls.wi).abs() * ls.contribution;
+        let c = f * frame.n.dot(ls.wi).abs() * ls.contribution * p.weight;
         if c.max_element() <= 0.0 || !c.is_finite() {
+            return None;
+        }
+        let (ray, tmax) = shadow_ray(ls, p.position, ng)?;
+        Some(ShadowQuery {
+            ray,
+            tmax,
+            radiance: c,
+        })
+    }
+
+    /// The shadow rays of the `n`-th estimate at `p` of pixel `seed`'s sequence (one
+    /// light sample of each kind), appended to `out`.
+    pub fn queries(&self, p: &DirectPoint, seed: u64, n: u64, out: &mut Vec<ShadowQuery>) {
+        let frame = Frame::new(p.shading_normal);
+        let l = &self.lights;
+        if l.has_area() {
+            let uc = r_sequence(R3, 3, 0, n, seed);
+            let u = Vec2::new(r_sequence(R3, 3, 1, n, seed), r_sequence(R3, 3, 2, n, seed));
+            if let Some(ls) = l.sample_area(&self.scene, p.position, uc, u) {
+                out.extend(self.query(p, &frame, &ls));
+            }
+        }
+        for i in 0..l.punctual.len() {
+            if let Some(ls) = l.sample_punctual(i, p.position) {
+                out.extend(self.query(p, &frame, &ls));
+            }
+        }
+        let u = Vec2::new(r_sequence(R2, 2, 0, n, seed), r_sequence(R2, 2, 1, n, seed));
+        if let Some(ls) = l.sample_sun(u) {
+            out.extend(self.query(p, &frame, &ls));
+        }
+    }
+
+    /// What a shadow query brings, given whether the static scene blocks it, with the
+    /// moving objects where `placed` puts them.
+    pub fn resolve(placed: &PlacedScene, q: &ShadowQuery, static_blocked: bool) -> Estimate {
+        if static_blocked {
             return Estimate::default();
         }
-        let Some((ray, tmax)) = shadow_ray(ls, p.position, ng) else {
-            return Estimate::default();
-        };
-        if self.scene.occluded(&ray, tmax) {
-            return Estimate::default();
-        }
-        if placed.objects_occluded(&ray, tmax) {
+        if placed.objects_occluded(&q.ray, q.tmax) {
             return Estimate {
                 radiance: Vec3::ZERO,
                 object_shadow: true,
             };
         }
         Estimate {
-            radiance: c,
+            radiance: q.radiance,
             object_shadow: false,
         }
+    }
+
+    /// Whether the static scene blocks each query (on the CPU threads).
+    pub fn blocked(&self, queries: &[ShadowQuery]) -> Vec<bool> {
+        queries
+            .par_iter()
+            .map(|q| self.scene.occluded(&q.ray, q.tmax))
+            .collect()
     }
 
     /// The `n`-th estimate at `p` of pixel `seed`'s sequence, with the moving objects
     /// where `placed` puts them: the direct radiance towards the eye, `p.weight`
     /// included.
     pub fn estimate(&self, placed: &PlacedScene, p: &DirectPoint, seed: u64, n: u64) -> Estimate {
-        let frame = Frame::new(p.shading_normal);
+        let mut queries = Vec::with_capacity(3);
+        self.queries(p, seed, n, &mut queries);
         let mut sum = Estimate::default();
-        let l = &self.lights;
-        if l.has_area() {
-            let uc = r_sequence(R3, 3, 0, n, seed);
-            let u = Vec2::new(r_sequence(R3, 3, 1, n, seed), r_sequence(R3, 3, 2, n, seed));
-            if let Some(ls) = l.sample_area(&self.scene, p.position, uc, u) {
-                sum += self.add(placed, p, &frame, &ls);
-            }
+        for q in &queries {
+            sum += Self::resolve(placed, q, self.scene.occluded(&q.ray, q.tmax));
         }
-        for i in 0..l.punctual.len() {
-            if let Some(ls) = l.sample_punctual(i, p.position) {
-                sum += self.add(placed, p, &frame, &ls);
-            }
-        }
-        let u = Vec2::new(r_sequence(R2, 2, 0, n, seed), r_sequence(R2, 2, 1, n, seed));
-        if let Some(ls) = l.sample_sun(u) {
-            sum += self.add(placed, p, &frame, &ls);
-        }
-        sum.radiance *= p.weight;
         sum
     }
 
@@ -258,6 +277,15 @@ impl PixelDirect {
     }
 }
 
+/// One light sample's shadow ray (up to `tmax`) and the radiance it sends towards the
+/// viewer if nothing blocks it.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowQuery {
+    pub ray: Ray,
+    pub tmax: f32,
+    pub radiance: Vec3,
+}
+
 /// One estimate of the direct light at a point.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate {
@@ -313,13 +341,27 @@ impl Accumulator {
         placed: &PlacedScene,
         points: &[Option<DirectPoint>],
     ) -> Vec<Estimate> {
+        self.add_blocked(direct, placed, points, &|q| direct.blocked(q))
+    }
+
+    /// [`Self::add`], with whether the static scene blocks each of the frame's shadow rays
+    /// answered by `blocked` for all of them at once (the CPU's walk, or the GPU's); the
+    /// moving objects are tested on the CPU.
+    pub fn add_blocked(
+        &mut self,
+        direct: &PixelDirect,
+        placed: &PlacedScene,
+        points: &[Option<DirectPoint>],
+        blocked: &dyn Fn(&[ShadowQuery]) -> Vec<bool>,
+    ) -> Vec<Estimate> {
         let n = points.len();
         if self.seen.len() != n {
             self.seen = vec![None; n];
             self.sum = vec![Estimate::default(); n];
             self.count = vec![0; n];
         }
-        points
+        // The estimates each pixel takes this frame, as shadow rays.
+        let per_pixel: Vec<Vec<ShadowQuery>> = points
             .par_iter()
             .zip(self.seen.par_iter_mut())
             .zip(self.sum.par_iter_mut())
@@ -329,7 +371,7 @@ impl Accumulator {
                 let Some(p) = p else {
                     *seen = None;
                     (*sum, *count) = (Estimate::default(), 0);
-                    return Estimate::default();
+                    return Vec::new();
                 };
                 let same = seen.is_some_and(|(t, q)| t == p.triangle && same_point(q, p.position));
                 let take = if same {
@@ -339,12 +381,36 @@ impl Accumulator {
                     (*sum, *count) = (Estimate::default(), 0);
                     direct.first_estimates()
                 };
-                for _ in 0..take {
-                    *sum += direct.estimate(placed, p, i as u64, u64::from(*count));
-                    *count += 1;
+                let mut queries = Vec::new();
+                for k in 0..take {
+                    direct.queries(p, i as u64, u64::from(*count + k), &mut queries);
+                }
+                *count += take;
+                queries
+            })
+            .collect();
+        let flat = per_pixel.concat();
+        let answers = blocked(&flat);
+        let mut starts = Vec::with_capacity(n);
+        let mut at = 0;
+        for q in &per_pixel {
+            starts.push(at);
+            at += q.len();
+        }
+        per_pixel
+            .par_iter()
+            .zip(starts)
+            .zip(self.sum.par_iter_mut())
+            .zip(self.count.par_iter())
+            .map(|(((queries, start), sum), &count)| {
+                for (q, &b) in queries.iter().zip(&answers[start..]) {
+                    *sum += PixelDirect::resolve(placed, q, b);
+                }
+                if count == 0 {
+                    return Estimate::default();
                 }
                 Estimate {
-                    radiance: sum.radiance / *count as f32,
+                    radiance: sum.radiance / count as f32,
                     object_shadow: sum.object_shadow,
                 }
             })

@@ -158,6 +158,10 @@ impl std::fmt::Display for Rays {
     }
 }
 
+/// Rays in one batch of [`GpuRays::occluders_each`]: 32 MiB of rays, within every
+/// adapter's binding limit (128 MiB on lavapipe).
+const MAX_BATCH: usize = 1 << 20;
+
 /// The queries a batch of rays can be put.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Query {
@@ -434,6 +438,22 @@ impl GpuRays {
         let n = rays.len() as u32;
         self.trace(gpu, n, Query::AnyHit);
         self.read_occluders(gpu, n)
+    }
+
+    /// For each ray, a triangle that lies on it before its own `tmax` (shadow rays towards
+    /// lamps end at them), if any; in batches the buffers hold.
+    pub fn occluders_each(&mut self, gpu: &Gpu, rays: &[GpuRay]) -> Vec<Option<u32>> {
+        let mut out = Vec::with_capacity(rays.len());
+        for batch in rays.chunks(MAX_BATCH) {
+            let n = batch.len() as u32;
+            self.reserve(gpu, n);
+            gpu.queue
+                .write_buffer(&self.rays, 0, bytemuck::cast_slice(batch));
+            self.set_params(gpu, n, None, f32::INFINITY);
+            self.trace(gpu, n, Query::AnyHit);
+            out.extend(self.read_occluders(gpu, n));
+        }
+        out
     }
 
     /// Whether something lies on each ray before `tmax` (as [`Bvh::occluded`]).
