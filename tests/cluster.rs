@@ -18,7 +18,7 @@ mod common;
 use common::{Watched, holocave, require, root, scratch, start_master};
 use holocave_cave::{CaveFrusta, load_cave};
 use holocave_master::frame_state::{FrameTimes, frame_state};
-use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
+use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, VeilSource};
 use holocave_protocol::frame::encode;
 use holocave_protocol::handshake::{self, Welcome};
 use holocave_protocol::session::{Opener, Sealer};
@@ -553,6 +553,63 @@ fn injected_and_replayed_messages_to_the_master_are_refused() {
         forged.iter().any(|l| l.contains("message 0 "))
             && forged.iter().any(|l| l.contains("message 1 ")),
         "the injection (message 0) and the replay (message 1) are refused: {err}"
+    );
+}
+
+/// A wall's veiling sources reach the other walls' nodes, relayed by the master, and never
+/// its own; a list with a non-finite source is refused and relayed to no one.
+#[test]
+fn veiling_sources_are_relayed_to_the_other_walls() {
+    let (m, addr, _stdout) = master(&["--seconds", "4"], SECRET);
+    let (mut front, mut front_sealer, mut front_opener) = fake_node(&addr, "front");
+    let (mut left, mut left_sealer, mut left_opener) = fake_node(&addr, "left");
+    let sun = VeilSource {
+        dir: [0.0, -0.6, -0.8],
+        flux: [3.0, 2.5, 2.0],
+    };
+    let bad = VeilSource {
+        dir: [f32::NAN, 0.0, 1.0],
+        flux: [1.0; 3],
+    };
+    front_sealer
+        .write(
+            &mut front,
+            &NodeMsg::Veil { sources: vec![sun] },
+            MAX_CLUSTER_FRAME,
+        )
+        .unwrap();
+    left_sealer
+        .write(
+            &mut left,
+            &NodeMsg::Veil { sources: vec![bad] },
+            MAX_CLUSTER_FRAME,
+        )
+        .unwrap();
+    // Every message each node gets until the master shuts down.
+    let mut received = |s: &mut TcpStream, o: &mut Opener| {
+        let mut veils = Vec::new();
+        while let Ok(msg) = o.read::<_, MasterMsg>(s, MAX_CLUSTER_FRAME) {
+            match msg {
+                MasterMsg::Veil { wall, sources } => veils.push((wall, sources)),
+                MasterMsg::Shutdown { .. } => break,
+                _ => {}
+            }
+        }
+        veils
+    };
+    let at_left = received(&mut left, &mut left_opener);
+    let at_front = received(&mut front, &mut front_opener);
+    let (status, _, err) = m.finish(Duration::from_secs(30));
+    assert!(status.is_some_and(|s| s.success()), "master failed: {err}");
+    assert_eq!(
+        at_left,
+        vec![("front".to_owned(), vec![sun])],
+        "left got {at_left:?}"
+    );
+    assert!(at_front.is_empty(), "front got {at_front:?}");
+    assert!(
+        err.contains("veiling sources") && err.contains("ignored"),
+        "the bad list is named: {err}"
     );
 }
 

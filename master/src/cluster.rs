@@ -16,7 +16,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-use holocave_protocol::cluster::{DeskInput, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg};
+use holocave_protocol::cluster::{
+    DeskInput, MAX_CLUSTER_FRAME, MAX_VEIL_SOURCES, MasterMsg, NodeMsg, VeilSource,
+};
 use holocave_protocol::frame::{FrameError, encode};
 use holocave_protocol::handshake::{self, Role, Welcome};
 use holocave_protocol::session::{Opener, Sealer, SessionKeys};
@@ -248,6 +250,8 @@ struct Master<'a> {
     arrivals: Vec<(NodeId, Instant)>,
     /// Desk inputs received since the last frame, in order (`None`: the node is gone).
     desk: Vec<(NodeId, Option<DeskInput>)>,
+    /// Each wall's newest veiling sources not yet relayed to the other walls.
+    veils: BTreeMap<String, Vec<VeilSource>>,
     summary: Summary,
 }
 
@@ -291,6 +295,24 @@ impl Master<'_> {
                 id,
                 msg: NodeMsg::DeskInput(input),
             } => self.desk.push((id, Some(input))),
+            Event::Msg {
+                id,
+                msg: NodeMsg::Veil { sources },
+            } => {
+                let Some(link) = self.links.get(&id) else {
+                    return;
+                };
+                if sources.len() > MAX_VEIL_SOURCES || !sources.iter().all(VeilSource::is_valid) {
+                    tracing::warn!(
+                        "node {id} (wall {:?}): {} veiling sources, not all finite unit \
+                         directions with non-negative flux (at most {MAX_VEIL_SOURCES}); ignored",
+                        link.wall,
+                        sources.len()
+                    );
+                    return;
+                }
+                self.veils.insert(link.wall.clone(), sources);
+            }
             Event::Msg {
                 id,
                 msg: NodeMsg::Leaving { reason },
@@ -435,6 +457,19 @@ impl Master<'_> {
             e.0 += mem.swapped;
             e.1 += mem.outs;
         }
+    }
+
+    /// Relays each wall's newest veiling sources to the nodes of the other walls.
+    async fn relay_veils(&mut self) -> std::io::Result<()> {
+        for (wall, sources) in std::mem::take(&mut self.veils) {
+            let others: Vec<NodeId> = (self.links.iter())
+                .filter(|(_, l)| l.wall != wall)
+                .map(|(id, _)| *id)
+                .collect();
+            self.send(&MasterMsg::Veil { wall, sources }, Some(&others))
+                .await?;
+        }
+        Ok(())
     }
 
     /// Sends `bytes` to the given nodes (all when `None`); drops a node that fails or
@@ -610,6 +645,7 @@ async fn run_frames(
         links: BTreeMap::new(),
         arrivals: Vec::new(),
         desk: Vec::new(),
+        veils: BTreeMap::new(),
         summary: Summary::default(),
     };
     m.wait_for_walls(opts.wait_for_walls).await;
@@ -722,6 +758,7 @@ async fn run_frames(
             m.swap_barrier(frame, sent, dead_node, false).await?
         };
         pacer.record(swapped - sent);
+        m.relay_veils().await?;
         if let (Clock::Live, Some(t)) = (opts.clock, tracker_ns) {
             let t = start + Duration::from_nanos(t);
             m.summary

@@ -112,6 +112,12 @@ pub enum MasterMsg {
     Shutdown {
         reason: String,
     },
+    /// Another wall's bright sources, relayed as its node sent them ([`NodeMsg::Veil`]):
+    /// the head sees every wall at once, so they veil this wall too (human mode).
+    Veil {
+        wall: String,
+        sources: Vec<VeilSource>,
+    },
 }
 
 /// Node → master.
@@ -124,6 +130,33 @@ pub enum NodeMsg {
     /// A desk user's keyboard and mouse in the node's window, sent when it changes; the
     /// master maps it onto its navigation inputs (the node computes nothing).
     DeskInput(DeskInput),
+    /// This wall's bright sources as its human-mode tone mapping found them in the frame
+    /// just drawn (at most [`MAX_VEIL_SOURCES`]); the master relays them to the other
+    /// walls' nodes. Not part of any frame state: a replayed session's states stay the
+    /// same whatever the nodes drew.
+    Veil { sources: Vec<VeilSource> },
+}
+
+/// The most veiling sources a wall shares ([`NodeMsg::Veil`]).
+pub const MAX_VEIL_SOURCES: usize = 256;
+
+/// One bright source a wall shares for veiling glare: its unit direction from the eye
+/// (scene frame) and its radiance times solid angle (RGB, the scene's units × sr).
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq)]
+pub struct VeilSource {
+    pub dir: [f32; 3],
+    pub flux: [f32; 3],
+}
+
+impl VeilSource {
+    /// Whether it is a source at all: a finite unit direction and a finite, non-negative
+    /// flux.
+    pub fn is_valid(&self) -> bool {
+        let len2: f32 = self.dir.iter().map(|c| c * c).sum();
+        self.dir.iter().chain(&self.flux).all(|c| c.is_finite())
+            && (len2 - 1.0).abs() < 1e-3
+            && self.flux.iter().all(|&c| c >= 0.0)
+    }
 }
 
 /// The navigation a desk user asks for with keys and the mouse (`node --window`): the

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use glam::DMat4;
 use holocave_cave::Wall;
 use holocave_protocol::cluster::{
-    DeskInput, FrameState, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats,
+    DeskInput, FrameState, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats, VeilSource,
 };
 use holocave_protocol::handshake::{self, Role, Welcome};
 use holocave_protocol::session::Sealer;
@@ -138,6 +138,17 @@ impl MasterLink {
             .map_err(|e| LinkError::Lost(e.to_string()))
     }
 
+    /// This wall's veiling sources, for the master to relay to the other walls.
+    pub fn veil(&mut self, sources: Vec<VeilSource>) -> Result<(), LinkError> {
+        self.sealer
+            .write(
+                &mut self.writer,
+                &NodeMsg::Veil { sources },
+                MAX_CLUSTER_FRAME,
+            )
+            .map_err(|e| LinkError::Lost(e.to_string()))
+    }
+
     /// Tells the master that `frame` is drawn.
     pub fn ready(&mut self, frame: u64, stats: NodeStats) -> Result<(), LinkError> {
         self.sealer
@@ -181,6 +192,12 @@ pub trait Presentation {
     /// The desk user's input changes since the last call (windows), oldest first.
     fn desk_inputs(&mut self) -> Vec<DeskInput> {
         Vec::new()
+    }
+    /// Another wall's veiling sources, relayed by the master (human mode).
+    fn import_veil(&mut self, _wall: &str, _sources: &[VeilSource]) {}
+    /// This wall's veiling sources found in the frame just prepared, to share once.
+    fn export_veil(&mut self) -> Option<Vec<VeilSource>> {
+        None
     }
 }
 
@@ -250,6 +267,10 @@ pub fn follow(
             Some(s) => s,
             None => match link.recv(Duration::from_secs(1)) {
                 Ok(Some(MasterMsg::Frame(s))) => s,
+                Ok(Some(MasterMsg::Veil { wall, sources })) => {
+                    present.import_veil(&wall, &sources);
+                    continue;
+                }
                 Ok(Some(MasterMsg::Swap { .. })) | Ok(None) => continue,
                 Ok(Some(MasterMsg::Shutdown { reason })) => return Ended::Shutdown(reason),
                 Err(e) => return Ended::Lost(e),
@@ -263,6 +284,7 @@ pub fn follow(
                     state = s;
                 }
                 Ok(Some(MasterMsg::Swap { .. })) => {}
+                Ok(Some(MasterMsg::Veil { wall, sources })) => present.import_veil(&wall, &sources),
                 Ok(Some(MasterMsg::Shutdown { reason })) => return Ended::Shutdown(reason),
                 Ok(None) => break,
                 Err(e) => return Ended::Lost(e),
@@ -286,6 +308,11 @@ pub fn follow(
             std::thread::sleep(slow_by);
         }
         present.prepare(&state, display);
+        if let Some(sources) = present.export_veil()
+            && let Err(e) = link.veil(sources)
+        {
+            return Ended::Lost(e);
+        }
         stats.draw_us = t.elapsed().as_micros().min(u32::MAX as u128) as u32;
         stats.samples = report.inserted.min(u32::MAX as usize) as u32;
         stats.presented = counters.presented;
@@ -308,6 +335,7 @@ pub fn follow(
                     counters.last_presented = Some(frame);
                     break;
                 }
+                Ok(Some(MasterMsg::Veil { wall, sources })) => present.import_veil(&wall, &sources),
                 Ok(Some(MasterMsg::Swap { .. })) | Ok(None) => {
                     if let Some(reason) = present.closed() {
                         present.abandon(&state);

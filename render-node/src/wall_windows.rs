@@ -8,14 +8,15 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+use glam::Vec3;
 use holocave_cave::{Eye, Wall};
-use holocave_protocol::cluster::{DeskInput, FrameState};
+use holocave_protocol::cluster::{DeskInput, FrameState, VeilSource as WireVeil};
 
 use crate::cluster::Presentation;
 use crate::present::{Histogrammer, Prepared, layout_eyes};
 use crate::tonemap::wall_directions;
 use crate::vision::gpu::VisionPass;
-use crate::vision::{Fovea, VeilSources};
+use crate::vision::{Fovea, VeilSource, VeilSources};
 use crate::window::{Screens, WindowError};
 use crate::{ToneMapper, ToneMode, WallDisplay};
 
@@ -55,6 +56,29 @@ where
     fn desk_inputs(&mut self) -> Vec<DeskInput> {
         self.output.screens.desk.take()
     }
+
+    fn import_veil(&mut self, wall: &str, sources: &[WireVeil]) {
+        let sources = sources
+            .iter()
+            .map(|s| VeilSource {
+                dir: Vec3::from(s.dir),
+                flux: Vec3::from(s.flux),
+            })
+            .collect();
+        self.output.import(wall, VeilSources(sources));
+    }
+
+    fn export_veil(&mut self) -> Option<Vec<WireVeil>> {
+        let found = self.output.exported.take()?;
+        Some(
+            (found.0.iter())
+                .map(|s| WireVeil {
+                    dir: s.dir.to_array(),
+                    flux: s.flux.to_array(),
+                })
+                .collect(),
+        )
+    }
 }
 
 /// A wall shown in windows: the tone mapping and each window's eyes.
@@ -71,8 +95,12 @@ pub struct WindowOutput<'a> {
     histogrammer: Histogrammer,
     /// Human mode: each eye's image as a person would see it, made on the GPU.
     vision: Vec<VisionPass>,
-    /// Human mode: the other walls' bright sources, veiling this wall too.
+    /// Human mode: the other walls' bright sources, veiling this wall too (each wall's
+    /// newest, and all of them merged).
+    by_wall: BTreeMap<String, VeilSources>,
     pub imported: VeilSources,
+    /// Human mode: this wall's bright sources in the frame last prepared, until shared.
+    pub exported: Option<VeilSources>,
 }
 
 impl<'a> WindowOutput<'a> {
@@ -113,8 +141,17 @@ impl<'a> WindowOutput<'a> {
             tone_time: Duration::ZERO,
             tone_updates: 0,
             vision: Vec::new(),
+            by_wall: BTreeMap::new(),
             imported: VeilSources::none(),
+            exported: None,
         })
+    }
+
+    /// Takes wall `wall`'s newest veiling sources (human mode): this wall is veiled by
+    /// them from the next frame on.
+    pub fn import(&mut self, wall: &str, sources: VeilSources) {
+        self.by_wall.insert(wall.to_owned(), sources);
+        self.imported = VeilSources::merged(self.by_wall.values());
     }
 
     /// Draws the display's images into every window and waits for the GPU (before Ready);
@@ -141,6 +178,10 @@ impl<'a> WindowOutput<'a> {
                     &self.imported,
                     self.tone.efficacy,
                 );
+                // What the first eye sees bright here veils the other walls.
+                if eye == 0 {
+                    self.exported = Some(self.vision[0].sources(gpu, &fovea));
+                }
             }
         }
         let buffer = |eye: usize| {

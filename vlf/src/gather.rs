@@ -27,9 +27,9 @@
 //! therefore not the path tracer's image but this one-bounce image (see
 //! `docs/vlf-direct.md`, "Exact samples").
 //!
-//! Moving objects are not seen by the bounce (it reads the static field), nor by its
-//! sample's first point when the eye sees an object: such pixels show the lookup alone
-//! ([`crate::Lookup::samples`]).
+//! Moving objects are not seen by the bounce (it reads the static field); where the eye
+//! sees one, the sample is what the wall draws there (its probe's light and its direct
+//! light), and such pixels show the lookup alone ([`crate::Lookup::samples`]).
 
 use glam::{Vec2, Vec3};
 use holocave_scene::Ray;
@@ -75,6 +75,10 @@ pub fn gather(
             return;
         };
         g.radiance += direct.estimate(placed, &p, rng.random(), 0).radiance;
+        // A moving object's lookup holds its indirect light already (its probe's).
+        if placed.object_of(p.triangle).is_some() {
+            return;
+        }
         g.radiance += direct.via_mirror(placed, &p, rng.random());
         let frame = Frame::new(p.shading_normal);
         let (uc, u) = (rng.random(), Vec2::new(rng.random(), rng.random()));
