@@ -103,7 +103,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
         .context("--methods")?;
     if methods.is_empty() {
         bail!(
-            "--methods: no methods given (trace, accumulate, cache, holodeck, vlf, vlf+holodeck)"
+            "--methods: no methods given (trace, accumulate, cache, holodeck, vlf, vlf+holodeck, vlf+gather)"
         );
     }
     if !(args.fps > 0.0 && args.fps <= 1000.0) {

@@ -151,23 +151,33 @@ impl PixelDirect {
     /// The shadow rays of the `n`-th estimate at `p` of pixel `seed`'s sequence (one
     /// light sample of each kind), appended to `out`.
     pub fn queries(&self, p: &DirectPoint, seed: u64, n: u64, out: &mut Vec<ShadowQuery>) {
+        self.each_query(p, seed, n, |q| out.push(q));
+    }
+
+    /// Calls `f` with each shadow ray of the `n`-th estimate at `p` of pixel `seed`'s
+    /// sequence.
+    fn each_query(&self, p: &DirectPoint, seed: u64, n: u64, mut f: impl FnMut(ShadowQuery)) {
         let frame = Frame::new(p.shading_normal);
         let l = &self.lights;
         if l.has_area() {
             let uc = r_sequence(R3, 3, 0, n, seed);
             let u = Vec2::new(r_sequence(R3, 3, 1, n, seed), r_sequence(R3, 3, 2, n, seed));
-            if let Some(ls) = l.sample_area(&self.scene, p.position, uc, u) {
-                out.extend(self.query(p, &frame, &ls));
+            if let Some(q) = (l.sample_area(&self.scene, p.position, uc, u))
+                .and_then(|ls| self.query(p, &frame, &ls))
+            {
+                f(q);
             }
         }
         for i in 0..l.punctual.len() {
-            if let Some(ls) = l.sample_punctual(i, p.position) {
-                out.extend(self.query(p, &frame, &ls));
+            if let Some(q) =
+                (l.sample_punctual(i, p.position)).and_then(|ls| self.query(p, &frame, &ls))
+            {
+                f(q);
             }
         }
         let u = Vec2::new(r_sequence(R2, 2, 0, n, seed), r_sequence(R2, 2, 1, n, seed));
-        if let Some(ls) = l.sample_sun(u) {
-            out.extend(self.query(p, &frame, &ls));
+        if let Some(q) = l.sample_sun(u).and_then(|ls| self.query(p, &frame, &ls)) {
+            f(q);
         }
     }
 
@@ -201,12 +211,10 @@ impl PixelDirect {
     /// where `placed` puts them: the direct radiance towards the eye, `p.weight`
     /// included.
     pub fn estimate(&self, placed: &PlacedScene, p: &DirectPoint, seed: u64, n: u64) -> Estimate {
-        let mut queries = Vec::with_capacity(3);
-        self.queries(p, seed, n, &mut queries);
         let mut sum = Estimate::default();
-        for q in &queries {
-            sum += Self::resolve(placed, q, self.scene.occluded(&q.ray, q.tmax));
-        }
+        self.each_query(p, seed, n, |q| {
+            sum += Self::resolve(placed, &q, self.scene.occluded(&q.ray, q.tmax));
+        });
         sum
     }
 
@@ -321,6 +329,34 @@ fn same_point(a: Vec3, b: Vec3) -> bool {
     (a - b).length() <= 1e-5 * (1.0 + a.abs().max_element())
 }
 
+/// Estimates pixel whose point is `p` takes this frame: one more at the point it saw
+/// last, else (its mean started again) [`PixelDirect::first_estimates`].
+fn start(
+    direct: &PixelDirect,
+    p: &DirectPoint,
+    seen: &mut Option<(u32, Vec3)>,
+    sum: &mut Estimate,
+    count: &mut u32,
+) -> u32 {
+    if seen.is_some_and(|(t, q)| t == p.triangle && same_point(q, p.position)) {
+        return 1;
+    }
+    *seen = Some((p.triangle, p.position));
+    (*sum, *count) = (Estimate::default(), 0);
+    direct.first_estimates()
+}
+
+/// The running mean of `count` estimates summing to `sum` (zero for none).
+fn mean(sum: &Estimate, count: u32) -> Estimate {
+    if count == 0 {
+        return Estimate::default();
+    }
+    Estimate {
+        radiance: sum.radiance / count as f32,
+        object_shadow: sum.object_shadow,
+    }
+}
+
 impl Accumulator {
     pub fn new() -> Self {
         Accumulator::default()
@@ -341,7 +377,35 @@ impl Accumulator {
         placed: &PlacedScene,
         points: &[Option<DirectPoint>],
     ) -> Vec<Estimate> {
-        self.add_blocked(direct, placed, points, &|q| direct.blocked(q))
+        self.fit(points.len());
+        points
+            .par_iter()
+            .zip(self.seen.par_iter_mut())
+            .zip(self.sum.par_iter_mut())
+            .zip(self.count.par_iter_mut())
+            .enumerate()
+            .map(|(i, (((p, seen), sum), count))| {
+                let Some(p) = p else {
+                    *seen = None;
+                    (*sum, *count) = (Estimate::default(), 0);
+                    return Estimate::default();
+                };
+                for _ in 0..start(direct, p, seen, sum, count) {
+                    *sum += direct.estimate(placed, p, i as u64, u64::from(*count));
+                    *count += 1;
+                }
+                mean(sum, *count)
+            })
+            .collect()
+    }
+
+    /// Sized for `n` pixels (a new size forgets every mean).
+    fn fit(&mut self, n: usize) {
+        if self.seen.len() != n {
+            self.seen = vec![None; n];
+            self.sum = vec![Estimate::default(); n];
+            self.count = vec![0; n];
+        }
     }
 
     /// [`Self::add`], with whether the static scene blocks each of the frame's shadow rays
@@ -355,11 +419,7 @@ impl Accumulator {
         blocked: &dyn Fn(&[ShadowQuery]) -> Vec<bool>,
     ) -> Vec<Estimate> {
         let n = points.len();
-        if self.seen.len() != n {
-            self.seen = vec![None; n];
-            self.sum = vec![Estimate::default(); n];
-            self.count = vec![0; n];
-        }
+        self.fit(n);
         // The estimates each pixel takes this frame, as shadow rays.
         let per_pixel: Vec<Vec<ShadowQuery>> = points
             .par_iter()
@@ -373,14 +433,7 @@ impl Accumulator {
                     (*sum, *count) = (Estimate::default(), 0);
                     return Vec::new();
                 };
-                let same = seen.is_some_and(|(t, q)| t == p.triangle && same_point(q, p.position));
-                let take = if same {
-                    1
-                } else {
-                    *seen = Some((p.triangle, p.position));
-                    (*sum, *count) = (Estimate::default(), 0);
-                    direct.first_estimates()
-                };
+                let take = start(direct, p, seen, sum, count);
                 let mut queries = Vec::new();
                 for k in 0..take {
                     direct.queries(p, i as u64, u64::from(*count + k), &mut queries);
@@ -402,17 +455,11 @@ impl Accumulator {
             .zip(starts)
             .zip(self.sum.par_iter_mut())
             .zip(self.count.par_iter())
-            .map(|(((queries, start), sum), &count)| {
-                for (q, &b) in queries.iter().zip(&answers[start..]) {
+            .map(|(((queries, first), sum), &count)| {
+                for (q, &b) in queries.iter().zip(&answers[first..]) {
                     *sum += PixelDirect::resolve(placed, q, b);
                 }
-                if count == 0 {
-                    return Estimate::default();
-                }
-                Estimate {
-                    radiance: sum.radiance / count as f32,
-                    object_shadow: sum.object_shadow,
-                }
+                mean(sum, count)
             })
             .collect()
     }
