@@ -61,6 +61,8 @@ pub struct NavigationSection {
     /// The button that picks up the moving object the wand points at and carries it
     /// while held; `-1`: none.
     pub object_button: i64,
+    /// The button that switches walking and flying at each press; `-1`: none.
+    pub mode_button: i64,
     /// Grabbing turns the world about the vertical only (no pitch, no roll).
     pub grab_yaw_only: bool,
     /// How close the user's body comes to a wall (m).
@@ -95,6 +97,7 @@ impl Default for NavigationSection {
             grab_button: 0,
             teleport_button: 1,
             object_button: 2,
+            mode_button: 3,
             grab_yaw_only: true,
             radius: 0.3,
             step_height: 0.35,
@@ -133,6 +136,7 @@ pub struct Navigation {
     pub grab_button: Option<usize>,
     pub teleport_button: Option<usize>,
     pub object_button: Option<usize>,
+    pub mode_button: Option<usize>,
     pub grab_yaw_only: bool,
     pub radius: f64,
     pub step_height: f64,
@@ -186,6 +190,14 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
     let grab_button = button("grab_button", s.grab_button);
     let teleport_button = button("teleport_button", s.teleport_button);
     let object_button = button("object_button", s.object_button);
+    let mode_button = button("mode_button", s.mode_button);
+    if mode_button.is_some() && [grab_button, teleport_button, object_button].contains(&mode_button)
+    {
+        problems.push(format!(
+            "navigation.mode_button: {} is also the grab, teleport or object button",
+            s.mode_button
+        ));
+    }
     if object_button.is_some() && (object_button == grab_button || object_button == teleport_button)
     {
         problems.push(format!(
@@ -228,6 +240,7 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
         grab_button,
         teleport_button,
         object_button,
+        mode_button,
         grab_yaw_only: s.grab_yaw_only,
         radius: s.radius,
         step_height: s.step_height,
@@ -247,7 +260,7 @@ mod tests {
         assert!((n.turn_rate - 45f64.to_radians()).abs() < 1e-15);
         assert!(n.grab_yaw_only, "no roll by default");
         let s: NavigationSection = toml::from_str(
-            "walk_speed = -1.0\ngrab_button = 1\nteleport_button = 1\ndead_zone = 2.0\nforward_sign = 0.5",
+            "walk_speed = -1.0\ngrab_button = 1\nteleport_button = 1\ndead_zone = 2.0\nforward_sign = 0.5\nmode_button = 2",
         )
         .unwrap();
         let mut problems = Vec::new();
@@ -258,9 +271,10 @@ mod tests {
             "navigation.teleport_button",
             "navigation.dead_zone",
             "navigation.forward_sign",
+            "navigation.mode_button",
         ] {
             assert!(all.contains(key), "{key} not named in:\n{all}");
         }
-        assert_eq!(problems.len(), 4, "{all}");
+        assert_eq!(problems.len(), 5, "{all}");
     }
 }

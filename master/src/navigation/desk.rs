@@ -1,8 +1,9 @@
 //! A desk user's keyboard and mouse (`node --window`, `sim --window`): each node's
 //! [`DeskInput`] mapped onto the navigation's own inputs — the forward and turn axes on the
 //! config's `forward_axis` and `turn_axis` channels (signed so they read as the joystick's
-//! +1 forward and right), grab and teleport on `grab_button` and `teleport_button` — so
-//! every mode moves exactly as it does from a wand. The master stays the only one that
+//! +1 forward and right), grab, teleport and the walk/fly key on `grab_button`,
+//! `teleport_button` and `mode_button` — so every mode moves exactly as it does from a
+//! wand, and `desk.csv` replays all of it. The master stays the only one that
 //! integrates navigation.
 //!
 //! The rule with several nodes and the VRPN devices: an axis is the first non-neutral one
@@ -23,10 +24,6 @@ pub struct Desk {
     nodes: BTreeMap<u64, DeskInput>,
     /// The merged desk input in channel form (buttons, presses since the last frame, axes).
     state: InputState,
-    /// Walk/fly toggles since the last frame.
-    toggles: u32,
-    /// The merged input's mode key, for counting its presses.
-    mode_down: bool,
     /// Changes since the last frame, as session-log events (for `desk.csv`).
     events: Vec<InputEvent>,
 }
@@ -71,7 +68,11 @@ impl Desk {
             self.events.push(InputEvent::Axes(axes.clone()));
             self.state.apply(&InputEvent::Axes(axes));
         }
-        for (button, down) in [(s.grab_button, m.grab), (s.teleport_button, m.teleport)] {
+        for (button, down) in [
+            (s.grab_button, m.grab),
+            (s.teleport_button, m.teleport),
+            (s.mode_button, m.mode),
+        ] {
             if let Some(index) = button
                 && self.state.held(Some(index)) != down
             {
@@ -83,22 +84,14 @@ impl Desk {
                 self.events.push(e);
             }
         }
-        if m.mode && !self.mode_down {
-            self.toggles += 1;
-        }
-        self.mode_down = m.mode;
     }
 
-    /// The desk's state for this frame (its press counts start again from zero after),
-    /// the walk/fly toggles since the last frame, and the changes as events.
-    pub fn take(&mut self) -> (InputState, u32, Vec<InputEvent>) {
+    /// The desk's state for this frame (its press counts start again from zero after)
+    /// and the changes as events.
+    pub fn take(&mut self) -> (InputState, Vec<InputEvent>) {
         let state = self.state.clone();
         self.state.presses.iter_mut().for_each(|p| *p = 0);
-        (
-            state,
-            std::mem::take(&mut self.toggles),
-            std::mem::take(&mut self.events),
-        )
+        (state, std::mem::take(&mut self.events))
     }
 }
 

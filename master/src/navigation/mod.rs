@@ -66,7 +66,7 @@ impl Navigator {
         &self.settings
     }
 
-    /// Walk becomes fly and fly walk (the desk's walk/fly key); `none` stays.
+    /// Walk becomes fly and fly walk (each press of the mode button); `none` stays.
     pub fn toggle_mode(&mut self) {
         self.settings.mode = match self.settings.mode {
             TravelMode::Walk => TravelMode::Fly,
@@ -85,6 +85,12 @@ impl Navigator {
         dt: f64,
         scene: Option<&Scene>,
     ) -> Placement {
+        let presses = (self.settings.mode_button)
+            .and_then(|b| input.presses.get(b).copied())
+            .unwrap_or(0);
+        for _ in 0..presses {
+            self.toggle_mode();
+        }
         let s = &self.settings;
         let head_at = head.position.as_dvec3();
         let feet = DVec3::new(head_at.x, 0.0, head_at.z);

@@ -198,11 +198,8 @@ impl NavigationRun {
         let before = self.held.clone();
         let mut input = self.inputs.advance(now_ns).clone();
         if let Some(desk) = &mut self.desk {
-            let (state, toggles, events) = desk.take();
+            let (state, events) = desk.take();
             input = combine(&input, &state);
-            for _ in 0..toggles {
-                self.navigator.toggle_mode();
-            }
             if let Some(w) = &mut self.desk_log {
                 for e in events {
                     if let Err(e) = w.input(&InputSample::new(now_ns, e)) {
