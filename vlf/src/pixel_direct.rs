@@ -329,15 +329,21 @@ fn same_point(a: Vec3, b: Vec3) -> bool {
     (a - b).length() <= 1e-5 * (1.0 + a.abs().max_element())
 }
 
-/// Estimates pixel whose point is `p` takes this frame: one more at the point it saw
-/// last, else (its mean started again) [`PixelDirect::first_estimates`].
+/// Estimates a pixel whose point is `p` takes this frame: one more at the point it saw
+/// last, else (its mean started again) [`PixelDirect::first_estimates`]; none where it sees
+/// no point (its mean forgotten).
 fn start(
     direct: &PixelDirect,
-    p: &DirectPoint,
+    p: Option<&DirectPoint>,
     seen: &mut Option<(u32, Vec3)>,
     sum: &mut Estimate,
     count: &mut u32,
 ) -> u32 {
+    let Some(p) = p else {
+        *seen = None;
+        (*sum, *count) = (Estimate::default(), 0);
+        return 0;
+    };
     if seen.is_some_and(|(t, q)| t == p.triangle && same_point(q, p.position)) {
         return 1;
     }
@@ -377,6 +383,25 @@ impl Accumulator {
         placed: &PlacedScene,
         points: &[Option<DirectPoint>],
     ) -> Vec<Estimate> {
+        self.each_pixel(direct, points, |i, p, first, take, sum| {
+            if let Some(p) = p {
+                for n in first..first + u64::from(take) {
+                    *sum += direct.estimate(placed, p, i as u64, n);
+                }
+            }
+            mean(sum, first as u32 + take)
+        })
+    }
+
+    /// For every pixel (sized for `points`): its mean started again where it sees another
+    /// point, then `f(pixel, point, first, take, sum)` for the estimates `first ..
+    /// first + take` it takes this frame, after which its count includes them.
+    fn each_pixel<T: Send>(
+        &mut self,
+        direct: &PixelDirect,
+        points: &[Option<DirectPoint>],
+        f: impl Fn(usize, Option<&DirectPoint>, u64, u32, &mut Estimate) -> T + Sync,
+    ) -> Vec<T> {
         self.fit(points.len());
         points
             .par_iter()
@@ -385,16 +410,10 @@ impl Accumulator {
             .zip(self.count.par_iter_mut())
             .enumerate()
             .map(|(i, (((p, seen), sum), count))| {
-                let Some(p) = p else {
-                    *seen = None;
-                    (*sum, *count) = (Estimate::default(), 0);
-                    return Estimate::default();
-                };
-                for _ in 0..start(direct, p, seen, sum, count) {
-                    *sum += direct.estimate(placed, p, i as u64, u64::from(*count));
-                    *count += 1;
-                }
-                mean(sum, *count)
+                let take = start(direct, p.as_ref(), seen, sum, count);
+                let out = f(i, p.as_ref(), u64::from(*count), take, sum);
+                *count += take;
+                out
             })
             .collect()
     }
@@ -418,30 +437,17 @@ impl Accumulator {
         points: &[Option<DirectPoint>],
         blocked: &dyn Fn(&[ShadowQuery]) -> Vec<bool>,
     ) -> Vec<Estimate> {
-        let n = points.len();
-        self.fit(n);
         // The estimates each pixel takes this frame, as shadow rays.
-        let per_pixel: Vec<Vec<ShadowQuery>> = points
-            .par_iter()
-            .zip(self.seen.par_iter_mut())
-            .zip(self.sum.par_iter_mut())
-            .zip(self.count.par_iter_mut())
-            .enumerate()
-            .map(|(i, (((p, seen), sum), count))| {
-                let Some(p) = p else {
-                    *seen = None;
-                    (*sum, *count) = (Estimate::default(), 0);
-                    return Vec::new();
-                };
-                let take = start(direct, p, seen, sum, count);
-                let mut queries = Vec::new();
-                for k in 0..take {
-                    direct.queries(p, i as u64, u64::from(*count + k), &mut queries);
+        let per_pixel = self.each_pixel(direct, points, |i, p, first, take, _| {
+            let mut queries = Vec::new();
+            if let Some(p) = p {
+                for n in first..first + u64::from(take) {
+                    direct.queries(p, i as u64, n, &mut queries);
                 }
-                *count += take;
-                queries
-            })
-            .collect();
+            }
+            queries
+        });
+        let n = points.len();
         let flat = per_pixel.concat();
         let answers = blocked(&flat);
         let mut starts = Vec::with_capacity(n);
