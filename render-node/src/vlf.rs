@@ -7,7 +7,8 @@
 //! The direct light of the sun, punctual lights and emissive triangles is computed per
 //! pixel on the same threads, for the point each pixel's ray found
 //! ([`holocave_vlf::pixel_direct`]: `1 + P + 1` shadow rays per pixel and frame, averaged
-//! per surface point while the view stays still), and handed to the shader inside the
+//! per surface point while the view stays still, and carried over to the next view of the
+//! same screen when the eye moves: `Accumulator::reproject`), and handed to the shader inside the
 //! lookup's `emitted` light; the light field then gives only the rest
 //! ([`holocave_vlf::State::indirect_values`]), so nothing is counted twice.
 //!
@@ -58,8 +59,8 @@ pub struct VlfBase {
     /// The next-event estimates of gather samples ([`Self::gather`]), whether or not the
     /// walls draw the direct light per pixel.
     nee: PixelDirect,
-    /// The running means of the direct light, per view drawn (exactly that view: a still
-    /// eye), with the frame each was last drawn.
+    /// The running means of the direct light, per view drawn, with the frame each was
+    /// last drawn (a moved eye takes over its screen's nearest one).
     history: Mutex<Vec<(u64, WallView, Accumulator)>>,
     /// Where the pixels' first hits are found: on this GPU, or (`None`) on the CPU.
     gpu_rays: Option<(Gpu, Mutex<GpuRays>)>,
@@ -238,21 +239,48 @@ impl VlfBase {
         let (mut lookups, points): (Vec<Lookup>, Vec<_>) =
             self.pixels_and_points(&view.wall).into_iter().unzip();
         // This view's history (taken out while it is used: other views may be drawn on
-        // other threads meanwhile), or a new one in place of the least recently drawn.
-        let mut acc = {
+        // other threads meanwhile); else, when the eye moved, the history of the same
+        // screen drawn from the nearest eye, carried over to this view; else a new one in
+        // place of the least recently drawn.
+        let (mut acc, moved_from) = {
             let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+            let same_screen = |v: &WallView| {
+                (v.pa, v.pb, v.pc, v.width, v.height)
+                    == (
+                        view.wall.pa,
+                        view.wall.pb,
+                        view.wall.pc,
+                        view.wall.width,
+                        view.wall.height,
+                    )
+            };
+            let nearest = (0..h.len())
+                .filter(|&i| same_screen(&h[i].1))
+                .min_by(|&a, &b| {
+                    let d = |i: usize| h[i].1.eye.distance_squared(view.wall.eye);
+                    d(a).total_cmp(&d(b))
+                });
             match h.iter().position(|e| e.1 == view.wall) {
-                Some(i) => h.swap_remove(i).2,
-                None => {
-                    if h.len() >= HISTORIES
-                        && let Some(oldest) = (0..h.len()).min_by_key(|&i| h[i].0)
-                    {
-                        h.swap_remove(oldest);
+                Some(i) => (h.swap_remove(i).2, None),
+                None => match nearest {
+                    Some(i) => {
+                        let (_, from, acc) = h.swap_remove(i);
+                        (acc, Some(from))
                     }
-                    Accumulator::new()
-                }
+                    None => {
+                        if h.len() >= HISTORIES
+                            && let Some(oldest) = (0..h.len()).min_by_key(|&i| h[i].0)
+                        {
+                            h.swap_remove(oldest);
+                        }
+                        (Accumulator::new(), None)
+                    }
+                },
             }
         };
+        if let Some(from) = moved_from {
+            acc.reproject(&from, &view.wall, &points);
+        }
         let estimates = self.visibility.with_placed(|placed| match &self.gpu_rays {
             Some((gpu, engine)) => {
                 let on_gpu = |queries: &[ShadowQuery]| {

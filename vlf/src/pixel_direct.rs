@@ -15,7 +15,8 @@
 //! a cosine that varies by `1 − cos r ≈ 1e-5` across the disc), so the patch and its
 //! shadow are exact from the first frame. What is left stochastic — the penumbrae (a band
 //! `2 d tan r` wide, 9 mm behind an edge 1 m away) and area lamps — is averaged per
-//! surface point over frames ([`Accumulator`]): a still view converges. A pixel takes
+//! surface point over frames ([`Accumulator`]): a still view converges, and a moving eye
+//! carries each mean over to the pixel that sees its point next ([`Accumulator::reproject`]). A pixel takes
 //! one estimate a frame, and two on the frame it comes to a new point when the scene
 //! has area lamps ([`PixelDirect::first_estimates`]: one sample of a lamp is visibly
 //! noisy). More per frame would lower that variance in proportion to the shadow rays,
@@ -36,6 +37,7 @@
 //! of its rays: there the static caches' samples (which never see objects) are wrong.
 
 use glam::{Vec2, Vec3};
+use holocave_cave::WallView;
 use holocave_scene::{PlacedScene, Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::frame::Frame;
@@ -416,6 +418,57 @@ impl Accumulator {
                 out
             })
             .collect()
+    }
+
+    /// Carries every pixel's mean over from the view `from` these means were made in to
+    /// the view `to`, whose pixels see `points` (the eye moved): a pixel whose point, seen
+    /// from `from`, lies in a pixel that saw the same triangle within a pixel's footprint of
+    /// it takes that pixel's mean and goes on adding to it. Its estimates were of the light
+    /// there, which differs only across a shadow's edge within the footprint — the image's
+    /// own resolution. Other pixels start again (a point newly in sight, or one seen in a
+    /// mirror, whose image moves otherwise).
+    pub fn reproject(&mut self, from: &WallView, to: &WallView, points: &[Option<DirectPoint>]) {
+        let (w, h) = (from.width as usize, from.height as usize);
+        if self.seen.len() != w * h || points.len() != (to.width * to.height) as usize {
+            self.restart();
+            return;
+        }
+        // Metres per pixel on the screen, and the screen's plane.
+        let pixel = (from.pb - from.pa).length() / from.width as f32;
+        let normal = (from.pb - from.pa)
+            .cross(from.pc - from.pa)
+            .normalize_or_zero();
+        let to_screen = (from.pa - from.eye).dot(normal).abs();
+        let (seen, sum, count) = (&self.seen, &self.sum, &self.count);
+        let carried: Vec<(Option<(u32, Vec3)>, Estimate, u32)> = points
+            .par_iter()
+            .map(|p| {
+                let none = (None, Estimate::default(), 0);
+                let Some(p) = p else { return none };
+                let v = p.position - from.eye;
+                let Some((x, y)) = from.project(v.as_dvec3()) else {
+                    return none;
+                };
+                if !(x >= 0.0 && y >= 0.0 && x < w as f64 && y < h as f64) {
+                    return none;
+                }
+                let j = y as usize * w + x as usize;
+                // The footprint of a pixel at the point's distance along its ray.
+                let along = v.normalize_or_zero().dot(normal).abs();
+                let footprint = pixel * v.length() * along / to_screen.max(f32::MIN_POSITIVE);
+                match seen[j] {
+                    Some((t, q)) if t == p.triangle && q.distance(p.position) <= footprint => {
+                        (Some((t, p.position)), sum[j], count[j])
+                    }
+                    _ => none,
+                }
+            })
+            .collect();
+        (self.seen, self.sum, self.count) = (
+            carried.iter().map(|c| c.0).collect(),
+            carried.iter().map(|c| c.1).collect(),
+            carried.iter().map(|c| c.2).collect(),
+        );
     }
 
     /// Sized for `n` pixels (a new size forgets every mean).
