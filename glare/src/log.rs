@@ -1,8 +1,8 @@
-//! The glare figures of a session, frame by frame: a CSV file
-//! (`frame,time_ns,ev_lux,dgp,ugr,sources`, `ugr` empty when undefined, `sources` their
-//! count) and the session's summary — the fraction of time DGP was above 0.35, 0.40 and
-//! 0.45 (the limits of EN 17037's glare classes: imperceptible, perceptible, disturbing,
-//! intolerable).
+//! The glare figures of a session, frame by frame and eye by eye: a CSV file
+//! (`frame,time_ns,eye,ev_lux,dgp,ugr,sources`, one line per eye, `ugr` empty when
+//! undefined, `sources` their count) and the session's summary — the fraction of time the
+//! higher of the eyes' DGP was above 0.35, 0.40 and 0.45 (the limits of EN 17037's glare
+//! classes: imperceptible, perceptible, disturbing, intolerable).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -91,7 +91,7 @@ pub struct GlareLog<W: Write> {
 }
 
 /// The CSV's header line.
-pub const HEADER: &str = "frame,time_ns,ev_lux,dgp,ugr,sources";
+pub const HEADER: &str = "frame,time_ns,eye,ev_lux,dgp,ugr,sources";
 
 impl GlareLog<std::io::BufWriter<std::fs::File>> {
     /// A log written to a new file at `path`.
@@ -115,18 +115,30 @@ impl<W: Write> GlareLog<W> {
         })
     }
 
-    /// Writes frame `frame`'s figures, shown at `time_ns`.
-    pub fn record(&mut self, frame: u64, time_ns: u64, f: &Figures) -> Result<(), GlareError> {
-        let ugr = f.ugr.map_or(String::new(), |u| format!("{u:.3}"));
-        writeln!(
-            self.out,
-            "{frame},{time_ns},{:.3},{:.5},{ugr},{}",
-            f.ev_lux,
-            f.dgp,
-            f.sources.len()
-        )
-        .map_err(|e| write_error(&self.name, e))?;
-        self.summary.add(time_ns, f.dgp);
+    /// Writes frame `frame`'s figures for each of its eyes (by name), shown at `time_ns`;
+    /// the summary counts the frame once, at the higher of its eyes' DGP.
+    pub fn record(
+        &mut self,
+        frame: u64,
+        time_ns: u64,
+        eyes: &[(&str, &Figures)],
+    ) -> Result<(), GlareError> {
+        let mut dgp = 0.0f64;
+        for (eye, f) in eyes {
+            let ugr = f.ugr.map_or(String::new(), |u| format!("{u:.3}"));
+            writeln!(
+                self.out,
+                "{frame},{time_ns},{eye},{:.3},{:.5},{ugr},{}",
+                f.ev_lux,
+                f.dgp,
+                f.sources.len()
+            )
+            .map_err(|e| write_error(&self.name, e))?;
+            dgp = dgp.max(f.dgp);
+        }
+        if !eyes.is_empty() {
+            self.summary.add(time_ns, dgp);
+        }
         Ok(())
     }
 

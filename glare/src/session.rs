@@ -1,7 +1,8 @@
-//! A session's glare, frame by frame: each frame's view (the head's eye and gaze in scene
-//! coordinates, as the frame state placed it) measured by one [`GlareMeter`], the figures
-//! written in frame order to a CSV ([`GlareLog`]) and summed up. The frames are measured
-//! in parallel after the session, so measuring changes nothing a wall shows.
+//! A session's glare, frame by frame and eye by eye: each frame's views (each eye and the
+//! head's gaze in scene coordinates, as the frame state placed them) measured by one
+//! [`GlareMeter`], the figures written in frame order to a CSV ([`GlareLog`]) and summed
+//! up. The frames are measured in parallel after the session, so measuring changes nothing
+//! a wall shows.
 
 use std::path::Path;
 
@@ -18,13 +19,16 @@ pub struct FrameView {
     pub frame: u64,
     /// When the frame was shown (ns on the session's clock).
     pub time_ns: u64,
-    /// Between the eyes, scene coordinates.
+    /// Which eye (`left`, `right`, or `centre` for a mono wall).
+    pub eye_name: &'static str,
+    /// The eye, scene coordinates.
     pub eye: Vec3,
     /// The gaze: the head's forward direction, scene coordinates.
     pub look: Vec3,
 }
 
-/// Measures every view with `meter` and writes the figures to `csv`; the session's summary.
+/// Measures every view with `meter` and writes the figures to `csv` (the views of one
+/// frame, one per eye, follow each other); the session's summary.
 pub fn measure_session(
     meter: &GlareMeter,
     views: &[FrameView],
@@ -35,8 +39,15 @@ pub fn measure_session(
         .map(|v| meter.measure(v.eye, v.look))
         .collect::<Result<_, _>>()?;
     let mut log = GlareLog::create(csv)?;
-    for (v, f) in views.iter().zip(&figures) {
-        log.record(v.frame, v.time_ns, f)?;
+    let mut i = 0;
+    while i < views.len() {
+        let frame = views[i].frame;
+        let n = views[i..].iter().take_while(|v| v.frame == frame).count();
+        let eyes: Vec<(&str, &_)> = (i..i + n)
+            .map(|k| (views[k].eye_name, &figures[k]))
+            .collect();
+        log.record(frame, views[i].time_ns, &eyes)?;
+        i += n;
     }
     Ok(log.finish()?.1)
 }

@@ -115,23 +115,33 @@ fn figures(dgp: f64) -> Figures {
     }
 }
 
-/// Frames at 0, 1, 2 and 3 s with DGP 0.5, 0.3, 0.42, 0.1: each holds until the next,
-/// so DGP is above 0.35 and 0.40 during [0, 1) and [2, 3) (2/3 of the session) and
-/// above 0.45 during [0, 1) (1/3); the CSV has the header and one line per frame.
+/// Frames at 0, 1, 2 and 3 s with the eyes' DGP (0.5, 0.2), (0.3, 0.3), (0.1, 0.42),
+/// (0.1, 0.1): the higher eye's holds until the next frame, so DGP is above 0.35 and 0.40
+/// during [0, 1) and [2, 3) (2/3 of the session) and above 0.45 during [0, 1) (1/3); the
+/// CSV has the header and one line per frame and eye.
 #[test]
 fn log_and_summary() {
     let mut log = GlareLog::new(Vec::new(), std::path::Path::new("mem")).unwrap();
-    for (i, d) in [0.5, 0.3, 0.42, 0.1].into_iter().enumerate() {
-        log.record(i as u64, i as u64 * 1_000_000_000, &figures(d))
-            .unwrap();
+    for (i, (l, r)) in [(0.5, 0.2), (0.3, 0.3), (0.1, 0.42), (0.1, 0.1)]
+        .into_iter()
+        .enumerate()
+    {
+        let (l, r) = (figures(l), figures(r));
+        log.record(
+            i as u64,
+            i as u64 * 1_000_000_000,
+            &[("left", &l), ("right", &r)],
+        )
+        .unwrap();
     }
     let (bytes, summary) = log.finish().unwrap();
     let text = String::from_utf8(bytes).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines[0], HEADER);
-    assert_eq!(lines.len(), 5);
-    assert_eq!(lines[1], "0,0,1234.500,0.50000,21.000,0");
-    assert_eq!(lines[4], "3,3000000000,1234.500,0.10000,,0");
+    assert_eq!(lines.len(), 9);
+    assert_eq!(lines[1], "0,0,left,1234.500,0.50000,21.000,0");
+    assert_eq!(lines[8], "3,3000000000,right,1234.500,0.10000,,0");
+    assert_eq!(summary.frames, 4);
     let [a, b, c] = summary.fractions_above();
     let close = |x: f64, y: f64| (x - y).abs() < 1e-12;
     assert!(
@@ -252,6 +262,7 @@ fn a_session_is_measured_frame_by_frame_in_order() {
             FrameView {
                 frame: 10 + k,
                 time_ns: k * 33_333_333,
+                eye_name: "centre",
                 eye: Vec3::ZERO,
                 look: Vec3::new(a.cos(), a.sin(), 0.0),
             }
@@ -268,7 +279,8 @@ fn a_session_is_measured_frame_by_frame_in_order() {
         let f: Vec<&str> = line.split(',').collect();
         assert_eq!(f[0].parse::<u64>().unwrap(), v.frame);
         assert_eq!(f[1].parse::<u64>().unwrap(), v.time_ns);
-        let ev: f64 = f[2].parse().unwrap();
+        assert_eq!(f[2], "centre");
+        let ev: f64 = f[3].parse().unwrap();
         let own = meter.measure(v.eye, v.look).unwrap().ev_lux;
         assert!((ev - own).abs() <= 5e-4 * own.max(1.0), "{line}: {own}");
         assert!(ev > last_ev, "{line} after Ev {last_ev}");

@@ -20,7 +20,7 @@ use holocave_glare::draw::Drawing;
 use holocave_glare::meter::GlareMeter;
 use holocave_glare::session::{FrameView, measure_session};
 use holocave_master::cluster::{MasterOptions, run as run_master};
-use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg};
+use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, WireEye};
 use holocave_protocol::frame::{FrameError, read_frame};
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::mosaic::cave_mosaic;
@@ -370,7 +370,8 @@ fn measure_glare(
     Ok(())
 }
 
-/// Each frame state's viewer: between the eyes and looking ahead, in scene coordinates.
+/// Each frame state's viewers: each eye (the first wall's eyes: every wall has the same),
+/// looking ahead, in scene coordinates.
 fn frame_views(states: &Path) -> Result<Vec<FrameView>> {
     let mut r = std::io::BufReader::new(
         std::fs::File::open(states).with_context(|| format!("{}", states.display()))?,
@@ -387,15 +388,22 @@ fn frame_views(states: &Path) -> Result<Vec<FrameView>> {
         if eyes.is_empty() {
             continue;
         }
-        let mid = eyes.iter().map(|e| DVec3::from(e.position)).sum::<DVec3>() / eyes.len() as f64;
         let nav = glam::DMat4::from_cols_array(&f.navigation);
         let head = glam::Quat::from_array(f.head.orientation).as_dquat();
-        views.push(FrameView {
-            frame: f.frame,
-            time_ns: f.display_time_ns,
-            eye: mid.as_vec3(),
-            look: nav.transform_vector3(head * DVec3::NEG_Z).as_vec3(),
-        });
+        let look = nav.transform_vector3(head * DVec3::NEG_Z).as_vec3();
+        for e in eyes {
+            views.push(FrameView {
+                frame: f.frame,
+                time_ns: f.display_time_ns,
+                eye_name: match e.eye {
+                    WireEye::Left => "left",
+                    WireEye::Right => "right",
+                    WireEye::Centre => "centre",
+                },
+                eye: DVec3::from(e.position).as_vec3(),
+                look,
+            });
+        }
     }
     Ok(views)
 }
