@@ -363,7 +363,7 @@ fn measure_glare(
     let csv = args.out.join("glare.csv");
     let summary = measure_session(&meter, &views, &csv)?;
     println!(
-        "glare of {} frames in {}: {summary}",
+        "glare of {} eye views in {}: {summary}",
         views.len(),
         csv.display()
     );
