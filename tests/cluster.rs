@@ -586,7 +586,7 @@ fn veiling_sources_are_relayed_to_the_other_walls() {
         )
         .unwrap();
     // Every message each node gets until the master shuts down.
-    let mut received = |s: &mut TcpStream, o: &mut Opener| {
+    let received = |s: &mut TcpStream, o: &mut Opener| {
         let mut veils = Vec::new();
         while let Ok(msg) = o.read::<_, MasterMsg>(s, MAX_CLUSTER_FRAME) {
             match msg {

@@ -62,7 +62,7 @@ fn echo_node(addr: String, wall: String) {
                     return;
                 }
             }
-            Ok(MasterMsg::Swap { .. }) => {}
+            Ok(MasterMsg::Swap { .. } | MasterMsg::Veil { .. }) => {}
             Ok(MasterMsg::Shutdown { .. }) | Err(_) => return,
         }
     }

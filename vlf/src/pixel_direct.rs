@@ -331,6 +331,10 @@ fn same_point(a: Vec3, b: Vec3) -> bool {
     (a - b).length() <= 1e-5 * (1.0 + a.abs().max_element())
 }
 
+/// What a pixel keeps between frames: the point it saw last (triangle, position), the
+/// sum of its estimates there and their count.
+type PixelMean = (Option<(u32, Vec3)>, Estimate, u32);
+
 /// Estimates a pixel whose point is `p` takes this frame: one more at the point it saw
 /// last, else (its mean started again) [`PixelDirect::first_estimates`]; none where it sees
 /// no point (its mean forgotten).
@@ -440,7 +444,7 @@ impl Accumulator {
             .normalize_or_zero();
         let to_screen = (from.pa - from.eye).dot(normal).abs();
         let (seen, sum, count) = (&self.seen, &self.sum, &self.count);
-        let carried: Vec<(Option<(u32, Vec3)>, Estimate, u32)> = points
+        let carried: Vec<PixelMean> = points
             .par_iter()
             .map(|p| {
                 let none = (None, Estimate::default(), 0);
