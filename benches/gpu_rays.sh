@@ -12,6 +12,8 @@
 #    and traced (`primary_gpu_wall`), and the CPU BVH on one thread and on every core
 #    (`*_cpu_1t`, `*_cpu_all`), on the same rays.
 # 3. A table of those rates, rays per second, from criterion's estimates.
+# 4. A wall's whole frame (per-pixel work, render cache) at 1920 × 1200 per eye, stereo
+#    (HOLOCAVE_BENCH_WALL, default 1920x1200), with rays on the CPU and on the GPU.
 #
 # SCALE (default 2) multiplies Sponza's 1024 × 576 primary rays in each axis (2: 2048 × 1152,
 # 2.4 M rays, enough to fill a large GPU; 1: the same rays as `scene`'s ray_sets bench).
@@ -57,3 +59,12 @@ awk '
     }
 ' "$log"
 rm -f "$log"
+
+# A wall's frame at a projector's size, both eyes: the per-pixel work (first hits, mirrors
+# and glass, the direct light's shadow rays, lookups; `--rays cpu` against `--rays gpu`)
+# and the render cache's passes with the light field under them.
+echo "== a wall's frame, both eyes, at 128x96, 1024x768 and ${HOLOCAVE_BENCH_WALL:=1920x1200} per eye"
+export HOLOCAVE_BENCH_WALL
+cargo bench -p holocave-render-node --bench wall_frame 2>&1 | grep -E '^wall_frame|time:|adapter'
+cargo bench -p holocave-render-node --bench display 2>&1 | grep -E '^display|time:|adapter|steps'
+

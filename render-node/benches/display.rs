@@ -100,8 +100,10 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32, vlf: bool) {
 
 fn display(c: &mut Criterion) {
     bench_size(c, 512, 512, false);
-    bench_size(c, 1024, 768, false);
-    bench_size(c, 1024, 768, true);
+    for (w, h) in common::sizes(&[(1024, 768)]) {
+        bench_size(c, w, h, false);
+        bench_size(c, w, h, true);
+    }
 }
 
 criterion_group!(benches, display);

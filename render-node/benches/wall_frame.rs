@@ -1,7 +1,8 @@
 //! A wall's per-pixel work per frame, both eyes, with each pixel's first hit traced on the
 //! CPU and on the GPU (`--rays cpu|gpu`): the light field's lookups with the direct light
 //! per pixel (`VlfBase::lookups`: first hits, mirrors and glass, 1 + P + 1 shadow rays,
-//! the running means), at 128×96 and 1024×768 per eye, in the room, on whatever adapter
+//! the running means), at 128×96 and 1024×768 per eye (and `HOLOCAVE_BENCH_WALL`'s size),
+//! in the room, on whatever adapter
 //! wgpu finds (lavapipe where there is no GPU). The render cache's passes at these sizes
 //! are `benches/display.rs`; a wall's frame is the two together.
 
@@ -51,7 +52,7 @@ fn bench(c: &mut Criterion) {
         let base = VlfBase::open(&file, scene.clone())
             .and_then(|b| b.with_rays(&gpu, rays))
             .expect("open the light field");
-        for (w, h) in [(128, 96), (1024, 768)] {
+        for (w, h) in common::sizes(&[(128, 96), (1024, 768)]) {
             let views = views(w, h);
             let mut g = c.benchmark_group(format!("wall_frame/{w}x{h}"));
             g.sample_size(10);

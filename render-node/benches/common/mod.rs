@@ -24,3 +24,16 @@ pub fn views(w: u32, h: u32) -> Vec<EyeView> {
         })
         .collect()
 }
+
+/// The per-eye sizes a bench runs at: `defaults`, and the one in `HOLOCAVE_BENCH_WALL`
+/// (`WxH`, e.g. `1920x1200`: a projector's wall, for `benches/gpu_rays.sh` on a GPU).
+pub fn sizes(defaults: &[(u32, u32)]) -> Vec<(u32, u32)> {
+    let mut out = defaults.to_vec();
+    if let Ok(s) = std::env::var("HOLOCAVE_BENCH_WALL") {
+        match s.split_once('x').map(|(w, h)| (w.parse(), h.parse())) {
+            Some((Ok(w), Ok(h))) if w > 0 && h > 0 => out.push((w, h)),
+            _ => eprintln!("HOLOCAVE_BENCH_WALL={s:?} is not WxH; ignored"),
+        }
+    }
+    out
+}
