@@ -1,19 +1,33 @@
 //! Moving objects as the master sends them: every frame, each movable object's placement
 //! at the frame's display time, from keyframed paths (`--objects FILE`), or carried by the
-//! wand (press the object button pointing at one, carry it while held, release: it stays),
+//! wand (press the object button pointing at one, carry it while held — it stops where its
+//! vertices would pass through a wall, a table or the floor — release: it stays),
 //! in the frame state, so every wall draws the same placement. A replay's display times and
 //! wand are the log's, so a replayed session gives the same placements bit for bit.
 
 use std::sync::Arc;
 
+use glam::Vec3;
 use holocave_protocol::cluster::WireObject;
 use holocave_scene::objects::PathError;
-use holocave_scene::{ObjectPaths, Placement, Ray, Scene};
+use holocave_scene::{MovableObject, ObjectPaths, Placement, Ray, Scene};
 
 use crate::navigation::input::WandPose;
 
 /// How far the wand picks an object (m).
 const REACH: f32 = 20.0;
+
+/// Vertices per object whose paths are checked against the static scene while it is
+/// carried (spread over its triangles).
+const PROBES: usize = 256;
+
+/// Up to [`PROBES`] of `object`'s vertices (its own frame), spread evenly over its
+/// triangles.
+fn probe_points(object: &MovableObject) -> Vec<Vec3> {
+    let triangles = object.local_triangles();
+    let step = (3 * triangles.len()).div_ceil(PROBES).max(1);
+    triangles.iter().flatten().step_by(step).copied().collect()
+}
 
 /// An object in the wand's hand: which, and where it sits in the wand's frame.
 #[derive(Clone, Copy, Debug)]
@@ -32,6 +46,8 @@ pub struct ObjectMotion {
     off_path: Vec<bool>,
     carried: Option<Carried>,
     button_before: bool,
+    /// Per object, the vertices whose paths a carried move must keep clear of walls.
+    probes: Vec<Vec<Vec3>>,
 }
 
 /// The wand as a placement (scene coordinates, f32).
@@ -48,10 +64,11 @@ impl ObjectMotion {
         Ok(ObjectMotion {
             off_path: vec![false; now.len()],
             now,
-            scene,
+            scene: scene.clone(),
             paths,
             carried: None,
             button_before: false,
+            probes: scene.objects().iter().map(probe_points).collect(),
         })
     }
 
@@ -85,7 +102,10 @@ impl ObjectMotion {
                     });
                 }
                 if let Some(c) = self.carried {
-                    self.now[c.object] = hand.then(&c.in_hand);
+                    let to = hand.then(&c.in_hand);
+                    if self.clear(c.object, &self.now[c.object], &to) {
+                        self.now[c.object] = to;
+                    }
                     self.off_path[c.object] = true;
                 }
             }
@@ -101,6 +121,18 @@ impl ObjectMotion {
                 orientation: p.rotation.to_array(),
             })
             .collect()
+    }
+
+    /// Whether object `k` may move from `from` to `to`: none of its probe vertices'
+    /// straight paths crosses the static scene (a carried chair stops at a wall or a
+    /// table instead of passing through; sliding along the floor it touches is free).
+    fn clear(&self, k: usize, from: &Placement, to: &Placement) -> bool {
+        self.probes[k].iter().all(|&p| {
+            let (a, b) = (from.to_world_point(p), to.to_world_point(p));
+            let d = b - a;
+            let len = d.length();
+            len <= 1e-6 || !self.scene.occluded(&Ray::new(a, d / len), len)
+        })
     }
 
     /// The moving object the wand points at, if the first thing it points at is one.
@@ -210,5 +242,52 @@ mod tests {
         motion.frame(4, Some(wand(moved_to, turn)), false);
         let w = motion.frame(5, Some(wand(from - Vec3::X * 3.0, level)), false);
         assert!((at(&w) - carried.translation).length() < 1e-6);
+    }
+
+    /// Carried 10 m towards a wall in 5 cm steps, the block stops inside the room (no
+    /// vertex of it ever beyond the wall's plane), and carried back it follows again.
+    #[test]
+    fn a_carried_object_stops_at_the_wall() {
+        let scene = room();
+        let mut motion = ObjectMotion::new(scene.clone(), ObjectPaths::default()).unwrap();
+        let (lo, hi) = scene.objects()[0].local_bounds();
+        let rest = scene.rest_placements()[0];
+        let centre = rest.to_world_point(0.5 * (lo + hi));
+        let from = centre + Vec3::new(0.0, 0.0, 1.5);
+        let wand = |p: Vec3| WandPose {
+            position: p.as_dvec3(),
+            orientation: DQuat::IDENTITY,
+        };
+        let (room_lo, _) = scene.bounds();
+        let inside = |w: &[WireObject]| {
+            let p = Placement::new(
+                Vec3::from_array(w[0].position),
+                Quat::from_array(w[0].orientation),
+            );
+            (scene.objects()[0].local_triangles().iter().flatten())
+                .map(|&v| p.to_world_point(v).x)
+                .fold(f32::INFINITY, f32::min)
+        };
+        motion.frame(0, Some(wand(from)), true);
+        let mut last = Vec3::ZERO;
+        for k in 1..=200u64 {
+            let w = motion.frame(k, Some(wand(from - Vec3::X * 0.05 * k as f32)), true);
+            assert!(
+                inside(&w) >= room_lo.x - 1e-4,
+                "frame {k}: a vertex at x = {} beyond the wall at {}",
+                inside(&w),
+                room_lo.x
+            );
+            last = Vec3::from_array(w[0].position);
+        }
+        assert!(
+            (last - rest.translation).length() > 0.1,
+            "it moved before it stopped"
+        );
+        let w = motion.frame(201, Some(wand(from - Vec3::X * 0.5)), true);
+        assert!(
+            (Vec3::from_array(w[0].position) - last).length() > 0.1,
+            "carried back, it follows"
+        );
     }
 }

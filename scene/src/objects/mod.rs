@@ -155,6 +155,11 @@ impl MovableObject {
         self.bounds
     }
 
+    /// The object's triangles in its own frame.
+    pub fn local_triangles(&self) -> &[[Vec3; 3]] {
+        &self.positions
+    }
+
     /// The object's triangles and their shading at `placement`, in world space.
     fn placed_triangles(
         &self,
