@@ -1,6 +1,7 @@
 //! Grab the world: while the button is held, the world follows the wand, so the wand's
 //! motion since the last frame moves the world with it (the scene point that was at the
-//! wand stays at the wand).
+//! wand stays at the wand). The navigator then keeps the body out of walls as walking does
+//! (`Navigator::step`).
 
 use super::input::WandPose;
 use super::placement::{Placement, yaw_part};

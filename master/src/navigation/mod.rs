@@ -103,7 +103,15 @@ impl Navigator {
         let held = input.held(s.grab_button);
         let grabbing = held && self.grab_before;
         if grabbing && let (Some(before), Some(now)) = (self.wand_before, input.wand) {
+            let was = self.place.point(feet);
             grab::grab(&mut self.place, &before, &now, s.grab_yaw_only);
+            // The body goes where the grab takes it only as far as walking would: stopped
+            // `radius` short of a wall, and slid along it.
+            if let Some(scene) = scene {
+                let wanted = self.place.point(feet) - was;
+                let moved = body::travel(scene, was, wanted, body.radius, body.step_height);
+                self.place.shift(moved - wanted);
+            }
         }
 
         let turning = shaped(input.axis(s.turn_axis), s.dead_zone) * s.turn_sign;

@@ -209,6 +209,39 @@ fn grabbing_moves_the_world_by_the_wands_motion_while_held_and_not_after() {
         assert_eq!(nav.placement(), p);
     }
     // Yaw only, with a wand that pitches and rolls: the world stays upright.
+    yaw_only_keeps_the_world_upright();
+}
+
+/// Pulling the world by the wand towards a wall stops the body a radius short of it, as
+/// walking does; without a scene the grab goes on through.
+#[test]
+fn grabbing_the_world_does_not_pull_the_body_through_a_wall() {
+    let sc = scene(&[floor(0.0, -40.0, 40.0), wall(-3.0, 0.0, 3.0)]);
+    let held = |w: WandPose| InputState {
+        wand: Some(w),
+        buttons: vec![true],
+        presses: vec![0],
+        axes: vec![],
+    };
+    for with_scene in [true, false] {
+        let mut nav = Navigator::new(settings(TravelMode::Walk), &DMat4::IDENTITY);
+        // The wand pulled towards the user (+Z) 10 cm a frame: the world comes along, the
+        // user goes −Z in the scene, towards the wall at z = −3.
+        for k in 0..60 {
+            let w = wand(DVec3::new(0.0, 1.0, -0.5 + 0.1 * k as f64), 0.0, 0.0);
+            nav.step(&head(), &held(w), DT, with_scene.then_some(&sc));
+        }
+        let z = nav.placement().point(head().position.as_dvec3()).z;
+        if with_scene {
+            let r = nav.settings().radius;
+            assert!((z - (-3.0 + r)).abs() < 1e-9, "stopped at z = {z}");
+        } else {
+            assert!(z < -5.0, "without a scene the grab goes on: z = {z}");
+        }
+    }
+}
+
+fn yaw_only_keeps_the_world_upright() {
     let mut nav = Navigator::new(settings(TravelMode::Walk), &DMat4::IDENTITY);
     for k in 0..10 {
         let w = WandPose {
