@@ -6,7 +6,8 @@
 
 use std::path::Path;
 
-use glam::Vec3;
+use glam::{DMat4, DVec3, Vec3};
+use holocave_protocol::cluster::{FrameState, WireEye};
 use rayon::prelude::*;
 
 use crate::error::GlareError;
@@ -25,6 +26,31 @@ pub struct FrameView {
     pub eye: Vec3,
     /// The gaze: the head's forward direction, scene coordinates.
     pub look: Vec3,
+}
+
+/// A frame state's views: each eye of its first wall (every wall has the same eyes),
+/// looking where the head looks, in scene coordinates.
+pub fn views_of(state: &FrameState) -> Vec<FrameView> {
+    let Some(wall) = state.walls.first() else {
+        return Vec::new();
+    };
+    let nav = DMat4::from_cols_array(&state.navigation);
+    let head = glam::Quat::from_array(state.head.orientation).as_dquat();
+    let look = nav.transform_vector3(head * DVec3::NEG_Z).as_vec3();
+    wall.eyes
+        .iter()
+        .map(|e| FrameView {
+            frame: state.frame,
+            time_ns: state.display_time_ns,
+            eye_name: match e.eye {
+                WireEye::Left => "left",
+                WireEye::Right => "right",
+                WireEye::Centre => "centre",
+            },
+            eye: DVec3::from(e.position).as_vec3(),
+            look,
+        })
+        .collect()
 }
 
 /// Measures every view with `meter` and writes the figures to `csv` (the views of one

@@ -289,3 +289,75 @@ fn a_session_is_measured_frame_by_frame_in_order() {
     assert_eq!(text.lines().count(), 1 + views.len());
     assert_eq!(summary.frames, views.len() as u64);
 }
+
+/// Live: frames offered faster than they are measured are skipped, never reordered; the
+/// last one offered is measured before `finish` returns; every line is the meter's own
+/// figures for that frame's eye.
+#[test]
+fn live_glare_measures_the_newest_frames_in_order() {
+    use holocave_glare::live::LiveGlare;
+    use holocave_glare::session::FrameView;
+    let meter = || {
+        let drawing = Drawing::PathTraced {
+            tracer: Tracer::new(sky_scene(), TraceSettings::default()),
+            spp: 1,
+            seed: 7,
+        };
+        GlareMeter::new(
+            drawing,
+            24,
+            Vec3::Y,
+            Rules::default(),
+            Photometry::default(),
+        )
+        .unwrap()
+    };
+    let views = |k: u64| {
+        let a = k as f32 * 0.1;
+        ["left", "right"]
+            .into_iter()
+            .enumerate()
+            .map(|(e, name)| FrameView {
+                frame: k,
+                time_ns: k * 16_666_667,
+                eye_name: name,
+                eye: Vec3::new(0.03 * e as f32, 0.0, 0.0),
+                look: Vec3::new(a.cos(), a.sin(), 0.0),
+            })
+            .collect::<Vec<_>>()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("glare.csv");
+    let live = LiveGlare::start(meter(), &csv).unwrap();
+    for k in 0..8 {
+        live.offer(views(k));
+    }
+    let summary = live.finish().unwrap();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(HEADER));
+    let reference = meter();
+    let mut frames = Vec::new();
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        let k: u64 = f[0].parse().unwrap();
+        let v = views(k);
+        let e = v
+            .iter()
+            .find(|v| v.eye_name == f[2])
+            .expect("an eye's name");
+        let own = reference.measure(e.eye, e.look).unwrap().ev_lux;
+        let ev: f64 = f[3].parse().unwrap();
+        assert!((ev - own).abs() <= 5e-4 * own.max(1.0), "{line}: {own}");
+        if frames.last() != Some(&k) {
+            frames.push(k);
+        }
+    }
+    assert!(
+        frames.windows(2).all(|w| w[0] < w[1]),
+        "in order: {frames:?}"
+    );
+    assert_eq!(frames.last(), Some(&7), "the last offered is measured");
+    assert_eq!(summary.frames, frames.len() as u64);
+    assert_eq!(text.lines().count(), 1 + 2 * frames.len());
+}

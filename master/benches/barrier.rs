@@ -102,6 +102,7 @@ fn cluster(frames: u64) -> Summary {
             navigation: None,
             navigation_log: None,
             objects: None,
+            on_frame: None,
         },
     )
     .unwrap();

@@ -17,7 +17,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use holocave_protocol::cluster::{
-    DeskInput, MAX_CLUSTER_FRAME, MAX_VEIL_SOURCES, MasterMsg, NodeMsg, VeilSource,
+    DeskInput, FrameState, MAX_CLUSTER_FRAME, MAX_VEIL_SOURCES, MasterMsg, NodeMsg, VeilSource,
 };
 use holocave_protocol::frame::{FrameError, encode};
 use holocave_protocol::handshake::{self, Role, Welcome};
@@ -45,6 +45,9 @@ const MAX_HANDSHAKES: usize = 64;
 /// A node whose socket does not take a frame state within this long is dropped (it
 /// reconnects); the frame loop never waits longer on one node.
 const WRITE_TIMEOUT: Duration = Duration::from_millis(20);
+
+/// What the master calls with every frame state it sends.
+pub type FrameHook = Box<dyn FnMut(&FrameState) + Send>;
 
 /// How to run.
 pub struct MasterOptions {
@@ -78,6 +81,8 @@ pub struct MasterOptions {
     /// The moving objects (their paths, the wand that carries them); `None`: the scene
     /// has none.
     pub objects: Option<crate::objects::ObjectMotion>,
+    /// Called with every frame state as it is sent (live glare); must not block.
+    pub on_frame: Option<FrameHook>,
 }
 
 /// What a run measured.
@@ -742,6 +747,9 @@ async fn run_frames(
             frusta.update(&placed, &pose);
             MasterMsg::Frame(frame_state(&placed, &frusta, frame, times, &pose, objects))
         };
+        if let (Some(f), MasterMsg::Frame(state)) = (opts.on_frame.as_mut(), &msg) {
+            f(state);
+        }
         if let Some(w) = &mut states {
             let bytes = encode(&msg, MAX_CLUSTER_FRAME)
                 .map_err(|e| std::io::Error::other(e.to_string()))?;

@@ -145,3 +145,22 @@ pub fn run(a: GlareArgs) -> Result<()> {
     print!("{}", figures.report());
     Ok(())
 }
+
+/// The meter of a session's glare: `size`² fisheyes drawn from the light field `vlf` with
+/// the direct light per pixel, as the walls draw them (`sim --glare`, `master --glare`).
+pub(crate) fn session_meter(
+    scene: &Arc<holocave_scene::Scene>,
+    vlf: &std::path::Path,
+    size: u32,
+) -> Result<holocave_glare::meter::GlareMeter> {
+    let opened = holocave_vlf::baked::open(vlf, scene)?;
+    let photometry = scene.daylight.photometry;
+    let drawing = Drawing::light_field(scene.clone(), opened, false, 1, 1);
+    Ok(holocave_glare::meter::GlareMeter::new(
+        drawing,
+        size,
+        Vec3::Y,
+        Rules::default(),
+        photometry,
+    )?)
+}

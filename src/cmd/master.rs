@@ -2,7 +2,8 @@
 //! and the swap barrier for the render nodes, and prints a status line every second.
 
 use std::net::TcpListener;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
@@ -11,12 +12,15 @@ use clap::Args;
 use super::render::SharedScene;
 use glam::DVec3;
 use holocave_cave::{Cave, load_cave};
+use holocave_glare::live::LiveGlare;
+use holocave_glare::session::views_of;
 use holocave_holodeck::auth::Credentials;
-use holocave_master::cluster::{MasterOptions, Summary, pacer_since, run as run_master};
+use holocave_master::cluster::{FrameHook, MasterOptions, Summary, pacer_since, run as run_master};
 use holocave_master::head::{Clock, Head};
 use holocave_master::navigation::log::FILE_NAME as NAVIGATION_CSV;
 use holocave_master::navigation::run::{Devices, NavigationRun};
 use holocave_master::objects::ObjectMotion;
+use holocave_protocol::cluster::FrameState;
 use holocave_protocol::stats::quantile_duration;
 use holocave_tracking::source::SourceSpec;
 
@@ -48,6 +52,12 @@ pub struct MasterArgs {
     /// path is told to every node, which reads it there.
     #[arg(long)]
     pub vlf: Option<PathBuf>,
+    /// Measure the glare of the head's view while the session runs (SIZE² fisheyes drawn
+    /// from --vlf, each eye, on a thread of its own: the newest frame whenever it is free):
+    /// DIR/glare.csv, the latest DGP in the status line and the time above DGP
+    /// 0.35/0.40/0.45 at the end. Needs --scene, --vlf and --out.
+    #[arg(long, value_name = "SIZE", requires_all = ["scene", "vlf", "out"])]
+    pub glare: Option<u32>,
     /// Move the scene's moving objects along these paths (CSV
     /// `object,time_s,tx,ty,tz,qx,qy,qz,qw`, time from the first frame); every frame state
     /// carries their placements. Needs --scene.
@@ -367,6 +377,32 @@ pub fn run(args: MasterArgs) -> Result<()> {
         log_desk(nav, dir)?;
     }
     let (hosted, holodeck) = args.holodeck.start(&cave, credentials.clone(), "master")?;
+    let live_glare = match (args.glare, &scene, &args.vlf, &args.out) {
+        (Some(size), Some(scene), Some(vlf), Some(dir)) => {
+            let meter = super::glare::session_meter(&scene.get()?, vlf, size)?;
+            Some(Arc::new(LiveGlare::start(meter, &dir.join("glare.csv"))?))
+        }
+        _ => None,
+    };
+    let mut hosted_status = hosted.as_ref().map(Hosted::status);
+    let status_extra: Option<Box<dyn FnMut() -> String + Send>> =
+        match (live_glare.clone(), hosted_status.take()) {
+            (None, status) => status,
+            (Some(g), mut status) => Some(Box::new(move || {
+                let glare = g
+                    .latest()
+                    .map_or("glare: none measured yet".to_owned(), |(f, d)| {
+                        format!("glare: DGP {d:.3} at frame {f}")
+                    });
+                match status.as_mut() {
+                    Some(s) => format!("{} | {glare}", s()),
+                    None => glare,
+                }
+            })),
+        };
+    let on_frame = live_glare
+        .clone()
+        .map(|g| Box::new(move |state: &FrameState| g.offer(views_of(state))) as FrameHook);
     let summary = run_master(
         &cave,
         head,
@@ -383,12 +419,24 @@ pub fn run(args: MasterArgs) -> Result<()> {
             status_every: Duration::from_secs(1),
             stop: super::interrupt::ctrl_c_flag(),
             wait_for_walls: Duration::from_secs_f64(args.wait_for_walls),
-            status_extra: hosted.as_ref().map(Hosted::status),
+            status_extra,
             navigation,
             navigation_log: navigation_log.clone(),
             objects,
+            on_frame,
         },
     );
+    if let Some(g) = live_glare.and_then(Arc::into_inner) {
+        let summary = g.finish()?;
+        println!(
+            "glare of the head's view in {}: {summary}",
+            args.out
+                .as_deref()
+                .unwrap_or(Path::new("."))
+                .join("glare.csv")
+                .display()
+        );
+    }
     if let Some(p) = navigation_log {
         println!("room → scene transform of every frame in {}", p.display());
     }

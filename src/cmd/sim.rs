@@ -15,12 +15,9 @@ use clap::Args;
 use glam::DVec3;
 use holocave::launch::{Group, Watched, worker_command};
 use holocave_cave::{Cave, Eye, Unfolded, load_cave, unfold};
-use holocave_glare::Rules;
-use holocave_glare::draw::Drawing;
-use holocave_glare::meter::GlareMeter;
-use holocave_glare::session::{FrameView, measure_session};
+use holocave_glare::session::{FrameView, measure_session, views_of};
 use holocave_master::cluster::{MasterOptions, run as run_master};
-use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg, WireEye};
+use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg};
 use holocave_protocol::frame::{FrameError, read_frame};
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::mosaic::cave_mosaic;
@@ -278,6 +275,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             navigation,
             navigation_log: Some(args.out.join(holocave_master::navigation::log::FILE_NAME)),
             objects,
+            on_frame: None,
         },
     );
     // Stopping the holodeck commits its samples and tells the workers goodbye, also when
@@ -354,10 +352,7 @@ fn measure_glare(
     vlf: &Path,
     size: u32,
 ) -> Result<()> {
-    let opened = holocave_vlf::baked::open(vlf, scene)?;
-    let photometry = scene.daylight.photometry;
-    let drawing = Drawing::light_field(scene.clone(), opened, false, 1, 1);
-    let meter = GlareMeter::new(drawing, size, glam::Vec3::Y, Rules::default(), photometry)?;
+    let meter = super::glare::session_meter(scene, vlf, size)?;
     let states = args.out.join("states.bin");
     let views = frame_views(&states)?;
     let csv = args.out.join("glare.csv");
@@ -370,39 +365,18 @@ fn measure_glare(
     Ok(())
 }
 
-/// Each frame state's viewers: each eye (the first wall's eyes: every wall has the same),
-/// looking ahead, in scene coordinates.
+/// Every frame state's views (each eye), from the states log.
 fn frame_views(states: &Path) -> Result<Vec<FrameView>> {
     let mut r = std::io::BufReader::new(
         std::fs::File::open(states).with_context(|| format!("{}", states.display()))?,
     );
     let mut views = Vec::new();
     loop {
-        let msg = match read_frame::<_, MasterMsg>(&mut r, MAX_CLUSTER_FRAME) {
-            Ok(m) => m,
+        match read_frame::<_, MasterMsg>(&mut r, MAX_CLUSTER_FRAME) {
+            Ok(MasterMsg::Frame(f)) => views.extend(views_of(&f)),
+            Ok(_) => {}
             Err(FrameError::Closed) => break,
             Err(e) => return Err(anyhow::anyhow!("{}: {e}", states.display())),
-        };
-        let MasterMsg::Frame(f) = msg else { continue };
-        let eyes = f.walls.first().map_or(&[][..], |w| &w.eyes[..]);
-        if eyes.is_empty() {
-            continue;
-        }
-        let nav = glam::DMat4::from_cols_array(&f.navigation);
-        let head = glam::Quat::from_array(f.head.orientation).as_dquat();
-        let look = nav.transform_vector3(head * DVec3::NEG_Z).as_vec3();
-        for e in eyes {
-            views.push(FrameView {
-                frame: f.frame,
-                time_ns: f.display_time_ns,
-                eye_name: match e.eye {
-                    WireEye::Left => "left",
-                    WireEye::Right => "right",
-                    WireEye::Centre => "centre",
-                },
-                eye: DVec3::from(e.position).as_vec3(),
-                look,
-            });
         }
     }
     Ok(views)
