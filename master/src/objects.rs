@@ -200,18 +200,29 @@ mod tests {
         assert!(e.contains("sofa") && e.contains("sofa.csv"), "{e}");
     }
 
+    /// The room's objects, none on a path; the block's rest placement, its bounds (its own
+    /// frame) and centre, and a wand spot 1.5 m in front of it (+Z side).
+    fn block_in_front(scene: &Arc<Scene>) -> (ObjectMotion, Placement, (Vec3, Vec3), Vec3, Vec3) {
+        let motion = ObjectMotion::new(scene.clone(), ObjectPaths::default()).unwrap();
+        let bounds = scene.objects()[0].local_bounds();
+        let rest = scene.rest_placements()[0];
+        let centre = rest.to_world_point(0.5 * (bounds.0 + bounds.1));
+        (
+            motion,
+            rest,
+            bounds,
+            centre,
+            centre + Vec3::new(0.0, 0.0, 1.5),
+        )
+    }
+
     /// Pointing the wand at the block and pressing picks it up; moving and turning the
     /// wand carries it rigidly (its offset in the hand kept); releasing leaves it where it
     /// was carried, and the wand moves on alone. Pointing at a wall picks nothing.
     #[test]
     fn the_wand_carries_the_block_and_lets_it_go() {
         let scene = room();
-        let mut motion = ObjectMotion::new(scene.clone(), ObjectPaths::default()).unwrap();
-        let (lo, hi) = scene.objects()[0].local_bounds();
-        let rest = scene.rest_placements()[0];
-        let centre = rest.to_world_point(0.5 * (lo + hi));
-        // The wand 1.5 m in front of the block (+Z side), pointing at it along −Z.
-        let from = centre + Vec3::new(0.0, 0.0, 1.5);
+        let (mut motion, rest, (lo, hi), centre, from) = block_in_front(&scene);
         let wand = |p: Vec3, q: DQuat| WandPose {
             position: p.as_dvec3(),
             orientation: q,
@@ -249,11 +260,7 @@ mod tests {
     #[test]
     fn a_carried_object_stops_at_the_wall() {
         let scene = room();
-        let mut motion = ObjectMotion::new(scene.clone(), ObjectPaths::default()).unwrap();
-        let (lo, hi) = scene.objects()[0].local_bounds();
-        let rest = scene.rest_placements()[0];
-        let centre = rest.to_world_point(0.5 * (lo + hi));
-        let from = centre + Vec3::new(0.0, 0.0, 1.5);
+        let (mut motion, rest, _, _, from) = block_in_front(&scene);
         let wand = |p: Vec3| WandPose {
             position: p.as_dvec3(),
             orientation: DQuat::IDENTITY,
