@@ -178,31 +178,28 @@ impl Compare<'_> {
                 spp,
                 sums: Vec::new(),
             },
-            // One sample per pixel at most, each the mean of the paths the budget buys.
-            Method::Cache => Drawer::Cache {
-                display: DisplayBuilder {
+            // One sample per pixel at most, each the mean of the paths the budget buys;
+            // with vlf+gather, gathers over the light field drawn under them.
+            Method::Cache | Method::VlfGather => {
+                let gather = method == Method::VlfGather;
+                let light_field = if gather {
+                    Some(self.light_field(s)?)
+                } else {
+                    None
+                };
+                let display = DisplayBuilder {
                     samples: s.budget / spp,
                     paths: spp,
+                    gather,
+                    light_field,
                     ..builder
                 }
-                .build(Feed::Inline)?,
-                paths: spp,
-            },
-            // As the cache, its samples gathers over the light field drawn under them.
-            Method::VlfGather => Drawer::Cache {
-                display: DisplayBuilder {
-                    samples: s.budget / spp,
+                .build(Feed::Inline)?;
+                Drawer::Cache {
+                    display,
                     paths: spp,
-                    gather: true,
-                    light_field: Some(LightField {
-                        base: self.vlf_base(s)?,
-                        prior: s.vlf.as_ref().map_or(Prior::Samples(0.0), |v| v.prior),
-                    }),
-                    ..builder
                 }
-                .build(Feed::Inline)?,
-                paths: spp,
-            },
+            }
             Method::Vlf => {
                 let mut cache = builder.cache()?;
                 let base = self.vlf_base(s)?;
@@ -227,10 +224,7 @@ impl Compare<'_> {
                 let source = HolodeckSource::new(running.display(0), holodeck_options(s.fps), 1);
                 let mut builder = builder;
                 if method == Method::VlfHolodeck {
-                    builder.light_field = Some(LightField {
-                        base: self.vlf_base(s)?,
-                        prior: s.vlf.as_ref().map_or(Prior::Samples(0.0), |v| v.prior),
-                    });
+                    builder.light_field = Some(self.light_field(s)?);
                 }
                 let display = builder.build(Feed::Holodeck(source))?;
                 Drawer::Holodeck {
@@ -241,6 +235,15 @@ impl Compare<'_> {
                     requests: 0,
                 }
             }
+        })
+    }
+
+    /// The light field under the samples of vlf+holodeck and vlf+gather, worth the
+    /// settings' prior.
+    fn light_field(&self, s: &Settings) -> Result<LightField, CompareError> {
+        Ok(LightField {
+            base: self.vlf_base(s)?,
+            prior: s.vlf.as_ref().map_or(Prior::Samples(0.0), |v| v.prior),
         })
     }
 

@@ -119,13 +119,14 @@ impl Drawing {
         frames: u32,
         k: u32,
     ) -> Self {
-        visibility.light_objects(&state.values());
+        let total = std::sync::Arc::new(state.values());
+        visibility.light_objects(total.clone());
         let direct = PixelDirect::new(visibility.scene().clone());
         let use_direct = !no_direct && !direct.is_empty();
         let values = if use_direct {
             state.indirect_values()
         } else {
-            state.values()
+            std::sync::Arc::unwrap_or_clone(total)
         };
         let estimates = direct.first_estimates() + frames.max(1) - 1;
         Drawing::LightField {

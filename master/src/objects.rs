@@ -149,15 +149,12 @@ impl ObjectMotion {
 mod tests {
     use super::*;
     use glam::{DQuat, Quat, Vec3};
-    use holocave_scene::{LoadOptions, ObjectSpec};
+    use holocave_scene::LoadOptions;
     use std::path::Path;
 
     fn room() -> Arc<Scene> {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
-        let opts = LoadOptions {
-            objects: vec![ObjectSpec::node("block"), ObjectSpec::node("lamp")],
-            ..Default::default()
-        };
+        let opts = LoadOptions::with_objects(&["block", "lamp"]);
         Arc::new(Scene::load(&path, &opts).unwrap())
     }
 

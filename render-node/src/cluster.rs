@@ -195,8 +195,9 @@ pub trait Presentation {
     }
     /// Another wall's veiling sources, relayed by the master (human mode).
     fn import_veil(&mut self, _wall: &str, _sources: &[VeilSource]) {}
-    /// This wall's veiling sources found in the frame just prepared, to share once.
-    fn export_veil(&mut self) -> Option<Vec<VeilSource>> {
+    /// This wall's veiling sources found in the frame just prepared (on `display`'s
+    /// device), to share once.
+    fn export_veil(&mut self, _display: &WallDisplay) -> Option<Vec<VeilSource>> {
         None
     }
 }
@@ -308,7 +309,7 @@ pub fn follow(
             std::thread::sleep(slow_by);
         }
         present.prepare(&state, display);
-        if let Some(sources) = present.export_veil()
+        if let Some(sources) = present.export_veil(display)
             && let Err(e) = link.veil(sources)
         {
             return Ended::Lost(e);

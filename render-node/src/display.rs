@@ -303,17 +303,14 @@ pub fn contact_sheet(rows: &[Vec<image::RgbImage>], zoom: u32) -> image::RgbImag
 #[cfg(test)]
 mod tests {
     use super::*;
-    use holocave_scene::{LoadOptions, ObjectSpec};
+    use holocave_scene::LoadOptions;
 
     /// A frame state's placements are taken by name; a NaN, a scaled rotation and an
     /// unknown name are refused and leave the objects where they were.
     #[test]
     fn a_frame_states_placements_are_checked() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
-        let opts = LoadOptions {
-            objects: vec![ObjectSpec::node("block")],
-            ..Default::default()
-        };
+        let opts = LoadOptions::with_objects(&["block"]);
         let scene = Scene::load(&path, &opts).unwrap();
         let rest = scene.rest_placements();
         let wire = |name: &str, position: [f32; 3], orientation: [f32; 4]| WireObject {

@@ -89,20 +89,6 @@ impl PixelTracer {
         }
     }
 
-    /// `count` samples along each ray (streams from `seed`), averaged per ray.
-    pub fn mean(&self, rays: &[Ray], seed: u64, count: u32) -> Vec<Vec3> {
-        let mut sum = vec![Vec3::ZERO; rays.len()];
-        for k in 0..count.max(1) {
-            for (t, m) in sum
-                .iter_mut()
-                .zip(self.trace(rays, seed ^ (u64::from(k) << 40)))
-            {
-                *t += m.radiance;
-            }
-        }
-        sum.iter().map(|s| *s / count.max(1) as f32).collect()
-    }
-
     /// The samples of stream `seed` along each ray (for measuring their variance).
     pub fn radiance(&self, rays: &[Ray], seed: u64) -> Vec<Vec3> {
         self.trace(rays, seed)
@@ -136,11 +122,14 @@ impl PixelTracer {
         if self.paths > 1 {
             // More samples of the same eye rays (their first hit, hence distance, is the
             // same), averaged.
-            for (s, m) in samples
-                .iter_mut()
-                .zip(self.mean(&rays, self.seed, self.paths))
-            {
-                s.radiance = m;
+            for k in 1..self.paths {
+                let more = self.radiance(&rays, self.seed ^ (u64::from(k) << 40));
+                for (s, m) in samples.iter_mut().zip(more) {
+                    s.radiance += m;
+                }
+            }
+            for s in &mut samples {
+                s.radiance /= self.paths as f32;
             }
         }
         rays.iter()

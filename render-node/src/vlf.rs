@@ -49,16 +49,15 @@ const HISTORIES: usize = 8;
 /// A baked light field and the scene it was baked for.
 pub struct VlfBase {
     visibility: Visibility,
-    /// The elements' irradiance, then the tiles' radiance (what the lookups read): all
-    /// of it, or without the next-event part when `direct` computes that per pixel.
-    values: Vec<[f32; 3]>,
-    /// Both, to switch between them.
-    total: Vec<[f32; 3]>,
+    /// The elements' irradiance, then the tiles' radiance: all of it, and without the
+    /// next-event part (what the lookups read when the direct light is drawn per pixel).
+    total: Arc<Vec<[f32; 3]>>,
     indirect: Vec<[f32; 3]>,
-    direct: Option<PixelDirect>,
-    /// The next-event estimates of gather samples ([`Self::gather`]), whether or not the
-    /// walls draw the direct light per pixel.
+    /// The next-event estimates: the walls' direct light per pixel and gather samples'.
     nee: PixelDirect,
+    /// Whether the walls draw the direct light per pixel (never for a scene without a
+    /// light next-event estimation takes).
+    direct: bool,
     /// The running means of the direct light, per view drawn, with the frame each was
     /// last drawn (a moved eye takes over its screen's nearest one).
     history: Mutex<Vec<(u64, WallView, Accumulator)>>,
@@ -81,21 +80,15 @@ impl VlfBase {
                 f.state.bounces
             );
         }
-        let direct = PixelDirect::new(scene.clone());
-        let direct = (!direct.is_empty()).then_some(direct);
-        let (total, indirect) = (f.state.values(), f.state.indirect_values());
-        let visibility = Visibility::new(scene.clone(), elements, tiles);
-        visibility.light_objects(&total);
+        let nee = PixelDirect::new(scene.clone());
+        let (total, indirect) = (Arc::new(f.state.values()), f.state.indirect_values());
+        let visibility = Visibility::new(scene, elements, tiles);
+        visibility.light_objects(total.clone());
         Ok(VlfBase {
-            values: if direct.is_some() {
-                indirect.clone()
-            } else {
-                total.clone()
-            },
             total,
             indirect,
-            direct,
-            nee: PixelDirect::new(scene.clone()),
+            direct: !nee.is_empty(),
+            nee,
             history: Mutex::new(Vec::new()),
             gpu_rays: None,
             visibility,
@@ -128,23 +121,13 @@ impl VlfBase {
     /// shadow rays); with `on` true (as opened), the direct light per pixel and the light
     /// field's remainder. Choose before handing the values to the GPU.
     pub fn with_direct(mut self, on: bool) -> Self {
-        if !on {
-            self.direct = None;
-        } else if self.direct.is_none() {
-            let d = PixelDirect::new(self.visibility.scene().clone());
-            self.direct = (!d.is_empty()).then_some(d);
-        }
-        self.values = if self.direct.is_some() {
-            self.indirect.clone()
-        } else {
-            self.total.clone()
-        };
+        self.direct = on && !self.nee.is_empty();
         self
     }
 
     /// Whether the direct light is computed per pixel.
     pub fn direct_per_pixel(&self) -> bool {
-        self.direct.is_some()
+        self.direct
     }
 
     /// Finds the pixels' first hits where `rays` says: on `gpu` (the scene's BVH uploaded
@@ -205,11 +188,10 @@ impl VlfBase {
             .enumerate()
             .map(|(i, &ray)| {
                 let (l, p) = self.visibility.lookup_and_point(ray);
-                let mut c = shade_one(&l, &self.values);
-                if let (Some(d), Some(p)) = (&self.direct, p) {
-                    c += self
-                        .visibility
-                        .with_placed(|placed| d.mean(placed, &p, i as u64, 0, estimates));
+                let mut c = shade_one(&l, self.values());
+                if let (true, Some(p)) = (self.direct, p) {
+                    c += (self.visibility)
+                        .with_placed(|placed| self.nee.mean(placed, &p, i as u64, 0, estimates));
                 }
                 c
             })
@@ -218,14 +200,19 @@ impl VlfBase {
 
     /// What the lookups read: the elements' irradiance, then the glossy tiles' radiance.
     pub fn values(&self) -> &[[f32; 3]] {
-        &self.values
+        if self.direct {
+            &self.indirect
+        } else {
+            &self.total
+        }
     }
 
     /// What each pixel of `view` sees (the node's own ray casts, on all cores), with the
     /// direct light per pixel in its `emitted` light: this frame's estimate averaged with
     /// those of earlier frames of the same view at the same surface point.
     pub fn lookups(&self, view: &EyeView) -> Vec<Lookup> {
-        let Some(direct) = &self.direct else {
+        let direct = &self.nee;
+        if !self.direct {
             return match self.gpu_first_hits(&view.wall) {
                 Some(hits) => self
                     .visibility
@@ -235,7 +222,7 @@ impl VlfBase {
                     .collect(),
                 None => self.visibility.pixels(&view.wall),
             };
-        };
+        }
         let (mut lookups, points): (Vec<Lookup>, Vec<_>) =
             self.pixels_and_points(&view.wall).into_iter().unzip();
         // This view's history (taken out while it is used: other views may be drawn on

@@ -68,8 +68,8 @@ where
         self.output.import(wall, VeilSources(sources));
     }
 
-    fn export_veil(&mut self) -> Option<Vec<WireVeil>> {
-        let found = self.output.exported.take()?;
+    fn export_veil(&mut self, display: &WallDisplay) -> Option<Vec<WireVeil>> {
+        let found = self.output.sources(display.cache.gpu())?;
         Some(
             (found.0.iter())
                 .map(|s| WireVeil {
@@ -99,8 +99,9 @@ pub struct WindowOutput<'a> {
     /// newest, and all of them merged).
     by_wall: BTreeMap<String, VeilSources>,
     pub imported: VeilSources,
-    /// Human mode: this wall's bright sources in the frame last prepared, until shared.
-    pub exported: Option<VeilSources>,
+    /// Human mode: the first eye's foveal grid in the frame last prepared (its bright
+    /// sources are read back only when shared: [`Self::sources`]).
+    fovea: Option<Fovea>,
 }
 
 impl<'a> WindowOutput<'a> {
@@ -143,8 +144,15 @@ impl<'a> WindowOutput<'a> {
             vision: Vec::new(),
             by_wall: BTreeMap::new(),
             imported: VeilSources::none(),
-            exported: None,
+            fovea: None,
         })
+    }
+
+    /// Human mode: the bright sources of the first eye in the frame last prepared, which
+    /// veil the other walls (read back from the GPU here, once, for whoever shares them).
+    pub fn sources(&mut self, gpu: &crate::Gpu) -> Option<VeilSources> {
+        let fovea = self.fovea.take()?;
+        Some(self.vision.first()?.sources(gpu, &fovea))
     }
 
     /// Takes wall `wall`'s newest veiling sources (human mode): this wall is veiled by
@@ -178,9 +186,8 @@ impl<'a> WindowOutput<'a> {
                     &self.imported,
                     self.tone.efficacy,
                 );
-                // What the first eye sees bright here veils the other walls.
                 if eye == 0 {
-                    self.exported = Some(self.vision[0].sources(gpu, &fovea));
+                    self.fovea = Some(fovea);
                 }
             }
         }

@@ -48,6 +48,16 @@ pub struct LoadOptions {
     pub objects: Vec<ObjectSpec>,
 }
 
+impl LoadOptions {
+    /// Lenient loading with the nodes `names` as movable objects, one node each.
+    pub fn with_objects(names: &[&str]) -> LoadOptions {
+        LoadOptions {
+            objects: names.iter().map(|n| ObjectSpec::node(n)).collect(),
+            ..LoadOptions::default()
+        }
+    }
+}
+
 /// A movable object: the named glTF nodes, each with its whole sub-tree. A node marked
 /// `"extras": {"holocave": {"movable": true}}` in the file is an object too, named as
 /// the node, unless a spec already claims it.

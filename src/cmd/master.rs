@@ -385,21 +385,20 @@ pub fn run(args: MasterArgs) -> Result<()> {
         _ => None,
     };
     let mut hosted_status = hosted.as_ref().map(Hosted::status);
-    let status_extra: Option<Box<dyn FnMut() -> String + Send>> =
-        match (live_glare.clone(), hosted_status.take()) {
-            (None, status) => status,
-            (Some(g), mut status) => Some(Box::new(move || {
-                let glare = g
-                    .latest()
-                    .map_or("glare: none measured yet".to_owned(), |(f, d)| {
-                        format!("glare: DGP {d:.3} at frame {f}")
-                    });
-                match status.as_mut() {
-                    Some(s) => format!("{} | {glare}", s()),
-                    None => glare,
-                }
-            })),
-        };
+    let status_extra: Option<Box<dyn FnMut() -> String + Send>> = match live_glare.clone() {
+        None => hosted_status,
+        Some(g) => Some(Box::new(move || {
+            let glare = g
+                .latest()
+                .map_or("glare: none measured yet".to_owned(), |(f, d)| {
+                    format!("glare: DGP {d:.3} at frame {f}")
+                });
+            match hosted_status.as_mut() {
+                Some(s) => format!("{} | {glare}", s()),
+                None => glare,
+            }
+        })),
+    };
     let on_frame = live_glare
         .clone()
         .map(|g| Box::new(move |state: &FrameState| g.offer(views_of(state))) as FrameHook);

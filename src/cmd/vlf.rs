@@ -373,10 +373,11 @@ fn view(a: ViewArgs) -> Result<()> {
     let scene = std::sync::Arc::new(scene);
     let direct = holocave_vlf::PixelDirect::new(scene.clone());
     let vis = Visibility::new(scene.clone(), elements, tiles);
-    vis.light_objects(&f.state.values());
+    let values = std::sync::Arc::new(f.state.values());
+    vis.light_objects(values.clone());
     vis.place_objects(&a.objects.placements(&scene)?);
     let image = if a.no_direct || direct.is_empty() {
-        vis.render(&view, &f.state.values(), a.aa)
+        vis.render(&view, &values, a.aa)
     } else {
         println!(
             "direct light per pixel: {} shadow rays per lookup and frame, {} frame(s), {} lookups per pixel",

@@ -188,7 +188,7 @@ impl ObjectLight {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use holocave_scene::{LoadOptions, ObjectSpec};
+    use holocave_scene::LoadOptions;
 
     /// Cauchy's formula: a convex body's projected area averaged over directions is a
     /// quarter of its surface area. The room's block is a cuboid; its grids are 48 cells
@@ -197,10 +197,7 @@ mod tests {
     #[test]
     fn a_cuboids_mean_shadow_is_a_quarter_of_its_surface() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
-        let opts = LoadOptions {
-            objects: vec![ObjectSpec::node("block")],
-            ..Default::default()
-        };
+        let opts = LoadOptions::with_objects(&["block"]);
         let scene = Scene::load(&path, &opts).unwrap();
         let (lo, hi) = scene.objects()[0].local_bounds();
         let e = hi - lo;

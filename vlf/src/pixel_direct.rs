@@ -201,14 +201,6 @@ impl PixelDirect {
         }
     }
 
-    /// Whether the static scene blocks each query (on the CPU threads).
-    pub fn blocked(&self, queries: &[ShadowQuery]) -> Vec<bool> {
-        queries
-            .par_iter()
-            .map(|q| self.scene.occluded(&q.ray, q.tmax))
-            .collect()
-    }
-
     /// The `n`-th estimate at `p` of pixel `seed`'s sequence, with the moving objects
     /// where `placed` puts them: the direct radiance towards the eye, `p.weight`
     /// included.

@@ -30,7 +30,7 @@ use crate::elements::{Elements, interpolate};
 use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, PixelDirect};
-use crate::surface::{Chain, diffuse_albedo, follow, follow_from, seen, side_facing};
+use crate::surface::{Chain, diffuse_albedo, follow, follow_from, side_facing};
 use crate::tiles::Tiles;
 
 /// What one pixel (or one ray) sees of the light field.
@@ -116,7 +116,7 @@ pub struct Visibility {
     lights: Lights,
     objects: RwLock<ObjectLight>,
     /// The light field's values (all of its light) the objects' probes gather.
-    light: OnceLock<Vec<[f32; 3]>>,
+    light: OnceLock<Arc<Vec<[f32; 3]>>>,
 }
 
 impl Visibility {
@@ -135,8 +135,8 @@ impl Visibility {
 
     /// Lights the moving objects from the light field's `values` (all of its light:
     /// [`crate::State::values`]); the first call counts.
-    pub fn light_objects(&self, values: &[[f32; 3]]) {
-        if self.scene.objects().is_empty() || self.light.set(values.to_vec()).is_err() {
+    pub fn light_objects(&self, values: Arc<Vec<[f32; 3]>>) {
+        if self.scene.objects().is_empty() || self.light.set(values).is_err() {
             return;
         }
         let mut o = self.objects.write().unwrap_or_else(|e| e.into_inner());
@@ -186,12 +186,8 @@ impl Visibility {
         let statics = self.scene.statics();
         let ray = Ray::new(at, dir);
         let first = statics.closest_hit(&ray, f32::INFINITY);
-        let behind_delta = first.is_some_and(|h| seen(&statics, h, dir).delta);
-        let chain = if behind_delta {
-            follow_from(&statics, ray, first, &environment(&self.lights))
-        } else {
-            follow_from(&statics, ray, first, &sky)
-        };
+        let chain = follow_from(&statics, ray, first, &environment(&self.lights));
+        let behind_delta = chain.deltas > 0;
         let over_mirror = match (&chain.end, first) {
             (Some((s, r)), Some(m)) if chain.deltas == 1 && s.emitted.max_element() > 0.0 => {
                 Some(OverMirror {
@@ -206,10 +202,12 @@ impl Visibility {
             }
             _ => None,
         };
-        let through = chain.emitted;
+        // Straight out of the scene: the sky only (the sun comes by next-event
+        // estimation); onto a surface: not its emission (the emitters come so too).
+        let escaped = chain.end.is_none();
         let (mut l, point) = self.lookup_chain(chain, &ObjectLight::default(), None);
         if !behind_delta {
-            l.emitted = through.to_array();
+            l.emitted = if escaped { sky(dir) } else { Vec3::ZERO }.to_array();
         }
         Arriving {
             radiance: shade_one(&l, values),

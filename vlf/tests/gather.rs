@@ -111,12 +111,13 @@ fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() 
         "the gathers' mean is {own:.5} from the reference (less the noises), the field \
          {field_own:.5}"
     );
-    // No second random bounce, no light found by chance (the lamp over the mirror is
-    // sampled through it): the noise of a path with at most half the samples. (Measured
-    // 3.3×: what is left is the lamp through the glass block and one sample of the lamp
-    // at each of the two points.)
+    // Given the point seen and the bounce, a gather keeps one next-event sample at `y` and
+    // takes the field for the rest, where a path goes on at random: by the law of total
+    // variance a gather's variance is at most a path's (up to the field's own error, which
+    // shifts the mean, not the spread). Measured: 3.3 × below (what is left: the lamp
+    // through the glass block, one lamp sample at each of the two points).
     assert!(
-        gather_var < 0.5 * path_var,
+        gather_var < path_var,
         "one gather's relative variance {gather_var:.4}, one path's {path_var:.4}"
     );
 }

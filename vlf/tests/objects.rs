@@ -7,17 +7,14 @@ use std::path::Path;
 use std::sync::Arc;
 
 use glam::{Quat, Vec3};
-use holocave_scene::{LoadOptions, ObjectSpec, Placement, Ray, Scene};
+use holocave_scene::{LoadOptions, Placement, Ray, Scene};
 use holocave_vlf::{DirectPoint, PixelDirect, Settings, Visibility};
 
 /// The room with its block movable, and its lamp too: a moving object's emission lights
 /// nothing, so with the lamp put away the sun is the only light.
 fn room_with_movable_block() -> Arc<Scene> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
-    let opts = LoadOptions {
-        objects: vec![ObjectSpec::node("block"), ObjectSpec::node("lamp")],
-        ..Default::default()
-    };
+    let opts = LoadOptions::with_objects(&["block", "lamp"]);
     let scene = Scene::load(&path, &opts).expect("the room loads");
     assert!(
         scene.lights.is_empty(),

@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::{Quat, Vec3};
+use rand::{Rng as _, SeedableRng, rngs::SmallRng};
 use serde_json::{Value, json};
 
 use super::{ObjectPaths, Placement};
@@ -12,47 +13,41 @@ use crate::load::{LoadOptions, ObjectSpec};
 use crate::ray::Ray;
 use crate::scene::Scene;
 
-/// SplitMix64: a small seeded generator, so every run sees the same rays.
-struct Rng(u64);
+/// A seeded generator, so every run sees the same rays and placements.
+struct Rng(SmallRng);
 
 impl Rng {
+    fn new(seed: u64) -> Rng {
+        Rng(SmallRng::seed_from_u64(seed))
+    }
+
     fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+        self.0.random()
     }
 
     fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
+        self.0.random_range(lo..hi)
     }
 
+    /// A direction uniform over the sphere.
     fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = Vec3::new(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            if v.length_squared() > 0.01 && v.length_squared() <= 1.0 {
-                return v.normalize();
-            }
-        }
+        let (z, phi) = (
+            self.range(-1.0, 1.0),
+            self.range(0.0, std::f32::consts::TAU),
+        );
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(r * phi.cos(), r * phi.sin(), z)
     }
 
+    /// A rotation uniform over all rotations (Shoemake's method).
     fn rotation(&mut self) -> Quat {
-        loop {
-            let q = Quat::from_xyzw(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            if q.length_squared() > 0.01 && q.length_squared() <= 1.0 {
-                return q.normalize();
-            }
-        }
+        let (u, a, b) = (
+            self.next(),
+            self.range(0.0, std::f32::consts::TAU),
+            self.range(0.0, std::f32::consts::TAU),
+        );
+        let (s, t) = ((1.0 - u).sqrt(), u.sqrt());
+        Quat::from_xyzw(s * a.sin(), s * a.cos(), t * b.sin(), t * b.cos()).normalize()
     }
 }
 
@@ -114,7 +109,7 @@ fn two_level_queries_match_the_flat_scene() {
     let scene = cornell_with_objects();
     let static_count = scene.triangle_count() as u32;
     assert_eq!(scene.objects().len(), 2);
-    let mut rng = Rng(33);
+    let mut rng = Rng::new(33);
     let mut object_hits = 0;
     let mut rays_checked = 0;
     let mut all = Vec::new();
