@@ -30,6 +30,8 @@ mod dither;
 mod filter;
 #[path = "shaders/insert.rs"]
 mod insert;
+#[path = "shaders/objects.rs"]
+mod objects;
 #[path = "shaders/project.rs"]
 mod project;
 #[path = "shaders/vlf.rs"]
@@ -39,6 +41,8 @@ use age::Age;
 use dither::Dither;
 use filter::Filter;
 use insert::Insert;
+use objects::MovePoints;
+pub use objects::{ObjectMove, ShadowLight};
 use project::Project;
 use vlf::VlfPass;
 
@@ -46,6 +50,22 @@ use vlf::VlfPass;
 pub const GROUP_SIZE: u32 = 8;
 /// A surface id for rays that escaped the scene.
 pub const BACKGROUND: u32 = u32::MAX - 1;
+/// Moving objects whose points the cache tells apart (the high byte of a surface id holds
+/// the object's index + 1; 255 is the reserved ids', [`BACKGROUND`] and the holodeck's
+/// hits); a point on any further object
+/// counts as one of the static scene's, and is never blended over an object.
+pub const MAX_OBJECTS: usize = 254;
+
+/// The surface id of a point: its material, and the moving object it lies on (see
+/// `OBJECT_SHIFT` in `shaders/common.wgsl`), so that points on an object move with it and
+/// only ever stand for it.
+pub fn surface_id(material: u32, object: Option<usize>) -> u32 {
+    let object = match object {
+        Some(k) if k < MAX_OBJECTS => k as u32 + 1,
+        _ => 0,
+    };
+    (object << 24) | (material & 0x00ff_ffff)
+}
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -77,7 +97,7 @@ struct InsertParams {
 
 /// A point of the cache as the GPU stores it (`Point` in `shaders/common.wgsl`).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuPoint {
     pub pos: [f32; 4],
     pub rad: [f32; 4],
@@ -205,6 +225,7 @@ struct Passes {
     insert: Insert,
     age: Age,
     vlf: VlfPass,
+    objects: MovePoints,
 }
 
 #[repr(C)]
@@ -357,6 +378,7 @@ impl RenderCache {
             insert: Insert::new(&gpu),
             age: Age::new(&gpu),
             vlf: VlfPass::new(&gpu),
+            objects: MovePoints::new(&gpu),
         };
 
         let eyes: Vec<EyeBuffers> = eyes
@@ -673,6 +695,21 @@ impl RenderCache {
         chosen
     }
 
+    /// Tells the cache that moving objects moved (the render cache paper's §4): the points
+    /// on each moved object move with it and are resampled first, the points in its
+    /// shadow where it was or is now, towards any of `lights`, are dropped. Takes effect
+    /// for the next [`Self::draw`].
+    pub fn move_objects(&mut self, moves: &[ObjectMove], lights: &[ShadowLight]) {
+        if moves.is_empty() {
+            return;
+        }
+        let mut r = Recorder::new(&self.gpu, false);
+        self.passes
+            .objects
+            .apply(&mut r, &self.points, self.capacity, moves, lights);
+        r.submit();
+    }
+
     /// Adds samples that eye `eye` asked for (their pixels index its image).
     pub fn insert(&mut self, eye: usize, samples: &[NewSample]) {
         for chunk in samples.chunks(self.batch as usize) {
@@ -918,7 +955,11 @@ mod tests {
 mod layout_tests {
     use std::mem::{offset_of, size_of};
 
-    use super::{EyeParams, GpuPoint, InsertParams, Lookup, NewSample, VlfParams, insert, vlf};
+    use super::objects::MoveParams;
+    use super::{
+        EyeParams, GpuPoint, InsertParams, Lookup, NewSample, ObjectMove, ShadowLight, VlfParams,
+        insert, objects, vlf,
+    };
     use crate::gpu::layout::assert_same_layout;
     use crate::gpu::with_common;
 
@@ -1010,6 +1051,7 @@ mod layout_tests {
                 ("x", offset_of!(Lookup, x)),
                 ("y", offset_of!(Lookup, y)),
                 ("samples", offset_of!(Lookup, samples)),
+                ("object", offset_of!(Lookup, object)),
             ],
         );
         assert_same_layout(
@@ -1025,6 +1067,45 @@ mod layout_tests {
                 ("pad0", offset_of!(VlfParams, _pad)),
                 ("pad1", offset_of!(VlfParams, _pad) + 4),
                 ("pad2", offset_of!(VlfParams, _pad) + 8),
+            ],
+        );
+    }
+
+    #[test]
+    fn objects_wgsl_move_light_and_params_are_laid_out_as_in_rust() {
+        let src = with_common(objects::SOURCE);
+        assert_same_layout(
+            &src,
+            "Move",
+            size_of::<ObjectMove>(),
+            &[
+                ("delta", offset_of!(ObjectMove, delta)),
+                ("before", offset_of!(ObjectMove, before)),
+                ("after", offset_of!(ObjectMove, after)),
+                ("object", offset_of!(ObjectMove, object)),
+                ("pad0", offset_of!(ObjectMove, pad)),
+                ("pad1", offset_of!(ObjectMove, pad) + 4),
+                ("pad2", offset_of!(ObjectMove, pad) + 8),
+            ],
+        );
+        assert_same_layout(
+            &src,
+            "ShadowLight",
+            size_of::<ShadowLight>(),
+            &[
+                ("at", offset_of!(ShadowLight, at)),
+                ("spread", offset_of!(ShadowLight, spread)),
+            ],
+        );
+        assert_same_layout(
+            &src,
+            "MoveParams",
+            size_of::<MoveParams>(),
+            &[
+                ("npoints", offset_of!(MoveParams, npoints)),
+                ("nmoves", offset_of!(MoveParams, nmoves)),
+                ("nlights", offset_of!(MoveParams, nlights)),
+                ("pad", offset_of!(MoveParams, pad)),
             ],
         );
     }

@@ -161,14 +161,24 @@ impl WallDisplay {
         if base.scene().objects().is_empty() {
             return;
         }
-        base.place_objects(&placements_of(base.scene(), base.placements(), objects));
+        let placements = placements_of(base.scene(), base.placements(), objects);
+        self.place(&placements);
     }
 
     /// Puts the scene's moving objects where `paths` has them at `t` seconds.
     pub fn place_objects_on_paths(&mut self, paths: &ObjectPaths, t: f64) {
         if let Some(base) = &self.vlf {
-            base.place_objects(&paths.placements_at(base.scene(), t));
+            let placements = paths.placements_at(base.scene(), t);
+            self.place(&placements);
         }
+    }
+
+    /// Puts the objects at `placements`; the cache's points on them move along, and those
+    /// in their shadows, old and new, are dropped.
+    fn place(&mut self, placements: &[Placement]) {
+        let Some(base) = &self.vlf else { return };
+        let moves = base.place_objects(placements);
+        self.cache.move_objects(&moves, base.shadow_lights());
     }
 
     /// One frame: draw every eye and choose its pixels; inline, trace and insert them (the

@@ -9,7 +9,7 @@ use holocave_scene::{MaterialKind, Ray};
 use holocave_tracer::Tracer;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 
-use crate::cache::{BACKGROUND, NewSample};
+use crate::cache::{BACKGROUND, NewSample, surface_id};
 use crate::{EyeView, VlfBase};
 
 /// Escaped rays are placed this far along the ray (m) and marked [`BACKGROUND`].
@@ -29,11 +29,13 @@ pub struct PixelTracer {
     gather: Option<Arc<VlfBase>>,
 }
 
-/// What one sample of an eye ray found: radiance, first-hit distance, its material.
+/// What one sample of an eye ray found: radiance, first-hit distance, its material and
+/// the moving object it lies on (only gathers see the objects where they stand).
 struct Traced {
     radiance: Vec3,
     distance: f32,
     material: Option<u32>,
+    object: Option<usize>,
 }
 
 impl PixelTracer {
@@ -74,6 +76,7 @@ impl PixelTracer {
                     radiance: g.radiance,
                     distance: g.distance,
                     material: g.material,
+                    object: g.object,
                 })
                 .collect(),
             None => self
@@ -84,6 +87,7 @@ impl PixelTracer {
                     radiance: Vec3::from(t.radiance),
                     distance: t.distance,
                     material: t.material,
+                    object: None,
                 })
                 .collect(),
         }
@@ -136,9 +140,11 @@ impl PixelTracer {
             .zip(&samples)
             .zip(pixels)
             .map(|((ray, s), &pixel)| {
-                let (distance, surface) = match s.material {
-                    Some(material) if s.distance.is_finite() => (s.distance, material),
-                    _ => (BACKGROUND_DISTANCE, BACKGROUND),
+                let (distance, material, surface) = match s.material {
+                    Some(m) if s.distance.is_finite() => {
+                        (s.distance, Some(m), surface_id(m, s.object))
+                    }
+                    _ => (BACKGROUND_DISTANCE, None, BACKGROUND),
                 };
                 let sample = NewSample::new(
                     pixel,
@@ -148,7 +154,7 @@ impl PixelTracer {
                     s.radiance.to_array(),
                     surface,
                 );
-                match self.lambertian.get(surface as usize) {
+                match material.and_then(|m| self.lambertian.get(m as usize)) {
                     Some(true) => sample.view_independent(),
                     _ => sample,
                 }

@@ -21,14 +21,16 @@
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
+use glam::{Mat4, Vec3};
 use holocave_cave::WallView;
-use holocave_scene::{Hit, Placement, Ray, Scene};
+use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::view::shade_one;
 use holocave_vlf::{Accumulator, Lookup, PixelDirect, ShadowQuery, Visibility};
 use rayon::prelude::*;
 
+use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
 use crate::gpu_rays::{GpuRay, GpuRays, Query, Rays};
 use crate::{EyeView, Gpu, RenderNodeError};
 
@@ -63,6 +65,45 @@ pub struct VlfBase {
     history: Mutex<Vec<(u64, WallView, Accumulator)>>,
     /// Where the pixels' first hits are found: on this GPU, or (`None`) on the CPU.
     gpu_rays: Option<(Gpu, Mutex<GpuRays>)>,
+    shadow_lights: Vec<ShadowLight>,
+}
+
+/// Emissive triangles beyond this many are taken together, as one light the size of all.
+const AREA_SHADOW_LIGHTS: usize = 64;
+
+/// The lights whose shadows a moving object changes, for the render cache to drop the
+/// points it shadowed or now shadows: the sun (a disc of its angular size), every
+/// punctual light, and each emissive triangle of the static scene as a light the size of
+/// its bounding sphere (all of them as one when there are more than
+/// `AREA_SHADOW_LIGHTS`). The sky is left out: what an object takes from it is the
+/// indirect light near the object, which the lookups leave to the light field there.
+pub fn shadow_lights(scene: &Scene) -> Vec<ShadowLight> {
+    let mut lights = Vec::new();
+    if let Some(sun) = &scene.daylight.sun {
+        lights.push(ShadowLight::distant(sun.direction, sun.angular_radius));
+    }
+    for l in &scene.lights {
+        lights.push(match l.kind {
+            PunctualKind::Directional => ShadowLight::distant(-l.direction, 0.0),
+            _ => ShadowLight::at(l.position, 0.0),
+        });
+    }
+    let emitters: Vec<&[Vec3; 3]> = (0..scene.triangle_count() as u32)
+        .filter(|&t| scene.materials[scene.triangle_shading(t).material as usize].is_emissive())
+        .map(|t| scene.triangle(t))
+        .collect();
+    let sphere = |points: &mut dyn Iterator<Item = Vec3>| {
+        let (lo, hi) = points.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        });
+        ShadowLight::at((lo + hi) * 0.5, (hi - lo).length() * 0.5)
+    };
+    if emitters.len() > AREA_SHADOW_LIGHTS {
+        lights.push(sphere(&mut emitters.iter().flat_map(|t| t.iter().copied())));
+    } else {
+        lights.extend(emitters.iter().map(|t| sphere(&mut t.iter().copied())));
+    }
+    lights
 }
 
 impl VlfBase {
@@ -81,6 +122,7 @@ impl VlfBase {
             );
         }
         let nee = PixelDirect::new(scene.clone());
+        let shadow_lights = shadow_lights(&scene);
         let (total, indirect) = (Arc::new(f.state.values()), f.state.indirect_values());
         let visibility = Visibility::new(scene, elements, tiles);
         visibility.light_objects(total.clone());
@@ -91,6 +133,7 @@ impl VlfBase {
             nee,
             history: Mutex::new(Vec::new()),
             gpu_rays: None,
+            shadow_lights,
             visibility,
         })
     }
@@ -106,15 +149,36 @@ impl VlfBase {
     }
 
     /// Puts the scene's moving objects at `placements` (one per object, in the scene's
-    /// order) for the frames drawn from now on. When one moved, every view's direct light
-    /// starts averaging again (its shadows moved under points that stayed put).
-    pub fn place_objects(&self, placements: &[Placement]) {
-        if self.visibility.place_objects(placements) {
-            let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-            for (_, _, acc) in h.iter_mut() {
-                acc.restart();
-            }
+    /// order) for the frames drawn from now on, and returns how each that moved did, for
+    /// the render cache ([`crate::RenderCache::move_objects`]). When one moved, every
+    /// view's direct light starts averaging again (its shadows moved under points that
+    /// stayed put).
+    pub fn place_objects(&self, placements: &[Placement]) -> Vec<ObjectMove> {
+        let before = self.visibility.placements();
+        if !self.visibility.place_objects(placements) {
+            return Vec::new();
         }
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        for (_, _, acc) in h.iter_mut() {
+            acc.restart();
+        }
+        let objects = self.scene().objects();
+        let after = self.visibility.placements();
+        let matrix = |p: &Placement| Mat4::from_rotation_translation(p.rotation, p.translation);
+        (before.iter().zip(&after).enumerate())
+            .filter(|(k, (a, b))| a != b && *k < MAX_OBJECTS)
+            .map(|(k, (a, b))| {
+                let (lo, hi) = objects[k].local_bounds();
+                let (centre, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+                let sphere = |p: &Placement| p.to_world_point(centre).extend(radius);
+                ObjectMove::new(k, matrix(b) * matrix(a).inverse(), sphere(a), sphere(b))
+            })
+            .collect()
+    }
+
+    /// The lights whose shadows a moving object changes (see [`shadow_lights`]).
+    pub fn shadow_lights(&self) -> &[ShadowLight] {
+        &self.shadow_lights
     }
 
     /// With `on` false, the light field alone as baked (its direct light included, no

@@ -1,8 +1,10 @@
 //! The render cache's steps on a tiny image, checked pixel by pixel.
 
-use glam::{Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 use holocave_cave::WallView;
+use holocave_render_node::cache::{GpuPoint, ObjectMove, ShadowLight, surface_id};
 use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
+use holocave_vlf::Lookup;
 
 const W: u32 = 8;
 const H: u32 = 8;
@@ -347,4 +349,140 @@ fn a_lambertian_sample_joins_the_point_from_a_far_eye_and_another_does_not() {
         "marked: radiance and count of the points"
     );
     assert_eq!(points[1], [[1.0, 1.0], [3.0, 1.0]], "unmarked");
+}
+
+/// A sample of `surface` at `position`, seen from `v`'s eye through pixel `pixel`.
+fn sample_at(v: &EyeView, pixel: u32, position: Vec3, rad: f32, surface: u32) -> NewSample {
+    let d = (position - v.eye()).length();
+    NewSample::new(pixel, v.eye(), position, d, [rad; 3], surface)
+}
+
+#[test]
+fn points_on_a_moved_object_move_with_it_and_its_shadows_are_dropped() {
+    // An object (a sphere of 10 cm around `at`) moves 50 cm along x under a sun straight
+    // above. Its point moves by the same translation (ray origin too), keeps one
+    // sample's weight and asks first to be resampled; a static point under it where it
+    // was and one where it is now are dropped; one aside is kept as it was.
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let at = v.wall.ray(Vec2::new(3.5, 0.5)).at(2.5);
+    let shift = Vec3::new(0.5, 0.0, 0.0);
+    let on_object = surface_id(2, Some(0));
+    let under_before = at - Vec3::new(0.0, 0.6, 0.0);
+    let under_after = under_before + shift;
+    let aside = at + Vec3::new(0.25, -0.6, 0.0);
+    let mut c = cache(256);
+    draw(&mut c, &v);
+    c.insert(0, &[sample_at(&v, 3, at, 1.0, on_object)]);
+    draw(&mut c, &v);
+    c.insert(
+        0,
+        &[
+            sample_at(&v, 3, at, 3.0, on_object),
+            sample_at(&v, 10, under_before, 1.0, 1),
+            sample_at(&v, 20, under_after, 1.0, 1),
+            sample_at(&v, 30, aside, 1.0, 1),
+        ],
+    );
+    let valid = |c: &RenderCache| -> Vec<GpuPoint> {
+        (c.points().into_iter())
+            .filter(|p| p.pos[3] < 1e6)
+            .collect()
+    };
+    let before = valid(&c);
+    assert_eq!(before.len(), 4, "{before:?}");
+    let object_point = |ps: &[GpuPoint]| {
+        *ps.iter()
+            .find(|p| p.origin[3].to_bits() == on_object)
+            .expect("the object's point")
+    };
+    let was = object_point(&before);
+    assert_eq!(was.rad[3], 2.0, "two samples averaged");
+    c.move_objects(
+        &[ObjectMove::new(
+            0,
+            Mat4::from_translation(shift),
+            at.extend(0.1),
+            (at + shift).extend(0.1),
+        )],
+        &[ShadowLight::distant(Vec3::Y, 0.0047)],
+    );
+    let after = valid(&c);
+    assert_eq!(
+        after.len(),
+        2,
+        "the two points under the object dropped: {after:?}"
+    );
+    let moved = object_point(&after);
+    let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-5;
+    assert!(
+        close(Vec4::from(moved.pos).truncate(), at + shift),
+        "{moved:?}"
+    );
+    assert!(
+        close(Vec4::from(moved.origin).truncate(), v.eye() + shift),
+        "{moved:?}"
+    );
+    assert_eq!(moved.rad[0], 2.0, "its radiance kept");
+    assert_eq!(moved.rad[3], 1.0, "worth one sample");
+    assert!(
+        moved.pos[3] >= 32.0,
+        "aged to the highest priority: {moved:?}"
+    );
+    let kept = after.iter().find(|p| p.origin[3].to_bits() == 1).unwrap();
+    assert!(close(Vec4::from(kept.pos).truncate(), aside), "{kept:?}");
+    assert_eq!(
+        *kept,
+        *before
+            .iter()
+            .find(|p| p.origin[3].to_bits() == 1 && close(Vec4::from(p.pos).truncate(), aside))
+            .unwrap()
+    );
+}
+
+#[test]
+fn a_point_blends_only_where_the_pixel_sees_the_same_object() {
+    // The light field gives 1 everywhere, worth one sample; a static point of radiance 3
+    // shows at pixel (4, 4) and a point on object 0 of radiance 5 at (2, 2). Where the
+    // pixel sees what the point lies on, the two blend; where it sees another (the object
+    // over the room's point, the room over the object's point), the light field alone
+    // shows.
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let mut c = cache(256);
+    c.set_vlf(&[[1.0; 3]], 1.0).unwrap();
+    let lookups = |objects: [u32; 2]| -> Vec<Lookup> {
+        (0..W * H)
+            .map(|i| Lookup {
+                base: 0,
+                res: 1,
+                weight: [1.0; 3],
+                object: match i {
+                    36 => objects[0],
+                    18 => objects[1],
+                    _ => 0,
+                },
+                ..Lookup::NONE
+            })
+            .collect()
+    };
+    c.set_lookups(0, &lookups([0, 1]));
+    draw(&mut c, &v);
+    c.insert(
+        0,
+        &[
+            sample(&v, 4, 4, 2.0, 3.0),
+            sample_on(&v, 2, 2, 2.0, 5.0, surface_id(1, Some(0))),
+        ],
+    );
+    let shown = |c: &mut RenderCache, objects: [u32; 2]| {
+        c.set_lookups(0, &lookups(objects));
+        draw(c, &v);
+        let img = c.image(0);
+        (img.at(4, 4).x, img.at(2, 2).x)
+    };
+    // n = 1 sample discounted by its age (64 / (64 + age)), age at most a frame or two.
+    let (room, object) = shown(&mut c, [0, 1]);
+    assert!(room > 1.9 && room <= 2.0, "{room}");
+    assert!(object > 2.9 && object <= 3.0, "{object}");
+    assert_eq!(shown(&mut c, [1, 0]), (1.0, 1.0));
+    assert_eq!(shown(&mut c, [2, 2]), (1.0, 1.0));
 }

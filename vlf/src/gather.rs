@@ -50,6 +50,8 @@ pub struct Gathered {
     pub distance: f32,
     /// The material of that hit; `None` when the ray escapes.
     pub material: Option<u32>,
+    /// The moving object of that hit (its index), if it lies on one.
+    pub object: Option<usize>,
 }
 
 /// A gather sample of `ray`: `direct` gives the next-event part at both vertices,
@@ -67,10 +69,12 @@ pub fn gather(
         radiance: Vec3::from(lookup.emitted),
         distance: first.map_or(f32::INFINITY, |h| h.t),
         material: None,
+        object: None,
     };
     let mut rng = SmallRng::seed_from_u64(seed);
     vis.with_placed(|placed| {
         g.material = first.map(|h| placed.surface(&h).material);
+        g.object = first.and_then(|h| placed.object_of(h.triangle));
         let Some(p) = point else {
             return;
         };

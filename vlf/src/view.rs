@@ -62,6 +62,11 @@ pub struct Lookup {
     /// changes what the static caches hold (the object itself, its shadows, its
     /// surroundings), so the pixel shows this lookup's light alone.
     pub samples: f32,
+    /// The moving object the point seen lies on (its index + 1; 0: the static scene).
+    /// The render cache's samples count only from a point on the same one, so that a
+    /// point left behind by a moving object, or one of the room seen where the object now
+    /// stands, is never blended in.
+    pub object: u32,
 }
 
 impl Lookup {
@@ -77,6 +82,7 @@ impl Lookup {
         x: 0.0,
         y: 0.0,
         samples: 1.0,
+        object: 0,
     };
 }
 
@@ -301,7 +307,7 @@ impl Visibility {
                 * objects.irradiance(k, s.shading_normal);
             let l = Lookup {
                 emitted: (chain.emitted + chain.weight * (s.emitted + indirect)).to_array(),
-                samples: 0.0,
+                object: k as u32 + 1,
                 ..Lookup::NONE
             };
             return (l, Some(point));

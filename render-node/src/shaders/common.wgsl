@@ -13,6 +13,10 @@ struct Point {
     origin: vec4<f32>, // xyz ray origin, w surface id (bitcast u32)
 }
 
+// A surface id holds the material in its low 24 bits and the moving object the point lies
+// on (index + 1; 0: the static scene) in its high 8 (`cache::surface_id`).
+const OBJECT_SHIFT: u32 = 24u;
+
 // Per eye and frame.
 struct EyeParams {
     view_proj: mat4x4<f32>,
@@ -35,6 +39,13 @@ const MAX_AGE: f32 = 1.0e6;
 
 fn point_valid(p: Point) -> bool {
     return p.pos.w < MAX_AGE;
+}
+
+// The moving object a point lies on (index + 1), 0 for the static scene; a high byte of
+// 255 is the reserved ids' (the background, the holodeck's hits): static too.
+fn point_object(p: Point) -> u32 {
+    let k = bitcast<u32>(p.origin.w) >> OBJECT_SHIFT;
+    return select(k, 0u, k == 0xffu);
 }
 
 // Distance from `eye` to the line of the ray that made the point (the holodeck paper's

@@ -8,7 +8,10 @@
 //   shown = (prior · V + n · C) / (prior + n),
 // with n the samples behind the cache's value (its point's count, discounted by age;
 // half a sample for an interpolated pixel, none for an empty one), times the lookup's
-// `samples` (none where a moving object makes the static samples wrong). Where the two
+// `samples` (none where a moving object makes the static samples wrong), and none from a
+// point on another object than the pixel sees (or on one where it sees the room; an
+// interpolated pixel's points are not known, so it counts only where the pixel sees the
+// room). Where the two
 // disagree most, the priority image asks for samples first.
 
 struct Lookup {
@@ -25,6 +28,9 @@ struct Lookup {
     y: f32,
     // What the cache's samples count for here (0 where a moving object makes them stale).
     samples: f32,
+    // The moving object seen (index + 1; 0: the static scene): only a point on the same
+    // one counts.
+    object: u32,
 }
 
 struct VlfParams {
@@ -150,8 +156,10 @@ fn blend(@builtin(global_invocation_id) gid: vec3<u32>) {
     var n = 0.0;
     if (c.w >= 1.0) {
         let p = points[key_index(key_img[i], V.index_bits)];
-        n = p.rad.w * STALE_FRAMES / (STALE_FRAMES + p.pos.w);
-    } else if (c.w > 0.0) {
+        if (point_object(p) == lookups[i].object) {
+            n = p.rad.w * STALE_FRAMES / (STALE_FRAMES + p.pos.w);
+        }
+    } else if (c.w > 0.0 && lookups[i].object == 0u) {
         // Interpolated (0.5) or filled from farther away (0.25): worth that much.
         n = c.w;
     }

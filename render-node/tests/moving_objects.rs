@@ -1,0 +1,135 @@
+//! A moving object in the render cache (the render cache paper's §4): the room's block,
+//! made movable, stands in the sun and casts its shadow on the floor; gather samples (which
+//! see it) fill the cache, dark in the shadow. When the block is carried away, the points
+//! it shadowed are dropped with it, so the floor where its shadow was shows lit at once,
+//! not a ghost of the shadow fading as new samples come.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use glam::{Quat, Vec3};
+use holocave_cave::WallView;
+use holocave_protocol::cluster::WireObject;
+use holocave_render_node::{
+    DisplayBuilder, EyeView, Feed, LightField, Prior, VlfBase, WallDisplay,
+};
+use holocave_scene::{LoadOptions, Scene};
+use holocave_tracer::{TraceSettings, Tracer};
+use holocave_vlf::Settings;
+use holocave_vlf::file::VlfFile;
+
+const SIZE: u32 = 32;
+
+fn room_with_movable_block() -> Arc<Scene> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
+    let opts = LoadOptions::with_objects(&["block", "lamp"]);
+    Arc::new(Scene::load(&path, &opts).expect("the room loads"))
+}
+
+/// The floor below the block's place in the sun, seen from above.
+fn floor_view() -> EyeView {
+    let wall = WallView {
+        eye: Vec3::new(0.0, 1.6, 0.5),
+        pa: Vec3::new(-2.0, 0.0, 2.0),
+        pb: Vec3::new(2.0, 0.0, 2.0),
+        pc: Vec3::new(-2.0, 0.0, -2.0),
+        width: SIZE,
+        height: SIZE,
+    };
+    EyeView::looking_at(wall, 0.05).expect("the eye is above the floor")
+}
+
+/// A display of the floor view fed by gathers, the light field worth one sample (so the
+/// cache's samples show almost alone).
+fn display(scene: &Arc<Scene>, base: &Arc<VlfBase>) -> WallDisplay {
+    let tracer = Arc::new(Tracer::new(scene.clone(), TraceSettings::default()));
+    let mut b = DisplayBuilder::new((SIZE, SIZE), 1, SIZE * SIZE, tracer);
+    b.light_field = Some(LightField {
+        base: base.clone(),
+        prior: Prior::Samples(1.0),
+    });
+    b.gather = true;
+    b.build(Feed::Inline)
+        .expect("a display (lavapipe without a GPU)")
+}
+
+/// The frame state's objects: the block at `block`, the lamp away.
+fn placed(block: Vec3) -> [WireObject; 2] {
+    let at = |name: &str, position: Vec3| WireObject {
+        name: name.into(),
+        position: position.to_array(),
+        orientation: Quat::IDENTITY.to_array(),
+    };
+    [at("block", block), at("lamp", Vec3::splat(-1000.0))]
+}
+
+fn frames(d: &mut WallDisplay, n: usize) -> Vec<f32> {
+    for _ in 0..n {
+        d.frame(&[floor_view()], false);
+    }
+    (d.cache.image(0).pixels.iter())
+        .map(|p| p.x + p.y + p.z)
+        .collect()
+}
+
+#[test]
+fn a_carried_objects_old_shadow_shows_lit_at_once() {
+    let scene = room_with_movable_block();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("room.vlf");
+    let settings = Settings {
+        directions: 92,
+        resolution: 32,
+        ..Settings::default()
+    };
+    let (state, _) =
+        holocave_vlf::bake(&scene, &settings, None, &|_| {}, &mut |_| Ok::<(), ()>(()))
+            .expect("bake");
+    VlfFile::of(&scene, settings, state).write(&path).unwrap();
+    let base = Arc::new(VlfBase::open(&path, scene.clone()).unwrap());
+
+    // The block a metre up in the sun, its shadow on the floor; then far away.
+    let (lo, hi) = scene.objects()[0].local_bounds();
+    let up = Vec3::new(0.0, 1.0, -0.5) - 0.5 * (lo + hi);
+    let away = Vec3::splat(1000.0);
+
+    // What the floor shows lit: a new display with the block away, at its first frame.
+    let mut fresh = display(&scene, &base);
+    fresh.place_objects(&placed(away));
+    let lit = frames(&mut fresh, 1);
+
+    // Where the block's shadow falls (and the block itself, seen from above): where the
+    // light field and the exact direct light alone, at the first frame, are darker with
+    // it up. (Light the block takes from elsewhere, reflected from a surface it shadows,
+    // also changes: such gathers are not dropped and fade as they are resampled.)
+    let mut first = display(&scene, &base);
+    first.place_objects(&placed(up));
+    let shaded = frames(&mut first, 1);
+    let shadow: Vec<usize> = (0..lit.len())
+        .filter(|&i| shaded[i] < 0.5 * lit[i])
+        .collect();
+    let mut d = display(&scene, &base);
+    d.place_objects(&placed(up));
+    let shadowed = frames(&mut d, 24);
+    assert!(
+        shadow.len() >= 8,
+        "the block casts a shadow on the floor: {} pixels",
+        shadow.len()
+    );
+    d.place_objects(&placed(away));
+    let after = frames(&mut d, 1);
+    // Where the shadow (or the block) was, a pixel shows the light field with the exact
+    // direct light, or that blended with what the cache fills in from a point up to four
+    // pixels away, worth at most half a sample against the light field's one: if that
+    // point were black, still 2/3 of the lit value. A stale shadow point (worth the 24
+    // frames' samples) would show the shadow.
+    for &i in &shadow {
+        assert!(
+            after[i] >= 0.6 * lit[i],
+            "pixel {i}: {} where the shadow was ({} lit, {} in the shadow)",
+            after[i],
+            lit[i],
+            shadowed[i]
+        );
+    }
+}
