@@ -134,3 +134,66 @@ fn bad_flags_are_named() {
     );
     assert!(String::from_utf8_lossy(&o.stderr).contains(".exr"));
 }
+
+/// `node --standalone --glare`: the wall runs and a thread beside it measures the newest
+/// frame's view whenever it is free. Every measured frame has a line per eye (left, then
+/// right, the same frame), frames only move forward and were all drawn, the figures are
+/// lit (the Cornell box's lamp is in view) and in range, and the summary is printed.
+#[test]
+fn a_standalone_node_measures_its_heads_glare_live() {
+    let dir = tempfile::tempdir().unwrap();
+    let vlf = dir.path().join("cornell.vlf");
+    let bake = holocave()
+        .args(["vlf", "bake", "--scene", "scenes/cornell.gltf"])
+        .args(["--directions", "42", "--resolution", "32", "--out"])
+        .arg(&vlf)
+        .output()
+        .unwrap();
+    assert!(
+        bake.status.success(),
+        "{}",
+        String::from_utf8_lossy(&bake.stderr)
+    );
+    let frames = 8u64;
+    let out = common::cornell_front_node()
+        .args([
+            "--still",
+            "0,1.6,0",
+            "--headless",
+            "--sync",
+            "--size",
+            "16x12",
+        ])
+        .args(["--frames", &frames.to_string(), "--glare", "16", "--vlf"])
+        .arg(&vlf)
+        .arg("--out")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("glare of the head's view in"), "{stdout}");
+    let csv = std::fs::read_to_string(dir.path().join("front/glare.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some(holocave_glare::log::HEADER));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(rows.len() >= 2 && rows.len() % 2 == 0, "{csv}");
+    let mut last = None;
+    for pair in rows.chunks(2) {
+        assert_eq!((pair[0][2], pair[1][2]), ("left", "right"), "{csv}");
+        assert_eq!(pair[0][0], pair[1][0], "one frame per pair: {csv}");
+        let frame: u64 = pair[0][0].parse().unwrap();
+        assert!(frame < frames && last.is_none_or(|l| frame > l), "{csv}");
+        last = Some(frame);
+        for row in pair {
+            let ev: f64 = row[3].parse().unwrap();
+            let dgp: f64 = row[4].parse().unwrap();
+            assert!(ev.is_finite() && ev > 0.0, "{csv}");
+            assert!((0.0..=1.0).contains(&dgp), "{csv}");
+        }
+    }
+}

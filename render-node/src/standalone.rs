@@ -121,8 +121,10 @@ pub struct Totals {
 
 /// Runs `wall` of `cave` at `size` pixels per eye until the schedule ends or `stop` says
 /// so. `head` gives the head pose (room coordinates) at a time in ns from the start, and
-/// `objects` the moving objects' paths over the same time; `present` receives every
-/// presented frame's number and the display holding its images.
+/// `objects` the moving objects' paths over the same time; `shown` hears of every frame
+/// drawn (its number, its time in ns, the head pose and the eyes' views) and must not
+/// block; `present` receives every presented frame's number and the display holding its
+/// images.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     display: &mut WallDisplay,
@@ -133,6 +135,7 @@ pub fn run(
     head: &mut dyn FnMut(u64) -> Pose,
     objects: Option<&ObjectPaths>,
     stop: &dyn Fn() -> bool,
+    shown: &mut dyn FnMut(u64, u64, &Pose, &[EyeView]),
     present: &mut dyn FnMut(u64, &mut WallDisplay) -> Result<(), String>,
 ) -> Result<Totals, String> {
     let eyes = Eye::for_mode(wall.stereo);
@@ -160,6 +163,7 @@ pub fn run(
             display.place_objects_on_paths(paths, ns as f64 * 1e-9);
         }
         let report = display.frame(&views, false);
+        shown(frame, ns, &pose, &views);
         totals.draw += report.draw;
         totals.trace += report.trace;
         totals.insert += report.insert;

@@ -14,8 +14,10 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow, bail};
 use clap::{Args, ValueEnum};
-use glam::{Quat, Vec3};
+use glam::{DMat4, Quat, Vec3};
 use holocave_cave::{Cave, Eye, Wall, load_cave};
+use holocave_glare::live::LiveGlare;
+use holocave_glare::session::FrameView;
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
@@ -28,8 +30,8 @@ use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWa
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
 use holocave_render_node::{
-    DisplayBuilder, Gpu, LightField, RenderCache, SampleFeed, ToneMapper, ToneMode, VlfBase,
-    WallDisplay,
+    DisplayBuilder, EyeView, Gpu, LightField, RenderCache, SampleFeed, ToneMapper, ToneMode,
+    VlfBase, WallDisplay,
 };
 use holocave_scene::Scene;
 use holocave_tracer::{TraceSettings, Tracer};
@@ -140,6 +142,12 @@ pub struct NodeArgs {
     /// instead of full paths: far less noise, the field's error only after a bounce.
     #[arg(long)]
     pub(crate) gather: bool,
+    /// Standalone: measure the glare of the head's view while the wall runs (SIZE²
+    /// fisheyes drawn from the light field, on a thread of its own that takes the newest
+    /// frame whenever it is free): OUT/WALL/glare.csv and the time above DGP
+    /// 0.35/0.40/0.45 at the end. In a cluster the master measures it (`master --glare`).
+    #[arg(long, value_name = "SIZE", requires_all = ["standalone", "vlf"])]
+    pub(crate) glare: Option<u32>,
     /// Also accept holodeck workers and displays on this address (with --holodeck).
     #[arg(long)]
     pub(crate) listen: Option<String>,
@@ -270,6 +278,35 @@ pub fn run(args: NodeArgs) -> Result<()> {
         Some(master) => in_cluster(&args, master, cave, wall, display_id, size, samples, None),
         None => standalone(&args, &cave, &wall, size, samples, None),
     }
+}
+
+/// The views a standalone wall's frame shows, as the glare meter takes them: each eye
+/// (scene coordinates) looking where the head looks.
+fn glare_views(
+    frame: u64,
+    ns: u64,
+    pose: &Pose,
+    eyes: &[Eye],
+    views: &[EyeView],
+    room_to_scene: &DMat4,
+) -> Vec<FrameView> {
+    let look = (room_to_scene.transform_vector3((pose.orientation * Vec3::NEG_Z).as_dvec3()))
+        .as_vec3()
+        .normalize_or_zero();
+    eyes.iter()
+        .zip(views)
+        .map(|(e, v)| FrameView {
+            frame,
+            time_ns: ns,
+            eye_name: match e {
+                Eye::Left => "left",
+                Eye::Right => "right",
+                Eye::Centre => "centre",
+            },
+            eye: v.wall.eye,
+            look,
+        })
+        .collect()
 }
 
 fn load_tracer(path: &Path, daylight: Option<PathBuf>) -> Result<(Arc<Scene>, Arc<Tracer>)> {
@@ -416,6 +453,26 @@ fn standalone(
         None => write_frame(&dir, frame, eyes, display, &mut tone, args.debug_images)
             .map_err(|e| format!("{e:#}")),
     };
+    let glare = match (args.glare, &args.vlf) {
+        (Some(size), Some(vlf)) => {
+            let meter = super::glare::session_meter(&scene, vlf, size)?;
+            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            Some(LiveGlare::start(meter, &dir.join("glare.csv"))?)
+        }
+        _ => None,
+    };
+    let mut shown = |frame: u64, ns: u64, pose: &Pose, views: &[EyeView]| {
+        if let Some(g) = &glare {
+            g.offer(glare_views(
+                frame,
+                ns,
+                pose,
+                eyes,
+                views,
+                &cave.room_to_scene,
+            ));
+        }
+    };
     let totals = standalone::run(
         &mut display,
         cave,
@@ -425,9 +482,17 @@ fn standalone(
         &mut pose_at,
         objects.as_ref(),
         &stopping,
+        &mut shown,
         &mut present,
     )
     .map_err(|e| anyhow!(e))?;
+    if let Some(g) = glare {
+        let summary = g.finish()?;
+        println!(
+            "glare of the head's view in {}: {summary}",
+            dir.join("glare.csv").display()
+        );
+    }
     if let Some(o) = &mut output {
         let last = totals.frames.saturating_sub(1);
         if args.window.linger > 0.0 && !o.screens.closed() {
