@@ -79,6 +79,8 @@ pub struct VlfOptions {
     /// The direct light per pixel (false: the light field alone, its baked direct light
     /// included).
     pub direct: bool,
+    /// The sky's light per pixel too ([`VlfBase::open_with_sky`]).
+    pub sky_per_pixel: bool,
 }
 
 struct VlfChoice {
@@ -115,7 +117,8 @@ impl VlfChoice {
 
     /// Opens the file and places its pixels' first rays where `rays` says.
     fn open(&self, path: &std::path::Path) -> Result<VlfBase, RenderNodeError> {
-        let base = VlfBase::open(path, self.scene.clone())?.with_direct(self.options.direct);
+        let base = VlfBase::open_with_sky(path, self.scene.clone(), self.options.sky_per_pixel)?
+            .with_direct(self.options.direct);
         if self.options.rays == Rays::Cpu {
             return Ok(base);
         }

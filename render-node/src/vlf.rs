@@ -26,7 +26,7 @@ use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
-use holocave_vlf::view::shade_one;
+use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
 use holocave_vlf::{Accumulator, Lookup, PixelDirect, ShadowQuery, Visibility};
 use rayon::prelude::*;
 
@@ -55,6 +55,8 @@ pub struct VlfBase {
     /// next-event part (what the lookups read when the direct light is drawn per pixel).
     total: Arc<Vec<[f32; 3]>>,
     indirect: Vec<[f32; 3]>,
+    /// With the sky per pixel, the field's sky (its first arrival), a prior for it.
+    sky: Option<Vec<[f32; 3]>>,
     /// The next-event estimates: the walls' direct light per pixel and gather samples'.
     nee: PixelDirect,
     /// Whether the walls draw the direct light per pixel (never for a scene without a
@@ -109,6 +111,18 @@ pub fn shadow_lights(scene: &Scene) -> Vec<ShadowLight> {
 impl VlfBase {
     /// Opens `path`, refusing a file baked for another scene or with another layout.
     pub fn open(path: &Path, scene: Arc<Scene>) -> Result<VlfBase, RenderNodeError> {
+        Self::open_with_sky(path, scene, false)
+    }
+
+    /// [`Self::open`]; with `sky_per_pixel`, the direct light per pixel takes the sky's
+    /// too, under the light field's sky as a prior worth [`SKY_PRIOR_SAMPLES`] of a
+    /// pixel's samples, and the lookups read the field less the sky's first arrival (an
+    /// error for a file baked without it).
+    pub fn open_with_sky(
+        path: &Path,
+        scene: Arc<Scene>,
+        sky_per_pixel: bool,
+    ) -> Result<VlfBase, RenderNodeError> {
         let Opened {
             file: f,
             elements,
@@ -121,14 +135,32 @@ impl VlfBase {
                 f.state.bounces
             );
         }
-        let nee = PixelDirect::new(scene.clone());
+        let nee = PixelDirect::new(scene.clone()).with_sky(sky_per_pixel);
         let shadow_lights = shadow_lights(&scene);
-        let (total, indirect) = (Arc::new(f.state.values()), f.state.indirect_values());
+        let split = match sky_per_pixel {
+            true => f
+                .state
+                .indirect_values_without_sky()
+                .zip(f.state.sky_values()),
+            false => None,
+        };
+        if sky_per_pixel && split.is_none() {
+            return Err(RenderNodeError::Vlf(format!(
+                "{}: baked without the sky's part: bake it again to take the sky per pixel",
+                path.display()
+            )));
+        }
+        let (indirect, sky) = match split {
+            Some((indirect, sky)) => (indirect, Some(sky)),
+            None => (f.state.indirect_values(), None),
+        };
+        let total = Arc::new(f.state.values());
         let visibility = Visibility::new(scene, elements, tiles);
         visibility.light_objects(total.clone());
         Ok(VlfBase {
             total,
             indirect,
+            sky,
             direct: !nee.is_empty(),
             nee,
             history: Mutex::new(Vec::new()),
@@ -347,8 +379,16 @@ impl VlfBase {
             }
             None => acc.add(direct, placed, &points),
         });
-        for (l, d) in lookups.iter_mut().zip(estimates) {
-            l.emitted = (glam::Vec3::from(l.emitted) + d.radiance).to_array();
+        for ((l, d), &n) in lookups.iter_mut().zip(estimates).zip(acc.counts()) {
+            let added = match &self.sky {
+                Some(values) => SkyPrior {
+                    values,
+                    samples: SKY_PRIOR_SAMPLES,
+                }
+                .direct(l, &d, n),
+                None => d.radiance,
+            };
+            l.emitted = (glam::Vec3::from(l.emitted) + added).to_array();
             if d.object_shadow {
                 l.samples = 0.0;
             }

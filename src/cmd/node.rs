@@ -132,6 +132,12 @@ pub struct NodeArgs {
     /// baked direct light included.
     #[arg(long)]
     pub(crate) no_direct: bool,
+    /// Take the sky's light per pixel too (one more shadow ray per pixel and frame), under
+    /// the light field's sky as a prior worth 64 of a pixel's samples: the first frame as
+    /// without, a still view's sky reflections and window light exact within seconds.
+    /// Needs a light field baked with the sky's part (version 4).
+    #[arg(long, conflicts_with = "no_direct")]
+    pub(crate) sky_per_pixel: bool,
     /// How many samples the light field is worth in a pixel: `auto` (measured at the first
     /// frame from the feed's own samples: their variance against the field's disagreement
     /// with their mean) or a number (0: the samples alone).
@@ -375,7 +381,7 @@ fn standalone(
     if let Some(path) = &args.vlf {
         builder.light_field = Some(LightField {
             base: Arc::new(
-                VlfBase::open(path, scene.clone())?
+                VlfBase::open_with_sky(path, scene.clone(), args.sky_per_pixel)?
                     .with_direct(!args.no_direct)
                     .with_rays(&gpu, args.rays)?,
             ),
@@ -616,6 +622,7 @@ fn in_cluster(
             gather: args.gather,
             rays: args.rays,
             direct: !args.no_direct,
+            sky_per_pixel: args.sky_per_pixel,
         },
     );
     let (counters, reason) = match windows {

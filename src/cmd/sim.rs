@@ -101,6 +101,9 @@ pub struct SimArgs {
     /// after the run from the frame states, so the walls are not slowed.
     #[arg(long, value_name = "SIZE", conflicts_with = "no_vlf")]
     pub glare: Option<u32>,
+    /// Every node takes the sky's light per pixel too (`node --sky-per-pixel`).
+    #[arg(long, conflicts_with = "no_vlf")]
+    pub sky_per_pixel: bool,
     /// Where each node traces its light field's per-pixel rays (`node --rays`).
     #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]
     pub rays: Rays,
@@ -239,6 +242,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
                     .flat_map(|p| [std::ffi::OsStr::new("--vlf"), p.as_os_str()]),
             )
             .args(["--rays", &args.rays.to_string()])
+            .args(args.sky_per_pixel.then_some("--sky-per-pixel"))
             .env(credentials::SECRET_VAR, &secret)
             // Four nodes share this machine's cores: one tracing thread each.
             .env("RAYON_NUM_THREADS", "1")

@@ -107,6 +107,19 @@ pub struct ViewArgs {
     /// baked direct light included (as before the walls computed it).
     #[arg(long)]
     pub no_direct: bool,
+    /// Take the sky's light per pixel too (one sample of the sky a frame, with its shadow
+    /// ray) and the light field less the sky's first arrival: the other way to split.
+    #[arg(long, conflicts_with = "no_direct")]
+    pub sky_per_pixel: bool,
+    /// With --sky-per-pixel: the light field's sky as a prior worth K of a pixel's sky
+    /// samples (0: the pixel's samples alone).
+    #[arg(
+        long,
+        value_name = "K",
+        default_value_t = 0.0,
+        requires = "sky_per_pixel"
+    )]
+    pub sky_prior: f32,
     /// Frames of per-pixel direct light averaged (what a still wall shows after that
     /// many frames; 1: the first frame).
     #[arg(long, default_value_t = 1)]
@@ -371,7 +384,17 @@ fn view(a: ViewArgs) -> Result<()> {
     let efficacy = scene.daylight.photometry.efficacy;
     let start = std::time::Instant::now();
     let scene = std::sync::Arc::new(scene);
-    let direct = holocave_vlf::PixelDirect::new(scene.clone());
+    let direct = holocave_vlf::PixelDirect::new(scene.clone()).with_sky(a.sky_per_pixel);
+    let remainder = if a.sky_per_pixel {
+        f.state.indirect_values_without_sky().with_context(|| {
+            format!(
+                "{}: baked without the sky's part (version 3): bake it again to take the sky per pixel",
+                a.file.display()
+            )
+        })?
+    } else {
+        f.state.indirect_values()
+    };
     let vis = Visibility::new(scene.clone(), elements, tiles);
     let values = std::sync::Arc::new(f.state.values());
     vis.light_objects(values.clone());
@@ -385,7 +408,16 @@ fn view(a: ViewArgs) -> Result<()> {
             a.frames.max(1),
             a.aa.max(1).pow(2)
         );
-        vis.render_with_direct(&view, &f.state.indirect_values(), a.aa, &direct, a.frames)
+        match f.state.sky_values().filter(|_| a.sky_per_pixel) {
+            Some(sky) => {
+                let prior = holocave_vlf::view::SkyPrior {
+                    values: &sky,
+                    samples: a.sky_prior.max(0.0),
+                };
+                vis.render_with_sky(&view, &remainder, a.aa, &direct, a.frames, prior)
+            }
+            None => vis.render_with_direct(&view, &remainder, a.aa, &direct, a.frames),
+        }
     };
     let secs = start.elapsed().as_secs_f64();
     image.write_exr(&a.out)?;

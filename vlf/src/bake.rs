@@ -97,6 +97,13 @@ pub struct State {
     pub direct: Vec<[f32; 3]>,
     /// The same part of `tiles`.
     pub tiles_direct: Vec<[f32; 3]>,
+    /// The part of `irradiance` that came from the sky along the lines at the first
+    /// bounce (smoothed as `irradiance` is, once converged): what a view that also takes
+    /// the sky per pixel ([`crate::PixelDirect::with_sky`]) leaves out. Empty when the
+    /// file was baked without it (version 3).
+    pub sky: Vec<[f32; 3]>,
+    /// The same part of `tiles`.
+    pub tiles_sky: Vec<[f32; 3]>,
     /// The flux (luminance) that first reached the surfaces: direct light, the sky along
     /// the lines, what delta surfaces show.
     pub arrived: f64,
@@ -129,6 +136,39 @@ impl State {
             less(&self.tiles, &self.tiles_direct),
         ]
         .concat()
+    }
+
+    /// What the lookups read when the sky's light is computed per pixel as well:
+    /// [`State::indirect_values`] less the sky's first arrival ([`State::sky`],
+    /// [`State::tiles_sky`]): caustics and the inter-reflected light. `None` for a file
+    /// that does not hold the sky's part.
+    pub fn indirect_values_without_sky(&self) -> Option<Vec<[f32; 3]>> {
+        if self.sky.len() != self.irradiance.len() || self.tiles_sky.len() != self.tiles.len() {
+            return None;
+        }
+        let less = |a: &[[f32; 3]], b: &[[f32; 3]], c: &[[f32; 3]]| -> Vec<[f32; 3]> {
+            (a.iter().zip(b).zip(c))
+                .map(|((a, b), c)| {
+                    (Vec3::from(*a) - Vec3::from(*b) - Vec3::from(*c))
+                        .max(Vec3::ZERO)
+                        .to_array()
+                })
+                .collect()
+        };
+        Some(
+            [
+                less(&self.irradiance, &self.direct, &self.sky),
+                less(&self.tiles, &self.tiles_direct, &self.tiles_sky),
+            ]
+            .concat(),
+        )
+    }
+
+    /// The sky's first arrival as the lookups read it: the elements' part, then the
+    /// tiles'; `None` for a file that does not hold it.
+    pub fn sky_values(&self) -> Option<Vec<[f32; 3]>> {
+        (self.sky.len() == self.irradiance.len() && self.tiles_sky.len() == self.tiles.len())
+            .then(|| [self.sky.as_slice(), self.tiles_sky.as_slice()].concat())
     }
 
     /// The light the last bounce sent out, relative to the light that first arrived.
@@ -602,11 +642,36 @@ pub fn bake_with<E>(
         )
     });
     stats.propagation += start.elapsed();
+    // The sky's first arrival: the first bounce less its caustics.
+    let less = |a: &[[f32; 3]], b: Option<&[[f32; 3]]>| -> Vec<[f32; 3]> {
+        match b {
+            Some(b) => (a.iter().zip(b))
+                .map(|(a, b)| (Vec3::from(*a) - Vec3::from(*b)).to_array())
+                .collect(),
+            None => a.to_vec(),
+        }
+    };
+    let sky_first = less(
+        &got.irradiance,
+        caustics.as_ref().map(|c| c.irradiance.as_slice()),
+    );
+    let sky_first_tiles = less(&got.tiles, caustics.as_ref().map(|c| c.tiles.as_slice()));
+    // Smoothed as the irradiance is when it converges (the smoothing is linear, so the
+    // split still sums to the total).
+    let smooth_sky = |state: &mut State| {
+        state.sky = smooth_indirect(elements, &area, &zero, &sky_first);
+        state.tiles_sky = smooth_tiles(elements, &tiles, &area, &zero_tiles, &sky_first_tiles);
+    };
     let mut state = match resume {
         Some(mut s) => {
             // Deterministic: the same as the saved one.
             s.direct = direct;
             s.tiles_direct = direct_tiles;
+            s.sky = sky_first.clone();
+            s.tiles_sky = sky_first_tiles.clone();
+            if s.converged {
+                smooth_sky(&mut s);
+            }
             s
         }
         None => {
@@ -621,6 +686,8 @@ pub fn bake_with<E>(
                 tiles_last: first_tiles,
                 direct,
                 tiles_direct: direct_tiles,
+                sky: sky_first.clone(),
+                tiles_sky: sky_first_tiles.clone(),
                 arrived,
                 residuals: vec![residual],
                 converged: false,
@@ -647,6 +714,7 @@ pub fn bake_with<E>(
             state.converged = true;
             state.irradiance = smooth_indirect(elements, &area, sharp, &state.irradiance);
             state.tiles = smooth_tiles(elements, &tiles, &area, sharp_tiles, &state.tiles);
+            smooth_sky(&mut state);
             save(&state)?;
             break;
         }

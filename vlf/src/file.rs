@@ -10,12 +10,15 @@
 //! propagates next), `TILE` (the glossy tiles' radiance, `tiles × k²` bins of 3 × f32;
 //! empty without glossy surfaces), `TLST` (the tiles' last bounce), `DIRE` (the part of
 //! `IRRA` that came by next-event estimation: what a view computing the direct light per
-//! pixel leaves out) and `TDIR` (the same part of `TILE`).
+//! pixel leaves out), `TDIR` (the same part of `TILE`), `SKYE` (the part of `IRRA` that
+//! the sky sent along the lines at the first bounce: what a view taking the sky per pixel
+//! as well leaves out) and `TSKY` (the same part of `TILE`).
 //!
 //! Version 2 added the glossy tiles (the threshold and bins in `META`, `TILE`, `TLST`);
-//! version 3 the direct parts (`DIRE`, `TDIR`). An older file is refused with the
-//! version it has (bake it again): read as a version 3 it would draw its direct light
-//! twice.
+//! version 3 the direct parts (`DIRE`, `TDIR`); version 4 the sky's (`SKYE`, `TSKY`). A
+//! version 3 file is read without the sky's part (it draws as ever; the sky cannot be
+//! taken per pixel from it); an older one is refused with the version it has (bake it
+//! again): read as a version 3 it would draw its direct light twice.
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -26,11 +29,14 @@ use holocave_scene::Scene;
 use crate::bake::{Settings, State};
 
 const MAGIC: &[u8; 8] = b"HOLOVLF\0";
-const VERSION: u32 = 3;
+const VERSION: u32 = 4;
+/// The oldest version read (without the sky's part).
+const OLDEST: u32 = 3;
 const HEADER: usize = 16;
 const CHUNK_HEADER: usize = 16;
-/// Chunks in a file: META, IRRA, LAST, TILE, TLST, DIRE, TDIR.
-const CHUNKS: u32 = 7;
+/// Chunks in a file: META, IRRA, LAST, TILE, TLST, DIRE, TDIR, SKYE, TSKY (version 3: the
+/// first seven).
+const CHUNKS: u32 = 9;
 
 #[derive(Debug, thiserror::Error)]
 pub enum VlfError {
@@ -41,7 +47,9 @@ pub enum VlfError {
     },
     #[error("{path}: not a VLF file (bad magic number)")]
     NotVlf { path: PathBuf },
-    #[error("{path}: VLF file version {found}, this build reads version {VERSION} (bake it again)")]
+    #[error(
+        "{path}: VLF file version {found}, this build reads versions {OLDEST} to {VERSION} (bake it again)"
+    )]
     Version { path: PathBuf, found: u32 },
     #[error("{path}: truncated in chunk {chunk} at byte {offset}")]
     Truncated {
@@ -155,6 +163,10 @@ impl VlfFile {
         put_f32s(&mut dire, &self.state.direct);
         let mut tdir = Vec::new();
         put_f32s(&mut tdir, &self.state.tiles_direct);
+        let mut skye = Vec::new();
+        put_f32s(&mut skye, &self.state.sky);
+        let mut tsky = Vec::new();
+        put_f32s(&mut tsky, &self.state.tiles_sky);
         for (tag, payload) in [
             (b"META", self.meta()),
             (b"IRRA", irra),
@@ -163,6 +175,8 @@ impl VlfFile {
             (b"TLST", tlst),
             (b"DIRE", dire),
             (b"TDIR", tdir),
+            (b"SKYE", skye),
+            (b"TSKY", tsky),
         ] {
             bytes.extend_from_slice(tag);
             bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
@@ -313,6 +327,31 @@ impl Reader<'_> {
         count: u64,
     ) -> Result<Vec<[f32; 3]>, VlfError> {
         let (p, base) = self.chunk(at, tag)?;
+        self.values(p, base, tag, count)
+    }
+
+    /// [`Self::array`], or nothing when the chunk is empty.
+    fn array_or_none(
+        &self,
+        at: &mut usize,
+        tag: &'static str,
+        count: u64,
+    ) -> Result<Vec<[f32; 3]>, VlfError> {
+        let (p, base) = self.chunk(at, tag)?;
+        if p.is_empty() {
+            return Ok(Vec::new());
+        }
+        self.values(p, base, tag, count)
+    }
+
+    /// The `count` values of chunk `tag`'s payload `p` (at byte `base`).
+    fn values(
+        &self,
+        p: &[u8],
+        base: usize,
+        tag: &'static str,
+        count: u64,
+    ) -> Result<Vec<[f32; 3]>, VlfError> {
         if p.len() as u64 != count * 12 {
             return Err(VlfError::Malformed {
                 path: self.path.into(),
@@ -346,19 +385,24 @@ impl Reader<'_> {
             return Err(VlfError::NotVlf { path: path.into() });
         }
         let version = u32::from_le_bytes(self.bytes[8..12].try_into().unwrap_or_default());
-        if version != VERSION {
+        if !(OLDEST..=VERSION).contains(&version) {
             return Err(VlfError::Version {
                 path: path.into(),
                 found: version,
             });
         }
+        let expected = if version == VERSION {
+            CHUNKS
+        } else {
+            CHUNKS - 2
+        };
         let chunks = u32::from_le_bytes(self.bytes[12..16].try_into().unwrap_or_default());
-        if chunks != CHUNKS {
+        if chunks != expected {
             return Err(VlfError::Malformed {
                 path: path.into(),
                 chunk: "header".into(),
                 offset: 12,
-                what: format!("{chunks} chunks, version {VERSION} has {CHUNKS}"),
+                what: format!("{chunks} chunks, version {version} has {expected}"),
             });
         }
         let mut at = HEADER;
@@ -395,10 +439,19 @@ impl Reader<'_> {
         let tiles_last = self.array(&mut at, "TLST", tile_count)?;
         let direct = self.array(&mut at, "DIRE", count)?;
         let tiles_direct = self.array(&mut at, "TDIR", tile_count)?;
+        // A state without the sky's part writes both chunks empty.
+        let (sky, tiles_sky) = if version == VERSION {
+            (
+                self.array_or_none(&mut at, "SKYE", count)?,
+                self.array_or_none(&mut at, "TSKY", tile_count)?,
+            )
+        } else {
+            (Vec::new(), Vec::new())
+        };
         if at != self.bytes.len() {
             return Err(VlfError::Malformed {
                 path: path.into(),
-                chunk: "TDIR".into(),
+                chunk: if version == VERSION { "TSKY" } else { "TDIR" }.into(),
                 offset: at as u64,
                 what: format!("{} bytes after the last chunk", self.bytes.len() - at),
             });
@@ -425,6 +478,8 @@ impl Reader<'_> {
                 tiles_last,
                 direct,
                 tiles_direct,
+                sky,
+                tiles_sky,
                 arrived,
                 residuals,
                 converged,

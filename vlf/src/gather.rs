@@ -78,11 +78,14 @@ pub fn gather(
         let Some(p) = point else {
             return;
         };
-        g.radiance += direct.estimate(placed, &p, rng.random(), 0).radiance;
-        // A moving object's lookup holds its indirect light already (its probe's).
+        let e = direct.estimate(placed, &p, rng.random(), 0);
+        // A moving object's lookup holds its indirect light already (its probe's, the
+        // sky's included).
         if placed.object_of(p.triangle).is_some() {
+            g.radiance += e.radiance - e.sky;
             return;
         }
+        g.radiance += e.radiance;
         g.radiance += direct.via_mirror(placed, &p, rng.random());
         let frame = Frame::new(p.shading_normal);
         let (uc, u) = (rng.random(), Vec2::new(rng.random(), rng.random()));

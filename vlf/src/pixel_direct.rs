@@ -69,6 +69,8 @@ pub struct DirectPoint {
 pub struct PixelDirect {
     scene: Arc<Scene>,
     lights: Lights,
+    /// The sky is sampled too ([`PixelDirect::with_sky`]).
+    sky: bool,
 }
 
 /// The plastic number and its 3-D analogue: the R sequences' generators.
@@ -100,13 +102,31 @@ fn r_sequence(g: f64, d: i32, c: i32, n: u64, seed: u64) -> f32 {
 impl PixelDirect {
     pub fn new(scene: Arc<Scene>) -> Self {
         let lights = Lights::new(&scene);
-        PixelDirect { scene, lights }
+        PixelDirect {
+            scene,
+            lights,
+            sky: false,
+        }
+    }
+
+    /// Also the sky's direct light, by one sample of the sky's own distribution (the
+    /// tracer's [`Lights::sample_sky`]) per estimate, with its shadow ray: for a view that
+    /// draws the light field less the sky's first arrival as well
+    /// ([`crate::State::indirect_values_without_sky`]). The sky is as large as the
+    /// sphere, so unlike the sun's disc one sample is far from exact: through a window it
+    /// is mostly blocked, and a still view's mean converges as `1/√n` over frames.
+    pub fn with_sky(mut self, on: bool) -> Self {
+        self.sky = on && self.lights.sky.is_some();
+        self
     }
 
     /// Whether the scene has any light this pass computes (emissive triangles, punctual
-    /// lights or the sun).
+    /// lights, the sun, and the sky when asked).
     pub fn is_empty(&self) -> bool {
-        !self.lights.has_area() && self.lights.punctual.is_empty() && self.lights.sun.is_none()
+        !self.lights.has_area()
+            && self.lights.punctual.is_empty()
+            && self.lights.sun.is_none()
+            && !self.sky
     }
 
     /// Estimates a pixel takes on the frame it starts over at a new point: 2 when the
@@ -119,7 +139,11 @@ impl PixelDirect {
     /// `sim`'s nodes (the room: a lamp and the sun, two shadow rays each) too slow to
     /// draw every frame on a shared two-core machine; two is the compromise.
     pub fn first_estimates(&self) -> u32 {
-        if self.lights.has_area() { 2 } else { 1 }
+        if self.lights.has_area() || self.sky {
+            2
+        } else {
+            1
+        }
     }
 
     /// Shadow rays per estimate (at most: a sample facing away from the point needs none).
@@ -127,6 +151,7 @@ impl PixelDirect {
         u32::from(self.lights.has_area())
             + self.lights.punctual.len() as u32
             + u32::from(self.lights.sun.is_some())
+            + u32::from(self.sky)
     }
 
     /// The shadow ray of one light sample at `p` and the radiance it sends towards the
@@ -147,6 +172,7 @@ impl PixelDirect {
             ray,
             tmax,
             radiance: c,
+            sky: false,
         })
     }
 
@@ -181,6 +207,13 @@ impl PixelDirect {
         if let Some(q) = l.sample_sun(u).and_then(|ls| self.query(p, &frame, &ls)) {
             f(q);
         }
+        if self.sky {
+            // The same 2-D sequence as the sun's, shifted by another hash of the pixel.
+            let u = Vec2::new(r_sequence(R2, 4, 0, n, seed), r_sequence(R2, 4, 1, n, seed));
+            if let Some(q) = l.sample_sky(u).and_then(|ls| self.query(p, &frame, &ls)) {
+                f(ShadowQuery { sky: true, ..q });
+            }
+        }
     }
 
     /// What a shadow query brings, given whether the static scene blocks it, with the
@@ -191,12 +224,13 @@ impl PixelDirect {
         }
         if placed.objects_occluded(&q.ray, q.tmax) {
             return Estimate {
-                radiance: Vec3::ZERO,
                 object_shadow: true,
+                ..Estimate::default()
             };
         }
         Estimate {
             radiance: q.radiance,
+            sky: if q.sky { q.radiance } else { Vec3::ZERO },
             object_shadow: false,
         }
     }
@@ -271,11 +305,24 @@ impl PixelDirect {
         first: u64,
         count: u32,
     ) -> Vec3 {
+        self.mean_estimate(placed, p, seed, first, count).radiance
+    }
+
+    /// [`Self::mean`], with the sky's share of it.
+    pub fn mean_estimate(
+        &self,
+        placed: &PlacedScene,
+        p: &DirectPoint,
+        seed: u64,
+        first: u64,
+        count: u32,
+    ) -> Estimate {
         let count = count.max(1);
-        (first..first + u64::from(count))
-            .map(|n| self.estimate(placed, p, seed, n).radiance)
-            .sum::<Vec3>()
-            / count as f32
+        let mut sum = Estimate::default();
+        for n in first..first + u64::from(count) {
+            sum += self.estimate(placed, p, seed, n);
+        }
+        mean(&sum, count)
     }
 }
 
@@ -286,12 +333,16 @@ pub struct ShadowQuery {
     pub ray: Ray,
     pub tmax: f32,
     pub radiance: Vec3,
+    /// A sample of the sky ([`PixelDirect::with_sky`]).
+    pub sky: bool,
 }
 
 /// One estimate of the direct light at a point.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate {
     pub radiance: Vec3,
+    /// The sky's share of `radiance` ([`PixelDirect::with_sky`]; zero without).
+    pub sky: Vec3,
     /// A moving object blocked one of its shadow rays.
     pub object_shadow: bool,
 }
@@ -299,6 +350,7 @@ pub struct Estimate {
 impl std::ops::AddAssign for Estimate {
     fn add_assign(&mut self, o: Estimate) {
         self.radiance += o.radiance;
+        self.sky += o.sky;
         self.object_shadow |= o.object_shadow;
     }
 }
@@ -357,6 +409,7 @@ fn mean(sum: &Estimate, count: u32) -> Estimate {
     }
     Estimate {
         radiance: sum.radiance / count as f32,
+        sky: sum.sky / count as f32,
         object_shadow: sum.object_shadow,
     }
 }
@@ -364,6 +417,12 @@ fn mean(sum: &Estimate, count: u32) -> Estimate {
 impl Accumulator {
     pub fn new() -> Self {
         Accumulator::default()
+    }
+
+    /// How many estimates each pixel's mean holds (after [`Self::add`]: this frame's
+    /// included).
+    pub fn counts(&self) -> &[u32] {
+        &self.count
     }
 
     /// Forgets every pixel's mean (the light changed: an object moved).

@@ -29,7 +29,7 @@ use crate::bake::environment;
 use crate::elements::{Elements, interpolate};
 use crate::objects::ObjectLight;
 use crate::octahedral;
-use crate::pixel_direct::{DirectPoint, PixelDirect};
+use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
 use crate::surface::{Chain, diffuse_albedo, follow, follow_from, side_facing};
 use crate::tiles::Tiles;
 
@@ -440,7 +440,7 @@ impl Visibility {
     /// image for comparison with a path-traced one; the render node uses one).
     /// `values`: the elements' irradiance, then the tiles' radiance ([`crate::State::values`]).
     pub fn render(&self, view: &WallView, values: &[[f32; 3]], k: u32) -> Image {
-        self.render_lookups(view, values, k, None, 1)
+        self.render_lookups(view, values, k, None, 1, None)
     }
 
     /// `view` drawn as the walls draw it: the light field's remainder (`values`:
@@ -456,7 +456,22 @@ impl Visibility {
         direct: &PixelDirect,
         frames: u32,
     ) -> Image {
-        self.render_lookups(view, values, k, Some(direct), frames)
+        self.render_lookups(view, values, k, Some(direct), frames, None)
+    }
+
+    /// [`Self::render_with_direct`] with the sky's light taken per pixel too (`direct`
+    /// [`PixelDirect::with_sky`], `values` [`crate::State::indirect_values_without_sky`]),
+    /// under the light field's sky part as a prior (`sky`).
+    pub fn render_with_sky(
+        &self,
+        view: &WallView,
+        values: &[[f32; 3]],
+        k: u32,
+        direct: &PixelDirect,
+        frames: u32,
+        sky: SkyPrior,
+    ) -> Image {
+        self.render_lookups(view, values, k, Some(direct), frames, Some(sky))
     }
 
     /// `k × k` lookups per pixel, each with the direct light per pixel when given.
@@ -467,6 +482,7 @@ impl Visibility {
         k: u32,
         direct: Option<&PixelDirect>,
         frames: u32,
+        sky: Option<SkyPrior>,
     ) -> Image {
         let k = k.max(1);
         let estimates = direct.map_or(0, |d| d.first_estimates() + frames.max(1) - 1);
@@ -488,12 +504,56 @@ impl Visibility {
                 sum += shade_one(&l, values);
                 if let (Some(direct), Some(p)) = (direct, p) {
                     let seed = (i as u64) * u64::from(k * k) + u64::from(s);
-                    sum += direct.mean(&placed, &p, seed, 0, estimates);
+                    let e = direct.mean_estimate(&placed, &p, seed, 0, estimates);
+                    sum += match &sky {
+                        Some(prior) => prior.direct(&l, &e, estimates),
+                        None => e.radiance,
+                    };
                 }
             }
             *px = sum / (k * k) as f32;
         });
         image
+    }
+}
+
+/// The light field's part of the sky's light ([`crate::State::sky_values`]) as a prior
+/// for the mean of a pixel's own samples of it ([`PixelDirect::with_sky`]): it is worth
+/// `samples` of them, `(k F + n S̄) / (k + n)`, so the first frame shows the field's smooth
+/// sky and a still view converges to the exact one.
+#[derive(Clone, Copy)]
+pub struct SkyPrior<'a> {
+    pub values: &'a [[f32; 3]],
+    pub samples: f32,
+}
+
+/// How many of a pixel's own sky samples the light field's sky is worth on the walls
+/// (`node --sky-per-pixel`): measured on the room's floor view (`docs/vlf-direct.md`,
+/// "The sky per pixel"), 64 kept the first frame at the field's error and made every
+/// later one better; 16 and 4 were worse for the first two seconds.
+pub const SKY_PRIOR_SAMPLES: f32 = 64.0;
+
+impl SkyPrior<'_> {
+    /// The direct light a pixel shows at lookup `l` from `e`, the mean of its `n`
+    /// estimates: the sky's share blended with the field's sky; a moving object's lookup
+    /// takes the sky from its probe already, so there the share is left out.
+    pub fn direct(&self, l: &Lookup, e: &Estimate, n: u32) -> Vec3 {
+        let rest = e.radiance - e.sky;
+        if l.object != 0 {
+            return rest;
+        }
+        rest + self.blend(l, e.sky, n)
+    }
+
+    /// The sky's light at lookup `l` after `n` samples averaging `mean`.
+    pub fn blend(&self, l: &Lookup, mean: Vec3, n: u32) -> Vec3 {
+        let field = Lookup {
+            emitted: [0.0; 3],
+            ..*l
+        };
+        let f = shade_one(&field, self.values);
+        let n = n as f32;
+        (self.samples * f + n * mean) / (self.samples + n).max(f32::MIN_POSITIVE)
     }
 }
 

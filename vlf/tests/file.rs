@@ -115,7 +115,9 @@ fn a_truncated_file_names_the_chunk_and_offset() {
     let chunks = chunks(&bytes);
     assert_eq!(
         chunks.iter().map(|c| c.0.as_str()).collect::<Vec<_>>(),
-        ["META", "IRRA", "LAST", "TILE", "TLST", "DIRE", "TDIR"]
+        [
+            "META", "IRRA", "LAST", "TILE", "TLST", "DIRE", "TDIR", "SKYE", "TSKY"
+        ]
     );
     // Cuts in the header (in the magic number, in the version and count after it), and in
     // each chunk's header, at its payload's start, in its payload and at its last byte.
@@ -177,7 +179,7 @@ fn a_damaged_byte_names_the_chunk() {
     }
     let (p, r) = flip(8);
     let e = r.unwrap_err();
-    assert!(matches!(e, VlfError::Version { found: 19, .. }), "{e:?}");
+    assert!(matches!(e, VlfError::Version { found: 20, .. }), "{e:?}");
     names_file(&e, &p);
     // A version 1 file (before the glossy tiles) and a version 2 one (before the direct
     // part was kept apart: read now, its direct light would be drawn twice) are refused,
@@ -195,6 +197,22 @@ fn a_damaged_byte_names_the_chunk() {
         names_file(&e, &p);
     }
 
+    // A version 3 file (before the sky's part was kept apart) is read as it is, without
+    // that part: it draws as ever, and cannot take the sky per pixel.
+    let sky_chunks = chunks(&bytes)
+        .iter()
+        .find(|c| c.0 == "SKYE")
+        .map(|c| c.1)
+        .unwrap();
+    let mut v3 = bytes[..sky_chunks].to_vec();
+    v3[8..12].copy_from_slice(&3u32.to_le_bytes());
+    v3[12..16].copy_from_slice(&7u32.to_le_bytes());
+    let (_, r) = read_bytes(dir.path(), "v3.vlf", &v3);
+    let old = r.expect("a version 3 file reads");
+    assert_eq!(old.state.values(), f.state.values());
+    assert!(old.state.sky_values().is_none() && old.state.indirect_values_without_sky().is_none());
+    assert!(f.state.sky_values().is_some());
+
     // The chunk count.
     let (p, r) = flip(12);
     let e = r.unwrap_err();
@@ -210,7 +228,7 @@ fn a_damaged_byte_names_the_chunk() {
     let e = r.unwrap_err();
     names_file(&e, &p);
     assert!(
-        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "TDIR" && *offset == bytes.len() as u64),
+        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "TSKY" && *offset == bytes.len() as u64),
         "{e:?}"
     );
 

@@ -164,13 +164,17 @@ fn the_light_field_never_sees_the_block_and_the_walls_do() {
         .closest_hit(&ray, f32::INFINITY)
         .expect("the wall behind");
     assert!(static_hit.t > placed_hit.t && (static_hit.triangle as usize) < scene.triangle_count());
-    // Drawn where it stands: the lookup of that ray is the block's (no element, no
-    // cache samples), and away it is the wall's again.
+    // Drawn where it stands: the lookup of that ray is the block's (no element; the
+    // cache's samples count only from points on the block), and away it is the wall's
+    // again.
     let (l, _) = vis.lookup_and_point(ray);
-    assert!(l.base == u32::MAX && l.samples == 0.0, "{l:?}");
+    assert!(l.base == u32::MAX && l.object == 1, "{l:?}");
     vis.place_objects(&block_at(away()));
     let (l, _) = vis.lookup_and_point(ray);
-    assert!(l.base != u32::MAX && l.samples == 1.0, "{l:?}");
+    assert!(
+        l.base != u32::MAX && l.samples == 1.0 && l.object == 0,
+        "{l:?}"
+    );
 }
 
 /// An object where no pixel sees it or its light — far behind the viewer, or beyond the
