@@ -350,6 +350,29 @@ pub fn tiles(scene: &Scene, settings: &Settings, elements: &Elements) -> Tiles {
     Tiles::new(scene, elements, settings)
 }
 
+/// The least area a line's light is spread over (see the bake): a quarter of the
+/// smallest cross-section a line of any direction stands for. The same from the scene and
+/// the settings alone, so that the tiles' layout can leave out glossy elements smaller
+/// than it ([`Tiles::new`]).
+pub fn least_area(scene: &Scene, settings: &Settings) -> f32 {
+    let directions = Directions::at_least(settings.directions);
+    let sphere = Sphere::of(scene);
+    (0..directions.lines.len())
+        .map(|k| {
+            let omega = directions.solid_angle[directions.pair[k][0] as usize];
+            Grid::new(
+                directions.lines[k],
+                k as u32,
+                sphere,
+                settings.resolution.max(1),
+                omega,
+            )
+            .cross_section()
+        })
+        .fold(f32::INFINITY, f32::min)
+        * 0.25
+}
+
 /// The element size of a bake: the settings', or twice the lines' spacing.
 pub fn element_size(scene: &Scene, settings: &Settings) -> f32 {
     let sphere = Sphere::of(scene);
@@ -537,7 +560,7 @@ pub fn bake_with<E>(
     // `A`, and the series diverges (Sponza did). Clamped, such elements get less light
     // than they should (the render cache's samples correct them), and the series
     // converges.
-    let least = cross.iter().copied().fold(f32::INFINITY, f32::min) * 0.25;
+    let least = least_area(scene, settings);
     let receiving: Vec<f32> = area.iter().map(|a| a.max(least)).collect();
     stats.tiles = tiles.tiles.len();
     stats.tile_memory = tiles.len() as u64 * 12;

@@ -121,7 +121,13 @@ impl Tiles {
             return Tiles::none(k, count);
         }
         let floor = alpha_floor(k, Settings::rounded_directions(settings.directions));
-        let (_, centre) = elements.areas_and_centres(scene);
+        let (area, centre) = elements.areas_and_centres(scene);
+        // A glossy element smaller than the area a line's light is spread over keeps
+        // only `A / least` of what reaches it in its tile (and tiles that small cannot be
+        // pooled: their bounces grew). It is drawn diffuse instead — its albedo the BSDF's,
+        // pooled with its neighbours (`crate::pools`) — and its highlights come from the
+        // direct light per pixel, with the full BSDF.
+        let least = crate::bake::least_area(scene, settings);
         let found: Vec<Option<Glossy>> = centre
             .par_iter()
             .enumerate()
@@ -133,6 +139,7 @@ impl Tiles {
                 if s.delta
                     || !is_glossy(&s.params, settings.glossy_alpha)
                     || (side == 1 && !material.double_sided)
+                    || area[e] < least
                 {
                     return None;
                 }
