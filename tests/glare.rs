@@ -181,7 +181,7 @@ fn a_standalone_node_measures_its_heads_glare_live() {
     let mut lines = csv.lines();
     assert_eq!(lines.next(), Some(holocave_glare::log::HEADER));
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert!(rows.len() >= 2 && rows.len() % 2 == 0, "{csv}");
+    assert!(rows.len() >= 2 && rows.len().is_multiple_of(2), "{csv}");
     let mut last = None;
     for pair in rows.chunks(2) {
         assert_eq!((pair[0][2], pair[1][2]), ("left", "right"), "{csv}");

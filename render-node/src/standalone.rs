@@ -119,6 +119,10 @@ pub struct Totals {
     pub vlf: Duration,
 }
 
+/// Told of each frame drawn: its number, its time (ns from the start), the head pose and
+/// the eyes' views.
+pub type Shown<'a> = dyn FnMut(u64, u64, &Pose, &[EyeView]) + 'a;
+
 /// Runs `wall` of `cave` at `size` pixels per eye until the schedule ends or `stop` says
 /// so. `head` gives the head pose (room coordinates) at a time in ns from the start, and
 /// `objects` the moving objects' paths over the same time; `shown` hears of every frame
@@ -135,7 +139,7 @@ pub fn run(
     head: &mut dyn FnMut(u64) -> Pose,
     objects: Option<&ObjectPaths>,
     stop: &dyn Fn() -> bool,
-    shown: &mut dyn FnMut(u64, u64, &Pose, &[EyeView]),
+    shown: &mut Shown,
     present: &mut dyn FnMut(u64, &mut WallDisplay) -> Result<(), String>,
 ) -> Result<Totals, String> {
     let eyes = Eye::for_mode(wall.stereo);

@@ -10,11 +10,13 @@
 //! less than `least`, so the gain stays bounded as before and none of the light that
 //! arrived is thrown away while the pool reaches `least`.
 //!
-//! Only diffuse elements are pooled. Glossy ones (directional tiles) were tried too, the
-//! binned arrivals of a pool's tiles summed and reflected by each member's BSDF: on the
-//! breakfast room (92 directions, 64 lines) that bake's bounces grew after the sixth and
-//! it stopped; their loss remains. Measured there: the upper half of `CameraMain` from
-//! −24 % to −16 % of `render`'s mean, the lower half from −40 % to −36 %.
+//! Only elements drawn diffuse are pooled: a glossy element that small gets no tile
+//! ([`Tiles::new`]) and is drawn diffuse with its BSDF's albedo, so it is pooled here too.
+//! (Pooling tiles — the binned arrivals of a pool's tiles summed and reflected by each
+//! member's BSDF — was tried: on the breakfast room that bake's bounces grew after the
+//! sixth.) Measured on the breakfast room's `CameraMain` against `render`: pools of diffuse
+//! elements took the walls from −24 % to −16 % (92 directions, 64 lines); with the small
+//! glossy elements pooled as well, +1.4 % (162 / 96; `docs/vlf-direct.md`).
 
 use std::collections::HashMap;
 
