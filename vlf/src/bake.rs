@@ -682,7 +682,8 @@ pub fn bake_with<E>(
     // Smoothed as the irradiance is when it converges (the smoothing is linear, so the
     // split still sums to the total).
     let smooth_sky = |state: &mut State| {
-        state.sky = smooth_indirect(elements, &area, &zero, &sky_first);
+        let sky = smooth_indirect(elements, &area, &zero, &sky_first);
+        state.sky = pools.smooth(&area, &zero, &sky);
         state.tiles_sky = smooth_tiles(elements, &tiles, &area, &zero_tiles, &sky_first_tiles);
     };
     let mut state = match resume {
@@ -736,6 +737,7 @@ pub fn bake_with<E>(
         if tail(&state.residuals) < settings.tolerance || state.bounces >= settings.max_bounces {
             state.converged = true;
             state.irradiance = smooth_indirect(elements, &area, sharp, &state.irradiance);
+            state.irradiance = pools.smooth(&area, sharp, &state.irradiance);
             state.tiles = smooth_tiles(elements, &tiles, &area, sharp_tiles, &state.tiles);
             smooth_sky(&mut state);
             save(&state)?;

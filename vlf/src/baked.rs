@@ -99,21 +99,17 @@ pub struct BakeJob<'a> {
     pub out: &'a Path,
     /// Raised to stop after the bounce being propagated (it is saved first).
     pub interrupted: &'a AtomicBool,
-    /// A file from an older version of the format (or a version 3 file, without the
-    /// sky's part) is removed and baked again (default bakes that a command keeps for
-    /// itself); otherwise it is an error (a version 3 file is used as it is).
+    /// A file from an older version of the format is removed and baked again (default
+    /// bakes that a command keeps for itself); otherwise it is an error.
     pub rebake_old_version: bool,
 }
 
 impl BakeJob<'_> {
     /// Where the bake will start (also removes an old version's file when allowed).
     pub fn start(&self) -> Result<Start, BakedError> {
-        let old = |f: &Result<VlfFile, VlfError>| match f {
-            Err(VlfError::Version { .. }) => true,
-            Ok(f) => f.state.sky_values().is_none(),
-            Err(_) => false,
-        };
-        if self.rebake_old_version && self.out.exists() && old(&VlfFile::read(self.out)) {
+        if self.rebake_old_version
+            && let Err(VlfError::Version { .. }) = VlfFile::read(self.out)
+        {
             std::fs::remove_file(self.out).map_err(|source| VlfError::Io {
                 path: self.out.to_owned(),
                 source,

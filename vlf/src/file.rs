@@ -15,10 +15,10 @@
 //! as well leaves out) and `TSKY` (the same part of `TILE`).
 //!
 //! Version 2 added the glossy tiles (the threshold and bins in `META`, `TILE`, `TLST`);
-//! version 3 the direct parts (`DIRE`, `TDIR`); version 4 the sky's (`SKYE`, `TSKY`). A
-//! version 3 file is read without the sky's part (it draws as ever; the sky cannot be
-//! taken per pixel from it); an older one is refused with the version it has (bake it
-//! again): read as a version 3 it would draw its direct light twice.
+//! version 3 the direct parts (`DIRE`, `TDIR`); version 4 the sky's (`SKYE`, `TSKY`), and
+//! no tile on a glossy element smaller than a line's reach (a new layout). An older file
+//! is refused with the version it has (bake it again): read as this version it would
+//! draw its direct light twice (1, 2) or have another tile layout (3).
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -30,12 +30,9 @@ use crate::bake::{Settings, State};
 
 const MAGIC: &[u8; 8] = b"HOLOVLF\0";
 const VERSION: u32 = 4;
-/// The oldest version read (without the sky's part).
-const OLDEST: u32 = 3;
 const HEADER: usize = 16;
 const CHUNK_HEADER: usize = 16;
-/// Chunks in a file: META, IRRA, LAST, TILE, TLST, DIRE, TDIR, SKYE, TSKY (version 3: the
-/// first seven).
+/// Chunks in a file: META, IRRA, LAST, TILE, TLST, DIRE, TDIR, SKYE, TSKY.
 const CHUNKS: u32 = 9;
 
 #[derive(Debug, thiserror::Error)]
@@ -47,9 +44,7 @@ pub enum VlfError {
     },
     #[error("{path}: not a VLF file (bad magic number)")]
     NotVlf { path: PathBuf },
-    #[error(
-        "{path}: VLF file version {found}, this build reads versions {OLDEST} to {VERSION} (bake it again)"
-    )]
+    #[error("{path}: VLF file version {found}, this build reads version {VERSION} (bake it again)")]
     Version { path: PathBuf, found: u32 },
     #[error("{path}: truncated in chunk {chunk} at byte {offset}")]
     Truncated {
@@ -385,7 +380,7 @@ impl Reader<'_> {
             return Err(VlfError::NotVlf { path: path.into() });
         }
         let version = u32::from_le_bytes(self.bytes[8..12].try_into().unwrap_or_default());
-        if !(OLDEST..=VERSION).contains(&version) {
+        if version != VERSION {
             return Err(VlfError::Version {
                 path: path.into(),
                 found: version,
@@ -439,19 +434,13 @@ impl Reader<'_> {
         let tiles_last = self.array(&mut at, "TLST", tile_count)?;
         let direct = self.array(&mut at, "DIRE", count)?;
         let tiles_direct = self.array(&mut at, "TDIR", tile_count)?;
-        // A state without the sky's part writes both chunks empty.
-        let (sky, tiles_sky) = if version == VERSION {
-            (
-                self.array_or_none(&mut at, "SKYE", count)?,
-                self.array_or_none(&mut at, "TSKY", tile_count)?,
-            )
-        } else {
-            (Vec::new(), Vec::new())
-        };
+        // A state without the sky's part (one made by hand) writes both chunks empty.
+        let sky = self.array_or_none(&mut at, "SKYE", count)?;
+        let tiles_sky = self.array_or_none(&mut at, "TSKY", tile_count)?;
         if at != self.bytes.len() {
             return Err(VlfError::Malformed {
                 path: path.into(),
-                chunk: if version == VERSION { "TSKY" } else { "TDIR" }.into(),
+                chunk: "TSKY".into(),
                 offset: at as u64,
                 what: format!("{} bytes after the last chunk", self.bytes.len() - at),
             });

@@ -8,7 +8,9 @@
 //! orientation (the same side, the same dominant axis of its normal) in a cell of side
 //! `2 √least`: a pool receives the light of all its members over their summed area, never
 //! less than `least`, so the gain stays bounded as before and none of the light that
-//! arrived is thrown away while the pool reaches `least`.
+//! arrived is thrown away while the pool reaches `least`. A pool's one value would show
+//! as a patch the size of its cell: once converged, each pooled element is drawn from the
+//! trilinear blend of the pools around it ([`Pools::smooth`]).
 //!
 //! Only elements drawn diffuse are pooled: a glossy element that small gets no tile
 //! ([`Tiles::new`]) and is drawn diffuse with its BSDF's albedo, so it is pooled here too.
@@ -26,6 +28,10 @@ use holocave_scene::{Hit, Scene};
 use crate::elements::{Elements, cell_index};
 use crate::tiles::Tiles;
 
+/// What pools a small element with others: its material, side, dominant normal axis and
+/// the cell it lies in.
+type PoolKey = (u32, u32, u32, [i32; 3]);
+
 /// The pools of one bake.
 pub struct Pools {
     /// Each element's pool (`u32::MAX`: not pooled).
@@ -35,6 +41,11 @@ pub struct Pools {
     /// Each pool's area (the sum of its members').
     pub area: Vec<f32>,
     pub least: f32,
+    /// Each pool's key, and the pools by key.
+    keys: Vec<PoolKey>,
+    index: HashMap<PoolKey, u32>,
+    /// Each pooled element's position in cells (its position over the cell's side).
+    at: HashMap<u32, Vec3>,
 }
 
 impl Pools {
@@ -52,7 +63,9 @@ impl Pools {
         let cell = 2.0 * least.sqrt();
         let mut of = vec![u32::MAX; elements.count];
         let mut members: Vec<Vec<u32>> = Vec::new();
-        let mut index: HashMap<(u32, u32, u32, bool, [i32; 3]), u32> = HashMap::new();
+        let mut index: HashMap<PoolKey, u32> = HashMap::new();
+        let mut keys = Vec::new();
+        let mut at = HashMap::new();
         for (t, cells) in elements.triangles.iter().enumerate() {
             let r = cells.res;
             let material = scene.triangle_shading(t as u32).material;
@@ -91,11 +104,13 @@ impl Pools {
                             })
                             .position;
                         let voxel = (p / cell).floor().as_ivec3().to_array();
-                        let key = (material, side, dir, tiles.of(e).is_some(), voxel);
+                        let key = (material, side, dir, voxel);
                         let k = *index.entry(key).or_insert_with(|| {
                             members.push(Vec::new());
+                            keys.push(key);
                             (members.len() - 1) as u32
                         });
+                        at.insert(e, p / cell);
                         members[k as usize].push(e);
                         of[e as usize] = k;
                     }
@@ -111,7 +126,54 @@ impl Pools {
             members,
             area: pool_area,
             least,
+            keys,
+            index,
+            at,
         }
+    }
+
+    /// The drawn values of pooled elements: a pool holds one value for its whole cell,
+    /// which shows as patches on a curved surface of small triangles (a chair's shell).
+    /// Each pooled element takes instead the trilinear blend, at its own position, of the
+    /// pools of its material, side and orientation in the eight cells around it (those
+    /// that exist, their weights renormalised), each pool's value the area-weighted mean
+    /// of its members' `total − sharp`; its `sharp` part (direct light, caustics) stays
+    /// its own. Linear in `total`, so a split of the total smooths to the split's sum.
+    pub fn smooth(&self, area: &[f32], sharp: &[[f32; 3]], total: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        let rest = |e: u32| Vec3::from(total[e as usize]) - Vec3::from(sharp[e as usize]);
+        let value: Vec<Vec3> = (self.members.iter().zip(&self.area))
+            .map(|(m, a)| {
+                m.iter().map(|&e| rest(e) * area[e as usize]).sum::<Vec3>()
+                    / a.max(f32::MIN_POSITIVE)
+            })
+            .collect();
+        let mut out = total.to_vec();
+        for (&e, &x) in &self.at {
+            let (material, side, dir, _) = self.keys[self.of[e as usize] as usize];
+            let g = x - Vec3::splat(0.5);
+            let base = g.floor();
+            let f = g - base;
+            let (mut sum, mut w) = (Vec3::ZERO, 0.0);
+            for corner in 0..8 {
+                let o = Vec3::new(
+                    (corner & 1) as f32,
+                    ((corner >> 1) & 1) as f32,
+                    ((corner >> 2) & 1) as f32,
+                );
+                let voxel = (base + o).as_ivec3().to_array();
+                let Some(&p) = self.index.get(&(material, side, dir, voxel)) else {
+                    continue;
+                };
+                let t = Vec3::ONE - o + f * (2.0 * o - Vec3::ONE);
+                let weight = t.x * t.y * t.z;
+                sum += value[p as usize] * weight;
+                w += weight;
+            }
+            if w > 0.0 {
+                out[e as usize] = (Vec3::from(sharp[e as usize]) + sum / w).to_array();
+            }
+        }
+        out
     }
 
     /// The irradiance of every element from the light (flux) each received, `sums`:
