@@ -126,6 +126,10 @@ pub struct ViewArgs {
     pub frames: u32,
     #[command(flatten)]
     pub objects: super::render::ObjectsAt,
+    /// Leave out the moving objects' darkening of the light field near them (to measure
+    /// what it does; the walls always darken).
+    #[arg(long)]
+    pub no_darkening: bool,
 }
 
 pub fn run(c: VlfCommand) -> Result<()> {
@@ -396,6 +400,11 @@ fn view(a: ViewArgs) -> Result<()> {
         f.state.indirect_values()
     };
     let vis = Visibility::new(scene.clone(), elements, tiles);
+    let vis = if a.no_darkening {
+        vis.without_darkening()
+    } else {
+        vis
+    };
     let values = std::sync::Arc::new(f.state.values());
     vis.light_objects(values.clone());
     vis.place_objects(&a.objects.placements(&scene)?);

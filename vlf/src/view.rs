@@ -123,6 +123,9 @@ pub struct Visibility {
     objects: RwLock<ObjectLight>,
     /// The light field's values (all of its light) the objects' probes gather.
     light: OnceLock<Arc<Vec<[f32; 3]>>>,
+    /// Whether the objects darken the light field's part near them (off only to measure
+    /// what that does: [`Visibility::without_darkening`]).
+    darkening: bool,
 }
 
 impl Visibility {
@@ -131,12 +134,20 @@ impl Visibility {
         let lights = Lights::new(&scene);
         Visibility {
             objects: RwLock::new(ObjectLight::at_rest(&scene)),
+            darkening: true,
             scene,
             elements,
             tiles,
             lights,
             light: OnceLock::new(),
         }
+    }
+
+    /// The same without the moving objects' darkening of the light field near them (to
+    /// measure its effect; the walls always darken).
+    pub fn without_darkening(mut self) -> Self {
+        self.darkening = false;
+        self
     }
 
     /// Lights the moving objects from the light field's `values` (all of its light:
@@ -312,7 +323,7 @@ impl Visibility {
             };
             return (l, Some(point));
         }
-        let (open, near) = if objects.is_empty() {
+        let (open, near) = if objects.is_empty() || !self.darkening {
             (1.0, false)
         } else {
             let n = s.normal * -s.normal.dot(r.dir).signum();
