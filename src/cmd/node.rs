@@ -132,8 +132,8 @@ pub struct NodeArgs {
     /// baked direct light included.
     #[arg(long)]
     pub(crate) no_direct: bool,
-    /// Take the sky's light per pixel too (one more shadow ray per pixel and frame), under
-    /// the light field's sky as a prior worth 64 of a pixel's samples: the first frame as
+    /// Take the sky's light per pixel too (two more shadow rays per pixel and frame), under
+    /// the light field's sky as a prior worth 32 of a pixel's estimates: the first frame as
     /// without, a still view's sky reflections and window light exact within seconds.
     /// Needs a light field baked with the sky's part (version 4).
     #[arg(long, conflicts_with = "no_direct")]

@@ -112,11 +112,11 @@ pub struct ViewArgs {
     #[arg(long, conflicts_with = "no_direct")]
     pub sky_per_pixel: bool,
     /// With --sky-per-pixel: the light field's sky as a prior worth K of a pixel's sky
-    /// samples (0: the pixel's samples alone).
+    /// samples (default: the walls' 64; 0: the pixel's samples alone).
     #[arg(
         long,
         value_name = "K",
-        default_value_t = 0.0,
+        default_value_t = holocave_vlf::view::SKY_PRIOR_SAMPLES,
         requires = "sky_per_pixel"
     )]
     pub sky_prior: f32,

@@ -110,11 +110,12 @@ impl PixelDirect {
     }
 
     /// Also the sky's direct light, by one sample of the sky's own distribution (the
-    /// tracer's [`Lights::sample_sky`]) per estimate, with its shadow ray: for a view that
-    /// draws the light field less the sky's first arrival as well
+    /// tracer's [`Lights::sample_sky`]) and one of the BSDF per estimate, combined by
+    /// multiple importance sampling, each with its shadow ray: for a view that draws the
+    /// light field less the sky's first arrival as well
     /// ([`crate::State::indirect_values_without_sky`]). The sky is as large as the
-    /// sphere, so unlike the sun's disc one sample is far from exact: through a window it
-    /// is mostly blocked, and a still view's mean converges as `1/√n` over frames.
+    /// sphere, so unlike the sun's disc an estimate is far from exact: through a window
+    /// most samples are blocked, and a still view's mean converges as `1/√n` over frames.
     pub fn with_sky(mut self, on: bool) -> Self {
         self.sky = on && self.lights.sky.is_some();
         self
@@ -151,7 +152,7 @@ impl PixelDirect {
         u32::from(self.lights.has_area())
             + self.lights.punctual.len() as u32
             + u32::from(self.lights.sun.is_some())
-            + u32::from(self.sky)
+            + 2 * u32::from(self.sky)
     }
 
     /// The shadow ray of one light sample at `p` and the radiance it sends towards the
@@ -208,11 +209,79 @@ impl PixelDirect {
             f(q);
         }
         if self.sky {
-            // The same 2-D sequence as the sun's, shifted by another hash of the pixel.
-            let u = Vec2::new(r_sequence(R2, 4, 0, n, seed), r_sequence(R2, 4, 1, n, seed));
-            if let Some(q) = l.sample_sky(u).and_then(|ls| self.query(p, &frame, &ls)) {
-                f(ShadowQuery { sky: true, ..q });
+            self.sky_queries(p, &frame, seed, n, &mut f);
+        }
+    }
+
+    /// The sky's two samples of an estimate, combined by multiple importance sampling
+    /// (the power heuristic): one direction from the sky's own distribution (good on a
+    /// diffuse surface under open sky) and one from the BSDF (good on a glossy one, whose
+    /// lobe the sky's distribution rarely hits through a window: alone it left speckles
+    /// on the room's glossy floor). Each is a shadow ray to infinity.
+    fn sky_queries(
+        &self,
+        p: &DirectPoint,
+        frame: &Frame,
+        seed: u64,
+        n: u64,
+        f: &mut impl FnMut(ShadowQuery),
+    ) {
+        let Some(sky) = &self.lights.sky else { return };
+        let ng = p.normal;
+        let opaque_wrong_side = |wi: Vec3| !p.bsdf.transmits() && ng.dot(wi) * ng.dot(p.wo) <= 0.0;
+        let wo = frame.to_local(p.wo);
+        // The same 2-D sequence as the sun's, shifted by another hash of the pixel.
+        let u = Vec2::new(r_sequence(R2, 4, 0, n, seed), r_sequence(R2, 4, 1, n, seed));
+        if let Some(ls) = self.lights.sample_sky(u)
+            && !opaque_wrong_side(ls.wi)
+        {
+            let (fv, bsdf_pdf) = p.bsdf.eval(wo, frame.to_local(ls.wi));
+            let c = fv
+                * frame.n.dot(ls.wi).abs()
+                * ls.contribution
+                * p.weight
+                * power_heuristic(ls.pdf, bsdf_pdf);
+            if c.max_element() > 0.0
+                && c.is_finite()
+                && let Some((ray, tmax)) = shadow_ray(&ls, p.position, ng)
+            {
+                f(ShadowQuery {
+                    ray,
+                    tmax,
+                    radiance: c,
+                    sky: true,
+                });
             }
+        }
+        let uc = r_sequence(R3, 5, 0, n, seed);
+        let u = Vec2::new(r_sequence(R3, 5, 1, n, seed), r_sequence(R3, 5, 2, n, seed));
+        let Some(b) = p.bsdf.sample(wo, uc, u) else {
+            return;
+        };
+        if b.delta {
+            return;
+        }
+        let wi = frame.to_world(b.wi).normalize();
+        if opaque_wrong_side(wi) {
+            return;
+        }
+        let c = b.weight * sky.radiance(wi) * p.weight * power_heuristic(b.pdf, sky.pdf(wi));
+        if c.max_element() <= 0.0 || !c.is_finite() {
+            return;
+        }
+        let ls = LightSample {
+            wi,
+            dist: f32::INFINITY,
+            contribution: Vec3::ZERO,
+            pdf: b.pdf,
+        };
+        if let Some((ray, tmax)) = shadow_ray(&ls, p.position, ng) {
+            f(ShadowQuery {
+                ray,
+                tmax,
+                radiance: c,
+                sky: true,
+            });
         }
     }
 

@@ -540,9 +540,9 @@ pub struct SkyPrior<'a> {
 
 /// How many of a pixel's own sky samples the light field's sky is worth on the walls
 /// (`node --sky-per-pixel`): measured on the room's floor view (`docs/vlf-direct.md`,
-/// "The sky per pixel"), 64 kept the first frame at the field's error and made every
-/// later one better; 16 and 4 were worse for the first two seconds.
-pub const SKY_PRIOR_SAMPLES: f32 = 64.0;
+/// "The sky per pixel"), 32 kept the first frame at the field's error and made every
+/// later one better than 64 did; 16 and 4 were worse at the first frame.
+pub const SKY_PRIOR_SAMPLES: f32 = 32.0;
 
 impl SkyPrior<'_> {
     /// The direct light a pixel shows at lookup `l` from `e`, the mean of its `n`

@@ -107,7 +107,11 @@ fn the_sky_split_conserves_the_light_and_draws_the_same_floor() {
     // hemisphere (the sky's pdf 1/2π there), variance (ρ L)²/3; the mean of n from the R
     // sequence at most 4 σ/√n off ρ L (plus the sky below the edge, as above).
     let direct = PixelDirect::new(scene.clone()).with_sky(true);
-    assert_eq!(direct.shadow_rays(), 1);
+    assert_eq!(
+        direct.shadow_rays(),
+        2,
+        "a sample of the sky and one of the BSDF"
+    );
     let eye = Vec3::new(0.3, 1.5, 0.2);
     let (_, point) = vis.lookup_and_point(Ray::new(eye, Vec3::NEG_Y));
     let point = point.expect("the floor");
