@@ -51,17 +51,31 @@ pub const GROUP_SIZE: u32 = 8;
 /// A surface id for rays that escaped the scene.
 pub const BACKGROUND: u32 = u32::MAX - 1;
 /// Moving objects whose points the cache tells apart (the high byte of a surface id holds
-/// the object's index + 1; 255 is the reserved ids', [`BACKGROUND`] and the holodeck's
-/// hits); a point on any further object
-/// counts as one of the static scene's, and is never blended over an object.
-pub const MAX_OBJECTS: usize = 254;
+/// the object's index + 1; 254 marks a point that shows an object beyond a mirror or
+/// glass, 255 is the reserved ids', [`BACKGROUND`] and the holodeck's hits); a point on
+/// any further object counts as one of the static scene's, and is never blended over an
+/// object.
+pub const MAX_OBJECTS: usize = 253;
 
-/// The surface id of a point: its material, and the moving object it lies on (see
-/// `OBJECT_SHIFT` in `shaders/common.wgsl`), so that points on an object move with it and
-/// only ever stand for it.
-pub fn surface_id(material: u32, object: Option<usize>) -> u32 {
-    let object = match object {
-        Some(k) if k < MAX_OBJECTS => k as u32 + 1,
+/// What a cached point's sample saw, for the cache to move, drop or count it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Seen {
+    /// The static scene.
+    Scene,
+    /// Moving object `k` (its index), the point lying on it.
+    Object(usize),
+    /// A moving object beyond a mirror or glass (the point on the static surface that
+    /// shows it): it is dropped when any object moves, and never counts.
+    ObjectBeyond,
+}
+
+/// The surface id of a point: its material, and what it saw (see `OBJECT_SHIFT` in
+/// `shaders/common.wgsl`), so that points on an object move with it and only ever stand
+/// for it.
+pub fn surface_id(material: u32, seen: Seen) -> u32 {
+    let object = match seen {
+        Seen::Object(k) if k < MAX_OBJECTS => k as u32 + 1,
+        Seen::ObjectBeyond => 254,
         _ => 0,
     };
     (object << 24) | (material & 0x00ff_ffff)

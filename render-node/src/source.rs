@@ -9,7 +9,7 @@ use holocave_scene::{MaterialKind, Ray};
 use holocave_tracer::Tracer;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 
-use crate::cache::{BACKGROUND, NewSample, surface_id};
+use crate::cache::{BACKGROUND, NewSample, Seen, surface_id};
 use crate::{EyeView, VlfBase};
 
 /// Escaped rays are placed this far along the ray (m) and marked [`BACKGROUND`].
@@ -30,12 +30,12 @@ pub struct PixelTracer {
 }
 
 /// What one sample of an eye ray found: radiance, first-hit distance, its material and
-/// the moving object it lies on (only gathers see the objects where they stand).
+/// what it saw of the moving objects (only gathers see them where they stand).
 struct Traced {
     radiance: Vec3,
     distance: f32,
     material: Option<u32>,
-    object: Option<usize>,
+    seen: Seen,
 }
 
 impl PixelTracer {
@@ -76,7 +76,11 @@ impl PixelTracer {
                     radiance: g.radiance,
                     distance: g.distance,
                     material: g.material,
-                    object: g.object,
+                    seen: match (g.object, g.object_beyond) {
+                        (Some(k), _) => Seen::Object(k),
+                        (None, true) => Seen::ObjectBeyond,
+                        (None, false) => Seen::Scene,
+                    },
                 })
                 .collect(),
             None => self
@@ -87,7 +91,7 @@ impl PixelTracer {
                     radiance: Vec3::from(t.radiance),
                     distance: t.distance,
                     material: t.material,
-                    object: None,
+                    seen: Seen::Scene,
                 })
                 .collect(),
         }
@@ -142,7 +146,7 @@ impl PixelTracer {
             .map(|((ray, s), &pixel)| {
                 let (distance, material, surface) = match s.material {
                     Some(m) if s.distance.is_finite() => {
-                        (s.distance, Some(m), surface_id(m, s.object))
+                        (s.distance, Some(m), surface_id(m, s.seen))
                     }
                     _ => (BACKGROUND_DISTANCE, None, BACKGROUND),
                 };

@@ -112,7 +112,7 @@ pub struct ViewArgs {
     #[arg(long, conflicts_with = "no_direct")]
     pub sky_per_pixel: bool,
     /// With --sky-per-pixel: the light field's sky as a prior worth K of a pixel's sky
-    /// samples (default: the walls' 64; 0: the pixel's samples alone).
+    /// samples (default: the walls'; 0: the pixel's samples alone).
     #[arg(
         long,
         value_name = "K",

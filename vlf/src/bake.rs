@@ -691,10 +691,11 @@ pub fn bake_with<E>(
             // Deterministic: the same as the saved one.
             s.direct = direct;
             s.tiles_direct = direct_tiles;
-            s.sky = sky_first.clone();
-            s.tiles_sky = sky_first_tiles.clone();
-            if s.converged {
-                smooth_sky(&mut s);
+            // The file's sky part, as saved with its irradiance (raw until converged,
+            // smoothed with it after).
+            if s.sky_values().is_none() {
+                s.sky = sky_first.clone();
+                s.tiles_sky = sky_first_tiles.clone();
             }
             s
         }

@@ -386,18 +386,13 @@ impl Reader<'_> {
                 found: version,
             });
         }
-        let expected = if version == VERSION {
-            CHUNKS
-        } else {
-            CHUNKS - 2
-        };
         let chunks = u32::from_le_bytes(self.bytes[12..16].try_into().unwrap_or_default());
-        if chunks != expected {
+        if chunks != CHUNKS {
             return Err(VlfError::Malformed {
                 path: path.into(),
                 chunk: "header".into(),
                 offset: 12,
-                what: format!("{chunks} chunks, version {version} has {expected}"),
+                what: format!("{chunks} chunks, version {VERSION} has {CHUNKS}"),
             });
         }
         let mut at = HEADER;

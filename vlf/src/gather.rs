@@ -52,6 +52,8 @@ pub struct Gathered {
     pub material: Option<u32>,
     /// The moving object of that hit (its index), if it lies on one.
     pub object: Option<usize>,
+    /// The ray meets a moving object beyond the mirrors and glass it first hits.
+    pub object_beyond: bool,
 }
 
 /// A gather sample of `ray`: `direct` gives the next-event part at both vertices,
@@ -70,22 +72,24 @@ pub fn gather(
         distance: first.map_or(f32::INFINITY, |h| h.t),
         material: None,
         object: None,
+        object_beyond: false,
     };
     let mut rng = SmallRng::seed_from_u64(seed);
     vis.with_placed(|placed| {
         g.material = first.map(|h| placed.surface(&h).material);
         g.object = first.and_then(|h| placed.object_of(h.triangle));
+        g.object_beyond = g.object.is_none() && lookup.object != 0;
         let Some(p) = point else {
             return;
         };
+        // The sky's direct light at x (when the estimates take it) comes along the bounce
+        // below, as the sky seen by an escaping ray; a moving object's lookup holds it
+        // already (its probe's, with the rest of its indirect light).
         let e = direct.estimate(placed, &p, rng.random(), 0);
-        // A moving object's lookup holds its indirect light already (its probe's, the
-        // sky's included).
+        g.radiance += e.radiance - e.sky;
         if placed.object_of(p.triangle).is_some() {
-            g.radiance += e.radiance - e.sky;
             return;
         }
-        g.radiance += e.radiance;
         g.radiance += direct.via_mirror(placed, &p, rng.random());
         let frame = Frame::new(p.shading_normal);
         let (uc, u) = (rng.random(), Vec2::new(rng.random(), rng.random()));

@@ -41,8 +41,11 @@ fn point_valid(p: Point) -> bool {
     return p.pos.w < MAX_AGE;
 }
 
-// The moving object a point lies on (index + 1), 0 for the static scene; a high byte of
-// 255 is the reserved ids' (the background, the holodeck's hits): static too.
+// A point that shows a moving object beyond a mirror or glass (`cache::Seen::ObjectBeyond`).
+const OBJECT_BEYOND: u32 = 0xfeu;
+
+// The moving object a point lies on (index + 1), 0 for the static scene, OBJECT_BEYOND; a
+// high byte of 255 is the reserved ids' (the background, the holodeck's hits): static too.
 fn point_object(p: Point) -> u32 {
     let k = bitcast<u32>(p.origin.w) >> OBJECT_SHIFT;
     return select(k, 0u, k == 0xffu);

@@ -104,6 +104,11 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
             age_neighbourhood(bitcast<u32>(s.pos.w));
         }
     }
+    // A sample of another object than the point's (or of an object where the point is the
+    // room's) never joins it, even from the same eye: an object moved in front of it.
+    if ((bitcast<u32>(p.origin.w) >> OBJECT_SHIFT) != (bitcast<u32>(s.rad.w) >> OBJECT_SHIFT)) {
+        return;
+    }
     let w = max(s.weight.x, 1.0);
     var n = p.rad.w + w;
     if (moved > SAME_ORIGIN) {

@@ -4,6 +4,7 @@
 //     applied to the point and to the origin of its ray) and is marked for resampling:
 //     it keeps at most one sample's weight and the age that gives it the highest priority,
 //     since its light changed as it moved;
+//   - a point that showed an object beyond a mirror or glass is dropped;
 //   - any other point in the shadow of a moved object, where it was or where it is now,
 //     towards any light, is dropped: its light changed, and the pixel shows the light
 //     field (with the exact direct light) until a new sample comes, asked for first as an
@@ -81,6 +82,10 @@ fn move_points(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let k = point_object(p);
+    if (k == OBJECT_BEYOND) {
+        points[i].pos.w = MAX_AGE;
+        return;
+    }
     for (var m = 0u; m < M.nmoves; m++) {
         if (k != 0u && moves[m].object == k) {
             let d = moves[m].delta;

@@ -156,7 +156,8 @@ fn blend(@builtin(global_invocation_id) gid: vec3<u32>) {
     var n = 0.0;
     if (c.w >= 1.0) {
         let p = points[key_index(key_img[i], V.index_bits)];
-        if (point_object(p) == lookups[i].object) {
+        let seen = point_object(p);
+        if (seen == lookups[i].object && seen != OBJECT_BEYOND) {
             n = p.rad.w * STALE_FRAMES / (STALE_FRAMES + p.pos.w);
         }
     } else if (c.w > 0.0 && lookups[i].object == 0u) {
