@@ -47,7 +47,12 @@ const OBJECT_BEYOND: u32 = 0xfeu;
 // The moving object a point lies on (index + 1), 0 for the static scene, OBJECT_BEYOND; a
 // high byte of 255 is the reserved ids' (the background, the holodeck's hits): static too.
 fn point_object(p: Point) -> u32 {
-    let k = bitcast<u32>(p.origin.w) >> OBJECT_SHIFT;
+    return surface_object(bitcast<u32>(p.origin.w));
+}
+
+// The same of a surface id.
+fn surface_object(surface: u32) -> u32 {
+    let k = surface >> OBJECT_SHIFT;
     return select(k, 0u, k == 0xffu);
 }
 

@@ -105,8 +105,10 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     // A sample of another object than the point's (or of an object where the point is the
-    // room's) never joins it, even from the same eye: an object moved in front of it.
-    if ((bitcast<u32>(p.origin.w) >> OBJECT_SHIFT) != (bitcast<u32>(s.rad.w) >> OBJECT_SHIFT)) {
+    // room's) never joins it, even from the same eye: an object moved in front of it. (The
+    // room's surfaces and the background are all static: a sample escaping at a silhouette
+    // still joins the pixel's point, as before.)
+    if (point_object(p) != surface_object(bitcast<u32>(s.rad.w))) {
         return;
     }
     let w = max(s.weight.x, 1.0);
