@@ -168,13 +168,15 @@ impl Drawing {
                 let mut c = shade_one(&l, values);
                 if let (Some(direct), Some(p)) = (direct, p) {
                     c += visibility.with_placed(|placed| {
-                        direct.mean(
-                            placed,
-                            &p,
-                            seed.wrapping_mul(0x1_0000).wrapping_add(index),
-                            0,
-                            *estimates,
-                        )
+                        direct
+                            .mean(
+                                placed,
+                                &p,
+                                seed.wrapping_mul(0x1_0000).wrapping_add(index),
+                                0,
+                                *estimates,
+                            )
+                            .radiance
                     });
                 }
                 c

@@ -200,9 +200,10 @@ impl VlfBase {
         (before.iter().zip(&after).enumerate())
             .filter(|(k, (a, b))| a != b && *k < MAX_OBJECTS)
             .map(|(k, (a, b))| {
-                let (lo, hi) = objects[k].local_bounds();
-                let (centre, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
-                let sphere = |p: &Placement| p.to_world_point(centre).extend(radius);
+                let sphere = |p: &Placement| {
+                    let (centre, radius) = objects[k].bounding_sphere(p);
+                    centre.extend(radius)
+                };
                 ObjectMove::new(k, matrix(b) * matrix(a).inverse(), sphere(a), sphere(b))
             })
             .collect()
@@ -286,8 +287,9 @@ impl VlfBase {
                 let (l, p) = self.visibility.lookup_and_point(ray);
                 let mut c = shade_one(&l, self.values());
                 if let (true, Some(p)) = (self.direct, p) {
-                    c += (self.visibility)
-                        .with_placed(|placed| self.nee.mean(placed, &p, i as u64, 0, estimates));
+                    c += (self.visibility).with_placed(|placed| {
+                        self.nee.mean(placed, &p, i as u64, 0, estimates).radiance
+                    });
                 }
                 c
             })

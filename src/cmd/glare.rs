@@ -164,3 +164,36 @@ pub(crate) fn session_meter(
         photometry,
     )?)
 }
+
+/// The CSV a session's glare is written to, in its output folder.
+pub(crate) const GLARE_CSV: &str = "glare.csv";
+
+/// Glare measured live while a session runs (`master --glare`, `node --standalone
+/// --glare`): `size`² fisheyes from the light field `vlf`, into `dir/glare.csv` (the folder
+/// made if missing).
+pub(crate) fn start_live(
+    scene: &Arc<holocave_scene::Scene>,
+    vlf: &std::path::Path,
+    size: u32,
+    dir: &std::path::Path,
+) -> Result<holocave_glare::live::LiveGlare> {
+    let meter = session_meter(scene, vlf, size)?;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    Ok(holocave_glare::live::LiveGlare::start(
+        meter,
+        &dir.join(GLARE_CSV),
+    )?)
+}
+
+/// Stops live glare and prints the session's summary.
+pub(crate) fn finish_live(
+    glare: holocave_glare::live::LiveGlare,
+    dir: &std::path::Path,
+) -> Result<()> {
+    let summary = glare.finish()?;
+    println!(
+        "glare of the head's view in {}: {summary}",
+        dir.join(GLARE_CSV).display()
+    );
+    Ok(())
+}

@@ -2,7 +2,7 @@
 //! and the swap barrier for the render nodes, and prints a status line every second.
 
 use std::net::TcpListener;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -12,7 +12,6 @@ use clap::Args;
 use super::render::SharedScene;
 use glam::DVec3;
 use holocave_cave::{Cave, load_cave};
-use holocave_glare::live::LiveGlare;
 use holocave_glare::session::views_of;
 use holocave_holodeck::auth::Credentials;
 use holocave_master::cluster::{FrameHook, MasterOptions, Summary, pacer_since, run as run_master};
@@ -378,10 +377,9 @@ pub fn run(args: MasterArgs) -> Result<()> {
     }
     let (hosted, holodeck) = args.holodeck.start(&cave, credentials.clone(), "master")?;
     let live_glare = match (args.glare, &scene, &args.vlf, &args.out) {
-        (Some(size), Some(scene), Some(vlf), Some(dir)) => {
-            let meter = super::glare::session_meter(&scene.get()?, vlf, size)?;
-            Some(Arc::new(LiveGlare::start(meter, &dir.join("glare.csv"))?))
-        }
+        (Some(size), Some(scene), Some(vlf), Some(dir)) => Some(Arc::new(
+            super::glare::start_live(&scene.get()?, vlf, size, dir)?,
+        )),
         _ => None,
     };
     let mut hosted_status = hosted.as_ref().map(Hosted::status);
@@ -425,16 +423,8 @@ pub fn run(args: MasterArgs) -> Result<()> {
             on_frame,
         },
     );
-    if let Some(g) = live_glare.and_then(Arc::into_inner) {
-        let summary = g.finish()?;
-        println!(
-            "glare of the head's view in {}: {summary}",
-            args.out
-                .as_deref()
-                .unwrap_or(Path::new("."))
-                .join("glare.csv")
-                .display()
-        );
+    if let (Some(g), Some(dir)) = (live_glare.and_then(Arc::into_inner), &args.out) {
+        super::glare::finish_live(g, dir)?;
     }
     if let Some(p) = navigation_log {
         println!("room → scene transform of every frame in {}", p.display());

@@ -16,7 +16,6 @@ use anyhow::{Context, Result, anyhow, bail};
 use clap::{Args, ValueEnum};
 use glam::{DMat4, Quat, Vec3};
 use holocave_cave::{Cave, Eye, Wall, load_cave};
-use holocave_glare::live::LiveGlare;
 use holocave_glare::session::FrameView;
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
@@ -25,7 +24,7 @@ use holocave_protocol::cluster::FrameState;
 use holocave_render_node::Prior;
 use holocave_render_node::cluster_node::{self, DisplayMaker, Membership, VlfOptions};
 use holocave_render_node::gpu_rays::Rays;
-use holocave_render_node::output::{PresentedLog, write_frame};
+use holocave_render_node::output::{PresentedLog, eye_name, write_frame};
 use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWall};
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
@@ -304,11 +303,7 @@ fn glare_views(
         .map(|(e, v)| FrameView {
             frame,
             time_ns: ns,
-            eye_name: match e {
-                Eye::Left => "left",
-                Eye::Right => "right",
-                Eye::Centre => "centre",
-            },
+            eye_name: eye_name(*e),
             eye: v.wall.eye,
             look,
         })
@@ -460,11 +455,7 @@ fn standalone(
             .map_err(|e| format!("{e:#}")),
     };
     let glare = match (args.glare, &args.vlf) {
-        (Some(size), Some(vlf)) => {
-            let meter = super::glare::session_meter(&scene, vlf, size)?;
-            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-            Some(LiveGlare::start(meter, &dir.join("glare.csv"))?)
-        }
+        (Some(size), Some(vlf)) => Some(super::glare::start_live(&scene, vlf, size, &dir)?),
         _ => None,
     };
     let mut shown = |frame: u64, ns: u64, pose: &Pose, views: &[EyeView]| {
@@ -493,11 +484,7 @@ fn standalone(
     )
     .map_err(|e| anyhow!(e))?;
     if let Some(g) = glare {
-        let summary = g.finish()?;
-        println!(
-            "glare of the head's view in {}: {summary}",
-            dir.join("glare.csv").display()
-        );
+        super::glare::finish_live(g, &dir)?;
     }
     if let Some(o) = &mut output {
         let last = totals.frames.saturating_sub(1);

@@ -359,7 +359,7 @@ fn measure_glare(
     let meter = super::glare::session_meter(scene, vlf, size)?;
     let states = args.out.join("states.bin");
     let views = frame_views(&states)?;
-    let csv = args.out.join("glare.csv");
+    let csv = args.out.join(super::glare::GLARE_CSV);
     let summary = measure_session(&meter, &views, &csv)?;
     println!(
         "glare of {} eye views in {}: {summary}",

@@ -389,16 +389,6 @@ fn view(a: ViewArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let scene = std::sync::Arc::new(scene);
     let direct = holocave_vlf::PixelDirect::new(scene.clone()).with_sky(a.sky_per_pixel);
-    let remainder = if a.sky_per_pixel {
-        f.state.indirect_values_without_sky().with_context(|| {
-            format!(
-                "{}: baked without the sky's part (version 3): bake it again to take the sky per pixel",
-                a.file.display()
-            )
-        })?
-    } else {
-        f.state.indirect_values()
-    };
     let vis = Visibility::new(scene.clone(), elements, tiles);
     let vis = if a.no_darkening {
         vis.without_darkening()
@@ -417,16 +407,24 @@ fn view(a: ViewArgs) -> Result<()> {
             a.frames.max(1),
             a.aa.max(1).pow(2)
         );
-        match f.state.sky_values().filter(|_| a.sky_per_pixel) {
-            Some(sky) => {
-                let prior = holocave_vlf::view::SkyPrior {
-                    values: &sky,
-                    samples: a.sky_prior.max(0.0),
-                };
-                vis.render_with_sky(&view, &remainder, a.aa, &direct, a.frames, prior)
-            }
-            None => vis.render_with_direct(&view, &remainder, a.aa, &direct, a.frames),
-        }
+        // The field less what is taken per pixel: the direct light, and the sky if asked.
+        let (remainder, sky) = if a.sky_per_pixel {
+            let split = (f.state.indirect_values_without_sky()).zip(f.state.sky_values());
+            let (remainder, sky) = split.with_context(|| {
+                format!(
+                    "{}: holds no sky part: bake it again to take the sky per pixel",
+                    a.file.display()
+                )
+            })?;
+            (remainder, Some(sky))
+        } else {
+            (f.state.indirect_values(), None)
+        };
+        let prior = sky.as_deref().map(|values| holocave_vlf::view::SkyPrior {
+            values,
+            samples: a.sky_prior.max(0.0),
+        });
+        vis.render_with_direct(&view, &remainder, a.aa, &direct, a.frames, prior)
     };
     let secs = start.elapsed().as_secs_f64();
     image.write_exr(&a.out)?;

@@ -125,12 +125,6 @@ impl State {
     /// is the sky along the lines, caustics and the inter-reflected light. Negative
     /// values can only be the rounding of that subtraction, and are made zero.
     pub fn indirect_values(&self) -> Vec<[f32; 3]> {
-        let less = |a: &[[f32; 3]], b: &[[f32; 3]]| -> Vec<[f32; 3]> {
-            a.iter()
-                .zip(b)
-                .map(|(a, b)| (Vec3::from(*a) - Vec3::from(*b)).max(Vec3::ZERO).to_array())
-                .collect()
-        };
         [
             less(&self.irradiance, &self.direct),
             less(&self.tiles, &self.tiles_direct),
@@ -139,29 +133,11 @@ impl State {
     }
 
     /// What the lookups read when the sky's light is computed per pixel as well:
-    /// [`State::indirect_values`] less the sky's first arrival ([`State::sky`],
-    /// [`State::tiles_sky`]): caustics and the inter-reflected light. `None` for a file
-    /// that does not hold the sky's part.
+    /// [`State::indirect_values`] less the sky's first arrival ([`State::sky_values`]):
+    /// caustics and the inter-reflected light. `None` for a state that does not hold the
+    /// sky's part.
     pub fn indirect_values_without_sky(&self) -> Option<Vec<[f32; 3]>> {
-        if self.sky.len() != self.irradiance.len() || self.tiles_sky.len() != self.tiles.len() {
-            return None;
-        }
-        let less = |a: &[[f32; 3]], b: &[[f32; 3]], c: &[[f32; 3]]| -> Vec<[f32; 3]> {
-            (a.iter().zip(b).zip(c))
-                .map(|((a, b), c)| {
-                    (Vec3::from(*a) - Vec3::from(*b) - Vec3::from(*c))
-                        .max(Vec3::ZERO)
-                        .to_array()
-                })
-                .collect()
-        };
-        Some(
-            [
-                less(&self.irradiance, &self.direct, &self.sky),
-                less(&self.tiles, &self.tiles_direct, &self.tiles_sky),
-            ]
-            .concat(),
-        )
+        Some(less(&self.indirect_values(), &self.sky_values()?))
     }
 
     /// The sky's first arrival as the lookups read it: the elements' part, then the
@@ -348,6 +324,14 @@ pub fn layout(scene: &Scene, settings: &Settings) -> Elements {
 /// The glossy tiles of a bake of `scene` with `settings`, on its element layout.
 pub fn tiles(scene: &Scene, settings: &Settings, elements: &Elements) -> Tiles {
     Tiles::new(scene, elements, settings)
+}
+
+/// `a − b`, value by value, never negative (what is left can only be rounding below zero).
+fn less(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (Vec3::from(*a) - Vec3::from(*b)).max(Vec3::ZERO).to_array())
+        .collect()
 }
 
 /// The least area a line's light is spread over (see the bake): a quarter of the
@@ -666,19 +650,13 @@ pub fn bake_with<E>(
     });
     stats.propagation += start.elapsed();
     // The sky's first arrival: the first bounce less its caustics.
-    let less = |a: &[[f32; 3]], b: Option<&[[f32; 3]]>| -> Vec<[f32; 3]> {
-        match b {
-            Some(b) => (a.iter().zip(b))
-                .map(|(a, b)| (Vec3::from(*a) - Vec3::from(*b)).to_array())
-                .collect(),
-            None => a.to_vec(),
-        }
+    let (sky_first, sky_first_tiles) = match &caustics {
+        Some(c) => (
+            less(&got.irradiance, &c.irradiance),
+            less(&got.tiles, &c.tiles),
+        ),
+        None => (got.irradiance.clone(), got.tiles.clone()),
     };
-    let sky_first = less(
-        &got.irradiance,
-        caustics.as_ref().map(|c| c.irradiance.as_slice()),
-    );
-    let sky_first_tiles = less(&got.tiles, caustics.as_ref().map(|c| c.tiles.as_slice()));
     // Smoothed as the irradiance is when it converges (the smoothing is linear, so the
     // split still sums to the total).
     let smooth_sky = |state: &mut State| {

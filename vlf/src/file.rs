@@ -322,31 +322,6 @@ impl Reader<'_> {
         count: u64,
     ) -> Result<Vec<[f32; 3]>, VlfError> {
         let (p, base) = self.chunk(at, tag)?;
-        self.values(p, base, tag, count)
-    }
-
-    /// [`Self::array`], or nothing when the chunk is empty.
-    fn array_or_none(
-        &self,
-        at: &mut usize,
-        tag: &'static str,
-        count: u64,
-    ) -> Result<Vec<[f32; 3]>, VlfError> {
-        let (p, base) = self.chunk(at, tag)?;
-        if p.is_empty() {
-            return Ok(Vec::new());
-        }
-        self.values(p, base, tag, count)
-    }
-
-    /// The `count` values of chunk `tag`'s payload `p` (at byte `base`).
-    fn values(
-        &self,
-        p: &[u8],
-        base: usize,
-        tag: &'static str,
-        count: u64,
-    ) -> Result<Vec<[f32; 3]>, VlfError> {
         if p.len() as u64 != count * 12 {
             return Err(VlfError::Malformed {
                 path: self.path.into(),
@@ -429,9 +404,8 @@ impl Reader<'_> {
         let tiles_last = self.array(&mut at, "TLST", tile_count)?;
         let direct = self.array(&mut at, "DIRE", count)?;
         let tiles_direct = self.array(&mut at, "TDIR", tile_count)?;
-        // A state without the sky's part (one made by hand) writes both chunks empty.
-        let sky = self.array_or_none(&mut at, "SKYE", count)?;
-        let tiles_sky = self.array_or_none(&mut at, "TSKY", tile_count)?;
+        let sky = self.array(&mut at, "SKYE", count)?;
+        let tiles_sky = self.array(&mut at, "TSKY", tile_count)?;
         if at != self.bytes.len() {
             return Err(VlfError::Malformed {
                 path: path.into(),

@@ -63,12 +63,6 @@ pub struct ObjectLight {
     objects: Vec<LitObject>,
 }
 
-/// An object's world bounding sphere at `at`: its local box's centre and half diagonal.
-fn bounding_sphere(scene: &Scene, k: usize, at: &Placement) -> (Vec3, f32) {
-    let (lo, hi) = scene.objects()[k].local_bounds();
-    (at.to_world_point(0.5 * (lo + hi)), 0.5 * (hi - lo).length())
-}
-
 /// Object `k`'s mean projected area (over directions), from grids of parallel rays
 /// across its bounding sphere, `DIRS` directions of `GRID²` rays each.
 fn mean_projected_area(scene: &Scene, k: usize) -> f32 {
@@ -76,7 +70,7 @@ fn mean_projected_area(scene: &Scene, k: usize) -> f32 {
     const GRID: u32 = 48;
     let rest = scene.rest_placements();
     let placed = scene.placed(&rest);
-    let (c, r) = bounding_sphere(scene, k, &rest[k]);
+    let (c, r) = scene.objects()[k].bounding_sphere(&rest[k]);
     let cell = 2.0 * r / GRID as f32;
     let mut area = 0.0;
     for i in 0..DIRS {
@@ -127,7 +121,7 @@ impl ObjectLight {
         assert_eq!(placements.len(), scene.objects().len());
         let moved = self.placements.as_slice() != placements;
         for (k, at) in placements.iter().enumerate() {
-            let (centre, bound) = bounding_sphere(scene, k, at);
+            let (centre, bound) = scene.objects()[k].bounding_sphere(at);
             let gather = |c: Vec3| {
                 incoming.map(|f| IrradianceProbe::gather(c, PROBE_DIRECTIONS, |d| f(c, d)))
             };

@@ -365,20 +365,9 @@ impl PixelDirect {
         power_heuristic(bsdf_pdf, light_pdf)
     }
 
-    /// The mean radiance of estimates `first .. first + count` at `p` (pixel `seed`).
+    /// The mean of estimates `first .. first + count` at `p` (pixel `seed`): radiance,
+    /// the sky's share of it, whether an object blocked any.
     pub fn mean(
-        &self,
-        placed: &PlacedScene,
-        p: &DirectPoint,
-        seed: u64,
-        first: u64,
-        count: u32,
-    ) -> Vec3 {
-        self.mean_estimate(placed, p, seed, first, count).radiance
-    }
-
-    /// [`Self::mean`], with the sky's share of it.
-    pub fn mean_estimate(
         &self,
         placed: &PlacedScene,
         p: &DirectPoint,

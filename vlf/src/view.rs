@@ -458,7 +458,10 @@ impl Visibility {
     /// [`crate::State::indirect_values`]) plus the direct light computed per pixel
     /// (`direct`), each of the `k × k` lookups per pixel with the mean of the estimates a
     /// still wall has after `frames` frames ([`PixelDirect::first_estimates`] on the
-    /// first, one on each later one).
+    /// first, one on each later one). With `sky`, the sky's light is taken per pixel too
+    /// (`direct` [`PixelDirect::with_sky`], `values`
+    /// [`crate::State::indirect_values_without_sky`]), under the light field's sky part as
+    /// a prior.
     pub fn render_with_direct(
         &self,
         view: &WallView,
@@ -466,23 +469,9 @@ impl Visibility {
         k: u32,
         direct: &PixelDirect,
         frames: u32,
+        sky: Option<SkyPrior>,
     ) -> Image {
-        self.render_lookups(view, values, k, Some(direct), frames, None)
-    }
-
-    /// [`Self::render_with_direct`] with the sky's light taken per pixel too (`direct`
-    /// [`PixelDirect::with_sky`], `values` [`crate::State::indirect_values_without_sky`]),
-    /// under the light field's sky part as a prior (`sky`).
-    pub fn render_with_sky(
-        &self,
-        view: &WallView,
-        values: &[[f32; 3]],
-        k: u32,
-        direct: &PixelDirect,
-        frames: u32,
-        sky: SkyPrior,
-    ) -> Image {
-        self.render_lookups(view, values, k, Some(direct), frames, Some(sky))
+        self.render_lookups(view, values, k, Some(direct), frames, sky)
     }
 
     /// `k × k` lookups per pixel, each with the direct light per pixel when given.
@@ -515,7 +504,7 @@ impl Visibility {
                 sum += shade_one(&l, values);
                 if let (Some(direct), Some(p)) = (direct, p) {
                     let seed = (i as u64) * u64::from(k * k) + u64::from(s);
-                    let e = direct.mean_estimate(&placed, &p, seed, 0, estimates);
+                    let e = direct.mean(&placed, &p, seed, 0, estimates);
                     sum += match &sky {
                         Some(prior) => prior.direct(&l, &e, estimates),
                         None => e.radiance,

@@ -143,7 +143,7 @@ fn the_walls_are_within_two_percent_of_the_path_tracer() {
             .expect("bake");
     let vis = holocave_vlf::Visibility::of(scene.clone(), &settings);
     let direct = holocave_vlf::PixelDirect::new(scene.clone());
-    let drawn = vis.render_with_direct(&view, &state.indirect_values(), 2, &direct, 1);
+    let drawn = vis.render_with_direct(&view, &state.indirect_values(), 2, &direct, 1, None);
     let tracer = holocave_tracer::Tracer::new(scene.clone(), Default::default());
     let refs: Vec<_> = (1..=2)
         .map(|seed| holocave_tracer::render::render(&tracer, &view, 256, seed, &|| {}))

@@ -270,7 +270,9 @@ fn the_split_draws_what_the_total_draws() {
             let new = f64::from(
                 (shade_one(&lookup, &indirect)
                     + vis.with_placed(|s| {
-                        direct.mean(s, &point, (o * 1000 + k) as u64, 0, samples)
+                        direct
+                            .mean(s, &point, (o * 1000 + k) as u64, 0, samples)
+                            .radiance
                     }))
                 .x,
             );

@@ -74,7 +74,7 @@ fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() 
 
     // What a still wall shows of the field: 4 × 4 lookups per pixel, the direct light per
     // pixel averaged over 64 frames.
-    let field = vis.render_with_direct(&view, &indirect, 4, &direct, 64);
+    let field = vis.render_with_direct(&view, &indirect, 4, &direct, 64, None);
     let field_err = field.relative_mse(&reference);
 
     let rays = grid_rays(&view, 32);

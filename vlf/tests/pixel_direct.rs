@@ -117,7 +117,7 @@ fn estimated(vis: &Visibility, direct: &PixelDirect, x: f32, first: u64, count: 
     assert!((point.position - p).length() < 1e-4, "{}", point.position);
     let seed = (x * 1e4) as u64;
     f64::from(
-        vis.with_placed(|s| direct.mean(s, &point, seed, first, count))
+        vis.with_placed(|s| direct.mean(s, &point, seed, first, count).radiance)
             .x,
     ) * std::f64::consts::PI
         / f64::from(RHO)
@@ -397,7 +397,9 @@ fn drawn(
             sum += holocave_vlf::view::shade_one(&l, values);
             if let Some(p) = p {
                 sum += vis.with_placed(|sc| {
-                    direct.mean(sc, &p, (i as u64) * 64 + u64::from(s), first, frames)
+                    direct
+                        .mean(sc, &p, (i as u64) * 64 + u64::from(s), first, frames)
+                        .radiance
                 });
             }
         }

@@ -116,7 +116,7 @@ fn the_sky_split_conserves_the_light_and_draws_the_same_floor() {
     let (_, point) = vis.lookup_and_point(Ray::new(eye, Vec3::NEG_Y));
     let point = point.expect("the floor");
     let samples = 16_384;
-    let e = vis.with_placed(|s| direct.mean_estimate(s, &point, 7, 0, samples));
+    let e = vis.with_placed(|s| direct.mean(s, &point, 7, 0, samples));
     assert_eq!(e.radiance, e.sky, "all of it the sky's");
     let exact = f64::from(RHO * SKY_L);
     let sigma = exact / 3f64.sqrt() / f64::from(samples).sqrt();

@@ -155,6 +155,12 @@ impl MovableObject {
         self.bounds
     }
 
+    /// The sphere round its bounds, placed at `at`: world centre and radius.
+    pub fn bounding_sphere(&self, at: &Placement) -> (Vec3, f32) {
+        let (lo, hi) = self.bounds;
+        (at.to_world_point(0.5 * (lo + hi)), 0.5 * (hi - lo).length())
+    }
+
     /// The object's triangles in its own frame.
     pub fn local_triangles(&self) -> &[[Vec3; 3]] {
         &self.positions
