@@ -27,7 +27,7 @@ use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
-use holocave_vlf::{Accumulator, Lookup, PixelDirect, ShadowQuery, Visibility};
+use holocave_vlf::{Accumulator, DirectPoint, Lookup, PixelDirect, ShadowQuery, Visibility};
 use rayon::prelude::*;
 
 use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
@@ -65,6 +65,9 @@ pub struct VlfBase {
     /// The running means of the direct light, per view drawn, with the frame each was
     /// last drawn (a moved eye takes over its screen's nearest one).
     history: Mutex<Vec<(u64, WallView, Accumulator)>>,
+    /// Buffers for the points a frame's pixels see, kept between frames (one per view
+    /// drawn at once).
+    points: Mutex<Vec<Vec<Option<DirectPoint>>>>,
     /// Where the pixels' first hits are found: on this GPU, or (`None`) on the CPU.
     gpu_rays: Option<(Gpu, Mutex<GpuRays>)>,
     shadow_lights: Vec<ShadowLight>,
@@ -164,6 +167,7 @@ impl VlfBase {
             direct: !nee.is_empty(),
             nee,
             history: Mutex::new(Vec::new()),
+            points: Mutex::new(Vec::new()),
             gpu_rays: None,
             shadow_lights,
             visibility,
@@ -260,15 +264,11 @@ impl VlfBase {
         Some(engine.read_hits(gpu, n))
     }
 
-    /// Each pixel's lookup and point, the first hits found where chosen.
-    fn pixels_and_points(
-        &self,
-        wall: &WallView,
-    ) -> Vec<(Lookup, Option<holocave_vlf::DirectPoint>)> {
-        match self.gpu_first_hits(wall) {
-            Some(hits) => self.visibility.pixels_and_points_from(wall, &hits),
-            None => self.visibility.pixels_and_points(wall),
-        }
+    /// Each pixel's lookup, and its point written into `points`, the first hits found
+    /// where chosen.
+    fn pixels_into(&self, wall: &WallView, points: &mut Vec<Option<DirectPoint>>) -> Vec<Lookup> {
+        let hits = self.gpu_first_hits(wall);
+        self.visibility.pixels_into(wall, hits.as_deref(), points)
     }
 
     /// One gather sample along each ray ([`holocave_vlf::gather`]): the direct light
@@ -309,20 +309,23 @@ impl VlfBase {
     /// direct light per pixel in its `emitted` light: this frame's estimate averaged with
     /// those of earlier frames of the same view at the same surface point.
     pub fn lookups(&self, view: &EyeView) -> Vec<Lookup> {
-        let direct = &self.nee;
-        if !self.direct {
-            return match self.gpu_first_hits(&view.wall) {
-                Some(hits) => self
-                    .visibility
-                    .pixels_and_points_from(&view.wall, &hits)
-                    .into_iter()
-                    .map(|(l, _)| l)
-                    .collect(),
-                None => self.visibility.pixels(&view.wall),
-            };
+        let mut points = {
+            let mut pool = self.points.lock().unwrap_or_else(|e| e.into_inner());
+            pool.pop().unwrap_or_default()
+        };
+        let mut lookups = self.pixels_into(&view.wall, &mut points);
+        if self.direct {
+            self.add_direct(view, &mut lookups, &points);
         }
-        let (mut lookups, points): (Vec<Lookup>, Vec<_>) =
-            self.pixels_and_points(&view.wall).into_iter().unzip();
+        let mut pool = self.points.lock().unwrap_or_else(|e| e.into_inner());
+        pool.push(points);
+        lookups
+    }
+
+    /// Adds each pixel's running mean of the direct light at its point (`points`) to its
+    /// lookup's `emitted` light, this frame's estimate included.
+    fn add_direct(&self, view: &EyeView, lookups: &mut [Lookup], points: &[Option<DirectPoint>]) {
+        let direct = &self.nee;
         // This view's history (taken out while it is used: other views may be drawn on
         // other threads meanwhile); else, when the eye moved, the history of the same
         // screen drawn from the nearest eye, carried over to this view; else a new one in
@@ -364,7 +367,7 @@ impl VlfBase {
             }
         };
         if let Some(from) = moved_from {
-            acc.reproject(&from, &view.wall, &points);
+            acc.reproject(&from, &view.wall, points);
         }
         let estimates = self.visibility.with_placed(|placed| match &self.gpu_rays {
             Some((gpu, engine)) => {
@@ -377,9 +380,9 @@ impl VlfBase {
                     let occluders = engine.occluders_each(gpu, &rays);
                     occluders.iter().map(Option::is_some).collect()
                 };
-                acc.add_blocked(direct, placed, &points, &on_gpu)
+                acc.add_blocked(direct, placed, points, &on_gpu)
             }
-            None => acc.add(direct, placed, &points),
+            None => acc.add(direct, placed, points),
         });
         for ((l, d), &n) in lookups.iter_mut().zip(estimates).zip(acc.counts()) {
             let added = match &self.sky {
@@ -398,6 +401,5 @@ impl VlfBase {
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
         let now = h.iter().map(|e| e.0).max().unwrap_or(0) + 1;
         h.push((now, view.wall, acc));
-        lookups
     }
 }

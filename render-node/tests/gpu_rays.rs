@@ -322,7 +322,7 @@ fn the_direct_lights_shadow_rays_are_the_cpus() {
     let direct = PixelDirect::new(scene.clone());
     let view = camera_view(&scene, 64, 48);
     let mut queries = Vec::new();
-    for (i, (_, p)) in vis.pixels_and_points(&view).iter().enumerate() {
+    for (i, p) in vis.pixels_and_points(&view).1.iter().enumerate() {
         if let Some(p) = p {
             for n in 0..4 {
                 direct.queries(p, i as u64, n, &mut queries);

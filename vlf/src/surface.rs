@@ -74,17 +74,34 @@ fn albedo_terms(p: &SurfaceParams) -> (Vec3, Vec3) {
         q.transmission.to_bits(),
         q.ior.to_bits(),
     ];
-    if let Some(t) = albedo_cache()
+    // Neighbouring pixels mostly see one material: the last answer, kept per thread,
+    // spares the shared map's lock and hash (7 % of a wall's per-pixel work).
+    thread_local! {
+        static LAST: std::cell::Cell<Option<(AlbedoKey, (Vec3, Vec3))>> =
+            const { std::cell::Cell::new(None) };
+    }
+    if let Some((k, t)) = LAST.get()
+        && k == key
+    {
+        return t;
+    }
+    let cached = albedo_cache()
         .read()
         .unwrap_or_else(|e| e.into_inner())
         .get(&key)
-    {
-        return *t;
-    }
-    let a = bihemispherical_albedo(&q);
+        .copied();
+    let t = cached.unwrap_or_else(|| integrate_albedo_terms(key, &q));
+    LAST.set(Some((key, t)));
+    t
+}
+
+/// Integrates `a` and `b` of [`diffuse_albedo`] for `q` (its base colour zero) and keeps
+/// them under `key`.
+fn integrate_albedo_terms(key: AlbedoKey, q: &SurfaceParams) -> (Vec3, Vec3) {
+    let a = bihemispherical_albedo(q);
     let b = bihemispherical_albedo(&SurfaceParams {
         base_color: Vec3::ONE,
-        ..q
+        ..*q
     }) - a;
     albedo_cache()
         .write()

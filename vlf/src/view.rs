@@ -388,63 +388,78 @@ impl Visibility {
     /// One lookup per pixel of `view`, through the pixel's centre, rows from the top. The
     /// first hits are found in packets of neighbouring pixels (coherent rays).
     pub fn pixels(&self, view: &WallView) -> Vec<Lookup> {
-        self.pixels_and_points(view)
-            .into_iter()
-            .map(|(l, _)| l)
-            .collect()
+        self.pixels_and_points(view).0
     }
 
     /// As [`Visibility::pixels`], with each pixel's point for the per-pixel direct light.
-    pub fn pixels_and_points(&self, view: &WallView) -> Vec<(Lookup, Option<DirectPoint>)> {
-        self.pixels_with(view, &|placed, rays, _| {
-            placed.closest_hits(rays, f32::INFINITY)
-        })
+    pub fn pixels_and_points(&self, view: &WallView) -> (Vec<Lookup>, Vec<Option<DirectPoint>>) {
+        let mut points = Vec::new();
+        let lookups = self.pixels_into(view, None, &mut points);
+        (lookups, points)
     }
 
-    /// As [`Visibility::pixels_and_points`], with each pixel's first hit found elsewhere
-    /// (on the GPU): `hits[i]` is the closest hit of pixel `i`'s ray (rows from the top,
-    /// through the pixel's centre, as [`WallView::ray`] makes it) in the static scene; the
-    /// moving objects are tried here, and mirrors and glass followed from there as always.
-    pub fn pixels_and_points_from(
+    /// As [`Visibility::pixels_and_points`], the points written into `points` (a buffer
+    /// kept from frame to frame: a wall's points are a hundred megabytes at projector
+    /// sizes, and fresh memory costs the kernel's page clearing every frame). With `hits`,
+    /// each pixel's first hit was found elsewhere (on the GPU): `hits[i]` is the closest
+    /// hit of pixel `i`'s ray (rows from the top, through the pixel's centre, as
+    /// [`WallView::ray`] makes it) in the static scene; the moving objects are tried here,
+    /// and mirrors and glass followed from there as always.
+    pub fn pixels_into(
         &self,
         view: &WallView,
-        hits: &[Option<Hit>],
-    ) -> Vec<(Lookup, Option<DirectPoint>)> {
-        assert_eq!(hits.len(), (view.width * view.height) as usize);
-        self.pixels_with(view, &|placed, rays, first| {
-            let hits = &hits[first..first + rays.len()];
-            rays.iter()
-                .zip(hits)
-                .map(|(r, h)| placed.objects_closest_hit(r, f32::INFINITY, *h))
-                .collect()
-        })
+        hits: Option<&[Option<Hit>]>,
+        points: &mut Vec<Option<DirectPoint>>,
+    ) -> Vec<Lookup> {
+        match hits {
+            Some(hits) => {
+                assert_eq!(hits.len(), (view.width * view.height) as usize);
+                self.pixels_with(view, points, &|placed, rays, first| {
+                    let hits = &hits[first..first + rays.len()];
+                    rays.iter()
+                        .zip(hits)
+                        .map(|(r, h)| placed.objects_closest_hit(r, f32::INFINITY, *h))
+                        .collect()
+                })
+            }
+            None => self.pixels_with(view, points, &|placed, rays, _| {
+                placed.closest_hits(rays, f32::INFINITY)
+            }),
+        }
     }
 
-    /// The pixels' lookups and points, with `first_hits(rays, i)` the closest hits of the
-    /// rays of pixels `i` to `i + rays.len() − 1`.
+    /// The pixels' lookups, their points written into `points`, with `first_hits(rays,
+    /// i)` the closest hits of the rays of pixels `i` to `i + rays.len() − 1`.
     fn pixels_with(
         &self,
         view: &WallView,
+        points: &mut Vec<Option<DirectPoint>>,
         first_hits: &FirstHits,
-    ) -> Vec<(Lookup, Option<DirectPoint>)> {
+    ) -> Vec<Lookup> {
         let w = view.width as usize;
         let n = w * view.height as usize;
         let env = environment(&self.lights);
         let chunk = 8 * PACKET;
-        let mut out = vec![(Lookup::NONE, None); n];
+        let mut lookups = vec![Lookup::NONE; n];
+        points.clear();
+        points.resize(n, None);
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
-        out.par_chunks_mut(chunk).enumerate().for_each(|(c, out)| {
-            let rays: Vec<Ray> = (c * chunk..(c * chunk + out.len()))
-                .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
-                .collect();
-            let hits = first_hits(&placed, &rays, c * chunk);
-            for ((o, ray), hit) in out.iter_mut().zip(rays).zip(hits) {
-                let chain = follow_from(&placed, ray, hit, &env);
-                *o = self.lookup_chain(chain, &objects, Some(&placed));
-            }
-        });
-        out
+        lookups
+            .par_chunks_mut(chunk)
+            .zip(points.par_chunks_mut(chunk))
+            .enumerate()
+            .for_each(|(c, (lookups, points))| {
+                let rays: Vec<Ray> = (c * chunk..(c * chunk + lookups.len()))
+                    .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
+                    .collect();
+                let hits = first_hits(&placed, &rays, c * chunk);
+                for (((l, p), ray), hit) in lookups.iter_mut().zip(points).zip(rays).zip(hits) {
+                    let chain = follow_from(&placed, ray, hit, &env);
+                    (*l, *p) = self.lookup_chain(chain, &objects, Some(&placed));
+                }
+            });
+        lookups
     }
 
     /// `view` drawn from the light field with `k × k` lookups per pixel (an antialiased

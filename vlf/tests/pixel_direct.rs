@@ -263,12 +263,7 @@ fn a_moving_eye_carries_the_means_over_and_stays_exact() {
     };
     let a = screen(Vec3::new(-0.6, 0.8, 0.0));
     let b = screen(Vec3::new(-0.58, 0.8, 0.0));
-    let points = |v: &WallView| -> Vec<_> {
-        vis.pixels_and_points(v)
-            .into_iter()
-            .map(|(_, p)| p)
-            .collect()
-    };
+    let points = |v: &WallView| vis.pixels_and_points(v).1;
     let (pa, pb) = (points(&a), points(&b));
     let mut acc = Accumulator::new();
     for _ in 0..16 {
