@@ -1,7 +1,8 @@
 //! A cluster whose four nodes show their walls in windows (`holocave node --master
 //! --window`), under an Xvfb of the test's own: they present the same frames, in the same
-//! order, as headless nodes do under the same master; and resizing one window or closing
-//! another (as a window manager would) stops neither the others nor the master.
+//! order, as headless nodes do under the same master; resizing one window or closing
+//! another (as a window manager would) stops neither the others nor the master; and a
+//! desk user's key held in a window walks the world until it is released.
 
 mod common;
 mod xvfb;
@@ -232,5 +233,131 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
     for log in &closed_logs {
         assert_eq!(&log[..], &logs[0][..log.len()]);
     }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The W key held in a node's window (sent through XTEST as a keyboard would send it)
+/// walks the world: the master, taking the desk's input (`--desk`), moves the room ahead —
+/// along −Z, where the still head looks — by the walking speed times each frame's step,
+/// in the frames after the press and only until the release; `desk.csv` records both.
+#[test]
+fn a_desk_users_key_held_in_a_window_walks_the_world_until_released() {
+    let Some(x) = Xvfb::start(640, 480) else {
+        return;
+    };
+    const DESK: &str = "configs/desk.toml";
+    const WALK_SPEED: f64 = 1.4; // the navigation's default, m/s
+    const KEY_W: u32 = 0x77;
+    let out = scratch("cluster-window-desk");
+    let (master_out, node_out) = (out.join("master"), out.join("nodes"));
+    let mut c = holocave();
+    c.args(["master", "--config", DESK, "--listen", "127.0.0.1:0"])
+        .args(["--rate", RATE, "--dead-node-ms", DEAD_NODE_MS])
+        .args(["--frames", "200", "--wait-for-walls", "60", "--desk"])
+        .arg("--out")
+        .arg(&master_out)
+        .env("HOLOCAVE_SECRET", SECRET)
+        .env("RUST_LOG", "info");
+    let (m, addr, mut stdout) = start_master(c);
+    let mut c = holocave();
+    c.args(["node", "--master", &addr, "--wall", "screen"])
+        .args(["--config", DESK, "--scene", SCENE, "--size", "32x24"])
+        .args(["--samples", "48", "--every", "1000000", "--window"])
+        .arg("--out")
+        .arg(&node_out)
+        .env("HOLOCAVE_SECRET", SECRET)
+        .env("RAYON_NUM_THREADS", "1")
+        .env("RUST_LOG", "info")
+        .env("DISPLAY", &x.display)
+        .env("WINIT_X11_SCALE_FACTOR", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .stdin(Stdio::null());
+    let node = Watched::adopt("node", c.spawn().expect("start holocave node"));
+    let last = || *presented(&node_out, "screen").last().unwrap_or(&0);
+    wait_until(Duration::from_secs(120), "20 frames presented", || {
+        last() >= 20
+    });
+    let wm = WindowManager::connect(&x);
+    let pressed_after = last();
+    wm.key("holocave screen", KEY_W, true);
+    wait_until(Duration::from_secs(60), "10 frames with W held", || {
+        last() >= pressed_after + 10
+    });
+    let released_after = last();
+    wm.key("holocave screen", KEY_W, false);
+    wait_until(
+        Duration::from_secs(60),
+        "10 frames after the release",
+        || last() >= released_after + 10,
+    );
+    let (status, _, err) = m.finish(Duration::from_secs(120));
+    assert!(status.is_some_and(|s| s.success()), "master failed: {err}");
+    let mut summary = String::new();
+    stdout.read_to_string(&mut summary).unwrap();
+    let (status, nout, nerr) = node.finish(Duration::from_secs(30));
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "node failed:\n{nout}\n{nerr}"
+    );
+
+    let desk = std::fs::read_to_string(master_out.join("desk.csv")).expect("desk.csv");
+    let nav = std::fs::read_to_string(master_out.join("navigation.csv")).expect("navigation.csv");
+    let rows = holocave_master::navigation::log::read(&nav).expect("navigation.csv reads back");
+    println!(
+        "{summary}\ndesk.csv:\n{desk}\nW pressed after frame {pressed_after}, released after {released_after}"
+    );
+    // Each frame's step: none, or the walk's.
+    let mut moving = Vec::new();
+    for w in rows.windows(2) {
+        let d: Vec<f64> = (0..3)
+            .map(|k| w[1].translation[k] - w[0].translation[k])
+            .collect();
+        let dt = (w[1].time_ns - w[0].time_ns) as f64 * 1e-9;
+        if d.iter().all(|&c| c == 0.0) {
+            continue;
+        }
+        // The translations are sums of steps of f64s near 1 m: 1e-12 m holds their
+        // rounding many times over.
+        let expected = [0.0, 0.0, -WALK_SPEED * dt];
+        assert!(
+            d.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-12),
+            "frame {}: the room moved by {d:?} in {dt} s, not a walk's {expected:?}",
+            w[1].frame
+        );
+        moving.push(w[1].frame);
+    }
+    println!("the room walked in frames {moving:?}");
+    let (&first, &end) = (
+        moving.first().expect("W held for 10 frames moved nothing"),
+        moving.last().unwrap(),
+    );
+    assert_eq!(
+        moving,
+        (first..=end).collect::<Vec<_>>(),
+        "the walk stopped and started again with one press"
+    );
+    // Causality: no step before the key was pressed, and none stopped before it was
+    // released (frame `released_after`'s state was made before the release). How many
+    // frames the press and the release take to reach the master depends on the machine;
+    // that the walk stops at all is what a stuck key would break (it did: X's auto-repeat
+    // counted as presses kept W down after its release).
+    assert!(
+        first > pressed_after,
+        "walked in frame {first}, before W was pressed (after frame {pressed_after})"
+    );
+    assert!(
+        end >= released_after.min(first),
+        "the walk ended in frame {end}, before W was released (after frame {released_after})"
+    );
+    let final_frame = rows.last().expect("rows").frame;
+    assert!(
+        end < final_frame,
+        "the walk went on to the last frame ({final_frame}), W released after frame {released_after}"
+    );
+    assert!(
+        desk.lines().count() >= 4,
+        "desk.csv holds no press and release:\n{desk}"
+    );
     let _ = std::fs::remove_dir_all(&out);
 }

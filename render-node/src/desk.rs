@@ -38,8 +38,6 @@ pub enum Control {
     Mode,
 }
 
-const CONTROLS: usize = 7;
-
 /// The key at `code`'s place, if it navigates.
 pub fn control_of(code: KeyCode) -> Option<Control> {
     use KeyCode::*;
@@ -55,24 +53,26 @@ pub fn control_of(code: KeyCode) -> Option<Control> {
     })
 }
 
-/// Keys held (each counted once however many keys map to it), the mouse's drag.
+/// Keys held, the mouse's drag. A control is on while any of its keys is held.
 #[derive(Clone, Debug, Default)]
 pub struct DeskKeys {
-    held: [u8; CONTROLS],
+    /// Each held key once: a press of a key already down (an auto-repeat the window
+    /// system did not mark as one: Xvfb's, through XTEST) changes nothing, and its one
+    /// release lets it go.
+    held: Vec<KeyCode>,
     cursor: Option<(f64, f64)>,
     drag_from: Option<(f64, f64)>,
     right_button: bool,
 }
 
 impl DeskKeys {
-    /// A navigating key went down or up (key repeats are not passed).
-    pub fn key(&mut self, c: Control, down: bool) {
-        let h = &mut self.held[c as usize];
-        *h = if down {
-            h.saturating_add(1)
-        } else {
-            h.saturating_sub(1)
-        };
+    /// The key at `code`'s place went down or up.
+    pub fn key(&mut self, code: KeyCode, down: bool) {
+        if !down {
+            self.held.retain(|&k| k != code);
+        } else if control_of(code).is_some() && !self.held.contains(&code) {
+            self.held.push(code);
+        }
     }
 
     pub fn cursor(&mut self, x: f64, y: f64) {
@@ -97,7 +97,7 @@ impl DeskKeys {
     }
 
     fn on(&self, c: Control) -> bool {
-        self.held[c as usize] > 0
+        self.held.iter().any(|&k| control_of(k) == Some(c))
     }
 
     fn keys_axis(&self, plus: Control, minus: Control) -> f32 {
@@ -173,7 +173,7 @@ mod tests {
     use super::*;
 
     fn press(k: &mut DeskKeys, code: KeyCode, down: bool) {
-        k.key(control_of(code).unwrap(), down);
+        k.key(code, down);
     }
 
     #[test]
@@ -200,6 +200,20 @@ mod tests {
         assert!(i.teleport && i.grab && i.mode, "{i:?}");
         assert_eq!(control_of(KeyCode::KeyZ), None);
         k.release_all();
+        assert_eq!(k.input(), DeskInput::NEUTRAL);
+    }
+
+    #[test]
+    fn a_key_pressed_again_while_down_is_let_go_by_one_release() {
+        let mut k = DeskKeys::default();
+        for _ in 0..5 {
+            press(&mut k, KeyCode::KeyW, true);
+        }
+        assert_eq!(k.input().forward, 1.0);
+        press(&mut k, KeyCode::KeyW, false);
+        assert_eq!(k.input(), DeskInput::NEUTRAL);
+        // A release of a key never pressed (pressed before the focus came) is nothing.
+        press(&mut k, KeyCode::KeyS, false);
         assert_eq!(k.input(), DeskInput::NEUTRAL);
     }
 
@@ -233,8 +247,8 @@ mod tests {
         for x in 1..500 {
             feed.update(|k| k.cursor(f64::from(x), 0.0));
         }
-        feed.update(|k| k.key(Control::Teleport, true));
-        feed.update(|k| k.key(Control::Teleport, false));
+        feed.update(|k| k.key(KeyCode::Space, true));
+        feed.update(|k| k.key(KeyCode::Space, false));
         let sent = feed.take();
         // The drag's motion as one change (its last), the tap down and up.
         assert_eq!(sent.len(), 3, "{sent:?}");
@@ -242,8 +256,8 @@ mod tests {
         assert!(sent[1].teleport && !sent[2].teleport);
         // Bounded however many taps come between two frames.
         for _ in 0..1000 {
-            feed.update(|k| k.key(Control::Mode, true));
-            feed.update(|k| k.key(Control::Mode, false));
+            feed.update(|k| k.key(KeyCode::KeyF, true));
+            feed.update(|k| k.key(KeyCode::KeyF, false));
         }
         let sent = feed.take();
         assert!(sent.len() <= MAX_PENDING);

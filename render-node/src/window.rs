@@ -193,9 +193,8 @@ where
                     },
                 ..
             } if control_of(code).is_some() => {
-                let c = control_of(code).expect("checked");
                 self.desk
-                    .update(|k| k.key(c, state == ElementState::Pressed));
+                    .update(|k| k.key(code, state == ElementState::Pressed));
             }
             WindowEvent::CursorMoved { position, .. }
                 if self.drag_window.is_none_or(|w| w == id) =>

@@ -249,15 +249,21 @@ impl WindowManager {
 }
 
 impl WindowManager {
-    /// Presses and releases Esc in the window named `name` (focus given to it, the key sent
-    /// through XTEST like a real keyboard's).
+    /// Presses and releases Esc in the window named `name`.
     pub fn press_escape(&self, name: &str) {
+        const ESCAPE: u32 = 0xff1b;
+        self.key(name, ESCAPE, true);
+        self.key(name, ESCAPE, false);
+    }
+
+    /// Presses (`down`) or releases the key whose keysym is `keysym` in the window named
+    /// `name` (focus given to it, the key sent through XTEST like a real keyboard's).
+    pub fn key(&self, name: &str, keysym: u32, down: bool) {
         use x11rb::connection::Connection;
         use x11rb::protocol::xproto::{
             ConnectionExt, InputFocus, KEY_PRESS_EVENT, KEY_RELEASE_EVENT,
         };
         use x11rb::protocol::xtest::ConnectionExt as _;
-        const ESCAPE: u32 = 0xff1b;
         let win = self
             .find(name)
             .unwrap_or_else(|| panic!("no window {name:?}"));
@@ -273,17 +279,20 @@ impl WindowManager {
         let code = map
             .keysyms
             .chunks(per)
-            .position(|syms| syms.contains(&ESCAPE))
+            .position(|syms| syms.contains(&keysym))
             .map(|i| min + i as u8)
-            .expect("a keycode for Escape");
+            .unwrap_or_else(|| panic!("no keycode for keysym {keysym:#x}"));
         self.conn
             .set_input_focus(InputFocus::PARENT, win, x11rb::CURRENT_TIME)
             .expect("focusing");
-        for kind in [KEY_PRESS_EVENT, KEY_RELEASE_EVENT] {
-            self.conn
-                .xtest_fake_input(kind, code, x11rb::CURRENT_TIME, self.root, 0, 0, 0)
-                .expect("XTEST");
-        }
+        let kind = if down {
+            KEY_PRESS_EVENT
+        } else {
+            KEY_RELEASE_EVENT
+        };
+        self.conn
+            .xtest_fake_input(kind, code, x11rb::CURRENT_TIME, self.root, 0, 0, 0)
+            .expect("XTEST");
         self.conn.flush().expect("flushing");
     }
 }
