@@ -2,7 +2,7 @@
 //! --window`), under an Xvfb of the test's own: they present the same frames, in the same
 //! order, as headless nodes do under the same master; resizing one window or closing
 //! another (as a window manager would) stops neither the others nor the master; and a
-//! desk user's key held in a window walks the world until it is released.
+//! desk user's key held or mouse dragged in a window moves the world until let go.
 
 mod common;
 mod xvfb;
@@ -236,18 +236,28 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-/// The W key held in a node's window (sent through XTEST as a keyboard would send it)
-/// walks the world: the master, taking the desk's input (`--desk`), moves the room ahead —
-/// along −Z, where the still head looks — by the walking speed times each frame's step,
-/// in the frames after the press and only until the release; `desk.csv` records both.
+/// A desk user in a node's window (keys and mouse sent through XTEST as a keyboard and
+/// a mouse would send them) moves the world, through the master (`--desk`): the W key
+/// held walks the room ahead — along −Z, where the still head looks — by the walking
+/// speed times each frame's step, in the frames after the press and only until the
+/// release; then the left button dragged 100 px to the right turns it clockwise at the
+/// turn rate times the drag's deflection, until the button is let go. `desk.csv` records
+/// each change.
 #[test]
-fn a_desk_users_key_held_in_a_window_walks_the_world_until_released() {
+fn a_desk_users_key_and_drag_in_a_window_move_the_world_until_released() {
     let Some(x) = Xvfb::start(640, 480) else {
         return;
     };
     const DESK: &str = "configs/desk.toml";
-    const WALK_SPEED: f64 = 1.4; // the navigation's default, m/s
+    // The navigation's defaults: m/s, rad/s, the axes' dead zone; the drag's full
+    // deflection (render-node's `desk::DRAG_FULL`, px).
+    const WALK_SPEED: f64 = 1.4;
+    const TURN_RATE: f64 = std::f64::consts::PI / 4.0;
+    const DEAD_ZONE: f64 = 0.1;
+    const DRAG_FULL: f64 = 200.0;
+    const DRAG: i16 = 100;
     const KEY_W: u32 = 0x77;
+    const WINDOW: &str = "holocave screen";
     let out = scratch("cluster-window-desk");
     let (master_out, node_out) = (out.join("master"), out.join("nodes"));
     let mut c = holocave();
@@ -275,22 +285,28 @@ fn a_desk_users_key_held_in_a_window_walks_the_world_until_released() {
         .stdin(Stdio::null());
     let node = Watched::adopt("node", c.spawn().expect("start holocave node"));
     let last = || *presented(&node_out, "screen").last().unwrap_or(&0);
+    let ten_more = |what: &str| {
+        let from = last();
+        wait_until(Duration::from_secs(60), what, || last() >= from + 10);
+    };
     wait_until(Duration::from_secs(120), "20 frames presented", || {
         last() >= 20
     });
     let wm = WindowManager::connect(&x);
     let pressed_after = last();
-    wm.key("holocave screen", KEY_W, true);
-    wait_until(Duration::from_secs(60), "10 frames with W held", || {
-        last() >= pressed_after + 10
-    });
+    wm.key(WINDOW, KEY_W, true);
+    ten_more("10 frames with W held");
     let released_after = last();
-    wm.key("holocave screen", KEY_W, false);
-    wait_until(
-        Duration::from_secs(60),
-        "10 frames after the release",
-        || last() >= released_after + 10,
-    );
+    wm.key(WINDOW, KEY_W, false);
+    ten_more("10 frames after W's release");
+    wm.pointer(WINDOW, 10, 10);
+    wm.button(1, true);
+    let dragged_after = last();
+    wm.pointer(WINDOW, 10 + DRAG, 10);
+    ten_more("10 frames dragging");
+    let let_go_after = last();
+    wm.button(1, false);
+    ten_more("10 frames after the drag");
     let (status, _, err) = m.finish(Duration::from_secs(120));
     assert!(status.is_some_and(|s| s.success()), "master failed: {err}");
     let mut summary = String::new();
@@ -305,59 +321,87 @@ fn a_desk_users_key_held_in_a_window_walks_the_world_until_released() {
     let nav = std::fs::read_to_string(master_out.join("navigation.csv")).expect("navigation.csv");
     let rows = holocave_master::navigation::log::read(&nav).expect("navigation.csv reads back");
     println!(
-        "{summary}\ndesk.csv:\n{desk}\nW pressed after frame {pressed_after}, released after {released_after}"
+        "{summary}\ndesk.csv:\n{desk}\nW pressed after frame {pressed_after}, released after \
+         {released_after}; dragged after {dragged_after}, let go after {let_go_after}"
     );
-    // Each frame's step: none, or the walk's.
-    let mut moving = Vec::new();
+    // Each frame's step: none, the walk's (a translation), or the turn's (a rotation about
+    // +Y; it moves the room about the head, so the translation changes too).
+    let deflection = f64::from(DRAG) / DRAG_FULL;
+    let turn_speed = TURN_RATE * (deflection - DEAD_ZONE) / (1.0 - DEAD_ZONE);
+    let (mut walked, mut turned) = (Vec::new(), Vec::new());
     for w in rows.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
         let d: Vec<f64> = (0..3)
-            .map(|k| w[1].translation[k] - w[0].translation[k])
+            .map(|k| b.translation[k] - a.translation[k])
             .collect();
-        let dt = (w[1].time_ns - w[0].time_ns) as f64 * 1e-9;
-        if d.iter().all(|&c| c == 0.0) {
-            continue;
+        let dt = (b.time_ns - a.time_ns) as f64 * 1e-9;
+        let q = |r: [f64; 4]| glam::DQuat::from_array(r);
+        let step = q(b.rotation) * q(a.rotation).inverse();
+        let step = if step.w < 0.0 { -step } else { step };
+        let (axis, angle) = step.to_axis_angle();
+        if b.rotation != a.rotation {
+            // Quaternions of unit length to 1e-15 and a product of two: the angle to a
+            // few 1e-15 rad at step sizes of 1e-2.
+            let expected = -turn_speed * dt;
+            assert!(
+                (angle * axis.y - expected).abs() < 1e-9 && axis.x.abs() + axis.z.abs() < 1e-9,
+                "frame {}: the room turned by {angle} rad about {axis} in {dt} s, not \
+                 {expected} about +Y",
+                b.frame
+            );
+            turned.push(b.frame);
+        } else if d.iter().any(|&c| c != 0.0) {
+            // The translations are sums of steps of f64s near 1 m: 1e-12 m holds their
+            // rounding many times over.
+            let expected = [0.0, 0.0, -WALK_SPEED * dt];
+            assert!(
+                d.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-12),
+                "frame {}: the room moved by {d:?} in {dt} s, not a walk's {expected:?}",
+                b.frame
+            );
+            walked.push(b.frame);
         }
-        // The translations are sums of steps of f64s near 1 m: 1e-12 m holds their
-        // rounding many times over.
-        let expected = [0.0, 0.0, -WALK_SPEED * dt];
-        assert!(
-            d.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-12),
-            "frame {}: the room moved by {d:?} in {dt} s, not a walk's {expected:?}",
-            w[1].frame
-        );
-        moving.push(w[1].frame);
     }
-    println!("the room walked in frames {moving:?}");
-    let (&first, &end) = (
-        moving.first().expect("W held for 10 frames moved nothing"),
-        moving.last().unwrap(),
-    );
-    assert_eq!(
-        moving,
-        (first..=end).collect::<Vec<_>>(),
-        "the walk stopped and started again with one press"
-    );
-    // Causality: no step before the key was pressed, and none stopped before it was
-    // released (frame `released_after`'s state was made before the release). How many
-    // frames the press and the release take to reach the master depends on the machine;
-    // that the walk stops at all is what a stuck key would break (it did: X's auto-repeat
-    // counted as presses kept W down after its release).
-    assert!(
-        first > pressed_after,
-        "walked in frame {first}, before W was pressed (after frame {pressed_after})"
-    );
-    assert!(
-        end >= released_after.min(first),
-        "the walk ended in frame {end}, before W was released (after frame {released_after})"
-    );
+    println!("walked in frames {walked:?}, turned in {turned:?}");
     let final_frame = rows.last().expect("rows").frame;
+    // Causality: no step before its input was given, and none stopped before it was taken
+    // back (frame `released_after`'s state was made before the release). How many frames
+    // the input takes to reach the master depends on the machine; that the motion stops
+    // at all is what a stuck key breaks (it did: X's auto-repeat counted as presses kept
+    // W down after its release).
+    for (what, frames, given, taken_back) in [
+        ("walk", &walked, pressed_after, released_after),
+        ("turn", &turned, dragged_after, let_go_after),
+    ] {
+        let (&first, &end) = (
+            frames
+                .first()
+                .unwrap_or_else(|| panic!("held for 10 frames, no {what}")),
+            frames.last().unwrap(),
+        );
+        assert_eq!(
+            *frames,
+            (first..=end).collect::<Vec<_>>(),
+            "the {what} stopped and started again with one input"
+        );
+        assert!(
+            first > given,
+            "the {what} began in frame {first}, before its input (after frame {given})"
+        );
+        assert!(
+            end >= taken_back.min(first),
+            "the {what} ended in frame {end}, before its input was taken back (after frame \
+             {taken_back})"
+        );
+        assert!(
+            end < final_frame,
+            "the {what} went on to the last frame ({final_frame}), its input taken back \
+             after frame {taken_back}"
+        );
+    }
     assert!(
-        end < final_frame,
-        "the walk went on to the last frame ({final_frame}), W released after frame {released_after}"
-    );
-    assert!(
-        desk.lines().count() >= 4,
-        "desk.csv holds no press and release:\n{desk}"
+        desk.lines().filter(|l| l.starts_with("axes,")).count() >= 4,
+        "desk.csv holds no press, release, drag and let-go:\n{desk}"
     );
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -296,3 +296,49 @@ impl WindowManager {
         self.conn.flush().expect("flushing");
     }
 }
+
+impl WindowManager {
+    /// Moves the pointer to (`x`, `y`) in the window named `name`'s coordinates.
+    pub fn pointer(&self, name: &str, x: i16, y: i16) {
+        use x11rb::connection::Connection;
+        use x11rb::protocol::xproto::{ConnectionExt, MOTION_NOTIFY_EVENT};
+        use x11rb::protocol::xtest::ConnectionExt as _;
+        let win = self
+            .find(name)
+            .unwrap_or_else(|| panic!("no window {name:?}"));
+        let at = self
+            .conn
+            .translate_coordinates(win, self.root, x, y)
+            .expect("asking where the window is")
+            .reply()
+            .expect("where the window is");
+        self.conn
+            .xtest_fake_input(
+                MOTION_NOTIFY_EVENT,
+                0,
+                x11rb::CURRENT_TIME,
+                self.root,
+                at.dst_x,
+                at.dst_y,
+                0,
+            )
+            .expect("XTEST");
+        self.conn.flush().expect("flushing");
+    }
+
+    /// Presses (`down`) or releases mouse button `button` (1: left) where the pointer is.
+    pub fn button(&self, button: u8, down: bool) {
+        use x11rb::connection::Connection;
+        use x11rb::protocol::xproto::{BUTTON_PRESS_EVENT, BUTTON_RELEASE_EVENT};
+        use x11rb::protocol::xtest::ConnectionExt as _;
+        let kind = if down {
+            BUTTON_PRESS_EVENT
+        } else {
+            BUTTON_RELEASE_EVENT
+        };
+        self.conn
+            .xtest_fake_input(kind, button, x11rb::CURRENT_TIME, self.root, 0, 0, 0)
+            .expect("XTEST");
+        self.conn.flush().expect("flushing");
+    }
+}
