@@ -1,9 +1,9 @@
 //! Prints the accuracy figures (`holocave_vlf::accuracy`) of EXR images against a
 //! reference, and writes each as a PNG beside it (`NAME.same.png`) at the reference's
 //! exposure, so that the pictures compare by eye: `figures REFERENCE.exr IMAGE.exr…`.
-//! A reference given as `A.exr+B.exr` (two renders with different seeds) is their mean,
-//! written as `A.mean.exr`, and its own noise (a quarter of their relative MSE against
-//! each other) is printed. With `--montage OUT.png` first, the reference and the images
+//! A reference given as `A.exr+B.exr+…` (renders with different seeds) is their mean,
+//! written as `A.mean.exr`, and its own noise (a quarter of the relative MSE between its
+//! two halves' means) is printed. With `--montage OUT.png` first, the reference and the images
 //! are also written side by side into one PNG (at the reference's exposure).
 
 use std::path::Path;
@@ -28,23 +28,34 @@ fn main() {
             std::process::exit(1)
         })
     };
-    let r = match reference.split_once('+') {
-        Some((a, b)) => {
-            let (a, b) = (read(a), read(b));
-            let noise = a.relative_mse(&b) / 4.0;
-            let mut mean = a.clone();
-            for (m, b) in mean.pixels.iter_mut().zip(&b.pixels) {
-                *m = (*m + *b) * 0.5;
+    // A reference of several renders (`A.exr+B.exr+…`) is their mean; its own noise is a
+    // quarter of the relative MSE between the means of its two halves (each has twice
+    // the whole's variance).
+    let parts: Vec<&str> = reference.split('+').collect();
+    let r = if parts.len() > 1 {
+        let renders: Vec<Image> = parts.iter().map(|p| read(p)).collect();
+        let mean_of = |rs: &[Image]| {
+            let mut m = rs[0].clone();
+            for (k, px) in m.pixels.iter_mut().enumerate() {
+                *px = rs.iter().map(|r| r.pixels[k]).sum::<glam::Vec3>() / rs.len() as f32;
             }
-            println!("reference: the mean of two renders, its own relative MSE {noise:.5}");
-            let out = Path::new(reference.split('+').next().unwrap_or(reference))
-                .with_extension("mean.exr");
-            if let Err(e) = mean.write_exr(&out) {
-                eprintln!("{}: {e}", out.display());
-            }
-            mean
+            m
+        };
+        let half = renders.len() / 2;
+        let noise =
+            mean_of(&renders[..half]).relative_mse(&mean_of(&renders[half..2 * half])) / 4.0;
+        let mean = mean_of(&renders);
+        println!(
+            "reference: the mean of {} renders, its own relative MSE {noise:.5}",
+            renders.len()
+        );
+        let out = Path::new(parts[0]).with_extension("mean.exr");
+        if let Err(e) = mean.write_exr(&out) {
+            eprintln!("{}: {e}", out.display());
         }
-        None => read(reference),
+        mean
+    } else {
+        read(reference)
     };
     let exposure = r.auto_exposure();
     let mut all = vec![r.clone()];

@@ -45,15 +45,66 @@ pub fn centres(k: u32) -> Vec<Vec3> {
 }
 
 /// The direction at the centre of every bin and the bin's cosine-weighted solid angle
-/// `cos θ_b Δω_b` (what a bin's radiance gives as exitance), in index order.
+/// `∫ cos θ dω` over the bin (what a bin's radiance gives as exitance; they sum to `π`),
+/// in index order.
 pub fn centres_and_projected(k: u32) -> (Vec<Vec3>, Vec<f32>) {
-    let centres = centres(k);
-    let projected = solid_angles(k)
-        .iter()
-        .zip(&centres)
-        .map(|(s, c)| s * c.z)
+    const SUB: u32 = 8;
+    let projected = (0..k * k)
+        .map(|b| {
+            let (i, j) = (f64::from(b % k), f64::from(b / k));
+            let mut sum = 0.0;
+            for sj in 0..SUB {
+                for si in 0..SUB {
+                    let at = |di: f64, dj: f64| {
+                        decode(
+                            i + (f64::from(si) + di) / f64::from(SUB),
+                            j + (f64::from(sj) + dj) / f64::from(SUB),
+                            k,
+                        )
+                    };
+                    let (p00, p10, p01, p11) =
+                        (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0));
+                    let omega =
+                        spherical_triangle(p00, p10, p11) + spherical_triangle(p00, p11, p01);
+                    sum += omega * at(0.5, 0.5).z;
+                }
+            }
+            sum as f32
+        })
         .collect();
-    (centres, projected)
+    (centres(k), projected)
+}
+
+/// Each bin cut into `sub × sub` small quads: the direction at each one's centre and its
+/// share of the bin's cosine-weighted solid angle (`cos θ Δω`, summing to one over the
+/// bin), bin after bin. A lobe as narrow as a bin is seen through these, averaged over
+/// the bin, rather than at its centre alone (`tiles`).
+pub fn bin_samples(k: u32, sub: u32) -> Vec<(Vec3, f32)> {
+    let mut out = Vec::with_capacity((k * k * sub * sub) as usize);
+    for b in 0..k * k {
+        let (i, j) = (f64::from(b % k), f64::from(b / k));
+        let first = out.len();
+        for sj in 0..sub {
+            for si in 0..sub {
+                let at = |di: f64, dj: f64| {
+                    decode(
+                        i + (f64::from(si) + di) / f64::from(sub),
+                        j + (f64::from(sj) + dj) / f64::from(sub),
+                        k,
+                    )
+                };
+                let (p00, p10, p01, p11) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0));
+                let omega = spherical_triangle(p00, p10, p11) + spherical_triangle(p00, p11, p01);
+                let centre = at(0.5, 0.5);
+                out.push((centre.as_vec3(), (omega * centre.z) as f32));
+            }
+        }
+        let total: f32 = out[first..].iter().map(|s| s.1).sum();
+        for s in &mut out[first..] {
+            s.1 /= total.max(f32::MIN_POSITIVE);
+        }
+    }
+    out
 }
 
 /// Solid angle of the spherical triangle `a, b, c` (Van Oosterom–Strackee).
