@@ -179,7 +179,11 @@ fn a_damaged_byte_names_the_chunk() {
     }
     let (p, r) = flip(8);
     let e = r.unwrap_err();
-    assert!(matches!(e, VlfError::Version { found: 20, .. }), "{e:?}");
+    let damaged = u32::from(bytes[8] ^ 0x10);
+    assert!(
+        matches!(e, VlfError::Version { found, .. } if found == damaged),
+        "{e:?}"
+    );
     names_file(&e, &p);
     // A version 1 file (before the glossy tiles), a version 2 one (before the direct part
     // was kept apart: read now, its direct light would be drawn twice), a version 3 one
