@@ -48,29 +48,8 @@ pub fn centres(k: u32) -> Vec<Vec3> {
 /// `∫ cos θ dω` over the bin (what a bin's radiance gives as exitance; they sum to `π`),
 /// in index order.
 pub fn centres_and_projected(k: u32) -> (Vec<Vec3>, Vec<f32>) {
-    const SUB: u32 = 8;
     let projected = (0..k * k)
-        .map(|b| {
-            let (i, j) = (f64::from(b % k), f64::from(b / k));
-            let mut sum = 0.0;
-            for sj in 0..SUB {
-                for si in 0..SUB {
-                    let at = |di: f64, dj: f64| {
-                        decode(
-                            i + (f64::from(si) + di) / f64::from(SUB),
-                            j + (f64::from(sj) + dj) / f64::from(SUB),
-                            k,
-                        )
-                    };
-                    let (p00, p10, p01, p11) =
-                        (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0));
-                    let omega =
-                        spherical_triangle(p00, p10, p11) + spherical_triangle(p00, p11, p01);
-                    sum += omega * at(0.5, 0.5).z;
-                }
-            }
-            sum as f32
-        })
+        .map(|b| (sub_quads(k, b, MEASURE_SUB).map(|(d, omega)| omega * d.z)).sum::<f64>() as f32)
         .collect();
     (centres(k), projected)
 }
@@ -82,29 +61,36 @@ pub fn centres_and_projected(k: u32) -> (Vec<Vec3>, Vec<f32>) {
 pub fn bin_samples(k: u32, sub: u32) -> Vec<(Vec3, f32)> {
     let mut out = Vec::with_capacity((k * k * sub * sub) as usize);
     for b in 0..k * k {
-        let (i, j) = (f64::from(b % k), f64::from(b / k));
         let first = out.len();
-        for sj in 0..sub {
-            for si in 0..sub {
-                let at = |di: f64, dj: f64| {
-                    decode(
-                        i + (f64::from(si) + di) / f64::from(sub),
-                        j + (f64::from(sj) + dj) / f64::from(sub),
-                        k,
-                    )
-                };
-                let (p00, p10, p01, p11) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0));
-                let omega = spherical_triangle(p00, p10, p11) + spherical_triangle(p00, p11, p01);
-                let centre = at(0.5, 0.5);
-                out.push((centre.as_vec3(), (omega * centre.z) as f32));
-            }
-        }
+        out.extend(sub_quads(k, b, sub).map(|(d, omega)| (d.as_vec3(), (omega * d.z) as f32)));
         let total: f32 = out[first..].iter().map(|s| s.1).sum();
         for s in &mut out[first..] {
             s.1 /= total.max(f32::MIN_POSITIVE);
         }
     }
     out
+}
+
+/// Sub-quads per side that a bin's solid angle is measured with.
+const MEASURE_SUB: u32 = 8;
+
+/// Bin `b` cut into `sub × sub` small quads: each one's centre direction and its solid
+/// angle (two spherical triangles).
+fn sub_quads(k: u32, b: u32, sub: u32) -> impl Iterator<Item = (DVec3, f64)> {
+    let (i, j) = (f64::from(b % k), f64::from(b / k));
+    (0..sub * sub).map(move |q| {
+        let (si, sj) = (f64::from(q % sub), f64::from(q / sub));
+        let at = |di: f64, dj: f64| {
+            decode(
+                i + (si + di) / f64::from(sub),
+                j + (sj + dj) / f64::from(sub),
+                k,
+            )
+        };
+        let (p00, p10, p01, p11) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0));
+        let omega = spherical_triangle(p00, p10, p11) + spherical_triangle(p00, p11, p01);
+        (at(0.5, 0.5), omega)
+    })
 }
 
 /// Solid angle of the spherical triangle `a, b, c` (Van Oosterom–Strackee).
@@ -117,25 +103,11 @@ fn spherical_triangle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 /// The solid angle every bin covers, in index order (each bin cut into 8 × 8 small
 /// quads, each measured as two spherical triangles); they sum to `2π`.
 pub fn solid_angles(k: u32) -> Vec<f32> {
-    const SUB: u32 = 8;
     (0..k * k)
         .map(|b| {
-            let (i, j) = (f64::from(b % k), f64::from(b / k));
-            let mut sum = 0.0;
-            for sj in 0..SUB {
-                for si in 0..SUB {
-                    let at = |di: u32, dj: u32| {
-                        decode(
-                            i + f64::from(si + di) / f64::from(SUB),
-                            j + f64::from(sj + dj) / f64::from(SUB),
-                            k,
-                        )
-                    };
-                    let (p00, p10, p01, p11) = (at(0, 0), at(1, 0), at(0, 1), at(1, 1));
-                    sum += spherical_triangle(p00, p10, p11) + spherical_triangle(p00, p11, p01);
-                }
-            }
-            sum as f32
+            sub_quads(k, b, MEASURE_SUB)
+                .map(|(_, omega)| omega)
+                .sum::<f64>() as f32
         })
         .collect()
 }
