@@ -201,6 +201,36 @@ fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
                 )
             })
             .collect();
+        // A new point's first estimate takes FIRST_SUN_SAMPLES of the disc: where a
+        // fraction p of the disc is seen, one sample's squared error averages
+        // E_lit² p(1 − p), and the mean of four independent ones a quarter of that. Over
+        // the scan (49 points an edge) the average is held to 1.5 times a quarter (the
+        // low-discrepancy samples are at 0.8 of it; one sample a point, 1.9).
+        let first_mse = xs
+            .iter()
+            .zip(&profile)
+            .map(|(&x, (_, q))| (estimated(&vis, &direct, x, 0, 1) - q).powi(2))
+            .sum::<f64>()
+            / xs.len() as f64;
+        let one_sample = profile
+            .iter()
+            .map(|(_, q)| {
+                let p = (q / lit).clamp(0.0, 1.0);
+                p * (1.0 - p) * lit * lit
+            })
+            .sum::<f64>()
+            / xs.len() as f64;
+        eprintln!(
+            "first estimate: mean squared error {:.4} E², one sample's {:.4} E²",
+            first_mse / (lit * lit),
+            one_sample / (lit * lit)
+        );
+        assert!(
+            first_mse <= 1.5 * one_sample / 4.0,
+            "the first frame's penumbra: mean squared error {:.4} E², one sample's {:.4} E²",
+            first_mse / (lit * lit),
+            one_sample / (lit * lit)
+        );
         for (x, (e, q)) in xs.iter().zip(&profile) {
             worst = worst.max((e - q).abs() / lit);
             assert!(
