@@ -26,11 +26,7 @@ fn exact(p: Vec3, light: Vec3) -> f32 {
 #[test]
 fn a_point_light_gives_i_cos_over_d_squared() {
     // a × b = z × x = +y: the floor faces the light.
-    let [t0, t1] = common::quad(
-        Vec3::new(-HALF, 0.0, -HALF),
-        Vec3::Z * 2.0 * HALF,
-        Vec3::X * 2.0 * HALF,
-    );
+    let [t0, t1] = common::floor(HALF);
     let light = Vec3::new(0.0, H, 0.0);
     let scene = Arc::new(common::scene(
         "floor",

@@ -56,11 +56,7 @@ const HALF: f32 = 2.0;
 /// the plane cannot light itself, so what it sends towards an eye is `f(ω_o, ω_i) E cos θ_i`
 /// exactly.
 fn lit_plane(roughness: f32) -> (Arc<Scene>, Vec3) {
-    let [t0, t1] = common::quad(
-        Vec3::new(-HALF, 0.0, -HALF),
-        Vec3::Z * 2.0 * HALF,
-        Vec3::X * 2.0 * HALF,
-    );
+    let [t0, t1] = common::floor(HALF);
     let metal = Material {
         name: "metal".into(),
         base_color: Vec4::new(0.95, 0.64, 0.54, 1.0),
@@ -209,11 +205,7 @@ fn directional_albedo(bsdf: &Bsdf, wo: Vec3) -> Vec3 {
 fn a_varnished_floor_under_a_uniform_sky_reflects_its_directional_albedo() {
     const SKY: f32 = 1.0;
     const HALF: f32 = 30.0;
-    let floor = common::quad(
-        Vec3::new(-HALF, 0.0, -HALF),
-        Vec3::Z * 2.0 * HALF,
-        Vec3::X * 2.0 * HALF,
-    );
+    let floor = common::floor(HALF);
     let varnish = Material {
         name: "varnished wood".into(),
         base_color: Vec4::new(0.45, 0.28, 0.16, 1.0),

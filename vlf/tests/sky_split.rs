@@ -20,11 +20,7 @@ const SKY_L: f32 = 2.0;
 const HALF: f32 = 30.0;
 
 fn floor_under_the_sky() -> holocave_scene::Scene {
-    let floor = common::quad(
-        Vec3::new(-HALF, 0.0, -HALF),
-        Vec3::Z * 2.0 * HALF,
-        Vec3::X * 2.0 * HALF,
-    );
+    let floor = common::floor(HALF);
     let daylight = Daylight {
         sky: Some(Sky {
             model: SkyModel::Uniform(Vec3::splat(SKY_L)),

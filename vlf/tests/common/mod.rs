@@ -30,6 +30,15 @@ pub fn quad(o: Vec3, a: Vec3, b: Vec3) -> [[Vec3; 3]; 2] {
     [[o, o + a, o + b], [o + a + b, o + b, o + a]]
 }
 
+/// The square `[−half, half]²` of the plane y = 0, facing +y, as two triangles.
+pub fn floor(half: f32) -> [[Vec3; 3]; 2] {
+    quad(
+        Vec3::new(-half, 0.0, -half),
+        Vec3::Z * 2.0 * half,
+        Vec3::X * 2.0 * half,
+    )
+}
+
 /// A scene of `(triangle, material)` pairs, with `more` filling in the rest of its parts
 /// (lights, daylight).
 pub fn scene_of(
