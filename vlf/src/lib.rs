@@ -61,6 +61,7 @@ pub mod probe;
 pub mod propagate;
 pub mod reflection;
 pub mod remote;
+mod sequence;
 pub mod subfield;
 pub mod surface;
 pub mod tiles;

@@ -48,6 +48,7 @@ use holocave_tracer::sampling::power_heuristic;
 use rayon::prelude::*;
 use std::sync::Arc;
 
+use crate::sequence::{R2, R3, r_sequence};
 use crate::view::OverMirror;
 
 /// The non-delta surface a pixel sees, as the direct pass needs it.
@@ -80,30 +81,30 @@ pub struct PixelDirect {
 /// eight samples deep. The extra rays are paid only where a pixel starts over.
 pub const FIRST_SUN_SAMPLES: u64 = 4;
 
-/// The plastic number and its 3-D analogue: the R sequences' generators.
-const R2: f64 = 1.324_717_957_244_746;
-const R3: f64 = 1.220_744_084_605_759_5;
-
-/// A pixel's hash, spread over `[0, 1)`.
-fn hash01(seed: u64, k: u64) -> f64 {
-    let mut z = seed
-        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        .wrapping_add(k.wrapping_mul(0xBF58_476D_1CE4_E5B9));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 11) as f64 / (1u64 << 53) as f64
+/// Whether light arriving along `wi` reaches the viewer from `p`: opaque surfaces only
+/// receive light on the side they are seen from.
+fn receives(p: &DirectPoint, wi: Vec3) -> bool {
+    p.bsdf.transmits() || p.normal.dot(wi) * p.normal.dot(p.wo) > 0.0
 }
 
-/// Element `n` of the `d`-dimensional R sequence (generator `g`), shifted by the pixel's
-/// hash; component `c`. In f64: `n · α` keeps its fraction exactly for any frame count a
-/// session reaches.
-fn r_sequence(g: f64, d: i32, c: i32, n: u64, seed: u64) -> f32 {
-    let alpha = 1.0 / g.powi(c + 1);
-    let shift = hash01(seed, (d * 8 + c) as u64);
-    let x = (shift + n as f64 * alpha).fract();
-    // Never 1.0 after rounding to f32 (samplers take [0, 1)).
-    (x as f32).min(1.0 - f32::EPSILON / 2.0)
+/// The shadow query of light sample `ls` at `p` bringing `radiance` if unblocked; `None`
+/// when it brings nothing.
+fn shadow_query(
+    p: &DirectPoint,
+    ls: &LightSample,
+    radiance: Vec3,
+    sky: bool,
+) -> Option<ShadowQuery> {
+    if radiance.max_element() <= 0.0 || !radiance.is_finite() {
+        return None;
+    }
+    let (ray, tmax) = shadow_ray(ls, p.position, p.normal)?;
+    Some(ShadowQuery {
+        ray,
+        tmax,
+        radiance,
+        sky,
+    })
 }
 
 impl PixelDirect {
@@ -178,25 +179,23 @@ impl PixelDirect {
     }
 
     /// The shadow ray of one light sample at `p` and the radiance it sends towards the
-    /// viewer if nothing blocks it (`p.weight` included); `None` when it sends nothing.
-    fn query(&self, p: &DirectPoint, frame: &Frame, ls: &LightSample) -> Option<ShadowQuery> {
-        let ng = p.normal;
-        // Opaque surfaces only receive light on the side they are seen from.
-        if !p.bsdf.transmits() && ng.dot(ls.wi) * ng.dot(p.wo) <= 0.0 {
+    /// viewer if nothing blocks it (`p.weight` included), times `mis` of the BSDF's
+    /// density for the sample's direction (1 for a light only the light's sampling
+    /// finds); `None` when it sends nothing.
+    fn query(
+        &self,
+        p: &DirectPoint,
+        frame: &Frame,
+        ls: &LightSample,
+        mis: impl FnOnce(f32) -> f32,
+        sky: bool,
+    ) -> Option<ShadowQuery> {
+        if !receives(p, ls.wi) {
             return None;
         }
-        let (f, _) = p.bsdf.eval(frame.to_local(p.wo), frame.to_local(ls.wi));
-        let c = f * frame.n.dot(ls.wi).abs() * ls.contribution * p.weight;
-        if c.max_element() <= 0.0 || !c.is_finite() {
-            return None;
-        }
-        let (ray, tmax) = shadow_ray(ls, p.position, ng)?;
-        Some(ShadowQuery {
-            ray,
-            tmax,
-            radiance: c,
-            sky: false,
-        })
+        let (f, bsdf_pdf) = p.bsdf.eval(frame.to_local(p.wo), frame.to_local(ls.wi));
+        let c = f * frame.n.dot(ls.wi).abs() * ls.contribution * p.weight * mis(bsdf_pdf);
+        shadow_query(p, ls, c, sky)
     }
 
     /// The shadow rays of the `n`-th estimate at `p` of pixel `seed`'s sequence (one
@@ -214,14 +213,14 @@ impl PixelDirect {
             let uc = r_sequence(R3, 3, 0, n, seed);
             let u = Vec2::new(r_sequence(R3, 3, 1, n, seed), r_sequence(R3, 3, 2, n, seed));
             if let Some(q) = (l.sample_area(&self.scene, p.position, uc, u))
-                .and_then(|ls| self.query(p, &frame, &ls))
+                .and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, false))
             {
                 f(q);
             }
         }
         for i in 0..l.punctual.len() {
-            if let Some(q) =
-                (l.sample_punctual(i, p.position)).and_then(|ls| self.query(p, &frame, &ls))
+            if let Some(q) = (l.sample_punctual(i, p.position))
+                .and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, false))
             {
                 f(q);
             }
@@ -229,7 +228,9 @@ impl PixelDirect {
         let (first, count) = self.sun_samples(n);
         for k in first..first + count {
             let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
-            if let Some(mut q) = l.sample_sun(u).and_then(|ls| self.query(p, &frame, &ls)) {
+            if let Some(mut q) =
+                (l.sample_sun(u)).and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, false))
+            {
                 q.radiance /= count as f32;
                 f(q);
             }
@@ -253,61 +254,31 @@ impl PixelDirect {
         f: &mut impl FnMut(ShadowQuery),
     ) {
         let Some(sky) = &self.lights.sky else { return };
-        let ng = p.normal;
-        let opaque_wrong_side = |wi: Vec3| !p.bsdf.transmits() && ng.dot(wi) * ng.dot(p.wo) <= 0.0;
-        let wo = frame.to_local(p.wo);
         // The same 2-D sequence as the sun's, shifted by another hash of the pixel.
         let u = Vec2::new(r_sequence(R2, 4, 0, n, seed), r_sequence(R2, 4, 1, n, seed));
         if let Some(ls) = self.lights.sample_sky(u)
-            && !opaque_wrong_side(ls.wi)
+            && let Some(q) = self.query(p, frame, &ls, |b| power_heuristic(ls.pdf, b), true)
         {
-            let (fv, bsdf_pdf) = p.bsdf.eval(wo, frame.to_local(ls.wi));
-            let c = fv
-                * frame.n.dot(ls.wi).abs()
-                * ls.contribution
-                * p.weight
-                * power_heuristic(ls.pdf, bsdf_pdf);
-            if c.max_element() > 0.0
-                && c.is_finite()
-                && let Some((ray, tmax)) = shadow_ray(&ls, p.position, ng)
-            {
-                f(ShadowQuery {
-                    ray,
-                    tmax,
-                    radiance: c,
-                    sky: true,
-                });
-            }
+            f(q);
         }
         let uc = r_sequence(R3, 5, 0, n, seed);
         let u = Vec2::new(r_sequence(R3, 5, 1, n, seed), r_sequence(R3, 5, 2, n, seed));
-        let Some(b) = p.bsdf.sample(wo, uc, u) else {
+        let Some(b) = p.bsdf.sample(frame.to_local(p.wo), uc, u) else {
             return;
         };
-        if b.delta {
-            return;
-        }
         let wi = frame.to_world(b.wi).normalize();
-        if opaque_wrong_side(wi) {
+        if b.delta || !receives(p, wi) {
             return;
         }
         let c = b.weight * sky.radiance(wi) * p.weight * power_heuristic(b.pdf, sky.pdf(wi));
-        if c.max_element() <= 0.0 || !c.is_finite() {
-            return;
-        }
         let ls = LightSample {
             wi,
             dist: f32::INFINITY,
             contribution: Vec3::ZERO,
             pdf: b.pdf,
         };
-        if let Some((ray, tmax)) = shadow_ray(&ls, p.position, ng) {
-            f(ShadowQuery {
-                ray,
-                tmax,
-                radiance: c,
-                sky: true,
-            });
+        if let Some(q) = shadow_query(p, &ls, c, true) {
+            f(q);
         }
     }
 
@@ -356,20 +327,9 @@ impl PixelDirect {
         let Some(ls) = l.sample_via_mirror(&self.scene, p.position, u[0], u[1], uv) else {
             return Vec3::ZERO;
         };
-        let ng = p.normal;
-        if !p.bsdf.transmits() && ng.dot(ls.wi) * ng.dot(p.wo) <= 0.0 {
-            return Vec3::ZERO;
-        }
         let frame = Frame::new(p.shading_normal);
-        let (f, bsdf_pdf) = p.bsdf.eval(frame.to_local(p.wo), frame.to_local(ls.wi));
-        let c = f * frame.n.dot(ls.wi).abs() * ls.contribution;
-        if c.max_element() <= 0.0 || !c.is_finite() {
-            return Vec3::ZERO;
-        }
-        match shadow_ray(&ls, p.position, ng) {
-            Some((ray, tmax)) if !placed.occluded(&ray, tmax) => {
-                c * power_heuristic(ls.pdf, bsdf_pdf) * p.weight
-            }
+        match self.query(p, &frame, &ls, |b| power_heuristic(ls.pdf, b), false) {
+            Some(q) if !placed.occluded(&q.ray, q.tmax) => q.radiance,
             _ => Vec3::ZERO,
         }
     }

@@ -21,13 +21,13 @@
 //! it is: the matrix averages the BSDF over each bin (`Tiles::bin_bsdf`) and the true
 //! albedo is the BSDF's own.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use holocave_scene::SurfaceParams;
-use holocave_tracer::bsdf::Bsdf;
 use rayon::prelude::*;
 use std::collections::HashMap;
 
 use crate::octahedral;
+use crate::surface::directional_albedo;
 use crate::tiles::{NONE, Tiles};
 
 /// Matrices kept for a bake at most (each `k⁴` RGB values: 48 KB at 8 × 8 bins).
@@ -35,9 +35,8 @@ const MAX_BYTES: usize = 256 << 20;
 
 /// Entries of a BSDF's albedo table over `cos θ ∈ [0, 1]`.
 const ALBEDO_STEPS: usize = 64;
-/// Samples of the BSDF per entry (a 3-D low-discrepancy set: the lobe's choice and the
-/// direction).
-const ALBEDO_SAMPLES: usize = 1024;
+/// Samples of the BSDF per entry ([`directional_albedo`]).
+const ALBEDO_SAMPLES: u32 = 1024;
 
 pub struct Reflection {
     /// `k⁴` values per matrix, column by column: `[j * k² + b]`, so that the bins light
@@ -70,23 +69,6 @@ fn key(p: &SurfaceParams) -> [u32; 11] {
         p.transmission.to_bits(),
         p.ior.to_bits(),
     ]
-}
-
-/// `∫ f(ω_o, ω_i) cos θ_o dω_o` for light arriving at `cos θ_i = cos`: the mean weight
-/// of the BSDF's own samples taken from `ω_i` (the BSDF is reciprocal, so sampling from
-/// the arrival's side integrates over the outgoing hemisphere). An isotropic BSDF's
-/// albedo does not depend on the azimuth.
-fn directional_albedo(bsdf: &Bsdf, cos: f32) -> Vec3 {
-    let wi = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
-    // The R sequence in three dimensions (generator: the plastic number's analogue).
-    const G: f64 = 1.220_744_084_605_759_5;
-    let alpha = [1.0 / G, 1.0 / (G * G), 1.0 / (G * G * G)];
-    let at = |n: usize, c: usize| ((0.5 + n as f64 * alpha[c]).fract() as f32).min(0.999_999);
-    let sum: Vec3 = (0..ALBEDO_SAMPLES)
-        .filter_map(|n| bsdf.sample(wi, at(n, 0), Vec2::new(at(n, 1), at(n, 2))))
-        .map(|s| s.weight)
-        .sum();
-    sum / ALBEDO_SAMPLES as f32
 }
 
 impl Reflection {
@@ -136,8 +118,13 @@ impl Reflection {
             .par_iter()
             .flat_map_iter(|&g| {
                 let bsdf = tiles.tiles[g].bsdf;
-                (0..ALBEDO_STEPS)
-                    .map(move |i| directional_albedo(&bsdf, i as f32 / (ALBEDO_STEPS - 1) as f32))
+                (0..ALBEDO_STEPS).map(move |i| {
+                    // Light arriving at cos θ (an isotropic BSDF's albedo does not
+                    // depend on the azimuth).
+                    let cos = i as f32 / (ALBEDO_STEPS - 1) as f32;
+                    let wi = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
+                    directional_albedo(&bsdf, wi, ALBEDO_SAMPLES)
+                })
             })
             .collect();
         Reflection {

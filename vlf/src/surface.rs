@@ -19,6 +19,8 @@ use holocave_tracer::fresnel;
 use holocave_tracer::microfacet::Ggx;
 use holocave_tracer::sampling::cosine_hemisphere;
 
+use crate::sequence::{R3, r_sequence};
+
 /// The most delta surfaces followed in a row before a line or eye ray gives up (black).
 pub const MAX_DELTA_DEPTH: u32 = 8;
 
@@ -110,6 +112,20 @@ fn integrate_albedo_terms(key: AlbedoKey, q: &SurfaceParams) -> (Vec3, Vec3) {
     (a, b)
 }
 
+/// `∫ f(ω_o, ω_i) |cos θ_i| dω_i` seen from `wo` (local): the mean weight of `samples` of
+/// the BSDF's own sampling, the lobe's choice and the direction from the 3-D R sequence
+/// (deterministic; a delta lobe's weight is exact). By reciprocity also the albedo of
+/// light arriving from `wo`.
+pub(crate) fn directional_albedo(bsdf: &Bsdf, wo: Vec3, samples: u32) -> Vec3 {
+    let at = |c: i32, n: u32| r_sequence(R3, 6, c, u64::from(n), 0);
+    let sum: Vec3 = (0..samples)
+        .filter_map(|n| bsdf.sample(wo, at(0, n), Vec2::new(at(1, n), at(2, n))))
+        .map(|b| b.weight)
+        .filter(|w| w.is_finite())
+        .sum();
+    sum / samples as f32
+}
+
 /// Cells of the albedo's quadrature over the views and over the incident directions
 /// (each uniform in `cos θ` and `φ`, `n × n`).
 const VIEWS: usize = 16;
@@ -132,25 +148,16 @@ fn bihemispherical_albedo(p: &SurfaceParams) -> Vec3 {
         })
     };
     if Ggx::is_smooth(p.roughness) {
-        // Views cosine-weighted, each view's directional albedo from the BSDF's own
-        // sampling over a stratified grid (lobe choice × direction).
-        let (views, picks, strata) = (8u32, 16u32, 16u32);
-        let mid = |k: u32, n: u32| (k as f32 + 0.5) / n as f32;
-        let mut sum = Vec3::ZERO;
-        for vo in 0..views * views {
-            let wo = cosine_hemisphere(Vec2::new(mid(vo % views, views), mid(vo / views, views)));
-            for c in 0..picks {
-                for s in 0..strata * strata {
-                    let u = Vec2::new(mid(s % strata, strata), mid(s / strata, strata));
-                    if let Some(b) = bsdf.sample(wo, mid(c, picks), u)
-                        && b.weight.is_finite()
-                    {
-                        sum += b.weight;
-                    }
-                }
-            }
-        }
-        return sum / (views * views * picks * strata * strata) as f32;
+        // Views cosine-weighted, each view's directional albedo from the BSDF's sampling.
+        let views = 8u32;
+        let mid = |k: u32| (k as f32 + 0.5) / views as f32;
+        let sum: Vec3 = (0..views * views)
+            .map(|vo| {
+                let wo = cosine_hemisphere(Vec2::new(mid(vo % views), mid(vo / views)));
+                directional_albedo(&bsdf, wo, 4096)
+            })
+            .sum();
+        return sum / (views * views) as f32;
     }
     let cell = |n: usize| std::f32::consts::TAU / (n * n) as f32;
     let mut sum = Vec3::ZERO;
