@@ -26,7 +26,8 @@ use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
-use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
+use holocave_vlf::split::{SkyPerPixel, Split};
+use holocave_vlf::view::{SkyPrior, shade_one};
 use holocave_vlf::{Accumulator, DirectPoint, Lookup, PixelDirect, ShadowQuery, Visibility};
 use rayon::prelude::*;
 
@@ -55,8 +56,9 @@ pub struct VlfBase {
     /// next-event part (what the lookups read when the direct light is drawn per pixel).
     total: Arc<Vec<[f32; 3]>>,
     indirect: Vec<[f32; 3]>,
-    /// With the sky per pixel, the field's sky (its first arrival), a prior for it.
-    sky: Option<Vec<[f32; 3]>>,
+    /// Where the sky is taken per pixel, the field's sky (its first arrival) there, a
+    /// prior for it, and what it is worth in a pixel's samples.
+    sky: Option<(Vec<[f32; 3]>, f32)>,
     /// The next-event estimates: the walls' direct light per pixel and gather samples'.
     nee: PixelDirect,
     /// Whether the walls draw the direct light per pixel (never for a scene without a
@@ -117,10 +119,10 @@ impl VlfBase {
         Self::open_with_sky(path, scene, false)
     }
 
-    /// [`Self::open`]; with `sky_per_pixel`, the direct light per pixel takes the sky's
-    /// too, under the light field's sky as a prior worth [`SKY_PRIOR_SAMPLES`] of a
-    /// pixel's samples, and the lookups read the field less the sky's first arrival (an
-    /// error for a file baked without it).
+    /// [`Self::open`]; the direct light per pixel takes the sky's too where the field
+    /// blurs it (glossy lobes narrower than a tile resolves), with `sky_per_pixel`
+    /// everywhere (an error for a file baked without the sky's part), and the lookups
+    /// read the field less the sky's first arrival there ([`Split`]).
     pub fn open_with_sky(
         path: &Path,
         scene: Arc<Scene>,
@@ -138,25 +140,17 @@ impl VlfBase {
                 f.state.bounces
             );
         }
-        let nee = PixelDirect::new(scene.clone()).with_sky(sky_per_pixel);
+        let sky = match sky_per_pixel {
+            true => SkyPerPixel::Everywhere,
+            false => SkyPerPixel::WhereBlurred,
+        };
+        let Split {
+            direct: nee,
+            remainder: indirect,
+            sky,
+        } = Split::new(scene.clone(), &f.settings, &f.state, &elements, &tiles, sky)
+            .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
         let shadow_lights = shadow_lights(&scene);
-        let split = match sky_per_pixel {
-            true => f
-                .state
-                .indirect_values_without_sky()
-                .zip(f.state.sky_values()),
-            false => None,
-        };
-        if sky_per_pixel && split.is_none() {
-            return Err(RenderNodeError::Vlf(format!(
-                "{}: baked without the sky's part: bake it again to take the sky per pixel",
-                path.display()
-            )));
-        }
-        let (indirect, sky) = match split {
-            Some((indirect, sky)) => (indirect, Some(sky)),
-            None => (f.state.indirect_values(), None),
-        };
         let total = Arc::new(f.state.values());
         let visibility = Visibility::new(scene, elements, tiles);
         visibility.light_objects(total.clone());
@@ -386,9 +380,9 @@ impl VlfBase {
         });
         for ((l, d), &n) in lookups.iter_mut().zip(estimates).zip(acc.counts()) {
             let added = match &self.sky {
-                Some(values) => SkyPrior {
+                Some((values, samples)) => SkyPrior {
                     values,
-                    samples: SKY_PRIOR_SAMPLES,
+                    samples: *samples,
                 }
                 .direct(l, &d, n),
                 None => d.radiance,

@@ -10,6 +10,7 @@ use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::VlfFile;
 use holocave_vlf::remote::Workers;
+use holocave_vlf::split::{SkyPerPixel, Split};
 use holocave_vlf::{Casting, Threads, Visibility};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -107,19 +108,15 @@ pub struct ViewArgs {
     /// baked direct light included (as before the walls computed it).
     #[arg(long)]
     pub no_direct: bool,
-    /// Take the sky's light per pixel too (one sample of the sky a frame, with its shadow
-    /// ray) and the light field less the sky's first arrival: the other way to split.
+    /// Take the sky's light per pixel everywhere (two samples of the sky a frame, each
+    /// with its shadow ray) and the light field less the sky's first arrival; without,
+    /// only on glossy surfaces whose lobe a tile cannot resolve.
     #[arg(long, conflicts_with = "no_direct")]
     pub sky_per_pixel: bool,
-    /// With --sky-per-pixel: the light field's sky as a prior worth K of a pixel's sky
-    /// samples (default: the walls'; 0: the pixel's samples alone).
-    #[arg(
-        long,
-        value_name = "K",
-        default_value_t = holocave_vlf::view::SKY_PRIOR_SAMPLES,
-        requires = "sky_per_pixel"
-    )]
-    pub sky_prior: f32,
+    /// The light field's sky as a prior worth K of a pixel's sky samples, where the sky
+    /// is taken per pixel (default: the walls'; 0: the pixel's samples alone).
+    #[arg(long, value_name = "K")]
+    pub sky_prior: Option<f32>,
     /// Frames of per-pixel direct light averaged (what a still wall shows after that
     /// many frames; 1: the first frame).
     #[arg(long, default_value_t = 1)]
@@ -388,7 +385,12 @@ fn view(a: ViewArgs) -> Result<()> {
     let efficacy = scene.daylight.photometry.efficacy;
     let start = std::time::Instant::now();
     let scene = std::sync::Arc::new(scene);
-    let direct = holocave_vlf::PixelDirect::new(scene.clone()).with_sky(a.sky_per_pixel);
+    let sky = match a.sky_per_pixel {
+        true => SkyPerPixel::Everywhere,
+        false => SkyPerPixel::WhereBlurred,
+    };
+    let split = Split::new(scene.clone(), &f.settings, &f.state, &elements, &tiles, sky)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     let vis = Visibility::new(scene.clone(), elements, tiles);
     let vis = if a.no_darkening {
         vis.without_darkening()
@@ -398,6 +400,7 @@ fn view(a: ViewArgs) -> Result<()> {
     let values = std::sync::Arc::new(f.state.values());
     vis.light_objects(values.clone());
     vis.place_objects(&a.objects.placements(&scene)?);
+    let direct = &split.direct;
     let image = if a.no_direct || direct.is_empty() {
         vis.render(&view, &values, a.aa)
     } else {
@@ -407,24 +410,14 @@ fn view(a: ViewArgs) -> Result<()> {
             a.frames.max(1),
             a.aa.max(1).pow(2)
         );
-        // The field less what is taken per pixel: the direct light, and the sky if asked.
-        let (remainder, sky) = if a.sky_per_pixel {
-            let split = (f.state.indirect_values_without_sky()).zip(f.state.sky_values());
-            let (remainder, sky) = split.with_context(|| {
-                format!(
-                    "{}: holds no sky part: bake it again to take the sky per pixel",
-                    a.file.display()
-                )
-            })?;
-            (remainder, Some(sky))
-        } else {
-            (f.state.indirect_values(), None)
-        };
-        let prior = sky.as_deref().map(|values| holocave_vlf::view::SkyPrior {
-            values,
-            samples: a.sky_prior.max(0.0),
-        });
-        vis.render_with_direct(&view, &remainder, a.aa, &direct, a.frames, prior)
+        let prior = split
+            .sky
+            .as_ref()
+            .map(|(values, k)| holocave_vlf::view::SkyPrior {
+                values,
+                samples: a.sky_prior.unwrap_or(*k).max(0.0),
+            });
+        vis.render_with_direct(&view, &split.remainder, a.aa, direct, a.frames, prior)
     };
     let secs = start.elapsed().as_secs_f64();
     image.write_exr(&a.out)?;

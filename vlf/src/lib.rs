@@ -62,6 +62,7 @@ pub mod propagate;
 pub mod reflection;
 pub mod remote;
 mod sequence;
+pub mod split;
 pub mod subfield;
 pub mod surface;
 pub mod tiles;

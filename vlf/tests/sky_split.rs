@@ -11,6 +11,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use holocave_scene::{Daylight, Ray, Sky, SkyModel};
+use holocave_vlf::split::{NARROW_SKY_PRIOR_SAMPLES, SkyPerPixel, Split};
 use holocave_vlf::view::shade_one;
 use holocave_vlf::{Directions, PixelDirect, Settings, Visibility};
 
@@ -128,4 +129,120 @@ fn the_sky_split_conserves_the_light_and_draws_the_same_floor() {
         "field {mean}, pixel {}, Q {q}",
         e.sky.x
     );
+}
+
+/// Where the field blurs (the walls' default, `Split` with `SkyPerPixel::WhereBlurred`):
+/// a varnished half of the floor (GGX α 0.0625, narrower than the tiles' floor α) and a
+/// diffuse half under a uniform sky. The varnished half takes the sky per pixel and its
+/// elements and tiles are read less the sky; the diffuse half keeps the sky in the field
+/// and takes none per pixel. Each part sums to the field, and the varnished half's own
+/// sky samples average `L` times the BSDF's directional albedo (the sky is uniform).
+#[test]
+fn the_sky_is_taken_per_pixel_where_the_tiles_blur_it_and_only_there() {
+    let halves = [
+        common::quad(
+            Vec3::new(-HALF, 0.0, -HALF),
+            Vec3::Z * 2.0 * HALF,
+            Vec3::X * HALF,
+        ),
+        common::quad(
+            Vec3::new(0.0, 0.0, -HALF),
+            Vec3::Z * 2.0 * HALF,
+            Vec3::X * HALF,
+        ),
+    ];
+    let varnish = holocave_scene::Material {
+        roughness: 0.25,
+        specular: 1.0,
+        ..common::lambert("varnish", RHO, Vec3::ZERO)
+    };
+    let triangles: Vec<([Vec3; 3], u32)> = (halves.iter().enumerate())
+        .flat_map(|(m, q)| q.iter().map(move |t| (*t, m as u32)))
+        .collect();
+    let daylight = Daylight {
+        sky: Some(Sky {
+            model: SkyModel::Uniform(Vec3::splat(SKY_L)),
+            ground: Vec3::ZERO,
+        }),
+        ..Default::default()
+    };
+    let scene = Arc::new(common::scene_of(
+        "varnished and diffuse floor",
+        &triangles,
+        vec![varnish, common::lambert("floor", RHO, Vec3::ZERO)],
+        |p| p.daylight = daylight,
+    ));
+    let settings = Settings {
+        directions: 92,
+        resolution: 48,
+        // Elements larger than a line's spread (`bake::least_area`), so the varnish
+        // gets tiles.
+        element_size: Some(4.0),
+        ..Settings::default()
+    };
+    let (state, _) = common::bake_quiet(&scene, &settings);
+    let vis = Visibility::of(scene.clone(), &settings);
+    assert!(!vis.tiles().tiles.is_empty(), "the varnish has tiles");
+    let split = Split::new(
+        scene.clone(),
+        &settings,
+        &state,
+        vis.elements(),
+        vis.tiles(),
+        SkyPerPixel::WhereBlurred,
+    )
+    .unwrap();
+    let (prior, k) = split.sky.as_ref().expect("the sky is taken somewhere");
+    assert_eq!(*k, NARROW_SKY_PRIOR_SAMPLES);
+    let indirect = state.indirect_values();
+    for (i, ((r, p), t)) in split.remainder.iter().zip(prior).zip(&indirect).enumerate() {
+        for c in 0..3 {
+            assert!(
+                (r[c] + p[c] - t[c]).abs() <= 1e-5 * t[c].max(1e-3),
+                "value {i}: remainder {r:?} and the sky taken {p:?} sum to {t:?}"
+            );
+        }
+    }
+
+    let samples = 4096;
+    for (x, varnished) in [(-HALF / 2.0, true), (HALF / 2.0, false)] {
+        let (l, point) = vis.lookup_and_point(Ray::new(Vec3::new(x, 1.5, 0.3), Vec3::NEG_Y));
+        let point = point.expect("the floor");
+        let taken = shade_one(&l, prior).x;
+        // Nothing is inter-reflected here: what the lookup reads is the field's sky or
+        // nothing.
+        let read = shade_one(&l, &split.remainder).x;
+        let e = vis.with_placed(|s| split.direct.mean(s, &point, 3, 0, samples));
+        if varnished {
+            assert!(
+                taken > 0.1 * RHO * SKY_L,
+                "the field's sky left out: {taken}"
+            );
+            assert!(read < 1e-3 * RHO * SKY_L, "and not read: {read}");
+            // The BSDF's directional albedo towards the eye, by its own sampling.
+            let wo = Vec3::Z;
+            let albedo = (0..samples)
+                .filter_map(|n| {
+                    let u = |k: u32| ((n * 3 + k) as f32 * 0.618_034).fract();
+                    point.bsdf.sample(wo, u(0), glam::Vec2::new(u(1), u(2)))
+                })
+                .map(|b| b.weight.x)
+                .sum::<f32>()
+                / samples as f32;
+            let exact = SKY_L * albedo;
+            // The horizon beyond the floor's edge: under 0.5 % of the cosine-weighted
+            // hemisphere (as above); the estimates' spread: the MIS pair's, under ρ L,
+            // at 4 standard errors.
+            let bound = 4.0 * RHO * SKY_L / (samples as f32).sqrt() + 0.005 * exact;
+            assert!(
+                (e.sky.x - exact).abs() <= bound,
+                "the varnish's own sky {} against L × albedo {exact}",
+                e.sky.x
+            );
+        } else {
+            assert_eq!(taken, 0.0, "the diffuse half keeps the sky in the field");
+            assert!(read > 0.1 * RHO * SKY_L, "and reads it: {read}");
+            assert_eq!(e.sky, Vec3::ZERO, "and takes none per pixel");
+        }
+    }
 }
