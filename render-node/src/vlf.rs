@@ -142,13 +142,13 @@ impl VlfBase {
         }
         let sky = match sky_per_pixel {
             true => SkyPerPixel::Everywhere,
-            false => SkyPerPixel::WhereBlurred,
+            false => SkyPerPixel::SharpReflections,
         };
         let Split {
             direct: nee,
             remainder: indirect,
             sky,
-        } = Split::new(scene.clone(), &f.settings, &f.state, &elements, &tiles, sky)
+        } = Split::new(scene.clone(), &f.settings, &f.state, sky)
             .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
         let shadow_lights = shadow_lights(&scene);
         let total = Arc::new(f.state.values());

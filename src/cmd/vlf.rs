@@ -387,9 +387,9 @@ fn view(a: ViewArgs) -> Result<()> {
     let scene = std::sync::Arc::new(scene);
     let sky = match a.sky_per_pixel {
         true => SkyPerPixel::Everywhere,
-        false => SkyPerPixel::WhereBlurred,
+        false => SkyPerPixel::SharpReflections,
     };
-    let split = Split::new(scene.clone(), &f.settings, &f.state, &elements, &tiles, sky)
+    let split = Split::new(scene.clone(), &f.settings, &f.state, sky)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     let vis = Visibility::new(scene.clone(), elements, tiles);
     let vis = if a.no_darkening {

@@ -76,6 +76,22 @@ impl Bsdf {
         }
     }
 
+    /// Its microfacet lobes' distribution.
+    pub fn ggx(&self) -> Ggx {
+        self.ggx
+    }
+
+    /// This BSDF with its microfacet lobes no narrower than GGX `alpha` (a smooth one
+    /// stays a delta): what a surface's light-field tile holds (`holocave_vlf::tiles`).
+    pub fn widened(&self, alpha: f32) -> Bsdf {
+        Bsdf {
+            ggx: Ggx {
+                alpha: self.ggx.alpha.max(alpha),
+            },
+            ..*self
+        }
+    }
+
     /// Whether any lobe is not a delta: only then is light sampling worth a shadow ray.
     pub fn has_non_delta(&self) -> bool {
         self.dielectric > 0.0 || (!self.smooth && (self.metal > 0.0 || self.glass > 0.0))

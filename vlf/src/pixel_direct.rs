@@ -38,11 +38,13 @@
 
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
-use holocave_scene::{PlacedScene, Ray, Scene};
+use holocave_scene::{Material, PlacedScene, Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::frame::Frame;
+use holocave_tracer::fresnel;
 use holocave_tracer::integrator::shadow_ray;
 use holocave_tracer::lights::{LightSample, Lights};
+use holocave_tracer::microfacet::Ggx;
 use holocave_tracer::mirrors::ViaMirror;
 use holocave_tracer::sampling::power_heuristic;
 use rayon::prelude::*;
@@ -70,17 +72,11 @@ pub struct DirectPoint {
 pub struct PixelDirect {
     scene: Arc<Scene>,
     lights: Lights,
-    /// Where the sky is sampled too ([`PixelDirect::with_sky`],
-    /// [`PixelDirect::with_sky_on`]).
-    sky: SkyTaken,
-}
-
-/// The points whose sky the per-pixel pass samples.
-enum SkyTaken {
-    Nowhere,
-    Everywhere,
-    /// On the static scene's triangles of the materials marked (by material index).
-    OnMaterials(Vec<bool>),
+    /// The sky is sampled too ([`PixelDirect::with_sky`]).
+    sky: bool,
+    /// Per material: the lobe a light-field tile widens it to, where it is narrower than
+    /// that ([`PixelDirect::with_sharp_sky_reflections`]); empty: none.
+    widened: Vec<Option<Ggx>>,
 }
 
 /// Samples of the sun's disc in each estimate a pixel takes at a new point. A shadow cast
@@ -89,15 +85,6 @@ enum SkyTaken {
 /// or not, at the first frame; with two estimates of four each a new point's stripes are
 /// eight samples deep. The extra rays are paid only where a pixel starts over.
 pub const FIRST_SUN_SAMPLES: u64 = 4;
-
-/// Pairs of sky samples (one of the sky's distribution, one of the BSDF) in each estimate
-/// a pixel takes at a new point, where the sky is taken per pixel. Through a window most
-/// of them are blocked: in the room's floor view (its varnished floor takes the sky per
-/// pixel) the first frame was at relative MSE 0.090 with one pair, 0.020 with four and
-/// 0.011 with eight (a 1024-spp render: 0.013; the light field's blurred sky 0.007 but
-/// 19 % off in the window's block), and `sim` drew at 0.88, 0.81 and 0.72 of its rate
-/// with the sky in the field.
-pub const FIRST_SKY_SAMPLES: u64 = 4;
 
 /// Whether light arriving along `wi` reaches the viewer from `p`: opaque surfaces only
 /// receive light on the side they are seen from.
@@ -113,7 +100,7 @@ fn shadow_query(
     radiance: Vec3,
     sky: bool,
 ) -> Option<ShadowQuery> {
-    if radiance.max_element() <= 0.0 || !radiance.is_finite() {
+    if radiance.abs().max_element() <= 0.0 || !radiance.is_finite() {
         return None;
     }
     let (ray, tmax) = shadow_ray(ls, p.position, p.normal)?;
@@ -131,7 +118,8 @@ impl PixelDirect {
         PixelDirect {
             scene,
             lights,
-            sky: SkyTaken::Nowhere,
+            sky: false,
+            widened: Vec::new(),
         }
     }
 
@@ -143,38 +131,43 @@ impl PixelDirect {
     /// sphere, so unlike the sun's disc an estimate is far from exact: through a window
     /// most samples are blocked, and a still view's mean converges as `1/√n` over frames.
     pub fn with_sky(mut self, on: bool) -> Self {
-        self.sky = match on && self.lights.sky.is_some() {
-            true => SkyTaken::Everywhere,
-            false => SkyTaken::Nowhere,
-        };
+        self.sky = on && self.lights.sky.is_some();
         self
     }
 
-    /// [`Self::with_sky`] on the static scene's points of the materials marked in
-    /// `materials` (by index) only.
-    pub fn with_sky_on(mut self, materials: Vec<bool>) -> Self {
-        self.sky = match self.lights.sky.is_some() && materials.contains(&true) {
-            true => SkyTaken::OnMaterials(materials),
-            false => SkyTaken::Nowhere,
-        };
-        self
-    }
-
-    /// Whether the sky is sampled anywhere.
-    pub fn samples_sky(&self) -> bool {
-        !matches!(self.sky, SkyTaken::Nowhere)
-    }
-
-    /// Whether the sky is sampled at `p`.
-    fn takes_sky(&self, p: &DirectPoint) -> bool {
-        match &self.sky {
-            SkyTaken::Nowhere => false,
-            SkyTaken::Everywhere => true,
-            SkyTaken::OnMaterials(m) => {
-                (p.triangle as usize) < self.scene.triangle_count()
-                    && m[self.scene.triangle_shading(p.triangle).material as usize]
-            }
+    /// Also, on glossy surfaces whose lobe is narrower than GGX `alpha` (the least a
+    /// light-field tile resolves, which widens such a lobe to it), the difference between
+    /// the sky the surface reflects and the sky its widened lobe reflects (see
+    /// [`Self::sharpening_queries`]): added to the field's sky, the reflection of a
+    /// window is as sharp as the surface's. Not with [`Self::with_sky`], which takes
+    /// the whole sky per pixel.
+    pub fn with_sharp_sky_reflections(mut self, alpha: f32) -> Self {
+        if self.lights.sky.is_none() {
+            return self;
         }
+        let narrow = |m: &Material| {
+            let lobe = m.metallic > 0.0 || m.specular > 0.0;
+            let glass = (1.0 - m.metallic) * m.transmission > 0.0;
+            lobe && !glass
+                && !Ggx::is_smooth(m.roughness)
+                && Ggx::from_roughness(m.roughness).alpha < alpha
+        };
+        let widened: Vec<Option<Ggx>> = (self.scene.materials.iter())
+            .map(|m| narrow(m).then_some(Ggx { alpha }))
+            .collect();
+        if widened.iter().any(Option::is_some) {
+            self.widened = widened;
+        }
+        self
+    }
+
+    /// The lobe `p`'s tile widens its BSDF to, where the sky's reflection is sharpened.
+    fn widened_at(&self, p: &DirectPoint) -> Option<Ggx> {
+        if self.sky || self.widened.is_empty() || p.triangle as usize >= self.scene.triangle_count()
+        {
+            return None;
+        }
+        self.widened[self.scene.triangle_shading(p.triangle).material as usize]
     }
 
     /// Whether the scene has any light this pass computes (emissive triangles, punctual
@@ -183,7 +176,8 @@ impl PixelDirect {
         !self.lights.has_area()
             && self.lights.punctual.is_empty()
             && self.lights.sun.is_none()
-            && !self.samples_sky()
+            && !self.sky
+            && self.widened.is_empty()
     }
 
     /// Estimates a pixel takes on the frame it starts over at a new point: 2 when the
@@ -196,7 +190,7 @@ impl PixelDirect {
     /// `sim`'s nodes (the room: a lamp and the sun, two shadow rays each) too slow to
     /// draw every frame on a shared two-core machine; two is the compromise.
     pub fn first_estimates(&self) -> u32 {
-        if self.lights.has_area() || self.samples_sky() {
+        if self.lights.has_area() || self.sky {
             2
         } else {
             1
@@ -208,29 +202,22 @@ impl PixelDirect {
     /// ([`Self::first_estimates`]) takes [`FIRST_SUN_SAMPLES`] of the disc, every later
     /// one a single sample, the sequence going on where they left it.
     fn sun_samples(&self, n: u64) -> (u64, u64) {
-        self.samples_of(n, FIRST_SUN_SAMPLES)
-    }
-
-    /// The samples of a light in the `n`-th estimate that takes `first` of them in each
-    /// estimate at a new point and one in every later one.
-    fn samples_of(&self, n: u64, first: u64) -> (u64, u64) {
-        let estimates = u64::from(self.first_estimates());
-        if n < estimates {
-            (n * first, first)
+        let first = u64::from(self.first_estimates());
+        if n < first {
+            (n * FIRST_SUN_SAMPLES, FIRST_SUN_SAMPLES)
         } else {
-            (estimates * first + (n - estimates), 1)
+            (first * FIRST_SUN_SAMPLES + (n - first), 1)
         }
     }
 
     /// Shadow rays per estimate after a pixel's first frame at a point (at most: a sample
     /// facing away from the point needs none); the first estimates take
-    /// [`FIRST_SUN_SAMPLES`] − 1 more for the sun and, where the sky is taken,
-    /// 2 ([`FIRST_SKY_SAMPLES`] − 1) more for it.
+    /// [`FIRST_SUN_SAMPLES`] − 1 more for the sun.
     pub fn shadow_rays(&self) -> u32 {
         u32::from(self.lights.has_area())
             + self.lights.punctual.len() as u32
             + u32::from(self.lights.sun.is_some())
-            + 2 * u32::from(self.samples_sky())
+            + 2 * u32::from(self.sky || !self.widened.is_empty())
     }
 
     /// The shadow ray of one light sample at `p` and the radiance it sends towards the
@@ -290,17 +277,18 @@ impl PixelDirect {
                 f(q);
             }
         }
-        if self.takes_sky(p) {
+        if self.sky {
             self.sky_queries(p, &frame, seed, n, &mut f);
+        } else if let Some(wide) = self.widened_at(p) {
+            self.sharpening_queries(p, &frame, wide, seed, n, &mut f);
         }
     }
 
-    /// The sky's samples of the `n`-th estimate, in pairs combined by multiple importance
-    /// sampling (the power heuristic): one direction from the sky's own distribution
-    /// (good on a diffuse surface under open sky) and one from the BSDF (good on a glossy
-    /// one, whose lobe the sky's distribution rarely hits through a window: alone it left
-    /// speckles on the room's glossy floor). One pair in an estimate, [`FIRST_SKY_SAMPLES`]
-    /// in each at a new point. Each sample is a shadow ray to infinity.
+    /// The sky's two samples of an estimate, combined by multiple importance sampling
+    /// (the power heuristic): one direction from the sky's own distribution (good on a
+    /// diffuse surface under open sky) and one from the BSDF (good on a glossy one, whose
+    /// lobe the sky's distribution rarely hits through a window: alone it left speckles
+    /// on the room's glossy floor). Each is a shadow ray to infinity.
     fn sky_queries(
         &self,
         p: &DirectPoint,
@@ -310,36 +298,83 @@ impl PixelDirect {
         f: &mut impl FnMut(ShadowQuery),
     ) {
         let Some(sky) = &self.lights.sky else { return };
-        let (first, count) = self.samples_of(n, FIRST_SKY_SAMPLES);
-        let share = 1.0 / count as f32;
-        for k in first..first + count {
-            // The same 2-D sequence as the sun's, shifted by another hash of the pixel.
-            let u = Vec2::new(r_sequence(R2, 4, 0, k, seed), r_sequence(R2, 4, 1, k, seed));
-            if let Some(ls) = self.lights.sample_sky(u)
-                && let Some(q) = self.query(p, frame, &ls, |b| power_heuristic(ls.pdf, b), true)
-            {
-                f(ShadowQuery {
-                    radiance: q.radiance * share,
-                    ..q
-                });
-            }
-            let uc = r_sequence(R3, 5, 0, k, seed);
-            let u = Vec2::new(r_sequence(R3, 5, 1, k, seed), r_sequence(R3, 5, 2, k, seed));
-            let Some(b) = p.bsdf.sample(frame.to_local(p.wo), uc, u) else {
+        // The same 2-D sequence as the sun's, shifted by another hash of the pixel.
+        let u = Vec2::new(r_sequence(R2, 4, 0, n, seed), r_sequence(R2, 4, 1, n, seed));
+        if let Some(ls) = self.lights.sample_sky(u)
+            && let Some(q) = self.query(p, frame, &ls, |b| power_heuristic(ls.pdf, b), true)
+        {
+            f(q);
+        }
+        let uc = r_sequence(R3, 5, 0, n, seed);
+        let u = Vec2::new(r_sequence(R3, 5, 1, n, seed), r_sequence(R3, 5, 2, n, seed));
+        let Some(b) = p.bsdf.sample(frame.to_local(p.wo), uc, u) else {
+            return;
+        };
+        let wi = frame.to_world(b.wi).normalize();
+        if b.delta || !receives(p, wi) {
+            return;
+        }
+        let c = b.weight * sky.radiance(wi) * p.weight * power_heuristic(b.pdf, sky.pdf(wi));
+        let ls = LightSample {
+            wi,
+            dist: f32::INFINITY,
+            contribution: Vec3::ZERO,
+            pdf: b.pdf,
+        };
+        if let Some(q) = shadow_query(p, &ls, c, true) {
+            f(q);
+        }
+    }
+
+    /// The sky's reflection at `p` less what its tile's widened lobe `wide` reflects,
+    /// `∫ (f − f_w)(ω_o, ω_i) L_sky(ω_i) V(ω_i) |cos θ_i| dω_i`, in which the diffuse parts
+    /// cancel: one direction from each lobe's visible normals, combined by the balance
+    /// heuristic (`Σ g(ω_k) / (p(ω_k) + p_w(ω_k))`), a pair in each estimate. Signed: around a window's sharp
+    /// reflection it takes off the widened lobe's halo. The light field (with its sky)
+    /// holds the rest.
+    fn sharpening_queries(
+        &self,
+        p: &DirectPoint,
+        frame: &Frame,
+        wide: Ggx,
+        seed: u64,
+        n: u64,
+        f: &mut impl FnMut(ShadowQuery),
+    ) {
+        let Some(sky) = &self.lights.sky else { return };
+        let wo = frame.to_local(p.wo);
+        if wo.z == 0.0 {
+            return;
+        }
+        // Both lobes on the viewer's side, as the BSDF mirrors them.
+        let side = Vec3::new(1.0, 1.0, wo.z.signum());
+        let o = wo * side;
+        let lobes = [p.bsdf.ggx(), wide];
+        let widened = p.bsdf.widened(wide.alpha);
+        let density = |i: Vec3| -> f32 {
+            let h = (o + i).normalize();
+            lobes.iter().map(|g| g.visible_pdf(o, h)).sum::<f32>() / (4.0 * o.dot(h))
+        };
+        for (d, lobe) in (6..).zip(&lobes) {
+            let u = Vec2::new(r_sequence(R2, d, 0, n, seed), r_sequence(R2, d, 1, n, seed));
+            let i = fresnel::reflect(o, lobe.sample_visible(o, u));
+            let pdf = density(i);
+            if i.z <= 0.0 || !pdf.is_finite() || pdf <= 0.0 {
                 continue;
-            };
-            let wi = frame.to_world(b.wi).normalize();
-            if b.delta || !receives(p, wi) {
+            }
+            let local = i * side;
+            let wi = frame.to_world(local).normalize();
+            if !receives(p, wi) {
                 continue;
             }
-            let c = b.weight * sky.radiance(wi) * p.weight * power_heuristic(b.pdf, sky.pdf(wi));
+            let g = (p.bsdf.eval(wo, local).0 - widened.eval(wo, local).0) * i.z;
             let ls = LightSample {
                 wi,
                 dist: f32::INFINITY,
                 contribution: Vec3::ZERO,
-                pdf: b.pdf,
+                pdf,
             };
-            if let Some(q) = shadow_query(p, &ls, c * share, true) {
+            if let Some(q) = shadow_query(p, &ls, g * sky.radiance(wi) * p.weight / pdf, false) {
                 f(q);
             }
         }

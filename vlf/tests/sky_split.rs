@@ -11,9 +11,11 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use holocave_scene::{Daylight, Ray, Sky, SkyModel};
-use holocave_vlf::split::{NARROW_SKY_PRIOR_SAMPLES, SkyPerPixel, Split};
+use holocave_vlf::split::{SkyPerPixel, Split};
+use holocave_vlf::tiles::alpha_floor;
 use holocave_vlf::view::shade_one;
 use holocave_vlf::{Directions, PixelDirect, Settings, Visibility};
+use rand::{Rng, SeedableRng, rngs::SmallRng};
 
 const RHO: f32 = 0.5;
 const SKY_L: f32 = 2.0;
@@ -131,14 +133,20 @@ fn the_sky_split_conserves_the_light_and_draws_the_same_floor() {
     );
 }
 
-/// Where the field blurs (the walls' default, `Split` with `SkyPerPixel::WhereBlurred`):
-/// a varnished half of the floor (GGX α 0.0625, narrower than the tiles' floor α) and a
-/// diffuse half under a uniform sky. The varnished half takes the sky per pixel and its
-/// elements and tiles are read less the sky; the diffuse half keeps the sky in the field
-/// and takes none per pixel. Each part sums to the field, and the varnished half's own
-/// sky samples average `L` times the BSDF's directional albedo (the sky is uniform).
+/// Where the tiles blur the sky (the walls' default: `Split` with
+/// `SkyPerPixel::SharpReflections`): a floor, varnished on one half (GGX α 0.0625,
+/// narrower than the 0.26 a tile resolves here) and diffuse on the other, under a
+/// ceiling with a square hole above each half, and a uniform sky. The field is read
+/// whole, and the per-pixel pass adds, on the varnish only, the difference between the
+/// sky its own lobe reflects through the hole and the sky its tile's widened lobe
+/// reflects: checked against that difference estimated independently, by each BSDF's
+/// own sampling with a shadow ray per sample.
 #[test]
-fn the_sky_is_taken_per_pixel_where_the_tiles_blur_it_and_only_there() {
+fn the_sky_reflected_by_a_narrower_lobe_than_a_tile_holds_is_sharpened_per_pixel() {
+    const HOLE: f32 = 0.5;
+    const CEILING: f32 = 2.0;
+    let centres = [Vec3::new(-5.0, 0.0, 0.3), Vec3::new(5.0, 0.0, 0.3)];
+    let mut triangles: Vec<([Vec3; 3], u32)> = Vec::new();
     let halves = [
         common::quad(
             Vec3::new(-HALF, 0.0, -HALF),
@@ -151,14 +159,35 @@ fn the_sky_is_taken_per_pixel_where_the_tiles_blur_it_and_only_there() {
             Vec3::X * HALF,
         ),
     ];
+    for (m, q) in halves.iter().enumerate() {
+        triangles.extend(q.iter().map(|t| (*t, m as u32)));
+    }
+    // The ceiling (facing down) around the two holes: strips between and around them.
+    let (x0, x1) = (-5.0 - HALF_HOLE, -5.0 + HALF_HOLE);
+    let (x2, x3) = (5.0 - HALF_HOLE, 5.0 + HALF_HOLE);
+    let (z0, z1) = (0.3 - HALF_HOLE, 0.3 + HALF_HOLE);
+    const HALF_HOLE: f32 = HOLE / 2.0;
+    let rect = |xa: f32, xb: f32, za: f32, zb: f32| {
+        common::quad(
+            Vec3::new(xa, CEILING, za),
+            Vec3::X * (xb - xa),
+            Vec3::Z * (zb - za),
+        )
+    };
+    for r in [
+        rect(-HALF, HALF, -HALF, z0),
+        rect(-HALF, HALF, z1, HALF),
+        rect(-HALF, x0, z0, z1),
+        rect(x1, x2, z0, z1),
+        rect(x3, HALF, z0, z1),
+    ] {
+        triangles.extend(r.iter().map(|t| (*t, 1)));
+    }
     let varnish = holocave_scene::Material {
         roughness: 0.25,
         specular: 1.0,
         ..common::lambert("varnish", RHO, Vec3::ZERO)
     };
-    let triangles: Vec<([Vec3; 3], u32)> = (halves.iter().enumerate())
-        .flat_map(|(m, q)| q.iter().map(move |t| (*t, m as u32)))
-        .collect();
     let daylight = Daylight {
         sky: Some(Sky {
             model: SkyModel::Uniform(Vec3::splat(SKY_L)),
@@ -167,82 +196,82 @@ fn the_sky_is_taken_per_pixel_where_the_tiles_blur_it_and_only_there() {
         ..Default::default()
     };
     let scene = Arc::new(common::scene_of(
-        "varnished and diffuse floor",
+        "varnished and diffuse floor under a ceiling with holes",
         &triangles,
-        vec![varnish, common::lambert("floor", RHO, Vec3::ZERO)],
+        vec![varnish, common::lambert("diffuse", RHO, Vec3::ZERO)],
         |p| p.daylight = daylight,
     ));
     let settings = Settings {
         directions: 92,
         resolution: 48,
-        // Elements larger than a line's spread (`bake::least_area`), so the varnish
-        // gets tiles.
         element_size: Some(4.0),
         ..Settings::default()
     };
     let (state, _) = common::bake_quiet(&scene, &settings);
-    let vis = Visibility::of(scene.clone(), &settings);
-    assert!(!vis.tiles().tiles.is_empty(), "the varnish has tiles");
     let split = Split::new(
         scene.clone(),
         &settings,
         &state,
-        vis.elements(),
-        vis.tiles(),
-        SkyPerPixel::WhereBlurred,
+        SkyPerPixel::SharpReflections,
     )
     .unwrap();
-    let (prior, k) = split.sky.as_ref().expect("the sky is taken somewhere");
-    assert_eq!(*k, NARROW_SKY_PRIOR_SAMPLES);
-    let indirect = state.indirect_values();
-    for (i, ((r, p), t)) in split.remainder.iter().zip(prior).zip(&indirect).enumerate() {
-        for c in 0..3 {
-            assert!(
-                (r[c] + p[c] - t[c]).abs() <= 1e-5 * t[c].max(1e-3),
-                "value {i}: remainder {r:?} and the sky taken {p:?} sum to {t:?}"
-            );
-        }
-    }
+    assert!(split.sky.is_none(), "the field keeps its sky");
+    assert_eq!(split.remainder, state.indirect_values(), "read whole");
+    let floor = alpha_floor(8, Settings::rounded_directions(settings.directions));
 
-    let samples = 4096;
-    for (x, varnished) in [(-HALF / 2.0, true), (HALF / 2.0, false)] {
-        let (l, point) = vis.lookup_and_point(Ray::new(Vec3::new(x, 1.5, 0.3), Vec3::NEG_Y));
+    let vis = Visibility::of(scene.clone(), &settings);
+    for (centre, varnished) in centres.into_iter().zip([true, false]) {
+        let eye = centre + Vec3::Y * 1.5;
+        let (_, point) = vis.lookup_and_point(Ray::new(eye, Vec3::NEG_Y));
         let point = point.expect("the floor");
-        let taken = shade_one(&l, prior).x;
-        // Nothing is inter-reflected here: what the lookup reads is the field's sky or
-        // nothing.
-        let read = shade_one(&l, &split.remainder).x;
-        let e = vis.with_placed(|s| split.direct.mean(s, &point, 3, 0, samples));
-        if varnished {
-            assert!(
-                taken > 0.1 * RHO * SKY_L,
-                "the field's sky left out: {taken}"
-            );
-            assert!(read < 1e-3 * RHO * SKY_L, "and not read: {read}");
-            // The BSDF's directional albedo towards the eye, by its own sampling.
-            let wo = Vec3::Z;
-            let albedo = (0..samples)
-                .filter_map(|n| {
-                    let u = |k: u32| ((n * 3 + k) as f32 * 0.618_034).fract();
-                    point.bsdf.sample(wo, u(0), glam::Vec2::new(u(1), u(2)))
-                })
-                .map(|b| b.weight.x)
-                .sum::<f32>()
-                / samples as f32;
-            let exact = SKY_L * albedo;
-            // The horizon beyond the floor's edge: under 0.5 % of the cosine-weighted
-            // hemisphere (as above); the estimates' spread: the MIS pair's, under ρ L,
-            // at 4 standard errors.
-            let bound = 4.0 * RHO * SKY_L / (samples as f32).sqrt() + 0.005 * exact;
-            assert!(
-                (e.sky.x - exact).abs() <= bound,
-                "the varnish's own sky {} against L × albedo {exact}",
-                e.sky.x
-            );
-        } else {
-            assert_eq!(taken, 0.0, "the diffuse half keeps the sky in the field");
-            assert!(read > 0.1 * RHO * SKY_L, "and reads it: {read}");
-            assert_eq!(e.sky, Vec3::ZERO, "and takes none per pixel");
+        let samples = 16_384;
+        let e = vis.with_placed(|s| split.direct.mean(s, &point, 5, 0, samples));
+        if !varnished {
+            assert_eq!(e.radiance, Vec3::ZERO, "nothing added on the diffuse half");
+            continue;
         }
+        // The same difference by each BSDF's own sampling: the mean of f cos / p times
+        // the sky where the sample passes the hole, for the surface's BSDF less its
+        // widened one; 4 standard errors of that difference.
+        let frame = holocave_tracer::frame::Frame::new(point.shading_normal);
+        let wo = frame.to_local(point.wo);
+        let reflected = |bsdf: &holocave_tracer::bsdf::Bsdf, seed: u64| -> Vec<f64> {
+            let mut rng = SmallRng::seed_from_u64(seed);
+            (0..200_000)
+                .map(|_| {
+                    let (uc, u) = (rng.random(), glam::Vec2::new(rng.random(), rng.random()));
+                    let Some(b) = bsdf.sample(wo, uc, u) else {
+                        return 0.0;
+                    };
+                    let wi = frame.to_world(b.wi).normalize();
+                    let ray = Ray::leaving(point.position, point.normal, wi);
+                    let open = vis.with_placed(|s| !s.occluded(&ray, f32::INFINITY));
+                    if open && wi.y > 0.0 {
+                        f64::from(b.weight.x * SKY_L)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        };
+        let own = reflected(&point.bsdf, 1);
+        let wide = reflected(&point.bsdf.widened(floor), 2);
+        let stats = |v: &[f64]| {
+            let n = v.len() as f64;
+            let m = v.iter().sum::<f64>() / n;
+            (m, v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n / n)
+        };
+        let ((a, va), (b, vb)) = (stats(&own), stats(&wide));
+        let sharpened = f64::from(e.radiance.x);
+        let bound = 4.0 * (va + vb).sqrt() + 0.01 * a;
+        assert!(
+            a - b > 5.0 * bound,
+            "the hole's reflection is sharper than the tile's: {a} against {b}"
+        );
+        assert!(
+            (sharpened - (a - b)).abs() <= bound,
+            "sharpened by {sharpened}, by the BSDFs' own sampling {} (own {a}, widened {b})",
+            a - b
+        );
     }
 }
