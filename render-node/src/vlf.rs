@@ -148,8 +148,14 @@ impl VlfBase {
             direct: nee,
             remainder: indirect,
             sky,
-        } = Split::new(scene.clone(), &f.settings, &f.state, sky)
-            .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
+        } = Split::new(
+            scene.clone(),
+            &f.settings,
+            &f.state,
+            (&elements, &tiles),
+            sky,
+        )
+        .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
         let shadow_lights = shadow_lights(&scene);
         let total = Arc::new(f.state.values());
         let visibility = Visibility::new(scene, elements, tiles);

@@ -389,8 +389,14 @@ fn view(a: ViewArgs) -> Result<()> {
         true => SkyPerPixel::Everywhere,
         false => SkyPerPixel::SharpReflections,
     };
-    let split = Split::new(scene.clone(), &f.settings, &f.state, sky)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+    let split = Split::new(
+        scene.clone(),
+        &f.settings,
+        &f.state,
+        (&elements, &tiles),
+        sky,
+    )
+    .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     let vis = Visibility::new(scene.clone(), elements, tiles);
     let vis = if a.no_darkening {
         vis.without_darkening()

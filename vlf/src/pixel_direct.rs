@@ -38,7 +38,7 @@
 
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
-use holocave_scene::{Material, PlacedScene, Ray, Scene};
+use holocave_scene::{PlacedScene, Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::frame::Frame;
 use holocave_tracer::fresnel;
@@ -74,9 +74,11 @@ pub struct PixelDirect {
     lights: Lights,
     /// The sky is sampled too ([`PixelDirect::with_sky`]).
     sky: bool,
-    /// Per material: the lobe a light-field tile widens it to, where it is narrower than
-    /// that ([`PixelDirect::with_sharp_sky_reflections`]); empty: none.
-    widened: Vec<Option<Ggx>>,
+    /// The lobe the light field's tiles widen narrower ones to, and per triangle whether
+    /// its sky reflections are sharpened ([`PixelDirect::with_sharp_sky_reflections`];
+    /// empty: none).
+    widened: Ggx,
+    sharpened: Vec<bool>,
 }
 
 /// Samples of the sun's disc in each estimate a pixel takes at a new point. A shadow cast
@@ -119,7 +121,8 @@ impl PixelDirect {
             scene,
             lights,
             sky: false,
-            widened: Vec::new(),
+            widened: Ggx { alpha: 1.0 },
+            sharpened: Vec::new(),
         }
     }
 
@@ -135,39 +138,47 @@ impl PixelDirect {
         self
     }
 
-    /// Also, on glossy surfaces whose lobe is narrower than GGX `alpha` (the least a
-    /// light-field tile resolves, which widens such a lobe to it), the difference between
-    /// the sky the surface reflects and the sky its widened lobe reflects (see
-    /// [`Self::sharpening_queries`]): added to the field's sky, the reflection of a
-    /// window is as sharp as the surface's. Not with [`Self::with_sky`], which takes
-    /// the whole sky per pixel.
-    pub fn with_sharp_sky_reflections(mut self, alpha: f32) -> Self {
+    /// Also, on the triangles marked in `tiled` (those with light-field tiles) of glossy
+    /// materials whose lobe is narrower than GGX `alpha` (the least a tile resolves,
+    /// which widens such a lobe to it), the difference between the sky the surface
+    /// reflects and the sky its widened lobe reflects (see [`Self::sharpening_queries`]):
+    /// added to the field's sky, the reflection of a window is as sharp as the
+    /// surface's. An element without a tile is drawn diffuse, with no widened lobe to
+    /// correct, and is left as it is. Not with [`Self::with_sky`], which takes the whole
+    /// sky per pixel.
+    pub fn with_sharp_sky_reflections(mut self, alpha: f32, tiled: &[bool]) -> Self {
         if self.lights.sky.is_none() {
             return self;
         }
-        let narrow = |m: &Material| {
-            let lobe = m.metallic > 0.0 || m.specular > 0.0;
-            let glass = (1.0 - m.metallic) * m.transmission > 0.0;
-            lobe && !glass
-                && !Ggx::is_smooth(m.roughness)
-                && Ggx::from_roughness(m.roughness).alpha < alpha
-        };
-        let widened: Vec<Option<Ggx>> = (self.scene.materials.iter())
-            .map(|m| narrow(m).then_some(Ggx { alpha }))
+        let narrow: Vec<bool> = (self.scene.materials.iter())
+            .map(|m| {
+                let lobe = m.metallic > 0.0 || m.specular > 0.0;
+                let glass = (1.0 - m.metallic) * m.transmission > 0.0;
+                lobe && !glass
+                    && !Ggx::is_smooth(m.roughness)
+                    && Ggx::from_roughness(m.roughness).alpha < alpha
+            })
             .collect();
-        if widened.iter().any(Option::is_some) {
-            self.widened = widened;
+        let sharpened: Vec<bool> = (tiled.iter().enumerate())
+            .map(|(t, &tiled)| {
+                tiled && narrow[self.scene.triangle_shading(t as u32).material as usize]
+            })
+            .collect();
+        if sharpened.contains(&true) {
+            self.widened = Ggx { alpha };
+            self.sharpened = sharpened;
         }
         self
     }
 
-    /// The lobe `p`'s tile widens its BSDF to, where the sky's reflection is sharpened.
-    fn widened_at(&self, p: &DirectPoint) -> Option<Ggx> {
-        if self.sky || self.widened.is_empty() || p.triangle as usize >= self.scene.triangle_count()
-        {
-            return None;
-        }
-        self.widened[self.scene.triangle_shading(p.triangle).material as usize]
+    /// Whether the sky's reflection at `p` is sharpened.
+    fn sharpens(&self, p: &DirectPoint) -> bool {
+        !self.sky
+            && self
+                .sharpened
+                .get(p.triangle as usize)
+                .copied()
+                .unwrap_or(false)
     }
 
     /// Whether the scene has any light this pass computes (emissive triangles, punctual
@@ -177,7 +188,7 @@ impl PixelDirect {
             && self.lights.punctual.is_empty()
             && self.lights.sun.is_none()
             && !self.sky
-            && self.widened.is_empty()
+            && self.sharpened.is_empty()
     }
 
     /// Estimates a pixel takes on the frame it starts over at a new point: 2 when the
@@ -217,7 +228,7 @@ impl PixelDirect {
         u32::from(self.lights.has_area())
             + self.lights.punctual.len() as u32
             + u32::from(self.lights.sun.is_some())
-            + 2 * u32::from(self.sky || !self.widened.is_empty())
+            + 2 * u32::from(self.sky || !self.sharpened.is_empty())
     }
 
     /// The shadow ray of one light sample at `p` and the radiance it sends towards the
@@ -279,8 +290,8 @@ impl PixelDirect {
         }
         if self.sky {
             self.sky_queries(p, &frame, seed, n, &mut f);
-        } else if let Some(wide) = self.widened_at(p) {
-            self.sharpening_queries(p, &frame, wide, seed, n, &mut f);
+        } else if self.sharpens(p) {
+            self.sharpening_queries(p, &frame, seed, n, &mut f);
         }
     }
 
@@ -326,7 +337,7 @@ impl PixelDirect {
         }
     }
 
-    /// The sky's reflection at `p` less what its tile's widened lobe `wide` reflects,
+    /// The sky's reflection at `p` less what its tile's widened lobe reflects,
     /// `∫ (f − f_w)(ω_o, ω_i) L_sky(ω_i) V(ω_i) |cos θ_i| dω_i`, in which the diffuse parts
     /// cancel: one direction from each lobe's visible normals, combined by the balance
     /// heuristic (`Σ g(ω_k) / (p(ω_k) + p_w(ω_k))`), a pair in each estimate. Signed: around a window's sharp
@@ -336,7 +347,6 @@ impl PixelDirect {
         &self,
         p: &DirectPoint,
         frame: &Frame,
-        wide: Ggx,
         seed: u64,
         n: u64,
         f: &mut impl FnMut(ShadowQuery),
@@ -349,8 +359,8 @@ impl PixelDirect {
         // Both lobes on the viewer's side, as the BSDF mirrors them.
         let side = Vec3::new(1.0, 1.0, wo.z.signum());
         let o = wo * side;
-        let lobes = [p.bsdf.ggx(), wide];
-        let widened = p.bsdf.widened(wide.alpha);
+        let lobes = [p.bsdf.ggx(), self.widened];
+        let widened = p.bsdf.widened(self.widened.alpha);
         let density = |i: Vec3| -> f32 {
             let h = (o + i).normalize();
             lobes.iter().map(|g| g.visible_pdf(o, h)).sum::<f32>() / (4.0 * o.dot(h))

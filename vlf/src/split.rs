@@ -18,8 +18,9 @@ use std::sync::Arc;
 use holocave_scene::Scene;
 
 use crate::bake::{Settings, State};
+use crate::elements::Elements;
 use crate::pixel_direct::PixelDirect;
-use crate::tiles::alpha_floor;
+use crate::tiles::{Tiles, alpha_floor};
 use crate::view::SKY_PRIOR_SAMPLES;
 
 /// The per-pixel pass and the field's remainder a wall draws.
@@ -41,12 +42,14 @@ pub enum SkyPerPixel {
 }
 
 impl Split {
-    /// The split of a field baked with `settings` (`state`) for `scene`. An error when the
-    /// whole sky is asked for and the state holds no sky part.
+    /// The split of a field baked with `settings` (`state`, laid out as `elements` and
+    /// `tiles`) for `scene`. An error when the whole sky is asked for and the state holds
+    /// no sky part.
     pub fn new(
         scene: Arc<Scene>,
         settings: &Settings,
         state: &State,
+        (elements, tiles): (&Elements, &Tiles),
         sky: SkyPerPixel,
     ) -> Result<Split, String> {
         let direct = PixelDirect::new(scene);
@@ -57,7 +60,8 @@ impl Split {
                     Settings::rounded_directions(settings.directions),
                 );
                 Ok(Split {
-                    direct: direct.with_sharp_sky_reflections(floor),
+                    direct: direct
+                        .with_sharp_sky_reflections(floor, &tiles.triangles_with_tiles(elements)),
                     remainder: state.indirect_values(),
                     sky: None,
                 })

@@ -34,7 +34,7 @@ use holocave_tracer::microfacet::Ggx;
 use rayon::prelude::*;
 
 use crate::bake::Settings;
-use crate::elements::Elements;
+use crate::elements::{Elements, cells};
 use crate::octahedral;
 use crate::surface::seen_at;
 
@@ -194,6 +194,18 @@ impl Tiles {
             samples: octahedral::bin_samples(k, BIN_SUB),
             elements: count,
         }
+    }
+
+    /// Per triangle of the scene laid out as `elements`, whether any of its elements has
+    /// a tile.
+    pub fn triangles_with_tiles(&self, elements: &Elements) -> Vec<bool> {
+        (elements.triangles.iter())
+            .map(|c| {
+                let (first, count) = (c.offset as usize, 2 * cells(c.res) as usize);
+                (self.of_element.get(first..first + count))
+                    .is_some_and(|e| e.iter().any(|&g| g != NONE))
+            })
+            .collect()
     }
 
     /// Bins in one tile.

@@ -208,10 +208,13 @@ fn the_sky_reflected_by_a_narrower_lobe_than_a_tile_holds_is_sharpened_per_pixel
         ..Settings::default()
     };
     let (state, _) = common::bake_quiet(&scene, &settings);
+    let vis = Visibility::of(scene.clone(), &settings);
+    let layout = (vis.elements(), vis.tiles());
     let split = Split::new(
         scene.clone(),
         &settings,
         &state,
+        layout,
         SkyPerPixel::SharpReflections,
     )
     .unwrap();
@@ -219,7 +222,6 @@ fn the_sky_reflected_by_a_narrower_lobe_than_a_tile_holds_is_sharpened_per_pixel
     assert_eq!(split.remainder, state.indirect_values(), "read whole");
     let floor = alpha_floor(8, Settings::rounded_directions(settings.directions));
 
-    let vis = Visibility::of(scene.clone(), &settings);
     for (centre, varnished) in centres.into_iter().zip([true, false]) {
         let eye = centre + Vec3::Y * 1.5;
         let (_, point) = vis.lookup_and_point(Ray::new(eye, Vec3::NEG_Y));
