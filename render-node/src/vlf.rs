@@ -6,7 +6,8 @@
 //!
 //! The direct light of the sun, punctual lights and emissive triangles is computed per
 //! pixel on the same threads, for the point each pixel's ray found
-//! ([`holocave_vlf::pixel_direct`]: `1 + P + 1` shadow rays per pixel and frame, averaged
+//! ([`holocave_vlf::pixel_direct`]: `1 + P + 1` shadow rays per pixel and frame, two more
+//! where a glossy floor's reflection of the sky is sharpened, averaged
 //! per surface point while the view stays still, and carried over to the next view of the
 //! same screen when the eye moves: `Accumulator::reproject`), and handed to the shader inside the
 //! lookup's `emitted` light; the light field then gives only the rest

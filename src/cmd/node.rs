@@ -133,8 +133,9 @@ pub struct NodeArgs {
     pub(crate) no_direct: bool,
     /// Take the sky's light per pixel too (two more shadow rays per pixel and frame), under
     /// the light field's sky as a prior worth 32 of a pixel's estimates: the first frame as
-    /// without, a still view's sky reflections and window light exact within seconds.
-    /// Needs a light field baked with the sky's part.
+    /// without, a still view's window light exact within seconds (without, the sky is the
+    /// field's, its reflection in glossy floors sharpened per pixel). Needs a light field
+    /// baked with the sky's part.
     #[arg(long, conflicts_with = "no_direct")]
     pub(crate) sky_per_pixel: bool,
     /// How many samples the light field is worth in a pixel: `auto` (measured at the first

@@ -108,14 +108,14 @@ pub struct ViewArgs {
     /// baked direct light included (as before the walls computed it).
     #[arg(long)]
     pub no_direct: bool,
-    /// Take the sky's light per pixel everywhere (two samples of the sky a frame, each
-    /// with its shadow ray) and the light field less the sky's first arrival; without,
-    /// only on glossy surfaces whose lobe a tile cannot resolve.
+    /// Take the sky's light per pixel (two samples of the sky a frame, each with its
+    /// shadow ray) and the light field less the sky's first arrival; without, the sky is
+    /// the field's, its reflection sharpened per pixel where a tile widened a glossy lobe.
     #[arg(long, conflicts_with = "no_direct")]
     pub sky_per_pixel: bool,
-    /// The light field's sky as a prior worth K of a pixel's sky samples, where the sky
-    /// is taken per pixel (default: the walls'; 0: the pixel's samples alone).
-    #[arg(long, value_name = "K")]
+    /// With --sky-per-pixel: the light field's sky as a prior worth K of a pixel's sky
+    /// samples (default: the walls'; 0: the pixel's samples alone).
+    #[arg(long, value_name = "K", requires = "sky_per_pixel")]
     pub sky_prior: Option<f32>,
     /// Frames of per-pixel direct light averaged (what a still wall shows after that
     /// many frames; 1: the first frame).

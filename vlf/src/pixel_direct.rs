@@ -94,8 +94,18 @@ fn receives(p: &DirectPoint, wi: Vec3) -> bool {
     p.bsdf.transmits() || p.normal.dot(wi) * p.normal.dot(p.wo) > 0.0
 }
 
-/// The shadow query of light sample `ls` at `p` bringing `radiance` if unblocked; `None`
-/// when it brings nothing.
+/// A direction `wi` drawn with density `pdf` towards the sky (a shadow ray to infinity).
+fn towards_sky(wi: Vec3, pdf: f32) -> LightSample {
+    LightSample {
+        wi,
+        dist: f32::INFINITY,
+        contribution: Vec3::ZERO,
+        pdf,
+    }
+}
+
+/// The shadow query of light sample `ls` at `p` bringing `radiance` if unblocked (signed:
+/// a sharpening sample may take light off); `None` when it brings nothing.
 fn shadow_query(
     p: &DirectPoint,
     ls: &LightSample,
@@ -326,13 +336,7 @@ impl PixelDirect {
             return;
         }
         let c = b.weight * sky.radiance(wi) * p.weight * power_heuristic(b.pdf, sky.pdf(wi));
-        let ls = LightSample {
-            wi,
-            dist: f32::INFINITY,
-            contribution: Vec3::ZERO,
-            pdf: b.pdf,
-        };
-        if let Some(q) = shadow_query(p, &ls, c, true) {
+        if let Some(q) = shadow_query(p, &towards_sky(wi, b.pdf), c, true) {
             f(q);
         }
     }
@@ -340,9 +344,9 @@ impl PixelDirect {
     /// The sky's reflection at `p` less what its tile's widened lobe reflects,
     /// `∫ (f − f_w)(ω_o, ω_i) L_sky(ω_i) V(ω_i) |cos θ_i| dω_i`, in which the diffuse parts
     /// cancel: one direction from each lobe's visible normals, combined by the balance
-    /// heuristic (`Σ g(ω_k) / (p(ω_k) + p_w(ω_k))`), a pair in each estimate. Signed: around a window's sharp
-    /// reflection it takes off the widened lobe's halo. The light field (with its sky)
-    /// holds the rest.
+    /// heuristic (`Σ g(ω_k) / (p(ω_k) + p_w(ω_k))`), a pair in each estimate. Signed:
+    /// around a window's sharp reflection it takes off the widened lobe's halo. The light
+    /// field (with its sky) holds the rest.
     fn sharpening_queries(
         &self,
         p: &DirectPoint,
@@ -378,13 +382,8 @@ impl PixelDirect {
                 continue;
             }
             let g = (p.bsdf.eval(wo, local).0 - widened.eval(wo, local).0) * i.z;
-            let ls = LightSample {
-                wi,
-                dist: f32::INFINITY,
-                contribution: Vec3::ZERO,
-                pdf,
-            };
-            if let Some(q) = shadow_query(p, &ls, g * sky.radiance(wi) * p.weight / pdf, false) {
+            let c = g * sky.radiance(wi) * p.weight / pdf;
+            if let Some(q) = shadow_query(p, &towards_sky(wi, pdf), c, false) {
                 f(q);
             }
         }
