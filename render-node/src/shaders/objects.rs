@@ -6,7 +6,7 @@ use glam::{Mat4, Vec3, Vec4};
 
 use crate::gpu::{Binding, ComputePass, Gpu};
 
-use super::Recorder;
+use super::{MAX_OBJECTS, Recorder};
 
 pub(super) const SOURCE: &str = include_str!("objects.wgsl");
 /// `@workgroup_size` of the shader's entry point.
@@ -74,26 +74,39 @@ pub(super) struct MoveParams {
     pub(super) pad: u32,
 }
 
-/// The pipeline that moves the points.
-pub(super) struct MovePoints(ComputePass<1>);
+/// The pipeline that moves the points, with its parameters, the moves (room for
+/// [`MAX_OBJECTS`]) and the lights, kept from move to move.
+pub(super) struct MovePoints {
+    pass: ComputePass<1>,
+    params: wgpu::Buffer,
+    moves: wgpu::Buffer,
+    /// The lights' buffer and the lights it holds.
+    lights: Option<(wgpu::Buffer, Vec<ShadowLight>)>,
+}
 
 impl MovePoints {
     pub(super) fn new(gpu: &Gpu) -> MovePoints {
         use Binding::{Storage, Uniform};
         let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
-        MovePoints(ComputePass::new(
-            gpu,
-            "objects",
-            SOURCE,
-            &[Uniform, rw, ro, ro],
-            ["move_points"],
-        ))
+        let size = |n: usize| (n * std::mem::size_of::<ObjectMove>()) as u64;
+        MovePoints {
+            pass: ComputePass::new(
+                gpu,
+                "objects",
+                SOURCE,
+                &[Uniform, rw, ro, ro],
+                ["move_points"],
+            ),
+            params: gpu.uniform("move params", std::mem::size_of::<MoveParams>() as u64),
+            moves: gpu.storage("moves", size(MAX_OBJECTS)),
+            lights: None,
+        }
     }
 
     /// Applies `moves` to the `npoints` points of `points`, with the shadows towards
     /// `lights`.
     pub(super) fn apply(
-        &self,
+        &mut self,
         r: &mut Recorder,
         points: &wgpu::Buffer,
         npoints: u32,
@@ -101,24 +114,29 @@ impl MovePoints {
         lights: &[ShadowLight],
     ) {
         let gpu = r.gpu;
+        let moves = &moves[..moves.len().min(MAX_OBJECTS)];
         let params = MoveParams {
             npoints,
             nmoves: moves.len() as u32,
             nlights: lights.len() as u32,
             pad: 0,
         };
-        let uniform = gpu.uniform("move params", std::mem::size_of::<MoveParams>() as u64);
         gpu.queue
-            .write_buffer(&uniform, 0, bytemuck::bytes_of(&params));
-        let moves = gpu.storage_init("moves", bytemuck::cast_slice(moves));
-        // A binding may not be empty: one unused light when there are none.
-        let none = [ShadowLight::at(Vec3::ZERO, 0.0)];
-        let lights = gpu.storage_init(
-            "shadow lights",
-            bytemuck::cast_slice(if lights.is_empty() { &none } else { lights }),
-        );
-        let bg = self.0.bind_group(gpu, &[&uniform, points, &moves, &lights]);
-        let [pipe] = &self.0.pipelines;
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        gpu.queue
+            .write_buffer(&self.moves, 0, bytemuck::cast_slice(moves));
+        if self.lights.as_ref().is_none_or(|(_, held)| held != lights) {
+            // A binding may not be empty: one unused light when there are none.
+            let none = [ShadowLight::at(Vec3::ZERO, 0.0)];
+            let contents = if lights.is_empty() { &none[..] } else { lights };
+            let buffer = gpu.storage_init("shadow lights", bytemuck::cast_slice(contents));
+            self.lights = Some((buffer, lights.to_vec()));
+        }
+        let Some((lights, _)) = &self.lights else {
+            return;
+        };
+        let bg = (self.pass).bind_group(gpu, &[&self.params, points, &self.moves, lights]);
+        let [pipe] = &self.pass.pipelines;
         r.pass(pipe, &bg, npoints, WORKGROUP);
     }
 }
