@@ -27,8 +27,8 @@ use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
-use holocave_vlf::split::{SkyPerPixel, Split};
-use holocave_vlf::view::{SkyPrior, shade_one};
+use holocave_vlf::split::Split;
+use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
 use holocave_vlf::{Accumulator, DirectPoint, Lookup, PixelDirect, ShadowQuery, Visibility};
 use rayon::prelude::*;
 
@@ -57,9 +57,8 @@ pub struct VlfBase {
     /// next-event part (what the lookups read when the direct light is drawn per pixel).
     total: Arc<Vec<[f32; 3]>>,
     indirect: Vec<[f32; 3]>,
-    /// Where the sky is taken per pixel, the field's sky (its first arrival) there, a
-    /// prior for it, and what it is worth in a pixel's samples.
-    sky: Option<(Vec<[f32; 3]>, f32)>,
+    /// With the sky per pixel, the field's sky (its first arrival), a prior for it.
+    sky: Option<Vec<[f32; 3]>>,
     /// The next-event estimates: the walls' direct light per pixel and gather samples'.
     nee: PixelDirect,
     /// Whether the walls draw the direct light per pixel (never for a scene without a
@@ -120,10 +119,11 @@ impl VlfBase {
         Self::open_with_sky(path, scene, false)
     }
 
-    /// [`Self::open`]; the direct light per pixel takes the sky's too where the field
-    /// blurs it (glossy lobes narrower than a tile resolves), with `sky_per_pixel`
-    /// everywhere (an error for a file baked without the sky's part), and the lookups
-    /// read the field less the sky's first arrival there ([`Split`]).
+    /// [`Self::open`]; the direct light per pixel sharpens the sky's reflection where a
+    /// tile widened a glossy lobe, or with `sky_per_pixel` takes the whole sky, under the
+    /// light field's sky as a prior worth [`SKY_PRIOR_SAMPLES`] of a pixel's samples, and
+    /// the lookups read the field less the sky's first arrival (an error for a file baked
+    /// without it) ([`Split`]).
     pub fn open_with_sky(
         path: &Path,
         scene: Arc<Scene>,
@@ -141,10 +141,6 @@ impl VlfBase {
                 f.state.bounces
             );
         }
-        let sky = match sky_per_pixel {
-            true => SkyPerPixel::Everywhere,
-            false => SkyPerPixel::SharpReflections,
-        };
         let Split {
             direct: nee,
             remainder: indirect,
@@ -154,7 +150,7 @@ impl VlfBase {
             &f.settings,
             &f.state,
             (&elements, &tiles),
-            sky,
+            sky_per_pixel,
         )
         .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
         let shadow_lights = shadow_lights(&scene);
@@ -387,9 +383,9 @@ impl VlfBase {
         });
         for ((l, d), &n) in lookups.iter_mut().zip(estimates).zip(acc.counts()) {
             let added = match &self.sky {
-                Some((values, samples)) => SkyPrior {
+                Some(values) => SkyPrior {
                     values,
-                    samples: *samples,
+                    samples: SKY_PRIOR_SAMPLES,
                 }
                 .direct(l, &d, n),
                 None => d.radiance,

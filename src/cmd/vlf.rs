@@ -10,7 +10,7 @@ use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::VlfFile;
 use holocave_vlf::remote::Workers;
-use holocave_vlf::split::{SkyPerPixel, Split};
+use holocave_vlf::split::Split;
 use holocave_vlf::{Casting, Threads, Visibility};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -115,8 +115,13 @@ pub struct ViewArgs {
     pub sky_per_pixel: bool,
     /// With --sky-per-pixel: the light field's sky as a prior worth K of a pixel's sky
     /// samples (default: the walls'; 0: the pixel's samples alone).
-    #[arg(long, value_name = "K", requires = "sky_per_pixel")]
-    pub sky_prior: Option<f32>,
+    #[arg(
+        long,
+        value_name = "K",
+        default_value_t = holocave_vlf::view::SKY_PRIOR_SAMPLES,
+        requires = "sky_per_pixel"
+    )]
+    pub sky_prior: f32,
     /// Frames of per-pixel direct light averaged (what a still wall shows after that
     /// many frames; 1: the first frame).
     #[arg(long, default_value_t = 1)]
@@ -385,16 +390,12 @@ fn view(a: ViewArgs) -> Result<()> {
     let efficacy = scene.daylight.photometry.efficacy;
     let start = std::time::Instant::now();
     let scene = std::sync::Arc::new(scene);
-    let sky = match a.sky_per_pixel {
-        true => SkyPerPixel::Everywhere,
-        false => SkyPerPixel::SharpReflections,
-    };
     let split = Split::new(
         scene.clone(),
         &f.settings,
         &f.state,
         (&elements, &tiles),
-        sky,
+        a.sky_per_pixel,
     )
     .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     let vis = Visibility::new(scene.clone(), elements, tiles);
@@ -418,10 +419,10 @@ fn view(a: ViewArgs) -> Result<()> {
         );
         let prior = split
             .sky
-            .as_ref()
-            .map(|(values, k)| holocave_vlf::view::SkyPrior {
+            .as_deref()
+            .map(|values| holocave_vlf::view::SkyPrior {
                 values,
-                samples: a.sky_prior.unwrap_or(*k).max(0.0),
+                samples: a.sky_prior.max(0.0),
             });
         vis.render_with_direct(&view, &split.remainder, a.aa, direct, a.frames, prior)
     };

@@ -148,35 +148,17 @@ impl PixelDirect {
         self
     }
 
-    /// Also, on the triangles marked in `tiled` (those with light-field tiles) of glossy
-    /// materials whose lobe is narrower than GGX `alpha` (the least a tile resolves,
-    /// which widens such a lobe to it), the difference between the sky the surface
-    /// reflects and the sky its widened lobe reflects (see [`Self::sharpening_queries`]):
-    /// added to the field's sky, the reflection of a window is as sharp as the
-    /// surface's. An element without a tile is drawn diffuse, with no widened lobe to
-    /// correct, and is left as it is. Not with [`Self::with_sky`], which takes the whole
-    /// sky per pixel.
-    pub fn with_sharp_sky_reflections(mut self, alpha: f32, tiled: &[bool]) -> Self {
-        if self.lights.sky.is_none() {
-            return self;
-        }
-        let narrow: Vec<bool> = (self.scene.materials.iter())
-            .map(|m| {
-                let lobe = m.metallic > 0.0 || m.specular > 0.0;
-                let glass = (1.0 - m.metallic) * m.transmission > 0.0;
-                lobe && !glass
-                    && !Ggx::is_smooth(m.roughness)
-                    && Ggx::from_roughness(m.roughness).alpha < alpha
-            })
-            .collect();
-        let sharpened: Vec<bool> = (tiled.iter().enumerate())
-            .map(|(t, &tiled)| {
-                tiled && narrow[self.scene.triangle_shading(t as u32).material as usize]
-            })
-            .collect();
-        if sharpened.contains(&true) {
+    /// Also, on the triangles marked in `widened` (whose light-field tiles widen a glossy
+    /// lobe narrower than GGX `alpha`, the least a tile resolves, to it), the difference
+    /// between the sky the surface reflects and the sky its widened lobe reflects (see
+    /// [`Self::sharpening_queries`]): added to the field's sky, the reflection of a
+    /// window is as sharp as the surface's. An element without a tile is drawn diffuse,
+    /// with no widened lobe to correct, and is left as it is. Not with
+    /// [`Self::with_sky`], which takes the whole sky per pixel.
+    pub fn with_sharp_sky_reflections(mut self, alpha: f32, widened: Vec<bool>) -> Self {
+        if self.lights.sky.is_some() && widened.contains(&true) {
             self.widened = Ggx { alpha };
-            self.sharpened = sharpened;
+            self.sharpened = widened;
         }
         self
     }

@@ -232,6 +232,7 @@ mod tests {
                     frame: Frame::new(n),
                     bsdf: Bsdf::new(p),
                     params: *p,
+                    widened: false,
                 })
                 .collect(),
             centres,

@@ -21,7 +21,6 @@ use crate::bake::{Settings, State};
 use crate::elements::Elements;
 use crate::pixel_direct::PixelDirect;
 use crate::tiles::{Tiles, alpha_floor};
-use crate::view::SKY_PRIOR_SAMPLES;
 
 /// The per-pixel pass and the field's remainder a wall draws.
 pub struct Split {
@@ -29,54 +28,41 @@ pub struct Split {
     /// What the lookups read: the elements' irradiance, then the tiles' radiance, less
     /// what is taken per pixel.
     pub remainder: Vec<[f32; 3]>,
-    /// With the whole sky per pixel, the field's sky (a prior for the pixels' own mean)
-    /// and what it is worth in a pixel's samples.
-    pub sky: Option<(Vec<[f32; 3]>, f32)>,
-}
-
-/// Whether the whole sky is taken per pixel, or only its sharp reflections.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SkyPerPixel {
-    SharpReflections,
-    Everywhere,
+    /// With the whole sky per pixel, the field's sky: the prior of the pixels' own mean
+    /// ([`crate::view::SkyPrior`]).
+    pub sky: Option<Vec<[f32; 3]>>,
 }
 
 impl Split {
     /// The split of a field baked with `settings` (`state`, laid out as `elements` and
-    /// `tiles`) for `scene`. An error when the whole sky is asked for and the state holds
-    /// no sky part.
+    /// `tiles`) for `scene`, the whole sky per pixel with `sky_per_pixel`. An error when
+    /// that is asked for and the state holds no sky part.
     pub fn new(
         scene: Arc<Scene>,
         settings: &Settings,
         state: &State,
         (elements, tiles): (&Elements, &Tiles),
-        sky: SkyPerPixel,
+        sky_per_pixel: bool,
     ) -> Result<Split, String> {
         let direct = PixelDirect::new(scene);
-        match sky {
-            SkyPerPixel::SharpReflections => {
-                let floor = alpha_floor(
-                    settings.tile_bins,
-                    Settings::rounded_directions(settings.directions),
-                );
-                Ok(Split {
-                    direct: direct
-                        .with_sharp_sky_reflections(floor, &tiles.triangles_with_tiles(elements)),
-                    remainder: state.indirect_values(),
-                    sky: None,
-                })
-            }
-            SkyPerPixel::Everywhere => {
-                let parts = state.indirect_values_without_sky().zip(state.sky_values());
-                let (remainder, field_sky) = parts.ok_or(
-                    "holds no sky part: bake it again to take the sky per pixel".to_string(),
-                )?;
-                Ok(Split {
-                    direct: direct.with_sky(true),
-                    remainder,
-                    sky: Some((field_sky, SKY_PRIOR_SAMPLES)),
-                })
-            }
+        if sky_per_pixel {
+            let parts = state.indirect_values_without_sky().zip(state.sky_values());
+            let (remainder, field_sky) = parts
+                .ok_or("holds no sky part: bake it again to take the sky per pixel".to_string())?;
+            return Ok(Split {
+                direct: direct.with_sky(true),
+                remainder,
+                sky: Some(field_sky),
+            });
         }
+        let floor = alpha_floor(
+            settings.tile_bins,
+            Settings::rounded_directions(settings.directions),
+        );
+        Ok(Split {
+            direct: direct.with_sharp_sky_reflections(floor, tiles.triangles_widened(elements)),
+            remainder: state.indirect_values(),
+            sky: None,
+        })
     }
 }

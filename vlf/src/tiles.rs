@@ -60,6 +60,8 @@ pub struct Glossy {
     pub bsdf: Bsdf,
     /// What `bsdf` was made from.
     pub params: SurfaceParams,
+    /// The surface's lobe is narrower than a tile resolves and `params` widen it.
+    pub widened: bool,
 }
 
 /// The tiles of a scene: which elements have one, and the bins' directions.
@@ -164,8 +166,8 @@ impl Tiles {
                     n = -n;
                 }
                 let mut p = s.params;
-                let alpha = Ggx::from_roughness(p.roughness).alpha;
-                if alpha < floor {
+                let widened = Ggx::from_roughness(p.roughness).alpha < floor;
+                if widened {
                     p.roughness = floor.sqrt();
                 }
                 Some(Glossy {
@@ -173,6 +175,7 @@ impl Tiles {
                     frame: Frame::new(n),
                     bsdf: Bsdf::new(&p),
                     params: p,
+                    widened,
                 })
             })
             .collect();
@@ -197,13 +200,15 @@ impl Tiles {
     }
 
     /// Per triangle of the scene laid out as `elements`, whether any of its elements has
-    /// a tile.
-    pub fn triangles_with_tiles(&self, elements: &Elements) -> Vec<bool> {
+    /// a tile whose lobe was widened to the least a tile resolves.
+    pub fn triangles_widened(&self, elements: &Elements) -> Vec<bool> {
         (elements.triangles.iter())
             .map(|c| {
                 let (first, count) = (c.offset as usize, 2 * cells(c.res) as usize);
-                (self.of_element.get(first..first + count))
-                    .is_some_and(|e| e.iter().any(|&g| g != NONE))
+                (self.of_element.get(first..first + count)).is_some_and(|e| {
+                    e.iter()
+                        .any(|&g| g != NONE && self.tiles[g as usize].widened)
+                })
             })
             .collect()
     }

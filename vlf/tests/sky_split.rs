@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use holocave_scene::{Daylight, Ray, Sky, SkyModel};
-use holocave_vlf::split::{SkyPerPixel, Split};
+use holocave_vlf::split::Split;
 use holocave_vlf::tiles::alpha_floor;
 use holocave_vlf::view::shade_one;
 use holocave_vlf::{Directions, PixelDirect, Settings, Visibility};
@@ -134,7 +134,7 @@ fn the_sky_split_conserves_the_light_and_draws_the_same_floor() {
 }
 
 /// Where the tiles blur the sky (the walls' default: `Split` with
-/// `SkyPerPixel::SharpReflections`): a floor, varnished on one half (GGX α 0.0625,
+/// `sky_per_pixel` false): a floor, varnished on one half (GGX α 0.0625,
 /// narrower than the 0.26 a tile resolves here) and diffuse on the other, under a
 /// ceiling with a square hole above each half, and a uniform sky. The field is read
 /// whole, and the per-pixel pass adds, on the varnish only, the difference between the
@@ -210,14 +210,7 @@ fn the_sky_reflected_by_a_narrower_lobe_than_a_tile_holds_is_sharpened_per_pixel
     let (state, _) = common::bake_quiet(&scene, &settings);
     let vis = Visibility::of(scene.clone(), &settings);
     let layout = (vis.elements(), vis.tiles());
-    let split = Split::new(
-        scene.clone(),
-        &settings,
-        &state,
-        layout,
-        SkyPerPixel::SharpReflections,
-    )
-    .unwrap();
+    let split = Split::new(scene.clone(), &settings, &state, layout, false).unwrap();
     assert!(split.sky.is_none(), "the field keeps its sky");
     assert_eq!(split.remainder, state.indirect_values(), "read whole");
     let floor = alpha_floor(8, Settings::rounded_directions(settings.directions));
