@@ -10,6 +10,8 @@
 //! - `gpu`: the walk alone: the rays already in the GPU's buffer, one dispatch and the wait
 //!   for it (answers stay on the GPU, as the render node's passes read them);
 //! - `gpu_readback`: upload, walk and read the answers back (the CPU-side round trip);
+//!   `gpu_send` and `gpu_receive`: its two halves, the rays made and copied to the GPU, and
+//!   the answers copied back and read;
 //! - `gpu_wall` (primary only): the wall's rays made on the GPU and traced, one submission;
 //! - `cpu_1t`: the CPU walk on one thread; `cpu_all`: on every core (rayon, chunks of 4096).
 //!
@@ -193,6 +195,21 @@ fn bench_scene(c: &mut Criterion, gpu: &Gpu, name: &str, scene: &Scene, width: u
             b.iter(|| match query {
                 Query::ClosestHit => black_box(engine.closest_hits(gpu, rays, inf).len()),
                 Query::AnyHit => black_box(engine.occluders(gpu, rays, inf).len()),
+            })
+        });
+        // The round trip's two halves: the rays sent (made, copied out, on the GPU), and
+        // the last walk's answers received (copied back, read).
+        group.bench_function(format!("{set}_gpu_send"), |b| {
+            b.iter(|| {
+                engine.upload(gpu, rays, inf);
+                gpu.wait();
+            })
+        });
+        engine.trace(gpu, n, query);
+        group.bench_function(format!("{set}_gpu_receive"), |b| {
+            b.iter(|| match query {
+                Query::ClosestHit => black_box(engine.read_hits(gpu, n).len()),
+                Query::AnyHit => black_box(engine.read_occluders(gpu, n).len()),
             })
         });
         if set == "primary" {

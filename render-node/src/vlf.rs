@@ -368,13 +368,10 @@ impl VlfBase {
         }
         let estimates = self.visibility.with_placed(|placed| match &self.gpu_rays {
             Some((gpu, engine)) => {
-                let on_gpu = |queries: &[ShadowQuery]| {
-                    let rays: Vec<GpuRay> = queries
-                        .iter()
-                        .map(|q| GpuRay::new(&q.ray, q.tmax))
-                        .collect();
+                let on_gpu = |per_pixel: &[Vec<ShadowQuery>]| {
                     let mut engine = engine.lock().unwrap_or_else(|e| e.into_inner());
-                    let occluders = engine.occluders_each(gpu, &rays);
+                    let occluders =
+                        engine.occluders_in(gpu, per_pixel, |q| GpuRay::new(&q.ray, q.tmax));
                     occluders.iter().map(Option::is_some).collect()
                 };
                 acc.add_blocked(direct, placed, points, &on_gpu)

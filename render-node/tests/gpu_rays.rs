@@ -15,7 +15,7 @@ mod ray_sets;
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
 use holocave_render_node::Gpu;
-use holocave_render_node::gpu_rays::{GpuRay, GpuRays, Query, rounding};
+use holocave_render_node::gpu_rays::{GpuRay, GpuRays, MAX_BATCH, Query, rounding};
 use holocave_scene::bvh::{Bvh, EDGE_TOLERANCE};
 use holocave_scene::ray_sets::uniform2;
 use holocave_scene::{Hit, Ray, Scene};
@@ -321,21 +321,27 @@ fn the_direct_lights_shadow_rays_are_the_cpus() {
     let vis = Visibility::of(scene.clone(), &Settings::default());
     let direct = PixelDirect::new(scene.clone());
     let view = camera_view(&scene, 64, 48);
-    let mut queries = Vec::new();
-    for (i, p) in vis.pixels_and_points(&view).1.iter().enumerate() {
-        if let Some(p) = p {
-            for n in 0..4 {
-                direct.queries(p, i as u64, n, &mut queries);
+    // Each pixel's queries, as the render node hands them over (misses: none).
+    let per_pixel: Vec<Vec<_>> = vis
+        .pixels_and_points(&view)
+        .1
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let mut queries = Vec::new();
+            if let Some(p) = p {
+                for n in 0..4 {
+                    direct.queries(p, i as u64, n, &mut queries);
+                }
             }
-        }
-    }
+            queries
+        })
+        .collect();
     let gpu = gpu();
     let mut engine = GpuRays::for_scene(&gpu, &scene).expect("upload the scene");
-    let rays: Vec<GpuRay> = queries
-        .iter()
-        .map(|q| GpuRay::new(&q.ray, q.tmax))
-        .collect();
-    let answers = engine.occluders_each(&gpu, &rays);
+    let answers = engine.occluders_in(&gpu, &per_pixel, |q| GpuRay::new(&q.ray, q.tmax));
+    let queries = per_pixel.concat();
+    assert_eq!(answers.len(), queries.len());
     let finite = queries.iter().filter(|q| q.tmax.is_finite()).count();
     assert!(
         finite > 1000 && queries.len() - finite > 1000,
@@ -352,6 +358,55 @@ fn the_direct_lights_shadow_rays_are_the_cpus() {
         tally.examples.extend(t.examples);
     }
     tally.check("room direct light shadow rays");
+}
+
+/// More shadow rays than one batch holds, in groups of 0 to 6 (the batches split between
+/// groups): every answer is its own ray's, in order.
+#[test]
+fn shadow_rays_beyond_one_batch_keep_their_order() {
+    let scene = project_scene("room.gltf");
+    let rays = scattered_rays(&scene, MAX_BATCH + 3001);
+    let mut groups: Vec<Vec<GpuRay>> = Vec::new();
+    let mut at = 0;
+    while at < rays.len() {
+        let take = (groups.len() % 7).min(rays.len() - at);
+        let tmax = if groups.len() % 2 == 0 {
+            0.75
+        } else {
+            f32::INFINITY
+        };
+        groups.push(
+            rays[at..at + take]
+                .iter()
+                .map(|r| GpuRay::new(r, tmax))
+                .collect(),
+        );
+        at += take;
+    }
+    let gpu = gpu();
+    let mut engine = GpuRays::for_scene(&gpu, &scene).expect("upload the room");
+    let answers = engine.occluders_in(&gpu, &groups, |r| *r);
+    let flat = groups.concat();
+    assert_eq!(answers.len(), flat.len());
+    let mut tally = Tally::default();
+    for (tmax, blocked) in [0.75, f32::INFINITY].map(|tmax| {
+        let (r, a): (Vec<Ray>, Vec<Option<u32>>) = flat
+            .iter()
+            .zip(&answers)
+            .filter(|(r, _)| r.tmax == tmax)
+            .map(|(r, a)| (r.ray(), *a))
+            .unzip();
+        (tmax, (r, a))
+    }) {
+        let t = compare_occluded(&scene, &blocked.0, tmax, &blocked.1);
+        tally.rays += t.rays;
+        tally.agree += t.agree;
+        tally.grazes += t.grazes;
+        tally.bad += t.bad;
+        tally.examples.extend(t.examples);
+    }
+    assert!(answers.iter().filter(|a| a.is_some()).count() > flat.len() / 10);
+    tally.check("room shadow rays in batches");
 }
 
 #[test]

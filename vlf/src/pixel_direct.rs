@@ -669,14 +669,15 @@ impl Accumulator {
     }
 
     /// [`Self::add`], with whether the static scene blocks each of the frame's shadow rays
-    /// answered by `blocked` for all of them at once (the CPU's walk, or the GPU's); the
+    /// answered by `blocked` for all of them at once (the CPU's walk, or the GPU's): it is
+    /// given each pixel's queries and answers them all, pixel by pixel, in order. The
     /// moving objects are tested on the CPU.
     pub fn add_blocked(
         &mut self,
         direct: &PixelDirect,
         placed: &PlacedScene,
         points: &[Option<DirectPoint>],
-        blocked: &dyn Fn(&[ShadowQuery]) -> Vec<bool>,
+        blocked: &dyn Fn(&[Vec<ShadowQuery>]) -> Vec<bool>,
     ) -> Vec<Estimate> {
         // The estimates each pixel takes this frame, as shadow rays.
         let per_pixel = self.each_pixel(direct, points, |i, p, first, take, _| {
@@ -689,8 +690,7 @@ impl Accumulator {
             queries
         });
         let n = points.len();
-        let flat = per_pixel.concat();
-        let answers = blocked(&flat);
+        let answers = blocked(&per_pixel);
         let mut starts = Vec::with_capacity(n);
         let mut at = 0;
         for q in &per_pixel {

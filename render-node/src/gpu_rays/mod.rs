@@ -59,6 +59,7 @@ use bytemuck::{Pod, Zeroable};
 use holocave_cave::WallView;
 use holocave_scene::bvh::{Bvh, FLAT_EMPTY, FLAT_NODE_WORDS, FLAT_TRIANGLE_WORDS};
 use holocave_scene::{Hit, Ray, Scene};
+use rayon::prelude::*;
 
 use crate::RenderNodeError;
 use crate::gpu::{Binding, ComputePass, Gpu};
@@ -158,9 +159,9 @@ impl std::fmt::Display for Rays {
     }
 }
 
-/// Rays in one batch of [`GpuRays::occluders_each`]: 32 MiB of rays, within every
+/// Rays in one batch of [`GpuRays::occluders_in`]: 32 MiB of rays, within every
 /// adapter's binding limit (128 MiB on lavapipe).
-const MAX_BATCH: usize = 1 << 20;
+pub const MAX_BATCH: usize = 1 << 20;
 
 /// The queries a batch of rays can be put.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -180,7 +181,17 @@ pub struct GpuRays {
     rays: wgpu::Buffer,
     out: wgpu::Buffer,
     bind: wgpu::BindGroup,
-    /// Rays the ray and output buffers have room for.
+    /// The round trip's host-visible buffers, kept from batch to batch: rays are written
+    /// into `send` (mapped for writing) and copied to `rays` on the GPU; answers are
+    /// copied from `out` into `receive` and read where it is mapped. A fresh staging
+    /// buffer each way per batch (the queue's `write_buffer` and a read-back buffer) cost
+    /// an H200's round trip eighty times the walk itself (docs/performance/gpu-rays.md).
+    send: wgpu::Buffer,
+    receive: wgpu::Buffer,
+    /// The rays of a batch as they are made (in parallel), before their one copy into
+    /// `send`.
+    scratch: Vec<GpuRay>,
+    /// Rays the ray, output and transfer buffers have room for.
     capacity: u32,
     stack: usize,
     node_count: usize,
@@ -193,6 +204,32 @@ fn source(stack: usize) -> String {
         "const RAY_STACK: u32 = {}u;\n{}",
         stack.max(1),
         include_str!("rays.wgsl")
+    )
+}
+
+/// The round trip's host-visible buffers for `n` rays: rays out (mapped for writing),
+/// answers back (mapped for reading).
+fn transfer_buffers(gpu: &Gpu, n: u32) -> (wgpu::Buffer, wgpu::Buffer) {
+    let buffer = |label, size, usage| {
+        gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    use wgpu::BufferUsages as U;
+    (
+        buffer(
+            "gpu rays: rays out",
+            32 * u64::from(n),
+            U::MAP_WRITE | U::COPY_SRC,
+        ),
+        buffer(
+            "gpu rays: answers back",
+            16 * u64::from(n),
+            U::MAP_READ | U::COPY_DST,
+        ),
     )
 }
 
@@ -250,6 +287,7 @@ impl GpuRays {
         let rays = gpu.storage("gpu rays: rays", 32);
         let out = gpu.storage("gpu rays: answers", 16);
         let bind = pass.bind_group(gpu, &[&params, &nodes, &triangles, &rays, &out]);
+        let (send, receive) = transfer_buffers(gpu, 1);
         Ok(GpuRays {
             pass,
             params,
@@ -258,6 +296,9 @@ impl GpuRays {
             rays,
             out,
             bind,
+            send,
+            receive,
+            scratch: Vec::new(),
             capacity: 1,
             stack: flat.stack_size,
             node_count: flat.nodes.len(),
@@ -295,6 +336,7 @@ impl GpuRays {
         }
         self.rays = gpu.storage("gpu rays: rays", 32 * u64::from(n));
         self.out = gpu.storage("gpu rays: answers", 16 * u64::from(n));
+        (self.send, self.receive) = transfer_buffers(gpu, n);
         self.capacity = n;
         self.bind = self.pass.bind_group(
             gpu,
@@ -348,12 +390,101 @@ impl GpuRays {
 
     /// Copies `rays` (each with `tmax`) into the ray buffer as the current batch.
     pub fn upload(&mut self, gpu: &Gpu, rays: &[Ray], tmax: f32) {
-        let n = rays.len() as u32;
-        self.reserve(gpu, n);
-        let data: Vec<GpuRay> = rays.iter().map(|r| GpuRay::new(r, tmax)).collect();
-        gpu.queue
-            .write_buffer(&self.rays, 0, bytemuck::cast_slice(&data));
-        self.set_params(gpu, n, None, tmax);
+        self.send_rays(gpu, rays.len(), |i| GpuRay::new(&rays[i], tmax));
+        self.set_params(gpu, rays.len() as u32, None, tmax);
+    }
+
+    /// Makes the current batch's `n` rays with `ray` (in parallel) and copies them to the
+    /// GPU through the kept `send` buffer.
+    fn send_rays(&mut self, gpu: &Gpu, n: usize, ray: impl Fn(usize) -> GpuRay + Sync) {
+        self.scratch.resize(n, GpuRay::zeroed());
+        self.scratch
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, r)| *r = ray(i));
+        self.send_scratch(gpu);
+    }
+
+    /// Makes the current batch's rays from `groups`' items in order (in parallel, group
+    /// by group) and copies them to the GPU through the kept `send` buffer.
+    fn send_groups<T: Sync>(
+        &mut self,
+        gpu: &Gpu,
+        groups: &[Vec<T>],
+        ray: &(impl Fn(&T) -> GpuRay + Sync),
+    ) {
+        let n = groups.iter().map(Vec::len).sum();
+        self.scratch.resize(n, GpuRay::zeroed());
+        let mut slots = Vec::with_capacity(groups.len());
+        let mut rest = &mut self.scratch[..];
+        for g in groups {
+            let (slot, tail) = rest.split_at_mut(g.len());
+            slots.push(slot);
+            rest = tail;
+        }
+        slots.into_par_iter().zip(groups).for_each(|(slot, g)| {
+            for (r, item) in slot.iter_mut().zip(g) {
+                *r = ray(item);
+            }
+        });
+        self.send_scratch(gpu);
+    }
+
+    /// Copies the rays in `scratch` to the GPU as the current batch.
+    fn send_scratch(&mut self, gpu: &Gpu) {
+        let n = self.scratch.len();
+        self.reserve(gpu, n as u32);
+        let bytes = 32 * n as u64;
+        if bytes == 0 {
+            return;
+        }
+        let slice = self.send.slice(..bytes);
+        slice.map_async(wgpu::MapMode::Write, |_| {});
+        gpu.wait();
+        match slice.get_mapped_range_mut() {
+            Ok(mut view) => view
+                .slice(..)
+                .copy_from_slice(bytemuck::cast_slice(&self.scratch)),
+            // A lost device: the batch keeps whatever the buffer held, as every other
+            // pass of a lost device does.
+            Err(e) => tracing::warn!("gpu rays: the rays' transfer buffer did not map: {e}"),
+        }
+        self.send.unmap();
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&self.send, 0, &self.rays, 0, bytes);
+        gpu.queue.submit([enc.finish()]);
+    }
+
+    /// The last query's answers for its first `n` rays (`W` words each), each turned into
+    /// a `T` by `answer` (in parallel) where the kept `receive` buffer is mapped.
+    fn receive_answers<const W: usize, T: Send>(
+        &self,
+        gpu: &Gpu,
+        n: u32,
+        answer: impl Fn(&[u32; W]) -> T + Sync,
+    ) -> Vec<T> {
+        let bytes = 4 * W as u64 * u64::from(n);
+        if bytes == 0 {
+            return Vec::new();
+        }
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&self.out, 0, &self.receive, 0, bytes);
+        gpu.queue.submit([enc.finish()]);
+        let slice = self.receive.slice(..bytes);
+        slice.map_async(wgpu::MapMode::Read, |_| {});
+        gpu.wait();
+        let out = match slice.get_mapped_range() {
+            Ok(view) => bytemuck::cast_slice::<u8, [u32; W]>(&view)
+                .par_iter()
+                .map(&answer)
+                .collect(),
+            Err(e) => {
+                tracing::warn!("gpu rays: the answers' transfer buffer did not map: {e}");
+                Vec::new()
+            }
+        };
+        self.receive.unmap();
+        out
     }
 
     /// Makes `view`'s pixel rays (row by row from the top-left, each with `tmax`) in the
@@ -396,31 +527,19 @@ impl GpuRays {
 
     /// The closest hits of the last [`Query::ClosestHit`] over `n` rays, read back.
     pub fn read_hits(&self, gpu: &Gpu, n: u32) -> Vec<Option<Hit>> {
-        let words: Vec<u32> =
-            bytemuck::cast_slice(&gpu.read(&self.out, 16 * u64::from(n.max(1)))).to_vec();
-        words
-            .chunks_exact(4)
-            .take(n as usize)
-            .map(|w| {
-                (w[1] != NO_HIT).then(|| Hit {
-                    triangle: w[1],
-                    t: f32::from_bits(w[0]),
-                    u: f32::from_bits(w[2]),
-                    v: f32::from_bits(w[3]),
-                })
+        self.receive_answers(gpu, n, |w: &[u32; 4]| {
+            (w[1] != NO_HIT).then(|| Hit {
+                triangle: w[1],
+                t: f32::from_bits(w[0]),
+                u: f32::from_bits(w[2]),
+                v: f32::from_bits(w[3]),
             })
-            .collect()
+        })
     }
 
     /// The occluders found by the last [`Query::AnyHit`] over `n` rays, read back.
     pub fn read_occluders(&self, gpu: &Gpu, n: u32) -> Vec<Option<u32>> {
-        let words: Vec<u32> =
-            bytemuck::cast_slice(&gpu.read(&self.out, 4 * u64::from(n.max(1)))).to_vec();
-        words
-            .into_iter()
-            .take(n as usize)
-            .map(|w| (w != NO_HIT).then_some(w))
-            .collect()
+        self.receive_answers(gpu, n, |&[w]: &[u32; 1]| (w != NO_HIT).then_some(w))
     }
 
     /// The closest hit of each ray before `tmax` (as [`Bvh::closest_hit`]).
@@ -440,18 +559,30 @@ impl GpuRays {
         self.read_occluders(gpu, n)
     }
 
-    /// For each ray, a triangle that lies on it before its own `tmax` (shadow rays towards
-    /// lamps end at them), if any; in batches the buffers hold.
-    pub fn occluders_each(&mut self, gpu: &Gpu, rays: &[GpuRay]) -> Vec<Option<u32>> {
-        let mut out = Vec::with_capacity(rays.len());
-        for batch in rays.chunks(MAX_BATCH) {
-            let n = batch.len() as u32;
-            self.reserve(gpu, n);
-            gpu.queue
-                .write_buffer(&self.rays, 0, bytemuck::cast_slice(batch));
-            self.set_params(gpu, n, None, f32::INFINITY);
-            self.trace(gpu, n, Query::AnyHit);
-            out.extend(self.read_occluders(gpu, n));
+    /// For the ray of each item of `groups` in order (`ray(item)`, each to its own
+    /// `tmax`: shadow rays towards lamps end at them), a triangle that lies on it, if any;
+    /// in batches of whole groups that the buffers hold (a group larger than a batch is a
+    /// batch of its own).
+    pub fn occluders_in<T: Sync>(
+        &mut self,
+        gpu: &Gpu,
+        groups: &[Vec<T>],
+        ray: impl Fn(&T) -> GpuRay + Sync,
+    ) -> Vec<Option<u32>> {
+        let mut out = Vec::with_capacity(groups.iter().map(Vec::len).sum());
+        let mut rest = groups;
+        while !rest.is_empty() {
+            let (mut take, mut rays) = (0, 0);
+            while take < rest.len() && (take == 0 || rays + rest[take].len() <= MAX_BATCH) {
+                rays += rest[take].len();
+                take += 1;
+            }
+            let batch;
+            (batch, rest) = rest.split_at(take);
+            self.send_groups(gpu, batch, &ray);
+            self.set_params(gpu, rays as u32, None, f32::INFINITY);
+            self.trace(gpu, rays as u32, Query::AnyHit);
+            out.extend(self.read_occluders(gpu, rays as u32));
         }
         out
     }
