@@ -370,7 +370,7 @@ fn shadow_rays_beyond_one_batch_keep_their_order() {
     let mut at = 0;
     while at < rays.len() {
         let take = (groups.len() % 7).min(rays.len() - at);
-        let tmax = if groups.len() % 2 == 0 {
+        let tmax = if groups.len().is_multiple_of(2) {
             0.75
         } else {
             f32::INFINITY
