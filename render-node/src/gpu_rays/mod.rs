@@ -35,6 +35,15 @@
 //! test on the one tree both walks share. Quantised boxes only grow outward, so it can come
 //! later behind the same interface with the same answers.
 //!
+//! # The round trip
+//!
+//! Rays made on the CPU (the direct light's shadow rays) and answers read back (the first
+//! hits the lookups need) cross the bus through two host-visible buffers kept from batch to
+//! batch, rays written into one where it is mapped, answers read out of the other where it
+//! is mapped, both in parallel on the CPU's threads. On an H200 a round trip costs six to
+//! twelve times the walk itself; with a fresh staging buffer each way per batch it cost
+//! eighty (`docs/performance/gpu-rays.md`).
+//!
 //! # Exactness
 //!
 //! The box test is the CPU's robust slab test with a larger guard: a zero direction
