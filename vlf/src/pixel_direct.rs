@@ -16,7 +16,8 @@
 //! shadow are exact from the first frame. What is left stochastic — the penumbrae (a band
 //! `2 d tan r` wide, 9 mm behind an edge 1 m away) and area lamps — is averaged per
 //! surface point over frames ([`Accumulator`]): a still view converges, and a moving eye
-//! carries each mean over to the pixel that sees its point next ([`Accumulator::reproject`]). A pixel takes
+//! carries each mean over to the pixel that sees its point next, while that point stays
+//! within a pixel's footprint of where the mean began ([`Accumulator::reproject`]). A pixel takes
 //! one estimate a frame, and two on the frame it comes to a new point when the scene
 //! has area lamps ([`PixelDirect::first_estimates`]: one sample of a lamp is visibly
 //! noisy). More per frame would lower that variance in proportion to the shadow rays,
@@ -491,12 +492,12 @@ impl std::ops::AddAssign for Estimate {
 /// The running mean of the direct light per surface point over frames: each pixel keeps
 /// the point it saw last and the mean of its estimates there, adding one estimate a
 /// frame; when a pixel sees another point (the view moved, another surface came in
-/// front), its mean starts again from that frame's [`PixelDirect::first_estimates`].
-/// Moving an object changes the light at points that stay put: [`Accumulator::restart`]
-/// starts every mean again.
+/// front), its mean is carried over ([`Accumulator::reproject`]) or starts again from
+/// that frame's [`PixelDirect::first_estimates`]. Moving an object changes the light at
+/// points that stay put: [`Accumulator::restart`] starts every mean again.
 #[derive(Default)]
 pub struct Accumulator {
-    seen: Vec<Option<(u32, Vec3)>>,
+    seen: Vec<Option<Seen>>,
     sum: Vec<Estimate>,
     count: Vec<u32>,
 }
@@ -508,9 +509,20 @@ fn same_point(a: Vec3, b: Vec3) -> bool {
     (a - b).length() <= 1e-5 * (1.0 + a.abs().max_element())
 }
 
-/// What a pixel keeps between frames: the point it saw last (triangle, position), the
-/// sum of its estimates there and their count.
-type PixelMean = (Option<(u32, Vec3)>, Estimate, u32);
+/// Where a pixel's mean was made: the triangle, the point the pixel saw last, and the
+/// point the mean began at. Every estimate in the mean was taken within a pixel's
+/// footprint of `anchor`: a mean carried from pixel to pixel as the eye moves stays
+/// there, and never drifts across a shadow's edge to smear it along the motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Seen {
+    triangle: u32,
+    last: Vec3,
+    anchor: Vec3,
+}
+
+/// What a pixel keeps between frames: where its mean was made, the sum of its estimates
+/// and their count.
+type PixelMean = (Option<Seen>, Estimate, u32);
 
 /// Estimates a pixel whose point is `p` takes this frame: one more at the point it saw
 /// last, else (its mean started again) [`PixelDirect::first_estimates`]; none where it sees
@@ -518,7 +530,7 @@ type PixelMean = (Option<(u32, Vec3)>, Estimate, u32);
 fn start(
     direct: &PixelDirect,
     p: Option<&DirectPoint>,
-    seen: &mut Option<(u32, Vec3)>,
+    seen: &mut Option<Seen>,
     sum: &mut Estimate,
     count: &mut u32,
 ) -> u32 {
@@ -527,10 +539,14 @@ fn start(
         (*sum, *count) = (Estimate::default(), 0);
         return 0;
     };
-    if seen.is_some_and(|(t, q)| t == p.triangle && same_point(q, p.position)) {
+    if seen.is_some_and(|s| s.triangle == p.triangle && same_point(s.last, p.position)) {
         return 1;
     }
-    *seen = Some((p.triangle, p.position));
+    *seen = Some(Seen {
+        triangle: p.triangle,
+        last: p.position,
+        anchor: p.position,
+    });
     (*sum, *count) = (Estimate::default(), 0);
     direct.first_estimates()
 }
@@ -610,11 +626,15 @@ impl Accumulator {
 
     /// Carries every pixel's mean over from the view `from` these means were made in to
     /// the view `to`, whose pixels see `points` (the eye moved): a pixel whose point, seen
-    /// from `from`, lies in a pixel that saw the same triangle within a pixel's footprint of
-    /// it takes that pixel's mean and goes on adding to it. Its estimates were of the light
-    /// there, which differs only across a shadow's edge within the footprint — the image's
-    /// own resolution. Other pixels start again (a point newly in sight, or one seen in a
-    /// mirror, whose image moves otherwise).
+    /// from `from`, lies in a pixel that saw the same triangle, within a pixel's footprint
+    /// of where that pixel's mean began, takes that mean and goes on adding to it. Its
+    /// estimates were of the light there, which differs only across a shadow's edge within
+    /// the footprint — the image's own resolution. Measured from where the mean began, not
+    /// from the point seen last: carried on frame after frame, a mean would otherwise creep
+    /// a footprint at a time along the eye's motion and drag the light of a lit patch into
+    /// the umbra beside it. Other pixels start again (a point newly in sight, one that has
+    /// moved a footprint from where its mean began, or one seen in a mirror, whose image
+    /// moves otherwise).
     pub fn reproject(&mut self, from: &WallView, to: &WallView, points: &[Option<DirectPoint>]) {
         let (w, h) = (from.width as usize, from.height as usize);
         if self.seen.len() != w * h || points.len() != (to.width * to.height) as usize {
@@ -645,8 +665,15 @@ impl Accumulator {
                 let along = v.normalize_or_zero().dot(normal).abs();
                 let footprint = pixel * v.length() * along / to_screen.max(f32::MIN_POSITIVE);
                 match seen[j] {
-                    Some((t, q)) if t == p.triangle && q.distance(p.position) <= footprint => {
-                        (Some((t, p.position)), sum[j], count[j])
+                    Some(s)
+                        if s.triangle == p.triangle
+                            && s.anchor.distance(p.position) <= footprint =>
+                    {
+                        let carried = Seen {
+                            last: p.position,
+                            ..s
+                        };
+                        (Some(carried), sum[j], count[j])
                     }
                     _ => none,
                 }

@@ -343,6 +343,71 @@ fn a_moving_eye_carries_the_means_over_and_stays_exact() {
     assert!(lit_n > 50 && umbra_n > 50, "{lit_n} lit, {umbra_n} umbra");
 }
 
+/// An eye sweeping sideways in small steps (48 steps of 5 mm, each carrying the means on)
+/// leaves no trail: a mean is carried only while its point stays within a pixel's
+/// footprint of where the mean began, so none drifts across an edge of the patch, and
+/// after the sweep the umbra is still dark and the patch exactly lit everywhere but
+/// within the penumbra and two footprints of an edge.
+#[test]
+fn a_sweeping_eye_leaves_no_trail_across_the_shadows_edge() {
+    let scene = Arc::new(slit());
+    let vis = Visibility::of(scene.clone(), &Settings::default());
+    let direct = PixelDirect::new(scene.clone());
+    let screen = |x: f32| WallView {
+        eye: Vec3::new(x, 0.8, 0.0),
+        pa: Vec3::new(-1.8, 0.4, 0.6),
+        pb: Vec3::new(0.6, 0.4, 0.6),
+        pc: Vec3::new(-1.8, 0.4, -0.6),
+        width: 48,
+        height: 24,
+    };
+    let mut acc = Accumulator::new();
+    let mut from = screen(-0.72);
+    let mut points = vis.pixels_and_points(&from).1;
+    let mut means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
+    for step in 1..=48 {
+        let to = screen(-0.72 + 0.005 * step as f32);
+        points = vis.pixels_and_points(&to).1;
+        acc.reproject(&from, &to, &points);
+        means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
+        from = to;
+    }
+    let s = sun_direction();
+    // The patch's light as the sampler takes it: the disc's solid angle 2π(1 − cos r)
+    // with cos r in f32, which near 1 holds 1 − cos r to about half a percent (the
+    // sampler's own rounding, not what this test is about).
+    let lit = f64::from(SUN_L)
+        * f64::from(s.y)
+        * f64::from(2.0 * std::f32::consts::PI * (1.0 - SUN_R.cos()));
+    // One sample's most (a direction at the disc's rim: a pixel whose mean began again
+    // this frame holds one), and f32 rounding.
+    let one = f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos())) + 1e-5;
+    let centre = -H * TILT.tan();
+    let edges = [centre - W / 2.0, centre + W / 2.0];
+    // The penumbra and two footprints (a footprint is under 5 cm here).
+    let half = H * ((TILT + SUN_R).tan() - TILT.tan()) + 0.1;
+    let (mut lit_n, mut umbra_n) = (0, 0);
+    for (i, p) in points.iter().enumerate() {
+        let Some(p) = p else { continue };
+        let x = p.position.x;
+        if edges.iter().any(|e| (x - e).abs() < half) {
+            continue;
+        }
+        let e = f64::from(means[i].radiance.x) * std::f64::consts::PI / f64::from(RHO);
+        if x > edges[0] && x < edges[1] {
+            lit_n += 1;
+            assert!(
+                (e - lit).abs() <= one * lit,
+                "pixel {i} at x = {x}: {e}, lit {lit}"
+            );
+        } else {
+            umbra_n += 1;
+            assert_eq!(e, 0.0, "pixel {i} at x = {x}: in the umbra");
+        }
+    }
+    assert!(lit_n > 50 && umbra_n > 50, "{lit_n} lit, {umbra_n} umbra");
+}
+
 // The highlight: a glossy metal plane (GGX α = 0.04) under a small square lamp, seen
 // around the lamp's mirror image. Nothing else in the scene: the plane is flat and the
 // lamp's back is black, so the light field's remainder is zero and the whole picture is
