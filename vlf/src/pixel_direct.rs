@@ -520,6 +520,26 @@ struct Seen {
     anchor: Vec3,
 }
 
+/// Whether `q` lies in the footprint on its surface of the pixel that sees `p` along `v`
+/// (eye to point), for a screen of `pixel` metres a pixel with unit normal `normal`,
+/// `to_screen` from the eye. At the point's depth a pixel covers `pixel · depth /
+/// to_screen` in the plane parallel to the screen; on the surface, that square is
+/// stretched along the view's trace by `cos(screen) / cos(surface)` (a floor seen at a
+/// grazing angle from a wall: many times) and keeps its width across: the footprint is
+/// the ellipse with those half-axes round the point.
+fn in_footprint(q: Vec3, p: &DirectPoint, v: Vec3, screen: (f32, Vec3, f32)) -> bool {
+    let (pixel, normal, to_screen) = screen;
+    let dir = v.normalize_or_zero();
+    let depth_cos = dir.dot(normal).abs();
+    let width = pixel * v.length() * depth_cos / to_screen.max(f32::MIN_POSITIVE);
+    let length = width * depth_cos / dir.dot(p.normal).abs().max(1e-3);
+    let trace = (dir - p.normal * p.normal.dot(dir)).normalize_or_zero();
+    let d = q - p.position;
+    let along = d.dot(trace);
+    let across = (d - trace * along).length();
+    (along / length).powi(2) + (across / width).powi(2) <= 1.0
+}
+
 /// What a pixel keeps between frames: where its mean was made, the sum of its estimates
 /// and their count.
 type PixelMean = (Option<Seen>, Estimate, u32);
@@ -661,13 +681,10 @@ impl Accumulator {
                     return none;
                 }
                 let j = y as usize * w + x as usize;
-                // The footprint of a pixel at the point's distance along its ray.
-                let along = v.normalize_or_zero().dot(normal).abs();
-                let footprint = pixel * v.length() * along / to_screen.max(f32::MIN_POSITIVE);
                 match seen[j] {
                     Some(s)
                         if s.triangle == p.triangle
-                            && s.anchor.distance(p.position) <= footprint =>
+                            && in_footprint(s.anchor, p, v, (pixel, normal, to_screen)) =>
                     {
                         let carried = Seen {
                             last: p.position,

@@ -343,11 +343,12 @@ fn a_moving_eye_carries_the_means_over_and_stays_exact() {
     assert!(lit_n > 50 && umbra_n > 50, "{lit_n} lit, {umbra_n} umbra");
 }
 
-/// An eye sweeping sideways in small steps (48 steps of 5 mm, each carrying the means on)
+/// An eye sweeping sideways in small steps (96 steps of 5 mm, each carrying the means on)
 /// leaves no trail: a mean is carried only while its point stays within a pixel's
 /// footprint of where the mean began, so none drifts across an edge of the patch, and
 /// after the sweep the umbra is still dark and the patch exactly lit everywhere but
-/// within the penumbra and two footprints of an edge.
+/// within the penumbra and two footprints of an edge (a mean's estimates lie within a
+/// footprint of where it began, the point seen now within one of that).
 #[test]
 fn a_sweeping_eye_leaves_no_trail_across_the_shadows_edge() {
     let scene = Arc::new(slit());
@@ -362,11 +363,11 @@ fn a_sweeping_eye_leaves_no_trail_across_the_shadows_edge() {
         height: 24,
     };
     let mut acc = Accumulator::new();
-    let mut from = screen(-0.72);
+    let mut from = screen(-0.84);
     let mut points = vis.pixels_and_points(&from).1;
     let mut means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
-    for step in 1..=48 {
-        let to = screen(-0.72 + 0.005 * step as f32);
+    for step in 1..=96 {
+        let to = screen(-0.84 + 0.005 * step as f32);
         points = vis.pixels_and_points(&to).1;
         acc.reproject(&from, &to, &points);
         means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
@@ -384,8 +385,10 @@ fn a_sweeping_eye_leaves_no_trail_across_the_shadows_edge() {
     let one = f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos())) + 1e-5;
     let centre = -H * TILT.tan();
     let edges = [centre - W / 2.0, centre + W / 2.0];
-    // The penumbra and two footprints (a footprint is under 5 cm here).
-    let half = H * ((TILT + SUN_R).tan() - TILT.tan()) + 0.1;
+    // A pixel is 5 cm on a screen 0.4 m below the eye, parallel to the floor 0.8 m below
+    // it: its footprint there is 10 cm.
+    let footprint = 2.4 / 48.0 * 0.8 / 0.4;
+    let half = H * ((TILT + SUN_R).tan() - TILT.tan()) + 2.0 * footprint;
     let (mut lit_n, mut umbra_n) = (0, 0);
     for (i, p) in points.iter().enumerate() {
         let Some(p) = p else { continue };
