@@ -12,7 +12,7 @@ use glam::{DVec3, Vec2, Vec3, Vec4};
 use holocave_cave::WallView;
 use holocave_scene::{Daylight, Material, Ray, Scene, Sun};
 use holocave_tracer::film::Image;
-use holocave_vlf::{Accumulator, PixelDirect, Settings, Visibility};
+use holocave_vlf::{Accumulator, DirectPoint, Estimate, PixelDirect, Settings, Visibility};
 
 fn scene_with(
     name: &str,
@@ -312,20 +312,37 @@ fn a_moving_eye_carries_the_means_over_and_stays_exact() {
         "{carried} of {} pixels carried their means",
         seen.len()
     );
+    // The eye moved 2 cm, and a pixel's point on the floor (twice as far as the screen)
+    // 2 cm with it: beyond the penumbra and 5 cm, a carried mean is exact.
+    let margin = H * ((TILT + SUN_R).tan() - TILT.tan()) + 0.05;
+    let (lit_n, umbra_n) = assert_patch_exact(&pb, &means, margin);
+    assert!(lit_n > 50 && umbra_n > 50, "{lit_n} lit, {umbra_n} umbra");
+}
+
+/// Checks every pixel whose point lies farther than `margin` from the slit patch's edges:
+/// in the umbra no direct light at all, in the patch the sun's within what one sample may
+/// differ by (a direction at the disc's rim: a mean begun this frame may hold one).
+/// Returns how many lit and umbra pixels it checked.
+fn assert_patch_exact(
+    points: &[Option<DirectPoint>],
+    means: &[Estimate],
+    margin: f32,
+) -> (u32, u32) {
     let s = sun_direction();
-    let lit =
-        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
-    let one = f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos()));
+    // The patch's light as the sampler takes it: the disc's solid angle 2π(1 − cos r)
+    // with cos r in f32, which near 1 holds 1 − cos r to about half a percent (the
+    // sampler's own rounding, not what these tests are about).
+    let lit = f64::from(SUN_L)
+        * f64::from(s.y)
+        * f64::from(2.0 * std::f32::consts::PI * (1.0 - SUN_R.cos()));
+    let one = f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos())) + 1e-5;
     let centre = -H * TILT.tan();
     let edges = [centre - W / 2.0, centre + W / 2.0];
-    // A pixel's footprint here is under 5 cm: beyond it and the penumbra, the carried
-    // mean is exact.
-    let half = H * ((TILT + SUN_R).tan() - TILT.tan()) + 0.05;
     let (mut lit_n, mut umbra_n) = (0, 0);
-    for &i in &seen {
-        let p = pb[i].unwrap();
+    for (i, p) in points.iter().enumerate() {
+        let Some(p) = p else { continue };
         let x = p.position.x;
-        if edges.iter().any(|e| (x - e).abs() < half) {
+        if edges.iter().any(|e| (x - e).abs() < margin) {
             continue;
         }
         let e = f64::from(means[i].radiance.x) * std::f64::consts::PI / f64::from(RHO);
@@ -340,7 +357,7 @@ fn a_moving_eye_carries_the_means_over_and_stays_exact() {
             assert_eq!(e, 0.0, "pixel {i} at x = {x}: in the umbra");
         }
     }
-    assert!(lit_n > 50 && umbra_n > 50, "{lit_n} lit, {umbra_n} umbra");
+    (lit_n, umbra_n)
 }
 
 /// An eye sweeping sideways in small steps (96 steps of 5 mm, each carrying the means on)
@@ -373,41 +390,11 @@ fn a_sweeping_eye_leaves_no_trail_across_the_shadows_edge() {
         means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
         from = to;
     }
-    let s = sun_direction();
-    // The patch's light as the sampler takes it: the disc's solid angle 2π(1 − cos r)
-    // with cos r in f32, which near 1 holds 1 − cos r to about half a percent (the
-    // sampler's own rounding, not what this test is about).
-    let lit = f64::from(SUN_L)
-        * f64::from(s.y)
-        * f64::from(2.0 * std::f32::consts::PI * (1.0 - SUN_R.cos()));
-    // One sample's most (a direction at the disc's rim: a pixel whose mean began again
-    // this frame holds one), and f32 rounding.
-    let one = f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos())) + 1e-5;
-    let centre = -H * TILT.tan();
-    let edges = [centre - W / 2.0, centre + W / 2.0];
     // A pixel is 5 cm on a screen 0.4 m below the eye, parallel to the floor 0.8 m below
     // it: its footprint there is 10 cm.
     let footprint = 2.4 / 48.0 * 0.8 / 0.4;
-    let half = H * ((TILT + SUN_R).tan() - TILT.tan()) + 2.0 * footprint;
-    let (mut lit_n, mut umbra_n) = (0, 0);
-    for (i, p) in points.iter().enumerate() {
-        let Some(p) = p else { continue };
-        let x = p.position.x;
-        if edges.iter().any(|e| (x - e).abs() < half) {
-            continue;
-        }
-        let e = f64::from(means[i].radiance.x) * std::f64::consts::PI / f64::from(RHO);
-        if x > edges[0] && x < edges[1] {
-            lit_n += 1;
-            assert!(
-                (e - lit).abs() <= one * lit,
-                "pixel {i} at x = {x}: {e}, lit {lit}"
-            );
-        } else {
-            umbra_n += 1;
-            assert_eq!(e, 0.0, "pixel {i} at x = {x}: in the umbra");
-        }
-    }
+    let margin = H * ((TILT + SUN_R).tan() - TILT.tan()) + 2.0 * footprint;
+    let (lit_n, umbra_n) = assert_patch_exact(&points, &means, margin);
     assert!(lit_n > 50 && umbra_n > 50, "{lit_n} lit, {umbra_n} umbra");
 }
 
