@@ -89,6 +89,13 @@ pub struct PixelDirect {
 /// eight samples deep. The extra rays are paid only where a pixel starts over.
 pub const FIRST_SUN_SAMPLES: u64 = 4;
 
+/// Pairs of samples of the sky's sharpened reflection (one from the true lobe, one from
+/// the widened one) in each estimate a pixel takes at a new point. One pair a pixel, a
+/// signed difference of two lobes, speckled a varnished floor dark and light where a
+/// window is reflected in it at the first frame; four make a new point's reflection
+/// four pairs deep, paid only where a pixel starts over, and only on sharpened lobes.
+pub const FIRST_SHARPENING_PAIRS: u64 = 4;
+
 /// Whether light arriving along `wi` reaches the viewer from `p`: opaque surfaces only
 /// receive light on the side they are seen from.
 fn receives(p: &DirectPoint, wi: Vec3) -> bool {
@@ -201,22 +208,24 @@ impl PixelDirect {
         }
     }
 
-    /// The sun's samples in the `n`-th estimate: their first index in the pixel's 2-D
+    /// The samples of a light in the `n`-th estimate: their first index in the pixel's
     /// sequence and how many. Each of the estimates a pixel takes at a new point
-    /// ([`Self::first_estimates`]) takes [`FIRST_SUN_SAMPLES`] of the disc, every later
+    /// ([`Self::first_estimates`]) takes `at_first` ([`FIRST_SUN_SAMPLES`] of the sun's
+    /// disc, [`FIRST_SHARPENING_PAIRS`] of the sky's sharpened reflection), every later
     /// one a single sample, the sequence going on where they left it.
-    fn sun_samples(&self, n: u64) -> (u64, u64) {
+    fn samples_of(&self, n: u64, at_first: u64) -> (u64, u64) {
         let first = u64::from(self.first_estimates());
         if n < first {
-            (n * FIRST_SUN_SAMPLES, FIRST_SUN_SAMPLES)
+            (n * at_first, at_first)
         } else {
-            (first * FIRST_SUN_SAMPLES + (n - first), 1)
+            (first * at_first + (n - first), 1)
         }
     }
 
     /// Shadow rays per estimate after a pixel's first frame at a point (at most: a sample
     /// facing away from the point needs none); the first estimates take
-    /// [`FIRST_SUN_SAMPLES`] − 1 more for the sun.
+    /// [`FIRST_SUN_SAMPLES`] − 1 more for the sun and, on a sharpened lobe,
+    /// [`FIRST_SHARPENING_PAIRS`] − 1 more pairs for the sky's reflection.
     pub fn shadow_rays(&self) -> u32 {
         u32::from(self.lights.has_area())
             + self.lights.punctual.len() as u32
@@ -271,7 +280,7 @@ impl PixelDirect {
                 f(q);
             }
         }
-        let (first, count) = self.sun_samples(n);
+        let (first, count) = self.samples_of(n, FIRST_SUN_SAMPLES);
         for k in first..first + count {
             let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
             if let Some(mut q) =
@@ -352,22 +361,25 @@ impl PixelDirect {
             let h = (o + i).normalize();
             lobes.iter().map(|g| g.visible_pdf(o, h)).sum::<f32>() / (4.0 * o.dot(h))
         };
-        for (d, lobe) in (6..).zip(&lobes) {
-            let u = Vec2::new(r_sequence(R2, d, 0, n, seed), r_sequence(R2, d, 1, n, seed));
-            let i = fresnel::reflect(o, lobe.sample_visible(o, u));
-            let pdf = density(i);
-            if i.z <= 0.0 || !pdf.is_finite() || pdf <= 0.0 {
-                continue;
-            }
-            let local = i * side;
-            let wi = frame.to_world(local).normalize();
-            if !receives(p, wi) {
-                continue;
-            }
-            let g = (p.bsdf.eval(wo, local).0 - widened.eval(wo, local).0) * i.z;
-            let c = g * sky.radiance(wi) * p.weight / pdf;
-            if let Some(q) = shadow_query(p, &towards_sky(wi, pdf), c, false) {
-                f(q);
+        let (first, count) = self.samples_of(n, FIRST_SHARPENING_PAIRS);
+        for k in first..first + count {
+            for (d, lobe) in (6..).zip(&lobes) {
+                let u = Vec2::new(r_sequence(R2, d, 0, k, seed), r_sequence(R2, d, 1, k, seed));
+                let i = fresnel::reflect(o, lobe.sample_visible(o, u));
+                let pdf = density(i);
+                if i.z <= 0.0 || !pdf.is_finite() || pdf <= 0.0 {
+                    continue;
+                }
+                let local = i * side;
+                let wi = frame.to_world(local).normalize();
+                if !receives(p, wi) {
+                    continue;
+                }
+                let g = (p.bsdf.eval(wo, local).0 - widened.eval(wo, local).0) * i.z;
+                let c = g * sky.radiance(wi) * p.weight / (pdf * count as f32);
+                if let Some(q) = shadow_query(p, &towards_sky(wi, pdf), c, false) {
+                    f(q);
+                }
             }
         }
     }
