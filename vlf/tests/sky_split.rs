@@ -268,5 +268,19 @@ fn the_sky_reflected_by_a_narrower_lobe_than_a_tile_holds_is_sharpened_per_pixel
             "sharpened by {sharpened}, by the BSDFs' own sampling {} (own {a}, widened {b})",
             a - b
         );
+        // A new point's first estimate (FIRST_SHARPENING_PAIRS pairs, each its share)
+        // has the same mean, taken over many pixels' sequences.
+        let firsts: Vec<f64> = (0..4096u64)
+            .map(|seed| {
+                let e = vis.with_placed(|s| split.direct.estimate(s, &point, seed, 0));
+                f64::from(e.radiance.x)
+            })
+            .collect();
+        let (first, v_first) = stats(&firsts);
+        assert!(
+            (first - (a - b)).abs() <= bound + 4.0 * v_first.sqrt(),
+            "a first estimate sharpens by {first} on average, the BSDFs' own sampling by {}",
+            a - b
+        );
     }
 }
