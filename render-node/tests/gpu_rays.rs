@@ -92,6 +92,16 @@ struct Tally {
 }
 
 impl Tally {
+    /// Counts `t`'s rays in this tally too.
+    fn add(&mut self, t: Tally) {
+        self.rays += t.rays;
+        self.agree += t.agree;
+        self.other_triangle += t.other_triangle;
+        self.grazes += t.grazes;
+        self.bad += t.bad;
+        self.examples.extend(t.examples);
+    }
+
     fn fail(&mut self, s: String) {
         self.bad += 1;
         if self.examples.len() < 6 {
@@ -350,12 +360,7 @@ fn the_direct_lights_shadow_rays_are_the_cpus() {
     );
     let mut tally = Tally::default();
     for (q, a) in queries.iter().zip(&answers) {
-        let t = compare_occluded(&scene, &[q.ray], q.tmax, &[*a]);
-        tally.rays += t.rays;
-        tally.agree += t.agree;
-        tally.grazes += t.grazes;
-        tally.bad += t.bad;
-        tally.examples.extend(t.examples);
+        tally.add(compare_occluded(&scene, &[q.ray], q.tmax, &[*a]));
     }
     tally.check("room direct light shadow rays");
 }
@@ -398,12 +403,7 @@ fn shadow_rays_beyond_one_batch_keep_their_order() {
             .unzip();
         (tmax, (r, a))
     }) {
-        let t = compare_occluded(&scene, &blocked.0, tmax, &blocked.1);
-        tally.rays += t.rays;
-        tally.agree += t.agree;
-        tally.grazes += t.grazes;
-        tally.bad += t.bad;
-        tally.examples.extend(t.examples);
+        tally.add(compare_occluded(&scene, &blocked.0, tmax, &blocked.1));
     }
     assert!(answers.iter().filter(|a| a.is_some()).count() > flat.len() / 10);
     tally.check("room shadow rays in batches");

@@ -274,6 +274,19 @@ fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
     );
 }
 
+/// A screen under the slit's plates, looking down at the floor across both edges of the
+/// patch, seen from `eye`.
+fn under_the_plates(eye: Vec3) -> WallView {
+    WallView {
+        eye,
+        pa: Vec3::new(-1.8, 0.4, 0.6),
+        pb: Vec3::new(0.6, 0.4, 0.6),
+        pc: Vec3::new(-1.8, 0.4, -0.6),
+        width: 48,
+        height: 24,
+    }
+}
+
 /// A moving eye keeps the running means: after 16 frames of one view, the eye moved 2 cm
 /// (the screen, a CAVE wall, stays), almost every pixel carries its mean on and adds one
 /// estimate to it, and the lit patch and the umbra are still exact.
@@ -282,17 +295,8 @@ fn a_moving_eye_carries_the_means_over_and_stays_exact() {
     let scene = Arc::new(slit());
     let vis = Visibility::of(scene.clone(), &Settings::default());
     let direct = PixelDirect::new(scene.clone());
-    // Under the plates, looking down at the floor across both edges of the patch.
-    let screen = |eye: Vec3| WallView {
-        eye,
-        pa: Vec3::new(-1.8, 0.4, 0.6),
-        pb: Vec3::new(0.6, 0.4, 0.6),
-        pc: Vec3::new(-1.8, 0.4, -0.6),
-        width: 48,
-        height: 24,
-    };
-    let a = screen(Vec3::new(-0.6, 0.8, 0.0));
-    let b = screen(Vec3::new(-0.58, 0.8, 0.0));
+    let a = under_the_plates(Vec3::new(-0.6, 0.8, 0.0));
+    let b = under_the_plates(Vec3::new(-0.58, 0.8, 0.0));
     let points = |v: &WallView| vis.pixels_and_points(v).1;
     let (pa, pb) = (points(&a), points(&b));
     let mut acc = Accumulator::new();
@@ -371,14 +375,7 @@ fn a_sweeping_eye_leaves_no_trail_across_the_shadows_edge() {
     let scene = Arc::new(slit());
     let vis = Visibility::of(scene.clone(), &Settings::default());
     let direct = PixelDirect::new(scene.clone());
-    let screen = |x: f32| WallView {
-        eye: Vec3::new(x, 0.8, 0.0),
-        pa: Vec3::new(-1.8, 0.4, 0.6),
-        pb: Vec3::new(0.6, 0.4, 0.6),
-        pc: Vec3::new(-1.8, 0.4, -0.6),
-        width: 48,
-        height: 24,
-    };
+    let screen = |x: f32| under_the_plates(Vec3::new(x, 0.8, 0.0));
     let mut acc = Accumulator::new();
     let mut from = screen(-0.84);
     let mut points = vis.pixels_and_points(&from).1;

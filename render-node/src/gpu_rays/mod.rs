@@ -40,9 +40,10 @@
 //! Rays made on the CPU (the direct light's shadow rays) and answers read back (the first
 //! hits the lookups need) cross the bus through two host-visible buffers kept from batch to
 //! batch, rays written into one where it is mapped, answers read out of the other where it
-//! is mapped, both in parallel on the CPU's threads. On an H200 a round trip costs six to
-//! twelve times the walk itself; with a fresh staging buffer each way per batch it cost
-//! eighty (`docs/performance/gpu-rays.md`).
+//! is mapped, both in parallel on the CPU's threads. On an H200 a round trip costs five to
+//! eight times the walk itself; with a fresh staging buffer each way per batch (the
+//! queue's `write_buffer`, a new read-back buffer) it cost thirty to eighty times
+//! (`docs/performance/gpu-rays.md`).
 //!
 //! # Exactness
 //!
@@ -190,11 +191,10 @@ pub struct GpuRays {
     rays: wgpu::Buffer,
     out: wgpu::Buffer,
     bind: wgpu::BindGroup,
-    /// The round trip's host-visible buffers, kept from batch to batch: rays are written
-    /// into `send` (mapped for writing) and copied to `rays` on the GPU; answers are
-    /// copied from `out` into `receive` and read where it is mapped. A fresh staging
-    /// buffer each way per batch (the queue's `write_buffer` and a read-back buffer) cost
-    /// an H200's round trip eighty times the walk itself (docs/performance/gpu-rays.md).
+    /// The round trip's host-visible buffers, kept from batch to batch (the module's
+    /// "The round trip"): rays are written into `send` (mapped for writing) and copied to
+    /// `rays` on the GPU; answers are copied from `out` into `receive` and read where it
+    /// is mapped.
     send: wgpu::Buffer,
     receive: wgpu::Buffer,
     /// The rays of a batch as they are made (in parallel), before their one copy into
@@ -414,25 +414,28 @@ impl GpuRays {
         self.send_scratch(gpu);
     }
 
-    /// Makes the current batch's rays from `groups`' items in order (in parallel, group
-    /// by group) and copies them to the GPU through the kept `send` buffer.
+    /// Makes the current batch's rays from `groups`' items in order (in parallel, a few
+    /// thousand groups to a task) and copies them to the GPU through the kept `send`
+    /// buffer.
     fn send_groups<T: Sync>(
         &mut self,
         gpu: &Gpu,
         groups: &[Vec<T>],
         ray: &(impl Fn(&T) -> GpuRay + Sync),
     ) {
+        const GROUPS_PER_TASK: usize = 4096;
         let n = groups.iter().map(Vec::len).sum();
         self.scratch.resize(n, GpuRay::zeroed());
-        let mut slots = Vec::with_capacity(groups.len());
+        let tasks: Vec<&[Vec<T>]> = groups.chunks(GROUPS_PER_TASK).collect();
+        let mut slots = Vec::with_capacity(tasks.len());
         let mut rest = &mut self.scratch[..];
-        for g in groups {
-            let (slot, tail) = rest.split_at_mut(g.len());
+        for task in &tasks {
+            let (slot, tail) = rest.split_at_mut(task.iter().map(Vec::len).sum());
             slots.push(slot);
             rest = tail;
         }
-        slots.into_par_iter().zip(groups).for_each(|(slot, g)| {
-            for (r, item) in slot.iter_mut().zip(g) {
+        slots.into_par_iter().zip(tasks).for_each(|(slot, task)| {
+            for (r, item) in slot.iter_mut().zip(task.iter().flatten()) {
                 *r = ray(item);
             }
         });
