@@ -283,6 +283,9 @@ impl VlfBase {
             .map(|(i, &ray)| {
                 let (l, p) = self.visibility.lookup_and_point(ray);
                 let mut c = shade_one(&l, self.values());
+                if self.direct {
+                    c += self.nee.grazing_albedo(&l, self.values());
+                }
                 if let (true, Some(p)) = (self.direct, p) {
                     c += (self.visibility).with_placed(|placed| {
                         self.nee.mean(placed, &p, i as u64, 0, estimates).radiance
@@ -387,7 +390,8 @@ impl VlfBase {
                 .direct(l, &d, n),
                 None => d.radiance,
             };
-            l.emitted = (glam::Vec3::from(l.emitted) + added).to_array();
+            let grazing = direct.grazing_albedo(l, &self.indirect);
+            l.emitted = (glam::Vec3::from(l.emitted) + added + grazing).to_array();
             if d.object_shadow {
                 l.samples = 0.0;
             }

@@ -17,6 +17,8 @@
 //! - [`direct`]: small emitters, punctual lights and the sun by next-event estimation;
 //! - [`pixel_direct`]: the direct light per pixel (the walls' exact part; the bake keeps
 //!   the same part apart so that a view drawing it here takes only the rest);
+//! - [`grazing`]: the albedo a tile's widened lobe loses towards grazing, given back per
+//!   pixel;
 //! - [`gather`]: samples that help the light field: exact direct light at the point
 //!   seen and after one bounce, the field's remainder beyond;
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
@@ -53,6 +55,7 @@ pub mod directions;
 pub mod elements;
 pub mod file;
 pub mod gather;
+pub mod grazing;
 pub mod objects;
 pub mod octahedral;
 pub mod pixel_direct;

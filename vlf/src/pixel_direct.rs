@@ -51,8 +51,9 @@ use holocave_tracer::sampling::power_heuristic;
 use rayon::prelude::*;
 use std::sync::Arc;
 
+use crate::grazing::GrazingAlbedo;
 use crate::sequence::{R2, R3, r_sequence};
-use crate::view::OverMirror;
+use crate::view::{Lookup, OverMirror};
 
 /// The non-delta surface a pixel sees, as the direct pass needs it.
 #[derive(Clone, Copy, Debug)]
@@ -80,6 +81,8 @@ pub struct PixelDirect {
     /// empty: none).
     widened: Ggx,
     sharpened: Vec<bool>,
+    /// The albedo the widened lobes lose towards grazing ([`Self::with_grazing_albedo`]).
+    grazing: GrazingAlbedo,
 }
 
 /// Samples of the sun's disc in each estimate a pixel takes at a new point. A shadow cast
@@ -141,6 +144,7 @@ impl PixelDirect {
             sky: false,
             widened: Ggx { alpha: 1.0 },
             sharpened: Vec::new(),
+            grazing: GrazingAlbedo::default(),
         }
     }
 
@@ -169,6 +173,19 @@ impl PixelDirect {
             self.sharpened = widened;
         }
         self
+    }
+
+    /// Also, where a pixel sees a tile whose lobe was widened, the albedo the widened lobe
+    /// lost at the pixel's angle ([`GrazingAlbedo`], [`Self::grazing_albedo`]).
+    pub fn with_grazing_albedo(mut self, grazing: GrazingAlbedo) -> Self {
+        self.grazing = grazing;
+        self
+    }
+
+    /// What lookup `l` adds to the light field's `values` (the lookups'), besides the
+    /// estimates: the albedo its tile's widened lobe lost ([`GrazingAlbedo::added`]).
+    pub fn grazing_albedo(&self, l: &Lookup, values: &[[f32; 3]]) -> Vec3 {
+        self.grazing.added(l, values)
     }
 
     /// Whether the sky's reflection at `p` is sharpened.

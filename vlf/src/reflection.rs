@@ -52,7 +52,7 @@ pub struct Reflection {
 }
 
 /// The exact bits of a surface's parameters: equal bits, equal BSDF.
-fn key(p: &SurfaceParams) -> [u32; 11] {
+pub(crate) fn params_key(p: &SurfaceParams) -> [u32; 11] {
     let c = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
     let [r, g, b] = c(p.base_color);
     let [sr, sg, sb] = c(p.specular_color);
@@ -83,7 +83,7 @@ impl Reflection {
             .iter()
             .enumerate()
             .map(|(g, t)| {
-                let k = key(&t.params);
+                let k = params_key(&t.params);
                 if let Some(&m) = index.get(&k) {
                     return m;
                 }
@@ -233,6 +233,7 @@ mod tests {
                     bsdf: Bsdf::new(p),
                     params: *p,
                     widened: false,
+                    surface_roughness: p.roughness,
                 })
                 .collect(),
             centres,

@@ -8,7 +8,8 @@
 //! floor reflects — the per-pixel pass adds the difference between the surface's own
 //! reflection of the sky and the widened lobe's
 //! ([`PixelDirect::with_sharp_sky_reflections`]), so the field keeps all its light and
-//! nothing is counted twice. Asked for (`--sky-per-pixel`), the whole sky is taken per
+//! nothing is counted twice; the albedo those widened lobes lose towards grazing is given
+//! back per pixel too ([`GrazingAlbedo`]). Asked for (`--sky-per-pixel`), the whole sky is taken per
 //! pixel instead, and the field is read less its sky
 //! ([`State::indirect_values_without_sky`]), under the field's sky as a prior
 //! ([`crate::view::SkyPrior`]).
@@ -19,6 +20,7 @@ use holocave_scene::Scene;
 
 use crate::bake::{Settings, State};
 use crate::elements::Elements;
+use crate::grazing::GrazingAlbedo;
 use crate::pixel_direct::PixelDirect;
 use crate::tiles::{Tiles, alpha_floor};
 
@@ -50,7 +52,9 @@ impl Split {
             let (remainder, field_sky) = parts
                 .ok_or("holds no sky part: bake it again to take the sky per pixel".to_string())?;
             return Ok(Split {
-                direct: direct.with_sky(true),
+                direct: direct
+                    .with_sky(true)
+                    .with_grazing_albedo(GrazingAlbedo::new(tiles, None)),
                 remainder,
                 sky: Some(field_sky),
             });
@@ -59,8 +63,12 @@ impl Split {
             settings.tile_bins,
             Settings::rounded_directions(settings.directions),
         );
+        // The field's sky is taken out of the grazing correction where it is sharpened.
+        let grazing = GrazingAlbedo::new(tiles, state.sky_values());
         Ok(Split {
-            direct: direct.with_sharp_sky_reflections(floor, tiles.triangles_widened(elements)),
+            direct: direct
+                .with_sharp_sky_reflections(floor, tiles.triangles_widened(elements))
+                .with_grazing_albedo(grazing),
             remainder: state.indirect_values(),
             sky: None,
         })

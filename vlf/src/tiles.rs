@@ -62,6 +62,19 @@ pub struct Glossy {
     pub params: SurfaceParams,
     /// The surface's lobe is narrower than a tile resolves and `params` widen it.
     pub widened: bool,
+    /// The surface's own roughness (`params` hold the widened one).
+    pub surface_roughness: f32,
+}
+
+impl Glossy {
+    /// The surface's own BSDF, with the lobe it has (narrower than `bsdf`'s where
+    /// widened).
+    pub fn surface_bsdf(&self) -> Bsdf {
+        Bsdf::new(&SurfaceParams {
+            roughness: self.surface_roughness,
+            ..self.params
+        })
+    }
 }
 
 /// The tiles of a scene: which elements have one, and the bins' directions.
@@ -166,6 +179,7 @@ impl Tiles {
                     n = -n;
                 }
                 let mut p = s.params;
+                let surface_roughness = p.roughness;
                 let widened = Ggx::from_roughness(p.roughness).alpha < floor;
                 if widened {
                     p.roughness = floor.sqrt();
@@ -176,6 +190,7 @@ impl Tiles {
                     bsdf: Bsdf::new(&p),
                     params: p,
                     widened,
+                    surface_roughness,
                 })
             })
             .collect();

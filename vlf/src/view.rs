@@ -517,6 +517,9 @@ impl Visibility {
                 let ray = view.ray(Vec2::new(x, y) + o);
                 let (l, p) = self.lookup_chain(follow(&placed, ray, &env), &objects, Some(&placed));
                 sum += shade_one(&l, values);
+                if let Some(direct) = direct {
+                    sum += direct.grazing_albedo(&l, values);
+                }
                 if let (Some(direct), Some(p)) = (direct, p) {
                     let seed = (i as u64) * u64::from(k * k) + u64::from(s);
                     let e = direct.mean(&placed, &p, seed, 0, estimates);
