@@ -20,6 +20,9 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
+use holocave_scene::SurfaceParams;
+use holocave_tracer::bsdf::Bsdf;
+use rayon::prelude::*;
 
 use crate::octahedral;
 use crate::reflection::params_key;
@@ -29,16 +32,25 @@ use crate::view::Lookup;
 
 /// Entries of a table over `cos θ_o ∈ [0, 1]`.
 const STEPS: usize = 32;
-/// Samples of each BSDF per entry (the same for both: their ratio is smooth).
+/// Samples of each BSDF per entry (the same for all four: their ratio is smooth).
 const SAMPLES: u32 = 1024;
 
 /// Per widened tile, the albedo its lobe lost, and the field's sky it leaves alone.
+///
+/// A material's albedo is affine in its base colour (the Lambertian base is linear in it,
+/// and so is the metal's Schlick Fresnel, whose `F0` it is), so one table serves every
+/// base colour of a material: the surface's and the widened lobe's albedo with a black
+/// and with a white base, per step in `cos θ_o`. A textured material's texels then share
+/// one table (the breakfast room's widened tiles have one per texel: a table each took
+/// 25 s to make).
 #[derive(Default)]
 pub struct GrazingAlbedo {
-    /// Per tile, its material's table in `excess`, or [`NONE`].
-    of_tile: Vec<u32>,
-    /// `A_s/A_w − 1` per colour channel at `cos θ_o = i/(STEPS − 1)`.
-    excess: Vec<[Vec3; STEPS]>,
+    /// Per tile, its material's table in `tables` ([`NONE`]: not widened) and its base
+    /// colour.
+    of_tile: Vec<(u32, Vec3)>,
+    /// `[A_s(black), A_s(white), A_w(black), A_w(white)]` per colour channel at
+    /// `cos θ_o = i/(STEPS − 1)`.
+    tables: Vec<[[Vec3; 4]; STEPS]>,
     /// The field's sky (its first arrival, as the lookups read it), when the values the
     /// lookups read hold it.
     sky: Option<Vec<[f32; 3]>>,
@@ -51,30 +63,46 @@ impl GrazingAlbedo {
     /// For `tiles`; `sky` the field's sky when the values the lookups read hold it.
     pub fn new(tiles: &Tiles, sky: Option<Vec<[f32; 3]>>) -> GrazingAlbedo {
         let mut index: HashMap<([u32; 11], u32), u32> = HashMap::new();
-        let mut excess = Vec::new();
+        let mut materials: Vec<(SurfaceParams, f32)> = Vec::new();
         let of_tile = (tiles.tiles.iter())
             .map(|t| {
                 if !t.widened {
-                    return NONE;
+                    return (NONE, Vec3::ZERO);
                 }
-                // Tiles of one material share a table (a texture's texels each have one).
-                let key = (params_key(&t.params), t.surface_roughness.to_bits());
-                *index.entry(key).or_insert_with(|| {
-                    let (surface, widened) = (t.surface_bsdf(), t.bsdf);
-                    excess.push(std::array::from_fn(|i| {
-                        let cos = i as f32 / (STEPS - 1) as f32;
-                        let wo = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
-                        let w = directional_albedo(&widened, wo, SAMPLES);
-                        let s = directional_albedo(&surface, wo, SAMPLES);
-                        Vec3::select(w.cmpgt(Vec3::ZERO), s / w - Vec3::ONE, Vec3::ZERO)
-                    }));
-                    excess.len() as u32 - 1
+                let black = SurfaceParams {
+                    base_color: Vec3::ZERO,
+                    ..t.params
+                };
+                let key = (params_key(&black), t.surface_roughness.to_bits());
+                let m = *index.entry(key).or_insert_with(|| {
+                    materials.push((black, t.surface_roughness));
+                    materials.len() as u32 - 1
+                });
+                (m, t.params.base_color)
+            })
+            .collect();
+        let tables = materials
+            .par_iter()
+            .map(|&(black, surface_roughness)| {
+                let white = SurfaceParams {
+                    base_color: Vec3::ONE,
+                    ..black
+                };
+                let own = |p: SurfaceParams| SurfaceParams {
+                    roughness: surface_roughness,
+                    ..p
+                };
+                let bsdfs = [own(black), own(white), black, white].map(|p| Bsdf::new(&p));
+                std::array::from_fn(|i| {
+                    let cos = i as f32 / (STEPS - 1) as f32;
+                    let wo = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
+                    bsdfs.map(|b| directional_albedo(&b, wo, SAMPLES))
                 })
             })
             .collect();
         GrazingAlbedo {
             of_tile,
-            excess,
+            tables,
             sky,
             elements: tiles.elements,
             bins: tiles.bins,
@@ -85,19 +113,26 @@ impl GrazingAlbedo {
     /// the albedo its tile's widened lobe lost at the pixel's angle, times the tile's
     /// light less the sky's.
     pub fn added(&self, l: &Lookup, values: &[[f32; 3]]) -> Vec3 {
-        if l.tile == u32::MAX || l.object != 0 || self.excess.is_empty() {
+        if l.tile == u32::MAX || l.object != 0 || self.tables.is_empty() {
             return Vec3::ZERO;
         }
         let per_tile = self.bins * self.bins;
         let g = (l.tile - self.elements) / per_tile;
-        let Some(&t) = self.of_tile.get(g as usize).filter(|&&t| t != NONE) else {
+        let Some(&(t, base)) = self.of_tile.get(g as usize).filter(|t| t.0 != NONE) else {
             return Vec3::ZERO;
         };
         let cos = octahedral::decode(f64::from(l.x), f64::from(l.y), l.bins).z as f32;
         let x = cos.clamp(0.0, 1.0) * (STEPS - 1) as f32;
         let i = (x as usize).min(STEPS - 2);
-        let table = &self.excess[t as usize];
-        let more = table[i].lerp(table[i + 1], x - i as f32);
+        let table = &self.tables[t as usize];
+        let [s0, s1, w0, w1] =
+            std::array::from_fn(|k| table[i][k].lerp(table[i + 1][k], x - i as f32));
+        let (surface, widened) = (s0 + base * (s1 - s0), w0 + base * (w1 - w0));
+        let more = Vec3::select(
+            widened.cmpgt(Vec3::ZERO),
+            surface / widened - Vec3::ONE,
+            Vec3::ZERO,
+        );
         let at = |v: &[[f32; 3]]| octahedral::interpolate(v, l.tile, l.bins, l.x, l.y);
         let sky = self.sky.as_deref().map_or(Vec3::ZERO, at);
         Vec3::from(l.weight) * more * (at(values) - sky).max(Vec3::ZERO)
@@ -109,8 +144,6 @@ mod tests {
     use super::*;
     use crate::tiles::{BIN_SUB, Glossy, alpha_floor};
     use crate::view::shade_one;
-    use holocave_scene::SurfaceParams;
-    use holocave_tracer::bsdf::Bsdf;
     use holocave_tracer::frame::Frame;
 
     /// The room's varnish in a tile that widens it to the floor.
@@ -172,6 +205,12 @@ mod tests {
             (tiles.centres.iter()).map(|c| directional_albedo(&widened, *c, 16_384).to_array()),
         );
         let grazing = GrazingAlbedo::new(&tiles, None);
+        // Another texel of the material (another base colour) shares its table.
+        let mut texels = tiles.clone();
+        let mut other = texels.tiles[0];
+        other.params.base_color = Vec3::new(0.9, 0.1, 0.3);
+        texels.tiles.push(other);
+        assert_eq!(GrazingAlbedo::new(&texels, None).tables.len(), 1);
         let all_sky = GrazingAlbedo::new(&tiles, Some(values.clone()));
         for degrees in [30f32, 57.0, 63.0, 70.0] {
             let (s, c) = degrees.to_radians().sin_cos();
