@@ -17,6 +17,11 @@ pub fn same_scene(recorded: &str, offered: &str) -> bool {
     }
 }
 
+/// The fingerprint an identity records (none in a name alone).
+pub fn fingerprint_of(id: &str) -> Option<u64> {
+    split(id).1.and_then(|fp| u64::from_str_radix(fp, 16).ok())
+}
+
 /// An identity's file name and fingerprint (none in a name alone).
 fn split(id: &str) -> (&str, Option<&str>) {
     match id.rsplit_once(" #") {

@@ -138,6 +138,7 @@ impl HolodeckArgs {
             made_by,
             sections: &self.section,
             stop: super::interrupt::ctrl_c_flag(),
+            follows_scene: false,
         })?;
         let addr = hosted.addr.to_string();
         Ok((Some(hosted), Some(addr)))

@@ -174,6 +174,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             made_by: "sim",
             sections: &args.section,
             stop: super::interrupt::ctrl_c_flag(),
+            follows_scene: args.holodeck.is_none(),
         })?)
     };
     let mut children = Group::default();

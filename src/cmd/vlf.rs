@@ -219,14 +219,15 @@ fn run_bake(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<VlfFile
 }
 
 /// The light field at `path`, baked with default settings for `scene` if it is missing,
-/// unfinished or of an older format (and kept), for `sim` and `compare`.
+/// unfinished, of an older format or baked for another version of the scene (set aside,
+/// not removed), and kept, for `sim` and `compare`.
 pub fn baked_default(scene: &Scene, path: &Path) -> Result<PathBuf> {
     let job = BakeJob {
         scene,
         settings: Settings::default(),
         out: path,
         interrupted: &super::interrupt::ctrl_c_flag(),
-        rebake_old_version: true,
+        kept_by_command: true,
     };
     let start = job
         .start()
@@ -277,7 +278,7 @@ fn bake(a: BakeArgs) -> Result<()> {
         settings,
         out: &a.out,
         interrupted: &super::interrupt::ctrl_c_flag(),
-        rebake_old_version: false,
+        kept_by_command: false,
     };
     let start = std::time::Instant::now();
     match &a.listen {

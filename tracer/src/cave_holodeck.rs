@@ -15,11 +15,12 @@ use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::cave_section::CaveSection;
 use holocave_holodeck::file::DistanceKind;
 use holocave_holodeck::run::{RayAllowance, RunOptions, Running, start, start_held};
-use holocave_holodeck::scene_id::same_scene;
+use holocave_holodeck::scene_id::{fingerprint_of, same_scene};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::SampleSource;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_scene::empty_box::{Aabb, triangles_inside};
+use holocave_scene::fingerprint::{set_aside, set_aside_path};
 use holocave_scene::{LoadOptions, Scene};
 
 use crate::holodeck::{HolodeckTracer, file_settings, scene_identity};
@@ -241,6 +242,39 @@ impl CaveHolodeck {
     }
 }
 
+/// Sets the holodeck at `path` aside when it holds samples of another version of `scene`
+/// (see [`HostSpec::follows_scene`]).
+fn set_aside_for_another_scene(path: &Path, scene: &Scene) -> Result<(), CaveHolodeckError> {
+    let bad = |message: String| CaveHolodeckError::File {
+        path: path.display().to_string(),
+        message,
+    };
+    let recorded = HoloFile::open(path)
+        .map_err(|e| bad(e.to_string()))?
+        .settings()
+        .get("scene")
+        .cloned();
+    let now = scene.fingerprint();
+    let Some(was) = recorded.as_deref().and_then(fingerprint_of) else {
+        return Ok(());
+    };
+    if was != now {
+        let back = set_aside(path, was, now).map_err(|e| bad(format!("setting it aside: {e}")))?;
+        tracing::warn!(
+            "{} holds samples of another version of the scene (its daylight, materials or \
+             geometry changed): set aside as {}{}",
+            path.display(),
+            set_aside_path(path, was).display(),
+            if back {
+                "; the one set aside for this version is back in its place"
+            } else {
+                ""
+            }
+        );
+    }
+    Ok(())
+}
+
 /// What a cluster's hosted holodeck is: its file, the scene, and who may fill and draw it.
 pub struct HostSpec<'a> {
     pub path: &'a Path,
@@ -259,6 +293,12 @@ pub struct HostSpec<'a> {
     /// coordinates: the rooms a walk-through goes to).
     pub sections: &'a [[DVec3; 2]],
     pub stop: Arc<AtomicBool>,
+    /// The file is the command's own (`sim`'s default): one made for another version of
+    /// the scene (its daylight, materials or geometry changed) is set aside, named by its
+    /// fingerprint, and one set aside for the scene as it is now put back
+    /// ([`holocave_scene::fingerprint::set_aside`]); else a new one is made. Otherwise
+    /// such a file is opened with a warning (its samples are of another scene).
+    pub follows_scene: bool,
 }
 
 impl HostSpec<'_> {
@@ -266,7 +306,7 @@ impl HostSpec<'_> {
     /// to cut a new file's section, or for tracer threads (a master serving an existing
     /// file to remote workers does without it). Also returns [`CaveHolodeck::describe`].
     pub fn host(self) -> Result<(Hosted, String), CaveHolodeckError> {
-        let scene = if self.threads > 0 || !self.path.exists() {
+        let scene = if self.threads > 0 || !self.path.exists() || self.follows_scene {
             let options = LoadOptions {
                 daylight: self.daylight.map(Path::to_path_buf),
                 ..LoadOptions::default()
@@ -280,6 +320,9 @@ impl HostSpec<'_> {
         } else {
             None
         };
+        if let (true, Some(scene)) = (self.follows_scene && self.path.exists(), &scene) {
+            set_aside_for_another_scene(self.path, scene)?;
+        }
         let holodeck = CaveHolodeck::open_or_create(
             self.path,
             self.cave,

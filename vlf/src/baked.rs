@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use holocave_scene::Scene;
+use holocave_scene::fingerprint::{set_aside, set_aside_path};
 
 use crate::bake::{Casting, Settings, Stage, State, Stats, bake_with, layout, tiles};
 use crate::elements::Elements;
@@ -99,21 +100,43 @@ pub struct BakeJob<'a> {
     pub out: &'a Path,
     /// Raised to stop after the bounce being propagated (it is saved first).
     pub interrupted: &'a AtomicBool,
-    /// A file from an older version of the format is removed and baked again (default
-    /// bakes that a command keeps for itself); otherwise it is an error.
-    pub rebake_old_version: bool,
+    /// The file is one a command keeps for itself (`sim`'s and `compare`'s default
+    /// bakes): one from an older version of the format is removed and baked again, one
+    /// baked for another version of the scene (its daylight, materials or geometry
+    /// changed) is set aside, named by its fingerprint, and one set aside for the scene
+    /// as it is now put back ([`holocave_scene::fingerprint::set_aside`]). Otherwise each
+    /// is an error.
+    pub kept_by_command: bool,
 }
 
 impl BakeJob<'_> {
     /// Where the bake will start (also removes an old version's file when allowed).
     pub fn start(&self) -> Result<Start, BakedError> {
-        if self.rebake_old_version
-            && let Err(VlfError::Version { .. }) = VlfFile::read(self.out)
-        {
-            std::fs::remove_file(self.out).map_err(|source| VlfError::Io {
+        if self.kept_by_command {
+            let io = |source| VlfError::Io {
                 path: self.out.to_owned(),
                 source,
-            })?;
+            };
+            let now = self.scene.fingerprint();
+            match VlfFile::read(self.out) {
+                Err(VlfError::Version { .. }) => std::fs::remove_file(self.out).map_err(io)?,
+                Ok(f) if f.fingerprint != now => {
+                    let back = set_aside(self.out, f.fingerprint, now).map_err(io)?;
+                    tracing::warn!(
+                        "{} was baked for another version of scene {} (its daylight, materials \
+                         or geometry changed): set aside as {}{}",
+                        self.out.display(),
+                        f.scene,
+                        set_aside_path(self.out, f.fingerprint).display(),
+                        if back {
+                            "; the one set aside for this version is back in its place"
+                        } else {
+                            ""
+                        }
+                    );
+                }
+                _ => {}
+            }
         }
         if !self.out.exists() {
             return Ok(Start::Fresh);
