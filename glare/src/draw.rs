@@ -146,12 +146,13 @@ impl Drawing {
         }
     }
 
-    /// The sun's unit direction and the cosine of its angular radius, when it is in
-    /// front of the eye.
+    /// The sun's unit direction and `1 − cos` of its angular radius, when it is in front
+    /// of the eye.
     fn sun(&self, fisheye: &Fisheye) -> Option<(DVec3, f64)> {
         let s = self.scene().daylight.sun.as_ref()?;
         let d = s.direction.as_dvec3().normalize();
-        (d.dot(fisheye.look) > -f64::from(s.angular_radius)).then(|| (d, f64::from(s.cos_radius())))
+        (d.dot(fisheye.look) > -f64::from(s.angular_radius))
+            .then(|| (d, f64::from(s.one_minus_cos_radius())))
     }
 
     /// The radiance along `ray`, the `index`-th ray of pixel or set `seed`.
@@ -217,23 +218,27 @@ impl Drawing {
                     let sum: Vec3 = rays
                         .iter()
                         .enumerate()
-                        .filter(|(_, r)| sun.is_none_or(|(d, cos)| r.dir.as_dvec3().dot(d) < cos))
+                        .filter(|(_, r)| {
+                            sun.is_none_or(|(d, one_minus_cos)| {
+                                r.dir.as_dvec3().dot(d) < 1.0 - one_minus_cos
+                            })
+                        })
                         .map(|(i, r)| self.radiance(r, seed, i as u64))
                         .sum();
                     *px = sum / rays.len().max(1) as f32;
                 }
             });
-        if let Some((d, cos)) = sun {
-            self.add_sun(fisheye, &mut image, d, cos);
+        if let Some((d, one_minus_cos)) = sun {
+            self.add_sun(fisheye, &mut image, d, one_minus_cos);
         }
         image
     }
 
     /// The disc's part of each pixel it covers: [`SUN_RAYS`] rays spread evenly over its
     /// solid angle, each adding `f · ω☉ / SUN_RAYS / ω_pixel` to its pixel.
-    fn add_sun(&self, fisheye: &Fisheye, image: &mut Image, d: DVec3, cos: f64) {
+    fn add_sun(&self, fisheye: &Fisheye, image: &mut Image, d: DVec3, one_minus_cos: f64) {
         let n = fisheye.size;
-        let omega_sun = std::f64::consts::TAU * (1.0 - cos);
+        let omega_sun = std::f64::consts::TAU * one_minus_cos;
         let frame = Frame::new(d.as_vec3());
         let eye = fisheye.eye.as_vec3();
         // The sun's rays get seeds past every pixel's.
@@ -242,7 +247,10 @@ impl Drawing {
             .into_par_iter()
             .filter_map(|i| {
                 let (u, v) = r2(i);
-                let dir = frame.to_world(uniform_cone(Vec2::new(u as f32, v as f32), cos as f32));
+                let dir = frame.to_world(uniform_cone(
+                    Vec2::new(u as f32, v as f32),
+                    one_minus_cos as f32,
+                ));
                 let (px, py) = fisheye.position(dir.as_dvec3())?;
                 let (x, y) = (px.floor(), py.floor());
                 if x < 0.0 || y < 0.0 || x >= f64::from(n) || y >= f64::from(n) {

@@ -44,9 +44,15 @@ impl Sun {
         self.angular_radius.cos()
     }
 
+    /// `1 − cos` of the angular radius, as `2 sin²(r/2)`: in f32, `1 − cos r` itself keeps
+    /// only about half a percent of it for the sun's 0.27°, where `cos r` rounds near 1.
+    pub fn one_minus_cos_radius(&self) -> f32 {
+        2.0 * (0.5 * self.angular_radius).sin().powi(2)
+    }
+
     /// The solid angle of the disk.
     pub fn solid_angle(&self) -> f32 {
-        2.0 * PI * (1.0 - self.cos_radius())
+        2.0 * PI * self.one_minus_cos_radius()
     }
 }
 
@@ -316,18 +322,17 @@ impl Daylight {
                 "sun.angular_diameter_deg must be in (0, 90), got {diameter}"
             )));
         }
-        let angular_radius = (diameter / 2.0).to_radians();
-        let solid_angle = 2.0 * PI * (1.0 - angular_radius.cos());
-        let radiance = match (s.radiance, s.irradiance) {
+        let mut sun = Sun {
+            direction,
+            angular_radius: (diameter / 2.0).to_radians(),
+            radiance: Vec3::ZERO,
+        };
+        sun.radiance = match (s.radiance, s.irradiance) {
             (Some(l), None) => rgb("sun.radiance", l, path)?,
-            (None, Some(e)) => rgb("sun.irradiance", e, path)? / solid_angle,
+            (None, Some(e)) => rgb("sun.irradiance", e, path)? / sun.solid_angle(),
             _ => return Err(err("sun needs exactly one of radiance or irradiance".into())),
         };
-        Ok(Sun {
-            direction,
-            angular_radius,
-            radiance,
-        })
+        Ok(sun)
     }
 
     fn parse_sky(s: SkyToml, sun: Option<&Sun>, path: &Path) -> Result<Sky, SceneError> {

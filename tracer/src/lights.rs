@@ -393,7 +393,7 @@ impl Lights {
     /// A direction within the sun's disk.
     pub fn sample_sun(&self, u: Vec2) -> Option<LightSample> {
         let s = self.sun.as_ref()?;
-        let wi = Frame::new(s.direction).to_world(uniform_cone(u, s.cos_radius()));
+        let wi = Frame::new(s.direction).to_world(uniform_cone(u, s.one_minus_cos_radius()));
         let pdf = 1.0 / s.solid_angle();
         Some(LightSample {
             wi,

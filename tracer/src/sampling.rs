@@ -14,10 +14,14 @@ pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
     cos_theta.max(0.0) / PI
 }
 
-/// Uniform direction in the cone of half-angle `acos(cos_max)` around +Z.
-pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
-    let cos_t = 1.0 - u.x * (1.0 - cos_max);
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+/// Uniform direction in the cone of half-angle `acos(1 − one_minus_cos_max)` around +Z.
+/// Taking `1 − cos` rather than the cosine keeps a narrow cone's size exact in f32 (the
+/// sun's: `cos` rounds near 1), and `sin θ = √(x (2 − x))` with `x = 1 − cos θ` keeps it
+/// for each direction.
+pub fn uniform_cone(u: Vec2, one_minus_cos_max: f32) -> Vec3 {
+    let x = u.x * one_minus_cos_max;
+    let cos_t = 1.0 - x;
+    let sin_t = (x * (2.0 - x)).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
     Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
 }

@@ -333,12 +333,9 @@ fn assert_patch_exact(
     margin: f32,
 ) -> (u32, u32) {
     let s = sun_direction();
-    // The patch's light as the sampler takes it: the disc's solid angle 2π(1 − cos r)
-    // with cos r in f32, which near 1 holds 1 − cos r to about half a percent (the
-    // sampler's own rounding, not what these tests are about).
-    let lit = f64::from(SUN_L)
-        * f64::from(s.y)
-        * f64::from(2.0 * std::f32::consts::PI * (1.0 - SUN_R.cos()));
+    let lit =
+        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
+    // One sample's most, plus f32 rounding.
     let one = f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos())) + 1e-5;
     let centre = -H * TILT.tan();
     let edges = [centre - W / 2.0, centre + W / 2.0];
