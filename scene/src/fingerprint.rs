@@ -80,7 +80,10 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("room.vlf");
         std::fs::write(&path, "made for a").unwrap();
-        assert_eq!(set_aside_path(&path, 0xa), dir.join("room.000000000000000a.vlf"));
+        assert_eq!(
+            set_aside_path(&path, 0xa),
+            dir.join("room.000000000000000a.vlf")
+        );
         // The scene changed from a to b: a's file aside, nothing for b yet.
         assert!(!set_aside(&path, 0xa, 0xb).unwrap());
         assert!(!path.exists());

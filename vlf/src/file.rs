@@ -68,7 +68,7 @@ pub enum VlfError {
         what: String,
     },
     #[error(
-        "{path}: baked for scene {baked_for} (fingerprint {baked:016x}), not for {scene} (fingerprint {wanted:016x})"
+        "{path}: baked for scene {baked_for} (fingerprint {baked:016x}), not for this scene {scene} (fingerprint {wanted:016x}): the fingerprint covers the geometry, materials, lights and daylight; bake it again for this one"
     )]
     WrongScene {
         path: PathBuf,

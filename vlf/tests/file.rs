@@ -434,3 +434,58 @@ fn photometric_units_are_not_part_of_the_fingerprint_but_the_sky_is() {
     });
     assert_ne!(scene.fingerprint(), sky.fingerprint());
 }
+
+/// A default bake a command keeps for itself follows its scene: baked for another
+/// version of it (here another albedo), the file is set aside under its fingerprint and a
+/// new bake starts; back at the first version, the first bake comes back whole (nothing
+/// is baked again). A file that is not the command's own is refused instead.
+#[test]
+fn a_kept_bake_is_set_aside_for_another_version_of_its_scene_and_comes_back() {
+    use holocave_scene::fingerprint::set_aside_path;
+    use holocave_vlf::baked::{BakeJob, Start};
+    use std::sync::atomic::AtomicBool;
+
+    let dir = std::env::temp_dir().join(format!("holocave-kept-bake-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("furnace.vlf");
+    let (first, second) = (furnace("furnace", 0.5), furnace("furnace", 0.6));
+    let stop = AtomicBool::new(false);
+    let job = |scene, kept_by_command| BakeJob {
+        scene,
+        settings: settings(),
+        out: &out,
+        interrupted: &stop,
+        kept_by_command,
+    };
+    let bake = |scene| {
+        job(scene, true)
+            .run(&holocave_vlf::bake::Threads, &|_| {})
+            .unwrap()
+            .0
+    };
+    let made = bake(&first);
+    // Not the command's own: the other version is refused, the file left as it is.
+    assert!(job(&second, false).start().is_err());
+    assert_eq!(
+        VlfFile::read(&out).unwrap().fingerprint,
+        first.fingerprint()
+    );
+    // The command's own: set aside, and a new bake for the second version.
+    assert!(matches!(job(&second, true).start().unwrap(), Start::Fresh));
+    let aside = set_aside_path(&out, first.fingerprint());
+    assert_eq!(
+        VlfFile::read(&aside).unwrap().state.irradiance,
+        made.state.irradiance
+    );
+    bake(&second);
+    // Back to the first version: its bake is back in place, converged.
+    assert!(matches!(
+        job(&first, true).start().unwrap(),
+        Start::Converged
+    ));
+    let back = VlfFile::read(&out).unwrap();
+    assert_eq!(back.fingerprint, first.fingerprint());
+    assert_eq!(back.state.irradiance, made.state.irradiance);
+    assert!(set_aside_path(&out, second.fingerprint()).exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
