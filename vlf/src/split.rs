@@ -47,6 +47,7 @@ impl Split {
         sky_per_pixel: bool,
     ) -> Result<Split, String> {
         let direct = PixelDirect::new(scene);
+        let directions = Settings::rounded_directions(settings.directions);
         if sky_per_pixel {
             let parts = state.indirect_values_without_sky().zip(state.sky_values());
             let (remainder, field_sky) = parts
@@ -54,17 +55,14 @@ impl Split {
             return Ok(Split {
                 direct: direct
                     .with_sky(true)
-                    .with_grazing_albedo(GrazingAlbedo::new(tiles, None)),
+                    .with_grazing_albedo(GrazingAlbedo::new(tiles, directions, None)),
                 remainder,
                 sky: Some(field_sky),
             });
         }
-        let floor = alpha_floor(
-            settings.tile_bins,
-            Settings::rounded_directions(settings.directions),
-        );
+        let floor = alpha_floor(settings.tile_bins, directions);
         // The field's sky is taken out of the grazing correction where it is sharpened.
-        let grazing = GrazingAlbedo::new(tiles, state.sky_values());
+        let grazing = GrazingAlbedo::new(tiles, directions, state.sky_values());
         Ok(Split {
             direct: direct
                 .with_sharp_sky_reflections(floor, tiles.triangles_widened(elements))

@@ -130,6 +130,19 @@ impl Tiles {
         }
     }
 
+    /// Tile `t` alone, on element 0, with these bins (to measure what one tile does).
+    pub fn alone(&self, t: Glossy) -> Tiles {
+        Tiles {
+            bins: self.bins,
+            of_element: vec![0],
+            tiles: vec![Glossy { element: 0, ..t }],
+            centres: self.centres.clone(),
+            projected: self.projected.clone(),
+            samples: self.samples.clone(),
+            elements: 1,
+        }
+    }
+
     /// The tiles of `scene` with `elements` and `settings`. Deterministic: the same on
     /// every machine, so a file stores the radiance and not the layout.
     pub fn new(scene: &Scene, elements: &Elements, settings: &Settings) -> Tiles {
