@@ -284,7 +284,7 @@ impl VlfBase {
                 let (l, p) = self.visibility.lookup_and_point(ray);
                 let mut c = shade_one(&l, self.values());
                 if self.direct {
-                    c += self.nee.grazing_albedo(&l, self.values());
+                    c += self.nee.tile_albedo(&l, self.values());
                 }
                 if let (true, Some(p)) = (self.direct, p) {
                     c += (self.visibility).with_placed(|placed| {
@@ -390,8 +390,8 @@ impl VlfBase {
                 .direct(l, &d, n),
                 None => d.radiance,
             };
-            let grazing = direct.grazing_albedo(l, &self.indirect);
-            l.emitted = (glam::Vec3::from(l.emitted) + added + grazing).to_array();
+            let tile_albedo = direct.tile_albedo(l, &self.indirect);
+            l.emitted = (glam::Vec3::from(l.emitted) + added + tile_albedo).to_array();
             if d.object_shadow {
                 l.samples = 0.0;
             }

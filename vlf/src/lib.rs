@@ -17,8 +17,8 @@
 //! - [`direct`]: small emitters, punctual lights and the sun by next-event estimation;
 //! - [`pixel_direct`]: the direct light per pixel (the walls' exact part; the bake keeps
 //!   the same part apart so that a view drawing it here takes only the rest);
-//! - [`grazing`]: the albedo a tile's widened lobe loses towards grazing, given back per
-//!   pixel;
+//! - [`tile_albedo`]: what a tile's bins make of an even light (their binning, the albedo
+//!   a widened lobe loses towards grazing), put right per pixel at the pixel's angle;
 //! - [`gather`]: samples that help the light field: exact direct light at the point
 //!   seen and after one bounce, the field's remainder beyond;
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
@@ -55,7 +55,6 @@ pub mod directions;
 pub mod elements;
 pub mod file;
 pub mod gather;
-pub mod grazing;
 pub mod objects;
 pub mod octahedral;
 pub mod pixel_direct;
@@ -68,6 +67,7 @@ mod sequence;
 pub mod split;
 pub mod subfield;
 pub mod surface;
+pub mod tile_albedo;
 pub mod tiles;
 pub mod view;
 

@@ -51,8 +51,8 @@ use holocave_tracer::sampling::power_heuristic;
 use rayon::prelude::*;
 use std::sync::Arc;
 
-use crate::grazing::GrazingAlbedo;
 use crate::sequence::{R2, R3, r_sequence};
+use crate::tile_albedo::TileAlbedo;
 use crate::view::{Lookup, OverMirror};
 
 /// The non-delta surface a pixel sees, as the direct pass needs it.
@@ -81,8 +81,8 @@ pub struct PixelDirect {
     /// empty: none).
     widened: Ggx,
     sharpened: Vec<bool>,
-    /// The albedo the widened lobes lose towards grazing ([`Self::with_grazing_albedo`]).
-    grazing: GrazingAlbedo,
+    /// What the tiles' bins make of an even light, put right ([`Self::with_tile_albedo`]).
+    tile_albedo: TileAlbedo,
 }
 
 /// Samples of the sun's disc in each estimate a pixel takes at a new point. A shadow cast
@@ -144,7 +144,7 @@ impl PixelDirect {
             sky: false,
             widened: Ggx { alpha: 1.0 },
             sharpened: Vec::new(),
-            grazing: GrazingAlbedo::default(),
+            tile_albedo: TileAlbedo::default(),
         }
     }
 
@@ -175,17 +175,17 @@ impl PixelDirect {
         self
     }
 
-    /// Also, where a pixel sees a tile whose lobe was widened, the albedo the widened lobe
-    /// lost at the pixel's angle ([`GrazingAlbedo`], [`Self::grazing_albedo`]).
-    pub fn with_grazing_albedo(mut self, grazing: GrazingAlbedo) -> Self {
-        self.grazing = grazing;
+    /// Also, where a pixel sees a tile, the surface's albedo at the pixel's angle in place
+    /// of what the tile's bins make of an even light ([`TileAlbedo`], [`Self::tile_albedo`]).
+    pub fn with_tile_albedo(mut self, tile_albedo: TileAlbedo) -> Self {
+        self.tile_albedo = tile_albedo;
         self
     }
 
     /// What lookup `l` adds to the light field's `values` (the lookups'), besides the
-    /// estimates: the albedo its tile's widened lobe lost ([`GrazingAlbedo::added`]).
-    pub fn grazing_albedo(&self, l: &Lookup, values: &[[f32; 3]]) -> Vec3 {
-        self.grazing.added(l, values)
+    /// estimates: what its tile's bins miss of the surface's albedo ([`TileAlbedo::added`]).
+    pub fn tile_albedo(&self, l: &Lookup, values: &[[f32; 3]]) -> Vec3 {
+        self.tile_albedo.added(l, values)
     }
 
     /// Whether the sky's reflection at `p` is sharpened.

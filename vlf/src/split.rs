@@ -8,8 +8,9 @@
 //! floor reflects — the per-pixel pass adds the difference between the surface's own
 //! reflection of the sky and the widened lobe's
 //! ([`PixelDirect::with_sharp_sky_reflections`]), so the field keeps all its light and
-//! nothing is counted twice; the albedo those widened lobes lose towards grazing is given
-//! back per pixel too ([`GrazingAlbedo`]). Asked for (`--sky-per-pixel`), the whole sky is taken per
+//! nothing is counted twice; what any tile's bins make of an even light (their binning,
+//! and the albedo a widened lobe loses towards grazing) is put right per pixel
+//! ([`TileAlbedo`]). Asked for (`--sky-per-pixel`), the whole sky is taken per
 //! pixel instead, and the field is read less its sky
 //! ([`State::indirect_values_without_sky`]), under the field's sky as a prior
 //! ([`crate::view::SkyPrior`]).
@@ -20,8 +21,8 @@ use holocave_scene::Scene;
 
 use crate::bake::{Settings, State};
 use crate::elements::Elements;
-use crate::grazing::GrazingAlbedo;
 use crate::pixel_direct::PixelDirect;
+use crate::tile_albedo::TileAlbedo;
 use crate::tiles::{Tiles, alpha_floor};
 
 /// The per-pixel pass and the field's remainder a wall draws.
@@ -55,18 +56,18 @@ impl Split {
             return Ok(Split {
                 direct: direct
                     .with_sky(true)
-                    .with_grazing_albedo(GrazingAlbedo::new(tiles, directions, None)),
+                    .with_tile_albedo(TileAlbedo::new(tiles, directions, None)),
                 remainder,
                 sky: Some(field_sky),
             });
         }
         let floor = alpha_floor(settings.tile_bins, directions);
-        // The field's sky is taken out of the grazing correction where it is sharpened.
-        let grazing = GrazingAlbedo::new(tiles, directions, state.sky_values());
+        // The field's sky keeps the widened lobe's albedo where it is sharpened.
+        let tile_albedo = TileAlbedo::new(tiles, directions, state.sky_values());
         Ok(Split {
             direct: direct
                 .with_sharp_sky_reflections(floor, tiles.triangles_widened(elements))
-                .with_grazing_albedo(grazing),
+                .with_tile_albedo(tile_albedo),
             remainder: state.indirect_values(),
             sky: None,
         })

@@ -518,7 +518,7 @@ impl Visibility {
                 let (l, p) = self.lookup_chain(follow(&placed, ray, &env), &objects, Some(&placed));
                 sum += shade_one(&l, values);
                 if let Some(direct) = direct {
-                    sum += direct.grazing_albedo(&l, values);
+                    sum += direct.tile_albedo(&l, values);
                 }
                 if let (Some(direct), Some(p)) = (direct, p) {
                     let seed = (i as u64) * u64::from(k * k) + u64::from(s);

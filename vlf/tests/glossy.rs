@@ -15,8 +15,8 @@ use holocave_scene::{
     Daylight, LoadOptions, Material, PunctualKind, PunctualLight, Ray, Scene, Sky, SkyModel,
 };
 use holocave_tracer::bsdf::Bsdf;
-use holocave_vlf::grazing::GrazingAlbedo;
 use holocave_vlf::octahedral::{decode, encode};
+use holocave_vlf::tile_albedo::TileAlbedo;
 use holocave_vlf::view::shade_one;
 use holocave_vlf::{Directions, Settings, Visibility, layout, tiles};
 
@@ -198,7 +198,7 @@ fn directional_albedo(bsdf: &Bsdf, wo: Vec3) -> Vec3 {
 /// sends `L × albedo(ω_o)` of the tile's BSDF (times the sky directions' cosine
 /// quadrature `Q`), in luminance. The rest is the lobe's binning on the light's side and
 /// the viewer's and the sky beyond the floor's edge (0.5 %): 1.3 % at most here, held to
-/// 2 %; with what the pixel adds for it (`grazing`), 0.2 % at most, held to 0.5 %. With
+/// 2 %; with what the pixel adds for it (`tile_albedo`), 0.2 % at most, held to 0.5 %. With
 /// each bin's BSDF taken at its centre alone the lobe, as narrow as the bins, was
 /// aliased, and the energy scaling took the excess from the whole arrival: 5.3 % too
 /// dark at 10° (the room's floor view 2.9 % too dark overall).
@@ -244,7 +244,7 @@ fn a_varnished_floor_under_a_uniform_sky_reflects_its_directional_albedo() {
         .sum::<f64>()
         / std::f64::consts::PI;
     let tile_bsdf = vis.tiles().tiles[0].bsdf;
-    let grazing = GrazingAlbedo::new(vis.tiles(), settings.directions, state.sky_values());
+    let grazing = TileAlbedo::new(vis.tiles(), settings.directions, state.sky_values());
     for degrees in [10f32, 30.0, 50.0] {
         let (s, c) = degrees.to_radians().sin_cos();
         let towards_eye = Vec3::new(s, c, 0.0);
@@ -279,7 +279,7 @@ fn a_varnished_floor_under_a_uniform_sky_reflects_its_directional_albedo() {
             off < 0.02,
             "{degrees}° off the normal: drawn {drawn}, the sky times the albedo {expected}"
         );
-        // With what the pixel adds (`holocave_vlf::grazing`), the bins' error is gone
+        // With what the pixel adds (`holocave_vlf::tile_albedo`), the bins' error is gone
         // and the sky's quadrature with it: the sky times the lobe's albedo, to 0.5 %
         // (the floor's edge, above, and the albedo tables' steps).
         let albedo = directional_albedo(&tile_bsdf, wo) * SKY;

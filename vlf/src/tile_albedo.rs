@@ -60,7 +60,7 @@ struct Material {
 
 /// Per tile, its material's tables, and the field's sky.
 #[derive(Default)]
-pub struct GrazingAlbedo {
+pub struct TileAlbedo {
     /// Per tile, its material in `materials` and its base colour.
     of_tile: Vec<(u32, Vec3)>,
     materials: Vec<Material>,
@@ -72,10 +72,10 @@ pub struct GrazingAlbedo {
     bins: u32,
 }
 
-impl GrazingAlbedo {
+impl TileAlbedo {
     /// For `tiles`, baked with `directions` line directions; `sky` the field's sky when
     /// the values the lookups read hold it.
-    pub fn new(tiles: &Tiles, directions: usize, sky: Option<Vec<[f32; 3]>>) -> GrazingAlbedo {
+    pub fn new(tiles: &Tiles, directions: usize, sky: Option<Vec<[f32; 3]>>) -> TileAlbedo {
         let mut index: HashMap<([u32; 11], u32), u32> = HashMap::new();
         let mut first: Vec<Glossy> = Vec::new();
         let of_tile = (tiles.tiles.iter())
@@ -96,7 +96,7 @@ impl GrazingAlbedo {
         let materials = (first.par_iter())
             .map(|t| Material::of(tiles, t, &directions))
             .collect();
-        GrazingAlbedo {
+        TileAlbedo {
             of_tile,
             materials,
             sky,
@@ -270,14 +270,14 @@ mod tests {
         let mut values = vec![[0.0f32; 3]];
         let lit = response(&tiles, tiles.tiles[0], &Directions::at_least(642));
         values.extend(lit.iter().map(|v| v.to_array()));
-        let grazing = GrazingAlbedo::new(&tiles, 642, None);
+        let grazing = TileAlbedo::new(&tiles, 642, None);
         // Another texel of the material (another base colour) shares its tables.
         let mut texels = tiles.clone();
         let mut other = texels.tiles[0];
         other.params.base_color = Vec3::new(0.9, 0.1, 0.3);
         texels.tiles.push(other);
-        assert_eq!(GrazingAlbedo::new(&texels, 642, None).materials.len(), 1);
-        let all_sky = GrazingAlbedo::new(&tiles, 642, Some(values.clone()));
+        assert_eq!(TileAlbedo::new(&texels, 642, None).materials.len(), 1);
+        let all_sky = TileAlbedo::new(&tiles, 642, Some(values.clone()));
         for degrees in [10f32, 30.0, 57.0, 63.0, 70.0] {
             let (s, c) = degrees.to_radians().sin_cos();
             let wo = Vec3::new(s * 0.6, s * 0.8, c);
