@@ -34,13 +34,16 @@ use crate::Directions;
 use crate::octahedral;
 use crate::reflection::{Reflection, params_key};
 use crate::surface::directional_albedo;
-use crate::tiles::{Glossy, Tiles};
+use crate::tiles::{Glossy, NONE, Tiles};
 use crate::view::Lookup;
 
 /// Entries of a table over `cos θ_o ∈ [0, 1]`.
 const STEPS: usize = 32;
 /// Samples of each BSDF per entry (the same for all: their ratios are smooth).
 const SAMPLES: u32 = 1024;
+
+/// Materials given tables at most (each takes about 50 ms of one core to measure).
+const MAX_MATERIALS: usize = 64;
 
 /// Base colours the bins' response is measured at, per channel (`i/(BASES − 1)`).
 const BASES: usize = 9;
@@ -61,7 +64,7 @@ struct Material {
 /// Per tile, its material's tables, and the field's sky.
 #[derive(Default)]
 pub struct TileAlbedo {
-    /// Per tile, its material in `materials` and its base colour.
+    /// Per tile, its material in `materials` ([`NONE`]: none) and its base colour.
     of_tile: Vec<(u32, Vec3)>,
     materials: Vec<Material>,
     /// The field's sky (its first arrival, as the lookups read it), when the values the
@@ -76,9 +79,10 @@ impl TileAlbedo {
     /// For `tiles`, baked with `directions` line directions; `sky` the field's sky when
     /// the values the lookups read hold it.
     pub fn new(tiles: &Tiles, directions: usize, sky: Option<Vec<[f32; 3]>>) -> TileAlbedo {
+        // Each material's first tile and its count of tiles.
         let mut index: HashMap<([u32; 11], u32), u32> = HashMap::new();
-        let mut first: Vec<Glossy> = Vec::new();
-        let of_tile = (tiles.tiles.iter())
+        let mut first: Vec<(Glossy, usize)> = Vec::new();
+        let mut of_tile: Vec<(u32, Vec3)> = (tiles.tiles.iter())
             .map(|t| {
                 let black = SurfaceParams {
                     base_color: Vec3::ZERO,
@@ -86,15 +90,27 @@ impl TileAlbedo {
                 };
                 let key = (params_key(&black), t.surface_roughness.to_bits());
                 let m = *index.entry(key).or_insert_with(|| {
-                    first.push(*t);
+                    first.push((*t, 0));
                     first.len() as u32 - 1
                 });
+                first[m as usize].1 += 1;
                 (m, t.params.base_color)
             })
             .collect();
+        // The materials with the most tiles, at most `MAX_MATERIALS` (a texture that
+        // varies the roughness has one per texel); the rest's tiles are drawn as before.
+        let mut order: Vec<usize> = (0..first.len()).collect();
+        order.sort_by_key(|&m| std::cmp::Reverse(first[m].1));
+        let mut kept = vec![NONE; first.len()];
+        for (k, &m) in order.iter().take(MAX_MATERIALS).enumerate() {
+            kept[m] = k as u32;
+        }
+        for t in &mut of_tile {
+            t.0 = kept[t.0 as usize];
+        }
         let directions = Directions::at_least(directions);
-        let materials = (first.par_iter())
-            .map(|t| Material::of(tiles, t, &directions))
+        let materials = (order.par_iter().take(MAX_MATERIALS))
+            .map(|&m| Material::of(tiles, &first[m].0, &directions))
             .collect();
         TileAlbedo {
             of_tile,
@@ -114,7 +130,7 @@ impl TileAlbedo {
             return Vec3::ZERO;
         }
         let g = (l.tile - self.elements) / (self.bins * self.bins);
-        let Some(&(m, base)) = self.of_tile.get(g as usize) else {
+        let Some(&(m, base)) = self.of_tile.get(g as usize).filter(|t| t.0 != NONE) else {
             return Vec3::ZERO;
         };
         let material = &self.materials[m as usize];
