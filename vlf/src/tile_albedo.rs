@@ -53,12 +53,20 @@ const BASES: usize = 9;
 /// A material's albedo is affine in it (the Lambertian base is linear in it, and so is
 /// the metal's Schlick Fresnel, whose `F0` it is): a black and a white base give it. The
 /// bins' response is not (the bake scales each arrival by a ratio of two albedos): it is
-/// measured at [`BASES`] bases and taken linearly between them.
+/// measured at the material's one base colour, or, for a texture's many, at [`BASES`]
+/// bases and taken linearly between them.
 struct Material {
     /// `[A_s(black), A_s(white), A_w(black), A_w(white)]` at `cos θ_o = i/(STEPS − 1)`.
     albedo: [[Vec3; 4]; STEPS],
-    /// The bins' response to an even light of radiance 1, per base in [`BASES`].
-    response: Vec<Vec<Vec3>>,
+    /// The bins' response to an even light of radiance 1.
+    response: Response,
+}
+
+enum Response {
+    /// At the material's one base colour.
+    One(Vec<Vec3>),
+    /// Per base in [`BASES`].
+    Over(Vec<Vec<Vec3>>),
 }
 
 /// Per tile, its material's tables, and the field's sky.
@@ -79,9 +87,10 @@ impl TileAlbedo {
     /// For `tiles`, baked with `directions` line directions; `sky` the field's sky when
     /// the values the lookups read hold it.
     pub fn new(tiles: &Tiles, directions: usize, sky: Option<Vec<[f32; 3]>>) -> TileAlbedo {
-        // Each material's first tile and its count of tiles.
+        // Each material's first tile, its count of tiles, and whether their base colours
+        // vary.
         let mut index: HashMap<([u32; 11], u32), u32> = HashMap::new();
-        let mut first: Vec<(Glossy, usize)> = Vec::new();
+        let mut first: Vec<(Glossy, usize, bool)> = Vec::new();
         let mut of_tile: Vec<(u32, Vec3)> = (tiles.tiles.iter())
             .map(|t| {
                 let black = SurfaceParams {
@@ -90,10 +99,12 @@ impl TileAlbedo {
                 };
                 let key = (params_key(&black), t.surface_roughness.to_bits());
                 let m = *index.entry(key).or_insert_with(|| {
-                    first.push((*t, 0));
+                    first.push((*t, 0, false));
                     first.len() as u32 - 1
                 });
-                first[m as usize].1 += 1;
+                let f = &mut first[m as usize];
+                f.1 += 1;
+                f.2 |= f.0.params.base_color != t.params.base_color;
                 (m, t.params.base_color)
             })
             .collect();
@@ -110,7 +121,7 @@ impl TileAlbedo {
         }
         let directions = Directions::at_least(directions);
         let materials = (order.par_iter().take(MAX_MATERIALS))
-            .map(|&m| Material::of(tiles, &first[m].0, &directions))
+            .map(|&m| Material::of(tiles, &first[m].0, first[m].2, &directions))
             .collect();
         TileAlbedo {
             of_tile,
@@ -146,15 +157,15 @@ impl TileAlbedo {
         };
         let affine = |b: Vec3, w: Vec3| b + base * (w - b);
         let (surface, widened) = (affine(s0, s1), affine(w0, w1));
-        let response = Vec3::from_array(std::array::from_fn(|c| {
-            let x = base[c].clamp(0.0, 1.0) * (BASES - 1) as f32;
-            let i = (x as usize).min(BASES - 2);
-            let (r0, r1) = (
-                at(&material.response[i])[c],
-                at(&material.response[i + 1])[c],
-            );
-            r0 + (r1 - r0) * (x - i as f32)
-        }));
+        let response = match &material.response {
+            Response::One(r) => at(r),
+            Response::Over(r) => Vec3::from_array(std::array::from_fn(|c| {
+                let x = base[c].clamp(0.0, 1.0) * (BASES - 1) as f32;
+                let i = (x as usize).min(BASES - 2);
+                let (r0, r1) = (at(&r[i])[c], at(&r[i + 1])[c]);
+                r0 + (r1 - r0) * (x - i as f32)
+            })),
+        };
         let more = |albedo: Vec3| {
             Vec3::select(
                 response.cmpgt(Vec3::ZERO),
@@ -170,9 +181,9 @@ impl TileAlbedo {
 }
 
 impl Material {
-    /// The tables of tile `t`'s material (`tiles`' bins), the response to the even light
-    /// from `directions`.
-    fn of(tiles: &Tiles, t: &Glossy, directions: &Directions) -> Material {
+    /// The tables of tile `t`'s material (`tiles`' bins; its tiles' base colours
+    /// `varying` or all `t`'s), the response to the even light from `directions`.
+    fn of(tiles: &Tiles, t: &Glossy, varying: bool, directions: &Directions) -> Material {
         let with = |base: Vec3| {
             let params = SurfaceParams {
                 base_color: base,
@@ -191,15 +202,18 @@ impl Material {
             let wo = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
             [s0, s1, t0.bsdf, t1.bsdf].map(|b| directional_albedo(&b, wo, SAMPLES))
         });
-        let response = (0..BASES)
-            .map(|i| {
-                response(
-                    tiles,
-                    with(Vec3::splat(i as f32 / (BASES - 1) as f32)).1,
-                    directions,
-                )
-            })
-            .collect();
+        let response = if varying {
+            Response::Over(
+                (0..BASES)
+                    .map(|i| {
+                        let base = Vec3::splat(i as f32 / (BASES - 1) as f32);
+                        response(tiles, with(base).1, directions)
+                    })
+                    .collect(),
+            )
+        } else {
+            Response::One(response(tiles, *t, directions))
+        };
         Material { albedo, response }
     }
 }
@@ -287,12 +301,14 @@ mod tests {
         let lit = response(&tiles, tiles.tiles[0], &Directions::at_least(642));
         values.extend(lit.iter().map(|v| v.to_array()));
         let grazing = TileAlbedo::new(&tiles, 642, None);
-        // Another texel of the material (another base colour) shares its tables.
+        // Another texel of the material (another base colour) shares its tables, measured
+        // over the bases.
         let mut texels = tiles.clone();
         let mut other = texels.tiles[0];
         other.params.base_color = Vec3::new(0.9, 0.1, 0.3);
         texels.tiles.push(other);
-        assert_eq!(TileAlbedo::new(&texels, 642, None).materials.len(), 1);
+        let textured = TileAlbedo::new(&texels, 642, None);
+        assert_eq!(textured.materials.len(), 1);
         let all_sky = TileAlbedo::new(&tiles, 642, Some(values.clone()));
         for degrees in [10f32, 30.0, 57.0, 63.0, 70.0] {
             let (s, c) = degrees.to_radians().sin_cos();
@@ -319,6 +335,13 @@ mod tests {
                 off(drawn, truth).abs() < 0.005,
                 "{degrees}°: drawn {:+.4} off the surface's albedo",
                 off(drawn, truth)
+            );
+            // Measured over the bases, for a texture's texels.
+            let over = field + textured.added(&l, &values);
+            assert!(
+                off(over, truth).abs() < 0.005,
+                "{degrees}°: a texel drawn {:+.4} off the surface's albedo",
+                off(over, truth)
             );
             if degrees >= 57.0 {
                 assert!(
