@@ -42,7 +42,8 @@ const STEPS: usize = 32;
 /// Samples of each BSDF per entry (the same for all: their ratios are smooth).
 const SAMPLES: u32 = 1024;
 
-/// Materials given tables at most (each takes about 50 ms of one core to measure).
+/// Materials given tables at most (one of one base colour takes a few milliseconds of a
+/// core to measure, a textured one nine times that).
 const MAX_MATERIALS: usize = 64;
 
 /// Base colours the bins' response is measured at, per channel (`i/(BASES − 1)`).
