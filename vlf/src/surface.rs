@@ -258,6 +258,57 @@ pub fn delta_step(s: &Seen, dir: Vec3) -> Option<(Branch, Option<Branch>)> {
     }
 }
 
+/// GGX `α` below which a metal too small for a tile is drawn as a mirror
+/// ([`near_mirror`]).
+pub const NEAR_MIRROR_ALPHA: f32 = 0.05;
+
+/// Whether the view draws a surface with `params` that has no tile as a mirror: a pure
+/// metal whose lobe is narrower than [`NEAR_MIRROR_ALPHA`] (its reflection blurred by
+/// under 6°, `2α`). Drawn diffuse, such a surface loses its reflection entirely: the
+/// breakfast room's chrome chair legs (α 0.03), too thin for tiles, were grey where the
+/// path tracer shows them mirroring the lit floor (its worst block, 44 % too dark). Its
+/// lamp and sun highlights then come along the reflected ray (the mirror's, sharp)
+/// instead of from the per-pixel pass. The bake keeps such a surface diffuse: it is
+/// small, and what it sends on is little.
+pub fn near_mirror(params: &SurfaceParams) -> bool {
+    params.metallic >= 1.0
+        && !Ggx::is_smooth(params.roughness)
+        && Ggx::from_roughness(params.roughness).alpha < NEAR_MIRROR_ALPHA
+}
+
+/// A chain (its `weight`, `emitted` light and `deltas`) that ended at `s`, seen along
+/// `dir`, continued as if `s` were a mirror of its metal's Fresnel reflectance
+/// ([`near_mirror`]); `None` past [`MAX_DELTA_DEPTH`].
+pub fn mirrored(
+    scene: &PlacedScene,
+    (weight, emitted, deltas): (Vec3, Vec3, u32),
+    s: &Seen,
+    dir: Vec3,
+    environment: &dyn Fn(Vec3) -> Vec3,
+) -> Option<Chain> {
+    if deltas >= MAX_DELTA_DEPTH {
+        return None;
+    }
+    let n = s.shading_normal;
+    let wo = -dir;
+    let reflectance = fresnel::schlick(s.params.base_color, Vec3::ONE, n.dot(wo).abs());
+    let wi = fresnel::reflect(wo, n).normalize();
+    let rest = walk(
+        scene,
+        Ray::leaving(s.position, s.normal, wi),
+        None,
+        environment,
+        MAX_DELTA_DEPTH - deltas - 1,
+    );
+    let reflected = weight * reflectance;
+    Some(Chain {
+        end: rest.end,
+        weight: reflected * rest.weight,
+        emitted: emitted + weight * s.emitted + reflected * rest.emitted,
+        deltas: deltas + 1 + rest.deltas,
+    })
+}
+
 /// The first non-delta surface along `ray`, through at most [`MAX_DELTA_DEPTH`] delta
 /// surfaces: what it is, the ray that reached it, the weight the deltas carried and the
 /// light they let through on the way (emission of delta surfaces; the sky and sun when

@@ -30,7 +30,9 @@ use crate::elements::{Elements, interpolate};
 use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
-use crate::surface::{Chain, diffuse_albedo, follow, follow_from, side_facing};
+use crate::surface::{
+    Chain, diffuse_albedo, follow, follow_from, mirrored, near_mirror, side_facing,
+};
 use crate::tiles::Tiles;
 
 /// What one pixel (or one ray) sees of the light field.
@@ -341,6 +343,15 @@ impl Visibility {
         let element = self
             .elements
             .element(s.hit.triangle, side, s.hit.u, s.hit.v);
+        if self.tiles.of(element).is_none() && near_mirror(&s.params) {
+            let statics = self.scene.statics();
+            let scene = placed.unwrap_or(&statics);
+            let env = environment(&self.lights);
+            let so_far = (chain.weight, chain.emitted, chain.deltas);
+            if let Some(c) = mirrored(scene, so_far, &s, r.dir, &env) {
+                return self.lookup_chain(c, objects, placed);
+            }
+        }
         if let Some(g) = self.tiles.of(element) {
             let (x, y) = self.tiles.view_coords(g, r.dir, s.shading_normal);
             let k = self.tiles.bins;
