@@ -381,7 +381,8 @@ impl VlfBase {
             }
             None => acc.add(direct, placed, points),
         });
-        for ((l, d), &n) in lookups.iter_mut().zip(estimates).zip(acc.counts()) {
+        let each = (lookups.par_iter_mut().zip(estimates)).zip(acc.counts());
+        each.for_each(|((l, d), &n)| {
             let added = match &self.sky {
                 Some(values) => SkyPrior {
                     values,
@@ -395,7 +396,7 @@ impl VlfBase {
             if d.object_shadow {
                 l.samples = 0.0;
             }
-        }
+        });
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
         let now = h.iter().map(|e| e.0).max().unwrap_or(0) + 1;
         h.push((now, view.wall, acc));

@@ -151,8 +151,10 @@ impl TileAlbedo {
         let i = (x as usize).min(STEPS - 2);
         let a = &material.albedo;
         let [s0, s1, w0, w1] = std::array::from_fn(|k| a[i][k].lerp(a[i + 1][k], x - i as f32));
+        // The four bins around the pixel's direction, for every table and array.
+        let shares = octahedral::bilinear(l.bins, (l.x, l.y));
         let at = |v: &[Vec3]| {
-            (octahedral::bilinear(l.bins, (l.x, l.y)).iter())
+            (shares.iter())
                 .map(|&(bin, w)| v[bin as usize] * w)
                 .sum::<Vec3>()
         };
@@ -174,7 +176,11 @@ impl TileAlbedo {
                 Vec3::ZERO,
             )
         };
-        let field = |v: &[[f32; 3]]| octahedral::interpolate(v, l.tile, l.bins, l.x, l.y);
+        let field = |v: &[[f32; 3]]| {
+            (shares.iter())
+                .map(|&(bin, w)| Vec3::from(v[(l.tile + bin) as usize]) * w)
+                .sum::<Vec3>()
+        };
         let (light, sky) = (field(values), self.sky.as_deref().map_or(Vec3::ZERO, field));
         let sky = sky.min(light);
         Vec3::from(l.weight) * (more(surface) * (light - sky) + more(widened) * sky)
