@@ -106,7 +106,7 @@ pub fn gather(
         }
         let leaving = Ray::leaving(p.position, p.normal, wi);
         let a = vis.arriving(leaving.origin, wi, indirect);
-        let mut arriving = a.radiance;
+        let mut arriving = a.radiance + direct.tile_albedo(&a.lookup, indirect);
         if let Some(over) = &a.over_mirror
             && !s.delta
         {

@@ -92,6 +92,8 @@ impl Lookup {
 /// not give ([`Visibility::arriving`]).
 pub struct Arriving {
     pub radiance: Vec3,
+    /// The lookup it was shaded from.
+    pub lookup: Lookup,
     /// The non-delta static point it comes from: the per-pixel pass would add its direct
     /// light.
     pub point: Option<DirectPoint>,
@@ -230,6 +232,7 @@ impl Visibility {
         }
         Arriving {
             radiance: shade_one(&l, values),
+            lookup: l,
             point,
             over_mirror,
         }
