@@ -136,9 +136,14 @@ impl Pools {
     /// which shows as patches on a curved surface of small triangles (a chair's shell).
     /// Each pooled element takes instead the trilinear blend, at its own position, of the
     /// pools of its material, side and orientation in the eight cells around it (those
-    /// that exist, their weights renormalised), each pool's value the area-weighted mean
-    /// of its members' `total − sharp`; its `sharp` part (direct light, caustics) stays
-    /// its own. Linear in `total`, so a split of the total smooths to the split's sum.
+    /// that exist), each weighed by its area as well (a pool's value is the mean over its
+    /// area: a pool of a few tiny elements, hit by few lines and kept to the clamp's
+    /// `A / least` of its light, counts as little as its area does; weighed alike, such
+    /// pools took the breakfast room's chairs from 0.92 to 0.86 of the path tracer's
+    /// inter-reflected light, median at 292 points), each pool's value the area-weighted
+    /// mean of its members' `total − sharp`; its `sharp` part (direct light, caustics)
+    /// stays its own. Linear in `total`, so a split of the total smooths to the split's
+    /// sum.
     pub fn smooth(&self, area: &[f32], sharp: &[[f32; 3]], total: &[[f32; 3]]) -> Vec<[f32; 3]> {
         let rest = |e: u32| Vec3::from(total[e as usize]) - Vec3::from(sharp[e as usize]);
         let value: Vec<Vec3> = (self.members.iter().zip(&self.area))
@@ -165,7 +170,7 @@ impl Pools {
                     continue;
                 };
                 let t = Vec3::ONE - o + f * (2.0 * o - Vec3::ONE);
-                let weight = t.x * t.y * t.z;
+                let weight = t.x * t.y * t.z * self.area[p as usize];
                 sum += value[p as usize] * weight;
                 w += weight;
             }
@@ -193,5 +198,42 @@ impl Pools {
                 p => pooled[p as usize].to_array(),
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two pools side by side: one of ten elements of area 1 whose light is 1, and one
+    /// tiny element (area 0.01) kept to a fifth of its light by the clamp. An element of
+    /// the large pool on the cells' common face takes half of each cell by position, but
+    /// the tiny pool weighs its area: `(10 + 0.002) / 10.01`, within 0.1 % of 1. Weighed
+    /// alike, the two gave 0.6.
+    #[test]
+    fn a_tiny_pool_weighs_as_little_as_its_area() {
+        let key = |x: i32| (0u32, 0u32, 2u32, [x, 0, 0]);
+        let members = vec![(0..10).collect::<Vec<u32>>(), vec![10]];
+        let mut of = vec![0u32; 10];
+        of.push(1);
+        let at: HashMap<u32, Vec3> = (0..11)
+            .map(|e| (e, Vec3::new(if e == 10 { 1.5 } else { 1.0 }, 0.5, 0.5)))
+            .collect();
+        let pools = Pools {
+            of,
+            area: vec![10.0, 0.01],
+            members,
+            least: 1.0,
+            keys: vec![key(0), key(1)],
+            index: [(key(0), 0), (key(1), 1)].into_iter().collect(),
+            at,
+        };
+        let mut area = vec![1.0f32; 10];
+        area.push(0.01);
+        let mut total = vec![[1.0f32; 3]; 10];
+        total.push([0.2; 3]);
+        let sharp = vec![[0.0f32; 3]; 11];
+        let drawn = pools.smooth(&area, &sharp, &total)[0][0];
+        assert!((drawn - 1.0).abs() < 1e-3, "drawn {drawn}");
     }
 }
