@@ -58,15 +58,37 @@ pub fn set_aside_path(path: &Path, fingerprint: u64) -> PathBuf {
 /// scene with fingerprint `was`, when the scene is now `now` (its daylight, materials or
 /// geometry changed): `path` is set aside ([`set_aside_path`]), not removed — the hours of
 /// work in it come back when the scene does — and one set aside earlier for `now` is put
-/// in its place. Returns whether one was put back.
-pub fn set_aside(path: &Path, was: u64, now: u64) -> std::io::Result<bool> {
-    std::fs::rename(path, set_aside_path(path, was))?;
+/// in its place.
+pub fn set_aside(path: &Path, was: u64, now: u64) -> std::io::Result<SetAside> {
+    let to = set_aside_path(path, was);
+    std::fs::rename(path, &to)?;
     let kept = set_aside_path(path, now);
-    if kept.exists() {
+    let back = kept.exists();
+    if back {
         std::fs::rename(&kept, path)?;
-        return Ok(true);
     }
-    Ok(false)
+    Ok(SetAside { to, back })
+}
+
+/// What [`set_aside`] did, as a command tells it.
+pub struct SetAside {
+    /// Where the file went.
+    pub to: PathBuf,
+    /// Whether one set aside for the scene as it is now was put back in its place.
+    pub back: bool,
+}
+
+impl std::fmt::Display for SetAside {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(f, "set aside as {}", self.to.display())?;
+        if self.back {
+            write!(
+                f,
+                "; the one set aside for this version is back in its place"
+            )?;
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -85,11 +107,11 @@ mod tests {
             dir.join("room.000000000000000a.vlf")
         );
         // The scene changed from a to b: a's file aside, nothing for b yet.
-        assert!(!set_aside(&path, 0xa, 0xb).unwrap());
+        assert!(!set_aside(&path, 0xa, 0xb).unwrap().back);
         assert!(!path.exists());
         std::fs::write(&path, "made for b").unwrap();
         // Back to a: b's file aside, a's back in place.
-        assert!(set_aside(&path, 0xb, 0xa).unwrap());
+        assert!(set_aside(&path, 0xb, 0xa).unwrap().back);
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "made for a");
         let b = std::fs::read_to_string(set_aside_path(&path, 0xb)).unwrap();
         assert_eq!(b, "made for b");

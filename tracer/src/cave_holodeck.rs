@@ -20,7 +20,7 @@ use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::worker::SampleSource;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_scene::empty_box::{Aabb, triangles_inside};
-use holocave_scene::fingerprint::{set_aside, set_aside_path};
+use holocave_scene::fingerprint::set_aside;
 use holocave_scene::{LoadOptions, Scene};
 
 use crate::holodeck::{HolodeckTracer, file_settings, scene_identity};
@@ -259,17 +259,11 @@ fn set_aside_for_another_scene(path: &Path, scene: &Scene) -> Result<(), CaveHol
         return Ok(());
     };
     if was != now {
-        let back = set_aside(path, was, now).map_err(|e| bad(format!("setting it aside: {e}")))?;
+        let done = set_aside(path, was, now).map_err(|e| bad(format!("setting it aside: {e}")))?;
         tracing::warn!(
             "{} holds samples of another version of the scene (its daylight, materials or \
-             geometry changed): set aside as {}{}",
+             geometry changed): {done}",
             path.display(),
-            set_aside_path(path, was).display(),
-            if back {
-                "; the one set aside for this version is back in its place"
-            } else {
-                ""
-            }
         );
     }
     Ok(())

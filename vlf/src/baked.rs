@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use holocave_scene::Scene;
-use holocave_scene::fingerprint::{set_aside, set_aside_path};
+use holocave_scene::fingerprint::set_aside;
 
 use crate::bake::{Casting, Settings, Stage, State, Stats, bake_with, layout, tiles};
 use crate::elements::Elements;
@@ -121,18 +121,12 @@ impl BakeJob<'_> {
             match VlfFile::read(self.out) {
                 Err(VlfError::Version { .. }) => std::fs::remove_file(self.out).map_err(io)?,
                 Ok(f) if f.fingerprint != now => {
-                    let back = set_aside(self.out, f.fingerprint, now).map_err(io)?;
+                    let done = set_aside(self.out, f.fingerprint, now).map_err(io)?;
                     tracing::warn!(
                         "{} was baked for another version of scene {} (its daylight, materials \
-                         or geometry changed): set aside as {}{}",
+                         or geometry changed): {done}",
                         self.out.display(),
                         f.scene,
-                        set_aside_path(self.out, f.fingerprint).display(),
-                        if back {
-                            "; the one set aside for this version is back in its place"
-                        } else {
-                            ""
-                        }
                     );
                 }
                 _ => {}

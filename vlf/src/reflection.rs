@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 
 use crate::octahedral;
-use crate::surface::directional_albedo;
+use crate::surface::{at_cos, directional_albedo, table_step};
 use crate::tiles::{NONE, Tiles};
 
 /// Matrices kept for a bake at most (each `k⁴` RGB values: 48 KB at 8 × 8 bins).
@@ -119,11 +119,7 @@ impl Reflection {
             .flat_map_iter(|&g| {
                 let bsdf = tiles.tiles[g].bsdf;
                 (0..ALBEDO_STEPS).map(move |i| {
-                    // Light arriving at cos θ (an isotropic BSDF's albedo does not
-                    // depend on the azimuth).
-                    let cos = i as f32 / (ALBEDO_STEPS - 1) as f32;
-                    let wi = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
-                    directional_albedo(&bsdf, wi, ALBEDO_SAMPLES)
+                    directional_albedo(&bsdf, at_cos(i, ALBEDO_STEPS), ALBEDO_SAMPLES)
                 })
             })
             .collect();
@@ -157,9 +153,8 @@ impl Reflection {
             .map(|&(j, w)| self.binned_albedo[m as usize * n + j as usize] * w)
             .sum();
         let table = &self.true_albedo[m as usize * ALBEDO_STEPS..(m as usize + 1) * ALBEDO_STEPS];
-        let x = local.z.min(1.0) * (ALBEDO_STEPS - 1) as f32;
-        let i = (x as usize).min(ALBEDO_STEPS - 2);
-        let exact = table[i].lerp(table[i + 1], x - i as f32);
+        let (i, f) = table_step(local.z, ALBEDO_STEPS);
+        let exact = table[i].lerp(table[i + 1], f);
         // Per channel; where the bins reflect nothing, nothing to scale.
         let scale = Vec3::select(binned.cmpgt(Vec3::ZERO), exact / binned, Vec3::ONE);
         for (j, w) in shares {

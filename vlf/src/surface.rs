@@ -112,6 +112,21 @@ fn integrate_albedo_terms(key: AlbedoKey, q: &SurfaceParams) -> (Vec3, Vec3) {
     (a, b)
 }
 
+/// The local direction at entry `i` of a table of `n` entries evenly over `cos θ ∈ [0, 1]`
+/// (an isotropic BSDF's albedo does not depend on the azimuth).
+pub(crate) fn at_cos(i: usize, n: usize) -> Vec3 {
+    let cos = i as f32 / (n - 1) as f32;
+    Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos)
+}
+
+/// Where `x` (clamped to `[0, 1]`) falls in a table of `n` entries evenly over `[0, 1]`:
+/// the entry below it and the fraction of the way to the next.
+pub(crate) fn table_step(x: f32, n: usize) -> (usize, f32) {
+    let at = x.clamp(0.0, 1.0) * (n - 1) as f32;
+    let i = (at as usize).min(n - 2);
+    (i, at - i as f32)
+}
+
 /// `∫ f(ω_o, ω_i) |cos θ_i| dω_i` seen from `wo` (local): the mean weight of `samples` of
 /// the BSDF's own sampling, the lobe's choice and the direction from the 3-D R sequence
 /// (deterministic; a delta lobe's weight is exact). By reciprocity also the albedo of
@@ -277,8 +292,8 @@ pub fn near_mirror(params: &SurfaceParams) -> bool {
 }
 
 /// A chain (its `weight`, `emitted` light and `deltas`) that ended at `s`, seen along
-/// `dir`, continued as if `s` were a mirror of its metal's Fresnel reflectance
-/// ([`near_mirror`]); `None` past [`MAX_DELTA_DEPTH`].
+/// `dir`, continued as if `s` were a mirror ([`near_mirror`]): the step a delta surface
+/// of its metal takes ([`delta_step`]); `None` past [`MAX_DELTA_DEPTH`].
 pub fn mirrored(
     scene: &PlacedScene,
     (weight, emitted, deltas): (Vec3, Vec3, u32),
@@ -289,10 +304,8 @@ pub fn mirrored(
     if deltas >= MAX_DELTA_DEPTH {
         return None;
     }
-    let n = s.shading_normal;
-    let wo = -dir;
-    let reflectance = fresnel::schlick(s.params.base_color, Vec3::ONE, n.dot(wo).abs());
-    let wi = fresnel::reflect(wo, n).normalize();
+    // A pure metal reflects only: one branch.
+    let ((wi, reflectance), _) = delta_step(s, dir)?;
     let rest = walk(
         scene,
         Ray::leaving(s.position, s.normal, wi),

@@ -308,6 +308,22 @@ impl Visibility {
             };
             return (none, None);
         };
+        let object = placed.and_then(|p| p.object_of(s.hit.triangle));
+        let cells = self.elements.triangles[s.hit.triangle as usize];
+        let side = side_facing(s.normal, r.dir);
+        let element = self
+            .elements
+            .element(s.hit.triangle, side, s.hit.u, s.hit.v);
+        // A near mirror of the static scene without a tile: the lookup of what it mirrors.
+        if object.is_none() && near_mirror(&s.params) && self.tiles.of(element).is_none() {
+            let statics = self.scene.statics();
+            let scene = placed.unwrap_or(&statics);
+            let env = environment(&self.lights);
+            let so_far = (chain.weight, chain.emitted, chain.deltas);
+            if let Some(c) = mirrored(scene, so_far, &s, r.dir, &env) {
+                return self.lookup_chain(c, objects, placed);
+            }
+        }
         let point = DirectPoint {
             triangle: s.hit.triangle,
             position: s.position,
@@ -317,7 +333,7 @@ impl Visibility {
             bsdf: Bsdf::new(&s.params),
             weight: chain.weight,
         };
-        if let Some(k) = placed.and_then(|p| p.object_of(s.hit.triangle)) {
+        if let Some(k) = object {
             let indirect = diffuse_albedo(&s.params)
                 * std::f32::consts::FRAC_1_PI
                 * objects.irradiance(k, s.shading_normal);
@@ -340,21 +356,7 @@ impl Visibility {
             objects.openness(s.position, n, &in_sight)
         };
         let samples = if near { 0.0 } else { 1.0 };
-        let cells = self.elements.triangles[s.hit.triangle as usize];
-        let side = side_facing(s.normal, r.dir);
         let emitted = (chain.emitted + chain.weight * s.emitted).to_array();
-        let element = self
-            .elements
-            .element(s.hit.triangle, side, s.hit.u, s.hit.v);
-        if self.tiles.of(element).is_none() && near_mirror(&s.params) {
-            let statics = self.scene.statics();
-            let scene = placed.unwrap_or(&statics);
-            let env = environment(&self.lights);
-            let so_far = (chain.weight, chain.emitted, chain.deltas);
-            if let Some(c) = mirrored(scene, so_far, &s, r.dir, &env) {
-                return self.lookup_chain(c, objects, placed);
-            }
-        }
         if let Some(g) = self.tiles.of(element) {
             let (x, y) = self.tiles.view_coords(g, r.dir, s.shading_normal);
             let k = self.tiles.bins;
