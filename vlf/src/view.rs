@@ -308,14 +308,15 @@ impl Visibility {
             };
             return (none, None);
         };
+        // Moving objects' triangles have no elements: only the static scene's are looked up.
         let object = placed.and_then(|p| p.object_of(s.hit.triangle));
-        let cells = self.elements.triangles[s.hit.triangle as usize];
         let side = side_facing(s.normal, r.dir);
-        let element = self
-            .elements
-            .element(s.hit.triangle, side, s.hit.u, s.hit.v);
+        let element = || {
+            self.elements
+                .element(s.hit.triangle, side, s.hit.u, s.hit.v)
+        };
         // A near mirror of the static scene without a tile: the lookup of what it mirrors.
-        if object.is_none() && near_mirror(&s.params) && self.tiles.of(element).is_none() {
+        if object.is_none() && near_mirror(&s.params) && self.tiles.of(element()).is_none() {
             let statics = self.scene.statics();
             let scene = placed.unwrap_or(&statics);
             let env = environment(&self.lights);
@@ -356,7 +357,9 @@ impl Visibility {
             objects.openness(s.position, n, &in_sight)
         };
         let samples = if near { 0.0 } else { 1.0 };
+        let cells = self.elements.triangles[s.hit.triangle as usize];
         let emitted = (chain.emitted + chain.weight * s.emitted).to_array();
+        let element = element();
         if let Some(g) = self.tiles.of(element) {
             let (x, y) = self.tiles.view_coords(g, r.dir, s.shading_normal);
             let k = self.tiles.bins;
