@@ -19,6 +19,8 @@
 //!   the same part apart so that a view drawing it here takes only the rest);
 //! - [`tile_albedo`]: what a tile's bins make of an even light (their binning, the albedo
 //!   a widened lobe loses towards grazing), put right per pixel at the pixel's angle;
+//! - [`plane_smooth`]: the field's remainder averaged over planes across triangles
+//!   (the lines' ray effects on plain walls);
 //! - [`gather`]: samples that help the light field: exact direct light at the point
 //!   seen and after one bounce, the field's remainder beyond;
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
@@ -58,6 +60,7 @@ pub mod gather;
 pub mod objects;
 pub mod octahedral;
 pub mod pixel_direct;
+pub mod plane_smooth;
 pub mod pools;
 pub mod probe;
 pub mod propagate;

@@ -22,6 +22,7 @@ use holocave_scene::Scene;
 use crate::bake::{Settings, State};
 use crate::elements::Elements;
 use crate::pixel_direct::PixelDirect;
+use crate::plane_smooth::smooth_over_planes;
 use crate::tile_albedo::TileAlbedo;
 use crate::tiles::{Tiles, alpha_floor};
 
@@ -47,7 +48,7 @@ impl Split {
         (elements, tiles): (&Elements, &Tiles),
         sky_per_pixel: bool,
     ) -> Result<Split, String> {
-        let direct = PixelDirect::new(scene);
+        let direct = PixelDirect::new(scene.clone());
         let directions = Settings::rounded_directions(settings.directions);
         if sky_per_pixel {
             let parts = state.indirect_values_without_sky().zip(state.sky_values());
@@ -57,7 +58,7 @@ impl Split {
                 direct: direct
                     .with_sky(true)
                     .with_tile_albedo(TileAlbedo::new(tiles, directions, None)),
-                remainder,
+                remainder: smooth_over_planes(&scene, elements, tiles, &remainder),
                 sky: Some(field_sky),
             });
         }
@@ -68,7 +69,7 @@ impl Split {
             direct: direct
                 .with_sharp_sky_reflections(floor, tiles.triangles_widened(elements))
                 .with_tile_albedo(tile_albedo),
-            remainder: state.indirect_values(),
+            remainder: smooth_over_planes(&scene, elements, tiles, &state.indirect_values()),
             sky: None,
         })
     }

@@ -31,7 +31,8 @@ use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
 use crate::surface::{
-    Chain, diffuse_albedo, follow, follow_from, mirrored, near_mirror, side_facing,
+    Chain, diffuse_albedo, follow, follow_from, metal_highlights, mirrored, mirrored_metal,
+    side_facing,
 };
 use crate::tiles::Tiles;
 
@@ -315,13 +316,25 @@ impl Visibility {
             self.elements
                 .element(s.hit.triangle, side, s.hit.u, s.hit.v)
         };
-        // A near mirror of the static scene without a tile: the lookup of what it mirrors.
-        if object.is_none() && near_mirror(&s.params) && self.tiles.of(element()).is_none() {
+        // A glossy metal of the static scene without a tile: its highlights, and the
+        // lookup of what it mirrors (the sun's disc taken by the highlights, not along the
+        // mirrored ray).
+        if object.is_none() && mirrored_metal(&s.params) && self.tiles.of(element()).is_none() {
             let statics = self.scene.statics();
             let scene = placed.unwrap_or(&statics);
-            let env = environment(&self.lights);
-            let so_far = (chain.weight, chain.emitted, chain.deltas);
-            if let Some(c) = mirrored(scene, so_far, &s, r.dir, &env) {
+            let sky = |d: Vec3| {
+                self.lights
+                    .sky
+                    .as_ref()
+                    .map_or(Vec3::ZERO, |k| k.radiance(d))
+            };
+            let highlights = metal_highlights(scene, &self.lights, &s, r.dir);
+            let so_far = (
+                chain.weight,
+                chain.emitted + chain.weight * highlights,
+                chain.deltas,
+            );
+            if let Some(c) = mirrored(scene, so_far, &s, r.dir, &sky) {
                 return self.lookup_chain(c, objects, placed);
             }
         }

@@ -1,0 +1,115 @@
+//! A glossy metal without a tile is drawn as the mirror of what it reflects
+//! (`surface::mirrored_metal`): what a pixel shows on it is what it reflects, not a
+//! diffuse drawing of its irradiance, and its punctual lights' highlights come from its
+//! own BSDF.
+
+mod common;
+
+use std::sync::Arc;
+
+use glam::Vec3;
+use holocave_scene::{Material, Ray, Scene};
+use holocave_tracer::bsdf::Bsdf;
+use holocave_tracer::frame::Frame;
+use holocave_vlf::view::shade_one;
+use holocave_vlf::{Settings, Visibility};
+
+const GLOW: f32 = 3.0;
+const BASE: Vec3 = Vec3::new(0.8, 0.7, 0.6);
+
+/// A small metal square in the plane z = 0 facing +z, an eye in front of it, a wall
+/// glowing `GLOW` behind the eye (z = 2, facing −z), black to light, and a point light of
+/// `lamp` between them.
+fn metal_before_a_glow(roughness: f32, lamp: f32) -> Arc<Scene> {
+    let square = common::quad(Vec3::new(-0.05, -0.05, 0.0), Vec3::X * 0.1, Vec3::Y * 0.1);
+    let wall = common::quad(Vec3::new(-5.0, -5.0, 2.0), Vec3::Y * 10.0, Vec3::X * 10.0);
+    let metal = Material {
+        name: "metal".into(),
+        base_color: BASE.extend(1.0),
+        metallic: 1.0,
+        roughness,
+        ..Material::default()
+    };
+    let mut tris: Vec<([Vec3; 3], u32)> = square.iter().map(|t| (*t, 0)).collect();
+    tris.extend(wall.iter().map(|t| (*t, 1)));
+    let lights = if lamp > 0.0 {
+        vec![common::point_light(LAMP_AT, lamp)]
+    } else {
+        Vec::new()
+    };
+    Arc::new(common::scene(
+        "metal before a glow",
+        &tris,
+        vec![metal, common::lambert("glow", 0.0, Vec3::splat(GLOW))],
+        lights,
+    ))
+}
+
+const LAMP_AT: Vec3 = Vec3::new(0.15, 0.0, 1.0);
+
+/// Chrome (GGX α 0.03) and black satin (α 0.17) with no tile show the glow they mirror,
+/// times their Fresnel reflectance at normal incidence (the base colour), and the pixel's
+/// point for the direct light is on the wall mirrored; a rougher metal (α 0.36) is drawn
+/// diffuse as before (here black: the light field is empty).
+#[test]
+fn a_glossy_metal_without_a_tile_shows_what_it_mirrors() {
+    let settings = Settings {
+        glossy_alpha: 0.0,
+        ..Settings::default()
+    };
+    let zeros = |vis: &Visibility| vec![[0.0f32; 3]; vis.tiles().elements as usize];
+    let eye = Ray::new(Vec3::new(0.01, 0.02, 1.0), -Vec3::Z);
+    for alpha in [0.03f32, 0.17] {
+        let metal = Visibility::of(metal_before_a_glow(alpha.sqrt(), 0.0), &settings);
+        let (l, point) = metal.lookup_and_point(eye);
+        let shown = shade_one(&l, &zeros(&metal));
+        assert!(
+            (shown - BASE * GLOW).abs().max_element() < 1e-4 * GLOW,
+            "α {alpha}: the metal shows {shown}, the glow it mirrors {}",
+            BASE * GLOW
+        );
+        let wall = point.expect("the mirrored wall's point").triangle;
+        assert!(
+            wall >= 2,
+            "α {alpha}: the point is on the wall, not the metal (triangle {wall})"
+        );
+    }
+    let rough = Visibility::of(metal_before_a_glow(0.6, 0.0), &settings);
+    let (l, point) = rough.lookup_and_point(eye);
+    assert_eq!(shade_one(&l, &zeros(&rough)), Vec3::ZERO, "drawn diffuse");
+    assert!(point.expect("a point on the metal").triangle < 2);
+}
+
+/// A punctual light's highlight on a mirrored metal is its BSDF's: `f cos I / d²` at the
+/// point seen, which the mirrored ray alone would never show (a point is never seen in a
+/// mirror).
+#[test]
+fn a_mirrored_metal_keeps_its_punctual_highlight() {
+    let settings = Settings {
+        glossy_alpha: 0.0,
+        ..Settings::default()
+    };
+    let intensity = 2.0;
+    let scene = metal_before_a_glow(0.17f32.sqrt(), intensity);
+    let vis = Visibility::of(scene.clone(), &settings);
+    let eye = Ray::new(Vec3::new(0.01, 0.02, 1.0), -Vec3::Z);
+    let zeros = vec![[0.0f32; 3]; vis.tiles().elements as usize];
+    let (l, _) = vis.lookup_and_point(eye);
+    let shown = shade_one(&l, &zeros) - BASE * GLOW;
+
+    let at = Vec3::new(0.01, 0.02, 0.0);
+    let to = LAMP_AT - at;
+    let wi = to.normalize();
+    let frame = Frame::new(Vec3::Z);
+    let params = scene.materials[0].params(&scene.textures, glam::Vec2::ZERO);
+    let (f, _) = Bsdf::new(&params).eval(frame.to_local(Vec3::Z), frame.to_local(wi));
+    let expected = f * wi.z * intensity / to.length_squared();
+    assert!(
+        expected.min_element() > 0.1,
+        "a highlight to see: {expected}"
+    );
+    assert!(
+        (shown - expected).abs().max_element() < 1e-3 * expected.max_element(),
+        "the highlight shown {shown}, the BSDF's {expected}"
+    );
+}
