@@ -8,17 +8,18 @@
 //! the directions' spacing), which the bake's smoothing within a triangle's own cells
 //! ([`crate::bake::smooth_indirect`]) is too small to reach. What the field keeps once the
 //! direct light is drawn per pixel ([`crate::split`]) is inter-reflected light and the
-//! sky's, smooth at that scale but for contact shadows and corners. So each diffuse element
-//! of a large triangle takes the mean of the elements on its plane and side within
-//! [`RADIUS`] element sizes, across triangle edges: a tent in distance, weighted by area,
-//! and by how alike the two values are (a Gaussian in log luminance, [`RANGE_SIGMA`]): ray
-//! effects differ by tens of per cent from place to place, a wall's foot in the floor's
-//! shadow by a factor, which stays.
+//! sky's, smooth at that scale but for contact shadows and corners. So each element of a
+//! large triangle takes the mean of the elements on its plane and side within [`RADIUS`]
+//! element sizes, across triangle edges: a tent in distance, weighted by area, and by how
+//! alike the two values are (a Gaussian in log luminance, [`RANGE_SIGMA`]): ray effects
+//! differ by tens of per cent from place to place, a wall's foot in the floor's shadow by
+//! a factor, which stays. A glossy element's tile is averaged bin by bin with the tiles of
+//! its plane (they share one frame, so a bin is the same direction in each).
 //!
-//! Measured on the room's front wall (`--eye 0,1.5,0`, the front wall of `sim`, 128²,
-//! against two 2048-path renders whose own error is 0.0043): relative MSE 0.0060 → 0.0052,
-//! the streaks gone; the room's floor view 0.0030 → 0.0029; the breakfast room 0.0500 →
-//! 0.0494 (`docs/vlf-direct.md`).
+//! Measured (`docs/vlf-direct.md`): the room's front wall (the front wall of `sim`)
+//! 0.0060 → 0.0052 against two 2048-path renders whose own error is 0.0043, the streaks
+//! gone; the room's floor view 0.0035 → 0.0027 (its varnished table top's streaks were in
+//! its tiles); the breakfast room unchanged (0.0494 → 0.0496).
 
 use std::collections::HashMap;
 
@@ -39,16 +40,16 @@ const SAME_NORMAL: f32 = 0.995;
 /// ...and each lies within this fraction of an element's size of the other's plane (a
 /// skirting board a centimetre in front of its wall is not the wall).
 const PLANE_TOLERANCE: f32 = 0.02;
-/// Only elements of triangles at least this fraction of the circle the radius spans
-/// take part: the large flat surfaces where ray effects show (walls, floors, table tops);
+/// Only elements of triangles at least this fraction of the disc the radius spans take
+/// part: the large flat surfaces where ray effects show (walls, floors, table tops);
 /// small triangles (a chair's shell) are pooled and smoothed by the bake.
 const LARGE: f32 = 0.25;
 /// Rec. 709 luminance weights.
 const LUMINANCE: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
-/// `values` (the elements', then the tiles') with each diffuse element of a large
-/// triangle averaged over the elements of its plane and side within [`RADIUS`] element
-/// sizes, alike in value; tiles as they are.
+/// `values` (the elements', then the tiles') with each element of a large triangle
+/// averaged over the elements of its plane and side within [`RADIUS`] element sizes that
+/// are alike in value, diffuse with diffuse, a tile with tiles bin by bin.
 pub fn smooth_over_planes(
     scene: &Scene,
     elements: &Elements,
@@ -79,8 +80,7 @@ pub fn smooth_over_planes(
         .collect();
     let cell = |p: Vec3| (p / radius).floor().as_ivec3();
     let large_area = LARGE * std::f32::consts::PI * radius * radius;
-    let taking_part =
-        |e: usize| tiles.of(e as u32).is_none() && scene.triangle_area(centres[e].0) >= large_area;
+    let taking_part = |e: usize| scene.triangle_area(centres[e].0) >= large_area;
     let mut grid: HashMap<IVec3, Vec<u32>> = HashMap::new();
     for e in 0..elements.count {
         if taking_part(e) {
@@ -88,16 +88,35 @@ pub fn smooth_over_planes(
         }
     }
     let tolerance = PLANE_TOLERANCE * elements.element_size;
-    let lum = |v: [f32; 3]| Vec3::from(v).dot(LUMINANCE).max(f32::MIN_POSITIVE);
-    out[..elements.count]
-        .par_iter_mut()
-        .enumerate()
-        .filter(|(e, _)| taking_part(*e))
-        .for_each(|(e, o)| {
+    // An element's values: its irradiance, or its tile's bins (a plane's tiles share one
+    // frame, so their bins are the same directions).
+    let k = tiles.per_tile();
+    let range_of = |e: usize| match tiles.of(e as u32) {
+        Some(g) => {
+            let at = tiles.elements as usize + g as usize * k;
+            at..at + k
+        }
+        None => e..e + 1,
+    };
+    let lum = |r: std::ops::Range<usize>| {
+        let n = r.len() as f32;
+        (values[r]
+            .iter()
+            .map(|v| Vec3::from(*v).dot(LUMINANCE))
+            .sum::<f32>()
+            / n)
+            .max(f32::MIN_POSITIVE)
+    };
+    let smoothed: Vec<(usize, Vec<Vec3>)> = (0..elements.count)
+        .into_par_iter()
+        .filter(|&e| taking_part(e))
+        .map(|e| {
             let (p, n) = place[e];
             let at = cell(p);
-            let own = lum(values[e]).ln();
-            let (mut sum, mut w) = (Vec3::ZERO, 0.0f32);
+            let tiled = tiles.of(e as u32).is_some();
+            let own = lum(range_of(e)).ln();
+            let mut sum = vec![Vec3::ZERO; range_of(e).len()];
+            let mut w = 0.0f32;
             for dz in -1..=1 {
                 for dy in -1..=1 {
                     for dx in -1..=1 {
@@ -105,28 +124,41 @@ pub fn smooth_over_planes(
                             continue;
                         };
                         for &j in list {
-                            let (q, m) = place[j as usize];
+                            let j = j as usize;
+                            let (q, m) = place[j];
                             let d = q - p;
                             let dist = d.length();
                             if dist >= radius
                                 || n.dot(m) < SAME_NORMAL
                                 || n.dot(d).abs() > tolerance
+                                || tiles.of(j as u32).is_some() != tiled
                             {
                                 continue;
                             }
-                            let range = (lum(values[j as usize]).ln() - own).powi(2);
-                            let weight = area[j as usize]
+                            let range = (lum(range_of(j)).ln() - own).powi(2);
+                            let weight = area[j]
                                 * (1.0 - dist / radius)
                                 * (-range / (2.0 * RANGE_SIGMA * RANGE_SIGMA)).exp();
-                            sum += Vec3::from(values[j as usize]) * weight;
+                            for (s, v) in sum.iter_mut().zip(&values[range_of(j)]) {
+                                *s += Vec3::from(*v) * weight;
+                            }
                             w += weight;
                         }
                     }
                 }
             }
-            if w > 0.0 {
-                *o = (sum / w).to_array();
-            }
-        });
+            (
+                e,
+                sum.into_iter()
+                    .map(|s| s / w.max(f32::MIN_POSITIVE))
+                    .collect(),
+            )
+        })
+        .collect();
+    for (e, v) in smoothed {
+        for (o, x) in out[range_of(e)].iter_mut().zip(v) {
+            *o = x.to_array();
+        }
+    }
     out
 }

@@ -113,3 +113,53 @@ fn streaks_are_flattened_steps_and_other_planes_kept() {
         }
     }
 }
+
+/// A glossy floor's tiles are smoothed bin by bin over the plane (its tiles share one
+/// frame): each bin's streaks flatten, each bin keeps its own level.
+#[test]
+fn a_glossy_planes_tiles_are_smoothed_bin_by_bin() {
+    let tris: Vec<([Vec3; 3], u32)> = common::floor(1.0).iter().map(|t| (*t, 0)).collect();
+    let satin = holocave_scene::Material {
+        name: "satin".into(),
+        metallic: 1.0,
+        roughness: 0.5,
+        ..holocave_scene::Material::default()
+    };
+    let scene = common::scene_of("glossy floor", &tris, vec![satin], |_| {});
+    let elements = Elements::new(&scene, SIZE);
+    let tiles = holocave_vlf::tiles(&scene, &Settings::default(), &elements);
+    assert!(tiles.elements as usize == elements.count && !tiles.is_empty());
+    let at = centres(&scene, &elements);
+    let k = tiles.per_tile();
+    let period = 0.3;
+    let streak = |p: Vec3| 1.0 + 0.05 * (std::f32::consts::TAU * (p.x + p.z) / period).sin();
+    let level = |b: usize| 1.0 + b as f32 / k as f32;
+    let mut values = vec![[0.0f32; 3]; elements.count + tiles.tiles.len() * k];
+    for (e, c) in at.iter().enumerate() {
+        if let (Some((p, _)), Some(g)) = (c, tiles.of(e as u32)) {
+            for b in 0..k {
+                values[elements.count + g as usize * k + b] = [streak(*p) * level(b); 3];
+            }
+        }
+    }
+    let smoothed = smooth_over_planes(&scene, &elements, &tiles, &values);
+    let radius = RADIUS * SIZE;
+    let mut tiled = 0;
+    for (e, c) in at.iter().enumerate() {
+        let (Some((p, _)), Some(g)) = (c, tiles.of(e as u32)) else {
+            continue;
+        };
+        if p.x.abs() > 1.0 - radius || p.z.abs() > 1.0 - radius {
+            continue;
+        }
+        tiled += 1;
+        for b in 0..k {
+            let v = smoothed[elements.count + g as usize * k + b][0] / level(b);
+            assert!(
+                (v - 1.0).abs() < 0.25 * 0.05,
+                "bin {b} at {p}: {v} of its level"
+            );
+        }
+    }
+    assert!(tiled > 100, "{tiled} inner tiles");
+}
