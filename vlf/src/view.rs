@@ -31,7 +31,7 @@ use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
 use crate::surface::{
-    Chain, diffuse_albedo, follow, follow_from, metal_highlights, mirrored, mirrored_metal,
+    Chain, Seen, diffuse_albedo, follow, follow_from, metal_highlights, mirrored, mirrored_metal,
     side_facing,
 };
 use crate::tiles::Tiles;
@@ -209,7 +209,10 @@ impl Visibility {
         let ray = Ray::new(at, dir);
         let first = statics.closest_hit(&ray, f32::INFINITY);
         let chain = follow_from(&statics, ray, first, &environment(&self.lights));
-        let behind_delta = chain.deltas > 0;
+        // What a mirrored metal shows (its highlights, the sky and emitters in it) arrives
+        // as what a delta surface shows does: next-event estimation at `at` takes none of it.
+        let behind_delta = chain.deltas > 0
+            || (chain.end.as_ref()).is_some_and(|(s, r)| self.drawn_as_mirror(s, r.dir));
         let over_mirror = match (&chain.end, first) {
             (Some((s, r)), Some(m)) if chain.deltas == 1 && s.emitted.max_element() > 0.0 => {
                 Some(OverMirror {
@@ -293,6 +296,16 @@ impl Visibility {
         f(&self.scene.placed(&objects.placements))
     }
 
+    /// Whether the static surface `s`, reached along `dir`, is drawn as the mirror of what
+    /// it reflects: a glossy metal without a tile ([`mirrored_metal`]).
+    fn drawn_as_mirror(&self, s: &Seen, dir: Vec3) -> bool {
+        let side = side_facing(s.normal, dir);
+        let element = self
+            .elements
+            .element(s.hit.triangle, side, s.hit.u, s.hit.v);
+        mirrored_metal(&s.params) && self.tiles.of(element).is_none()
+    }
+
     /// The lookup of what a chain of surfaces ends on; `placed` tells a moving object's
     /// surface apart (then it is lit from `objects`' probes, and the caches' samples do not
     /// count), and darkens the light field's part near the objects.
@@ -319,7 +332,7 @@ impl Visibility {
         // A glossy metal of the static scene without a tile: its highlights, and the
         // lookup of what it mirrors (the sun's disc taken by the highlights, not along the
         // mirrored ray).
-        if object.is_none() && mirrored_metal(&s.params) && self.tiles.of(element()).is_none() {
+        if object.is_none() && self.drawn_as_mirror(&s, r.dir) {
             let statics = self.scene.statics();
             let scene = placed.unwrap_or(&statics);
             let sky = |d: Vec3| {

@@ -48,8 +48,9 @@ fn metal_before_a_glow(roughness: f32, lamp: f32) -> Arc<Scene> {
 const LAMP_AT: Vec3 = Vec3::new(0.15, 0.0, 1.0);
 
 /// Chrome (GGX α 0.03) and black satin (α 0.17) with no tile show the glow they mirror,
-/// times their Fresnel reflectance at normal incidence (the base colour), and the pixel's
-/// point for the direct light is on the wall mirrored; a rougher metal (α 0.36) is drawn
+/// times their Fresnel reflectance at normal incidence (the base colour), to an eye and to
+/// a gather's bounce alike, and the pixel's point for the direct light is on the wall
+/// mirrored; a rougher metal (α 0.36) is drawn
 /// diffuse as before (here black: the light field is empty).
 #[test]
 fn a_glossy_metal_without_a_tile_shows_what_it_mirrors() {
@@ -66,6 +67,14 @@ fn a_glossy_metal_without_a_tile_shows_what_it_mirrors() {
         assert!(
             (shown - BASE * GLOW).abs().max_element() < 1e-4 * GLOW,
             "α {alpha}: the metal shows {shown}, the glow it mirrors {}",
+            BASE * GLOW
+        );
+        // A gather's bounce onto it brings the same (what a metal shows, as what a mirror
+        // shows, is no light next-event estimation at the bounce's start takes).
+        let arriving = metal.arriving(eye.origin, eye.dir, &zeros(&metal)).radiance;
+        assert!(
+            (arriving - BASE * GLOW).abs().max_element() < 1e-4 * GLOW,
+            "α {alpha}: {arriving} arrives from the metal, the glow it mirrors {}",
             BASE * GLOW
         );
         let wall = point.expect("the mirrored wall's point").triangle;
