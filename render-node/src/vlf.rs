@@ -56,7 +56,7 @@ pub struct VlfBase {
     /// The elements' irradiance, then the tiles' radiance: all of it, and without the
     /// next-event part (what the lookups read when the direct light is drawn per pixel).
     total: Arc<Vec<[f32; 3]>>,
-    indirect: Vec<[f32; 3]>,
+    indirect: Arc<Vec<[f32; 3]>>,
     /// With the sky per pixel, the field's sky (its first arrival), a prior for it.
     sky: Option<Vec<[f32; 3]>>,
     /// The next-event estimates: the walls' direct light per pixel and gather samples'.
@@ -155,13 +155,16 @@ impl VlfBase {
         .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
         let shadow_lights = shadow_lights(&scene);
         let total = Arc::new(f.state.values());
+        let indirect = Arc::new(indirect);
         let visibility = Visibility::new(scene, elements, tiles);
         visibility.light_objects(total.clone());
+        let direct = !nee.is_empty();
+        visibility.draw_with(if direct { &indirect } else { &total }.clone());
         Ok(VlfBase {
             total,
             indirect,
             sky,
-            direct: !nee.is_empty(),
+            direct,
             nee,
             history: Mutex::new(Vec::new()),
             points: Mutex::new(Vec::new()),
@@ -220,6 +223,12 @@ impl VlfBase {
     /// field's remainder. Choose before handing the values to the GPU.
     pub fn with_direct(mut self, on: bool) -> Self {
         self.direct = on && !self.nee.is_empty();
+        let values = if self.direct {
+            &self.indirect
+        } else {
+            &self.total
+        };
+        self.visibility.draw_with(values.clone());
         self
     }
 

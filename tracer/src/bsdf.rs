@@ -92,6 +92,32 @@ impl Bsdf {
         }
     }
 
+    /// What the reflecting lobes send towards the mirror direction of a view at `cos_o`
+    /// from the normal, as a smooth surface would: the metal's Fresnel and the opaque
+    /// dielectric's specular layer's.
+    pub fn specular_reflectance(&self, cos_o: f32) -> Vec3 {
+        let c = cos_o.abs().min(1.0);
+        let metal = fresnel::schlick(self.base, Vec3::ONE, c) * self.metal;
+        if !self.spec_on {
+            return metal;
+        }
+        metal + fresnel::schlick(self.spec_f0, self.spec_f90, c) * self.dielectric
+    }
+
+    /// What the opaque dielectric's Lambertian base reflects towards a view at `cos_o` of
+    /// light arriving evenly, as an albedo: its base colour through the specular layer's
+    /// Fresnel on the way out and, on average over cosine-weighted directions, on the way
+    /// in (Schlick's mean `F0 + (F90 − F0)/21`), as [`Self::eval`] has it.
+    pub fn diffuse_reflectance(&self, cos_o: f32) -> Vec3 {
+        let base = self.base * self.dielectric;
+        if !self.spec_on {
+            return base;
+        }
+        let out = Vec3::ONE - fresnel::schlick(self.spec_f0, self.spec_f90, cos_o.abs().min(1.0));
+        let mean_in = Vec3::ONE - (self.spec_f0 + (self.spec_f90 - self.spec_f0) / 21.0);
+        base * out * mean_in
+    }
+
     /// Whether any lobe is not a delta: only then is light sampling worth a shadow ray.
     pub fn has_non_delta(&self) -> bool {
         self.dielectric > 0.0 || (!self.smooth && (self.metal > 0.0 || self.glass > 0.0))

@@ -276,33 +276,40 @@ pub fn delta_step(s: &Seen, dir: Vec3) -> Option<(Branch, Option<Branch>)> {
     }
 }
 
-/// GGX `α` below which a metal too small for a tile is drawn as the mirror of what it
-/// reflects ([`mirrored_metal`]).
-pub const MIRRORED_METAL_ALPHA: f32 = 0.25;
+/// GGX `α` below which a glossy surface too small for a tile is drawn as the mirror of
+/// what it reflects ([`mirrored_gloss`]).
+pub const MIRRORED_ALPHA: f32 = 0.25;
 
 /// Whether the view draws a surface with `params` that has no tile as the mirror of what
-/// it reflects: a pure metal whose lobe is narrower than [`MIRRORED_METAL_ALPHA`] (its
-/// reflection blurred by under 30°, `2α`; the blur is left out). Drawn diffuse, such a
-/// surface shows its irradiance times its albedo, whatever its mirror direction sees: the
-/// breakfast room's chrome chair legs (α 0.03), too thin for tiles, were grey where the
-/// path tracer shows them mirroring the lit floor (its worst block, 44 % too dark), and
-/// the black satin apron of its table (α 0.17, cut into slivers smaller than a tile
-/// takes), which mirrors the dark underside of the table top, was five times too bright
-/// (half the image's relative MSE). The sun's and the punctual lights' highlights on it
-/// are taken at the metal with its own BSDF ([`metal_highlights`]), where the mirrored ray
-/// would find the sun's disc in a pixel or two and a punctual light never; the per-pixel
-/// direct light is taken where the ray lands. The bake keeps such a surface diffuse: it is
+/// it reflects: an opaque surface with a reflecting lobe (a metal, or a dielectric with a
+/// specular layer) narrower than [`MIRRORED_ALPHA`] (its reflection blurred by under 30°,
+/// `2α`; the blur is left out). Its reflecting lobes' share
+/// ([`Bsdf::specular_reflectance`]) goes on along the mirrored ray, its Lambertian base's
+/// ([`Bsdf::diffuse_reflectance`]) is the light field's at the surface itself, and the sun's
+/// and punctual lights' highlights on it are its BSDF's ([`highlights`]: the mirrored ray
+/// would find the sun's disc in a pixel or two and a punctual light never); the per-pixel
+/// direct light is taken where the mirrored ray lands. Drawn diffuse, such a surface shows
+/// its irradiance times its albedo whatever its mirror direction sees: the breakfast
+/// room's chrome chair legs (α 0.03), too thin for tiles, were grey where the path tracer
+/// shows them mirroring the lit floor (its worst block, 44 % too dark); the black satin
+/// apron of its table (α 0.17, cut into slivers smaller than a tile takes), which mirrors
+/// the dark underside of the table top, five times too bright (half the image's relative
+/// MSE); its glazed teapot and cups (a third metallic, α 0.04), which mirror the window,
+/// a third as bright as the path tracer's. The bake keeps such a surface diffuse: it is
 /// small, and what it sends on is little.
-pub fn mirrored_metal(params: &SurfaceParams) -> bool {
-    params.metallic >= 1.0
+pub fn mirrored_gloss(params: &SurfaceParams) -> bool {
+    let opaque = (1.0 - params.metallic) * params.transmission <= 0.0;
+    let reflects = params.metallic > 0.0 || params.specular > 0.0;
+    opaque
+        && reflects
         && !Ggx::is_smooth(params.roughness)
-        && Ggx::from_roughness(params.roughness).alpha < MIRRORED_METAL_ALPHA
+        && Ggx::from_roughness(params.roughness).alpha < MIRRORED_ALPHA
 }
 
 /// The light of the sun (from its disc's centre: exact wherever the whole disc is seen)
 /// and of every punctual light that `s`, seen along `dir`, reflects towards the viewer by
-/// its BSDF, each behind a shadow ray through `scene`: a [`mirrored_metal`]'s highlights.
-pub fn metal_highlights(scene: &PlacedScene, lights: &Lights, s: &Seen, dir: Vec3) -> Vec3 {
+/// its BSDF, each behind a shadow ray through `scene`: a [`mirrored_gloss`]'s highlights.
+pub fn highlights(scene: &PlacedScene, lights: &Lights, s: &Seen, dir: Vec3) -> Vec3 {
     let wo = -dir;
     let bsdf = Bsdf::new(&s.params);
     let frame = Frame::new(s.shading_normal);
@@ -328,20 +335,20 @@ pub fn metal_highlights(scene: &PlacedScene, lights: &Lights, s: &Seen, dir: Vec
 }
 
 /// A chain (its `weight`, `emitted` light and `deltas`) that ended at `s`, seen along
-/// `dir`, continued as if `s` were a mirror ([`mirrored_metal`]): the step a delta surface
-/// of its metal takes ([`delta_step`]); `None` past [`MAX_DELTA_DEPTH`].
+/// `dir`, continued along the mirror direction of `s`'s shading normal carrying
+/// `reflectance` ([`mirrored_gloss`]); `None` past [`MAX_DELTA_DEPTH`].
 pub fn mirrored(
     scene: &PlacedScene,
     (weight, emitted, deltas): (Vec3, Vec3, u32),
     s: &Seen,
     dir: Vec3,
+    reflectance: Vec3,
     environment: &dyn Fn(Vec3) -> Vec3,
 ) -> Option<Chain> {
-    if deltas >= MAX_DELTA_DEPTH {
+    if deltas >= MAX_DELTA_DEPTH || reflectance.max_element() <= 0.0 {
         return None;
     }
-    // A pure metal reflects only: one branch.
-    let ((wi, reflectance), _) = delta_step(s, dir)?;
+    let wi = fresnel::reflect(-dir, s.shading_normal).normalize();
     let rest = walk(
         scene,
         Ray::leaving(s.position, s.normal, wi),

@@ -31,7 +31,7 @@ use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
 use crate::surface::{
-    Chain, Seen, diffuse_albedo, follow, follow_from, metal_highlights, mirrored, mirrored_metal,
+    Chain, Seen, diffuse_albedo, follow, follow_from, highlights, mirrored, mirrored_gloss,
     side_facing,
 };
 use crate::tiles::Tiles;
@@ -128,6 +128,9 @@ pub struct Visibility {
     objects: RwLock<ObjectLight>,
     /// The light field's values (all of its light) the objects' probes gather.
     light: OnceLock<Arc<Vec<[f32; 3]>>>,
+    /// The values the lookups are shaded with, where the CPU shades a part of a lookup
+    /// itself ([`Visibility::draw_with`]).
+    drawn: RwLock<Option<Arc<Vec<[f32; 3]>>>>,
     /// Whether the objects darken the light field's part near them (off only to measure
     /// what that does: [`Visibility::without_darkening`]).
     darkening: bool,
@@ -145,6 +148,7 @@ impl Visibility {
             tiles,
             lights,
             light: OnceLock::new(),
+            drawn: RwLock::new(None),
         }
     }
 
@@ -165,6 +169,20 @@ impl Visibility {
         let at = o.placements.clone();
         let values = self.light.get().expect("set above");
         o.place(&self.scene, &at, Some(&|p, d| self.incoming(p, d, values)));
+    }
+
+    /// The values the lookups made from now on are shaded with (the light field's, all of
+    /// it or its remainder): a glossy surface drawn as its mirror ([`mirrored_gloss`])
+    /// takes its Lambertian base's light from them at the surface itself. Until given, a
+    /// surface with a Lambertian base is drawn diffuse and only a pure metal as its mirror.
+    pub fn draw_with(&self, values: Arc<Vec<[f32; 3]>>) {
+        *self.drawn.write().unwrap_or_else(|e| e.into_inner()) = Some(values);
+    }
+
+    /// Runs `f` with the values given to [`Self::draw_with`], if any.
+    fn with_drawn<T>(&self, f: impl FnOnce(Option<&[[f32; 3]]>) -> T) -> T {
+        let drawn = self.drawn.read().unwrap_or_else(|e| e.into_inner());
+        f(drawn.as_deref().map(Vec::as_slice))
     }
 
     /// Where the moving objects stand now.
@@ -212,7 +230,8 @@ impl Visibility {
         // What a mirrored metal shows (its highlights, the sky and emitters in it) arrives
         // as what a delta surface shows does: next-event estimation at `at` takes none of it.
         let behind_delta = chain.deltas > 0
-            || (chain.end.as_ref()).is_some_and(|(s, r)| self.drawn_as_mirror(s, r.dir));
+            || (chain.end.as_ref())
+                .is_some_and(|(s, r)| self.drawn_as_mirror(s, r.dir, Some(values)));
         let over_mirror = match (&chain.end, first) {
             (Some((s, r)), Some(m)) if chain.deltas == 1 && s.emitted.max_element() > 0.0 => {
                 Some(OverMirror {
@@ -230,7 +249,7 @@ impl Visibility {
         // Straight out of the scene: the sky only (the sun comes by next-event
         // estimation); onto a surface: not its emission (the emitters come so too).
         let escaped = chain.end.is_none();
-        let (mut l, point) = self.lookup_chain(chain, &ObjectLight::default(), None);
+        let (mut l, point) = self.lookup_chain(chain, &ObjectLight::default(), None, Some(values));
         if !behind_delta {
             l.emitted = if escaped { sky(dir) } else { Vec3::ZERO }.to_array();
         }
@@ -275,7 +294,8 @@ impl Visibility {
         let env = environment(&self.lights);
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
-        self.lookup_chain(follow(&placed, ray, &env), &objects, Some(&placed))
+        let chain = follow(&placed, ray, &env);
+        self.with_drawn(|v| self.lookup_chain(chain, &objects, Some(&placed), v))
     }
 
     /// [`Self::lookup_and_point`], and the ray's first hit (mirrors and glass included):
@@ -286,7 +306,7 @@ impl Visibility {
         let placed = self.scene.placed(&objects.placements);
         let first = placed.closest_hit(&ray, f32::INFINITY);
         let chain = follow_from(&placed, ray, first, &env);
-        let (l, p) = self.lookup_chain(chain, &objects, Some(&placed));
+        let (l, p) = self.with_drawn(|v| self.lookup_chain(chain, &objects, Some(&placed), v));
         (l, p, first)
     }
 
@@ -297,13 +317,16 @@ impl Visibility {
     }
 
     /// Whether the static surface `s`, reached along `dir`, is drawn as the mirror of what
-    /// it reflects: a glossy metal without a tile ([`mirrored_metal`]).
-    fn drawn_as_mirror(&self, s: &Seen, dir: Vec3) -> bool {
+    /// it reflects: a glossy surface without a tile ([`mirrored_gloss`]) whose Lambertian
+    /// base, if it has one, can be shaded from `values`.
+    fn drawn_as_mirror(&self, s: &Seen, dir: Vec3, values: Option<&[[f32; 3]]>) -> bool {
         let side = side_facing(s.normal, dir);
         let element = self
             .elements
             .element(s.hit.triangle, side, s.hit.u, s.hit.v);
-        mirrored_metal(&s.params) && self.tiles.of(element).is_none()
+        mirrored_gloss(&s.params)
+            && (values.is_some() || s.params.metallic >= 1.0)
+            && self.tiles.of(element).is_none()
     }
 
     /// The lookup of what a chain of surfaces ends on; `placed` tells a moving object's
@@ -314,6 +337,7 @@ impl Visibility {
         chain: Chain,
         objects: &ObjectLight,
         placed: Option<&PlacedScene>,
+        values: Option<&[[f32; 3]]>,
     ) -> (Lookup, Option<DirectPoint>) {
         let Some((s, r)) = chain.end else {
             let none = Lookup {
@@ -329,10 +353,10 @@ impl Visibility {
             self.elements
                 .element(s.hit.triangle, side, s.hit.u, s.hit.v)
         };
-        // A glossy metal of the static scene without a tile: its highlights, and the
-        // lookup of what it mirrors (the sun's disc taken by the highlights, not along the
-        // mirrored ray).
-        if object.is_none() && self.drawn_as_mirror(&s, r.dir) {
+        // A glossy surface of the static scene without a tile: its highlights and its
+        // Lambertian base's light, and the lookup of what it mirrors (the sun's disc taken
+        // by the highlights, not along the mirrored ray).
+        if object.is_none() && self.drawn_as_mirror(&s, r.dir, values) {
             let statics = self.scene.statics();
             let scene = placed.unwrap_or(&statics);
             let sky = |d: Vec3| {
@@ -341,14 +365,22 @@ impl Visibility {
                     .as_ref()
                     .map_or(Vec3::ZERO, |k| k.radiance(d))
             };
-            let highlights = metal_highlights(scene, &self.lights, &s, r.dir);
+            let bsdf = Bsdf::new(&s.params);
+            let cos_o = s.shading_normal.dot(r.dir).abs();
+            let base = values.map_or(Vec3::ZERO, |v| {
+                let cells = self.elements.triangles[s.hit.triangle as usize];
+                let irradiance = interpolate(v, cells.base(side), cells.res, s.hit.u, s.hit.v);
+                bsdf.diffuse_reflectance(cos_o) * std::f32::consts::FRAC_1_PI * irradiance
+            });
+            let shown = highlights(scene, &self.lights, &s, r.dir) + base;
             let so_far = (
                 chain.weight,
-                chain.emitted + chain.weight * highlights,
+                chain.emitted + chain.weight * shown,
                 chain.deltas,
             );
-            if let Some(c) = mirrored(scene, so_far, &s, r.dir, &sky) {
-                return self.lookup_chain(c, objects, placed);
+            let reflectance = bsdf.specular_reflectance(cos_o);
+            if let Some(c) = mirrored(scene, so_far, &s, r.dir, reflectance, &sky) {
+                return self.lookup_chain(c, objects, placed, values);
             }
         }
         let point = DirectPoint {
@@ -490,6 +522,8 @@ impl Visibility {
         points.resize(n, None);
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
+        let drawn = self.drawn.read().unwrap_or_else(|e| e.into_inner());
+        let values = drawn.as_deref().map(Vec::as_slice);
         lookups
             .par_chunks_mut(chunk)
             .zip(points.par_chunks_mut(chunk))
@@ -501,7 +535,7 @@ impl Visibility {
                 let hits = first_hits(&placed, &rays, c * chunk);
                 for (((l, p), ray), hit) in lookups.iter_mut().zip(points).zip(rays).zip(hits) {
                     let chain = follow_from(&placed, ray, hit, &env);
-                    (*l, *p) = self.lookup_chain(chain, &objects, Some(&placed));
+                    (*l, *p) = self.lookup_chain(chain, &objects, Some(&placed), values);
                 }
             });
         lookups
@@ -560,7 +594,8 @@ impl Visibility {
                     ((s / k) as f32 + 0.5) / k as f32,
                 );
                 let ray = view.ray(Vec2::new(x, y) + o);
-                let (l, p) = self.lookup_chain(follow(&placed, ray, &env), &objects, Some(&placed));
+                let chain = follow(&placed, ray, &env);
+                let (l, p) = self.lookup_chain(chain, &objects, Some(&placed), Some(values));
                 sum += shade_one(&l, values);
                 if let Some(direct) = direct {
                     sum += direct.tile_albedo(&l, values);

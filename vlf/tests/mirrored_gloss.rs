@@ -1,5 +1,6 @@
-//! A glossy metal without a tile is drawn as the mirror of what it reflects
-//! (`surface::mirrored_metal`): what a pixel shows on it is what it reflects, not a
+//! A glossy surface without a tile is drawn as the mirror of what it reflects
+//! (`surface::mirrored_gloss`): what a pixel shows on it is what its reflecting lobes
+//! mirror and what its Lambertian base makes of the light field's light there, not a
 //! diffuse drawing of its irradiance, and its punctual lights' highlights come from its
 //! own BSDF.
 
@@ -21,12 +22,18 @@ const BASE: Vec3 = Vec3::new(0.8, 0.7, 0.6);
 /// glowing `GLOW` behind the eye (z = 2, facing −z), black to light, and a point light of
 /// `lamp` between them.
 fn metal_before_a_glow(roughness: f32, lamp: f32) -> Arc<Scene> {
+    surface_before_a_glow(1.0, roughness, lamp)
+}
+
+/// [`metal_before_a_glow`] with the square `metallic` (the rest a dielectric with its
+/// specular layer over a Lambertian base).
+fn surface_before_a_glow(metallic: f32, roughness: f32, lamp: f32) -> Arc<Scene> {
     let square = common::quad(Vec3::new(-0.05, -0.05, 0.0), Vec3::X * 0.1, Vec3::Y * 0.1);
     let wall = common::quad(Vec3::new(-5.0, -5.0, 2.0), Vec3::Y * 10.0, Vec3::X * 10.0);
     let metal = Material {
         name: "metal".into(),
         base_color: BASE.extend(1.0),
-        metallic: 1.0,
+        metallic,
         roughness,
         ..Material::default()
     };
@@ -121,4 +128,40 @@ fn a_mirrored_metal_keeps_its_punctual_highlight() {
         (shown - expected).abs().max_element() < 1e-3 * expected.max_element(),
         "the highlight shown {shown}, the BSDF's {expected}"
     );
+}
+
+/// A glazed surface (a third metallic, GGX α 0.04) shows the glow its reflecting lobes
+/// mirror and its Lambertian base's share of the light field's irradiance there, once the
+/// view has the values it draws with; without them it is drawn diffuse as before.
+#[test]
+fn a_glazed_surface_mirrors_its_reflection_over_its_base() {
+    let settings = Settings {
+        glossy_alpha: 0.0,
+        ..Settings::default()
+    };
+    let scene = surface_before_a_glow(0.35, 0.2, 0.0);
+    let vis = Visibility::of(scene.clone(), &settings);
+    let eye = Ray::new(Vec3::new(0.01, 0.02, 1.0), -Vec3::Z);
+    let (l, _) = vis.lookup_and_point(eye);
+    assert_ne!(l.base, u32::MAX, "drawn diffuse until the values are given");
+
+    let irradiance = 0.7;
+    let values = Arc::new(vec![[irradiance; 3]; vis.tiles().elements as usize]);
+    vis.draw_with(values.clone());
+    let (l, point) = vis.lookup_and_point(eye);
+    let shown = shade_one(&l, &values);
+    // The glow's wall is black (0 albedo): what is shown is the glow times the reflecting
+    // lobes' share at normal incidence — the metal's Fresnel F0 = base, a third of it, and
+    // the dielectric's layer F0 = ((1.5 − 1)/(1.5 + 1))² = 0.04, two thirds — and the
+    // Lambertian base's share of the irradiance at the glazed square: two thirds of the
+    // base colour through the layer out (1 − 0.04) and in (1 − (0.04 + 0.96/21)), over π.
+    let (metal, f0) = (0.35, 0.04);
+    let specular = BASE * metal + Vec3::splat((1.0 - metal) * f0);
+    let base = BASE * (1.0 - metal) * (1.0 - f0) * (1.0 - (f0 + (1.0 - f0) / 21.0));
+    let expected = specular * GLOW + base * irradiance * std::f32::consts::FRAC_1_PI;
+    assert!(
+        (shown - expected).abs().max_element() < 1e-4 * GLOW,
+        "shown {shown}, expected {expected}"
+    );
+    assert!(point.expect("the mirrored wall's point").triangle >= 2);
 }
