@@ -82,9 +82,9 @@ pub fn smooth_over_planes(
     let large_area = LARGE * std::f32::consts::PI * radius * radius;
     let taking_part = |e: usize| scene.triangle_area(centres[e].0) >= large_area;
     let mut grid: HashMap<IVec3, Vec<u32>> = HashMap::new();
-    for e in 0..elements.count {
+    for (e, (p, _)) in place.iter().enumerate() {
         if taking_part(e) {
-            grid.entry(cell(place[e].0)).or_default().push(e as u32);
+            grid.entry(cell(*p)).or_default().push(e as u32);
         }
     }
     let tolerance = PLANE_TOLERANCE * elements.element_size;

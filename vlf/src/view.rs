@@ -227,8 +227,9 @@ impl Visibility {
         let ray = Ray::new(at, dir);
         let first = statics.closest_hit(&ray, f32::INFINITY);
         let chain = follow_from(&statics, ray, first, &environment(&self.lights));
-        // What a mirrored metal shows (its highlights, the sky and emitters in it) arrives
-        // as what a delta surface shows does: next-event estimation at `at` takes none of it.
+        // What a surface drawn as its mirror shows (its highlights and base, the sky and
+        // emitters in it) arrives as what a delta surface shows does: next-event
+        // estimation at `at` takes none of it.
         let behind_delta = chain.deltas > 0
             || (chain.end.as_ref())
                 .is_some_and(|(s, r)| self.drawn_as_mirror(s, r.dir, Some(values)));
