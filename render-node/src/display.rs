@@ -207,7 +207,7 @@ impl WallDisplay {
         if let Some(base) = &self.vlf {
             let t = Instant::now();
             for (eye, view) in views.iter().enumerate() {
-                self.cache.set_lookups(eye, &base.lookups(view));
+                self.cache.set_lookups(eye, &base.lookups(eye, view));
             }
             report.vlf = t.elapsed();
         }

@@ -64,9 +64,9 @@ pub struct VlfBase {
     /// Whether the walls draw the direct light per pixel (never for a scene without a
     /// light next-event estimation takes).
     direct: bool,
-    /// The running means of the direct light, per view drawn, with the frame each was
-    /// last drawn (a moved eye takes over its screen's nearest one).
-    history: Mutex<Vec<(u64, WallView, Accumulator)>>,
+    /// The running means of the direct light, per eye and view drawn, with the frame each
+    /// was last drawn (a moved eye takes over its own nearest one of the same screen).
+    history: Mutex<Vec<History>>,
     /// Buffers for the points a frame's pixels see, kept between frames (one per view
     /// drawn at once).
     points: Mutex<Vec<Vec<Option<DirectPoint>>>>,
@@ -74,6 +74,10 @@ pub struct VlfBase {
     gpu_rays: Option<(Gpu, Mutex<GpuRays>)>,
     shadow_lights: Vec<ShadowLight>,
 }
+
+/// One eye's running means of the direct light in one view: when it was last drawn (a
+/// count of draws), the eye (its index in the display), the view, the means.
+type History = (u64, usize, WallView, Accumulator);
 
 /// Emissive triangles beyond this many are taken together, as one light the size of all.
 const AREA_SHADOW_LIGHTS: usize = 64;
@@ -195,7 +199,7 @@ impl VlfBase {
             return Vec::new();
         }
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        for (_, _, acc) in h.iter_mut() {
+        for (_, _, _, acc) in h.iter_mut() {
             acc.restart();
         }
         let objects = self.scene().objects();
@@ -314,54 +318,72 @@ impl VlfBase {
         }
     }
 
-    /// What each pixel of `view` sees (the node's own ray casts, on all cores), with the
-    /// direct light per pixel in its `emitted` light: this frame's estimate averaged with
-    /// those of earlier frames of the same view at the same surface point.
-    pub fn lookups(&self, view: &EyeView) -> Vec<Lookup> {
+    /// What each pixel of `view`, drawn for the display's eye `eye`, sees (the node's own
+    /// ray casts, on all cores), with the direct light per pixel in its `emitted` light:
+    /// this frame's estimate averaged with those of earlier frames of the same eye at the
+    /// same surface point.
+    pub fn lookups(&self, eye: usize, view: &EyeView) -> Vec<Lookup> {
         let mut points = {
             let mut pool = self.points.lock().unwrap_or_else(|e| e.into_inner());
             pool.pop().unwrap_or_default()
         };
         let mut lookups = self.pixels_into(&view.wall, &mut points);
         if self.direct {
-            self.add_direct(view, &mut lookups, &points);
+            self.add_direct(eye, view, &mut lookups, &points);
         }
         let mut pool = self.points.lock().unwrap_or_else(|e| e.into_inner());
         pool.push(points);
         lookups
     }
 
+    /// How many direct-light estimates each pixel's running mean holds for eye `eye` in
+    /// `view`, as last drawn; `None` when that eye has no means of that view.
+    pub fn estimates_held(&self, eye: usize, view: &WallView) -> Option<Vec<u32>> {
+        let h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        let (_, _, _, acc) = h.iter().find(|x| x.1 == eye && x.2 == *view)?;
+        Some(acc.counts().to_vec())
+    }
+
     /// Adds each pixel's running mean of the direct light at its point (`points`) to its
     /// lookup's `emitted` light, this frame's estimate included.
-    fn add_direct(&self, view: &EyeView, lookups: &mut [Lookup], points: &[Option<DirectPoint>]) {
+    fn add_direct(
+        &self,
+        eye: usize,
+        view: &EyeView,
+        lookups: &mut [Lookup],
+        points: &[Option<DirectPoint>],
+    ) {
         let direct = &self.nee;
-        // This view's history (taken out while it is used: other views may be drawn on
-        // other threads meanwhile); else, when the eye moved, the history of the same
-        // screen drawn from the nearest eye, carried over to this view; else a new one in
-        // place of the least recently drawn.
+        // This eye's history of this view (taken out while it is used: other views may be
+        // drawn on other threads meanwhile); else, when the eye moved, its history of the
+        // same screen from where it was nearest, carried over to this view; else a new one
+        // in place of the least recently drawn. Never the other eye's: the two eyes of a
+        // wall would take each other's in turn, carrying the means across the eyes'
+        // parallax every frame.
         let (mut acc, moved_from) = {
             let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-            let same_screen = |v: &WallView| {
-                (v.pa, v.pb, v.pc, v.width, v.height)
-                    == (
-                        view.wall.pa,
-                        view.wall.pb,
-                        view.wall.pc,
-                        view.wall.width,
-                        view.wall.height,
-                    )
+            let own_screen = |(_, e, v, _): &History| {
+                *e == eye
+                    && (v.pa, v.pb, v.pc, v.width, v.height)
+                        == (
+                            view.wall.pa,
+                            view.wall.pb,
+                            view.wall.pc,
+                            view.wall.width,
+                            view.wall.height,
+                        )
             };
             let nearest = (0..h.len())
-                .filter(|&i| same_screen(&h[i].1))
+                .filter(|&i| own_screen(&h[i]))
                 .min_by(|&a, &b| {
-                    let d = |i: usize| h[i].1.eye.distance_squared(view.wall.eye);
+                    let d = |i: usize| h[i].2.eye.distance_squared(view.wall.eye);
                     d(a).total_cmp(&d(b))
                 });
-            match h.iter().position(|e| e.1 == view.wall) {
-                Some(i) => (h.swap_remove(i).2, None),
+            match h.iter().position(|x| own_screen(x) && x.2 == view.wall) {
+                Some(i) => (h.swap_remove(i).3, None),
                 None => match nearest {
                     Some(i) => {
-                        let (_, from, acc) = h.swap_remove(i);
+                        let (_, _, from, acc) = h.swap_remove(i);
                         (acc, Some(from))
                     }
                     None => {
@@ -408,6 +430,6 @@ impl VlfBase {
         });
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
         let now = h.iter().map(|e| e.0).max().unwrap_or(0) + 1;
-        h.push((now, view.wall, acc));
+        h.push((now, eye, view.wall, acc));
     }
 }

@@ -65,7 +65,7 @@ fn the_gpu_lookup_equals_the_cpu_lookup() {
         let base = baked(&scene, &settings, dir.path());
         let size = 48;
         let view = EyeView::looking_at(wall(size), 0.05).unwrap();
-        let lookups = base.lookups(&view);
+        let lookups = base.lookups(0, &view);
         let cpu = shade(&lookups, base.values());
         let glossy = lookups.iter().filter(|l| l.tile != u32::MAX).count();
         if name == "cornell" {
@@ -205,8 +205,8 @@ fn first_hits_on_the_gpu_draw_the_cpus_light_field() {
                 .with_rays(&gpu, Rays::Gpu)
                 .unwrap(),
         );
-        let a = shade(&cpu.lookups(&view), cpu.values());
-        let b = shade(&on_gpu.lookups(&view), on_gpu.values());
+        let a = shade(&cpu.lookups(0, &view), cpu.values());
+        let b = shade(&on_gpu.lookups(0, &view), on_gpu.values());
         // One 8-bit step of the brightest pixel, for each pixel's every channel.
         let peak = a.iter().map(|p| p.max_element()).fold(0.0f32, f32::max);
         let step = peak / 255.0;
@@ -231,5 +231,60 @@ fn first_hits_on_the_gpu_draw_the_cpus_light_field() {
             a.len() / 1000
         } + 1;
         assert!(off <= allowed, "{off} pixels differ");
+    }
+}
+
+/// The two eyes of a wall keep their own running means of the direct light: drawn in turn
+/// from a still head, every pixel of each eye that sees a point holds one more estimate a
+/// frame after its first ones. (When one eye took the other's means each frame, they were
+/// carried across the eyes' parallax: a pixel's mean grew by two a frame, or started again
+/// where the eyes see different points.)
+#[test]
+fn each_eye_keeps_its_own_means() {
+    let scene = cornell();
+    let dir = tempfile::tempdir().unwrap();
+    let settings = Settings {
+        directions: 42,
+        resolution: 32,
+        ..Settings::default()
+    };
+    let base = baked(&scene, &settings, dir.path());
+    let size = 32;
+    let eyes: Vec<EyeView> = [-0.032f32, 0.032]
+        .iter()
+        .map(|&dx| {
+            let mut w = wall(size);
+            w.eye.x += dx;
+            EyeView::looking_at(w, 0.05).unwrap()
+        })
+        .collect();
+    let frames = 8;
+    for _ in 0..frames {
+        for (eye, view) in eyes.iter().enumerate() {
+            base.lookups(eye, view);
+        }
+    }
+    // The box has a lamp: two estimates at a new point, then one a frame.
+    let expected = 2 + (frames - 1);
+    for (eye, view) in eyes.iter().enumerate() {
+        let held = base
+            .estimates_held(eye, &view.wall)
+            .expect("the eye's means");
+        let seen = held.iter().filter(|&&n| n > 0).count();
+        assert!(
+            seen > held.len() / 2,
+            "eye {eye}: {seen} pixels see a point"
+        );
+        let off: Vec<u32> = held
+            .iter()
+            .copied()
+            .filter(|&n| n > 0 && n != expected)
+            .collect();
+        assert!(
+            off.is_empty(),
+            "eye {eye}: {} of {seen} pixels hold other than {expected} estimates: {:?}",
+            off.len(),
+            &off[..off.len().min(8)]
+        );
     }
 }
