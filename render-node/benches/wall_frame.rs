@@ -1,5 +1,5 @@
-//! A wall's per-pixel work per frame, both eyes, with each pixel's first hit traced on the
-//! CPU and on the GPU (`--rays cpu|gpu`): the light field's lookups with the direct light
+//! A wall's per-pixel work per frame, both eyes, still and with the head moving, with each
+//! pixel's first hit traced on the CPU and on the GPU (`--rays cpu|gpu`): the light field's lookups with the direct light
 //! per pixel (`VlfBase::lookups`: first hits, mirrors and glass, 1 + P + 1 shadow rays,
 //! the running means), at 128×96 and 1024×768 per eye (and `HOLOCAVE_BENCH_WALL`'s size),
 //! in the room, on whatever adapter
@@ -13,7 +13,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 mod common;
 use common::views;
 use holocave_render_node::gpu_rays::Rays;
-use holocave_render_node::{Gpu, VlfBase};
+use holocave_render_node::{EyeView, Gpu, VlfBase};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_vlf::{Settings, VlfFile, bake};
 
@@ -35,6 +35,18 @@ fn room_field(dir: &std::path::Path) -> (Arc<Scene>, std::path::PathBuf) {
         .write(&file)
         .expect("write the light field");
     (scene, file)
+}
+
+/// `views` with both eyes moved `dx` metres sideways.
+fn moved(views: &[EyeView], dx: f32) -> Vec<EyeView> {
+    views
+        .iter()
+        .map(|v| {
+            let mut wall = v.wall;
+            wall.eye.x += dx;
+            EyeView::looking_at(wall, v.near).expect("the eye is in front of the wall")
+        })
+        .collect()
 }
 
 fn bench(c: &mut Criterion) {
@@ -59,6 +71,19 @@ fn bench(c: &mut Criterion) {
             g.bench_function(format!("rays {rays}"), |b| {
                 b.iter(|| {
                     for (eye, v) in views.iter().enumerate() {
+                        std::hint::black_box(base.lookups(eye, v));
+                    }
+                })
+            });
+            // A head moving sideways at 15 cm/s, drawn at 30 Hz: 5 mm a frame, each eye's
+            // means carried over from where it was (what a tracked viewer costs).
+            let frame = std::cell::Cell::new(0u32);
+            g.bench_function(format!("rays {rays}, moving"), |b| {
+                b.iter(|| {
+                    let f = frame.get();
+                    frame.set(f + 1);
+                    let dx = 0.005 * (f % 200) as f32;
+                    for (eye, v) in moved(&views, dx).iter().enumerate() {
                         std::hint::black_box(base.lookups(eye, v));
                     }
                 })
