@@ -75,9 +75,15 @@ pub struct VlfBase {
     shadow_lights: Vec<ShadowLight>,
 }
 
-/// One eye's running means of the direct light in one view: when it was last drawn (a
-/// count of draws), the eye (its index in the display), the view, the means.
-type History = (u64, usize, WallView, Accumulator);
+/// One eye's running means of the direct light in one view.
+struct History {
+    /// When it was last drawn (a count of draws).
+    drawn: u64,
+    /// The eye (its index in the display).
+    eye: usize,
+    view: WallView,
+    means: Accumulator,
+}
 
 /// Emissive triangles beyond this many are taken together, as one light the size of all.
 const AREA_SHADOW_LIGHTS: usize = 64;
@@ -199,8 +205,8 @@ impl VlfBase {
             return Vec::new();
         }
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        for (_, _, _, acc) in h.iter_mut() {
-            acc.restart();
+        for x in h.iter_mut() {
+            x.means.restart();
         }
         let objects = self.scene().objects();
         let after = self.visibility.placements();
@@ -340,8 +346,8 @@ impl VlfBase {
     /// `view`, as last drawn; `None` when that eye has no means of that view.
     pub fn estimates_held(&self, eye: usize, view: &WallView) -> Option<Vec<u32>> {
         let h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        let (_, _, _, acc) = h.iter().find(|x| x.1 == eye && x.2 == *view)?;
-        Some(acc.counts().to_vec())
+        let x = h.iter().find(|x| x.eye == eye && x.view == *view)?;
+        Some(x.means.counts().to_vec())
     }
 
     /// Adds each pixel's running mean of the direct light at its point (`points`) to its
@@ -362,8 +368,9 @@ impl VlfBase {
         // parallax every frame.
         let (mut acc, moved_from) = {
             let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-            let own_screen = |(_, e, v, _): &History| {
-                *e == eye
+            let own_screen = |x: &History| {
+                let v = &x.view;
+                x.eye == eye
                     && (v.pa, v.pb, v.pc, v.width, v.height)
                         == (
                             view.wall.pa,
@@ -376,19 +383,19 @@ impl VlfBase {
             let nearest = (0..h.len())
                 .filter(|&i| own_screen(&h[i]))
                 .min_by(|&a, &b| {
-                    let d = |i: usize| h[i].2.eye.distance_squared(view.wall.eye);
+                    let d = |i: usize| h[i].view.eye.distance_squared(view.wall.eye);
                     d(a).total_cmp(&d(b))
                 });
-            match h.iter().position(|x| own_screen(x) && x.2 == view.wall) {
-                Some(i) => (h.swap_remove(i).3, None),
+            match h.iter().position(|x| own_screen(x) && x.view == view.wall) {
+                Some(i) => (h.swap_remove(i).means, None),
                 None => match nearest {
                     Some(i) => {
-                        let (_, _, from, acc) = h.swap_remove(i);
-                        (acc, Some(from))
+                        let x = h.swap_remove(i);
+                        (x.means, Some(x.view))
                     }
                     None => {
                         if h.len() >= HISTORIES
-                            && let Some(oldest) = (0..h.len()).min_by_key(|&i| h[i].0)
+                            && let Some(oldest) = (0..h.len()).min_by_key(|&i| h[i].drawn)
                         {
                             h.swap_remove(oldest);
                         }
@@ -429,7 +436,12 @@ impl VlfBase {
             }
         });
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        let now = h.iter().map(|e| e.0).max().unwrap_or(0) + 1;
-        h.push((now, eye, view.wall, acc));
+        let drawn = h.iter().map(|x| x.drawn).max().unwrap_or(0) + 1;
+        h.push(History {
+            drawn,
+            eye,
+            view: view.wall,
+            means: acc,
+        });
     }
 }

@@ -25,6 +25,15 @@ fn wall(size: u32) -> WallView {
     common::front_wall(common::EYE, size)
 }
 
+/// A coarse bake (92 directions, 64 lines): enough for what the lookups do.
+fn coarse() -> Settings {
+    Settings {
+        directions: 92,
+        resolution: 64,
+        ..Settings::default()
+    }
+}
+
 /// Bakes `scene` with `settings` into a file in `dir` and opens it as a node does.
 fn baked(scene: &Arc<Scene>, settings: &Settings, dir: &std::path::Path) -> VlfBase {
     let path = dir.join("cornell.vlf");
@@ -57,11 +66,7 @@ fn the_gpu_lookup_equals_the_cpu_lookup() {
     // walls (tiles read in the direction towards the eye).
     for (name, scene) in [("cornell", cornell()), ("glossy cornell", glossy_cornell())] {
         let dir = tempfile::tempdir().unwrap();
-        let settings = Settings {
-            directions: 92,
-            resolution: 64,
-            ..Settings::default()
-        };
+        let settings = coarse();
         let base = baked(&scene, &settings, dir.path());
         let size = 48;
         let view = EyeView::looking_at(wall(size), 0.05).unwrap();
@@ -182,11 +187,7 @@ fn first_hits_on_the_gpu_draw_the_cpus_light_field() {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let scene = cornell();
     let dir = tempfile::tempdir().unwrap();
-    let settings = Settings {
-        directions: 92,
-        resolution: 64,
-        ..Settings::default()
-    };
+    let settings = coarse();
     let cpu = baked(&scene, &settings, dir.path());
     let on_gpu = VlfBase::open(&dir.path().join("cornell.vlf"), scene.clone())
         .unwrap()
@@ -243,12 +244,7 @@ fn first_hits_on_the_gpu_draw_the_cpus_light_field() {
 fn each_eye_keeps_its_own_means() {
     let scene = cornell();
     let dir = tempfile::tempdir().unwrap();
-    let settings = Settings {
-        directions: 42,
-        resolution: 32,
-        ..Settings::default()
-    };
-    let base = baked(&scene, &settings, dir.path());
+    let base = baked(&scene, &coarse(), dir.path());
     let size = 32;
     let eyes: Vec<EyeView> = [-0.032f32, 0.032]
         .iter()

@@ -67,9 +67,18 @@ pub fn smooth_over_planes(
         return out;
     }
     let (area, centres) = elements.areas_and_centres(scene);
+    let large_area = LARGE * std::f32::consts::PI * radius * radius;
+    let least_element = LEAST_ELEMENT * elements.element_size * elements.element_size;
+    let taking: Vec<bool> = (0..elements.count)
+        .map(|e| scene.triangle_area(centres[e].0) >= large_area && area[e] >= least_element)
+        .collect();
+    // Each taking part element's centre and side's normal (the rest are not looked at).
     let place: Vec<(Vec3, Vec3)> = (0..elements.count)
         .into_par_iter()
         .map(|e| {
+            if !taking[e] {
+                return (Vec3::ZERO, Vec3::ZERO);
+            }
             let (t, u, v) = centres[e];
             let c = elements.triangles[t as usize];
             let back = e as u32 >= c.base(1);
@@ -84,13 +93,9 @@ pub fn smooth_over_planes(
         })
         .collect();
     let cell = |p: Vec3| (p / radius).floor().as_ivec3();
-    let large_area = LARGE * std::f32::consts::PI * radius * radius;
-    let least_element = LEAST_ELEMENT * elements.element_size * elements.element_size;
-    let taking_part =
-        |e: usize| scene.triangle_area(centres[e].0) >= large_area && area[e] >= least_element;
     let mut grid: HashMap<IVec3, Vec<u32>> = HashMap::new();
     for (e, (p, _)) in place.iter().enumerate() {
-        if taking_part(e) {
+        if taking[e] {
             grid.entry(cell(*p)).or_default().push(e as u32);
         }
     }
@@ -110,7 +115,7 @@ pub fn smooth_over_planes(
     let log_lum: Vec<f32> = (0..elements.count)
         .into_par_iter()
         .map(|e| {
-            if !taking_part(e) {
+            if !taking[e] {
                 return 0.0;
             }
             let r = range_of(e);
@@ -125,7 +130,7 @@ pub fn smooth_over_planes(
         .collect();
     let smoothed: Vec<(usize, Vec<Vec3>)> = (0..elements.count)
         .into_par_iter()
-        .filter(|&e| taking_part(e))
+        .filter(|&e| taking[e])
         .map(|e| {
             let (p, n) = place[e];
             let at = cell(p);

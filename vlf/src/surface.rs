@@ -18,7 +18,7 @@ use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::frame::Frame;
 use holocave_tracer::fresnel;
 use holocave_tracer::integrator::shadow_ray;
-use holocave_tracer::lights::{LightSample, Lights};
+use holocave_tracer::lights::Lights;
 use holocave_tracer::microfacet::Ggx;
 use holocave_tracer::sampling::cosine_hemisphere;
 
@@ -307,18 +307,13 @@ pub fn mirrored_gloss(params: &SurfaceParams) -> bool {
 }
 
 /// The light of the sun (from its disc's centre: exact wherever the whole disc is seen)
-/// and of every punctual light that `s`, seen along `dir`, reflects towards the viewer by
-/// its BSDF, each behind a shadow ray through `scene`: a [`mirrored_gloss`]'s highlights.
-pub fn highlights(scene: &PlacedScene, lights: &Lights, s: &Seen, dir: Vec3) -> Vec3 {
+/// and of every punctual light that `s` (its BSDF `bsdf`), seen along `dir`, reflects
+/// towards the viewer, each behind a shadow ray through `scene`: a [`mirrored_gloss`]'s
+/// highlights.
+pub fn highlights(scene: &PlacedScene, lights: &Lights, s: &Seen, bsdf: &Bsdf, dir: Vec3) -> Vec3 {
     let wo = -dir;
-    let bsdf = Bsdf::new(&s.params);
     let frame = Frame::new(s.shading_normal);
-    let sun = lights.sun.as_ref().map(|sun| LightSample {
-        wi: sun.direction,
-        dist: f32::INFINITY,
-        contribution: sun.radiance * sun.solid_angle(),
-        pdf: f32::INFINITY,
-    });
+    let sun = lights.sample_sun(Vec2::ZERO);
     let punctual = (0..lights.punctual.len()).filter_map(|i| lights.sample_punctual(i, s.position));
     sun.into_iter()
         .chain(punctual)

@@ -373,7 +373,7 @@ impl Visibility {
                 let irradiance = interpolate(v, cells.base(side), cells.res, s.hit.u, s.hit.v);
                 bsdf.diffuse_reflectance(cos_o) * std::f32::consts::FRAC_1_PI * irradiance
             });
-            let shown = highlights(scene, &self.lights, &s, r.dir) + base;
+            let shown = highlights(scene, &self.lights, &s, &bsdf, r.dir) + base;
             let so_far = (
                 chain.weight,
                 chain.emitted + chain.weight * shown,
