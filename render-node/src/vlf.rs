@@ -169,7 +169,7 @@ impl VlfBase {
         let visibility = Visibility::new(scene, elements, tiles);
         visibility.light_objects(total.clone());
         let direct = !nee.is_empty();
-        visibility.draw_with(if direct { &indirect } else { &total }.clone());
+        visibility.draw_with(if direct { &indirect } else { &total }.clone(), direct);
         Ok(VlfBase {
             total,
             indirect,
@@ -238,7 +238,7 @@ impl VlfBase {
         } else {
             &self.total
         };
-        self.visibility.draw_with(values.clone());
+        self.visibility.draw_with(values.clone(), self.direct);
         self
     }
 

@@ -22,7 +22,9 @@ use holocave_scene::bvh::PACKET;
 use holocave_scene::{Hit, PlacedScene, Placement, Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::film::Image;
+use holocave_tracer::frame::Frame;
 use holocave_tracer::lights::Lights;
+use holocave_tracer::microfacet::Ggx;
 use rayon::prelude::*;
 
 use crate::bake::environment;
@@ -30,11 +32,18 @@ use crate::elements::{Elements, interpolate};
 use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
+use crate::sequence::{R2, r_sequence};
 use crate::surface::{
     Chain, Seen, diffuse_albedo, follow, follow_from, highlights, mirrored, mirrored_gloss,
     side_facing,
 };
 use crate::tiles::Tiles;
+
+/// GGX `α` from which a mirrored-gloss surface seen directly reflects its lobe's blur
+/// ([`Visibility::blurred_reflection`]) rather than one mirrored ray.
+pub const BLURRED_ALPHA: f32 = 0.05;
+/// Directions a blurred reflection takes.
+pub const BLURRED_RAYS: u64 = 8;
 
 /// What one pixel (or one ray) sees of the light field.
 /// Laid out as the render node's shader reads it (`Lookup` in
@@ -118,6 +127,10 @@ pub struct OverMirror {
     pub beyond: f32,
 }
 
+/// The values a view's lookups are shaded with, and whether they are the remainder under
+/// the direct light per pixel ([`Visibility::draw_with`]).
+type Drawn = (Arc<Vec<[f32; 3]>>, bool);
+
 /// The scene's side of drawing: the element layout, the light the eye sees directly, and
 /// where the moving objects are ([`crate::objects`]).
 pub struct Visibility {
@@ -129,8 +142,9 @@ pub struct Visibility {
     /// The light field's values (all of its light) the objects' probes gather.
     light: OnceLock<Arc<Vec<[f32; 3]>>>,
     /// The values the lookups are shaded with, where the CPU shades a part of a lookup
-    /// itself ([`Visibility::draw_with`]).
-    drawn: RwLock<Option<Arc<Vec<[f32; 3]>>>>,
+    /// itself, and whether they are the remainder under the direct light per pixel
+    /// ([`Visibility::draw_with`]).
+    drawn: RwLock<Option<Drawn>>,
     /// Whether the objects darken the light field's part near them (off only to measure
     /// what that does: [`Visibility::without_darkening`]).
     darkening: bool,
@@ -162,7 +176,7 @@ impl Visibility {
     /// Lights the moving objects from the light field's `values` (all of its light:
     /// [`crate::State::values`]); the first call counts.
     pub fn light_objects(&self, values: Arc<Vec<[f32; 3]>>) {
-        if self.scene.objects().is_empty() || self.light.set(values).is_err() {
+        if self.light.set(values).is_err() || self.scene.objects().is_empty() {
             return;
         }
         let mut o = self.objects.write().unwrap_or_else(|e| e.into_inner());
@@ -172,17 +186,22 @@ impl Visibility {
     }
 
     /// The values the lookups made from now on are shaded with (the light field's, all of
-    /// it or its remainder): a glossy surface drawn as its mirror ([`mirrored_gloss`])
-    /// takes its Lambertian base's light from them at the surface itself. Until given, a
-    /// surface with a Lambertian base is drawn diffuse and only a pure metal as its mirror.
-    pub fn draw_with(&self, values: Arc<Vec<[f32; 3]>>) {
-        *self.drawn.write().unwrap_or_else(|e| e.into_inner()) = Some(values);
+    /// it or, with `remainder`, what the direct light per pixel leaves): a glossy surface
+    /// drawn as its mirror ([`mirrored_gloss`]) takes its Lambertian base's light from
+    /// them at the surface itself. Until given, a surface with a Lambertian base is drawn
+    /// diffuse and only a pure metal as its mirror.
+    pub fn draw_with(&self, values: Arc<Vec<[f32; 3]>>, remainder: bool) {
+        *self.drawn.write().unwrap_or_else(|e| e.into_inner()) = Some((values, remainder));
     }
 
-    /// Runs `f` with the values given to [`Self::draw_with`], if any.
-    fn with_drawn<T>(&self, f: impl FnOnce(Option<&[[f32; 3]]>) -> T) -> T {
+    /// Runs `f` with the values given to [`Self::draw_with`], if any, and whether the
+    /// per-pixel pass adds the direct light at the points.
+    fn with_drawn<T>(&self, f: impl FnOnce(Option<&[[f32; 3]]>, bool) -> T) -> T {
         let drawn = self.drawn.read().unwrap_or_else(|e| e.into_inner());
-        f(drawn.as_deref().map(Vec::as_slice))
+        match drawn.as_ref() {
+            Some((values, remainder)) => f(Some(values.as_slice()), *remainder),
+            None => f(None, false),
+        }
     }
 
     /// Where the moving objects stand now.
@@ -250,7 +269,8 @@ impl Visibility {
         // Straight out of the scene: the sky only (the sun comes by next-event
         // estimation); onto a surface: not its emission (the emitters come so too).
         let escaped = chain.end.is_none();
-        let (mut l, point) = self.lookup_chain(chain, &ObjectLight::default(), None, Some(values));
+        let (mut l, point) =
+            self.lookup_chain(chain, &ObjectLight::default(), None, Some(values), false);
         if !behind_delta {
             l.emitted = if escaped { sky(dir) } else { Vec3::ZERO }.to_array();
         }
@@ -296,7 +316,7 @@ impl Visibility {
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
         let chain = follow(&placed, ray, &env);
-        self.with_drawn(|v| self.lookup_chain(chain, &objects, Some(&placed), v))
+        self.with_drawn(|v, d| self.lookup_chain(chain, &objects, Some(&placed), v, d))
     }
 
     /// [`Self::lookup_and_point`], and the ray's first hit (mirrors and glass included):
@@ -307,7 +327,8 @@ impl Visibility {
         let placed = self.scene.placed(&objects.placements);
         let first = placed.closest_hit(&ray, f32::INFINITY);
         let chain = follow_from(&placed, ray, first, &env);
-        let (l, p) = self.with_drawn(|v| self.lookup_chain(chain, &objects, Some(&placed), v));
+        let (l, p) =
+            self.with_drawn(|v, d| self.lookup_chain(chain, &objects, Some(&placed), v, d));
         (l, p, first)
     }
 
@@ -330,6 +351,58 @@ impl Visibility {
             && self.tiles.of(element).is_none()
     }
 
+    /// What the reflecting lobe (GGX `lobe`) of the mirrored-gloss surface `s`, seen
+    /// along `dir`, gathers from the scene as the light field draws it (`total`: all of
+    /// its light), per unit of its reflectance: the mean of [`BLURRED_RAYS`] directions
+    /// drawn from the lobe's visible normals, the same ones wherever the point is seen
+    /// from the same place (the sequence is rotated by the point's hash), the sky without
+    /// the sun (its highlight is [`highlights`]'). Each direction's own mirrored-gloss
+    /// surfaces are taken as mirrors.
+    fn blurred_reflection(
+        &self,
+        scene: &PlacedScene,
+        objects: &ObjectLight,
+        s: &Seen,
+        dir: Vec3,
+        lobe: Ggx,
+        total: &[[f32; 3]],
+    ) -> Vec3 {
+        let sky = |d: Vec3| {
+            self.lights
+                .sky
+                .as_ref()
+                .map_or(Vec3::ZERO, |k| k.radiance(d))
+        };
+        let frame = Frame::new(s.shading_normal);
+        let wo = frame.to_local(-dir);
+        if wo.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let seed = u64::from(s.hit.triangle) << 32
+            ^ u64::from((s.hit.u * 65536.0) as u32) << 16
+            ^ u64::from((s.hit.v * 65536.0) as u32);
+        let mut sum = Vec3::ZERO;
+        let mut taken = 0;
+        for k in 0..BLURRED_RAYS {
+            let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
+            let m = lobe.sample_visible(wo, u);
+            let wi = 2.0 * wo.dot(m) * m - wo;
+            if wi.z <= 0.0 {
+                continue;
+            }
+            taken += 1;
+            let ray = Ray::leaving(s.position, s.normal, frame.to_world(wi));
+            let chain = follow(scene, ray, &sky);
+            let chain = Chain {
+                deltas: chain.deltas + 1,
+                ..chain
+            };
+            let (l, _) = self.lookup_chain(chain, objects, Some(scene), Some(total), false);
+            sum += shade_one(&l, total);
+        }
+        sum / taken.max(1) as f32
+    }
+
     /// The lookup of what a chain of surfaces ends on; `placed` tells a moving object's
     /// surface apart (then it is lit from `objects`' probes, and the caches' samples do not
     /// count), and darkens the light field's part near the objects.
@@ -339,6 +412,7 @@ impl Visibility {
         objects: &ObjectLight,
         placed: Option<&PlacedScene>,
         values: Option<&[[f32; 3]]>,
+        direct_at_point: bool,
     ) -> (Lookup, Option<DirectPoint>) {
         let Some((s, r)) = chain.end else {
             let none = Lookup {
@@ -354,36 +428,6 @@ impl Visibility {
             self.elements
                 .element(s.hit.triangle, side, s.hit.u, s.hit.v)
         };
-        // A glossy surface of the static scene without a tile: its highlights and its
-        // Lambertian base's light, and the lookup of what it mirrors (the sun's disc taken
-        // by the highlights, not along the mirrored ray).
-        if object.is_none() && self.drawn_as_mirror(&s, r.dir, values) {
-            let statics = self.scene.statics();
-            let scene = placed.unwrap_or(&statics);
-            let sky = |d: Vec3| {
-                self.lights
-                    .sky
-                    .as_ref()
-                    .map_or(Vec3::ZERO, |k| k.radiance(d))
-            };
-            let bsdf = Bsdf::new(&s.params);
-            let cos_o = s.shading_normal.dot(r.dir).abs();
-            let base = values.map_or(Vec3::ZERO, |v| {
-                let cells = self.elements.triangles[s.hit.triangle as usize];
-                let irradiance = interpolate(v, cells.base(side), cells.res, s.hit.u, s.hit.v);
-                bsdf.diffuse_reflectance(cos_o) * std::f32::consts::FRAC_1_PI * irradiance
-            });
-            let shown = highlights(scene, &self.lights, &s, &bsdf, r.dir) + base;
-            let so_far = (
-                chain.weight,
-                chain.emitted + chain.weight * shown,
-                chain.deltas,
-            );
-            let reflectance = bsdf.specular_reflectance(cos_o);
-            if let Some(c) = mirrored(scene, so_far, &s, r.dir, reflectance, &sky) {
-                return self.lookup_chain(c, objects, placed, values);
-            }
-        }
         let point = DirectPoint {
             triangle: s.hit.triangle,
             position: s.position,
@@ -393,6 +437,54 @@ impl Visibility {
             bsdf: Bsdf::new(&s.params),
             weight: chain.weight,
         };
+        // A glossy surface of the static scene without a tile: its Lambertian base's light,
+        // its highlights (the per-pixel pass's where it adds the direct light here, else
+        // the sun's and punctual lights' taken here), and what its lobe reflects: seen
+        // directly, blurred as the lobe blurs it; beyond a mirror or glass, the lookup
+        // along the mirrored ray (the sun's disc taken by the highlights, not along it).
+        if object.is_none() && self.drawn_as_mirror(&s, r.dir, values) {
+            let statics = self.scene.statics();
+            let scene = placed.unwrap_or(&statics);
+            let sky = |d: Vec3| {
+                self.lights
+                    .sky
+                    .as_ref()
+                    .map_or(Vec3::ZERO, |k| k.radiance(d))
+            };
+            let bsdf = point.bsdf;
+            let cos_o = s.shading_normal.dot(r.dir).abs();
+            let base = values.map_or(Vec3::ZERO, |v| {
+                let cells = self.elements.triangles[s.hit.triangle as usize];
+                let irradiance = interpolate(v, cells.base(side), cells.res, s.hit.u, s.hit.v);
+                bsdf.diffuse_reflectance(cos_o) * std::f32::consts::FRAC_1_PI * irradiance
+            });
+            let reflectance = bsdf.specular_reflectance(cos_o);
+            let lobe = bsdf.ggx();
+            if chain.deltas == 0
+                && lobe.alpha >= BLURRED_ALPHA
+                && let Some(total) = self.light.get()
+            {
+                let blurred = self.blurred_reflection(scene, objects, &s, r.dir, lobe, total);
+                let mut shown = base + reflectance * blurred;
+                if !direct_at_point {
+                    shown += highlights(scene, &self.lights, &s, &bsdf, r.dir);
+                }
+                let l = Lookup {
+                    emitted: (chain.emitted + chain.weight * shown).to_array(),
+                    ..Lookup::NONE
+                };
+                return (l, direct_at_point.then_some(point));
+            }
+            let shown = highlights(scene, &self.lights, &s, &bsdf, r.dir) + base;
+            let so_far = (
+                chain.weight,
+                chain.emitted + chain.weight * shown,
+                chain.deltas,
+            );
+            if let Some(c) = mirrored(scene, so_far, &s, r.dir, reflectance, &sky) {
+                return self.lookup_chain(c, objects, placed, values, direct_at_point);
+            }
+        }
         if let Some(k) = object {
             let indirect = diffuse_albedo(&s.params)
                 * std::f32::consts::FRAC_1_PI
@@ -524,7 +616,8 @@ impl Visibility {
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
         let drawn = self.drawn.read().unwrap_or_else(|e| e.into_inner());
-        let values = drawn.as_deref().map(Vec::as_slice);
+        let values = drawn.as_ref().map(|(v, _)| v.as_slice());
+        let remainder = drawn.as_ref().is_some_and(|(_, r)| *r);
         lookups
             .par_chunks_mut(chunk)
             .zip(points.par_chunks_mut(chunk))
@@ -536,7 +629,7 @@ impl Visibility {
                 let hits = first_hits(&placed, &rays, c * chunk);
                 for (((l, p), ray), hit) in lookups.iter_mut().zip(points).zip(rays).zip(hits) {
                     let chain = follow_from(&placed, ray, hit, &env);
-                    (*l, *p) = self.lookup_chain(chain, &objects, Some(&placed), values);
+                    (*l, *p) = self.lookup_chain(chain, &objects, Some(&placed), values, remainder);
                 }
             });
         lookups
@@ -596,7 +689,13 @@ impl Visibility {
                 );
                 let ray = view.ray(Vec2::new(x, y) + o);
                 let chain = follow(&placed, ray, &env);
-                let (l, p) = self.lookup_chain(chain, &objects, Some(&placed), Some(values));
+                let (l, p) = self.lookup_chain(
+                    chain,
+                    &objects,
+                    Some(&placed),
+                    Some(values),
+                    direct.is_some(),
+                );
                 sum += shade_one(&l, values);
                 if let Some(direct) = direct {
                     sum += direct.tile_albedo(&l, values);
