@@ -116,6 +116,7 @@ pub struct GpuPoint {
     pub pos: [f32; 4],
     pub rad: [f32; 4],
     pub origin: [f32; 4],
+    pub square: [f32; 4],
 }
 
 /// A traced sample on its way into the cache (`NewSample` in `shaders/insert.wgsl`).
@@ -251,7 +252,10 @@ struct VlfParams {
     prior: f32,
     /// Values per light-field buffer (the last may hold fewer).
     chunk: u32,
-    _pad: [u32; 3],
+    /// A sample's variance over `μ² + 0.01` on the display ([`crate::prior::Measured`]);
+    /// 0: the prior is the same in every pixel.
+    spread: f32,
+    _pad: [u32; 2],
 }
 
 /// The light field's values are bound as this many storage buffers, each within the
@@ -372,6 +376,7 @@ impl RenderCache {
             pos: [0.0, 0.0, 0.0, 2.0e6],
             rad: [0.0; 4],
             origin: [0.0; 4],
+            square: [0.0; 4],
         };
         let points = gpu.storage_init(
             "points",
@@ -519,7 +524,8 @@ impl RenderCache {
                     index_bits: self.index_bits,
                     prior,
                     chunk: chunk as u32,
-                    _pad: [0; 3],
+                    spread: 0.0,
+                    _pad: [0; 2],
                 };
                 self.gpu
                     .queue
@@ -554,14 +560,21 @@ impl RenderCache {
     }
 
     /// What the light field is worth from now on, in samples per pixel (see
-    /// [`Self::set_vlf`]); nothing without a light field.
-    pub fn set_vlf_prior(&mut self, prior: f32) {
+    /// [`Self::set_vlf`]): `prior` where a pixel's samples spread as the display's do,
+    /// `spread` their variance over `μ² + 0.01` ([`crate::prior::Measured::spread`]),
+    /// scaled in each pixel by how its own samples spread (`shaders/vlf.wgsl`); with
+    /// `spread` 0, `prior` in every pixel. Nothing without a light field.
+    pub fn set_vlf_prior(&mut self, prior: f32, spread: f32) {
         if let Some(v) = &self.vlf {
             for (params, _, _) in &v.eyes {
-                let at = std::mem::offset_of!(VlfParams, prior) as u64;
-                self.gpu
-                    .queue
-                    .write_buffer(params, at, bytemuck::bytes_of(&prior));
+                for (field, value) in [
+                    (std::mem::offset_of!(VlfParams, prior), prior),
+                    (std::mem::offset_of!(VlfParams, spread), spread),
+                ] {
+                    self.gpu
+                        .queue
+                        .write_buffer(params, field as u64, bytemuck::bytes_of(&value));
+                }
             }
         }
     }
@@ -809,7 +822,8 @@ impl RenderCache {
 
     /// All points (for tests and debugging).
     pub fn points(&self) -> Vec<GpuPoint> {
-        let bytes = self.gpu.read(&self.points, 48 * u64::from(self.capacity));
+        let size = std::mem::size_of::<GpuPoint>() as u64;
+        let bytes = self.gpu.read(&self.points, size * u64::from(self.capacity));
         bytemuck::cast_slice(&bytes).to_vec()
     }
 }
@@ -988,6 +1002,7 @@ mod layout_tests {
                 ("pos", offset_of!(GpuPoint, pos)),
                 ("rad", offset_of!(GpuPoint, rad)),
                 ("origin", offset_of!(GpuPoint, origin)),
+                ("square", offset_of!(GpuPoint, square)),
             ],
         );
         assert_same_layout(
@@ -1078,9 +1093,9 @@ mod layout_tests {
                 ("index_bits", offset_of!(VlfParams, index_bits)),
                 ("prior", offset_of!(VlfParams, prior)),
                 ("chunk", offset_of!(VlfParams, chunk)),
-                ("pad0", offset_of!(VlfParams, _pad)),
-                ("pad1", offset_of!(VlfParams, _pad) + 4),
-                ("pad2", offset_of!(VlfParams, _pad) + 8),
+                ("spread", offset_of!(VlfParams, spread)),
+                ("pad1", offset_of!(VlfParams, _pad)),
+                ("pad2", offset_of!(VlfParams, _pad) + 4),
             ],
         );
     }

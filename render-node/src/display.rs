@@ -150,7 +150,10 @@ impl WallDisplay {
             if m.gathers() { "gather" } else { "path" }
         );
         self.prior = found.samples;
-        self.cache.set_vlf_prior(self.prior);
+        // Per pixel only under full paths, whose mean is the true radiance (see
+        // `crate::prior`): a gather's mean has the field's error one bounce later.
+        let spread = if m.gathers() { 0.0 } else { found.spread };
+        self.cache.set_vlf_prior(self.prior, spread);
     }
 
     /// Puts the scene's moving objects where a frame state says (by name; an object the

@@ -29,15 +29,28 @@
 //! the Cornell box's field's error against gathers for 0.17 instead of 0.01; 32 per pixel
 //! measured a path's relative variance at 0.13 where 1024 measure 4.2).
 //!
-//! One `k` per display, not per pixel: the maths would take `σ²` and `b²` per pixel, but a
-//! cached point keeps only its samples' mean and count, and `b²` of one pixel from its own
+//! Per pixel the maths takes `σ²` and `b²` of that pixel. `b²` of one pixel from its own
 //! few samples is noise (a pixel's `(C̄ − V)²` estimates it with the variance of a single
-//! sample squared).
+//! sample squared), so the field's error is the display's, relative to `μ² + 0.01`; `σ²`
+//! is the pixel's own, from the squared luminance its cached point keeps beside the mean,
+//! pooled with the display's [`Measured::spread`] while the point has few samples
+//! (`shaders/vlf.wgsl`): where a pixel's samples agree, the field gives way sooner.
+//!
+//! That is done under full paths only. `k = σ²/b²` is least error against the samples'
+//! own mean, which for a path is the true radiance; a gather's mean keeps the field's
+//! error one bounce later, and there the pixels whose gathers agree are not the ones
+//! where the field is wrong. Measured (`holocave compare`, the Cornell box's front wall,
+//! a still head, 10 s, docs/vlf-direct.md): per pixel, the paths' error at the end fell
+//! from 2.82e-3 to 2.21e-3 and the gathers' rose from 1.54e-3 to 2.06e-3; in motion
+//! neither moved beyond the runs' spread (0.99× and 0.97× of one `k`'s). Taking each
+//! pixel's `b²` from its own samples as well made the gathers 1.26× `vlf`'s error in
+//! motion.
 
 use std::str::FromStr;
 
 use glam::{Vec2, Vec3};
 use holocave_scene::Ray;
+use holocave_scene::color::luminance;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 
 use crate::EyeView;
@@ -92,6 +105,9 @@ pub struct Measured {
     /// `Σ σ²` and `Σ b²` over the pixels, weighted, per pixel and channel.
     pub variance: f64,
     pub bias2: f64,
+    /// A sample's variance over `μ² + 0.01`, in luminance, the mean over the pixels: what
+    /// a pixel's own spread is set against (`shaders/vlf.wgsl`).
+    pub spread: f32,
     pub pixels: usize,
 }
 
@@ -99,8 +115,8 @@ impl std::fmt::Display for Measured {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "the light field worth {:.1} samples (a sample's relative variance {:.3e}, the field's squared error against the samples' mean {:.3e}, {} pixels × {PER_PIXEL} samples)",
-            self.samples, self.variance, self.bias2, self.pixels
+            "the light field worth {:.1} samples (a sample's relative variance {:.3e}, in luminance {:.3e}, the field's squared error against the samples' mean {:.3e}, {} pixels × {PER_PIXEL} samples)",
+            self.samples, self.variance, self.spread, self.bias2, self.pixels
         )
     }
 }
@@ -110,13 +126,17 @@ impl std::fmt::Display for Measured {
 pub fn from_samples(field: &[Vec3], samples: &[Vec<Vec3>]) -> Measured {
     // Per pixel, summed over channels: the weighted variance and the unbiased estimate
     // of the weighted squared bias.
-    let terms: Vec<(f64, f64)> = field
+    let terms: Vec<(f64, f64, f64)> = field
         .iter()
         .zip(samples)
         .filter(|(_, s)| s.len() >= 2)
         .map(|(v, s)| {
             let m = s.len() as f64;
             let (mut var, mut bias2) = (0.0, 0.0);
+            let lum: Vec<f64> = s.iter().map(|x| f64::from(luminance(*x))).collect();
+            let lum_mean = lum.iter().sum::<f64>() / m;
+            let lum_s2 = lum.iter().map(|x| (x - lum_mean).powi(2)).sum::<f64>() / (m - 1.0);
+            let scale = lum_mean.max(f64::from(luminance(*v))).powi(2) + 0.01;
             for c in 0..3 {
                 let xs = s.iter().map(|x| f64::from(x[c]));
                 let mean = xs.clone().sum::<f64>() / m;
@@ -126,7 +146,7 @@ pub fn from_samples(field: &[Vec3], samples: &[Vec<Vec3>]) -> Measured {
                 var += w * s2 / 3.0;
                 bias2 += w * ((mean - r).powi(2) - s2 / m) / 3.0;
             }
-            (var, bias2)
+            (var, bias2, lum_s2 / scale)
         })
         .collect();
     let n = terms.len().max(1) as f64;
@@ -146,6 +166,7 @@ pub fn from_samples(field: &[Vec3], samples: &[Vec<Vec3>]) -> Measured {
         samples: k,
         variance: var,
         bias2,
+        spread: (terms.iter().map(|t| t.2).sum::<f64>() / n) as f32,
         pixels: terms.len(),
     }
 }
@@ -223,6 +244,15 @@ mod tests {
         assert!(
             (got.samples - want).abs() < 0.15 * want,
             "{got}: want {want}"
+        );
+        // The spread: σ² over the field's square (the larger of the two) plus 0.01. Each
+        // pixel's s² from 256 samples is within √(2/255) = 9 % (less for a uniform), the
+        // mean over 256 pixels within 0.6 %: three standard errors, 2 %.
+        let spread = sigma * sigma / ((mu + bias).powi(2) + 0.01);
+        assert!(
+            (got.spread - spread).abs() < 0.02 * spread,
+            "{got}: the spread {} against {spread}",
+            got.spread
         );
     }
 

@@ -521,3 +521,62 @@ fn a_sample_of_an_object_never_joins_a_point_of_the_room_from_the_same_eye() {
         "radiance and count of the points"
     );
 }
+
+/// The light field's worth per pixel follows how the pixel's own samples spread
+/// (`shaders/vlf.wgsl`, `pixel_prior`). The field gives 1 everywhere, worth `prior` = 10
+/// samples where a sample's variance over `μ² + 0.01` is the display's `spread` (0.25).
+/// Pixel (4, 4) takes eight samples of 3 (variance 0), pixel (2, 2) eight alternating 1
+/// and 5 (mean 3, unbiased variance 4 · 8/7); each pixel's variance is pooled with the
+/// display's, worth 8 degrees of freedom against its own 7:
+/// `k = prior · (8 · spread · s + 7 · v) / (15 · spread · s)`, `s = 3² + 0.01`. So the
+/// agreeing pixel shows more of its samples (k 5.3) than the scattered one (k 14.8); with
+/// one `k` both would show `(10 + 8 · 3) / 18`.
+#[test]
+fn the_field_gives_way_sooner_where_a_pixels_samples_agree() {
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let mut c = cache(256);
+    let (prior, spread) = (10.0f32, 0.25f32);
+    c.set_vlf(&[[1.0; 3]], prior).unwrap();
+    c.set_vlf_prior(prior, spread);
+    let lookups: Vec<Lookup> = (0..W * H)
+        .map(|_| Lookup {
+            base: 0,
+            res: 1,
+            weight: [1.0; 3],
+            ..Lookup::NONE
+        })
+        .collect();
+    c.set_lookups(0, &lookups);
+    let n = 8;
+    for j in 0..n {
+        draw(&mut c, &v);
+        let scattered = if j % 2 == 0 { 1.0 } else { 5.0 };
+        c.insert(
+            0,
+            &[sample(&v, 4, 4, 2.0, 3.0), sample(&v, 2, 2, 2.0, scattered)],
+        );
+    }
+    c.set_lookups(0, &lookups);
+    draw(&mut c, &v);
+    let img = c.image(0);
+    let s = 9.01f32;
+    let k = |variance: f32| prior * (8.0 * spread * s + 7.0 * variance) / (15.0 * spread * s);
+    // n samples discounted by their age (64 / (64 + age)), age at most a frame or two.
+    let shown = |k: f32, n: f32| (k + n * 3.0) / (k + n);
+    let within = |got: f32, k: f32| {
+        let (a, b) = (shown(k, n as f32 * 64.0 / 66.0), shown(k, n as f32));
+        got >= a.min(b) - 1e-4 && got <= a.max(b) + 1e-4
+    };
+    let (agreeing, scattered) = (img.at(4, 4).x, img.at(2, 2).x);
+    let (ka, kb) = (k(0.0), k(4.0 * 8.0 / 7.0));
+    assert!(
+        within(agreeing, ka),
+        "agreeing samples: shown {agreeing}, k {ka} gives {}",
+        shown(ka, n as f32)
+    );
+    assert!(
+        within(scattered, kb),
+        "scattered samples: shown {scattered}, k {kb} gives {}",
+        shown(kb, n as f32)
+    );
+}

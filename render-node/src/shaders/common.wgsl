@@ -6,11 +6,14 @@ fn luminance(c: vec3<f32>) -> f32 {
 }
 
 // One cached point: world position and age, mean radiance and sample count, the origin
-// of the ray(s) that made it and the id of the surface it lies on.
+// of the ray(s) that made it and the id of the surface it lies on, and the mean of its
+// samples' squared luminance (their spread, for the light field's prior per pixel:
+// vlf.wgsl).
 struct Point {
     pos: vec4<f32>,    // xyz world position, w age in frames (>= MAX_AGE: empty slot)
     rad: vec4<f32>,    // rgb mean radiance, w number of samples averaged
     origin: vec4<f32>, // xyz ray origin, w surface id (bitcast u32)
+    square: vec4<f32>, // x mean squared luminance (as rad's mean), yzw unused
 }
 
 // A surface id holds the material in its low 24 bits and the moving object the point lies

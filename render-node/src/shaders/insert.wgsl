@@ -125,7 +125,10 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         p.origin = vec4<f32>(s.origin.xyz, p.origin.w);
     }
-    p.rad = vec4<f32>(p.rad.xyz + (s.rad.xyz - p.rad.xyz) * min(w / n, 1.0), n);
+    let share = min(w / n, 1.0);
+    p.rad = vec4<f32>(p.rad.xyz + (s.rad.xyz - p.rad.xyz) * share, n);
+    let l = luminance(s.rad.xyz);
+    p.square.x = p.square.x + (l * l - p.square.x) * share;
     // The point stands for the pixel: keep the nearest hit so the depth cull sees the
     // front surface at silhouettes.
     if (s.origin.w < distance(p.pos.xyz, p.origin.xyz)) {
@@ -183,5 +186,6 @@ fn place_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
         vec4<f32>(s.pos.xyz, 0.0),
         vec4<f32>(s.rad.xyz, max(s.weight.x, 1.0)),
         vec4<f32>(s.origin.xyz, s.rad.w),
+        vec4<f32>(luminance(s.rad.xyz) * luminance(s.rad.xyz), 0.0, 0.0, 0.0),
     );
 }

@@ -4,8 +4,8 @@
 // irradiance — or, for a glossy surface, from its directional radiance tile in the
 // direction towards the eye — exactly as holocave_vlf::view::shade_one does on the CPU,
 // then blended
-// with what the cache shows: the light field is a prior worth `prior` samples,
-//   shown = (prior · V + n · C) / (prior + n),
+// with what the cache shows: the light field is a prior worth `k` samples,
+//   shown = (k · V + n · C) / (k + n),
 // with n the samples behind the cache's value (its point's count, discounted by age;
 // half a sample for an interpolated pixel, none for an empty one), times the lookup's
 // `samples` (none where a moving object makes the static samples wrong), and none from a
@@ -13,6 +13,19 @@
 // interpolated pixel's points are not known, so it counts only where the pixel sees the
 // room). Where the two
 // disagree most, the priority image asks for samples first.
+//
+// `k` is the display's `prior` where a pixel's samples spread as the display's do
+// (render_node::prior: k = σ²/b², the samples' variance over the field's squared error,
+// both over μ² + 0.01). Per pixel the maths asks for the pixel's own σ²: with `spread` the
+// display's σ²/(μ² + 0.01), a point's squared luminance gives its samples' variance v from
+// its n samples, and the pixel's σ² is taken as the two pooled, the display's worth
+// PRIOR_DOF degrees of freedom and the pixel's n − 1,
+//   σ² = (PRIOR_DOF · spread · (μ² + 0.01) + (n − 1) · v) / (PRIOR_DOF + n − 1),
+// with the field's error as the display's, b² = (μ² + 0.01) · spread / prior:
+//   k = prior · σ² / (spread · (μ² + 0.01)).
+// Where the samples agree (a smooth wall's gathers) they take over sooner; where they
+// scatter (a penumbra, a lamp found by chance) the field holds longer. With `spread` 0
+// (the node's choice under gathers: render_node::prior), `prior` everywhere.
 
 struct Lookup {
     base: u32,
@@ -42,7 +55,8 @@ struct VlfParams {
     // Values per buffer: the values are split over irradiance, irradiance1..3, each
     // within the adapter's binding limit.
     chunk: u32,
-    pad0: u32,
+    // A sample's variance over μ² + 0.01 on the display (0: `prior` in every pixel).
+    spread: f32,
     pad1: u32,
     pad2: u32,
 }
@@ -63,6 +77,10 @@ struct VlfParams {
 const NONE: u32 = 0xffffffffu;
 // A point's samples count half after this many frames without a new one.
 const STALE_FRAMES: f32 = 64.0;
+// The degrees of freedom the display's spread counts for in a pixel's variance: the
+// chi-square estimate from d samples has the relative standard deviation √(2/d), one half
+// at 8, where the two are worth the same.
+const PRIOR_DOF: f32 = 8.0;
 // Priority added where the light field and the samples differ by this relative amount.
 const DISAGREE_SCALE: f32 = 0.5;
 // Fixed-point scale of the priority sum (as filter.wgsl).
@@ -145,6 +163,20 @@ fn lookup(@builtin(global_invocation_id) gid: vec3<u32>) {
     color[i] = vec4<f32>(shade(lookups[i]), 1.0);
 }
 
+// The light field's worth in samples at a pixel showing point `p`, the field's luminance
+// there `field` (see the top of this file).
+fn pixel_prior(p: Point, field: f32) -> f32 {
+    if (V.spread <= 0.0) {
+        return V.prior;
+    }
+    let m = luminance(p.rad.xyz);
+    let scale = max(field, m) * max(field, m) + 0.01;
+    let dof = max(p.rad.w - 1.0, 0.0);
+    let v = max(p.square.x - m * m, 0.0) * p.rad.w / max(dof, 1.0);
+    let variance = (PRIOR_DOF * V.spread * scale + dof * v) / (PRIOR_DOF + dof);
+    return V.prior * variance / (V.spread * scale);
+}
+
 @compute @workgroup_size(256)
 fn blend(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -154,18 +186,20 @@ fn blend(@builtin(global_invocation_id) gid: vec3<u32>) {
     let vlf = shade(lookups[i]);
     let c = color[i];
     var n = 0.0;
+    var k = V.prior;
     if (c.w >= 1.0) {
         let p = points[key_index(key_img[i], V.index_bits)];
         let seen = point_object(p);
         if (seen == lookups[i].object && seen != OBJECT_BEYOND) {
             n = p.rad.w * STALE_FRAMES / (STALE_FRAMES + p.pos.w);
+            k = pixel_prior(p, luminance(vlf));
         }
     } else if (c.w > 0.0 && lookups[i].object == 0u) {
         // Interpolated (0.5) or filled from farther away (0.25): worth that much.
         n = c.w;
     }
     n *= lookups[i].samples;
-    let shown = (V.prior * vlf + n * c.xyz) / max(V.prior + n, 1.0e-6);
+    let shown = (k * vlf + n * c.xyz) / max(k + n, 1.0e-6);
     color[i] = vec4<f32>(shown, c.w);
     if (c.w > 0.0 && lookups[i].samples > 0.0) {
         let d = abs(luminance(c.xyz - vlf)) / (luminance(vlf) + 0.05);
