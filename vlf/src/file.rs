@@ -17,10 +17,11 @@
 //! Version 2 added the glossy tiles (the threshold and bins in `META`, `TILE`, `TLST`);
 //! version 3 the direct parts (`DIRE`, `TDIR`); version 4 the sky's (`SKYE`, `TSKY`), and
 //! no tile on a glossy element smaller than a line's reach (a new layout); version 5 the
-//! tiles' bins averaged over each bin (same layout, other values). An older file is
-//! refused with the version it has (bake it again): read as this version it would draw
-//! its direct light twice (1, 2), have another tile layout (3), or its glossy surfaces
-//! 5 % too dark (4).
+//! tiles' bins averaged over each bin (same layout, other values); version 6 no tile on a
+//! glossy element smaller than four times a line's reach, pooled instead (a new layout).
+//! An older file is refused with the version it has (bake it again): read as this
+//! version it would draw its direct light twice (1, 2), have another tile layout (3, 5),
+//! or its glossy surfaces 5 % too dark (4).
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -31,7 +32,7 @@ use holocave_scene::Scene;
 use crate::bake::{Settings, State};
 
 const MAGIC: &[u8; 8] = b"HOLOVLF\0";
-const VERSION: u32 = 5;
+const VERSION: u32 = 6;
 const HEADER: usize = 16;
 const CHUNK_HEADER: usize = 16;
 /// Chunks in a file: META, IRRA, LAST, TILE, TLST, DIRE, TDIR, SKYE, TSKY.

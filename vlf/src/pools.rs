@@ -3,8 +3,9 @@
 //! cross-section, see `bake`), so that two tiny elements facing each other along one line
 //! cannot pass light back and forth with a gain above 1; alone, an element smaller than
 //! that keeps only `A / least` of what reaches it and the rest is lost (a scene of many
-//! small triangles — chairs, cups — came out too dark by tens of per cent). Elements
-//! smaller than `least` are pooled with their neighbours of the same material and
+//! small triangles — chairs, cups — came out too dark by tens of per cent), and one a
+//! few times larger receives a few dozen lines, its light patchy. Elements smaller than
+//! [`POOLED_BELOW`] `× least` are pooled with their neighbours of the same material and
 //! orientation (the same side, the same dominant axis of its normal) in a cell of side
 //! `2 √least`: a pool receives the light of all its members over their summed area, never
 //! less than `least`, so the gain stays bounded as before and none of the light that
@@ -27,6 +28,9 @@ use holocave_scene::{Hit, Scene};
 
 use crate::elements::{Elements, cell_index};
 use crate::tiles::Tiles;
+
+/// Elements smaller than this many times the least area are pooled (and get no tile).
+pub const POOLED_BELOW: f32 = 4.0;
 
 /// What pools a small element with others: its material, side, dominant normal axis and
 /// the cell it lies in.
@@ -87,7 +91,9 @@ impl Pools {
                 for j in 0..r {
                     for i in 0..r - j {
                         let e = cells.base(side) + cell_index(i, j, r);
-                        if area[e as usize] >= least || !needed[e as usize] || tiles.of(e).is_some()
+                        if area[e as usize] >= POOLED_BELOW * least
+                            || !needed[e as usize]
+                            || tiles.of(e).is_some()
                         {
                             continue;
                         }

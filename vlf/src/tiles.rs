@@ -167,8 +167,12 @@ impl Tiles {
         let (area, centre) = elements.areas_and_centres(scene);
         // A glossy element smaller than the area a line's light is spread over keeps
         // only `A / least` of what reaches it in its tile (and tiles that small cannot be
-        // pooled: their bounces grew). It is drawn diffuse instead — its albedo the BSDF's,
-        // pooled with its neighbours (`crate::pools`) — and its highlights come from the
+        // pooled: their bounces grew); one a little larger receives a few dozen lines, and
+        // on a curved shell of small triangles its tile's light is patchy beside its
+        // pooled neighbours (the breakfast room's chairs were mottled). Below
+        // `POOLED_BELOW` times that area it is drawn diffuse instead — its albedo the
+        // BSDF's, pooled with its neighbours (`crate::pools`), its reflection the view's
+        // (`view::Visibility::blurred_reflection`) — and its highlights come from the
         // direct light per pixel, with the full BSDF.
         let least = crate::bake::least_area(scene, settings);
         let found: Vec<Option<Glossy>> = centre
@@ -182,7 +186,7 @@ impl Tiles {
                 if s.delta
                     || !is_glossy(&s.params, settings.glossy_alpha)
                     || (side == 1 && !material.double_sided)
-                    || area[e] < least
+                    || area[e] < crate::pools::POOLED_BELOW * least
                 {
                     return None;
                 }

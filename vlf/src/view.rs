@@ -24,7 +24,6 @@ use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::film::Image;
 use holocave_tracer::frame::Frame;
 use holocave_tracer::lights::Lights;
-use holocave_tracer::microfacet::Ggx;
 use rayon::prelude::*;
 
 use crate::bake::environment;
@@ -40,7 +39,8 @@ use crate::surface::{
 use crate::tiles::Tiles;
 
 /// GGX `α` from which a mirrored-gloss surface seen directly reflects its lobe's blur
-/// ([`Visibility::blurred_reflection`]) rather than one mirrored ray.
+/// ([`Visibility::blurred_reflection`]); a narrower one, one ray along its mirror
+/// direction.
 pub const BLURRED_ALPHA: f32 = 0.05;
 /// Directions a blurred reflection takes.
 pub const BLURRED_RAYS: u64 = 8;
@@ -351,22 +351,34 @@ impl Visibility {
             && self.tiles.of(element).is_none()
     }
 
-    /// What the reflecting lobe (GGX `lobe`) of the mirrored-gloss surface `s`, seen
-    /// along `dir`, gathers from the scene as the light field draws it (`total`: all of
-    /// its light), per unit of its reflectance: the mean of [`BLURRED_RAYS`] directions
-    /// drawn from the lobe's visible normals, the same ones wherever the point is seen
+    /// What the reflecting lobes (the BSDF's GGX lobe, with the metal's and the specular
+    /// layer's Fresnel) of the mirrored-gloss surface `s`, seen along `dir`, reflect of
+    /// the scene as the light field draws it (`total`: all of its light): [`BLURRED_RAYS`]
+    /// directions drawn from the lobe's visible normals, each weighted by the Fresnel at
+    /// its microfacet and the masking on the way in (at grazing a rough lobe reflects less
+    /// than a smooth surface's Fresnel says), the same ones wherever the point is seen
     /// from the same place (the sequence is rotated by the point's hash), the sky without
-    /// the sun (its highlight is [`highlights`]'). Each direction's own mirrored-gloss
-    /// surfaces are taken as mirrors.
+    /// the sun (its highlight is [`highlights`]' or the per-pixel pass's). Emitters
+    /// seen directly are left out with `emitters_by_nee` (the per-pixel pass takes them
+    /// at this surface with its full BSDF). Below [`BLURRED_ALPHA`], one ray along the
+    /// mirror direction. Each direction's own mirrored-gloss surfaces are taken as
+    /// mirrors.
     fn blurred_reflection(
         &self,
         scene: &PlacedScene,
         objects: &ObjectLight,
         s: &Seen,
         dir: Vec3,
-        lobe: Ggx,
         total: &[[f32; 3]],
+        emitters_by_nee: bool,
     ) -> Vec3 {
+        let bsdf = Bsdf::new(&s.params);
+        let lobe = bsdf.ggx();
+        let rays = if lobe.alpha < BLURRED_ALPHA {
+            1
+        } else {
+            BLURRED_RAYS
+        };
         let sky = |d: Vec3| {
             self.lights
                 .sky
@@ -382,25 +394,40 @@ impl Visibility {
             ^ u64::from((s.hit.u * 65536.0) as u32) << 16
             ^ u64::from((s.hit.v * 65536.0) as u32);
         let mut sum = Vec3::ZERO;
-        let mut taken = 0;
-        for k in 0..BLURRED_RAYS {
-            let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
-            let m = lobe.sample_visible(wo, u);
+        for k in 0..rays {
+            let m = if rays == 1 {
+                Vec3::Z
+            } else {
+                let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
+                lobe.sample_visible(wo, u)
+            };
             let wi = 2.0 * wo.dot(m) * m - wo;
             if wi.z <= 0.0 {
                 continue;
             }
-            taken += 1;
+            // A visible normal's sample: the Fresnel at its angle times the masking of
+            // the way in given the way out (the rest of `f cos / pdf` cancels).
+            let weight = bsdf.specular_reflectance(wo.dot(m)) * lobe.g2(wo, wi) / lobe.g1(wo);
             let ray = Ray::leaving(s.position, s.normal, frame.to_world(wi));
             let chain = follow(scene, ray, &sky);
+            // An emitter seen directly is the per-pixel pass's highlight where that pass
+            // runs at this surface; behind a mirror or glass, or on a surface drawn as a
+            // mirror, what it shows comes only along this ray.
+            let emission = match &chain.end {
+                Some((e, r)) if chain.deltas == 0 && emitters_by_nee => {
+                    let mirror = self.drawn_as_mirror(e, r.dir, Some(total));
+                    if mirror { Vec3::ZERO } else { e.emitted }
+                }
+                _ => Vec3::ZERO,
+            };
             let chain = Chain {
                 deltas: chain.deltas + 1,
                 ..chain
             };
             let (l, _) = self.lookup_chain(chain, objects, Some(scene), Some(total), false);
-            sum += shade_one(&l, total);
+            sum += weight * (shade_one(&l, total) - emission);
         }
-        sum / taken.max(1) as f32
+        sum / rays as f32
     }
 
     /// The lookup of what a chain of surfaces ends on; `placed` tells a moving object's
@@ -458,14 +485,12 @@ impl Visibility {
                 let irradiance = interpolate(v, cells.base(side), cells.res, s.hit.u, s.hit.v);
                 bsdf.diffuse_reflectance(cos_o) * std::f32::consts::FRAC_1_PI * irradiance
             });
-            let reflectance = bsdf.specular_reflectance(cos_o);
-            let lobe = bsdf.ggx();
             if chain.deltas == 0
-                && lobe.alpha >= BLURRED_ALPHA
                 && let Some(total) = self.light.get()
             {
-                let blurred = self.blurred_reflection(scene, objects, &s, r.dir, lobe, total);
-                let mut shown = base + reflectance * blurred;
+                let blurred =
+                    self.blurred_reflection(scene, objects, &s, r.dir, total, direct_at_point);
+                let mut shown = base + blurred;
                 if !direct_at_point {
                     shown += highlights(scene, &self.lights, &s, &bsdf, r.dir);
                 }
@@ -481,6 +506,7 @@ impl Visibility {
                 chain.emitted + chain.weight * shown,
                 chain.deltas,
             );
+            let reflectance = bsdf.specular_reflectance(cos_o);
             if let Some(c) = mirrored(scene, so_far, &s, r.dir, reflectance, &sky) {
                 return self.lookup_chain(c, objects, placed, values, direct_at_point);
             }

@@ -187,9 +187,10 @@ fn a_damaged_byte_names_the_chunk() {
     names_file(&e, &p);
     // A version 1 file (before the glossy tiles), a version 2 one (before the direct part
     // was kept apart: read now, its direct light would be drawn twice), a version 3 one
-    // (another tile layout, no sky's part) and a version 4 one (its tiles' bins taken at
-    // their centres) are refused, saying to bake it again.
-    for version in [1u32, 2, 3, 4] {
+    // (another tile layout, no sky's part), a version 4 one (its tiles' bins taken at
+    // their centres) and a version 5 one (tiles on elements up to four times smaller) are
+    // refused, saying to bake it again.
+    for version in [1u32, 2, 3, 4, 5] {
         let mut old = bytes.clone();
         old[8..12].copy_from_slice(&version.to_le_bytes());
         let (p, r) = read_bytes(dir.path(), "old.vlf", &old);

@@ -87,7 +87,9 @@ fn a_glossy_plane_under_a_directional_light_reflects_its_bsdf() {
     let settings = Settings {
         directions: 162,
         resolution: 16,
-        element_size: Some(0.5),
+        // Elements of a fifth of a square metre: above `pools::POOLED_BELOW` times a
+        // line's reach (a 16-line grid over the plane's 5.7 m sphere), so they get tiles.
+        element_size: Some(1.0),
         direct_samples: 4,
         ..Settings::default()
     };

@@ -494,6 +494,10 @@ fn a_lamps_highlight_on_a_glossy_plane_matches_the_path_tracer() {
     let (state, stats) = common::bake_quiet(&scene, &settings);
     assert!(stats.tiles > 0, "the metal plane has glossy tiles");
     let vis = Visibility::of(scene.clone(), &settings);
+    // As a wall draws: the field's whole light for what the glossy surfaces without tiles
+    // reflect, its remainder under the per-pixel pass.
+    vis.light_objects(Arc::new(state.values()));
+    vis.draw_with(Arc::new(state.indirect_values()), true);
     let direct = PixelDirect::new(scene.clone());
     let (reference, noise, _) = common::two_seed_reference(&scene, &view, 2048);
 
