@@ -410,11 +410,15 @@ impl Visibility {
             let weight = bsdf.specular_reflectance(wo.dot(m)) * lobe.g2(wo, wi) / lobe.g1(wo);
             let ray = Ray::leaving(s.position, s.normal, frame.to_world(wi));
             let chain = follow(scene, ray, &sky);
-            // An emitter seen directly is the per-pixel pass's highlight where that pass
-            // runs at this surface; behind a mirror or glass, or on a surface drawn as a
-            // mirror, what it shows comes only along this ray.
+            // An emitter of the static scene seen directly is the per-pixel pass's
+            // highlight where that pass runs at this surface; behind a mirror or glass, or
+            // on a surface drawn as a mirror, what it shows comes only along this ray.
             let emission = match &chain.end {
-                Some((e, r)) if chain.deltas == 0 && emitters_by_nee => {
+                Some((e, r))
+                    if chain.deltas == 0
+                        && emitters_by_nee
+                        && scene.object_of(e.hit.triangle).is_none() =>
+                {
                     let mirror = self.drawn_as_mirror(e, r.dir, Some(total));
                     if mirror { Vec3::ZERO } else { e.emitted }
                 }
