@@ -11,7 +11,6 @@ use std::sync::Arc;
 use glam::Vec3;
 use holocave_scene::{Material, Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
-use holocave_tracer::frame::Frame;
 use holocave_vlf::view::shade_one;
 use holocave_vlf::{Settings, Visibility};
 
@@ -30,29 +29,52 @@ fn metal_before_a_glow(roughness: f32, lamp: f32) -> Arc<Scene> {
 fn surface_before_a_glow(metallic: f32, roughness: f32, lamp: f32) -> Arc<Scene> {
     let square = common::quad(Vec3::new(-0.05, -0.05, 0.0), Vec3::X * 0.1, Vec3::Y * 0.1);
     let wall = common::quad(Vec3::new(-5.0, -5.0, 2.0), Vec3::Y * 10.0, Vec3::X * 10.0);
-    let metal = Material {
+    let glow = common::lambert("glow", 0.0, Vec3::splat(GLOW));
+    glossy_square_under(
+        square,
+        (metallic, roughness),
+        vec![(wall, glow)],
+        (LAMP_AT, lamp),
+    )
+}
+
+/// A square of `BASE` colour, `metallic` and `roughness` facing +z, the `above` it (quads
+/// and their materials), and a point light of `lamp.1` at `lamp.0` if that is positive.
+fn glossy_square_under(
+    square: [[Vec3; 3]; 2],
+    (metallic, roughness): (f32, f32),
+    above: Vec<([[Vec3; 3]; 2], Material)>,
+    lamp: (Vec3, f32),
+) -> Arc<Scene> {
+    let mut materials = vec![Material {
         name: "metal".into(),
         base_color: BASE.extend(1.0),
         metallic,
         roughness,
         ..Material::default()
-    };
+    }];
     let mut tris: Vec<([Vec3; 3], u32)> = square.iter().map(|t| (*t, 0)).collect();
-    tris.extend(wall.iter().map(|t| (*t, 1)));
-    let lights = if lamp > 0.0 {
-        vec![common::point_light(LAMP_AT, lamp)]
+    for (quad, material) in above {
+        tris.extend(quad.iter().map(|t| (*t, materials.len() as u32)));
+        materials.push(material);
+    }
+    let lights = if lamp.1 > 0.0 {
+        vec![common::point_light(lamp.0, lamp.1)]
     } else {
         Vec::new()
     };
-    Arc::new(common::scene(
-        "metal before a glow",
-        &tris,
-        vec![metal, common::lambert("glow", 0.0, Vec3::splat(GLOW))],
-        lights,
-    ))
+    Arc::new(common::scene("a glossy square", &tris, materials, lights))
 }
 
 const LAMP_AT: Vec3 = Vec3::new(0.15, 0.0, 1.0);
+
+/// A bake's settings that give no surface a tile.
+fn without_tiles() -> Settings {
+    Settings {
+        glossy_alpha: 0.0,
+        ..Settings::default()
+    }
+}
 
 /// Chrome (GGX α 0.03) and black satin (α 0.17) with no tile show the glow they mirror,
 /// times their Fresnel reflectance at normal incidence (the base colour), to an eye and to
@@ -61,10 +83,7 @@ const LAMP_AT: Vec3 = Vec3::new(0.15, 0.0, 1.0);
 /// diffuse as before (here black: the light field is empty).
 #[test]
 fn a_glossy_metal_without_a_tile_shows_what_it_mirrors() {
-    let settings = Settings {
-        glossy_alpha: 0.0,
-        ..Settings::default()
-    };
+    let settings = without_tiles();
     let zeros = |vis: &Visibility| vec![[0.0f32; 3]; vis.tiles().elements as usize];
     let eye = Ray::new(Vec3::new(0.01, 0.02, 1.0), -Vec3::Z);
     for alpha in [0.03f32, 0.17] {
@@ -101,10 +120,7 @@ fn a_glossy_metal_without_a_tile_shows_what_it_mirrors() {
 /// mirror).
 #[test]
 fn a_mirrored_metal_keeps_its_punctual_highlight() {
-    let settings = Settings {
-        glossy_alpha: 0.0,
-        ..Settings::default()
-    };
+    let settings = without_tiles();
     let intensity = 2.0;
     let scene = metal_before_a_glow(0.17f32.sqrt(), intensity);
     let vis = Visibility::of(scene.clone(), &settings);
@@ -114,12 +130,18 @@ fn a_mirrored_metal_keeps_its_punctual_highlight() {
     let shown = shade_one(&l, &zeros) - BASE * GLOW;
 
     let at = Vec3::new(0.01, 0.02, 0.0);
-    let to = LAMP_AT - at;
+    assert_is_the_bsdfs_highlight(&scene, shown, at, (LAMP_AT, intensity));
+}
+
+/// `shown` at `at` on the square (material 0, facing +z, seen from straight above) is its
+/// BSDF's highlight of the point light `lamp` (position, intensity), `f cos I / d²`,
+/// within 0.1 %.
+fn assert_is_the_bsdfs_highlight(scene: &Scene, shown: Vec3, at: Vec3, lamp: (Vec3, f32)) {
+    let to = lamp.0 - at;
     let wi = to.normalize();
-    let frame = Frame::new(Vec3::Z);
     let params = scene.materials[0].params(&scene.textures, glam::Vec2::ZERO);
-    let (f, _) = Bsdf::new(&params).eval(frame.to_local(Vec3::Z), frame.to_local(wi));
-    let expected = f * wi.z * intensity / to.length_squared();
+    let (f, _) = Bsdf::new(&params).eval(Vec3::Z, wi);
+    let expected = f * wi.z * lamp.1 / to.length_squared();
     assert!(
         expected.min_element() > 0.1,
         "a highlight to see: {expected}"
@@ -135,10 +157,7 @@ fn a_mirrored_metal_keeps_its_punctual_highlight() {
 /// view has the values it draws with; without them it is drawn diffuse as before.
 #[test]
 fn a_glazed_surface_mirrors_its_reflection_over_its_base() {
-    let settings = Settings {
-        glossy_alpha: 0.0,
-        ..Settings::default()
-    };
+    let settings = without_tiles();
     let scene = surface_before_a_glow(0.35, 0.2, 0.0);
     let vis = Visibility::of(scene.clone(), &settings);
     let eye = Ray::new(Vec3::new(0.01, 0.02, 1.0), -Vec3::Z);
@@ -173,27 +192,11 @@ fn under_a_half_glowing_ceiling(glow: f32, lamp: f32) -> Arc<Scene> {
     let square = common::quad(Vec3::new(-4.0, -4.0, 0.0), Vec3::X * 8.0, Vec3::Y * 8.0);
     let lit = common::quad(Vec3::new(-5.0, -5.0, 2.0), Vec3::Y * 10.0, Vec3::X * 5.0);
     let dark = common::quad(Vec3::new(0.0, -5.0, 2.0), Vec3::Y * 10.0, Vec3::X * 5.0);
-    let metal = Material {
-        name: "metal".into(),
-        base_color: BASE.extend(1.0),
-        metallic: 1.0,
-        roughness: 0.15f32.sqrt(),
-        ..Material::default()
-    };
-    let mut tris: Vec<([Vec3; 3], u32)> = square.iter().map(|t| (*t, 0)).collect();
-    tris.extend(lit.iter().map(|t| (*t, 1)));
-    tris.extend(dark.iter().map(|t| (*t, 2)));
-    let materials = vec![
-        metal,
-        common::lambert("glow", 0.0, Vec3::splat(glow)),
-        common::lambert("dark", 0.0, Vec3::ZERO),
+    let above = vec![
+        (lit, common::lambert("glow", 0.0, Vec3::splat(glow))),
+        (dark, common::lambert("dark", 0.0, Vec3::ZERO)),
     ];
-    let lights = if lamp > 0.0 {
-        vec![common::point_light(LAMP, lamp)]
-    } else {
-        Vec::new()
-    };
-    Arc::new(common::scene("half glowing", &tris, materials, lights))
+    glossy_square_under(square, (1.0, 0.15f32.sqrt()), above, (LAMP, lamp))
 }
 
 const LAMP: Vec3 = Vec3::new(0.3, 0.0, 1.0);
@@ -210,10 +213,7 @@ const LAMP: Vec3 = Vec3::new(0.3, 0.0, 1.0);
 /// pixel's point is the metal itself.
 #[test]
 fn a_rough_gloss_seen_directly_blurs_what_it_reflects() {
-    let settings = Settings {
-        glossy_alpha: 0.0,
-        ..Settings::default()
-    };
+    let settings = without_tiles();
     let vis = Visibility::of(under_a_half_glowing_ceiling(GLOW, 0.0), &settings);
     let zeros = Arc::new(vec![[0.0f32; 3]; vis.tiles().elements as usize]);
     vis.light_objects(zeros.clone());
@@ -251,10 +251,7 @@ fn a_rough_gloss_seen_directly_blurs_what_it_reflects() {
 /// (its BSDF's `f cos I / d²`) is drawn at the metal; with it, it is the per-pixel pass's.
 #[test]
 fn a_blurred_metal_keeps_its_punctual_highlight() {
-    let settings = Settings {
-        glossy_alpha: 0.0,
-        ..Settings::default()
-    };
+    let settings = without_tiles();
     let intensity = 2.0;
     let scene = under_a_half_glowing_ceiling(0.0, intensity);
     let vis = Visibility::of(scene.clone(), &settings);
@@ -272,18 +269,5 @@ fn a_blurred_metal_keeps_its_punctual_highlight() {
     assert!(point.is_some_and(|p| p.triangle < 2));
     vis.draw_with(zeros.clone(), false);
     let (l, _) = vis.lookup_and_point(eye);
-    let highlight = shade_one(&l, &zeros);
-    let to = LAMP - at;
-    let wi = to.normalize();
-    let params = scene.materials[0].params(&scene.textures, glam::Vec2::ZERO);
-    let (f, _) = Bsdf::new(&params).eval(Vec3::Z, wi);
-    let expected = f * wi.z * intensity / to.length_squared();
-    assert!(
-        expected.min_element() > 0.1,
-        "a highlight to see: {expected}"
-    );
-    assert!(
-        (highlight - expected).abs().max_element() < 1e-3 * expected.max_element(),
-        "the highlight drawn {highlight}, the BSDF's {expected}"
-    );
+    assert_is_the_bsdfs_highlight(&scene, shade_one(&l, &zeros), at, (LAMP, intensity));
 }
