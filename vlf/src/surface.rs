@@ -283,8 +283,8 @@ pub const MIRRORED_ALPHA: f32 = 0.25;
 /// Whether the view draws a surface with `params` that has no tile as the mirror of what
 /// it reflects: an opaque surface with a reflecting lobe (a metal, or a dielectric with a
 /// specular layer) narrower than [`MIRRORED_ALPHA`] (its reflection blurred by under 30°,
-/// `2α`: seen directly, from `view::BLURRED_ALPHA` on, the blur is the lobe's own, from a
-/// few directions drawn from it; beyond a mirror or glass it is left out). Its reflecting
+/// `2α`: seen directly, the blur is the lobe's own, from a few directions drawn from it;
+/// beyond a mirror or glass it is left out). Its reflecting
 /// lobes' share
 /// ([`Bsdf::specular_reflectance`]) goes on along the mirrored ray, its Lambertian base's
 /// ([`Bsdf::diffuse_reflectance`]) is the light field's at the surface itself, and the sun's

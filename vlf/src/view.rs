@@ -38,11 +38,8 @@ use crate::surface::{
 };
 use crate::tiles::Tiles;
 
-/// GGX `α` from which a mirrored-gloss surface seen directly reflects its lobe's blur
-/// ([`Visibility::blurred_reflection`]); a narrower one, one ray along its mirror
-/// direction.
-pub const BLURRED_ALPHA: f32 = 0.05;
-/// Directions a blurred reflection takes.
+/// Directions a mirrored-gloss surface seen directly takes of its lobe
+/// ([`Visibility::blurred_reflection`]).
 pub const BLURRED_RAYS: u64 = 8;
 
 /// What one pixel (or one ray) sees of the light field.
@@ -360,9 +357,8 @@ impl Visibility {
     /// from the same place (the sequence is rotated by the point's hash), the sky without
     /// the sun (its highlight is [`highlights`]' or the per-pixel pass's). Emitters
     /// seen directly are left out with `emitters_by_nee` (the per-pixel pass takes them
-    /// at this surface with its full BSDF). Below [`BLURRED_ALPHA`], one ray along the
-    /// mirror direction. Each direction's own mirrored-gloss surfaces are taken as
-    /// mirrors.
+    /// at this surface with its full BSDF). Each direction's own mirrored-gloss surfaces
+    /// are taken as mirrors.
     fn blurred_reflection(
         &self,
         scene: &PlacedScene,
@@ -374,11 +370,6 @@ impl Visibility {
     ) -> Vec3 {
         let bsdf = Bsdf::new(&s.params);
         let lobe = bsdf.ggx();
-        let rays = if lobe.alpha < BLURRED_ALPHA {
-            1
-        } else {
-            BLURRED_RAYS
-        };
         let sky = |d: Vec3| {
             self.lights
                 .sky
@@ -394,13 +385,9 @@ impl Visibility {
             ^ u64::from((s.hit.u * 65536.0) as u32) << 16
             ^ u64::from((s.hit.v * 65536.0) as u32);
         let mut sum = Vec3::ZERO;
-        for k in 0..rays {
-            let m = if rays == 1 {
-                Vec3::Z
-            } else {
-                let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
-                lobe.sample_visible(wo, u)
-            };
+        for k in 0..BLURRED_RAYS {
+            let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
+            let m = lobe.sample_visible(wo, u);
             let wi = 2.0 * wo.dot(m) * m - wo;
             if wi.z <= 0.0 {
                 continue;
@@ -431,7 +418,7 @@ impl Visibility {
             let (l, _) = self.lookup_chain(chain, objects, Some(scene), Some(total), false);
             sum += weight * (shade_one(&l, total) - emission);
         }
-        sum / rays as f32
+        sum / BLURRED_RAYS as f32
     }
 
     /// The lookup of what a chain of surfaces ends on; `placed` tells a moving object's
