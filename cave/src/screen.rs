@@ -18,6 +18,13 @@ pub struct WallView {
 }
 
 impl WallView {
+    /// Whether `other` is an image on the same screen (corners and pixels), whatever
+    /// eye it is seen from.
+    pub fn same_screen(&self, other: &WallView) -> bool {
+        (self.pa, self.pb, self.pc, self.width, self.height)
+            == (other.pa, other.pb, other.pc, other.width, other.height)
+    }
+
     /// The view of a scene's camera, its screen one metre in front of it and of the image's
     /// aspect.
     pub fn through_camera(cam: &NamedCamera, width: u32, height: u32) -> Self {

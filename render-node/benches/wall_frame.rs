@@ -1,9 +1,9 @@
 //! A wall's per-pixel work per frame, both eyes, still and with the head moving, with each
-//! pixel's first hit traced on the CPU and on the GPU (`--rays cpu|gpu`): the light field's lookups with the direct light
-//! per pixel (`VlfBase::lookups`: first hits, mirrors and glass, 1 + P + 1 shadow rays,
-//! the running means), at 128×96 and 1024×768 per eye (and `HOLOCAVE_BENCH_WALL`'s size),
-//! in the room, on whatever adapter
-//! wgpu finds (lavapipe where there is no GPU). The render cache's passes at these sizes
+//! pixel's first hit traced on the CPU and on the GPU (`--rays cpu|gpu`): the light field's
+//! lookups with the direct light per pixel (`VlfBase::lookups`: first hits, mirrors and
+//! glass, 1 + P + 1 shadow rays, the running means), at 128×96 and 1024×768 per eye (and
+//! `HOLOCAVE_BENCH_WALL`'s size), in the room, on whatever adapter wgpu finds (lavapipe
+//! where there is no GPU). The render cache's passes at these sizes
 //! are `benches/display.rs`; a wall's frame is the two together.
 
 use std::sync::Arc;

@@ -42,7 +42,8 @@
 //! where the field is wrong. Measured (`holocave compare`, the Cornell box's front wall,
 //! a still head, 10 s, docs/vlf-direct.md): per pixel, the paths' error at the end fell
 //! from 2.82e-3 to 2.21e-3 and the gathers' rose from 1.54e-3 to 2.06e-3; in motion
-//! neither moved beyond the runs' spread (0.99× and 0.97× of one `k`'s). Taking each
+//! neither moved beyond the runs' spread (per pixel for both feeds `vlf+gather` 0.97× and
+//! `vlf+holodeck` 0.99× of `vlf`, 0.98× each with one `k`). Taking each
 //! pixel's `b²` from its own samples as well made the gathers 1.26× `vlf`'s error in
 //! motion.
 

@@ -168,20 +168,19 @@ impl VlfBase {
         let indirect = Arc::new(indirect);
         let visibility = Visibility::new(scene, elements, tiles);
         visibility.light_objects(total.clone());
-        let direct = !nee.is_empty();
-        visibility.draw_with(if direct { &indirect } else { &total }.clone(), direct);
-        Ok(VlfBase {
+        let base = VlfBase {
             total,
             indirect,
             sky,
-            direct,
+            direct: false,
             nee,
             history: Mutex::new(Vec::new()),
             points: Mutex::new(Vec::new()),
             gpu_rays: None,
             shadow_lights,
             visibility,
-        })
+        };
+        Ok(base.with_direct(true))
     }
 
     /// The scene drawn.
@@ -368,18 +367,7 @@ impl VlfBase {
         // parallax every frame.
         let (mut acc, moved_from) = {
             let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-            let own_screen = |x: &History| {
-                let v = &x.view;
-                x.eye == eye
-                    && (v.pa, v.pb, v.pc, v.width, v.height)
-                        == (
-                            view.wall.pa,
-                            view.wall.pb,
-                            view.wall.pc,
-                            view.wall.width,
-                            view.wall.height,
-                        )
-            };
+            let own_screen = |x: &History| x.eye == eye && x.view.same_screen(&view.wall);
             let nearest = (0..h.len())
                 .filter(|&i| own_screen(&h[i]))
                 .min_by(|&a, &b| {

@@ -368,7 +368,7 @@ pub fn element_size(scene: &Scene, settings: &Settings) -> f32 {
 /// The sky and sun as seen looking along `dir`.
 pub fn environment(lights: &Lights) -> impl Fn(Vec3) -> Vec3 + Sync + '_ {
     move |dir: Vec3| {
-        let sky = lights.sky.as_ref().map_or(Vec3::ZERO, |s| s.radiance(dir));
+        let sky = sky(lights, dir);
         let sun = lights.sun_along(dir).map_or(Vec3::ZERO, |(l, _)| l);
         sky + sun
     }
@@ -378,7 +378,7 @@ pub fn environment(lights: &Lights) -> impl Fn(Vec3) -> Vec3 + Sync + '_ {
 /// sun's disk, far smaller than the direction spacing, comes by next-event estimation;
 /// a line that happened to point into it would carry it over a whole direction's
 /// solid angle).
-fn sky(lights: &Lights, dir: Vec3) -> Vec3 {
+pub(crate) fn sky(lights: &Lights, dir: Vec3) -> Vec3 {
     lights.sky.as_ref().map_or(Vec3::ZERO, |s| s.radiance(dir))
 }
 

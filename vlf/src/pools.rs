@@ -32,6 +32,12 @@ use crate::tiles::Tiles;
 /// Elements smaller than this many times the least area are pooled (and get no tile).
 pub const POOLED_BELOW: f32 = 4.0;
 
+/// Whether an element of `area` is pooled (and has no tile) where a line's light is
+/// spread over at least `least`.
+pub fn pooled(area: f32, least: f32) -> bool {
+    area < POOLED_BELOW * least
+}
+
 /// What pools a small element with others: its material, side, dominant normal axis and
 /// the cell it lies in.
 type PoolKey = (u32, u32, u32, [i32; 3]);
@@ -91,7 +97,7 @@ impl Pools {
                 for j in 0..r {
                     for i in 0..r - j {
                         let e = cells.base(side) + cell_index(i, j, r);
-                        if area[e as usize] >= POOLED_BELOW * least
+                        if !pooled(area[e as usize], least)
                             || !needed[e as usize]
                             || tiles.of(e).is_some()
                         {

@@ -186,7 +186,7 @@ impl Tiles {
                 if s.delta
                     || !is_glossy(&s.params, settings.glossy_alpha)
                     || (side == 1 && !material.double_sided)
-                    || area[e] < crate::pools::POOLED_BELOW * least
+                    || crate::pools::pooled(area[e], least)
                 {
                     return None;
                 }

@@ -23,10 +23,11 @@ use holocave_scene::{Hit, PlacedScene, Placement, Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::film::Image;
 use holocave_tracer::frame::Frame;
+use holocave_tracer::fresnel;
 use holocave_tracer::lights::Lights;
 use rayon::prelude::*;
 
-use crate::bake::environment;
+use crate::bake::{environment, sky};
 use crate::elements::{Elements, interpolate};
 use crate::objects::ObjectLight;
 use crate::octahedral;
@@ -136,7 +137,8 @@ pub struct Visibility {
     tiles: Tiles,
     lights: Lights,
     objects: RwLock<ObjectLight>,
-    /// The light field's values (all of its light) the objects' probes gather.
+    /// The light field's values (all of its light): what the objects' probes gather and
+    /// what the glossy surfaces drawn as mirrors reflect ([`Visibility::light_objects`]).
     light: OnceLock<Arc<Vec<[f32; 3]>>>,
     /// The values the lookups are shaded with, where the CPU shades a part of a lookup
     /// itself, and whether they are the remainder under the direct light per pixel
@@ -170,8 +172,9 @@ impl Visibility {
         self
     }
 
-    /// Lights the moving objects from the light field's `values` (all of its light:
-    /// [`crate::State::values`]); the first call counts.
+    /// Lights the moving objects, and the reflections of the glossy surfaces drawn as
+    /// mirrors ([`Self::blurred_reflection`]), from the light field's `values` (all of its
+    /// light: [`crate::State::values`]); the first call counts.
     pub fn light_objects(&self, values: Arc<Vec<[f32; 3]>>) {
         if self.light.set(values).is_err() || self.scene.objects().is_empty() {
             return;
@@ -231,12 +234,6 @@ impl Visibility {
 
     /// [`Self::incoming`], with where it comes from.
     pub fn arriving(&self, at: Vec3, dir: Vec3, values: &[[f32; 3]]) -> Arriving {
-        let sky = |d: Vec3| {
-            self.lights
-                .sky
-                .as_ref()
-                .map_or(Vec3::ZERO, |s| s.radiance(d))
-        };
         // Shadow rays stop at mirrors and glass: the emitters and the sun seen through
         // them come along this ray instead.
         let statics = self.scene.statics();
@@ -269,7 +266,12 @@ impl Visibility {
         let (mut l, point) =
             self.lookup_chain(chain, &ObjectLight::default(), None, Some(values), false);
         if !behind_delta {
-            l.emitted = if escaped { sky(dir) } else { Vec3::ZERO }.to_array();
+            l.emitted = if escaped {
+                sky(&self.lights, dir)
+            } else {
+                Vec3::ZERO
+            }
+            .to_array();
         }
         Arriving {
             radiance: shade_one(&l, values),
@@ -370,12 +372,7 @@ impl Visibility {
     ) -> Vec3 {
         let bsdf = Bsdf::new(&s.params);
         let lobe = bsdf.ggx();
-        let sky = |d: Vec3| {
-            self.lights
-                .sky
-                .as_ref()
-                .map_or(Vec3::ZERO, |k| k.radiance(d))
-        };
+        let sky = |d: Vec3| sky(&self.lights, d);
         let frame = Frame::new(s.shading_normal);
         let wo = frame.to_local(-dir);
         if wo.z <= 0.0 {
@@ -388,7 +385,7 @@ impl Visibility {
         for k in 0..BLURRED_RAYS {
             let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
             let m = lobe.sample_visible(wo, u);
-            let wi = 2.0 * wo.dot(m) * m - wo;
+            let wi = fresnel::reflect(wo, m);
             if wi.z <= 0.0 {
                 continue;
             }
@@ -463,12 +460,7 @@ impl Visibility {
         if object.is_none() && self.drawn_as_mirror(&s, r.dir, values) {
             let statics = self.scene.statics();
             let scene = placed.unwrap_or(&statics);
-            let sky = |d: Vec3| {
-                self.lights
-                    .sky
-                    .as_ref()
-                    .map_or(Vec3::ZERO, |k| k.radiance(d))
-            };
+            let sky = |d: Vec3| sky(&self.lights, d);
             let bsdf = point.bsdf;
             let cos_o = s.shading_normal.dot(r.dir).abs();
             let base = values.map_or(Vec3::ZERO, |v| {
