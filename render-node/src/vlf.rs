@@ -29,11 +29,11 @@ use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::split::Split;
 use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
-use holocave_vlf::{Accumulator, DirectPoint, Lookup, PixelDirect, ShadowQuery, Visibility};
+use holocave_vlf::{Accumulator, CpuRays, DirectPoint, Lookup, PixelDirect, Visibility};
 use rayon::prelude::*;
 
 use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
-use crate::gpu_rays::{GpuRay, GpuRays, Query, Rays};
+use crate::gpu_rays::{GpuRays, OnGpu, Query, Rays};
 use crate::{EyeView, Gpu, RenderNodeError};
 
 /// How many samples the light field is worth in a pixel unless told. Blending `n`
@@ -288,8 +288,19 @@ impl VlfBase {
 
     /// One gather sample along each ray ([`holocave_vlf::gather`]): the direct light
     /// exact at the point seen and after one bounce, the light field's remainder beyond.
+    /// Their rays are traced where the pixels' first hits are.
     pub fn gather(&self, rays: &[Ray], seed: u64) -> Vec<Gathered> {
-        gather_all(&self.visibility, &self.nee, &self.indirect, rays, seed)
+        let (vis, nee, indirect) = (&self.visibility, &self.nee, &self.indirect);
+        match self.on_gpu() {
+            Some(traced) => gather_all(vis, nee, indirect, rays, seed, &traced),
+            None => gather_all(vis, nee, indirect, rays, seed, &CpuRays(self.scene())),
+        }
+    }
+
+    /// The GPU's walk, when the rays are traced there.
+    fn on_gpu(&self) -> Option<OnGpu<'_>> {
+        let (gpu, engine) = self.gpu_rays.as_ref()?;
+        Some(OnGpu { gpu, engine })
     }
 
     /// What a still wall shows of the light field along each ray (no samples): the lookup
@@ -395,16 +406,8 @@ impl VlfBase {
         if let Some(from) = moved_from {
             acc.reproject(&from, &view.wall, points);
         }
-        let estimates = self.visibility.with_placed(|placed| match &self.gpu_rays {
-            Some((gpu, engine)) => {
-                let on_gpu = |per_pixel: &[Vec<ShadowQuery>]| {
-                    let mut engine = engine.lock().unwrap_or_else(|e| e.into_inner());
-                    let occluders =
-                        engine.occluders_in(gpu, per_pixel, |q| GpuRay::new(&q.ray, q.tmax));
-                    occluders.iter().map(Option::is_some).collect()
-                };
-                acc.add_blocked(direct, placed, points, &on_gpu)
-            }
+        let estimates = self.visibility.with_placed(|placed| match self.on_gpu() {
+            Some(traced) => acc.add_blocked(direct, placed, points, &traced),
             None => acc.add(direct, placed, points),
         });
         let each = (lookups.par_iter_mut().zip(estimates)).zip(acc.counts());

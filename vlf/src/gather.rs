@@ -32,12 +32,13 @@
 //! light), and such pixels show the lookup alone ([`crate::Lookup::samples`]).
 
 use glam::{Vec2, Vec3};
-use holocave_scene::Ray;
+use holocave_scene::{Hit, PlacedScene, Ray};
 use holocave_tracer::frame::Frame;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
 
-use crate::pixel_direct::PixelDirect;
+use crate::pixel_direct::{Estimate, PixelDirect, ShadowQuery};
+use crate::static_rays::StaticRays;
 use crate::view::Visibility;
 
 /// One sample along an eye ray.
@@ -56,87 +57,199 @@ pub struct Gathered {
     pub object_beyond: bool,
 }
 
-/// A gather sample of `ray`: `direct` gives the next-event part at both vertices,
-/// `indirect` is the light field's remainder ([`crate::State::indirect_values`]); `seed`
-/// picks the sample.
-pub fn gather(
-    vis: &Visibility,
-    direct: &PixelDirect,
-    indirect: &[[f32; 3]],
-    ray: Ray,
-    seed: u64,
-) -> Gathered {
-    let (lookup, point, first) = vis.lookup_point_and_hit(ray);
-    let mut g = Gathered {
-        radiance: Vec3::from(lookup.emitted),
-        distance: first.map_or(f32::INFINITY, |h| h.t),
-        material: None,
-        object: None,
-        object_beyond: false,
-    };
-    let mut rng = SmallRng::seed_from_u64(seed);
-    vis.with_placed(|placed| {
-        g.material = first.map(|h| placed.surface(&h).material);
-        g.object = first.and_then(|h| placed.object_of(h.triangle));
-        g.object_beyond = g.object.is_none() && lookup.object != 0;
-        let Some(p) = point else {
-            return;
-        };
-        // The sky's direct light at x (when the estimates take it) comes along the bounce
-        // below, as the sky seen by an escaping ray; a moving object's lookup holds it
-        // already (its probe's, with the rest of its indirect light).
-        let e = direct.estimate(placed, &p, rng.random(), 0);
-        g.radiance += e.radiance - e.sky;
-        if placed.object_of(p.triangle).is_some() {
-            return;
-        }
-        g.radiance += direct.via_mirror(placed, &p, rng.random());
-        let frame = Frame::new(p.shading_normal);
-        let (uc, u) = (rng.random(), Vec2::new(rng.random(), rng.random()));
-        let Some(s) = p.bsdf.sample(frame.to_local(p.wo), uc, u) else {
-            return;
-        };
-        let wi = frame.to_world(s.wi).normalize();
-        // An opaque surface reflects only to the side it is seen from.
-        if !p.bsdf.transmits() && p.normal.dot(wi) * p.normal.dot(p.wo) <= 0.0 {
-            return;
-        }
-        if !s.weight.is_finite() || s.weight.max_element() <= 0.0 {
-            return;
-        }
-        let leaving = Ray::leaving(p.position, p.normal, wi);
-        let a = vis.arriving(leaving.origin, wi, indirect);
-        let mut arriving = a.radiance + direct.tile_albedo(&a.lookup, indirect);
-        if let Some(over) = &a.over_mirror
-            && !s.delta
-        {
-            arriving -= (1.0 - direct.mirror_weight(s.pdf, over)) * over.emitted;
-        }
-        let at_y = a.point.map_or(Vec3::ZERO, |q| {
-            direct.estimate(placed, &q, rng.random(), 0).radiance
-        });
-        g.radiance += p.weight * s.weight * (arriving + at_y);
-    });
-    if !g.radiance.is_finite() {
-        g.radiance = Vec3::ZERO;
-    }
-    g
+/// A sample between its batches of rays: what it has so far, its shadow queries (the
+/// next-event estimate's at `x`, then the one over a mirror, then the estimate's at `y`),
+/// and its bounce.
+struct Pending {
+    g: Gathered,
+    rng: SmallRng,
+    queries: Vec<ShadowQuery>,
+    /// Queries of the estimate at `x`, and whether one over a mirror follows them.
+    at_x: usize,
+    via_mirror: bool,
+    bounce: Option<Bounce>,
+    /// What arrives at `x` along the bounce, but `y`'s direct light.
+    arriving: Vec3,
 }
 
-/// One gather sample of each ray, on all cores; ray `i` takes the sample `seed` and `i`
-/// pick, so a batch is the same on any machine.
+/// The ray leaving `x` that the BSDF drew, and what it carries to the eye.
+struct Bounce {
+    ray: Ray,
+    /// `x`'s weight towards the eye times the BSDF sample's weight.
+    throughput: Vec3,
+    pdf: f32,
+    delta: bool,
+}
+
+/// One gather sample of each ray, on all cores, ray `i` taking the sample `seed` and `i`
+/// pick (so a batch is the same on any machine): `direct` gives the next-event part at
+/// both vertices, `indirect` is the light field's remainder
+/// ([`crate::State::indirect_values`]). Their rays against the static scene go to `traced`
+/// in three batches — the eye rays' first hits, the bounces', every shadow ray — so the
+/// same samples come from the CPU's walk or a GPU's; the moving objects are tested here.
 pub fn gather_all(
     vis: &Visibility,
     direct: &PixelDirect,
     indirect: &[[f32; 3]],
     rays: &[Ray],
     seed: u64,
+    traced: &dyn StaticRays,
 ) -> Vec<Gathered> {
-    rays.par_iter()
+    let first = traced.closest_hits(rays);
+    let mut pending: Vec<Pending> = (rays.par_iter().zip(first))
         .enumerate()
-        .map(|(i, &ray)| {
+        .map(|(i, (&ray, hit))| {
             let s = seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            gather(vis, direct, indirect, ray, s)
+            at_eye(vis, direct, ray, hit, SmallRng::seed_from_u64(s))
         })
-        .collect()
+        .collect();
+    let bounces: Vec<Ray> = pending
+        .iter()
+        .filter_map(|p| p.bounce.as_ref().map(|b| b.ray))
+        .collect();
+    let mut hits = traced.closest_hits(&bounces).into_iter();
+    let reached: Vec<(&mut Pending, Option<Hit>)> = pending
+        .iter_mut()
+        .filter(|p| p.bounce.is_some())
+        .map(|p| (p, hits.next().flatten()))
+        .collect();
+    reached
+        .into_par_iter()
+        .for_each(|(p, hit)| along_bounce(vis, direct, indirect, p, hit));
+    let groups: Vec<Vec<ShadowQuery>> = pending
+        .iter_mut()
+        .map(|p| std::mem::take(&mut p.queries))
+        .collect();
+    let blocked = traced.blocked(&groups);
+    let mut starts = Vec::with_capacity(groups.len());
+    let mut at = 0;
+    for g in &groups {
+        starts.push(at);
+        at += g.len();
+    }
+    vis.with_placed(|placed| {
+        (pending.into_par_iter().zip(groups).zip(starts))
+            .map(|((p, queries), start)| finish(placed, p, &queries, &blocked[start..]))
+            .collect()
+    })
+}
+
+/// A sample's first part: what the eye ray (first static hit `hit`) sees, the
+/// estimate's shadow queries at the point `x` it ends on, the one over a mirror, and the
+/// bounce the BSDF draws there.
+fn at_eye(
+    vis: &Visibility,
+    direct: &PixelDirect,
+    ray: Ray,
+    hit: Option<Hit>,
+    mut rng: SmallRng,
+) -> Pending {
+    let (lookup, point, first) = vis.lookup_point_and_hit(ray, hit);
+    let mut p = Pending {
+        g: Gathered {
+            radiance: Vec3::from(lookup.emitted),
+            distance: first.map_or(f32::INFINITY, |h| h.t),
+            material: None,
+            object: None,
+            object_beyond: false,
+        },
+        rng: SmallRng::seed_from_u64(0),
+        queries: Vec::new(),
+        at_x: 0,
+        via_mirror: false,
+        bounce: None,
+        arriving: Vec3::ZERO,
+    };
+    vis.with_placed(|placed| {
+        p.g.material = first.map(|h| placed.surface(&h).material);
+        p.g.object = first.and_then(|h| placed.object_of(h.triangle));
+        p.g.object_beyond = p.g.object.is_none() && lookup.object != 0;
+        let Some(x) = point else {
+            return;
+        };
+        // The sky's direct light at x (when the estimates take it) comes along the bounce
+        // below, as the sky seen by an escaping ray; a moving object's lookup holds it
+        // already (its probe's, with the rest of its indirect light).
+        direct.queries(&x, rng.random(), 0, &mut p.queries);
+        p.at_x = p.queries.len();
+        if placed.object_of(x.triangle).is_some() {
+            return;
+        }
+        if let Some(q) = direct.via_mirror(&x, rng.random()) {
+            p.queries.push(q);
+            p.via_mirror = true;
+        }
+        let frame = Frame::new(x.shading_normal);
+        let (uc, u) = (rng.random(), Vec2::new(rng.random(), rng.random()));
+        let Some(s) = x.bsdf.sample(frame.to_local(x.wo), uc, u) else {
+            return;
+        };
+        let wi = frame.to_world(s.wi).normalize();
+        // An opaque surface reflects only to the side it is seen from.
+        if !x.bsdf.transmits() && x.normal.dot(wi) * x.normal.dot(x.wo) <= 0.0 {
+            return;
+        }
+        if !s.weight.is_finite() || s.weight.max_element() <= 0.0 {
+            return;
+        }
+        p.bounce = Some(Bounce {
+            ray: Ray::leaving(x.position, x.normal, wi),
+            throughput: x.weight * s.weight,
+            pdf: s.pdf,
+            delta: s.delta,
+        });
+    });
+    p.rng = rng;
+    p
+}
+
+/// A sample's second part: what arrives at `x` along its bounce (first static hit `hit`)
+/// from the light field and the sky, and the estimate's shadow queries at the static
+/// point `y` it reaches.
+fn along_bounce(
+    vis: &Visibility,
+    direct: &PixelDirect,
+    indirect: &[[f32; 3]],
+    p: &mut Pending,
+    hit: Option<Hit>,
+) {
+    let Some(b) = &p.bounce else { return };
+    let a = vis.arriving_from(b.ray, hit, indirect);
+    p.arriving = a.radiance + direct.tile_albedo(&a.lookup, indirect);
+    if let Some(over) = &a.over_mirror
+        && !b.delta
+    {
+        p.arriving -= (1.0 - direct.mirror_weight(b.pdf, over)) * over.emitted;
+    }
+    if let Some(y) = a.point {
+        direct.queries(&y, p.rng.random(), 0, &mut p.queries);
+    }
+}
+
+/// The sample, given whether the static scene blocks each of its shadow queries
+/// (`blocked`, in order), the moving objects where `placed` puts them.
+fn finish(placed: &PlacedScene, p: Pending, queries: &[ShadowQuery], blocked: &[bool]) -> Gathered {
+    let mut answers = queries
+        .iter()
+        .zip(blocked)
+        .map(|(q, &b)| PixelDirect::resolve(placed, q, b));
+    let mut g = p.g;
+    let mut e = Estimate::default();
+    for a in answers.by_ref().take(p.at_x) {
+        e += a;
+    }
+    g.radiance += e.radiance - e.sky;
+    if p.via_mirror
+        && let Some(v) = answers.next()
+    {
+        g.radiance += v.radiance;
+    }
+    if let Some(b) = &p.bounce {
+        let at_y = answers.fold(Vec3::ZERO, |sum, a| sum + a.radiance);
+        g.radiance += b.throughput * (p.arriving + at_y);
+    }
+    if !g.radiance.is_finite() {
+        g.radiance = Vec3::ZERO;
+    }
+    g
 }

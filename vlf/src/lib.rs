@@ -23,6 +23,7 @@
 //!   (the lines' ray effects on plain walls);
 //! - [`gather`]: samples that help the light field: exact direct light at the point
 //!   seen and after one bounce, the field's remainder beyond;
+//! - [`static_rays`]: batches of rays against the static scene, on the CPU or a GPU;
 //! - [`propagate`]: the Neumann expansion along the lines, one bounce per iteration;
 //! - [`bake`]: the whole bake, its stopping rule and its checkpoints;
 //! - [`file`]: the `.vlf` file, and [`baked`]: its life on disk (settings checked, bakes
@@ -68,6 +69,7 @@ pub mod reflection;
 pub mod remote;
 mod sequence;
 pub mod split;
+pub mod static_rays;
 pub mod subfield;
 pub mod surface;
 pub mod tile_albedo;
@@ -81,5 +83,6 @@ pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
 pub use pixel_direct::{Accumulator, DirectPoint, Estimate, PixelDirect, ShadowQuery};
+pub use static_rays::{CpuRays, StaticRays};
 pub use tiles::Tiles;
 pub use view::{Lookup, Visibility};

@@ -52,6 +52,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 use crate::sequence::{R2, R3, r_sequence};
+use crate::static_rays::StaticRays;
 use crate::tile_albedo::TileAlbedo;
 use crate::view::{Lookup, OverMirror};
 
@@ -431,26 +432,22 @@ impl PixelDirect {
         sum
     }
 
-    /// One sample of the emissive triangles over a flat mirror at `p` (the tracer's
-    /// [`Lights::sample_via_mirror`]: `u` picks the mirror, the triangle and the point),
-    /// `p.weight` included, weighted by the power heuristic against BSDF sampling, which
-    /// finds the same light ([`Self::mirror_weight`]); zero in a scene without mirrors or
-    /// lamps. Not part of [`Self::estimate`]: the walls take light over mirrors from the
-    /// light field; a gather sample takes it here and along its bounce.
-    pub fn via_mirror(&self, placed: &PlacedScene, p: &DirectPoint, u: [f32; 4]) -> Vec3 {
+    /// The shadow query of one sample of the emissive triangles over a flat mirror at `p`
+    /// (the tracer's [`Lights::sample_via_mirror`]: `u` picks the mirror, the triangle and
+    /// the point; the ray goes to the mirror's image of the light), `p.weight` included,
+    /// weighted by the power heuristic against BSDF sampling, which finds the same light
+    /// ([`Self::mirror_weight`]); `None` where it brings nothing (a scene without mirrors
+    /// or lamps). Not part of [`Self::estimate`]: the walls take light over mirrors from
+    /// the light field; a gather sample takes it here and along its bounce.
+    pub fn via_mirror(&self, p: &DirectPoint, u: [f32; 4]) -> Option<ShadowQuery> {
         let l = &self.lights;
         if !l.has_mirrors() {
-            return Vec3::ZERO;
+            return None;
         }
         let uv = Vec2::new(u[2], u[3]);
-        let Some(ls) = l.sample_via_mirror(&self.scene, p.position, u[0], u[1], uv) else {
-            return Vec3::ZERO;
-        };
+        let ls = l.sample_via_mirror(&self.scene, p.position, u[0], u[1], uv)?;
         let frame = Frame::new(p.shading_normal);
-        match self.query(p, &frame, &ls, |b| power_heuristic(ls.pdf, b), false) {
-            Some(q) if !placed.occluded(&q.ray, q.tmax) => q.radiance,
-            _ => Vec3::ZERO,
-        }
+        self.query(p, &frame, &ls, |b| power_heuristic(ls.pdf, b), false)
     }
 
     /// The weight of an emitter that BSDF sampling (density `bsdf_pdf`) found over one
@@ -741,16 +738,15 @@ impl Accumulator {
         }
     }
 
-    /// [`Self::add`], with whether the static scene blocks each of the frame's shadow rays
-    /// answered by `blocked` for all of them at once (the CPU's walk, or the GPU's): it is
-    /// given each pixel's queries and answers them all, pixel by pixel, in order. The
-    /// moving objects are tested on the CPU.
+    /// [`Self::add`], with the frame's shadow rays against the static scene traced all at
+    /// once by `traced` (the CPU's walk, or the GPU's), each pixel's a group. The moving
+    /// objects are tested on the CPU.
     pub fn add_blocked(
         &mut self,
         direct: &PixelDirect,
         placed: &PlacedScene,
         points: &[Option<DirectPoint>],
-        blocked: &dyn Fn(&[Vec<ShadowQuery>]) -> Vec<bool>,
+        traced: &dyn StaticRays,
     ) -> Vec<Estimate> {
         // The estimates each pixel takes this frame, as shadow rays.
         let per_pixel = self.each_pixel(direct, points, |i, p, first, take, _| {
@@ -763,7 +759,7 @@ impl Accumulator {
             queries
         });
         let n = points.len();
-        let answers = blocked(&per_pixel);
+        let answers = traced.blocked(&per_pixel);
         let mut starts = Vec::with_capacity(n);
         let mut at = 0;
         for q in &per_pixel {

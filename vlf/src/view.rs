@@ -234,11 +234,17 @@ impl Visibility {
 
     /// [`Self::incoming`], with where it comes from.
     pub fn arriving(&self, at: Vec3, dir: Vec3, values: &[[f32; 3]]) -> Arriving {
+        let ray = Ray::new(at, dir);
+        self.arriving_from(ray, self.scene.closest_hit(&ray, f32::INFINITY), values)
+    }
+
+    /// [`Self::arriving`] along `ray`, whose first hit in the static scene, `first`, was
+    /// found elsewhere (a batch of rays on the GPU).
+    pub fn arriving_from(&self, ray: Ray, first: Option<Hit>, values: &[[f32; 3]]) -> Arriving {
         // Shadow rays stop at mirrors and glass: the emitters and the sun seen through
         // them come along this ray instead.
         let statics = self.scene.statics();
-        let ray = Ray::new(at, dir);
-        let first = statics.closest_hit(&ray, f32::INFINITY);
+        let dir = ray.dir;
         let chain = follow_from(&statics, ray, first, &environment(&self.lights));
         // What a surface drawn as its mirror shows (its highlights and base, the sky and
         // emitters in it) arrives as what a delta surface shows does: next-event
@@ -319,12 +325,18 @@ impl Visibility {
     }
 
     /// [`Self::lookup_and_point`], and the ray's first hit (mirrors and glass included):
-    /// the surface a sample along this ray belongs to.
-    pub fn lookup_point_and_hit(&self, ray: Ray) -> (Lookup, Option<DirectPoint>, Option<Hit>) {
+    /// the surface a sample along this ray belongs to; `static_hit` is the ray's first hit
+    /// in the static scene, found elsewhere (a batch of rays on the GPU), and the moving
+    /// objects are tried here.
+    pub fn lookup_point_and_hit(
+        &self,
+        ray: Ray,
+        static_hit: Option<Hit>,
+    ) -> (Lookup, Option<DirectPoint>, Option<Hit>) {
         let env = environment(&self.lights);
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
-        let first = placed.closest_hit(&ray, f32::INFINITY);
+        let first = placed.objects_closest_hit(&ray, f32::INFINITY, static_hit);
         let chain = follow_from(&placed, ray, first, &env);
         let (l, p) =
             self.with_drawn(|v, d| self.lookup_chain(chain, &objects, Some(&placed), v, d));

@@ -15,7 +15,7 @@ use holocave_scene::{LoadOptions, Ray, Scene};
 use holocave_tracer::film::Image;
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_vlf::gather::gather_all;
-use holocave_vlf::{PixelDirect, Settings, Visibility};
+use holocave_vlf::{CpuRays, PixelDirect, Settings, Visibility};
 
 const SIZE: u32 = 32;
 /// Samples per pixel for the means (a 32 × 32 grid of points in the pixel).
@@ -78,7 +78,7 @@ fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() 
     let field_err = field.relative_mse(&reference);
 
     let rays = grid_rays(&view, 32);
-    let gathers: Vec<Vec3> = gather_all(&vis, &direct, &indirect, &rays, 11)
+    let gathers: Vec<Vec3> = gather_all(&vis, &direct, &indirect, &rays, 11, &CpuRays(vis.scene()))
         .iter()
         .map(|g| g.radiance)
         .collect();

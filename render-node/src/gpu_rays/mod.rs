@@ -69,7 +69,9 @@ use bytemuck::{Pod, Zeroable};
 use holocave_cave::WallView;
 use holocave_scene::bvh::{Bvh, FLAT_EMPTY, FLAT_NODE_WORDS, FLAT_TRIANGLE_WORDS};
 use holocave_scene::{Hit, Ray, Scene};
+use holocave_vlf::{ShadowQuery, StaticRays};
 use rayon::prelude::*;
+use std::sync::{Mutex, MutexGuard};
 
 use crate::RenderNodeError;
 use crate::gpu::{Binding, ComputePass, Gpu};
@@ -554,12 +556,17 @@ impl GpuRays {
         self.receive_answers(gpu, n, |&[w]: &[u32; 1]| (w != NO_HIT).then_some(w))
     }
 
-    /// The closest hit of each ray before `tmax` (as [`Bvh::closest_hit`]).
+    /// The closest hit of each ray before `tmax` (as [`Bvh::closest_hit`]), in batches of
+    /// [`MAX_BATCH`].
     pub fn closest_hits(&mut self, gpu: &Gpu, rays: &[Ray], tmax: f32) -> Vec<Option<Hit>> {
-        self.upload(gpu, rays, tmax);
-        let n = rays.len() as u32;
-        self.trace(gpu, n, Query::ClosestHit);
-        self.read_hits(gpu, n)
+        let mut out = Vec::with_capacity(rays.len());
+        for batch in rays.chunks(MAX_BATCH) {
+            self.upload(gpu, batch, tmax);
+            let n = batch.len() as u32;
+            self.trace(gpu, n, Query::ClosestHit);
+            out.extend(self.read_hits(gpu, n));
+        }
+        out
     }
 
     /// For each ray, a triangle that lies on it before `tmax`, if any (the ray is occluded,
@@ -605,6 +612,31 @@ impl GpuRays {
             .into_iter()
             .map(|o| o.is_some())
             .collect()
+    }
+}
+
+/// The GPU's walk as the light field's batched passes take it (a wall's shadow rays,
+/// gather samples): one engine, shared by the node's threads.
+pub struct OnGpu<'a> {
+    pub gpu: &'a Gpu,
+    pub engine: &'a Mutex<GpuRays>,
+}
+
+impl OnGpu<'_> {
+    fn engine(&self) -> MutexGuard<'_, GpuRays> {
+        self.engine.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl StaticRays for OnGpu<'_> {
+    fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
+        self.engine().closest_hits(self.gpu, rays, f32::INFINITY)
+    }
+
+    fn blocked(&self, groups: &[Vec<ShadowQuery>]) -> Vec<bool> {
+        let occluders =
+            (self.engine()).occluders_in(self.gpu, groups, |q| GpuRay::new(&q.ray, q.tmax));
+        occluders.iter().map(Option::is_some).collect()
     }
 }
 
