@@ -29,11 +29,13 @@ use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::split::Split;
 use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
-use holocave_vlf::{Accumulator, CpuRays, DirectPoint, Lookup, PixelDirect, Visibility};
+use holocave_vlf::{
+    Accumulator, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, Visibility,
+};
 use rayon::prelude::*;
 
 use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
-use crate::gpu_rays::{GpuRays, OnGpu, Query, Rays};
+use crate::gpu_rays::{GpuRays, KeptHits, OnGpu, Query, Rays, ShadowMaker};
 use crate::{EyeView, Gpu, RenderNodeError};
 
 /// How many samples the light field is worth in a pixel unless told. Blending `n`
@@ -67,12 +69,30 @@ pub struct VlfBase {
     /// The running means of the direct light, per eye and view drawn, with the frame each
     /// was last drawn (a moved eye takes over its own nearest one of the same screen).
     history: Mutex<Vec<History>>,
-    /// Buffers for the points a frame's pixels see, kept between frames (one per view
-    /// drawn at once).
-    points: Mutex<Vec<Vec<Option<DirectPoint>>>>,
+    /// Buffers for what a frame's pixels see, kept between frames (one per view drawn at
+    /// once).
+    pixels: Mutex<Vec<Pixels>>,
     /// Where the pixels' first hits are found: on this GPU, or (`None`) on the CPU.
-    gpu_rays: Option<(Gpu, Mutex<GpuRays>)>,
+    gpu_rays: Option<OnGpuRays>,
     shadow_lights: Vec<ShadowLight>,
+}
+
+/// The GPU that traces a node's rays: its engine, and the maker of the direct light's
+/// shadow rays from the wall's first hits (`None` for a scene whose lights it does not
+/// make).
+struct OnGpuRays {
+    gpu: Gpu,
+    engine: Mutex<GpuRays>,
+    maker: Option<Mutex<ShadowMaker>>,
+}
+
+/// What one view's pixels see: the points the direct light is computed at, and with rays
+/// on the GPU the first hits read back and kept there.
+#[derive(Default)]
+struct Pixels {
+    points: Vec<Option<DirectPoint>>,
+    hits: Option<Vec<Option<Hit>>>,
+    kept: Option<KeptHits>,
 }
 
 /// One eye's running means of the direct light in one view.
@@ -175,7 +195,7 @@ impl VlfBase {
             direct: false,
             nee,
             history: Mutex::new(Vec::new()),
-            points: Mutex::new(Vec::new()),
+            pixels: Mutex::new(Vec::new()),
             gpu_rays: None,
             shadow_lights,
             visibility,
@@ -251,7 +271,12 @@ impl VlfBase {
     pub fn with_rays(mut self, gpu: &Gpu, rays: Rays) -> Result<Self, RenderNodeError> {
         self.gpu_rays = if rays.on_gpu(gpu) {
             let engine = GpuRays::for_scene(gpu, self.visibility.scene())?;
-            Some((gpu.clone(), Mutex::new(engine)))
+            let maker = ShadowMaker::new(gpu, &engine, self.visibility.scene()).map(Mutex::new);
+            Some(OnGpuRays {
+                gpu: gpu.clone(),
+                engine: Mutex::new(engine),
+                maker,
+            })
         } else {
             None
         };
@@ -270,20 +295,20 @@ impl VlfBase {
         self.gpu_rays.is_some()
     }
 
-    /// The first hit of each pixel of `wall` found on the GPU, when that is where they are
-    /// found.
-    fn gpu_first_hits(&self, wall: &WallView) -> Option<Vec<Option<Hit>>> {
-        let (gpu, engine) = self.gpu_rays.as_ref()?;
-        let mut engine = engine.lock().unwrap_or_else(|e| e.into_inner());
-        let n = engine.trace_wall(gpu, wall, f32::INFINITY, Query::ClosestHit);
-        Some(engine.read_hits(gpu, n))
-    }
-
-    /// Each pixel's lookup, and its point written into `points`, the first hits found
-    /// where chosen.
-    fn pixels_into(&self, wall: &WallView, points: &mut Vec<Option<DirectPoint>>) -> Vec<Lookup> {
-        let hits = self.gpu_first_hits(wall);
-        self.visibility.pixels_into(wall, hits.as_deref(), points)
+    /// Each pixel's lookup, and what it sees written into `pixels`, the first hits found
+    /// where chosen (on the GPU: read back, and kept there for the shadow rays made from
+    /// them).
+    fn pixels_into(&self, wall: &WallView, pixels: &mut Pixels) -> Vec<Lookup> {
+        pixels.hits = self.gpu_rays.as_ref().map(|g| {
+            let mut engine = g.engine.lock().unwrap_or_else(|e| e.into_inner());
+            let n = engine.trace_wall(&g.gpu, wall, f32::INFINITY, Query::ClosestHit);
+            let hits = engine.read_hits(&g.gpu, n);
+            if g.maker.is_some() {
+                engine.keep_hits(&g.gpu, n, &mut pixels.kept);
+            }
+            hits
+        });
+        (self.visibility).pixels_into(wall, pixels.hits.as_deref(), &mut pixels.points)
     }
 
     /// One gather sample along each ray ([`holocave_vlf::gather`]): the direct light
@@ -299,8 +324,11 @@ impl VlfBase {
 
     /// The GPU's walk, when the rays are traced there.
     fn on_gpu(&self) -> Option<OnGpu<'_>> {
-        let (gpu, engine) = self.gpu_rays.as_ref()?;
-        Some(OnGpu { gpu, engine })
+        let g = self.gpu_rays.as_ref()?;
+        Some(OnGpu {
+            gpu: &g.gpu,
+            engine: &g.engine,
+        })
     }
 
     /// What a still wall shows of the light field along each ray (no samples): the lookup
@@ -339,16 +367,16 @@ impl VlfBase {
     /// this frame's estimate averaged with those of earlier frames of the same eye at the
     /// same surface point.
     pub fn lookups(&self, eye: usize, view: &EyeView) -> Vec<Lookup> {
-        let mut points = {
-            let mut pool = self.points.lock().unwrap_or_else(|e| e.into_inner());
+        let mut pixels = {
+            let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
             pool.pop().unwrap_or_default()
         };
-        let mut lookups = self.pixels_into(&view.wall, &mut points);
+        let mut lookups = self.pixels_into(&view.wall, &mut pixels);
         if self.direct {
-            self.add_direct(eye, view, &mut lookups, &points);
+            self.add_direct(eye, view, &mut lookups, &pixels);
         }
-        let mut pool = self.points.lock().unwrap_or_else(|e| e.into_inner());
-        pool.push(points);
+        let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
+        pool.push(pixels);
         lookups
     }
 
@@ -360,15 +388,35 @@ impl VlfBase {
         Some(x.means.counts().to_vec())
     }
 
-    /// Adds each pixel's running mean of the direct light at its point (`points`) to its
-    /// lookup's `emitted` light, this frame's estimate included.
-    fn add_direct(
-        &self,
-        eye: usize,
-        view: &EyeView,
-        lookups: &mut [Lookup],
-        points: &[Option<DirectPoint>],
-    ) {
+    /// Runs `f` with the shadow rays the GPU makes from the wall's first hits kept there
+    /// (which pixels see their first hit, and the GPU's answers to their made rays); with
+    /// `None` where the rays are not on the GPU or it makes none of this scene's.
+    fn with_made<T>(&self, pixels: &Pixels, f: impl FnOnce(Option<&Made>) -> T) -> T {
+        let on_gpu = self.gpu_rays.as_ref();
+        let (Some(g), Some(hits), Some(kept)) = (on_gpu, &pixels.hits, &pixels.kept) else {
+            return f(None);
+        };
+        let Some(maker) = &g.maker else {
+            return f(None);
+        };
+        let at_first_hit: Vec<bool> = (pixels.points.par_iter().zip(hits))
+            .map(|(p, h)| matches!((p, h), (Some(p), Some(h)) if p.triangle == h.triangle))
+            .collect();
+        let trace = |rays: &[MadeRays]| {
+            let engine = g.engine.lock().unwrap_or_else(|e| e.into_inner());
+            let mut maker = maker.lock().unwrap_or_else(|e| e.into_inner());
+            maker.trace(&g.gpu, &engine, kept, rays)
+        };
+        f(Some(&Made {
+            at_first_hit: &at_first_hit,
+            trace: &trace,
+        }))
+    }
+
+    /// Adds each pixel's running mean of the direct light at its point (in `pixels`) to
+    /// its lookup's `emitted` light, this frame's estimate included.
+    fn add_direct(&self, eye: usize, view: &EyeView, lookups: &mut [Lookup], pixels: &Pixels) {
+        let points = &pixels.points;
         let direct = &self.nee;
         // This eye's history of this view (taken out while it is used: other views may be
         // drawn on other threads meanwhile); else, when the eye moved, its history of the
@@ -407,7 +455,9 @@ impl VlfBase {
             acc.reproject(&from, &view.wall, points);
         }
         let estimates = self.visibility.with_placed(|placed| match self.on_gpu() {
-            Some(traced) => acc.add_blocked(direct, placed, points, &traced),
+            Some(traced) => self.with_made(pixels, |made| {
+                acc.add_blocked(direct, placed, points, &traced, made)
+            }),
             None => acc.add(direct, placed, points),
         });
         let each = (lookups.par_iter_mut().zip(estimates)).zip(acc.counts());

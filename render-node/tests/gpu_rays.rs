@@ -11,6 +11,8 @@
 //! `tmax`. Grazes are counted and must be rare (at most one ray in a thousand, plus one).
 
 mod ray_sets;
+#[path = "common/room.rs"]
+mod room;
 
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
@@ -541,4 +543,91 @@ fn negative_zeros_bad_rays_and_tmax_on_a_quad() {
     let hits = engine.closest_hits(&gpu, &rays, f32::INFINITY);
     assert!(hits[0].is_some() && hits[1].is_some() && hits[6].is_some());
     assert!(hits[2..6].iter().all(|h| h.is_none()) && hits[7].is_none());
+}
+
+/// The per-pixel direct light's rays towards the punctual lights and the sun's disc, made
+/// on the GPU from the wall's first hits kept there (`ShadowMaker`), answer as the CPU's
+/// own rays of the same samples do: each pixel's made rays against `Scene::occluded` of the
+/// ray the CPU makes for that light or sample. A made ray differs from the CPU's by a few
+/// float steps of its direction and point (the GPU's `sin`, `cos`, `sqrt`, fused
+/// multiply-adds, a 24-bit sample), so answers may differ only for rays that graze an
+/// edge: at most one in a thousand, plus one.
+#[test]
+fn shadow_rays_made_on_the_gpu_are_the_cpus() {
+    use holocave_render_node::gpu_rays::ShadowMaker;
+    use holocave_vlf::{MadeRays, Sampled};
+    let scene = std::sync::Arc::new(room::room_with_punctual_lights());
+    let vis = Visibility::of(scene.clone(), &Settings::default());
+    let direct = PixelDirect::new(scene.clone());
+    let view = camera_view(&scene, 96, 64);
+    let points = vis.pixels_and_points(&view).1;
+    let gpu = gpu();
+    let mut engine = GpuRays::for_scene(&gpu, &scene).expect("upload the scene");
+    let mut maker = ShadowMaker::new(&gpu, &engine, &scene).expect("a maker of the room's lights");
+    let n = engine.trace_wall(&gpu, &view, f32::INFINITY, Query::ClosestHit);
+    let hits = engine.read_hits(&gpu, n);
+    let mut kept = None;
+    engine.keep_hits(&gpu, n, &mut kept);
+    // Each pixel's queries of four estimates (the sun's samples 0 to 7 or so), where it
+    // sees its first hit.
+    let lights = scene.lights.len() as u32;
+    let per_pixel: Vec<Vec<_>> = (points.iter().zip(&hits))
+        .enumerate()
+        .map(|(i, (p, h))| {
+            let mut queries = Vec::new();
+            if let (Some(p), Some(h)) = (p, h)
+                && p.triangle == h.triangle
+            {
+                for e in 0..4 {
+                    direct.queries(p, i as u64, e, &mut queries);
+                }
+            }
+            queries
+        })
+        .collect();
+    let plans: Vec<MadeRays> = per_pixel
+        .iter()
+        .map(|q| {
+            let suns: Vec<u64> = (q.iter())
+                .filter_map(|q| match q.light {
+                    Sampled::Sun(k) => Some(k),
+                    _ => None,
+                })
+                .collect();
+            let (lo, hi) = (suns.iter().min(), suns.iter().max());
+            MadeRays {
+                first_sun: lo.map_or(0, |&k| k as u32),
+                suns: lo.zip(hi).map_or(0, |(lo, hi)| (hi - lo + 1) as u32),
+                punctual: q.iter().any(|q| matches!(q.light, Sampled::Punctual(_))),
+            }
+        })
+        .collect();
+    let masks = maker.trace(&gpu, &engine, kept.as_ref().unwrap(), &plans);
+    assert_eq!(masks.len(), per_pixel.len());
+    let (mut rays, mut blocked, mut differ) = ([0usize; 2], [0usize; 2], 0);
+    for ((queries, plan), mask) in per_pixel.iter().zip(&plans).zip(&masks) {
+        for q in queries {
+            let (bit, kind) = match q.light {
+                Sampled::Punctual(i) => (i, 0),
+                Sampled::Sun(k) => (lights + (k - u64::from(plan.first_sun)) as u32, 1),
+                _ => continue,
+            };
+            let cpu = scene.occluded(&q.ray, q.tmax);
+            rays[kind] += 1;
+            blocked[kind] += usize::from(cpu);
+            differ += usize::from(cpu != (mask & (1 << bit) != 0));
+        }
+    }
+    eprintln!(
+        "made shadow rays: {} to punctual lights ({} blocked), {} to the sun ({} blocked); \
+         {differ} answered otherwise than the CPU's",
+        rays[0], blocked[0], rays[1], blocked[1]
+    );
+    for k in 0..2 {
+        assert!(
+            rays[k] > 1000 && blocked[k] > 100 && rays[k] - blocked[k] > 100,
+            "{rays:?} rays, {blocked:?} blocked: too few of either to tell"
+        );
+    }
+    assert!(differ <= (rays[0] + rays[1]) / 1000 + 1, "{differ} differ");
 }

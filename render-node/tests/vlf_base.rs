@@ -331,3 +331,46 @@ fn gathers_traced_on_the_gpu_are_the_cpus() {
     eprintln!("{off} of {} gathers differ", rays.len());
     assert!(off <= rays.len() * 6 / 1000 + 1, "{off} gathers differ");
 }
+
+/// `--rays gpu` against `--rays cpu` in the sunlit room with punctual lights, whose direct
+/// light's rays towards the sun and the lamps the GPU makes from the wall's first hits
+/// (the rest sent, mirrors and glass followed on the CPU): the same wall, frame after
+/// frame, within one 8-bit step but where a ray grazes an edge.
+#[test]
+fn shadow_rays_made_on_the_gpu_draw_the_cpus_walls() {
+    let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
+    let scene = Arc::new(common::room::room_with_punctual_lights());
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("room.vlf");
+    let (state, _) =
+        holocave_vlf::bake(&scene, &coarse(), None, &|_| {}, &mut |_| Ok::<(), ()>(()))
+            .expect("bake");
+    VlfFile::of(&scene, coarse(), state)
+        .write(&path)
+        .expect("write the light field");
+    let cpu = VlfBase::open(&path, scene.clone()).unwrap();
+    let on_gpu = (VlfBase::open(&path, scene.clone()).unwrap())
+        .with_rays(&gpu, Rays::Gpu)
+        .unwrap();
+    assert!(cpu.direct_per_pixel() && on_gpu.rays_on_gpu());
+    let cam = scene.cameras.first().expect("the room's camera");
+    let view = EyeView::looking_at(WallView::through_camera(cam, 80, 60), 0.05).unwrap();
+    for frame in 0..3 {
+        let a = shade(&cpu.lookups(0, &view), cpu.values());
+        let b = shade(&on_gpu.lookups(0, &view), on_gpu.values());
+        let peak = a.iter().map(|p| p.max_element()).fold(0.0f32, f32::max);
+        let step = peak / 255.0;
+        let off = (a.iter().zip(&b))
+            .filter(|(a, b)| (**a - **b).abs().max_element() > step)
+            .count();
+        eprintln!(
+            "frame {frame}: {off} of {} pixels differ by more than one step",
+            a.len()
+        );
+        // As above: grazing rays (one in a thousand of each pixel's six or so).
+        assert!(
+            off <= a.len() / 200 + 1,
+            "frame {frame}: {off} pixels differ"
+        );
+    }
+}

@@ -82,7 +82,10 @@ pub use bake::{
 pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
-pub use pixel_direct::{Accumulator, DirectPoint, Estimate, PixelDirect, ShadowQuery};
+pub use pixel_direct::{
+    Accumulator, DirectPoint, Estimate, Made, MadeRays, PixelDirect, Sampled, ShadowQuery,
+    SunSequence, sun_sequence,
+};
 pub use static_rays::{CpuRays, StaticRays};
 pub use tiles::Tiles;
 pub use view::{Lookup, Visibility};

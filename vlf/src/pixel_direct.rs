@@ -122,7 +122,7 @@ fn shadow_query(
     p: &DirectPoint,
     ls: &LightSample,
     radiance: Vec3,
-    sky: bool,
+    light: Sampled,
 ) -> Option<ShadowQuery> {
     if radiance.abs().max_element() <= 0.0 || !radiance.is_finite() {
         return None;
@@ -132,7 +132,7 @@ fn shadow_query(
         ray,
         tmax,
         radiance,
-        sky,
+        light,
     })
 }
 
@@ -261,14 +261,14 @@ impl PixelDirect {
         frame: &Frame,
         ls: &LightSample,
         mis: impl FnOnce(f32) -> f32,
-        sky: bool,
+        light: Sampled,
     ) -> Option<ShadowQuery> {
         if !receives(p, ls.wi) {
             return None;
         }
         let (f, bsdf_pdf) = p.bsdf.eval(frame.to_local(p.wo), frame.to_local(ls.wi));
         let c = f * frame.n.dot(ls.wi).abs() * ls.contribution * p.weight * mis(bsdf_pdf);
-        shadow_query(p, ls, c, sky)
+        shadow_query(p, ls, c, light)
     }
 
     /// The shadow rays of the `n`-th estimate at `p` of pixel `seed`'s sequence (one
@@ -286,14 +286,14 @@ impl PixelDirect {
             let uc = r_sequence(R3, 3, 0, n, seed);
             let u = Vec2::new(r_sequence(R3, 3, 1, n, seed), r_sequence(R3, 3, 2, n, seed));
             if let Some(q) = (l.sample_area(&self.scene, p.position, uc, u))
-                .and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, false))
+                .and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, Sampled::Area))
             {
                 f(q);
             }
         }
         for i in 0..l.punctual.len() {
             if let Some(q) = (l.sample_punctual(i, p.position))
-                .and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, false))
+                .and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, Sampled::Punctual(i as u32)))
             {
                 f(q);
             }
@@ -301,8 +301,8 @@ impl PixelDirect {
         let (first, count) = self.samples_of(n, FIRST_SUN_SAMPLES);
         for k in first..first + count {
             let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
-            if let Some(mut q) =
-                (l.sample_sun(u)).and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, false))
+            if let Some(mut q) = (l.sample_sun(u))
+                .and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, Sampled::Sun(k)))
             {
                 q.radiance /= count as f32;
                 f(q);
@@ -332,7 +332,7 @@ impl PixelDirect {
         // The same 2-D sequence as the sun's, shifted by another hash of the pixel.
         let u = Vec2::new(r_sequence(R2, 4, 0, n, seed), r_sequence(R2, 4, 1, n, seed));
         if let Some(ls) = self.lights.sample_sky(u)
-            && let Some(q) = self.query(p, frame, &ls, |b| power_heuristic(ls.pdf, b), true)
+            && let Some(q) = self.query(p, frame, &ls, |b| power_heuristic(ls.pdf, b), Sampled::Sky)
         {
             f(q);
         }
@@ -346,7 +346,7 @@ impl PixelDirect {
             return;
         }
         let c = b.weight * sky.radiance(wi) * p.weight * power_heuristic(b.pdf, sky.pdf(wi));
-        if let Some(q) = shadow_query(p, &towards_sky(wi, b.pdf), c, true) {
+        if let Some(q) = shadow_query(p, &towards_sky(wi, b.pdf), c, Sampled::Sky) {
             f(q);
         }
     }
@@ -395,7 +395,7 @@ impl PixelDirect {
                 }
                 let g = (p.bsdf.eval(wo, local).0 - widened.eval(wo, local).0) * i.z;
                 let c = g * sky.radiance(wi) * p.weight / (pdf * count as f32);
-                if let Some(q) = shadow_query(p, &towards_sky(wi, pdf), c, false) {
+                if let Some(q) = shadow_query(p, &towards_sky(wi, pdf), c, Sampled::Other) {
                     f(q);
                 }
             }
@@ -416,7 +416,11 @@ impl PixelDirect {
         }
         Estimate {
             radiance: q.radiance,
-            sky: if q.sky { q.radiance } else { Vec3::ZERO },
+            sky: if q.light == Sampled::Sky {
+                q.radiance
+            } else {
+                Vec3::ZERO
+            },
             object_shadow: false,
         }
     }
@@ -447,7 +451,13 @@ impl PixelDirect {
         let uv = Vec2::new(u[2], u[3]);
         let ls = l.sample_via_mirror(&self.scene, p.position, u[0], u[1], uv)?;
         let frame = Frame::new(p.shading_normal);
-        self.query(p, &frame, &ls, |b| power_heuristic(ls.pdf, b), false)
+        self.query(
+            p,
+            &frame,
+            &ls,
+            |b| power_heuristic(ls.pdf, b),
+            Sampled::Other,
+        )
     }
 
     /// The weight of an emitter that BSDF sampling (density `bsdf_pdf`) found over one
@@ -486,6 +496,95 @@ impl PixelDirect {
     }
 }
 
+/// The sun's samples of pixel `seed` ([`Sampled::Sun`]) for a walk that makes the same
+/// shadow rays without f64 (a GPU): component `c` of sample `k` is `shift[c] + ⌊k ·
+/// step[c] / 2³²⌋ mod 2³²` in units of 2⁻³², mapped into the sun's disc as the tracer's
+/// [`Lights::sample_sun`] maps it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SunSequence {
+    pub shift: [u32; 2],
+    pub step: [u64; 2],
+}
+
+/// See [`SunSequence`].
+pub fn sun_sequence(seed: u64) -> SunSequence {
+    let (s0, a0) = crate::sequence::r_fixed(R2, 2, 0, seed);
+    let (s1, a1) = crate::sequence::r_fixed(R2, 2, 1, seed);
+    SunSequence {
+        shift: [s0, s1],
+        step: [a0, a1],
+    }
+}
+
+/// The shadow rays a walk makes itself for one pixel from the pixel's first hit, never
+/// sent to it: towards every punctual light (`punctual`) and the sun's samples
+/// `first_sun .. first_sun + suns` of the pixel's sequence ([`sun_sequence`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MadeRays {
+    pub first_sun: u32,
+    pub suns: u32,
+    pub punctual: bool,
+}
+
+/// Bits in a pixel's answer to its [`MadeRays`]: the punctual lights' and the sun's samples
+/// together fit in them, or the pixel's rays are all sent.
+pub const MADE_BITS: u32 = 32;
+
+impl MadeRays {
+    /// The rays a walk can make of a pixel's queries (the scene having `lights` punctual
+    /// lights): its punctual lights' and its sun's samples; none where they do not fit
+    /// in [`MADE_BITS`].
+    fn of(queries: &[ShadowQuery], lights: u32) -> MadeRays {
+        let mut m = MadeRays::default();
+        let (mut lo, mut hi) = (u64::MAX, 0);
+        for q in queries {
+            match q.light {
+                Sampled::Punctual(_) => m.punctual = true,
+                Sampled::Sun(k) => (lo, hi) = (lo.min(k), hi.max(k)),
+                _ => {}
+            }
+        }
+        if lo <= hi {
+            let (Ok(first), Ok(suns)) = (u32::try_from(lo), u32::try_from(hi - lo + 1)) else {
+                return MadeRays::default();
+            };
+            (m.first_sun, m.suns) = (first, suns);
+        }
+        if lights + m.suns > MADE_BITS {
+            return MadeRays::default();
+        }
+        m
+    }
+
+    /// The bit of query `q`'s answer when the walk makes it (`lights` punctual lights
+    /// first, then the sun's samples).
+    fn bit(&self, q: &ShadowQuery, lights: u32) -> Option<u32> {
+        match q.light {
+            Sampled::Punctual(i) if self.punctual => Some(i),
+            Sampled::Sun(k)
+                if self.suns > 0
+                    && (k >= u64::from(self.first_sun))
+                    && k - u64::from(self.first_sun) < u64::from(self.suns) =>
+            {
+                Some(lights + (k - u64::from(self.first_sun)) as u32)
+            }
+            _ => None,
+        }
+    }
+}
+
+/// Shadow rays a walk makes from the pixels' first hits where it found them (a GPU,
+/// from the wall's hits it keeps): they never cross the bus, only each pixel's
+/// [`MadeRays`] (8 bytes) and answer (a bit a ray).
+pub struct Made<'a> {
+    /// Per pixel: whether the point it sees is the walk's first hit of its ray (no mirror,
+    /// glass or moving object in between).
+    pub at_first_hit: &'a [bool],
+    /// Whether the static scene blocks each pixel's made rays: bit `i` for punctual light
+    /// `i`, bit `P + j` for the sun's sample `first_sun + j` (`P` punctual lights).
+    pub trace: &'a (dyn Fn(&[MadeRays]) -> Vec<u32> + Sync),
+}
+
 /// One light sample's shadow ray (up to `tmax`) and the radiance it sends towards the
 /// viewer if nothing blocks it.
 #[derive(Clone, Copy, Debug)]
@@ -493,8 +592,22 @@ pub struct ShadowQuery {
     pub ray: Ray,
     pub tmax: f32,
     pub radiance: Vec3,
-    /// A sample of the sky ([`PixelDirect::with_sky`]).
-    pub sky: bool,
+    pub light: Sampled,
+}
+
+/// What a shadow query samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sampled {
+    /// A point on the emissive triangles.
+    Area,
+    /// The scene's punctual light of this index.
+    Punctual(u32),
+    /// This sample of the pixel's sequence in the sun's disc ([`sun_sequence`]).
+    Sun(u64),
+    /// A direction of the sky's direct light ([`PixelDirect::with_sky`]).
+    Sky,
+    /// An emitter over a mirror, or the sky's sharpened reflection.
+    Other,
 }
 
 /// One estimate of the direct light at a point.
@@ -739,14 +852,16 @@ impl Accumulator {
     }
 
     /// [`Self::add`], with the frame's shadow rays against the static scene traced all at
-    /// once by `traced` (the CPU's walk, or the GPU's), each pixel's a group. The moving
-    /// objects are tested on the CPU.
+    /// once by `traced` (the CPU's walk, or the GPU's), each pixel's a group; with
+    /// `made`, the punctual lights' and the sun's rays of the pixels that see their first
+    /// hit are made by the walk instead. The moving objects are tested on the CPU.
     pub fn add_blocked(
         &mut self,
         direct: &PixelDirect,
         placed: &PlacedScene,
         points: &[Option<DirectPoint>],
         traced: &dyn StaticRays,
+        made: Option<&Made>,
     ) -> Vec<Estimate> {
         // The estimates each pixel takes this frame, as shadow rays.
         let per_pixel = self.each_pixel(direct, points, |i, p, first, take, _| {
@@ -758,21 +873,48 @@ impl Accumulator {
             }
             queries
         });
+        let lights = direct.lights.punctual.len() as u32;
         let n = points.len();
-        let answers = traced.blocked(&per_pixel);
+        let (plans, masks) = match made {
+            Some(made) => {
+                let plans: Vec<MadeRays> = (per_pixel.par_iter().zip(made.at_first_hit))
+                    .map(|(q, &first)| {
+                        if first {
+                            MadeRays::of(q, lights)
+                        } else {
+                            MadeRays::default()
+                        }
+                    })
+                    .collect();
+                let masks = (made.trace)(&plans);
+                (plans, masks)
+            }
+            None => (vec![MadeRays::default(); n], vec![0; n]),
+        };
+        let sent: Vec<Vec<ShadowQuery>> = (per_pixel.par_iter().zip(&plans))
+            .map(|(queries, m)| {
+                let sent = queries.iter().filter(|q| m.bit(q, lights).is_none());
+                sent.copied().collect()
+            })
+            .collect();
+        let answers = traced.blocked(&sent);
         let mut starts = Vec::with_capacity(n);
         let mut at = 0;
-        for q in &per_pixel {
+        for q in &sent {
             starts.push(at);
             at += q.len();
         }
-        per_pixel
-            .par_iter()
+        (per_pixel.par_iter().zip(plans).zip(masks))
             .zip(starts)
             .zip(self.sum.par_iter_mut())
             .zip(self.count.par_iter())
-            .map(|(((queries, first), sum), &count)| {
-                for (q, &b) in queries.iter().zip(&answers[first..]) {
+            .map(|(((((queries, m), mask), first), sum), &count)| {
+                let mut sent = answers[first..].iter();
+                for q in queries {
+                    let b = match m.bit(q, lights) {
+                        Some(bit) => mask & (1 << bit) != 0,
+                        None => *sent.next().unwrap_or(&true),
+                    };
                     *sum += PixelDirect::resolve(placed, q, b);
                 }
                 mean(sum, count)

@@ -76,6 +76,9 @@ use std::sync::{Mutex, MutexGuard};
 use crate::RenderNodeError;
 use crate::gpu::{Binding, ComputePass, Gpu};
 
+mod shadow;
+pub use shadow::{KeptHits, MAX_MADE_LIGHTS, ShadowMaker};
+
 /// `@workgroup_size` of the kernels (`WORKGROUP` in the shader).
 const WORKGROUP: u32 = 64;
 /// The largest stack a tree may need (a tree of 72 levels; real scenes need under 100).
@@ -209,12 +212,17 @@ pub struct GpuRays {
     triangle_slots: usize,
 }
 
-/// The kernels' WGSL for a tree whose walk needs `stack` entries.
+/// The batch kernels' WGSL for a tree whose walk needs `stack` entries.
 fn source(stack: usize) -> String {
+    source_with(stack, include_str!("rays.wgsl"))
+}
+
+/// The walk (`walk.wgsl`) for a tree whose walk needs `stack` entries, then `kernels`.
+fn source_with(stack: usize, kernels: &str) -> String {
     format!(
-        "const RAY_STACK: u32 = {}u;\n{}",
+        "const RAY_STACK: u32 = {}u;\n{}\n{kernels}",
         stack.max(1),
-        include_str!("rays.wgsl")
+        include_str!("walk.wgsl")
     )
 }
 

@@ -1,5 +1,5 @@
 //! What the render node's tests and its `pixel_tracer` bench (which includes this file by
-//! path) share: the Cornell box, and the README's view of it.
+//! path) share: the Cornell box, and the README's view of it; the room with punctual lights.
 
 use glam::Vec3;
 use holocave_cave::WallView;
@@ -8,6 +8,10 @@ use holocave_scene::{LoadOptions, Scene};
 /// Skip or fail without `../shared` (`tests/common/require.rs` of the checkout).
 #[path = "../../../tests/common/require.rs"]
 pub mod require;
+
+/// The room with punctual lights.
+#[allow(dead_code)]
+pub mod room;
 
 /// The README's eye: in front of the box, at standing height.
 pub const EYE: Vec3 = Vec3::new(0.0, 1.0, 3.4);

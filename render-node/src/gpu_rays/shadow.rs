@@ -1,0 +1,276 @@
+//! Shadow rays made on the GPU (`shadow.wgsl` beside this file): the per-pixel direct
+//! light's rays towards the punctual lights and the sun's disc, made from each pixel's
+//! first hit where the wall's closest-hit pass left it, so that neither the hits nor the
+//! rays cross the bus — only each pixel's [`MadeRays`] (8 bytes: which of the sun's
+//! samples) and its answer (a bit a ray).
+//!
+//! The rays are the CPU's ([`holocave_vlf::pixel_direct`]) made again: the point from the
+//! triangle's vertices and the hit's barycentrics (`surface_point`'s operations), the
+//! offset off the surface (`leave_surface`), the segment to a lamp (`segment_ray`), and
+//! the sun's sample `k` of the pixel's R2 sequence from its fixed-point form
+//! ([`holocave_vlf::sun_sequence`]: within two float steps at 1 of the CPU's f64 sample),
+//! mapped into the disc by `uniform_cone` in the sun's frame, both computed on the CPU. The
+//! GPU's `sin`, `cos` and `sqrt` are not correctly rounded, and it may fuse multiply-adds:
+//! a made ray's direction differs from the CPU's by a few float steps, which moves its
+//! answer only where it grazes an edge, as a ray the CPU makes and the GPU walks may
+//! (`tests/gpu_rays.rs` counts them).
+
+use bytemuck::{Pod, Zeroable};
+use holocave_scene::{PunctualKind, Scene};
+use holocave_tracer::frame::Frame;
+use holocave_vlf::{MadeRays, sun_sequence};
+
+use super::{GpuRays, grid, source_with};
+use crate::gpu::{Binding, ComputePass, Gpu};
+
+/// Punctual lights whose rays the GPU makes (`MAX_LIGHTS` in the shader); a scene with
+/// more has all its shadow rays made on the CPU.
+pub const MAX_MADE_LIGHTS: usize = 24;
+
+/// `MadeLight` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct MadeLight {
+    position_kind: [f32; 4],
+    direction: [f32; 4],
+}
+
+/// `ShadowParams` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ShadowParams {
+    count: u32,
+    row: u32,
+    lights: u32,
+    sun: u32,
+    sun_t: [f32; 4],
+    sun_b: [f32; 4],
+    sun_n: [f32; 4],
+    step: [u32; 4],
+    light: [MadeLight; MAX_MADE_LIGHTS],
+}
+
+/// A wall's first hits kept on the GPU (four words a pixel, as the closest-hit pass
+/// answers), for the shadow rays made from them.
+pub struct KeptHits {
+    buffer: wgpu::Buffer,
+    pixels: u32,
+}
+
+/// The shadow-ray maker of one scene, over a [`GpuRays`] engine's tree.
+pub struct ShadowMaker {
+    pass: ComputePass<1>,
+    params: wgpu::Buffer,
+    /// The scene's lights as the shader reads them (`count` and `row` set per batch).
+    lights: ShadowParams,
+    faces: wgpu::Buffer,
+    tasks: wgpu::Buffer,
+    shifts: wgpu::Buffer,
+    masks: wgpu::Buffer,
+    receive: wgpu::Buffer,
+    /// Pixels the per-pixel buffers hold (the shifts of all of them uploaded).
+    capacity: u32,
+}
+
+impl GpuRays {
+    /// Keeps the first `n` answers of the last closest-hit query (a wall's first hits) in
+    /// `kept`, on the GPU, for [`ShadowMaker::trace`]; call it before the engine's next
+    /// query.
+    pub fn keep_hits(&self, gpu: &Gpu, n: u32, kept: &mut Option<KeptHits>) {
+        let bytes = 16 * u64::from(n);
+        if kept.as_ref().is_none_or(|k| k.buffer.size() < bytes) {
+            *kept = Some(KeptHits {
+                buffer: gpu.storage("gpu rays: a wall's first hits", bytes),
+                pixels: 0,
+            });
+        }
+        let Some(k) = kept.as_mut() else { return };
+        k.pixels = n;
+        if bytes > 0 {
+            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            enc.copy_buffer_to_buffer(&self.out, 0, &k.buffer, 0, bytes);
+            gpu.queue.submit([enc.finish()]);
+        }
+    }
+}
+
+impl ShadowMaker {
+    /// The maker of `scene`'s shadow rays over `engine`'s upload of its tree; `None` for a
+    /// scene with no sun and no punctual light, or more than [`MAX_MADE_LIGHTS`] of them.
+    pub fn new(gpu: &Gpu, engine: &GpuRays, scene: &Scene) -> Option<ShadowMaker> {
+        let sun = scene.daylight.sun.as_ref();
+        if (sun.is_none() && scene.lights.is_empty()) || scene.lights.len() > MAX_MADE_LIGHTS {
+            return None;
+        }
+        let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
+        let mut lights = ShadowParams::zeroed();
+        lights.lights = scene.lights.len() as u32;
+        for (slot, l) in lights.light.iter_mut().zip(&scene.lights) {
+            let directional = matches!(l.kind, PunctualKind::Directional);
+            slot.position_kind = v4(l.position, if directional { 1.0 } else { 0.0 });
+            slot.direction = v4(l.direction, 0.0);
+        }
+        if let Some(s) = sun {
+            let f = Frame::new(s.direction);
+            lights.sun = 1;
+            (lights.sun_t, lights.sun_b) = (v4(f.t, 0.0), v4(f.b, 0.0));
+            lights.sun_n = v4(f.n, s.one_minus_cos_radius());
+        }
+        let step = sun_sequence(0).step;
+        let words = |s: u64| [(s >> 32) as u32, s as u32];
+        let ([h0, l0], [h1, l1]) = (words(step[0]), words(step[1]));
+        lights.step = [h0, l0, h1, l1];
+        let faces: Vec<[f32; 12]> = (0..scene.triangle_count() as u32)
+            .map(|t| {
+                let [p0, p1, p2] = *scene.triangle(t);
+                let n = scene.face_normal(t);
+                let mut f = [0.0; 12];
+                f[..4].copy_from_slice(&v4(p0, n.x));
+                f[4..8].copy_from_slice(&v4(p1, n.y));
+                f[8..].copy_from_slice(&v4(p2, n.z));
+                f
+            })
+            .collect();
+        let faces = gpu.storage_init(
+            "gpu rays: faces",
+            bytemuck::cast_slice(if faces.is_empty() {
+                &[[0.0; 12]]
+            } else {
+                &faces
+            }),
+        );
+        use Binding::{Storage, Uniform};
+        let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
+        let pass = ComputePass::new(
+            gpu,
+            "gpu rays: made shadow rays",
+            &source_with(
+                engine.stack_size(),
+                &format!(
+                    "const MAX_LIGHTS: u32 = {MAX_MADE_LIGHTS}u;\n{}",
+                    include_str!("shadow.wgsl")
+                ),
+            ),
+            &[Uniform, ro, ro, ro, rw, ro, ro, ro],
+            ["made_shadow_rays"],
+        );
+        let params = gpu.uniform(
+            "gpu rays: shadow params",
+            std::mem::size_of::<ShadowParams>() as u64,
+        );
+        let (tasks, shifts, masks, receive) = per_pixel_buffers(gpu, 1);
+        let mut maker = ShadowMaker {
+            pass,
+            params,
+            lights,
+            faces,
+            tasks,
+            shifts,
+            masks,
+            receive,
+            capacity: 0,
+        };
+        maker.reserve(gpu, 1);
+        Some(maker)
+    }
+
+    /// Room for `n` pixels, the sun's shifts of each uploaded.
+    fn reserve(&mut self, gpu: &Gpu, n: u32) {
+        if n <= self.capacity {
+            return;
+        }
+        (self.tasks, self.shifts, self.masks, self.receive) = per_pixel_buffers(gpu, n);
+        let shifts: Vec<[u32; 2]> = (0..u64::from(n)).map(|i| sun_sequence(i).shift).collect();
+        gpu.queue
+            .write_buffer(&self.shifts, 0, bytemuck::cast_slice(&shifts));
+        self.capacity = n;
+    }
+
+    /// Whether the static scene blocks each pixel's made rays (`rays`, one a pixel of the
+    /// wall whose first hits `hits` holds): bit `i` for punctual light `i`, bit `P + j`
+    /// for the sun's sample `first_sun + j`.
+    pub fn trace(
+        &mut self,
+        gpu: &Gpu,
+        engine: &GpuRays,
+        hits: &KeptHits,
+        rays: &[MadeRays],
+    ) -> Vec<u32> {
+        let n = rays.len() as u32;
+        assert_eq!(n, hits.pixels, "one made ray set per pixel of the wall");
+        if n == 0 {
+            return Vec::new();
+        }
+        self.reserve(gpu, n);
+        let tasks: Vec<[u32; 2]> = rays
+            .iter()
+            .map(|m| [m.first_sun, m.suns.min(0xff) | (u32::from(m.punctual) << 8)])
+            .collect();
+        gpu.queue
+            .write_buffer(&self.tasks, 0, bytemuck::cast_slice(&tasks));
+        let (x, y, row) = grid(n);
+        let params = ShadowParams {
+            count: n,
+            row,
+            ..self.lights
+        };
+        gpu.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let bind = self.pass.bind_group(
+            gpu,
+            &[
+                &self.params,
+                &engine.nodes,
+                &engine.triangles,
+                &self.faces,
+                &self.masks,
+                &hits.buffer,
+                &self.tasks,
+                &self.shifts,
+            ],
+        );
+        let bytes = 4 * u64::from(n);
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pass.pipelines[0]);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        enc.copy_buffer_to_buffer(&self.masks, 0, &self.receive, 0, bytes);
+        gpu.queue.submit([enc.finish()]);
+        let slice = self.receive.slice(..bytes);
+        slice.map_async(wgpu::MapMode::Read, |_| {});
+        gpu.wait();
+        let masks = match slice.get_mapped_range() {
+            Ok(view) => bytemuck::cast_slice::<u8, u32>(&view).to_vec(),
+            Err(e) => {
+                tracing::warn!("gpu rays: the made shadow rays' answers did not map: {e}");
+                // A lost device: every made ray blocked, as a lost device draws black.
+                vec![u32::MAX; n as usize]
+            }
+        };
+        self.receive.unmap();
+        masks
+    }
+}
+
+/// The per-pixel buffers for `n` pixels: tasks, shifts, masks, and the masks' read-back.
+fn per_pixel_buffers(
+    gpu: &Gpu,
+    n: u32,
+) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, wgpu::Buffer) {
+    let n = u64::from(n.max(1));
+    let receive = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("gpu rays: made shadow rays' answers back"),
+        size: 4 * n,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    (
+        gpu.storage("gpu rays: made shadow rays' tasks", 8 * n),
+        gpu.storage("gpu rays: the sun's shifts", 8 * n),
+        gpu.storage("gpu rays: made shadow rays' answers", 4 * n),
+        receive,
+    )
+}

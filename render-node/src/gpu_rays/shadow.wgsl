@@ -1,0 +1,153 @@
+// Shadow rays made on the GPU (see shadow.rs), after walk.wgsl: from each pixel's first
+// hit as the wall's closest-hit pass left it, towards every punctual light and the sun's
+// samples of the pixel's sequence, as holocave_vlf::pixel_direct makes them on the CPU;
+// each traced by the any-hit walk, answered as one bit a ray.
+
+// A punctual light: position and kind (w: 1 directional, 0 point or spot), the direction
+// it points along.
+struct MadeLight {
+    position_kind: vec4<f32>,
+    direction: vec4<f32>,
+}
+
+struct ShadowParams {
+    // Pixels, invocations per row of the dispatch grid, punctual lights, whether there is
+    // a sun.
+    count: u32,
+    row: u32,
+    lights: u32,
+    sun: u32,
+    // The sun's frame (Frame::new of its direction, the direction in n; n.w: one minus
+    // the cosine of the disc's radius).
+    sun_t: vec4<f32>,
+    sun_b: vec4<f32>,
+    sun_n: vec4<f32>,
+    // The R2 sequence's steps in 64-bit fixed point: high and low words of each.
+    step: vec4<u32>,
+    light: array<MadeLight, MAX_LIGHTS>,
+}
+
+// A static triangle by the scene's index: its vertices, its face normal in the w's.
+struct Face {
+    p0: vec4<f32>,
+    p1: vec4<f32>,
+    p2: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> sp: ShadowParams;
+@group(0) @binding(3) var<storage, read> faces: array<Face>;
+// One word a pixel: bit i for punctual light i blocked, bit lights + j for the sun's
+// sample first + j blocked.
+@group(0) @binding(4) var<storage, read_write> masks: array<u32>;
+// The wall's first hits: t, triangle (NO_HIT on a miss), u, v.
+@group(0) @binding(5) var<storage, read> firsts: array<vec4<u32>>;
+// Per pixel: the first of its sun samples, and their count (low byte) with bit 8 set
+// when its punctual lights' rays are made.
+@group(0) @binding(6) var<storage, read> tasks: array<vec2<u32>>;
+// Per pixel: its sun sequence's shifts in 32-bit fixed point.
+@group(0) @binding(7) var<storage, read> shifts: array<vec2<u32>>;
+
+const PI: f32 = 3.14159265358979;
+
+// The high word of a · b (32 × 32 → 64 bits) in 16-bit halves.
+fn mul_hi(a: u32, b: u32) -> u32 {
+    let a0 = a & 0xffffu;
+    let a1 = a >> 16u;
+    let b0 = b & 0xffffu;
+    let b1 = b >> 16u;
+    let p01 = a0 * b1;
+    let p10 = a1 * b0;
+    let mid = ((a0 * b0) >> 16u) + (p01 & 0xffffu) + (p10 & 0xffffu);
+    return a1 * b1 + (p01 >> 16u) + (p10 >> 16u) + (mid >> 16u);
+}
+
+// Component c of sample k: shift + ⌊k · step / 2³²⌋ mod 2³², as a float in [0, 1) of 24 bits.
+fn sequence(k: u32, shift: u32, hi: u32, lo: u32) -> f32 {
+    let x = shift + k * hi + mul_hi(k, lo);
+    return f32(x >> 8u) * (1.0 / 16777216.0);
+}
+
+// holocave_scene::ray::surface_epsilon.
+fn surface_epsilon(p: vec3<f32>) -> f32 {
+    let m = max(max(abs(p.x), abs(p.y)), abs(p.z));
+    return max(1.0e-4 * (1.0 + min(m, 100.0)), 4.0 * 1.1920929e-7 * m);
+}
+
+// holocave_scene::ray::leave_surface.
+fn leave_surface(p: vec3<f32>, ng: vec3<f32>, towards: vec3<f32>) -> vec3<f32> {
+    return p + ng * (surface_epsilon(p) * select(-1.0, 1.0, dot(ng, towards) >= 0.0));
+}
+
+// Whether something blocks the ray from `p` (face normal `ng`) along `wi` to infinity.
+fn blocked_along(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> bool {
+    return any_hit(GpuRay(leave_surface(p, ng, wi), bitcast<f32>(0x7f800000u), wi, 0.0)) != NO_HIT;
+}
+
+// Whether something blocks the segment from `p` to `to` (the tracer's segment_ray);
+// a segment of no length is not traced (its query is never made).
+fn blocked_to(p: vec3<f32>, ng: vec3<f32>, to: vec3<f32>) -> bool {
+    let origin = leave_surface(p, ng, to - p);
+    let d = to - origin;
+    let len = length(d);
+    if (!(len > 0.0) || !finite(len)) {
+        return false;
+    }
+    let tmax = max(len - surface_epsilon(to), 0.0);
+    return any_hit(GpuRay(origin, tmax, d / len, 0.0)) != NO_HIT;
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn made_shadow_rays(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.y * sp.row + gid.x;
+    if (i >= sp.count) {
+        return;
+    }
+    let task = tasks[i];
+    let suns = task.y & 0xffu;
+    let punctual = (task.y & 0x100u) != 0u;
+    let hit = firsts[i];
+    var mask = 0u;
+    if ((suns == 0u && !punctual) || hit.y == NO_HIT) {
+        masks[i] = mask;
+        return;
+    }
+    // The point as holocave_scene's surface_point makes it, from the vertices.
+    let f = faces[hit.y];
+    let u = bitcast<f32>(hit.z);
+    let v = bitcast<f32>(hit.w);
+    let w = vec3<f32>(1.0 - u - v, u, v);
+    let p = f.p0.xyz * w.x + f.p1.xyz * w.y + f.p2.xyz * w.z;
+    let ng = vec3<f32>(f.p0.w, f.p1.w, f.p2.w);
+    if (punctual) {
+        for (var l = 0u; l < sp.lights; l += 1u) {
+            let light = sp.light[l];
+            var b = false;
+            if (light.position_kind.w > 0.5) {
+                b = blocked_along(p, ng, -light.direction.xyz);
+            } else {
+                let to = light.position_kind.xyz - p;
+                let d2 = dot(to, to);
+                if (d2 > 0.0 && finite(d2)) {
+                    let dist = sqrt(d2);
+                    b = blocked_to(p, ng, p + (to / dist) * dist);
+                }
+            }
+            mask |= select(0u, 1u << l, b);
+        }
+    }
+    let shift = shifts[i];
+    let omc = sp.sun_n.w;
+    for (var j = 0u; j < suns; j += 1u) {
+        let k = task.x + j;
+        let u0 = sequence(k, shift.x, sp.step.x, sp.step.y);
+        let u1 = sequence(k, shift.y, sp.step.z, sp.step.w);
+        // The tracer's uniform_cone in the sun's frame.
+        let x = u0 * omc;
+        let sin_t = sqrt(max(x * (2.0 - x), 0.0));
+        let phi = 2.0 * PI * u1;
+        let wi = sp.sun_t.xyz * (sin_t * cos(phi)) + sp.sun_b.xyz * (sin_t * sin(phi))
+            + sp.sun_n.xyz * (1.0 - x);
+        mask |= select(0u, 1u << (sp.lights + j), blocked_along(p, ng, wi));
+    }
+    masks[i] = mask;
+}
