@@ -175,7 +175,7 @@ impl Drawer {
                     .iter()
                     .enumerate()
                     .map(|(e, v)| {
-                        cache.set_lookups(e, &base.lookups(e, v));
+                        base.draw_lookups(e, v, cache);
                         cache.vlf_image(e).unwrap_or_else(|| Image::new(1, 1))
                     })
                     .collect();

@@ -594,6 +594,12 @@ impl RenderCache {
             .write_buffer(&v.eyes[eye].1, 0, bytemuck::cast_slice(lookups));
     }
 
+    /// Eye `eye`'s lookups on the GPU (sixteen words a pixel, as [`Self::set_lookups`]
+    /// writes them), for a pass that writes them there; `None` without [`Self::set_vlf`].
+    pub fn lookups_buffer(&self, eye: usize) -> Option<&wgpu::Buffer> {
+        Some(&self.vlf.as_ref()?.eyes.get(eye)?.1)
+    }
+
     /// The light field alone in eye `eye` (its lookups shaded on the GPU): the shader's
     /// side of the CPU/GPU comparison, and a picture of the base itself. Overwrites the
     /// eye's image until the next [`Self::draw`].

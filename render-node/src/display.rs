@@ -210,7 +210,7 @@ impl WallDisplay {
         if let Some(base) = &self.vlf {
             let t = Instant::now();
             for (eye, view) in views.iter().enumerate() {
-                self.cache.set_lookups(eye, &base.lookups(eye, view));
+                base.draw_lookups(eye, view, &mut self.cache);
             }
             report.vlf = t.elapsed();
         }

@@ -35,8 +35,9 @@ use holocave_vlf::{
 use rayon::prelude::*;
 
 use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
+use crate::gpu_rays::lookups::{LookupComposer, split};
 use crate::gpu_rays::{GpuRays, KeptHits, OnGpu, Query, Rays, ShadowMaker};
-use crate::{EyeView, Gpu, RenderNodeError};
+use crate::{EyeView, Gpu, RenderCache, RenderNodeError};
 
 /// How many samples the light field is worth in a pixel unless told. Blending `n`
 /// samples of variance `σ²` with a base of squared error `b²` as `(kV + nC)/(k + n)`
@@ -84,6 +85,7 @@ struct OnGpuRays {
     gpu: Gpu,
     engine: Mutex<GpuRays>,
     maker: Option<Mutex<ShadowMaker>>,
+    composer: Mutex<LookupComposer>,
 }
 
 /// What one view's pixels see: the points the direct light is computed at, and with rays
@@ -272,10 +274,12 @@ impl VlfBase {
         self.gpu_rays = if rays.on_gpu(gpu) {
             let engine = GpuRays::for_scene(gpu, self.visibility.scene())?;
             let maker = ShadowMaker::new(gpu, &engine, self.visibility.scene()).map(Mutex::new);
+            let composer = LookupComposer::new(gpu, self.visibility.elements());
             Some(OnGpuRays {
                 gpu: gpu.clone(),
                 engine: Mutex::new(engine),
                 maker,
+                composer: Mutex::new(composer),
             })
         } else {
             None
@@ -303,9 +307,7 @@ impl VlfBase {
             let mut engine = g.engine.lock().unwrap_or_else(|e| e.into_inner());
             let n = engine.trace_wall(&g.gpu, wall, f32::INFINITY, Query::ClosestHit);
             let hits = engine.read_hits(&g.gpu, n);
-            if g.maker.is_some() {
-                engine.keep_hits(&g.gpu, n, &mut pixels.kept);
-            }
+            engine.keep_hits(&g.gpu, n, &mut pixels.kept);
             hits
         });
         (self.visibility).pixels_into(wall, pixels.hits.as_deref(), &mut pixels.points)
@@ -367,6 +369,38 @@ impl VlfBase {
     /// this frame's estimate averaged with those of earlier frames of the same eye at the
     /// same surface point.
     pub fn lookups(&self, eye: usize, view: &EyeView) -> Vec<Lookup> {
+        self.lookups_with(eye, view, |lookups, _| lookups)
+    }
+
+    /// [`Self::lookups`] written into the render cache's lookups of eye `eye`: with the
+    /// rays on the GPU (of the cache's device), each common pixel's composed there from
+    /// its first hit kept there, the rest sent whole ([`crate::gpu_rays::lookups`]); else
+    /// all sent.
+    pub fn draw_lookups(&self, eye: usize, view: &EyeView, cache: &mut RenderCache) {
+        self.lookups_with(eye, view, |lookups, pixels| {
+            if let Some(g) = &self.gpu_rays
+                && let (Some(hits), Some(kept)) = (&pixels.hits, &pixels.kept)
+                && cache.gpu().device == g.gpu.device
+                && let Some(target) = cache.lookups_buffer(eye)
+            {
+                let elements = self.visibility.elements();
+                let (shades, sent) = split(elements, &lookups, &pixels.points, hits);
+                let mut composer = g.composer.lock().unwrap_or_else(|e| e.into_inner());
+                composer.compose(&g.gpu, kept, &shades, &sent, target);
+            } else {
+                cache.set_lookups(eye, &lookups);
+            }
+        })
+    }
+
+    /// Runs `f` with what each pixel of `view` sees ([`Self::lookups`]) and the pixels'
+    /// points and first hits.
+    fn lookups_with<T>(
+        &self,
+        eye: usize,
+        view: &EyeView,
+        f: impl FnOnce(Vec<Lookup>, &Pixels) -> T,
+    ) -> T {
         let mut pixels = {
             let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
             pool.pop().unwrap_or_default()
@@ -375,9 +409,10 @@ impl VlfBase {
         if self.direct {
             self.add_direct(eye, view, &mut lookups, &pixels);
         }
+        let out = f(lookups, &pixels);
         let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
         pool.push(pixels);
-        lookups
+        out
     }
 
     /// How many direct-light estimates each pixel's running mean holds for eye `eye` in

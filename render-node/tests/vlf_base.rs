@@ -15,7 +15,7 @@ use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, VlfBase, Wall
 use holocave_scene::{Ray, Scene};
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_vlf::file::VlfFile;
-use holocave_vlf::{Settings, view::shade};
+use holocave_vlf::{Lookup, Settings, view::shade};
 
 fn cornell() -> Arc<Scene> {
     Arc::new(common::cornell())
@@ -372,5 +372,58 @@ fn shadow_rays_made_on_the_gpu_draw_the_cpus_walls() {
             off <= a.len() / 200 + 1,
             "frame {frame}: {off} pixels differ"
         );
+    }
+}
+
+/// With the rays on the GPU, the lookups the render cache receives are composed there from
+/// the wall's first hits (element and barycentrics from the hit, weight and emitted light
+/// sent; mirrors, glass, tiles sent whole): bit for bit the lookups the CPU makes of the
+/// same frame, in the room (its sun and lamps), the Cornell box (mirror, glass, area lamp)
+/// and the box with glossy walls (tiles).
+#[test]
+fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
+    let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
+    let room = Arc::new(common::room::room_with_punctual_lights());
+    let room_view = WallView::through_camera(room.cameras.first().expect("a camera"), 64, 48);
+    for (name, scene, wall) in [
+        ("room", room, room_view),
+        ("cornell", cornell(), wall(48)),
+        ("glossy cornell", glossy_cornell(), wall(48)),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("cornell.vlf");
+        drop(baked(&scene, &coarse(), dir.path()));
+        let open = || {
+            (VlfBase::open(&path, scene.clone()).unwrap())
+                .with_rays(&gpu, Rays::Gpu)
+                .unwrap()
+        };
+        let (on_cpu, on_gpu) = (open(), open());
+        let view = EyeView::looking_at(wall, 0.05).unwrap();
+        let n = wall.width * wall.height;
+        let mut cache = RenderCache::new(gpu.clone(), &[(wall.width, wall.height)], n, n);
+        cache.set_vlf(on_gpu.values(), 64.0).unwrap();
+        for frame in 0..2 {
+            let cpu = on_cpu.lookups(0, &view);
+            on_gpu.draw_lookups(0, &view, &mut cache);
+            let buffer = cache.lookups_buffer(0).expect("a light field is set");
+            let bytes = gpu.read(buffer, buffer.size());
+            let composed: &[Lookup] = bytemuck::cast_slice(&bytes[..cpu.len() * 64]);
+            let differ = (cpu.iter().zip(composed))
+                .filter(|(a, b)| bytemuck::bytes_of(*a) != bytemuck::bytes_of(*b))
+                .count();
+            let elements = (cpu.iter())
+                .filter(|l| l.base != u32::MAX && l.tile == u32::MAX)
+                .count();
+            eprintln!(
+                "{name}, frame {frame}: {differ} of {} lookups differ ({elements} on elements)",
+                cpu.len()
+            );
+            assert!(
+                elements > cpu.len() / 4,
+                "{name}: {elements} element lookups"
+            );
+            assert_eq!(differ, 0, "{name}, frame {frame}");
+        }
     }
 }

@@ -76,8 +76,9 @@ use std::sync::{Mutex, MutexGuard};
 use crate::RenderNodeError;
 use crate::gpu::{Binding, ComputePass, Gpu};
 
+pub mod lookups;
 mod shadow;
-pub use shadow::{KeptHits, MAX_MADE_LIGHTS, ShadowMaker};
+pub use shadow::{MAX_MADE_LIGHTS, ShadowMaker};
 
 /// `@workgroup_size` of the kernels (`WORKGROUP` in the shader).
 const WORKGROUP: u32 = 64;
@@ -620,6 +621,35 @@ impl GpuRays {
             .into_iter()
             .map(|o| o.is_some())
             .collect()
+    }
+}
+
+/// A wall's first hits kept on the GPU (four words a pixel, as the closest-hit pass
+/// answers), for the shadow rays made from them.
+pub struct KeptHits {
+    buffer: wgpu::Buffer,
+    pixels: u32,
+}
+
+impl GpuRays {
+    /// Keeps the first `n` answers of the last closest-hit query (a wall's first hits) in
+    /// `kept`, on the GPU, for [`ShadowMaker::trace`]; call it before the engine's next
+    /// query.
+    pub fn keep_hits(&self, gpu: &Gpu, n: u32, kept: &mut Option<KeptHits>) {
+        let bytes = 16 * u64::from(n);
+        if kept.as_ref().is_none_or(|k| k.buffer.size() < bytes) {
+            *kept = Some(KeptHits {
+                buffer: gpu.storage("gpu rays: a wall's first hits", bytes),
+                pixels: 0,
+            });
+        }
+        let Some(k) = kept.as_mut() else { return };
+        k.pixels = n;
+        if bytes > 0 {
+            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            enc.copy_buffer_to_buffer(&self.out, 0, &k.buffer, 0, bytes);
+            gpu.queue.submit([enc.finish()]);
+        }
     }
 }
 

@@ -20,7 +20,7 @@ use holocave_scene::{PunctualKind, Scene};
 use holocave_tracer::frame::Frame;
 use holocave_vlf::{MadeRays, sun_sequence};
 
-use super::{GpuRays, grid, source_with};
+use super::{GpuRays, KeptHits, grid, source_with};
 use crate::gpu::{Binding, ComputePass, Gpu};
 
 /// Punctual lights whose rays the GPU makes (`MAX_LIGHTS` in the shader); a scene with
@@ -50,13 +50,6 @@ struct ShadowParams {
     light: [MadeLight; MAX_MADE_LIGHTS],
 }
 
-/// A wall's first hits kept on the GPU (four words a pixel, as the closest-hit pass
-/// answers), for the shadow rays made from them.
-pub struct KeptHits {
-    buffer: wgpu::Buffer,
-    pixels: u32,
-}
-
 /// The shadow-ray maker of one scene, over a [`GpuRays`] engine's tree.
 pub struct ShadowMaker {
     pass: ComputePass<1>,
@@ -70,28 +63,6 @@ pub struct ShadowMaker {
     receive: wgpu::Buffer,
     /// Pixels the per-pixel buffers hold (the shifts of all of them uploaded).
     capacity: u32,
-}
-
-impl GpuRays {
-    /// Keeps the first `n` answers of the last closest-hit query (a wall's first hits) in
-    /// `kept`, on the GPU, for [`ShadowMaker::trace`]; call it before the engine's next
-    /// query.
-    pub fn keep_hits(&self, gpu: &Gpu, n: u32, kept: &mut Option<KeptHits>) {
-        let bytes = 16 * u64::from(n);
-        if kept.as_ref().is_none_or(|k| k.buffer.size() < bytes) {
-            *kept = Some(KeptHits {
-                buffer: gpu.storage("gpu rays: a wall's first hits", bytes),
-                pixels: 0,
-            });
-        }
-        let Some(k) = kept.as_mut() else { return };
-        k.pixels = n;
-        if bytes > 0 {
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            enc.copy_buffer_to_buffer(&self.out, 0, &k.buffer, 0, bytes);
-            gpu.queue.submit([enc.finish()]);
-        }
-    }
 }
 
 impl ShadowMaker {

@@ -1,0 +1,207 @@
+//! The light field's lookups read from the wall's first hits on the GPU
+//! (`lookups.wgsl` beside this file): where a pixel's point is its first hit on an element
+//! (the common pixel: no mirror, glass, glossy tile or moving object on the way), the
+//! lookup's element and barycentrics come from the hit kept there, and the CPU sends only
+//! what it computed of the pixel — the weight (the albedo, from the material's textures)
+//! and the emitted light (the per-pixel direct light's running mean among it): 32 bytes
+//! instead of the lookup's 64. Other pixels' lookups are sent whole.
+//!
+//! The composed lookups are the CPU's bit for bit: a pixel is composed only where the
+//! CPU's lookup is exactly what the kernel writes from that hit ([`split`]).
+
+use bytemuck::{Pod, Zeroable};
+use holocave_scene::Hit;
+use holocave_vlf::{DirectPoint, Elements, Lookup};
+use rayon::prelude::*;
+
+use super::{KeptHits, grid};
+use crate::gpu::{Binding, ComputePass, Gpu};
+
+/// `Shade` in the shader: what the CPU sends of a pixel.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct Shade {
+    pub weight: [f32; 3],
+    /// The side of the triangle seen: 0 front, 1 back.
+    pub side: u32,
+    pub emitted: [f32; 3],
+    /// The index of the pixel's whole lookup among those sent; `u32::MAX`: composed from
+    /// its hit.
+    pub sent: u32,
+}
+
+/// `LookupParams` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct LookupParams {
+    count: u32,
+    row: u32,
+    pad: [u32; 2],
+}
+
+/// What each pixel sends, given its CPU lookup `l`, its point and its first hit: its
+/// shade, and its whole lookup where the GPU cannot compose it from the hit.
+fn shade_of(
+    elements: &Elements,
+    l: &Lookup,
+    point: Option<&DirectPoint>,
+    hit: Option<&Hit>,
+) -> Result<Shade, Lookup> {
+    let (Some(p), Some(h)) = (point, hit) else {
+        return Err(*l);
+    };
+    let Some(cells) = elements.triangles.get(h.triangle as usize) else {
+        return Err(*l);
+    };
+    let side = (0..2).find(|&s| cells.base(s) == l.base);
+    let composed = Lookup {
+        base: l.base,
+        res: cells.res,
+        u: h.u,
+        v: h.v,
+        weight: l.weight,
+        emitted: l.emitted,
+        ..Lookup::NONE
+    };
+    match side {
+        Some(side) if p.triangle == h.triangle && composed == *l && l.base != u32::MAX => {
+            Ok(Shade {
+                weight: l.weight,
+                side,
+                emitted: l.emitted,
+                sent: u32::MAX,
+            })
+        }
+        _ => Err(*l),
+    }
+}
+
+/// Each pixel's shade, and the lookups sent whole (the shades index them), from the CPU's
+/// `lookups`, the pixels' `points` and their first `hits`.
+pub fn split(
+    elements: &Elements,
+    lookups: &[Lookup],
+    points: &[Option<DirectPoint>],
+    hits: &[Option<Hit>],
+) -> (Vec<Shade>, Vec<Lookup>) {
+    let each: Vec<Result<Shade, Lookup>> = (lookups.par_iter().zip(points).zip(hits))
+        .map(|((l, p), h)| shade_of(elements, l, p.as_ref(), h.as_ref()))
+        .collect();
+    let mut sent = Vec::new();
+    let shades = each
+        .into_iter()
+        .map(|s| {
+            s.unwrap_or_else(|l| {
+                sent.push(l);
+                Shade {
+                    weight: [0.0; 3],
+                    side: 0,
+                    emitted: [0.0; 3],
+                    sent: sent.len() as u32 - 1,
+                }
+            })
+        })
+        .collect();
+    (shades, sent)
+}
+
+/// The composer of one scene's lookups (its element table on the GPU).
+pub struct LookupComposer {
+    pass: ComputePass<1>,
+    params: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    shades: wgpu::Buffer,
+    sent: wgpu::Buffer,
+}
+
+impl LookupComposer {
+    pub fn new(gpu: &Gpu, elements: &Elements) -> LookupComposer {
+        let cells: Vec<[u32; 2]> = (elements.triangles.iter())
+            .map(|c| [c.offset, c.res])
+            .collect();
+        let cells = gpu.storage_init(
+            "gpu lookups: elements per triangle",
+            bytemuck::cast_slice(if cells.is_empty() { &[[0; 2]] } else { &cells }),
+        );
+        use Binding::{Storage, Uniform};
+        let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
+        LookupComposer {
+            pass: ComputePass::new(
+                gpu,
+                "gpu lookups",
+                include_str!("lookups.wgsl"),
+                &[Uniform, ro, ro, ro, ro, rw],
+                ["compose"],
+            ),
+            params: gpu.uniform(
+                "gpu lookups: params",
+                std::mem::size_of::<LookupParams>() as u64,
+            ),
+            cells,
+            shades: gpu.storage("gpu lookups: shades", 32),
+            sent: gpu.storage("gpu lookups: sent whole", 64),
+        }
+    }
+
+    /// Writes each pixel's lookup into `target` (the render cache's lookups of the eye,
+    /// sixteen words a pixel): composed from its first hit in `hits`, or copied from
+    /// `sent` ([`split`]).
+    pub fn compose(
+        &mut self,
+        gpu: &Gpu,
+        hits: &KeptHits,
+        shades: &[Shade],
+        sent: &[Lookup],
+        target: &wgpu::Buffer,
+    ) {
+        let n = shades.len() as u32;
+        assert_eq!(n, hits.pixels, "one shade per pixel of the wall");
+        if n == 0 {
+            return;
+        }
+        let fit = |buffer: &mut wgpu::Buffer, bytes: u64, label| {
+            if buffer.size() < bytes {
+                *buffer = gpu.storage(label, bytes);
+            }
+        };
+        fit(&mut self.shades, 32 * u64::from(n), "gpu lookups: shades");
+        fit(
+            &mut self.sent,
+            64 * sent.len() as u64,
+            "gpu lookups: sent whole",
+        );
+        gpu.queue
+            .write_buffer(&self.shades, 0, bytemuck::cast_slice(shades));
+        if !sent.is_empty() {
+            gpu.queue
+                .write_buffer(&self.sent, 0, bytemuck::cast_slice(sent));
+        }
+        let (x, y, row) = grid(n);
+        let params = LookupParams {
+            count: n,
+            row,
+            pad: [0; 2],
+        };
+        gpu.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let bind = self.pass.bind_group(
+            gpu,
+            &[
+                &self.params,
+                &self.cells,
+                &hits.buffer,
+                &self.shades,
+                &self.sent,
+                target,
+            ],
+        );
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pass.pipelines[0]);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        gpu.queue.submit([enc.finish()]);
+    }
+}

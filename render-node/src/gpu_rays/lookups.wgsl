@@ -1,0 +1,72 @@
+// The light field's lookups composed on the GPU (see lookups.rs): each pixel's from the
+// wall's first hit where the CPU found its point there on an element (the element's first
+// cell and resolution from the triangle's table, the hit's barycentrics), with the weight
+// and emitted light the CPU sent; the others copied whole from the lookups the CPU sent.
+// Written as holocave_vlf::Lookup's sixteen words.
+
+struct LookupParams {
+    count: u32,
+    row: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+// What the CPU sends of a pixel: the lookup's weight and emitted light, the side of the
+// triangle seen (0 front, 1 back), and the index of its whole lookup among the sent ones
+// (NONE: composed here).
+struct Shade {
+    weight: vec3<f32>,
+    side: u32,
+    emitted: vec3<f32>,
+    sent: u32,
+}
+
+@group(0) @binding(0) var<uniform> lp: LookupParams;
+// Per static triangle: its first element (front side; the back side follows) and its
+// resolution.
+@group(0) @binding(1) var<storage, read> cells: array<vec2<u32>>;
+// The wall's first hits: t, triangle, u, v.
+@group(0) @binding(2) var<storage, read> hits: array<vec4<u32>>;
+@group(0) @binding(3) var<storage, read> shades: array<Shade>;
+@group(0) @binding(4) var<storage, read> sent: array<u32>;
+@group(0) @binding(5) var<storage, read_write> lookups: array<u32>;
+
+const NONE: u32 = 0xffffffffu;
+const WORDS: u32 = 16u;
+
+@compute @workgroup_size(64)
+fn compose(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.y * lp.row + gid.x;
+    if (i >= lp.count) {
+        return;
+    }
+    let s = shades[i];
+    let o = WORDS * i;
+    if (s.sent != NONE) {
+        for (var k = 0u; k < WORDS; k += 1u) {
+            lookups[o + k] = sent[WORDS * s.sent + k];
+        }
+        return;
+    }
+    let h = hits[i];
+    let c = cells[h.y];
+    let res = c.y;
+    lookups[o] = c.x + s.side * (res * (res + 1u) / 2u);
+    lookups[o + 1u] = res;
+    lookups[o + 2u] = h.z;
+    lookups[o + 3u] = h.w;
+    lookups[o + 4u] = bitcast<u32>(s.weight.x);
+    lookups[o + 5u] = bitcast<u32>(s.weight.y);
+    lookups[o + 6u] = bitcast<u32>(s.weight.z);
+    lookups[o + 7u] = bitcast<u32>(s.emitted.x);
+    lookups[o + 8u] = bitcast<u32>(s.emitted.y);
+    lookups[o + 9u] = bitcast<u32>(s.emitted.z);
+    // No tile (its bins one a side, map coordinates zero), the samples counting fully (1.0),
+    // the static scene.
+    lookups[o + 10u] = NONE;
+    lookups[o + 11u] = 1u;
+    lookups[o + 12u] = 0u;
+    lookups[o + 13u] = 0u;
+    lookups[o + 14u] = 0x3f800000u;
+    lookups[o + 15u] = 0u;
+}
