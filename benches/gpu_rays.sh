@@ -22,6 +22,8 @@
 # 3. A table of those rates, rays per second, from criterion's estimates.
 # 4. A wall's whole frame (per-pixel work, render cache) at 1920 × 1200 per eye, stereo
 #    (HOLOCAVE_BENCH_WALL, default 1920x1200), with rays on the CPU and on the GPU.
+# 5. Gather samples over the Cornell box's light field, their rays on the CPU and on the GPU
+#    (`pixel_tracer`'s `cornell_gather`), samples per second.
 #
 # SCALE (default 2) multiplies Sponza's 1024 × 576 primary rays in each axis (2: 2048 × 1152,
 # 2.4 M rays, enough to fill a large GPU; 1: the same rays as `scene`'s ray_sets bench).
@@ -32,7 +34,7 @@
 set -euo pipefail
 
 root=$(cd "$(dirname "$0")/.." && pwd)
-benches=(gpu_rays wall_frame display)
+benches=(gpu_rays wall_frame display pixel_tracer)
 cd "$root"
 
 # The bench executables cargo builds, one path per line, in the order of `benches`.
@@ -126,3 +128,6 @@ echo "== a wall's frame, both eyes, at 128x96, 1024x768 and ${HOLOCAVE_BENCH_WAL
 export HOLOCAVE_BENCH_WALL
 bench wall_frame 2>&1 | grep -E '^wall_frame|time:|adapter'
 bench display 2>&1 | grep -E '^display|time:|adapter|steps|per eye|clear'
+
+echo "== gather samples, rays on the CPU and on the GPU"
+bench pixel_tracer cornell_gather 2>&1 | grep -E '^pixel_tracer|time:|thrpt:|adapter'

@@ -15,9 +15,14 @@
 //!
 //! With [`VlfBase::with_rays`] choosing the GPU, each pixel's first hit is found on the GPU
 //! instead ([`crate::gpu_rays`]: the wall's rays made and traced there, the hits read
-//! back), and mirrors, glass and the lookups follow on the CPU as before; the direct
-//! light's shadow rays are then traced there too, against the static scene, all of a
-//! frame's at once (the moving objects are tested on the CPU).
+//! back and kept there), and mirrors, glass and the lookups follow on the CPU as before.
+//! The direct light's shadow rays are traced there too, all of a frame's at once: those
+//! towards the sun's disc and the punctual lights of every pixel that sees its first hit
+//! made there from the kept hit (only which of the sun's samples crosses the bus, and a
+//! bit a ray back), the rest made on the CPU and sent (the moving objects are tested on
+//! the CPU). The lookups a wall draws are composed there from the kept hits where they
+//! are an element's ([`VlfBase::draw_lookups`]: 32 bytes a pixel sent instead of 64), and
+//! gather samples trace their three batches of rays there ([`VlfBase::gather`]).
 
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -286,9 +291,12 @@ impl VlfBase {
         };
         let adapter = gpu.raw_adapter.get_info().name;
         match self.gpu_rays {
-            Some(_) => tracing::info!("light field: each pixel's first hit traced on {adapter}"),
+            Some(_) => tracing::info!(
+                "light field: each pixel's first hit, shadow rays and gathers traced on {adapter}"
+            ),
             None => tracing::info!(
-                "light field: each pixel's first hit traced on the CPU (--rays {rays}, adapter {adapter})"
+                "light field: each pixel's first hit, shadow rays and gathers traced on the CPU \
+                 (--rays {rays}, adapter {adapter})"
             ),
         }
         Ok(self)

@@ -122,7 +122,8 @@ pub struct NodeArgs {
     /// unless this is given.
     #[arg(long)]
     pub(crate) vlf: Option<PathBuf>,
-    /// Where the light field's per-pixel rays (each pixel's first hit) are traced: `auto`
+    /// Where the light field's rays (each pixel's first hit, the direct light's shadow rays,
+    /// gather samples) are traced: `auto`
     /// (the GPU on a hardware adapter, the CPU on a software one such as lavapipe, where the
     /// CPU's walk is faster), `gpu` or `cpu`.
     #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]

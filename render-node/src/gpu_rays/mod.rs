@@ -1,7 +1,12 @@
 //! Rays on the GPU: closest hit and any hit over the scene's BVH in WGSL compute
-//! (`rays.wgsl` beside this file), one ray per invocation, and a wall's pixel rays made on
-//! the GPU so that they never cross the bus. Compute only: no ray-query extension (Mesa
-//! 22.3's lavapipe has none) and no raster pipeline.
+//! (`walk.wgsl` beside this file, with the batch kernels of `rays.wgsl`), one ray per
+//! invocation, and a wall's pixel rays made on the GPU so that they never cross the bus.
+//! From a wall's first hits kept on the GPU ([`KeptHits`]), the direct light's shadow rays
+//! towards the sun's disc and the punctual lights are made there too ([`ShadowMaker`],
+//! `shadow.rs`), and the light field's lookups composed ([`lookups`]). Batched passes of
+//! the light field (a wall's other shadow rays, gather samples) trace through
+//! [`OnGpu`], the GPU's side of `holocave_vlf::StaticRays`. Compute only: no ray-query
+//! extension (Mesa 22.3's lavapipe has none) and no raster pipeline.
 //!
 //! # Layout: the CPU's eight-wide nodes, as they are
 //!
