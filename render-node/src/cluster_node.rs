@@ -166,9 +166,16 @@ impl DisplayMaker {
     }
 
     /// Draws a light field under the samples, as `options` say; it must have been baked
-    /// for `scene`. Its pixels' first rays go to the display's device when
-    /// [`Self::with_gpu`] came first.
+    /// for `scene`. Its rays go to the display's device when [`Self::with_gpu`] came
+    /// first; without a window's device, one device is opened now for the displays and the
+    /// light field's rays alike (the lookups are composed where the cache reads them).
     pub fn with_vlf(mut self, scene: Arc<Scene>, options: VlfOptions) -> DisplayMaker {
+        if self.builder.gpu.is_none() && options.rays != Rays::Cpu {
+            match Gpu::new() {
+                Ok(gpu) => self.builder.gpu = Some(gpu),
+                Err(e) => tracing::warn!("{e}; each display opens its own device"),
+            }
+        }
         let choice = VlfChoice {
             scene,
             options,

@@ -29,6 +29,8 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     /// Adapter name, backend and driver, for logs and benchmark tables.
     pub adapter: String,
+    /// This device's number in the process, shared by its clones ([`Gpu::same_device`]).
+    serial: u64,
 }
 
 /// One binding of a bind group layout.
@@ -101,13 +103,22 @@ impl Gpu {
         }))
         .map_err(|e| RenderNodeError::Device(e.to_string()))?;
         tracing::info!("render node GPU: {name}");
+        static OPENED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         Ok(Gpu {
             instance,
             raw_adapter: adapter,
             device,
             queue,
             adapter: name,
+            serial: OPENED.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         })
+    }
+
+    /// Whether `other` is this device (a clone of it), whose buffers it may bind. Two
+    /// devices opened apart may compare equal as `wgpu::Device`s (each instance numbers
+    /// its own devices from the start), yet neither knows the other's buffers.
+    pub fn same_device(&self, other: &Gpu) -> bool {
+        self.serial == other.serial
     }
 
     pub fn storage(&self, label: &str, size: u64) -> wgpu::Buffer {

@@ -388,7 +388,7 @@ impl VlfBase {
         self.lookups_with(eye, view, |lookups, pixels| {
             if let Some(g) = &self.gpu_rays
                 && let (Some(hits), Some(kept)) = (&pixels.hits, &pixels.kept)
-                && cache.gpu().device == g.gpu.device
+                && cache.gpu().same_device(&g.gpu)
                 && let Some(target) = cache.lookups_buffer(eye)
             {
                 let elements = self.visibility.elements();

@@ -427,3 +427,30 @@ fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
         }
     }
 }
+
+/// A light field whose rays are on one device draws into a render cache on another (a
+/// node that opened two) by sending its lookups whole: no buffer of one device is bound on
+/// the other (two devices opened apart may compare equal as `wgpu::Device`s).
+#[test]
+fn lookups_drawn_into_a_cache_on_another_device_are_sent_whole() {
+    let (rays_gpu, cache_gpu) = (
+        Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)"),
+        Gpu::new().expect("a second device"),
+    );
+    assert!(!rays_gpu.same_device(&cache_gpu) && rays_gpu.same_device(&rays_gpu.clone()));
+    let scene = cornell();
+    let dir = tempfile::tempdir().unwrap();
+    drop(baked(&scene, &coarse(), dir.path()));
+    let base = (VlfBase::open(&dir.path().join("cornell.vlf"), scene.clone()).unwrap())
+        .with_rays(&rays_gpu, Rays::Gpu)
+        .unwrap();
+    let view = EyeView::looking_at(wall(32), 0.05).unwrap();
+    let mut cache = RenderCache::new(cache_gpu.clone(), &[(32, 32)], 1024, 1024);
+    cache.set_vlf(base.values(), 64.0).unwrap();
+    base.draw_lookups(0, &view, &mut cache);
+    let buffer = cache.lookups_buffer(0).expect("a light field is set");
+    let bytes = cache_gpu.read(buffer, buffer.size());
+    let drawn: &[Lookup] = bytemuck::cast_slice(&bytes[..1024 * 64]);
+    let lit = drawn.iter().filter(|l| l.base != u32::MAX).count();
+    assert!(lit > 256, "{lit} lookups on elements arrived");
+}
