@@ -14,6 +14,12 @@
 //! a made ray's direction differs from the CPU's by a few float steps, which moves its
 //! answer only where it grazes an edge, as a ray the CPU makes and the GPU walks may
 //! (`tests/gpu_rays.rs` counts them).
+//!
+//! Area lamps' and the sky's rays stay the CPU's: their samples are drawn from
+//! distributions (the emitters weighed by what each sends to the point, the sky's
+//! luminance), whose steps the GPU's rounding would cross for other samples than the
+//! CPU's — another lamp or direction, not a ray a float step away — so the CPU would have
+//! to send its choice, most of a ray's 32 bytes.
 
 use bytemuck::{Pod, Zeroable};
 use holocave_scene::{PunctualKind, Scene};
