@@ -14,7 +14,7 @@ use holocave_scene::Hit;
 use holocave_vlf::{DirectPoint, Elements, Lookup};
 use rayon::prelude::*;
 
-use super::{KeptHits, grid};
+use super::{KeptHits, dispatch, grid};
 use crate::gpu::{Binding, ComputePass, Gpu};
 
 /// `Shade` in the shader: what the CPU sends of a pixel.
@@ -176,7 +176,7 @@ impl LookupComposer {
             gpu.queue
                 .write_buffer(&self.sent, 0, bytemuck::cast_slice(sent));
         }
-        let (x, y, row) = grid(n);
+        let (_, _, row) = grid(n);
         let params = LookupParams {
             count: n,
             row,
@@ -196,12 +196,7 @@ impl LookupComposer {
             ],
         );
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pass.pipelines[0]);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(x, y, 1);
-        }
+        dispatch(&mut enc, &self.pass.pipelines[0], &bind, n);
         gpu.queue.submit([enc.finish()]);
     }
 }

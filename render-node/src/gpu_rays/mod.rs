@@ -258,6 +258,21 @@ fn transfer_buffers(gpu: &Gpu, n: u32) -> (wgpu::Buffer, wgpu::Buffer) {
     )
 }
 
+/// Records `pipeline` over `bind` for `n` invocations (one a ray or pixel, on the
+/// [`grid`]).
+fn dispatch(
+    enc: &mut wgpu::CommandEncoder,
+    pipeline: &wgpu::ComputePipeline,
+    bind: &wgpu::BindGroup,
+    n: u32,
+) {
+    let (x, y, _) = grid(n);
+    let mut pass = enc.begin_compute_pass(&Default::default());
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind, &[]);
+    pass.dispatch_workgroups(x, y, 1);
+}
+
 /// The dispatch grid for `n` rays: workgroups in x and y, and invocations per row.
 fn grid(n: u32) -> (u32, u32, u32) {
     let groups = n.div_ceil(WORKGROUP).max(1);
@@ -399,11 +414,7 @@ impl GpuRays {
     }
 
     fn dispatch(&self, enc: &mut wgpu::CommandEncoder, entry: usize, n: u32) {
-        let (x, y, _) = grid(n);
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&self.pass.pipelines[entry]);
-        pass.set_bind_group(0, &self.bind, &[]);
-        pass.dispatch_workgroups(x, y, 1);
+        dispatch(enc, &self.pass.pipelines[entry], &self.bind, n);
     }
 
     fn entry(query: Query) -> usize {

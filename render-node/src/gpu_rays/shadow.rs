@@ -26,7 +26,7 @@ use holocave_scene::{PunctualKind, Scene};
 use holocave_tracer::frame::Frame;
 use holocave_vlf::{MadeRays, sun_sequence};
 
-use super::{GpuRays, KeptHits, grid, source_with};
+use super::{GpuRays, KeptHits, dispatch, grid, source_with};
 use crate::gpu::{Binding, ComputePass, Gpu};
 
 /// Punctual lights whose rays the GPU makes (`MAX_LIGHTS` in the shader); a scene with
@@ -185,7 +185,7 @@ impl ShadowMaker {
             .collect();
         gpu.queue
             .write_buffer(&self.tasks, 0, bytemuck::cast_slice(&tasks));
-        let (x, y, row) = grid(n);
+        let (_, _, row) = grid(n);
         let params = ShadowParams {
             count: n,
             row,
@@ -208,12 +208,7 @@ impl ShadowMaker {
         );
         let bytes = 4 * u64::from(n);
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pass.pipelines[0]);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(x, y, 1);
-        }
+        dispatch(&mut enc, &self.pass.pipelines[0], &bind, n);
         enc.copy_buffer_to_buffer(&self.masks, 0, &self.receive, 0, bytes);
         gpu.queue.submit([enc.finish()]);
         let slice = self.receive.slice(..bytes);
