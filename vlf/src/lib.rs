@@ -46,7 +46,9 @@
 //! reaches them, glossy senders read in each line's direction, and the lookup reads in the
 //! direction towards the eye. Lobes narrower than the bins or the line directions are
 //! widened to [`tiles::alpha_floor`] (blurred highlights, not aliased ones). Rougher
-//! surfaces are drawn as diffuse with their albedo; a scene without glossy surfaces has no
+//! surfaces are diffuse elements: the field passes on their albedo's mean over the views
+//! ([`surface::diffuse_albedo`]), and a pixel shows its element's light times the albedo
+//! towards its eye ([`surface::albedo_towards`]); a scene without glossy surfaces has no
 //! tiles at all. The lines are not grouped into the paper's tiles: each line keeps its own
 //! crossings.
 

@@ -50,6 +50,20 @@ pub fn diffuse_albedo(p: &SurfaceParams) -> Vec3 {
 
 type AlbedoKey = [u32; 8];
 
+/// The parameters an albedo depends on besides the base colour.
+fn albedo_key(q: &SurfaceParams) -> AlbedoKey {
+    [
+        q.metallic.to_bits(),
+        q.roughness.to_bits(),
+        q.specular.to_bits(),
+        q.specular_color.x.to_bits(),
+        q.specular_color.y.to_bits(),
+        q.specular_color.z.to_bits(),
+        q.transmission.to_bits(),
+        q.ior.to_bits(),
+    ]
+}
+
 fn albedo_cache() -> &'static RwLock<HashMap<AlbedoKey, (Vec3, Vec3)>> {
     static CACHE: OnceLock<RwLock<HashMap<AlbedoKey, (Vec3, Vec3)>>> = OnceLock::new();
     CACHE.get_or_init(|| RwLock::new(HashMap::new()))
@@ -69,16 +83,7 @@ fn albedo_terms(p: &SurfaceParams) -> (Vec3, Vec3) {
         roughness: quantised(p.roughness),
         ..*p
     };
-    let key = [
-        q.metallic.to_bits(),
-        q.roughness.to_bits(),
-        q.specular.to_bits(),
-        q.specular_color.x.to_bits(),
-        q.specular_color.y.to_bits(),
-        q.specular_color.z.to_bits(),
-        q.transmission.to_bits(),
-        q.ior.to_bits(),
-    ];
+    let key = albedo_key(&q);
     // Neighbouring pixels mostly see one material: the last answer, kept per thread,
     // spares the shared map's lock and hash (7 % of a wall's per-pixel work).
     thread_local! {
@@ -113,6 +118,96 @@ fn integrate_albedo_terms(key: AlbedoKey, q: &SurfaceParams) -> (Vec3, Vec3) {
         .unwrap_or_else(|e| e.into_inner())
         .insert(key, (a, b));
     (a, b)
+}
+
+/// Entries of a material's [`albedo_towards`] table over `cos θ_o ∈ [0, 1]`.
+const TOWARDS_STEPS: usize = 32;
+
+/// The fraction of light arriving evenly from all directions that a non-delta surface
+/// sends towards a viewer at `cos_o` (the cosine between its shading normal and the
+/// view), times π: its directional albedo `∫ f cos θi dωi`. Under an even light of
+/// irradiance `E` the surface's radiance towards the viewer is this times `E/π`, where
+/// [`diffuse_albedo`] (its mean over the views) is what the light field passes on from
+/// bounce to bounce. A rough dielectric's Lambertian base is dimmed by the Fresnel
+/// transmission out, `1 − F(θo)`, which grows towards grazing views, and its specular
+/// lobe rises there; a Lambertian surface's is its albedo at every view.
+pub fn albedo_towards(p: &SurfaceParams, cos_o: f32) -> Vec3 {
+    let (i, f) = table_step(cos_o.abs(), TOWARDS_STEPS);
+    let table = towards_terms(p);
+    let at = |k: usize| table[k].0 + table[k].1 * p.base_color;
+    (at(i) * (1.0 - f) + at(i + 1) * f).clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+type TowardsTable = std::sync::Arc<Vec<(Vec3, Vec3)>>;
+
+/// `a` and `b` of [`albedo_towards`] (`a + b · base`, affine in the base colour as
+/// [`diffuse_albedo`] is) over `cos θ_o`, for the parameters of `p` other than its base
+/// colour and emission; integrated once per distinct set and kept.
+fn towards_terms(p: &SurfaceParams) -> TowardsTable {
+    static CACHE: OnceLock<RwLock<HashMap<AlbedoKey, TowardsTable>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(|| RwLock::new(HashMap::new()));
+    let q = SurfaceParams {
+        base_color: Vec3::ZERO,
+        emission: Vec3::ZERO,
+        metallic: quantised(p.metallic),
+        roughness: quantised(p.roughness),
+        ..*p
+    };
+    let key = albedo_key(&q);
+    // Neighbouring pixels mostly see one material (as in `albedo_terms`).
+    thread_local! {
+        static LAST: std::cell::RefCell<Option<(AlbedoKey, TowardsTable)>> =
+            const { std::cell::RefCell::new(None) };
+    }
+    let last = LAST.with_borrow(|l| {
+        l.as_ref()
+            .filter(|(k, _)| *k == key)
+            .map(|(_, t)| t.clone())
+    });
+    if let Some(t) = last {
+        return t;
+    }
+    let cached = cache
+        .read()
+        .unwrap_or_else(|e| e.into_inner())
+        .get(&key)
+        .cloned();
+    if let Some(t) = cached {
+        LAST.set(Some((key, t.clone())));
+        return t;
+    }
+    let (black, white) = (
+        Bsdf::new(&q),
+        Bsdf::new(&SurfaceParams {
+            base_color: Vec3::ONE,
+            ..q
+        }),
+    );
+    let table: TowardsTable = std::sync::Arc::new(
+        (0..TOWARDS_STEPS)
+            .map(|k| {
+                let wo = at_cos(k, TOWARDS_STEPS).max(Vec3::new(0.0, 0.0, 1e-3));
+                let a = reflected_albedo(&black, wo);
+                (a, reflected_albedo(&white, wo) - a)
+            })
+            .collect(),
+    );
+    (cache.write().unwrap_or_else(|e| e.into_inner())).insert(key, table.clone());
+    LAST.set(Some((key, table.clone())));
+    table
+}
+
+/// `bsdf`'s directional albedo towards `wo` (local), of reflection alone (what a side's
+/// element shows; light it lets through belongs to the other side).
+fn reflected_albedo(bsdf: &Bsdf, wo: Vec3) -> Vec3 {
+    const SAMPLES: u32 = 4096;
+    let at = |c: i32, n: u32| r_sequence(R3, 6, c, u64::from(n), 0);
+    let sum: Vec3 = (0..SAMPLES)
+        .filter_map(|n| bsdf.sample(wo, at(0, n), Vec2::new(at(1, n), at(2, n))))
+        .filter(|b| b.wi.z > 0.0 && b.weight.is_finite())
+        .map(|b| b.weight)
+        .sum();
+    sum / SAMPLES as f32
 }
 
 /// The local direction at entry `i` of a table of `n` entries evenly over `cos θ ∈ [0, 1]`
@@ -523,6 +618,63 @@ mod tests {
                 "{p:?}: albedo {got}, quadrature {want}"
             );
             assert!(got.max_element() <= 1.0);
+        }
+    }
+
+    /// The albedo towards a view is the BSDF's directional albedo there: Lambert's its base
+    /// at every view; a rough dielectric's and metal's as a quadrature of `eval` over the
+    /// incident hemisphere gives it (96² cells, within 1 % at every tabulated view: the
+    /// table's 4096 samples a step and its linear steps); and its cosine-weighted mean over
+    /// the views is the bihemispherical albedo the light field passes on (so drawing each
+    /// view with its own takes nothing from the field's energy, it only shares it out
+    /// among the views). Drawn with the mean instead, the breakfast room's floor, seen
+    /// near grazing, was 7.7 % too bright and its walls 2.6 % too dark.
+    #[test]
+    fn albedo_towards_a_view_is_the_bsdfs_directional_albedo() {
+        let lambert = params(0.6, 0.0, 1.0, 0.0);
+        for c in [0.05, 0.3, 0.7, 1.0] {
+            let a = albedo_towards(&lambert, c);
+            assert!((a - 0.6).abs().max_element() < 1e-4, "cos {c}: {a}");
+        }
+        let n = 96;
+        let incident = |bsdf: &Bsdf, wo: Vec3| {
+            let cell = std::f32::consts::TAU / (n * n) as f32;
+            let mut sum = Vec3::ZERO;
+            for k in 0..n * n {
+                let c = ((k / n) as f32 + 0.5) / n as f32;
+                let phi = ((k % n) as f32 + 0.5) / n as f32 * std::f32::consts::TAU;
+                let r = (1.0 - c * c).sqrt();
+                let wi = Vec3::new(r * phi.cos(), r * phi.sin(), c);
+                sum += bsdf.eval(wo, wi).0 * c * cell;
+            }
+            sum
+        };
+        for p in [
+            params(0.9, 0.0, 0.968, 1.0),
+            params(0.7, 0.0, 0.83, 1.0),
+            params(0.9, 1.0, 0.9, 1.0),
+        ] {
+            let bsdf = Bsdf::new(&p);
+            let (mut mean, views) = (Vec3::ZERO, 64);
+            for v in 0..views {
+                let c = (v as f32 + 0.5) / views as f32;
+                mean += albedo_towards(&p, c) * 2.0 * c / views as f32;
+            }
+            for k in [3, 10, 20, 28, 31] {
+                let wo = at_cos(k, TOWARDS_STEPS).max(Vec3::new(0.0, 0.0, 1e-3));
+                let (got, want) = (albedo_towards(&p, wo.z), incident(&bsdf, wo));
+                assert!(
+                    (got - want).abs().max_element() <= 0.01 * want.max_element(),
+                    "{p:?} at cos {}: {got} against the quadrature's {want}",
+                    wo.z
+                );
+            }
+            let field = diffuse_albedo(&p);
+            eprintln!("{p:?}: mean over views {mean}, bihemispherical {field}");
+            assert!(
+                (mean - field).abs().max_element() <= 0.01 * field.max_element(),
+                "{p:?}: the views' mean {mean}, the field's albedo {field}"
+            );
         }
     }
 }

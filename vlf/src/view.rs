@@ -34,7 +34,7 @@ use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
 use crate::sequence::{R2, r_sequence};
 use crate::surface::{
-    Chain, Seen, diffuse_albedo, follow, follow_from, highlights, mirrored, mirrored_gloss,
+    Chain, Seen, albedo_towards, follow, follow_from, highlights, mirrored, mirrored_gloss,
     side_facing,
 };
 use crate::tiles::Tiles;
@@ -507,7 +507,7 @@ impl Visibility {
             }
         }
         if let Some(k) = object {
-            let indirect = diffuse_albedo(&s.params)
+            let indirect = albedo_towards(&s.params, s.shading_normal.dot(r.dir))
                 * std::f32::consts::FRAC_1_PI
                 * objects.irradiance(k, s.shading_normal);
             let l = Lookup {
@@ -552,7 +552,10 @@ impl Visibility {
             res: cells.res,
             u: s.hit.u,
             v: s.hit.v,
-            weight: (chain.weight * open * diffuse_albedo(&s.params) * std::f32::consts::FRAC_1_PI)
+            weight: (chain.weight
+                * open
+                * albedo_towards(&s.params, s.shading_normal.dot(r.dir))
+                * std::f32::consts::FRAC_1_PI)
                 .to_array(),
             emitted,
             samples,

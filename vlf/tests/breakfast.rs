@@ -107,13 +107,18 @@ fn the_breakfast_rooms_diffuse_albedos_are_the_path_tracers() {
     );
 }
 
-/// `CameraMain` at 160 × 90 as the walls draw it at the first frame, bake 162 directions /
-/// 96 lines, against the mean of two 256-spp path-traced renders: the upper half (the
-/// walls) within 2 % in mean luminance, plus three standard errors of the references'
-/// mean (half their difference). With a tile on every glossy element, as before, the
-/// walls were 3.8 % too dark (the chairs black, sending them too little).
+/// `CameraMain` at 160 × 90 as the walls draw it at the first frame, bake with the
+/// default settings, against the mean of two 256-spp path-traced renders: the walls (the
+/// pixels whose centre sees WhiteMatt) and the floor (FloorTiles) each within 2 % in mean
+/// luminance (the goal for the mean bias), plus three standard errors of the
+/// references' mean (half their difference). Both are rough dielectrics drawn as diffuse
+/// elements; drawn with their albedo's mean over all views instead of their albedo
+/// towards the eye (`surface::albedo_towards`), the walls were 2.8 % too dark (seen from
+/// nearer their normal) and the floor 8.6 % too bright (seen at 60–85° off its normal).
+/// With a tile on every glossy element, as before that, the walls were 3.8 % too dark
+/// (the chairs black, sending them too little).
 #[test]
-fn the_walls_are_within_two_percent_of_the_path_tracer() {
+fn the_walls_and_floor_are_within_a_few_percent_of_the_path_tracer() {
     let Some(path) = shared_scene("breakfast_room/BreakfastRoom.gltf") else {
         return;
     };
@@ -133,11 +138,7 @@ fn the_walls_are_within_two_percent_of_the_path_tracer() {
         .find(|c| c.name == "CameraMain")
         .expect("CameraMain");
     let view = holocave_cave::WallView::through_camera(camera, 160, 90);
-    let settings = Settings {
-        directions: 162,
-        resolution: 96,
-        ..Settings::default()
-    };
+    let settings = Settings::default();
     let (state, _) =
         holocave_vlf::bake(&scene, &settings, None, &|_| {}, &mut |_| Ok::<(), ()>(()))
             .expect("bake");
@@ -148,28 +149,66 @@ fn the_walls_are_within_two_percent_of_the_path_tracer() {
     let refs: Vec<_> = (1..=2)
         .map(|seed| holocave_tracer::render::render(&tracer, &view, 256, seed, &|| {}))
         .collect();
-    let upper = |img: &holocave_tracer::film::Image| {
-        let mut s = 0.0;
-        for y in 0..img.height / 2 {
-            for x in 0..img.width {
-                s += f64::from(holocave_scene::color::luminance(img.at(x, y)));
-            }
-        }
-        s
+    // The floor's pixels: those whose centre's ray first meets FloorTiles.
+    let pixels_of = |name: &str| {
+        let m = (scene.materials.iter())
+            .position(|m| m.name == name)
+            .expect("the material") as u32;
+        let sees = |x: u32, y: u32| {
+            let ray = view.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            (scene.closest_hit(&ray, f32::INFINITY))
+                .is_some_and(|h| scene.triangle_shading(h.triangle).material == m)
+        };
+        let pixels: Vec<(u32, u32)> = (0..view.height)
+            .flat_map(|y| (0..view.width).map(move |x| (x, y)))
+            .filter(|&(x, y)| sees(x, y))
+            .collect();
+        pixels
     };
-    let (a, b) = (upper(&refs[0]), upper(&refs[1]));
-    let reference = 0.5 * (a + b);
-    let se = 0.5 * (a - b).abs() / reference;
-    let bias = upper(&drawn) / reference - 1.0;
-    eprintln!(
-        "walls: {:+.2} % (references {:.2} % apart)",
-        100.0 * bias,
-        100.0 * (a - b).abs() / reference
-    );
+    let floor_pixels = pixels_of("FloorTiles");
+    let wall_pixels = pixels_of("WhiteMatt");
     assert!(
-        bias.abs() <= 0.02 + 3.0 * se,
-        "the walls {:+.2} % off the path tracer's (allowed 2 % + {:.2} %)",
-        100.0 * bias,
-        300.0 * se
+        floor_pixels.len() > 500,
+        "{} floor pixels",
+        floor_pixels.len()
     );
+    let sum = |img: &holocave_tracer::film::Image, pixels: &mut dyn Iterator<Item = (u32, u32)>| {
+        pixels
+            .map(|(x, y)| f64::from(holocave_scene::color::luminance(img.at(x, y))))
+            .sum::<f64>()
+    };
+    let upper = |img: &holocave_tracer::film::Image| {
+        sum(
+            img,
+            &mut (0..img.height / 2).flat_map(|y| (0..img.width).map(move |x| (x, y))),
+        )
+    };
+    let floor_sum =
+        |img: &holocave_tracer::film::Image| sum(img, &mut floor_pixels.iter().copied());
+    let wall_sum = |img: &holocave_tracer::film::Image| sum(img, &mut wall_pixels.iter().copied());
+    let upper_bias = upper(&drawn) / (0.5 * (upper(&refs[0]) + upper(&refs[1]))) - 1.0;
+    eprintln!("the image's upper half: {:+.2} %", 100.0 * upper_bias);
+    for (what, region) in [
+        (
+            "walls",
+            &wall_sum as &dyn Fn(&holocave_tracer::film::Image) -> f64,
+        ),
+        ("floor", &floor_sum),
+    ] {
+        let (a, b) = (region(&refs[0]), region(&refs[1]));
+        let reference = 0.5 * (a + b);
+        let se = 0.5 * (a - b).abs() / reference;
+        let bias = region(&drawn) / reference - 1.0;
+        eprintln!(
+            "{what}: {:+.2} % (references {:.2} % apart)",
+            100.0 * bias,
+            100.0 * (a - b).abs() / reference
+        );
+        assert!(
+            bias.abs() <= 0.02 + 3.0 * se,
+            "the {what} {:+.2} % off the path tracer's (allowed 2 % + {:.2} %)",
+            100.0 * bias,
+            300.0 * se
+        );
+    }
 }
