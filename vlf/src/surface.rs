@@ -50,6 +50,20 @@ pub fn diffuse_albedo(p: &SurfaceParams) -> Vec3 {
 
 type AlbedoKey = [u32; 8];
 
+/// `p` with its base colour and emission zero and its metallic and roughness quantised to
+/// 1/1024 (finer than an 8-bit texture), as an albedo's tables are integrated, and the key
+/// they are kept under.
+fn albedo_params(p: &SurfaceParams) -> (SurfaceParams, AlbedoKey) {
+    let q = SurfaceParams {
+        base_color: Vec3::ZERO,
+        emission: Vec3::ZERO,
+        metallic: quantised(p.metallic),
+        roughness: quantised(p.roughness),
+        ..*p
+    };
+    (q, albedo_key(&q))
+}
+
 /// The parameters an albedo depends on besides the base colour.
 fn albedo_key(q: &SurfaceParams) -> AlbedoKey {
     [
@@ -76,14 +90,7 @@ fn quantised(x: f32) -> f32 {
 /// `a` and `b` of [`diffuse_albedo`] for the parameters of `p` other than its base
 /// colour and emission.
 fn albedo_terms(p: &SurfaceParams) -> (Vec3, Vec3) {
-    let q = SurfaceParams {
-        base_color: Vec3::ZERO,
-        emission: Vec3::ZERO,
-        metallic: quantised(p.metallic),
-        roughness: quantised(p.roughness),
-        ..*p
-    };
-    let key = albedo_key(&q);
+    let (q, key) = albedo_params(p);
     // Neighbouring pixels mostly see one material: the last answer, kept per thread,
     // spares the shared map's lock and hash (7 % of a wall's per-pixel work).
     thread_local! {
@@ -146,14 +153,7 @@ type TowardsTable = std::sync::Arc<Vec<(Vec3, Vec3)>>;
 fn towards_terms(p: &SurfaceParams) -> TowardsTable {
     static CACHE: OnceLock<RwLock<HashMap<AlbedoKey, TowardsTable>>> = OnceLock::new();
     let cache = CACHE.get_or_init(|| RwLock::new(HashMap::new()));
-    let q = SurfaceParams {
-        base_color: Vec3::ZERO,
-        emission: Vec3::ZERO,
-        metallic: quantised(p.metallic),
-        roughness: quantised(p.roughness),
-        ..*p
-    };
-    let key = albedo_key(&q);
+    let (q, key) = albedo_params(p);
     // Neighbouring pixels mostly see one material (as in `albedo_terms`).
     thread_local! {
         static LAST: std::cell::RefCell<Option<(AlbedoKey, TowardsTable)>> =
