@@ -83,9 +83,9 @@ pub struct VlfBase {
     shadow_lights: Vec<ShadowLight>,
 }
 
-/// The GPU that traces a node's rays: its engine, and the maker of the direct light's
-/// shadow rays from the wall's first hits (`None` for a scene whose lights it does not
-/// make).
+/// The GPU that traces a node's rays: its engine, the maker of the direct light's shadow
+/// rays from a wall's first hits kept there (`None` for a scene whose lights it does not
+/// make), and the composer of the light field's lookups from the same hits.
 struct OnGpuRays {
     gpu: Gpu,
     engine: Mutex<GpuRays>,
@@ -308,8 +308,8 @@ impl VlfBase {
     }
 
     /// Each pixel's lookup, and what it sees written into `pixels`, the first hits found
-    /// where chosen (on the GPU: read back, and kept there for the shadow rays made from
-    /// them).
+    /// where chosen (on the GPU: read back, and kept there for the shadow rays made and
+    /// the lookups composed from them).
     fn pixels_into(&self, wall: &WallView, pixels: &mut Pixels) -> Vec<Lookup> {
         pixels.hits = self.gpu_rays.as_ref().map(|g| {
             let mut engine = g.engine.lock().unwrap_or_else(|e| e.into_inner());
