@@ -38,7 +38,7 @@ use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
 
 use crate::pixel_direct::{Estimate, PixelDirect, ShadowQuery};
-use crate::static_rays::StaticRays;
+use crate::static_rays::{StaticRays, per_group};
 use crate::view::Visibility;
 
 /// One sample along an eye ray.
@@ -121,15 +121,10 @@ pub fn gather_all(
         .map(|p| std::mem::take(&mut p.queries))
         .collect();
     let blocked = traced.blocked(&groups);
-    let mut starts = Vec::with_capacity(groups.len());
-    let mut at = 0;
-    for g in &groups {
-        starts.push(at);
-        at += g.len();
-    }
+    let blocked = per_group(&groups, &blocked);
     vis.with_placed(|placed| {
-        (pending.into_par_iter().zip(groups).zip(starts))
-            .map(|((p, queries), start)| finish(placed, p, &queries, &blocked[start..]))
+        (pending.into_par_iter().zip(&groups).zip(blocked))
+            .map(|((p, queries), blocked)| finish(placed, p, queries, blocked))
             .collect()
     })
 }
@@ -142,7 +137,7 @@ fn at_eye(
     direct: &PixelDirect,
     ray: Ray,
     hit: Option<Hit>,
-    mut rng: SmallRng,
+    rng: SmallRng,
 ) -> Pending {
     let (lookup, point, first) = vis.lookup_point_and_hit(ray, hit);
     let mut p = Pending {
@@ -153,7 +148,7 @@ fn at_eye(
             object: None,
             object_beyond: false,
         },
-        rng: SmallRng::seed_from_u64(0),
+        rng,
         queries: Vec::new(),
         at_x: 0,
         via_mirror: false,
@@ -170,17 +165,18 @@ fn at_eye(
         // The sky's direct light at x (when the estimates take it) comes along the bounce
         // below, as the sky seen by an escaping ray; a moving object's lookup holds it
         // already (its probe's, with the rest of its indirect light).
-        direct.queries(&x, rng.random(), 0, &mut p.queries);
+        direct.queries(&x, p.rng.random(), 0, &mut p.queries);
         p.at_x = p.queries.len();
         if placed.object_of(x.triangle).is_some() {
             return;
         }
-        if let Some(q) = direct.via_mirror(&x, rng.random()) {
+        if let Some(q) = direct.via_mirror(&x, p.rng.random()) {
             p.queries.push(q);
             p.via_mirror = true;
         }
         let frame = Frame::new(x.shading_normal);
-        let (uc, u) = (rng.random(), Vec2::new(rng.random(), rng.random()));
+        let r = &mut p.rng;
+        let (uc, u) = (r.random(), Vec2::new(r.random(), r.random()));
         let Some(s) = x.bsdf.sample(frame.to_local(x.wo), uc, u) else {
             return;
         };
@@ -199,7 +195,6 @@ fn at_eye(
             delta: s.delta,
         });
     });
-    p.rng = rng;
     p
 }
 

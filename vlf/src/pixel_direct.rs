@@ -52,7 +52,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 use crate::sequence::{R2, R3, r_sequence};
-use crate::static_rays::StaticRays;
+use crate::static_rays::{StaticRays, per_group};
 use crate::tile_albedo::TileAlbedo;
 use crate::view::{Lookup, OverMirror};
 
@@ -875,7 +875,9 @@ impl Accumulator {
         });
         let lights = direct.lights.punctual.len() as u32;
         let n = points.len();
-        let (plans, masks) = match made {
+        // What the walk makes of each pixel's queries and its answers to them; the rest
+        // of its queries are sent (all of them without `made`).
+        let (plans, masks, sent) = match made {
             Some(made) => {
                 let plans: Vec<MadeRays> = (per_pixel.par_iter().zip(made.at_first_hit))
                     .map(|(q, &first)| {
@@ -887,29 +889,25 @@ impl Accumulator {
                     })
                     .collect();
                 let masks = (made.trace)(&plans);
-                (plans, masks)
+                let sent: Vec<Vec<ShadowQuery>> = (per_pixel.par_iter().zip(&plans))
+                    .map(|(queries, m)| {
+                        let sent = queries.iter().filter(|q| m.bit(q, lights).is_none());
+                        sent.copied().collect()
+                    })
+                    .collect();
+                (plans, masks, Some(sent))
             }
-            None => (vec![MadeRays::default(); n], vec![0; n]),
+            None => (vec![MadeRays::default(); n], vec![0; n], None),
         };
-        let sent: Vec<Vec<ShadowQuery>> = (per_pixel.par_iter().zip(&plans))
-            .map(|(queries, m)| {
-                let sent = queries.iter().filter(|q| m.bit(q, lights).is_none());
-                sent.copied().collect()
-            })
-            .collect();
-        let answers = traced.blocked(&sent);
-        let mut starts = Vec::with_capacity(n);
-        let mut at = 0;
-        for q in &sent {
-            starts.push(at);
-            at += q.len();
-        }
+        let sent = sent.as_ref().unwrap_or(&per_pixel);
+        let answers = traced.blocked(sent);
+        let answers = per_group(sent, &answers);
         (per_pixel.par_iter().zip(plans).zip(masks))
-            .zip(starts)
+            .zip(answers)
             .zip(self.sum.par_iter_mut())
             .zip(self.count.par_iter())
-            .map(|(((((queries, m), mask), first), sum), &count)| {
-                let mut sent = answers[first..].iter();
+            .map(|(((((queries, m), mask), answers), sum), &count)| {
+                let mut sent = answers.iter();
                 for q in queries {
                     let b = match m.bit(q, lights) {
                         Some(bit) => mask & (1 << bit) != 0,

@@ -21,6 +21,20 @@ pub trait StaticRays: Sync {
     fn blocked(&self, groups: &[Vec<ShadowQuery>]) -> Vec<bool>;
 }
 
+/// `answers` to `groups`' items one after another (as [`StaticRays::blocked`] gives
+/// them), split into each group's.
+pub fn per_group<'a, T>(groups: &[Vec<T>], answers: &'a [bool]) -> Vec<&'a [bool]> {
+    let mut rest = answers;
+    groups
+        .iter()
+        .map(|g| {
+            let (mine, tail) = rest.split_at(g.len().min(rest.len()));
+            rest = tail;
+            mine
+        })
+        .collect()
+}
+
 /// The CPU's walk over `scene`'s static BVH, on all cores.
 pub struct CpuRays<'a>(pub &'a Scene);
 

@@ -317,11 +317,9 @@ impl Visibility {
     /// What `ray` sees, and the non-delta point it ends on for the per-pixel direct light
     /// ([`crate::pixel_direct`]).
     pub fn lookup_and_point(&self, ray: Ray) -> (Lookup, Option<DirectPoint>) {
-        let env = environment(&self.lights);
-        let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
-        let placed = self.scene.placed(&objects.placements);
-        let chain = follow(&placed, ray, &env);
-        self.with_drawn(|v, d| self.lookup_chain(chain, &objects, Some(&placed), v, d))
+        let static_hit = self.scene.closest_hit(&ray, f32::INFINITY);
+        let (l, p, _) = self.lookup_point_and_hit(ray, static_hit);
+        (l, p)
     }
 
     /// [`Self::lookup_and_point`], and the ray's first hit (mirrors and glass included):
@@ -639,23 +637,24 @@ impl Visibility {
         points.resize(n, None);
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
-        let drawn = self.drawn.read().unwrap_or_else(|e| e.into_inner());
-        let values = drawn.as_ref().map(|(v, _)| v.as_slice());
-        let remainder = drawn.as_ref().is_some_and(|(_, r)| *r);
-        lookups
-            .par_chunks_mut(chunk)
-            .zip(points.par_chunks_mut(chunk))
-            .enumerate()
-            .for_each(|(c, (lookups, points))| {
-                let rays: Vec<Ray> = (c * chunk..(c * chunk + lookups.len()))
-                    .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
-                    .collect();
-                let hits = first_hits(&placed, &rays, c * chunk);
-                for (((l, p), ray), hit) in lookups.iter_mut().zip(points).zip(rays).zip(hits) {
-                    let chain = follow_from(&placed, ray, hit, &env);
-                    (*l, *p) = self.lookup_chain(chain, &objects, Some(&placed), values, remainder);
-                }
-            });
+        self.with_drawn(|values, remainder| {
+            lookups
+                .par_chunks_mut(chunk)
+                .zip(points.par_chunks_mut(chunk))
+                .enumerate()
+                .for_each(|(c, (lookups, points))| {
+                    let rays: Vec<Ray> = (c * chunk..(c * chunk + lookups.len()))
+                        .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
+                        .collect();
+                    let hits = first_hits(&placed, &rays, c * chunk);
+                    let each = lookups.iter_mut().zip(points).zip(rays).zip(hits);
+                    for (((l, p), ray), hit) in each {
+                        let chain = follow_from(&placed, ray, hit, &env);
+                        (*l, *p) =
+                            self.lookup_chain(chain, &objects, Some(&placed), values, remainder);
+                    }
+                });
+        });
         lookups
     }
 

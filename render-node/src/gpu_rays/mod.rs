@@ -273,6 +273,34 @@ fn dispatch(
     pass.dispatch_workgroups(x, y, 1);
 }
 
+/// Submits `enc` with a copy of the first `bytes` of `from` into the host-visible
+/// `receive` after what it records, waits, and turns each `W` words where `receive` is
+/// mapped into a `T` by `answer` (in parallel); an error where it did not map (a lost
+/// device).
+fn read_back<const W: usize, T: Send>(
+    gpu: &Gpu,
+    mut enc: wgpu::CommandEncoder,
+    from: &wgpu::Buffer,
+    receive: &wgpu::Buffer,
+    bytes: u64,
+    answer: impl Fn(&[u32; W]) -> T + Sync,
+) -> Result<Vec<T>, String> {
+    enc.copy_buffer_to_buffer(from, 0, receive, 0, bytes);
+    gpu.queue.submit([enc.finish()]);
+    let slice = receive.slice(..bytes);
+    slice.map_async(wgpu::MapMode::Read, |_| {});
+    gpu.wait();
+    let out = match slice.get_mapped_range() {
+        Ok(view) => Ok(bytemuck::cast_slice::<u8, [u32; W]>(&view)
+            .par_iter()
+            .map(&answer)
+            .collect()),
+        Err(e) => Err(e.to_string()),
+    };
+    receive.unmap();
+    out
+}
+
 /// The dispatch grid for `n` rays: workgroups in x and y, and invocations per row.
 fn grid(n: u32) -> (u32, u32, u32) {
     let groups = n.div_ceil(WORKGROUP).max(1);
@@ -506,24 +534,11 @@ impl GpuRays {
         if bytes == 0 {
             return Vec::new();
         }
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(&self.out, 0, &self.receive, 0, bytes);
-        gpu.queue.submit([enc.finish()]);
-        let slice = self.receive.slice(..bytes);
-        slice.map_async(wgpu::MapMode::Read, |_| {});
-        gpu.wait();
-        let out = match slice.get_mapped_range() {
-            Ok(view) => bytemuck::cast_slice::<u8, [u32; W]>(&view)
-                .par_iter()
-                .map(&answer)
-                .collect(),
-            Err(e) => {
-                tracing::warn!("gpu rays: the answers' transfer buffer did not map: {e}");
-                Vec::new()
-            }
-        };
-        self.receive.unmap();
-        out
+        let enc = gpu.device.create_command_encoder(&Default::default());
+        read_back(gpu, enc, &self.out, &self.receive, bytes, answer).unwrap_or_else(|e| {
+            tracing::warn!("gpu rays: the answers' transfer buffer did not map: {e}");
+            Vec::new()
+        })
     }
 
     /// Makes `view`'s pixel rays (row by row from the top-left, each with `tmax`) in the

@@ -26,7 +26,7 @@ use holocave_scene::{PunctualKind, Scene};
 use holocave_tracer::frame::Frame;
 use holocave_vlf::{MadeRays, sun_sequence};
 
-use super::{GpuRays, KeptHits, dispatch, grid, source_with};
+use super::{GpuRays, KeptHits, dispatch, grid, read_back, source_with};
 use crate::gpu::{Binding, ComputePass, Gpu};
 
 /// Punctual lights whose rays the GPU makes (`MAX_LIGHTS` in the shader); a scene with
@@ -135,8 +135,9 @@ impl ShadowMaker {
             "gpu rays: shadow params",
             std::mem::size_of::<ShadowParams>() as u64,
         );
+        // Room for no pixel yet: the first batch makes it ([`Self::reserve`]).
         let (tasks, shifts, masks, receive) = per_pixel_buffers(gpu, 1);
-        let mut maker = ShadowMaker {
+        Some(ShadowMaker {
             pass,
             params,
             lights,
@@ -146,9 +147,7 @@ impl ShadowMaker {
             masks,
             receive,
             capacity: 0,
-        };
-        maker.reserve(gpu, 1);
-        Some(maker)
+        })
     }
 
     /// Room for `n` pixels, the sun's shifts of each uploaded.
@@ -206,24 +205,22 @@ impl ShadowMaker {
                 &self.shifts,
             ],
         );
-        let bytes = 4 * u64::from(n);
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         dispatch(&mut enc, &self.pass.pipelines[0], &bind, n);
-        enc.copy_buffer_to_buffer(&self.masks, 0, &self.receive, 0, bytes);
-        gpu.queue.submit([enc.finish()]);
-        let slice = self.receive.slice(..bytes);
-        slice.map_async(wgpu::MapMode::Read, |_| {});
-        gpu.wait();
-        let masks = match slice.get_mapped_range() {
-            Ok(view) => bytemuck::cast_slice::<u8, u32>(&view).to_vec(),
-            Err(e) => {
-                tracing::warn!("gpu rays: the made shadow rays' answers did not map: {e}");
-                // A lost device: every made ray blocked, as a lost device draws black.
-                vec![u32::MAX; n as usize]
-            }
-        };
-        self.receive.unmap();
-        masks
+        let bytes = 4 * u64::from(n);
+        read_back(
+            gpu,
+            enc,
+            &self.masks,
+            &self.receive,
+            bytes,
+            |&[m]: &[u32; 1]| m,
+        )
+        .unwrap_or_else(|e| {
+            tracing::warn!("gpu rays: the made shadow rays' answers did not map: {e}");
+            // A lost device: every made ray blocked, as a lost device draws black.
+            vec![u32::MAX; n as usize]
+        })
     }
 }
 
