@@ -16,11 +16,12 @@
 //! With [`VlfBase::with_rays`] choosing the GPU, each pixel's first hit is found on the GPU
 //! instead ([`crate::gpu_rays`]: the wall's rays made and traced there, the hits read
 //! back and kept there), and mirrors, glass and the lookups follow on the CPU as before.
-//! The direct light's shadow rays are traced there too, all of a frame's at once: those
-//! towards the sun's disc and the punctual lights of every pixel that sees its first hit
-//! made there from the kept hit (only which of the sun's samples crosses the bus, and a
-//! bit a ray back), the rest made on the CPU and sent (the moving objects are tested on
-//! the CPU). The lookups a wall draws are composed there from the kept hits where they
+//! The direct light's shadow rays are traced there too, all of a frame's at once: those of
+//! every pixel that sees its first hit made there from the kept hit (towards the sun's
+//! disc and the punctual lights from which samples alone, towards the area lamps' points
+//! and the sky's directions the CPU drew from their aims: `gpu_rays::ShadowMaker`; a bit a
+//! ray back), those of points beyond mirrors and glass made on the CPU and sent (the
+//! moving objects are tested on the CPU). The lookups a wall draws are composed there from the kept hits where they
 //! are an element's ([`VlfBase::draw_lookups`]: 32 bytes a pixel sent instead of 64), and
 //! gather samples trace their three batches of rays there ([`VlfBase::gather`]).
 
@@ -35,7 +36,7 @@ use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::split::Split;
 use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
 use holocave_vlf::{
-    Accumulator, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, Visibility,
+    Accumulator, Aim, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, Visibility,
 };
 use rayon::prelude::*;
 
@@ -445,10 +446,10 @@ impl VlfBase {
         let at_first_hit: Vec<bool> = (pixels.points.par_iter().zip(hits))
             .map(|(p, h)| matches!((p, h), (Some(p), Some(h)) if p.triangle == h.triangle))
             .collect();
-        let trace = |rays: &[MadeRays]| {
+        let trace = |rays: &[MadeRays], aims: &[Aim]| {
             let engine = g.engine.lock().unwrap_or_else(|e| e.into_inner());
             let mut maker = maker.lock().unwrap_or_else(|e| e.into_inner());
-            maker.trace(&g.gpu, &engine, kept, rays)
+            maker.trace(&g.gpu, &engine, kept, rays, aims)
         };
         f(Some(&Made {
             at_first_hit: &at_first_hit,

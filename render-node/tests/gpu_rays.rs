@@ -545,20 +545,24 @@ fn negative_zeros_bad_rays_and_tmax_on_a_quad() {
     assert!(hits[2..6].iter().all(|h| h.is_none()) && hits[7].is_none());
 }
 
-/// The per-pixel direct light's rays towards the punctual lights and the sun's disc, made
-/// on the GPU from the wall's first hits kept there (`ShadowMaker`), answer as the CPU's
-/// own rays of the same samples do: each pixel's made rays against `Scene::occluded` of the
-/// ray the CPU makes for that light or sample. A made ray differs from the CPU's by a few
-/// float steps of its direction and point (the GPU's `sin`, `cos`, `sqrt`, fused
-/// multiply-adds, a 24-bit sample), so answers may differ only for rays that graze an
-/// edge: at most one in a thousand, plus one.
+/// The per-pixel direct light's rays made on the GPU from the wall's first hits kept there
+/// (`ShadowMaker`) — towards the punctual lights and the sun's disc from the samples'
+/// indices alone, towards the area lamp's points and the sky's directions from the aims
+/// the CPU drew — answer as the CPU's own rays of the same samples do: each pixel's made
+/// rays against `Scene::occluded` of the ray the CPU makes for that light or sample. A
+/// made ray differs from the CPU's by a few float steps of its direction and point (the
+/// GPU's `sin`, `cos`, `sqrt`, fused multiply-adds, a 24-bit sample; an aimed ray by its
+/// point alone), so answers may differ only for rays that graze an edge: at most one in
+/// a thousand, plus one. Each answer's bit is found here from the layout the shader
+/// states (punctual lights, then the sun's samples, then the aims in order).
 #[test]
 fn shadow_rays_made_on_the_gpu_are_the_cpus() {
     use holocave_render_node::gpu_rays::ShadowMaker;
-    use holocave_vlf::{MadeRays, Sampled};
+    use holocave_vlf::{Sampled, made_rays};
     let scene = std::sync::Arc::new(room::room_with_punctual_lights());
     let vis = Visibility::of(scene.clone(), &Settings::default());
-    let direct = PixelDirect::new(scene.clone());
+    // The sky per pixel too: a sky sample and a BSDF sample of the sky an estimate.
+    let direct = PixelDirect::new(scene.clone()).with_sky(true);
     let view = camera_view(&scene, 96, 64);
     let points = vis.pixels_and_points(&view).1;
     let gpu = gpu();
@@ -568,50 +572,41 @@ fn shadow_rays_made_on_the_gpu_are_the_cpus() {
     let hits = engine.read_hits(&gpu, n);
     let mut kept = None;
     engine.keep_hits(&gpu, n, &mut kept);
-    // Each pixel's queries of four estimates (the sun's samples 0 to 7 or so), where it
-    // sees its first hit.
+    // Each pixel's queries of three estimates (the sun's samples 0 to 7 or so, three of
+    // the lamp, six of the sky), where it sees its first hit.
     let lights = scene.lights.len() as u32;
-    let per_pixel: Vec<Vec<_>> = (points.iter().zip(&hits))
+    let at_first_hit: Vec<bool> = (points.iter().zip(&hits))
+        .map(|(p, h)| matches!((p, h), (Some(p), Some(h)) if p.triangle == h.triangle))
+        .collect();
+    let per_pixel: Vec<Vec<_>> = (points.iter().zip(&at_first_hit))
         .enumerate()
-        .map(|(i, (p, h))| {
+        .map(|(i, (p, &first))| {
             let mut queries = Vec::new();
-            if let (Some(p), Some(h)) = (p, h)
-                && p.triangle == h.triangle
-            {
-                for e in 0..4 {
+            if let (Some(p), true) = (p, first) {
+                for e in 0..3 {
                     direct.queries(p, i as u64, e, &mut queries);
                 }
             }
             queries
         })
         .collect();
-    let plans: Vec<MadeRays> = per_pixel
-        .iter()
-        .map(|q| {
-            let suns: Vec<u64> = (q.iter())
-                .filter_map(|q| match q.light {
-                    Sampled::Sun(k) => Some(k),
-                    _ => None,
-                })
-                .collect();
-            let (lo, hi) = (suns.iter().min(), suns.iter().max());
-            MadeRays {
-                first_sun: lo.map_or(0, |&k| k as u32),
-                suns: lo.zip(hi).map_or(0, |(lo, hi)| (hi - lo + 1) as u32),
-                punctual: q.iter().any(|q| matches!(q.light, Sampled::Punctual(_))),
-            }
-        })
-        .collect();
-    let masks = maker.trace(&gpu, &engine, kept.as_ref().unwrap(), &plans);
+    let (plans, aims) = made_rays(&per_pixel, &at_first_hit, lights);
+    let masks = maker.trace(&gpu, &engine, kept.as_ref().unwrap(), &plans, &aims);
     assert_eq!(masks.len(), per_pixel.len());
-    let (mut rays, mut blocked, mut differ) = ([0usize; 2], [0usize; 2], 0);
+    let (mut rays, mut blocked, mut differ) = ([0usize; 4], [0usize; 4], 0);
     for ((queries, plan), mask) in per_pixel.iter().zip(&plans).zip(&masks) {
+        let mut aimed = 0;
         for q in queries {
             let (bit, kind) = match q.light {
                 Sampled::Punctual(i) => (i, 0),
                 Sampled::Sun(k) => (lights + (k - u64::from(plan.first_sun)) as u32, 1),
-                _ => continue,
+                light => {
+                    aimed += 1;
+                    let kind = if light == Sampled::Area { 2 } else { 3 };
+                    (lights + plan.suns + aimed - 1, kind)
+                }
             };
+            assert!(bit < 32, "a pixel's rays all fit in its answer");
             let cpu = scene.occluded(&q.ray, q.tmax);
             rays[kind] += 1;
             blocked[kind] += usize::from(cpu);
@@ -619,15 +614,22 @@ fn shadow_rays_made_on_the_gpu_are_the_cpus() {
         }
     }
     eprintln!(
-        "made shadow rays: {} to punctual lights ({} blocked), {} to the sun ({} blocked); \
+        "made shadow rays: {} to punctual lights ({} blocked), {} to the sun ({} blocked), \
+         {} to the lamp ({} blocked), {} to the sky ({} blocked); \
          {differ} answered otherwise than the CPU's",
-        rays[0], blocked[0], rays[1], blocked[1]
+        rays[0], blocked[0], rays[1], blocked[1], rays[2], blocked[2], rays[3], blocked[3]
     );
-    for k in 0..2 {
+    for k in 0..4 {
         assert!(
             rays[k] > 1000 && blocked[k] > 100 && rays[k] - blocked[k] > 100,
             "{rays:?} rays, {blocked:?} blocked: too few of either to tell"
         );
     }
-    assert!(differ <= (rays[0] + rays[1]) / 1000 + 1, "{differ} differ");
+    let total: usize = rays.iter().sum();
+    assert!(differ <= total / 1000 + 1, "{differ} differ");
+    // Every one of them made: none left to send.
+    assert_eq!(
+        plans.iter().map(|m| m.aimed as usize).sum::<usize>(),
+        rays[2] + rays[3]
+    );
 }

@@ -335,10 +335,10 @@ fn gathers_traced_on_the_gpu_are_the_cpus() {
     assert!(off <= rays.len() * 6 / 1000 + 1, "{off} gathers differ");
 }
 
-/// `--rays gpu` against `--rays cpu` in the sunlit room with punctual lights, whose direct
-/// light's rays towards the sun and the lamps the GPU makes from the wall's first hits
-/// (the rest sent, mirrors and glass followed on the CPU): the same wall, frame after
-/// frame, within one 8-bit step but where a ray grazes an edge.
+/// `--rays gpu` against `--rays cpu` in the sunlit room with punctual lights and an area
+/// lamp, whose direct light's rays the GPU makes from the wall's first hits (towards the
+/// area lamp from the points the CPU drew; those of points beyond mirrors and glass sent):
+/// the same wall, frame after frame, within one 8-bit step but where a ray grazes an edge.
 #[test]
 fn shadow_rays_made_on_the_gpu_draw_the_cpus_walls() {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");

@@ -85,8 +85,8 @@ pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
 pub use pixel_direct::{
-    Accumulator, DirectPoint, Estimate, Made, MadeRays, PixelDirect, Sampled, ShadowQuery,
-    SunSequence, sun_sequence,
+    Accumulator, Aim, DirectPoint, Estimate, Made, MadeRays, PixelDirect, Sampled, ShadowQuery,
+    SunSequence, made_rays, sun_sequence,
 };
 pub use static_rays::{CpuRays, StaticRays};
 pub use tiles::Tiles;

@@ -133,6 +133,10 @@ fn shadow_query(
         tmax,
         radiance,
         light,
+        aim: Aim {
+            dir: ls.wi,
+            dist: ls.dist,
+        },
     })
 }
 
@@ -516,32 +520,49 @@ pub fn sun_sequence(seed: u64) -> SunSequence {
     }
 }
 
-/// The shadow rays a walk makes itself for one pixel from the pixel's first hit, never
-/// sent to it: towards every punctual light (`punctual`) and the sun's samples
-/// `first_sun .. first_sun + suns` of the pixel's sequence ([`sun_sequence`]).
+/// The shadow rays a walk makes itself for one pixel from the pixel's first hit: towards
+/// every punctual light (`punctual`) and the sun's samples `first_sun .. first_sun + suns`
+/// of the pixel's sequence ([`sun_sequence`]), which never cross the bus; and `aimed`
+/// rays the CPU chose, the pixel's [`Aim`]s `first_aim .. first_aim + aimed` (points on
+/// the area lamps, the sky's directions: their distributions depend on the point and
+/// the CPU shades with the samples it draws, so it sends each sample's direction and
+/// distance, and the walk makes the ray from its own hit).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MadeRays {
     pub first_sun: u32,
     pub suns: u32,
     pub punctual: bool,
+    pub first_aim: u32,
+    pub aimed: u32,
 }
 
-/// Bits in a pixel's answer to its [`MadeRays`]: the punctual lights' and the sun's samples
-/// together fit in them, or the pixel's rays are all sent.
+/// A light sample as seen from the point that takes it: the direction towards it and its
+/// distance (infinite for the sun and the sky). The tracer's `shadow_ray` of these from
+/// the point is the sample's shadow ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aim {
+    pub dir: Vec3,
+    pub dist: f32,
+}
+
+/// Bits in a pixel's answer to its [`MadeRays`]: the punctual lights', the sun's samples
+/// and the aimed rays together fit in them, or the pixel's rays are sent.
 pub const MADE_BITS: u32 = 32;
 
 impl MadeRays {
     /// The rays a walk can make of a pixel's queries (the scene having `lights` punctual
-    /// lights): its punctual lights' and its sun's samples; none where they do not fit
-    /// in [`MADE_BITS`].
+    /// lights): its punctual lights', its sun's samples and, where they fit in
+    /// [`MADE_BITS`] as well, the rest aimed (`first_aim` left to the caller); none where
+    /// the first two do not fit.
     fn of(queries: &[ShadowQuery], lights: u32) -> MadeRays {
         let mut m = MadeRays::default();
         let (mut lo, mut hi) = (u64::MAX, 0);
+        let mut aimed = 0;
         for q in queries {
             match q.light {
                 Sampled::Punctual(_) => m.punctual = true,
                 Sampled::Sun(k) => (lo, hi) = (lo.min(k), hi.max(k)),
-                _ => {}
+                _ => aimed += 1,
             }
         }
         if lo <= hi {
@@ -553,37 +574,82 @@ impl MadeRays {
         if lights + m.suns > MADE_BITS {
             return MadeRays::default();
         }
+        if lights + m.suns + aimed <= MADE_BITS {
+            m.aimed = aimed;
+        }
         m
     }
 
-    /// The bit of query `q`'s answer when the walk makes it (`lights` punctual lights
-    /// first, then the sun's samples).
-    fn bit(&self, q: &ShadowQuery, lights: u32) -> Option<u32> {
-        match q.light {
-            Sampled::Punctual(i) if self.punctual => Some(i),
-            Sampled::Sun(k)
-                if self.suns > 0
-                    && (k >= u64::from(self.first_sun))
-                    && k - u64::from(self.first_sun) < u64::from(self.suns) =>
-            {
-                Some(lights + (k - u64::from(self.first_sun)) as u32)
-            }
-            _ => None,
-        }
+    /// The bit of each of a pixel's `queries` in its answer where the walk makes the
+    /// ray (`lights` punctual lights first, then the sun's samples, then the aimed rays
+    /// in the order of the queries); `None` for a ray sent.
+    pub fn bits(&self, queries: &[ShadowQuery], lights: u32) -> Vec<Option<u32>> {
+        let mut aimed = 0;
+        (queries.iter())
+            .map(|q| match q.light {
+                Sampled::Punctual(i) => self.punctual.then_some(i),
+                Sampled::Sun(k) => {
+                    let j = k.checked_sub(u64::from(self.first_sun))?;
+                    (j < u64::from(self.suns)).then(|| lights + j as u32)
+                }
+                _ => {
+                    aimed += 1;
+                    (aimed <= self.aimed).then(|| lights + self.suns + aimed - 1)
+                }
+            })
+            .collect()
     }
 }
 
+/// What the walk makes of each pixel's `queries` (those of pixels that see their first
+/// hit, `at_first_hit`; none of the others', whose points lie beyond a mirror or glass),
+/// the scene having `lights` punctual lights: each pixel's [`MadeRays`] and the aims of
+/// all of them in order.
+pub fn made_rays(
+    queries: &[Vec<ShadowQuery>],
+    at_first_hit: &[bool],
+    lights: u32,
+) -> (Vec<MadeRays>, Vec<Aim>) {
+    let mut plans: Vec<MadeRays> = (queries.par_iter().zip(at_first_hit))
+        .map(|(q, &first)| {
+            if first {
+                MadeRays::of(q, lights)
+            } else {
+                MadeRays::default()
+            }
+        })
+        .collect();
+    let mut aims = Vec::new();
+    for (m, q) in plans.iter_mut().zip(queries) {
+        m.first_aim = aims.len() as u32;
+        if m.aimed > 0 {
+            let aimed = q
+                .iter()
+                .filter(|q| !matches!(q.light, Sampled::Punctual(_) | Sampled::Sun(_)));
+            aims.extend(aimed.map(|q| q.aim));
+        }
+    }
+    (plans, aims)
+}
+
 /// Shadow rays a walk makes from the pixels' first hits where it found them (a GPU,
-/// from the wall's hits it keeps): they never cross the bus, only each pixel's
-/// [`MadeRays`] (8 bytes) and answer (a bit a ray).
+/// from the wall's hits it keeps): neither the hits nor the rays cross the bus, only
+/// each pixel's [`MadeRays`], the aims of the rays the CPU chose, and its answer (a bit a
+/// ray).
 pub struct Made<'a> {
     /// Per pixel: whether the point it sees is the walk's first hit of its ray (no mirror,
     /// glass or moving object in between).
     pub at_first_hit: &'a [bool],
-    /// Whether the static scene blocks each pixel's made rays: bit `i` for punctual light
-    /// `i`, bit `P + j` for the sun's sample `first_sun + j` (`P` punctual lights).
-    pub trace: &'a (dyn Fn(&[MadeRays]) -> Vec<u32> + Sync),
+    /// Whether the static scene blocks each pixel's made rays (the aims of all pixels
+    /// given): bit `i` for punctual light `i`, bit `P + j` for the sun's sample
+    /// `first_sun + j`, bit `P + S + a` for the pixel's aim `first_aim + a` (`P` punctual
+    /// lights, `S` sun samples).
+    pub trace: &'a TraceMade<'a>,
 }
+
+/// What [`Made::trace`] calls: each pixel's plan and the aims of all of them in, each
+/// pixel's answer out.
+pub type TraceMade<'a> = dyn Fn(&[MadeRays], &[Aim]) -> Vec<u32> + Sync + 'a;
 
 /// One light sample's shadow ray (up to `tmax`) and the radiance it sends towards the
 /// viewer if nothing blocks it.
@@ -593,6 +659,8 @@ pub struct ShadowQuery {
     pub tmax: f32,
     pub radiance: Vec3,
     pub light: Sampled,
+    /// The light sample the ray was made for, from the point that takes it.
+    pub aim: Aim,
 }
 
 /// What a shadow query samples.
@@ -879,20 +947,13 @@ impl Accumulator {
         // of its queries are sent (all of them without `made`).
         let (plans, masks, sent) = match made {
             Some(made) => {
-                let plans: Vec<MadeRays> = (per_pixel.par_iter().zip(made.at_first_hit))
-                    .map(|(q, &first)| {
-                        if first {
-                            MadeRays::of(q, lights)
-                        } else {
-                            MadeRays::default()
-                        }
-                    })
-                    .collect();
-                let masks = (made.trace)(&plans);
+                let (plans, aims) = made_rays(&per_pixel, made.at_first_hit, lights);
+                let masks = (made.trace)(&plans, &aims);
                 let sent: Vec<Vec<ShadowQuery>> = (per_pixel.par_iter().zip(&plans))
                     .map(|(queries, m)| {
-                        let sent = queries.iter().filter(|q| m.bit(q, lights).is_none());
-                        sent.copied().collect()
+                        let bits = m.bits(queries, lights);
+                        let sent = queries.iter().zip(bits).filter(|(_, b)| b.is_none());
+                        sent.map(|(q, _)| *q).collect()
                     })
                     .collect();
                 (plans, masks, Some(sent))
@@ -908,8 +969,8 @@ impl Accumulator {
             .zip(self.count.par_iter())
             .map(|(((((queries, m), mask), answers), sum), &count)| {
                 let mut sent = answers.iter();
-                for q in queries {
-                    let b = match m.bit(q, lights) {
+                for (q, bit) in queries.iter().zip(m.bits(queries, lights)) {
+                    let b = match bit {
                         Some(bit) => mask & (1 << bit) != 0,
                         None => *sent.next().unwrap_or(&true),
                     };
@@ -923,5 +984,82 @@ impl Accumulator {
     /// Frames averaged at pixel `i` so far.
     pub fn frames(&self, i: usize) -> u32 {
         self.count.get(i).copied().unwrap_or(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn query(light: Sampled) -> ShadowQuery {
+        let aim = Aim {
+            dir: Vec3::Y,
+            dist: if light == Sampled::Area {
+                2.0
+            } else {
+                f32::INFINITY
+            },
+        };
+        ShadowQuery {
+            ray: Ray::new(Vec3::ZERO, Vec3::Y),
+            tmax: aim.dist,
+            radiance: Vec3::ONE,
+            light,
+            aim,
+        }
+    }
+
+    /// The answer's bits: punctual lights, then the sun's samples, then the aims in the
+    /// queries' order; aims that do not fit are sent, and so is everything of a pixel
+    /// whose lights and sun samples do not fit or whose point lies beyond a mirror.
+    #[test]
+    fn made_rays_lay_out_each_pixels_answer() {
+        let lights = 3;
+        let mut first: Vec<ShadowQuery> = vec![query(Sampled::Area)];
+        first.extend((0..3).map(|i| query(Sampled::Punctual(i))));
+        first.extend([Sampled::Sun(5), Sampled::Sun(6), Sampled::Sky].map(query));
+        let mut crowded: Vec<ShadowQuery> = (0..28).map(|k| query(Sampled::Sun(k))).collect();
+        crowded.extend([Sampled::Area, Sampled::Other].map(query));
+        let too_many: Vec<ShadowQuery> = (0..30).map(|k| query(Sampled::Sun(k))).collect();
+        let pixels = [
+            first.clone(),
+            crowded.clone(),
+            too_many.clone(),
+            first.clone(),
+        ];
+        let (plans, aims) = made_rays(&pixels, &[true, true, true, false], lights);
+        let expected_first = MadeRays {
+            first_sun: 5,
+            suns: 2,
+            punctual: true,
+            first_aim: 0,
+            aimed: 2,
+        };
+        assert_eq!(plans[0], expected_first);
+        assert_eq!(
+            plans[0].bits(&first, lights),
+            [5, 0, 1, 2, 3, 4, 6].map(Some).to_vec()
+        );
+        assert_eq!(aims.len(), 2);
+        assert_eq!(aims[0].dist, 2.0);
+        assert!(aims[1].dist.is_infinite());
+        // 3 lights and 28 samples leave one bit: both aims are sent.
+        assert_eq!(
+            (plans[1].suns, plans[1].aimed, plans[1].first_aim),
+            (28, 0, 2)
+        );
+        let bits = plans[1].bits(&crowded, lights);
+        assert_eq!(bits[27], Some(30));
+        assert_eq!(bits[28..], [None, None]);
+        // 3 + 30 bits do not fit: nothing is made.
+        assert_eq!(
+            plans[2],
+            MadeRays {
+                first_aim: 2,
+                ..MadeRays::default()
+            }
+        );
+        assert!(plans[2].bits(&too_many, lights).iter().all(Option::is_none));
+        assert!(plans[3].bits(&first, lights).iter().all(Option::is_none));
     }
 }

@@ -1,30 +1,34 @@
 //! Shadow rays made on the GPU (`shadow.wgsl` beside this file): the per-pixel direct
-//! light's rays towards the punctual lights and the sun's disc, made from each pixel's
-//! first hit where the wall's closest-hit pass left it, so that neither the hits nor the
-//! rays cross the bus — only each pixel's [`MadeRays`] (8 bytes: which of the sun's
-//! samples) and its answer (a bit a ray).
+//! light's rays, made from each pixel's first hit where the wall's closest-hit pass left
+//! it, so that the hits never cross the bus — only each pixel's [`MadeRays`] (12 bytes),
+//! the aims of the rays the CPU chose (16 bytes each) and the answers (a bit a ray).
 //!
 //! The rays are the CPU's ([`holocave_vlf::pixel_direct`]) made again: the point from the
 //! triangle's vertices and the hit's barycentrics (`surface_point`'s operations), the
-//! offset off the surface (`leave_surface`), the segment to a lamp (`segment_ray`), and
-//! the sun's sample `k` of the pixel's R2 sequence from its fixed-point form
-//! ([`holocave_vlf::sun_sequence`]: within two float steps at 1 of the CPU's f64 sample),
-//! mapped into the disc by `uniform_cone` in the sun's frame, both computed on the CPU. The
-//! GPU's `sin`, `cos` and `sqrt` are not correctly rounded, and it may fuse multiply-adds:
-//! a made ray's direction differs from the CPU's by a few float steps, which moves its
-//! answer only where it grazes an edge, as a ray the CPU makes and the GPU walks may
-//! (`tests/gpu_rays.rs` counts them).
+//! offset off the surface (`leave_surface`), the segment to a light point (`segment_ray`)
+//! or the ray to infinity. Towards the punctual lights and the sun's disc the GPU makes
+//! the whole ray: the sun's sample `k` of the pixel's R2 sequence from its fixed-point
+//! form ([`holocave_vlf::sun_sequence`]: within two float steps at 1 of the CPU's f64
+//! sample), mapped into the disc by `uniform_cone` in the sun's frame, both computed on
+//! the CPU; nothing but which samples crosses the bus. The GPU's `sin`, `cos` and `sqrt`
+//! are not correctly rounded, and it may fuse multiply-adds: a made ray's direction
+//! differs from the CPU's by a few float steps, which moves its answer only where it
+//! grazes an edge, as a ray the CPU makes and the GPU walks may (`tests/gpu_rays.rs`
+//! counts them).
 //!
-//! Area lamps' and the sky's rays stay the CPU's: their samples are drawn from
-//! distributions (the emitters weighed by what each sends to the point, the sky's
-//! luminance), whose steps the GPU's rounding would cross for other samples than the
-//! CPU's — another lamp or direction, not a ray a float step away — so the CPU would have
-//! to send its choice, most of a ray's 32 bytes.
+//! Area lamps' and the sky's samples are drawn on the CPU: their distributions depend on
+//! the point (the emitters weighed by what each can send to it) or follow the sky's
+//! luminance, and the CPU needs the sample it drew to shade with it (the BSDF, the
+//! emitted light, the densities). Made again on the GPU, a distribution's step crossed by
+//! rounding would name another lamp or direction, not a ray a float step away. So the CPU
+//! sends each such sample's [`Aim`] — its direction and distance from the point, 16 bytes
+//! where a whole ray is 32 — and the GPU makes the ray from its own hit, in the same pass
+//! as the rest: a pixel that sees its first hit sends none of its rays whole.
 
 use bytemuck::{Pod, Zeroable};
 use holocave_scene::{PunctualKind, Scene};
 use holocave_tracer::frame::Frame;
-use holocave_vlf::{MadeRays, sun_sequence};
+use holocave_vlf::{Aim, MadeRays, sun_sequence};
 
 use super::{GpuRays, KeptHits, dispatch, grid, read_back, source_with};
 use crate::gpu::{Binding, ComputePass, Gpu};
@@ -64,6 +68,9 @@ pub struct ShadowMaker {
     lights: ShadowParams,
     faces: wgpu::Buffer,
     tasks: wgpu::Buffer,
+    /// The aims of a batch's rays chosen on the CPU, and how many it has room for.
+    aims: wgpu::Buffer,
+    aim_capacity: usize,
     shifts: wgpu::Buffer,
     masks: wgpu::Buffer,
     receive: wgpu::Buffer,
@@ -73,10 +80,10 @@ pub struct ShadowMaker {
 
 impl ShadowMaker {
     /// The maker of `scene`'s shadow rays over `engine`'s upload of its tree; `None` for a
-    /// scene with no sun and no punctual light, or more than [`MAX_MADE_LIGHTS`] of them.
+    /// scene with more than [`MAX_MADE_LIGHTS`] punctual lights.
     pub fn new(gpu: &Gpu, engine: &GpuRays, scene: &Scene) -> Option<ShadowMaker> {
         let sun = scene.daylight.sun.as_ref();
-        if (sun.is_none() && scene.lights.is_empty()) || scene.lights.len() > MAX_MADE_LIGHTS {
+        if scene.lights.len() > MAX_MADE_LIGHTS {
             return None;
         }
         let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
@@ -128,7 +135,7 @@ impl ShadowMaker {
                     include_str!("shadow.wgsl")
                 ),
             ),
-            &[Uniform, ro, ro, ro, rw, ro, ro, ro],
+            &[Uniform, ro, ro, ro, rw, ro, ro, ro, ro],
             ["made_shadow_rays"],
         );
         let params = gpu.uniform(
@@ -143,6 +150,8 @@ impl ShadowMaker {
             lights,
             faces,
             tasks,
+            aims: aims_buffer(gpu, 1),
+            aim_capacity: 1,
             shifts,
             masks,
             receive,
@@ -163,14 +172,16 @@ impl ShadowMaker {
     }
 
     /// Whether the static scene blocks each pixel's made rays (`rays`, one a pixel of the
-    /// wall whose first hits `hits` holds): bit `i` for punctual light `i`, bit `P + j`
-    /// for the sun's sample `first_sun + j`.
+    /// wall whose first hits `hits` holds; `aims`, those of all pixels): bit `i` for
+    /// punctual light `i`, bit `P + j` for the sun's sample `first_sun + j`, bit `P + S +
+    /// a` for the pixel's aim `first_aim + a` (`S` its sun samples).
     pub fn trace(
         &mut self,
         gpu: &Gpu,
         engine: &GpuRays,
         hits: &KeptHits,
         rays: &[MadeRays],
+        aims: &[Aim],
     ) -> Vec<u32> {
         let n = rays.len() as u32;
         assert_eq!(n, hits.pixels, "one made ray set per pixel of the wall");
@@ -178,12 +189,27 @@ impl ShadowMaker {
             return Vec::new();
         }
         self.reserve(gpu, n);
-        let tasks: Vec<[u32; 2]> = rays
+        let tasks: Vec<[u32; 3]> = rays
             .iter()
-            .map(|m| [m.first_sun, m.suns.min(0xff) | (u32::from(m.punctual) << 8)])
+            .map(|m| {
+                let counts = m.suns.min(0xff) | (u32::from(m.punctual) << 8);
+                [m.first_sun, counts | (m.aimed.min(0xff) << 16), m.first_aim]
+            })
             .collect();
         gpu.queue
             .write_buffer(&self.tasks, 0, bytemuck::cast_slice(&tasks));
+        if aims.len() > self.aim_capacity {
+            self.aims = aims_buffer(gpu, aims.len());
+            self.aim_capacity = aims.len();
+        }
+        if !aims.is_empty() {
+            let aims: Vec<[f32; 4]> = aims
+                .iter()
+                .map(|a| [a.dir.x, a.dir.y, a.dir.z, a.dist])
+                .collect();
+            gpu.queue
+                .write_buffer(&self.aims, 0, bytemuck::cast_slice(&aims));
+        }
         let (_, _, row) = grid(n);
         let params = ShadowParams {
             count: n,
@@ -203,6 +229,7 @@ impl ShadowMaker {
                 &hits.buffer,
                 &self.tasks,
                 &self.shifts,
+                &self.aims,
             ],
         );
         let mut enc = gpu.device.create_command_encoder(&Default::default());
@@ -237,9 +264,17 @@ fn per_pixel_buffers(
         mapped_at_creation: false,
     });
     (
-        gpu.storage("gpu rays: made shadow rays' tasks", 8 * n),
+        gpu.storage("gpu rays: made shadow rays' tasks", 12 * n),
         gpu.storage("gpu rays: the sun's shifts", 8 * n),
         gpu.storage("gpu rays: made shadow rays' answers", 4 * n),
         receive,
+    )
+}
+
+/// Room for `n` aims (16 bytes each).
+fn aims_buffer(gpu: &Gpu, n: usize) -> wgpu::Buffer {
+    gpu.storage(
+        "gpu rays: the aims of rays chosen on the CPU",
+        16 * n.max(1) as u64,
     )
 }

@@ -1,7 +1,8 @@
 // Shadow rays made on the GPU (see shadow.rs), after walk.wgsl: from each pixel's first
-// hit as the wall's closest-hit pass left it, towards every punctual light and the sun's
-// samples of the pixel's sequence, as holocave_vlf::pixel_direct makes them on the CPU;
-// each traced by the any-hit walk, answered as one bit a ray.
+// hit as the wall's closest-hit pass left it, towards every punctual light, the sun's
+// samples of the pixel's sequence and the aims the CPU sent (area lamps' points, the
+// sky's directions), as holocave_vlf::pixel_direct makes them on the CPU; each traced by
+// the any-hit walk, answered as one bit a ray.
 
 // A punctual light: position and kind (w: 1 directional, 0 point or spot), the direction
 // it points along.
@@ -37,15 +38,18 @@ struct Face {
 @group(0) @binding(0) var<uniform> sp: ShadowParams;
 @group(0) @binding(3) var<storage, read> faces: array<Face>;
 // One word a pixel: bit i for punctual light i blocked, bit lights + j for the sun's
-// sample first + j blocked.
+// sample first + j blocked, bit lights + suns + a for the pixel's aim a blocked.
 @group(0) @binding(4) var<storage, read_write> masks: array<u32>;
 // The wall's first hits: t, triangle (NO_HIT on a miss), u, v.
 @group(0) @binding(5) var<storage, read> firsts: array<vec4<u32>>;
-// Per pixel: the first of its sun samples, and their count (low byte) with bit 8 set
-// when its punctual lights' rays are made.
-@group(0) @binding(6) var<storage, read> tasks: array<vec2<u32>>;
+// Three words a pixel: the first of its sun samples; their count (low byte), bit 8 set
+// when its punctual lights' rays are made, its aims' count (third byte); its first aim.
+@group(0) @binding(6) var<storage, read> tasks: array<u32>;
 // Per pixel: its sun sequence's shifts in 32-bit fixed point.
 @group(0) @binding(7) var<storage, read> shifts: array<vec2<u32>>;
+// The aims of rays chosen on the CPU: the direction from the point, and the distance to
+// the light's point (infinite for the sky).
+@group(0) @binding(8) var<storage, read> aims: array<vec4<f32>>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -78,36 +82,41 @@ fn leave_surface(p: vec3<f32>, ng: vec3<f32>, towards: vec3<f32>) -> vec3<f32> {
     return p + ng * (surface_epsilon(p) * select(-1.0, 1.0, dot(ng, towards) >= 0.0));
 }
 
-// Whether something blocks the ray from `p` (face normal `ng`) along `wi` to infinity.
-fn blocked_along(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> bool {
-    return any_hit(GpuRay(leave_surface(p, ng, wi), bitcast<f32>(0x7f800000u), wi, 0.0)) != NO_HIT;
-}
-
-// Whether something blocks the segment from `p` to `to` (the tracer's segment_ray);
-// a segment of no length is not traced (its query is never made).
-fn blocked_to(p: vec3<f32>, ng: vec3<f32>, to: vec3<f32>) -> bool {
+// The tracer's shadow_ray from `p` (face normal `ng`) towards `aim`: along `aim.xyz` to
+// infinity where `aim.w` is not finite, else the segment to `p + aim.xyz * aim.w`
+// (segment_ray). A segment of no length has no ray (its query is never made): tmax < 0.
+fn shadow_ray(p: vec3<f32>, ng: vec3<f32>, aim: vec4<f32>) -> GpuRay {
+    if (!finite(aim.w)) {
+        return GpuRay(leave_surface(p, ng, aim.xyz), bitcast<f32>(0x7f800000u), aim.xyz, 0.0);
+    }
+    let to = p + aim.xyz * aim.w;
     let origin = leave_surface(p, ng, to - p);
     let d = to - origin;
     let len = length(d);
     if (!(len > 0.0) || !finite(len)) {
-        return false;
+        return GpuRay(origin, -1.0, aim.xyz, 0.0);
     }
-    let tmax = max(len - surface_epsilon(to), 0.0);
-    return any_hit(GpuRay(origin, tmax, d / len, 0.0)) != NO_HIT;
+    return GpuRay(origin, max(len - surface_epsilon(to), 0.0), d / len, 0.0);
 }
 
+// Each pixel's shadow rays, one after another: every kind of ray is made as an aim and
+// walked by the one call of any_hit, so that the walk and its stack are compiled once
+// (a call site each inlines a walk each).
 @compute @workgroup_size(WORKGROUP)
 fn made_shadow_rays(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.y * sp.row + gid.x;
     if (i >= sp.count) {
         return;
     }
-    let task = tasks[i];
-    let suns = task.y & 0xffu;
-    let punctual = (task.y & 0x100u) != 0u;
+    let first_sun = tasks[3u * i];
+    let counts = tasks[3u * i + 1u];
+    let first_aim = tasks[3u * i + 2u];
+    let suns = counts & 0xffu;
+    let punctual = (counts & 0x100u) != 0u;
+    let aimed = (counts >> 16u) & 0xffu;
     let hit = firsts[i];
     var mask = 0u;
-    if ((suns == 0u && !punctual) || hit.y == NO_HIT) {
+    if ((suns == 0u && !punctual && aimed == 0u) || hit.y == NO_HIT) {
         masks[i] = mask;
         return;
     }
@@ -118,36 +127,46 @@ fn made_shadow_rays(@builtin(global_invocation_id) gid: vec3<u32>) {
     let w = vec3<f32>(1.0 - u - v, u, v);
     let p = f.p0.xyz * w.x + f.p1.xyz * w.y + f.p2.xyz * w.z;
     let ng = vec3<f32>(f.p0.w, f.p1.w, f.p2.w);
-    if (punctual) {
-        for (var l = 0u; l < sp.lights; l += 1u) {
-            let light = sp.light[l];
-            var b = false;
+    let shift = shifts[i];
+    let inf = bitcast<f32>(0x7f800000u);
+    // Bit r: punctual light r, the sun's sample first_sun + r − lights, the aim
+    // first_aim + r − lights − suns.
+    for (var r = select(sp.lights, 0u, punctual); r < sp.lights + suns + aimed; r += 1u) {
+        var aim = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+        if (r < sp.lights) {
+            let light = sp.light[r];
             if (light.position_kind.w > 0.5) {
-                b = blocked_along(p, ng, -light.direction.xyz);
+                aim = vec4<f32>(-light.direction.xyz, inf);
             } else {
                 let to = light.position_kind.xyz - p;
                 let d2 = dot(to, to);
                 if (d2 > 0.0 && finite(d2)) {
                     let dist = sqrt(d2);
-                    b = blocked_to(p, ng, p + (to / dist) * dist);
+                    aim = vec4<f32>(to / dist, dist);
                 }
             }
-            mask |= select(0u, 1u << l, b);
+        } else if (r < sp.lights + suns) {
+            let k = first_sun + r - sp.lights;
+            let u0 = sequence(k, shift.x, sp.step.x, sp.step.y);
+            let u1 = sequence(k, shift.y, sp.step.z, sp.step.w);
+            // The tracer's uniform_cone in the sun's frame.
+            let omc = sp.sun_n.w;
+            let x = u0 * omc;
+            let sin_t = sqrt(max(x * (2.0 - x), 0.0));
+            let phi = 2.0 * PI * u1;
+            let wi = sp.sun_t.xyz * (sin_t * cos(phi)) + sp.sun_b.xyz * (sin_t * sin(phi))
+                + sp.sun_n.xyz * (1.0 - x);
+            aim = vec4<f32>(wi, inf);
+        } else {
+            aim = aims[first_aim + r - sp.lights - suns];
         }
-    }
-    let shift = shifts[i];
-    let omc = sp.sun_n.w;
-    for (var j = 0u; j < suns; j += 1u) {
-        let k = task.x + j;
-        let u0 = sequence(k, shift.x, sp.step.x, sp.step.y);
-        let u1 = sequence(k, shift.y, sp.step.z, sp.step.w);
-        // The tracer's uniform_cone in the sun's frame.
-        let x = u0 * omc;
-        let sin_t = sqrt(max(x * (2.0 - x), 0.0));
-        let phi = 2.0 * PI * u1;
-        let wi = sp.sun_t.xyz * (sin_t * cos(phi)) + sp.sun_b.xyz * (sin_t * sin(phi))
-            + sp.sun_n.xyz * (1.0 - x);
-        mask |= select(0u, 1u << (sp.lights + j), blocked_along(p, ng, wi));
+        if (aim.w < 0.0) {
+            continue;
+        }
+        let ray = shadow_ray(p, ng, aim);
+        if (ray.tmax >= 0.0 && any_hit(ray) != NO_HIT) {
+            mask |= 1u << r;
+        }
     }
     masks[i] = mask;
 }
