@@ -15,7 +15,8 @@
 //!
 //! With [`VlfBase::with_rays`] choosing the GPU, each pixel's first hit is found on the GPU
 //! instead ([`crate::gpu_rays`]: the wall's rays made and traced there, the hits read
-//! back and kept there), and mirrors, glass and the lookups follow on the CPU as before.
+//! back and kept there), and the rays on through mirrors and glass, made on the CPU from
+//! the surfaces' materials, are traced there in batches (`holocave_vlf::surface::follow_all`).
 //! The direct light's shadow rays are traced there too, all of a frame's at once: those of
 //! every pixel that sees its first hit made there from the kept hit (towards the sun's
 //! disc and the punctual lights from which samples alone, towards the area lamps' points
@@ -36,7 +37,8 @@ use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::split::Split;
 use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
 use holocave_vlf::{
-    Accumulator, Aim, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, Visibility,
+    Accumulator, Aim, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, StaticRays,
+    Visibility,
 };
 use rayon::prelude::*;
 
@@ -310,7 +312,8 @@ impl VlfBase {
 
     /// Each pixel's lookup, and what it sees written into `pixels`, the first hits found
     /// where chosen (on the GPU: read back, and kept there for the shadow rays made and
-    /// the lookups composed from them).
+    /// the lookups composed from them; the rays on through mirrors and glass traced
+    /// there too, a batch a surface).
     fn pixels_into(&self, wall: &WallView, pixels: &mut Pixels) -> Vec<Lookup> {
         pixels.hits = self.gpu_rays.as_ref().map(|g| {
             let mut engine = g.engine.lock().unwrap_or_else(|e| e.into_inner());
@@ -319,7 +322,9 @@ impl VlfBase {
             engine.keep_hits(&g.gpu, n, &mut pixels.kept);
             hits
         });
-        (self.visibility).pixels_into(wall, pixels.hits.as_deref(), &mut pixels.points)
+        let on_gpu = self.on_gpu();
+        let hits = (pixels.hits.as_deref()).zip(on_gpu.as_ref().map(|g| g as &dyn StaticRays));
+        (self.visibility).pixels_into(wall, hits, &mut pixels.points)
     }
 
     /// One gather sample along each ray ([`holocave_vlf::gather`]): the direct light

@@ -185,9 +185,9 @@ fn a_cold_start_shows_the_light_field_and_a_still_viewer_converges() {
 
 #[test]
 fn first_hits_on_the_gpu_draw_the_cpus_light_field() {
-    // `--rays gpu` against `--rays cpu`: the Cornell box (mirror and glass followed on the
-    // CPU from the GPU's first hits), with and without the per-pixel direct light (its
-    // shadow rays traced on the GPU too).
+    // `--rays gpu` against `--rays cpu`: the Cornell box (the rays on through its mirror
+    // and glass traced on the GPU too, in batches), with and without the per-pixel direct
+    // light (its shadow rays traced on the GPU too).
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let scene = cornell();
     let dir = tempfile::tempdir().unwrap();

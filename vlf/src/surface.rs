@@ -21,7 +21,9 @@ use holocave_tracer::integrator::shadow_ray;
 use holocave_tracer::lights::Lights;
 use holocave_tracer::microfacet::Ggx;
 use holocave_tracer::sampling::cosine_hemisphere;
+use rayon::prelude::*;
 
+use crate::StaticRays;
 use crate::sequence::{R3, r_sequence};
 
 /// The most delta surfaces followed in a row before a line or eye ray gives up (black).
@@ -483,37 +485,137 @@ pub fn follow_from(
     walk(scene, ray, Some(first), environment, MAX_DELTA_DEPTH)
 }
 
+/// The chain along `ray` from its first hit `first` where it ends there (a surface the
+/// light field draws, or nothing); `None` where it goes on through a mirror or glass.
+pub fn follow_first(
+    scene: &PlacedScene,
+    ray: Ray,
+    first: Option<Hit>,
+    environment: &dyn Fn(Vec3) -> Vec3,
+) -> Option<Chain> {
+    walk_with(
+        scene,
+        ray,
+        Some(first),
+        environment,
+        MAX_DELTA_DEPTH,
+        &mut |_| None,
+    )
+}
+
+/// The chains of many rays at once, as [`follow_from`] makes each, with each ray's first
+/// hit `firsts` found elsewhere and the hits of the rays past it (through mirrors and
+/// glass) in the static scene found by `traced` in batches: each round walks every
+/// unfinished chain again from its start with the hits found so far, up to the ray it
+/// needs next, and traces those rays together (a mirror takes a round, a pane of glass
+/// two: its reflection, then what lies beyond). The moving objects are tried here.
+pub fn follow_all(
+    scene: &PlacedScene,
+    rays: &[Ray],
+    firsts: &[Option<Hit>],
+    environment: &(dyn Fn(Vec3) -> Vec3 + Sync),
+    traced: &dyn StaticRays,
+) -> Vec<Chain> {
+    let mut found: Vec<Vec<Option<Hit>>> = vec![Vec::new(); rays.len()];
+    let mut chains: Vec<Option<Chain>> = (0..rays.len()).map(|_| None).collect();
+    let mut open: Vec<usize> = (0..rays.len()).collect();
+    while !open.is_empty() {
+        let walked: Vec<Result<Chain, Ray>> = open
+            .par_iter()
+            .map(|&i| {
+                let mut answers = found[i].iter();
+                let mut needed = None;
+                let mut next = |r: &Ray| match answers.next() {
+                    Some(h) => Some(scene.objects_closest_hit(r, f32::INFINITY, *h)),
+                    None => {
+                        needed = Some(*r);
+                        None
+                    }
+                };
+                let chain = walk_with(
+                    scene,
+                    rays[i],
+                    Some(firsts[i]),
+                    environment,
+                    MAX_DELTA_DEPTH,
+                    &mut next,
+                );
+                chain.ok_or_else(|| needed.expect("a walk stops only for a ray"))
+            })
+            .collect();
+        let mut asked = Vec::new();
+        let mut still = Vec::new();
+        for (&i, w) in open.iter().zip(walked) {
+            match w {
+                Ok(c) => chains[i] = Some(c),
+                Err(r) => {
+                    asked.push(r);
+                    still.push(i);
+                }
+            }
+        }
+        if asked.is_empty() {
+            break;
+        }
+        let hits = traced.closest_hits(&asked);
+        // A hit missing from the answers counts as a miss: every round moves each walk on.
+        for (k, &i) in still.iter().enumerate() {
+            found[i].push(hits.get(k).copied().flatten());
+        }
+        open = still;
+    }
+    chains
+        .into_iter()
+        .map(|c| c.expect("every walk finished"))
+        .collect()
+}
+
 fn walk(
+    scene: &PlacedScene,
+    ray: Ray,
+    first: Option<Option<Hit>>,
+    environment: &dyn Fn(Vec3) -> Vec3,
+    depth: u32,
+) -> Chain {
+    let mut next = |r: &Ray| Some(scene.closest_hit(r, f32::INFINITY));
+    walk_with(scene, ray, first, environment, depth, &mut next)
+        .expect("the scene answers every ray")
+}
+
+/// The chain along `ray` (its first hit `first` where known), every further ray's
+/// closest hit given by `next`; `None` as soon as `next` has none.
+fn walk_with(
     scene: &PlacedScene,
     mut ray: Ray,
     mut first: Option<Option<Hit>>,
     environment: &dyn Fn(Vec3) -> Vec3,
     depth: u32,
-) -> Chain {
+    next: &mut dyn FnMut(&Ray) -> Option<Option<Hit>>,
+) -> Option<Chain> {
     let mut weight = Vec3::ONE;
     let mut emitted = Vec3::ZERO;
     for level in 0..=depth {
         let hit = match first.take() {
             Some(h) => h,
-            None => scene.closest_hit(&ray, f32::INFINITY),
+            None => next(&ray)?,
         };
         let Some(hit) = hit else {
             emitted += weight * environment(ray.dir);
-            return Chain {
+            return Some(Chain {
                 end: None,
                 weight,
                 emitted,
                 deltas: level,
-            };
+            });
         };
         let s = seen(scene, hit, ray.dir);
         if !s.delta {
-            return Chain {
+            return Some(Chain {
                 end: Some((s, ray)),
                 weight,
                 emitted,
                 deltas: level,
-            };
+            });
         }
         emitted += weight * s.emitted;
         let Some(((wi, w), weaker)) = delta_step(&s, ray.dir) else {
@@ -524,13 +626,14 @@ fn walk(
         {
             // The weaker branch: only what it shows directly, with half the depth left
             // (so a chain of glass surfaces costs a bounded number of rays).
-            let side = walk(
+            let side = walk_with(
                 scene,
                 Ray::leaving(s.position, s.normal, wj),
                 None,
                 environment,
                 (depth - level - 1) / 2,
-            );
+                next,
+            )?;
             let shown = side.emitted
                 + side
                     .end
@@ -540,12 +643,12 @@ fn walk(
         weight *= w;
         ray = Ray::leaving(s.position, s.normal, wi);
     }
-    Chain {
+    Some(Chain {
         end: None,
         weight: Vec3::ZERO,
         emitted,
         deltas: depth + 1,
-    }
+    })
 }
 
 #[cfg(test)]

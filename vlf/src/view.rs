@@ -27,6 +27,7 @@ use holocave_tracer::fresnel;
 use holocave_tracer::lights::Lights;
 use rayon::prelude::*;
 
+use crate::StaticRays;
 use crate::bake::{environment, sky};
 use crate::elements::{Elements, interpolate};
 use crate::objects::ObjectLight;
@@ -34,8 +35,8 @@ use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
 use crate::sequence::{R2, r_sequence};
 use crate::surface::{
-    Chain, Seen, albedo_towards, follow, follow_from, highlights, mirrored, mirrored_gloss,
-    side_facing,
+    Chain, Seen, albedo_towards, follow, follow_all, follow_first, follow_from, highlights,
+    mirrored, mirrored_gloss, side_facing,
 };
 use crate::tiles::Tiles;
 
@@ -593,40 +594,48 @@ impl Visibility {
     /// As [`Visibility::pixels_and_points`], the points written into `points` (a buffer
     /// kept from frame to frame: a wall's points are a hundred megabytes at projector
     /// sizes, and fresh memory costs the kernel's page clearing every frame). With `hits`,
-    /// each pixel's first hit was found elsewhere (on the GPU): `hits[i]` is the closest
+    /// each pixel's first hit was found elsewhere (on the GPU): `hits.0[i]` is the closest
     /// hit of pixel `i`'s ray (rows from the top, through the pixel's centre, as
-    /// [`WallView::ray`] makes it) in the static scene; the moving objects are tried here,
-    /// and mirrors and glass followed from there as always.
+    /// [`WallView::ray`] makes it) in the static scene, and the rays that go on through
+    /// mirrors and glass are traced there too, in batches, by `hits.1` ([`follow_all`]);
+    /// the moving objects are tried here.
     pub fn pixels_into(
         &self,
         view: &WallView,
-        hits: Option<&[Option<Hit>]>,
+        hits: Option<(&[Option<Hit>], &dyn StaticRays)>,
         points: &mut Vec<Option<DirectPoint>>,
     ) -> Vec<Lookup> {
         match hits {
-            Some(hits) => {
+            Some((hits, further)) => {
                 assert_eq!(hits.len(), (view.width * view.height) as usize);
-                self.pixels_with(view, points, &|placed, rays, first| {
+                let first_hits = |placed: &PlacedScene, rays: &[Ray], first: usize| {
                     let hits = &hits[first..first + rays.len()];
                     rays.iter()
                         .zip(hits)
                         .map(|(r, h)| placed.objects_closest_hit(r, f32::INFINITY, *h))
                         .collect()
-                })
+                };
+                self.pixels_with(view, points, &first_hits, Some(further))
             }
-            None => self.pixels_with(view, points, &|placed, rays, _| {
-                placed.closest_hits(rays, f32::INFINITY)
-            }),
+            None => self.pixels_with(
+                view,
+                points,
+                &|placed, rays, _| placed.closest_hits(rays, f32::INFINITY),
+                None,
+            ),
         }
     }
 
     /// The pixels' lookups, their points written into `points`, with `first_hits(rays,
-    /// i)` the closest hits of the rays of pixels `i` to `i + rays.len() − 1`.
+    /// i)` the closest hits of the rays of pixels `i` to `i + rays.len() − 1`; the rays
+    /// past mirrors and glass traced by `further` in batches where given, else one by one
+    /// here.
     fn pixels_with(
         &self,
         view: &WallView,
         points: &mut Vec<Option<DirectPoint>>,
         first_hits: &FirstHits,
+        further: Option<&dyn StaticRays>,
     ) -> Vec<Lookup> {
         let w = view.width as usize;
         let n = w * view.height as usize;
@@ -638,22 +647,42 @@ impl Visibility {
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
         self.with_drawn(|values, remainder| {
-            lookups
+            let draw = |chain| self.lookup_chain(chain, &objects, Some(&placed), values, remainder);
+            // Each pixel whose chain ends at its first hit, or is followed here; the others
+            // (index, ray, first hit) left to `further`.
+            let beyond: Vec<(usize, Ray, Option<Hit>)> = lookups
                 .par_chunks_mut(chunk)
                 .zip(points.par_chunks_mut(chunk))
                 .enumerate()
-                .for_each(|(c, (lookups, points))| {
+                .flat_map_iter(|(c, (lookups, points))| {
                     let rays: Vec<Ray> = (c * chunk..(c * chunk + lookups.len()))
                         .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
                         .collect();
                     let hits = first_hits(&placed, &rays, c * chunk);
                     let each = lookups.iter_mut().zip(points).zip(rays).zip(hits);
-                    for (((l, p), ray), hit) in each {
-                        let chain = follow_from(&placed, ray, hit, &env);
-                        (*l, *p) =
-                            self.lookup_chain(chain, &objects, Some(&placed), values, remainder);
+                    let mut beyond = Vec::new();
+                    for (k, (((l, p), ray), hit)) in each.enumerate() {
+                        let chain = match further {
+                            None => Some(follow_from(&placed, ray, hit, &env)),
+                            Some(_) => follow_first(&placed, ray, hit, &env),
+                        };
+                        match chain {
+                            Some(chain) => (*l, *p) = draw(chain),
+                            None => beyond.push((c * chunk + k, ray, hit)),
+                        }
                     }
-                });
+                    beyond
+                })
+                .collect();
+            if let Some(traced) = further.filter(|_| !beyond.is_empty()) {
+                let (rays, firsts): (Vec<Ray>, Vec<Option<Hit>>) =
+                    beyond.iter().map(|&(_, r, h)| (r, h)).unzip();
+                let chains = follow_all(&placed, &rays, &firsts, &env, traced);
+                let drawn: Vec<_> = chains.into_par_iter().map(draw).collect();
+                for ((i, _, _), (l, p)) in beyond.into_iter().zip(drawn) {
+                    (lookups[i], points[i]) = (l, p);
+                }
+            }
         });
         lookups
     }
