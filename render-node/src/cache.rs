@@ -265,8 +265,10 @@ const VLF_BUFFERS: usize = 4;
 
 /// The Virtual Light Field on the GPU: the baked irradiance, and per eye its lookups.
 struct VlfBuffers {
-    /// Kept alive for the bind groups.
-    _irradiance: Vec<wgpu::Buffer>,
+    /// The values, `chunk` floats a buffer; `floats` in all.
+    irradiance: Vec<wgpu::Buffer>,
+    chunk: usize,
+    floats: usize,
     eyes: Vec<(wgpu::Buffer, wgpu::Buffer, wgpu::BindGroup)>,
 }
 
@@ -553,10 +555,31 @@ impl RenderCache {
             })
             .collect();
         self.vlf = Some(VlfBuffers {
-            _irradiance: irr,
+            irradiance: irr,
+            chunk,
+            floats: flat.len(),
             eyes,
         });
         Ok(())
+    }
+
+    /// New values for the light field [`Self::set_vlf`] gave (as many, in the same order:
+    /// the gathers kept in its elements); nothing without a light field, or for values of
+    /// another length.
+    pub fn update_vlf_values(&mut self, values: &[[f32; 3]]) {
+        let Some(v) = &self.vlf else { return };
+        let flat: &[f32] = bytemuck::cast_slice(values);
+        if flat.len() != v.floats {
+            return;
+        }
+        for (b, buffer) in v.irradiance.iter().enumerate() {
+            let part = &flat[(b * v.chunk).min(flat.len())..((b + 1) * v.chunk).min(flat.len())];
+            if !part.is_empty() {
+                self.gpu
+                    .queue
+                    .write_buffer(buffer, 0, bytemuck::cast_slice(part));
+            }
+        }
     }
 
     /// What the light field is worth from now on, in samples per pixel (see

@@ -119,8 +119,21 @@ impl WallDisplay {
     pub fn with_vlf(mut self, base: Arc<VlfBase>, prior: f32) -> Result<Self, RenderNodeError> {
         self.cache.set_vlf(base.values(), prior)?;
         self.prior = prior;
+        if self.gathers() {
+            base.keep_gathers(prior);
+        }
         self.vlf = Some(base);
         Ok(self)
+    }
+
+    /// Whether the feed's samples are gathers over the light field (kept in its
+    /// elements as well: [`VlfBase::keep_gathers`]).
+    fn gathers(&self) -> bool {
+        match &self.feed {
+            SampleFeed::Inline(t) => t.gathers(),
+            SampleFeed::Thread(t) => t.gathers(),
+            SampleFeed::Holodeck(_) => false,
+        }
     }
 
     /// Measures the light field's worth at the first frame drawn ([`crate::prior`]), with
@@ -154,6 +167,9 @@ impl WallDisplay {
         // `crate::prior`): a gather's mean has the field's error one bounce later.
         let spread = if m.gathers() { 0.0 } else { found.spread };
         self.cache.set_vlf_prior(self.prior, spread);
+        if self.gathers() {
+            base.keep_gathers(self.prior);
+        }
     }
 
     /// Puts the scene's moving objects where a frame state says (by name; an object the
@@ -209,6 +225,7 @@ impl WallDisplay {
         }
         if let Some(base) = &self.vlf {
             let t = Instant::now();
+            base.with_kept_values(|values| self.cache.update_vlf_values(values));
             for (eye, view) in views.iter().enumerate() {
                 base.draw_lookups(eye, view, &mut self.cache);
             }

@@ -172,6 +172,8 @@ type Job = (usize, EyeView, Vec<u32>);
 /// A [`PixelTracer`] on its own thread, so that the display never waits for rays: each
 /// eye has at most one batch in flight; finished batches are collected without blocking.
 pub struct TracerThread {
+    /// Whether its samples are gathers ([`PixelTracer::gathers`]).
+    gathers: bool,
     jobs: Option<std::sync::mpsc::Sender<Job>>,
     done: std::sync::mpsc::Receiver<(usize, Vec<NewSample>)>,
     in_flight: Vec<bool>,
@@ -180,6 +182,7 @@ pub struct TracerThread {
 
 impl TracerThread {
     pub fn spawn(mut source: PixelTracer, eyes: usize) -> TracerThread {
+        let gathers = source.gathers();
         let (jobs, job_rx) = std::sync::mpsc::channel::<Job>();
         let (done_tx, done) = std::sync::mpsc::channel();
         let handle = std::thread::Builder::new()
@@ -194,11 +197,17 @@ impl TracerThread {
             })
             .expect("spawn the tracer thread");
         TracerThread {
+            gathers,
             jobs: Some(jobs),
             done,
             in_flight: vec![false; eyes],
             handle: Some(handle),
         }
+    }
+
+    /// Whether its samples are gathers over a light field.
+    pub fn gathers(&self) -> bool {
+        self.gathers
     }
 
     /// Whether eye `eye` still has a batch being traced.

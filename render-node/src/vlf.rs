@@ -34,6 +34,7 @@ use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
+use holocave_vlf::kept_gathers::KeptGathers;
 use holocave_vlf::split::Split;
 use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
 use holocave_vlf::{
@@ -84,6 +85,9 @@ pub struct VlfBase {
     /// Where the pixels' first hits are found: on this GPU, or (`None`) on the CPU.
     gpu_rays: Option<OnGpuRays>,
     shadow_lights: Vec<ShadowLight>,
+    /// The gather samples kept in the field's elements, once a display's samples are
+    /// gathers ([`VlfBase::keep_gathers`]).
+    kept: Mutex<Option<KeptGathers>>,
 }
 
 /// The GPU that traces a node's rays: its engine, the maker of the direct light's shadow
@@ -209,6 +213,7 @@ impl VlfBase {
             gpu_rays: None,
             shadow_lights,
             visibility,
+            kept: Mutex::new(None),
         };
         Ok(base.with_direct(true))
     }
@@ -330,11 +335,46 @@ impl VlfBase {
     /// One gather sample along each ray ([`holocave_vlf::gather`]): the direct light
     /// exact at the point seen and after one bounce, the light field's remainder beyond.
     /// Their rays are traced where the pixels' first hits are.
+    /// Where the gathers are kept ([`Self::keep_gathers`]), each one's estimate is
+    /// added to its element.
     pub fn gather(&self, rays: &[Ray], seed: u64) -> Vec<Gathered> {
         let (vis, nee, indirect) = (&self.visibility, &self.nee, &self.indirect);
-        match self.on_gpu() {
+        let gathered = match self.on_gpu() {
             Some(traced) => gather_all(vis, nee, indirect, rays, seed, &traced),
             None => gather_all(vis, nee, indirect, rays, seed, &CpuRays(self.scene())),
+        };
+        if let Some(kept) = self.kept.lock().unwrap_or_else(|e| e.into_inner()).as_mut() {
+            kept.add(gathered.iter().filter_map(|g| g.kept));
+        }
+        gathered
+    }
+
+    /// Keeps the gather samples taken from now on in the field's elements, a baked
+    /// value worth `prior` of them ([`holocave_vlf::kept_gathers`]), or takes the new
+    /// prior where they are kept already. Only where the lookups read the field's
+    /// remainder beside the direct light per pixel, with the sky in the field (a gather's
+    /// bounce brings the sky) and no moving objects (the bounce does not see them): false
+    /// elsewhere.
+    pub fn keep_gathers(&self, prior: f32) -> bool {
+        if !self.direct || self.sky.is_some() || !self.scene().objects().is_empty() {
+            return false;
+        }
+        let mut kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        match kept.as_mut() {
+            Some(k) => k.set_prior(prior),
+            None => *kept = Some(KeptGathers::new(self.indirect.clone(), prior)),
+        }
+        true
+    }
+
+    /// Runs `f` with the field's values and the gathers kept in them, where they changed
+    /// since last asked.
+    pub fn with_kept_values(&self, f: impl FnOnce(&[[f32; 3]])) {
+        let mut kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(k) = kept.as_mut()
+            && k.take_changed()
+        {
+            f(k.values());
         }
     }
 

@@ -126,6 +126,14 @@ pub struct ViewArgs {
     /// many frames; 1: the first frame).
     #[arg(long, default_value_t = 1)]
     pub frames: u32,
+    /// Also take N frames of gathers, one through every pixel a frame, kept in the
+    /// field's elements (what a still node with --gather shows after N frames; the
+    /// direct light averaged over as many frames, at least --frames).
+    #[arg(long, value_name = "N", default_value_t = 0, conflicts_with_all = ["no_direct", "sky_per_pixel"])]
+    pub gathers: u32,
+    /// With --gathers: a baked value worth K gathers.
+    #[arg(long, value_name = "K", default_value_t = holocave_vlf::kept_gathers::STILL_VIEW_PRIOR, requires = "gathers")]
+    pub gather_prior: f32,
     #[command(flatten)]
     pub objects: super::render::ObjectsAt,
     /// Leave out the moving objects' darkening of the light field near them (to measure
@@ -425,7 +433,22 @@ fn view(a: ViewArgs) -> Result<()> {
                 values,
                 samples: a.sky_prior.max(0.0),
             });
-        vis.render_with_direct(&view, &split.remainder, a.aa, direct, a.frames, prior)
+        if a.gathers > 0 {
+            let remainder = std::sync::Arc::new(split.remainder.clone());
+            let kept = holocave_vlf::kept_gathers::of_still_view(
+                &vis,
+                direct,
+                &remainder,
+                &view,
+                (a.gathers, a.gather_prior),
+                &holocave_vlf::CpuRays(&scene),
+            );
+            let frames = a.frames.max(a.gathers);
+            println!("{} frames of gathers kept in the field", a.gathers);
+            vis.render_with_direct(&view, kept.values(), a.aa, direct, frames, prior)
+        } else {
+            vis.render_with_direct(&view, &split.remainder, a.aa, direct, a.frames, prior)
+        }
     };
     let secs = start.elapsed().as_secs_f64();
     image.write_exr(&a.out)?;

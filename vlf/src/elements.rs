@@ -54,6 +54,28 @@ pub fn cell_at(u: f32, v: f32, r: u32) -> u32 {
 /// cell centres of one side (`base` = its first element). The render node's shader
 /// (`render-node/src/shaders/vlf.wgsl`) does the same.
 pub fn interpolate(values: &[[f32; 3]], base: u32, r: u32, u: f32, v: f32) -> Vec3 {
+    let ([c00, c10, c01, c11], fx, fy) = corners(r, u, v);
+    let at = |c: u32| Vec3::from(values[(base + c) as usize]);
+    let bottom = at(c00) * (1.0 - fx) + at(c10) * fx;
+    let top = at(c01) * (1.0 - fx) + at(c11) * fx;
+    bottom * (1.0 - fy) + top * fy
+}
+
+/// The four cells [`interpolate`] reads at barycentric `(u, v)` and their weights (a
+/// cell may appear twice at the triangle's edges).
+pub fn bilinear_cells(base: u32, r: u32, u: f32, v: f32) -> [(u32, f32); 4] {
+    let ([c00, c10, c01, c11], fx, fy) = corners(r, u, v);
+    [
+        (base + c00, (1.0 - fx) * (1.0 - fy)),
+        (base + c10, fx * (1.0 - fy)),
+        (base + c01, (1.0 - fx) * fy),
+        (base + c11, fx * fy),
+    ]
+}
+
+/// The cells at the four cell centres nearest barycentric `(u, v)` (bottom left and
+/// right, top left and right), and where `(u, v)` lies between them.
+fn corners(r: u32, u: f32, v: f32) -> ([u32; 4], f32, f32) {
     let rf = r as f32;
     let (x, y) = ((u * rf - 0.5).max(0.0), (v * rf - 0.5).max(0.0));
     let (i0, j0) = ((x as u32).min(r - 1), (y as u32).min(r - 1));
@@ -62,10 +84,8 @@ pub fn interpolate(values: &[[f32; 3]], base: u32, r: u32, u: f32, v: f32) -> Ve
         (x - i0 as f32).clamp(0.0, 1.0),
         (y - j0 as f32).clamp(0.0, 1.0),
     );
-    let at = |i, j| Vec3::from(values[(base + cell_index(i, j, r)) as usize]);
-    let bottom = at(i0, j0) * (1.0 - fx) + at(i1, j0) * fx;
-    let top = at(i0, j1) * (1.0 - fx) + at(i1, j1) * fx;
-    bottom * (1.0 - fy) + top * fy
+    let cells = [(i0, j0), (i1, j0), (i0, j1), (i1, j1)].map(|(i, j)| cell_index(i, j, r));
+    (cells, fx, fy)
 }
 
 impl TriangleCells {

@@ -37,8 +37,10 @@ use holocave_tracer::frame::Frame;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
 
+use crate::elements::bilinear_cells;
 use crate::pixel_direct::{Estimate, PixelDirect, ShadowQuery};
 use crate::static_rays::{StaticRays, per_group};
+use crate::view::Lookup;
 use crate::view::Visibility;
 
 /// One sample along an eye ray.
@@ -55,6 +57,13 @@ pub struct Gathered {
     pub object: Option<usize>,
     /// The ray meets a moving object beyond the mirrors and glass it first hits.
     pub object_beyond: bool,
+    /// Where the eye sees a diffuse element of the light field (away from moving
+    /// objects): the elements the lookup interpolates there with their weights, and the
+    /// irradiance there this sample estimates — the part
+    /// the field's remainder holds (after the bounce, and the emitters over a mirror) over
+    /// the lookup's weight towards the eye: the quantity the element holds
+    /// ([`crate::kept_gathers`]).
+    pub kept: Option<([(u32, f32); 4], Vec3)>,
 }
 
 /// A sample between its batches of rays: what it has so far, its shadow queries (the
@@ -70,6 +79,9 @@ struct Pending {
     bounce: Option<Bounce>,
     /// What arrives at `x` along the bounce, but `y`'s direct light.
     arriving: Vec3,
+    /// The elements the lookup at `x` interpolates and its weight towards the eye, where
+    /// it is a diffuse element's.
+    element: Option<([(u32, f32); 4], Vec3)>,
 }
 
 /// The ray leaving `x` that the BSDF drew, and what it carries to the eye.
@@ -147,6 +159,7 @@ fn at_eye(
             material: None,
             object: None,
             object_beyond: false,
+            kept: None,
         },
         rng,
         queries: Vec::new(),
@@ -154,6 +167,7 @@ fn at_eye(
         via_mirror: false,
         bounce: None,
         arriving: Vec3::ZERO,
+        element: diffuse_element(&lookup),
     };
     vis.with_placed(|placed| {
         p.g.material = first.map(|h| placed.surface(&h).material);
@@ -234,17 +248,35 @@ fn finish(placed: &PlacedScene, p: Pending, queries: &[ShadowQuery], blocked: &[
         e += a;
     }
     g.radiance += e.radiance - e.sky;
+    // What the light field's remainder holds at `x`: the light after the bounce, and the
+    // emitters' light over a mirror (the walls' direct light per pixel leaves it to the
+    // field).
+    let mut remainder = Vec3::ZERO;
     if p.via_mirror
         && let Some(v) = answers.next()
     {
-        g.radiance += v.radiance;
+        remainder += v.radiance;
     }
     if let Some(b) = &p.bounce {
         let at_y = answers.fold(Vec3::ZERO, |sum, a| sum + a.radiance);
-        g.radiance += b.throughput * (p.arriving + at_y);
+        remainder += b.throughput * (p.arriving + at_y);
     }
+    g.radiance += remainder;
     if !g.radiance.is_finite() {
         g.radiance = Vec3::ZERO;
     }
+    g.kept = p
+        .element
+        .map(|(e, weight)| (e, remainder / weight))
+        .filter(|(_, estimate)| estimate.is_finite());
     g
+}
+
+/// The elements a lookup interpolates and its weight towards the eye, where the lookup
+/// is a diffuse element's away from moving objects (not a tile, a surface drawn as a
+/// mirror or an object) and weighs every channel.
+fn diffuse_element(l: &Lookup) -> Option<([(u32, f32); 4], Vec3)> {
+    let weight = Vec3::from(l.weight);
+    let plain = l.base != u32::MAX && l.tile == u32::MAX && l.object == 0 && l.samples > 0.0;
+    (plain && weight.min_element() > 0.0).then(|| (bilinear_cells(l.base, l.res, l.u, l.v), weight))
 }

@@ -60,6 +60,7 @@ pub mod directions;
 pub mod elements;
 pub mod file;
 pub mod gather;
+pub mod kept_gathers;
 pub mod objects;
 pub mod octahedral;
 pub mod pixel_direct;
