@@ -55,11 +55,12 @@ fn mean_and_variance(view: &WallView, samples: &[Vec3], per: usize) -> (Image, f
     (image, var / (3 * n) as f64)
 }
 
-#[test]
-fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() {
+/// The Cornell box at a coarse bake (92 directions, 64 lines), whose own error is well
+/// above the references' noise: the scene, its visibility, the direct light per pixel and
+/// the field's remainder.
+fn coarse_cornell() -> (Arc<Scene>, Visibility, PixelDirect, Vec<[f32; 3]>) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell.gltf");
     let scene = Arc::new(Scene::load(&path, &LoadOptions::default()).unwrap());
-    // A coarse bake: the light field's own error is well above the reference's noise.
     let settings = Settings {
         directions: 92,
         resolution: 64,
@@ -68,7 +69,12 @@ fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() 
     let (state, _) = common::bake_quiet(&scene, &settings);
     let vis = Visibility::of(scene.clone(), &settings);
     let direct = PixelDirect::new(scene.clone());
-    let indirect = state.indirect_values();
+    (scene, vis, direct, state.indirect_values())
+}
+
+#[test]
+fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() {
+    let (scene, vis, direct, indirect) = coarse_cornell();
     let view = WallView::through_camera(&scene.cameras[0], SIZE, SIZE);
     let (reference, noise, _) = common::two_seed_reference(&scene, &view, 2048);
 
@@ -135,17 +141,7 @@ fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() 
 #[test]
 fn gathers_kept_in_the_elements_bring_another_view_to_the_gathers_error() {
     use holocave_vlf::kept_gathers::KeptGathers;
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell.gltf");
-    let scene = Arc::new(Scene::load(&path, &LoadOptions::default()).unwrap());
-    let settings = Settings {
-        directions: 92,
-        resolution: 64,
-        ..Settings::default()
-    };
-    let (state, _) = common::bake_quiet(&scene, &settings);
-    let vis = Visibility::of(scene.clone(), &settings);
-    let direct = PixelDirect::new(scene.clone());
-    let indirect = state.indirect_values();
+    let (scene, vis, direct, indirect) = coarse_cornell();
     let seen_from = WallView::through_camera(&scene.cameras[0], SIZE, SIZE);
     // The head 15 cm to the right and 5 cm down, the screen where it was.
     let moved = WallView {
