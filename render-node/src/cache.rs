@@ -564,20 +564,26 @@ impl RenderCache {
     }
 
     /// New values for the light field [`Self::set_vlf`] gave (as many, in the same order:
-    /// the gathers kept in its elements); nothing without a light field, or for values of
-    /// another length.
-    pub fn update_vlf_values(&mut self, values: &[[f32; 3]]) {
+    /// the gathers kept in its elements), of which those in `changed` are sent; nothing
+    /// without a light field, or for values of another length.
+    pub fn update_vlf_values(&mut self, values: &[[f32; 3]], changed: &[std::ops::Range<usize>]) {
         let Some(v) = &self.vlf else { return };
         let flat: &[f32] = bytemuck::cast_slice(values);
         if flat.len() != v.floats {
             return;
         }
-        for (b, buffer) in v.irradiance.iter().enumerate() {
-            let part = &flat[(b * v.chunk).min(flat.len())..((b + 1) * v.chunk).min(flat.len())];
-            if !part.is_empty() {
-                self.gpu
-                    .queue
-                    .write_buffer(buffer, 0, bytemuck::cast_slice(part));
+        for r in changed {
+            // The range in floats, cut where one buffer of `chunk` floats ends.
+            let (mut at, end) = (3 * r.start.min(values.len()), 3 * r.end.min(values.len()));
+            while at < end {
+                let (b, offset) = (at / v.chunk, at % v.chunk);
+                let upto = end.min((b + 1) * v.chunk);
+                self.gpu.queue.write_buffer(
+                    &v.irradiance[b],
+                    4 * offset as u64,
+                    bytemuck::cast_slice(&flat[at..upto]),
+                );
+                at = upto;
             }
         }
     }

@@ -225,7 +225,7 @@ impl WallDisplay {
         }
         if let Some(base) = &self.vlf {
             let t = Instant::now();
-            base.with_kept_values(|values| self.cache.update_vlf_values(values));
+            base.with_kept_values(|values, changed| self.cache.update_vlf_values(values, changed));
             for (eye, view) in views.iter().enumerate() {
                 base.draw_lookups(eye, view, &mut self.cache);
             }

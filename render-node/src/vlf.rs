@@ -367,14 +367,15 @@ impl VlfBase {
         true
     }
 
-    /// Runs `f` with the field's values and the gathers kept in them, where they changed
-    /// since last asked.
-    pub fn with_kept_values(&self, f: impl FnOnce(&[[f32; 3]])) {
+    /// Runs `f` with the field's values and the gathers kept in them, and the ranges of
+    /// them that changed since last asked, where any did.
+    pub fn with_kept_values(&self, f: impl FnOnce(&[[f32; 3]], &[std::ops::Range<usize>])) {
         let mut kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(k) = kept.as_mut()
-            && k.take_changed()
-        {
-            f(k.values());
+        if let Some(k) = kept.as_mut() {
+            let changed = k.take_changed();
+            if !changed.is_empty() {
+                f(k.values(), &changed);
+            }
         }
     }
 

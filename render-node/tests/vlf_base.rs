@@ -487,8 +487,8 @@ fn gathers_kept_in_the_field_show_from_another_eye() {
         base.gather(&rays, u64::from(k));
     }
     let mut kept = None;
-    base.with_kept_values(|v| kept = Some(v.to_vec()));
-    let kept = kept.expect("the gathers changed the field");
+    base.with_kept_values(|v, changed| kept = Some((v.to_vec(), changed.to_vec())));
+    let (kept, changed) = kept.expect("the gathers changed the field");
 
     let moved = WallView {
         eye: seen.eye + Vec3::new(0.15, -0.05, 0.0),
@@ -523,7 +523,7 @@ fn gathers_kept_in_the_field_show_from_another_eye() {
     let n = SIZE * SIZE;
     let mut cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n, n);
     cache.set_vlf(base.values(), 64.0).unwrap();
-    cache.update_vlf_values(&kept);
+    cache.update_vlf_values(&kept, &changed);
     cache.set_lookups(0, &lookups);
     let on_gpu = cache.vlf_image(0).expect("a light field is set");
     let cpu = shade(&lookups, &kept);

@@ -33,19 +33,25 @@ pub struct KeptGathers {
     /// Per element that took any: the weighted sum of its estimates and their weight.
     sums: HashMap<u32, (Vec3, f32)>,
     values: Vec<[f32; 3]>,
-    changed: bool,
+    /// Per block of [`BLOCK`] values, whether one changed since last asked.
+    changed: Vec<bool>,
 }
+
+/// Values per block of [`KeptGathers::take_changed`]: changed values go to the GPU a
+/// block at a time (a visible surface's elements lie together, a triangle's in a row).
+pub const BLOCK: usize = 4096;
 
 impl KeptGathers {
     /// Over the values `baked` (the elements' irradiance, then the tiles': only elements
     /// take estimates), the baked value of an element worth `prior` samples.
     pub fn new(baked: Arc<Vec<[f32; 3]>>, prior: f32) -> Self {
+        let blocks = baked.len().div_ceil(BLOCK);
         KeptGathers {
             values: baked.to_vec(),
             baked,
             prior: prior.max(0.0),
             sums: HashMap::new(),
-            changed: false,
+            changed: vec![false; blocks],
         }
     }
 
@@ -87,7 +93,7 @@ impl KeptGathers {
         let baked = Vec3::from(self.baked[e as usize]);
         let k = self.prior;
         self.values[e as usize] = ((baked * k + sum) / (k + n)).to_array();
-        self.changed = true;
+        self.changed[e as usize / BLOCK] = true;
     }
 
     /// The values with the estimates kept in them.
@@ -95,9 +101,20 @@ impl KeptGathers {
         &self.values
     }
 
-    /// Whether the values changed since this was last asked.
-    pub fn take_changed(&mut self) -> bool {
-        std::mem::take(&mut self.changed)
+    /// The ranges of values (whole blocks of [`BLOCK`], runs merged) that changed since
+    /// this was last asked.
+    pub fn take_changed(&mut self) -> Vec<std::ops::Range<usize>> {
+        let mut ranges: Vec<std::ops::Range<usize>> = Vec::new();
+        for (b, changed) in self.changed.iter_mut().enumerate() {
+            if std::mem::take(changed) {
+                let r = b * BLOCK..((b + 1) * BLOCK).min(self.values.len());
+                match ranges.last_mut() {
+                    Some(last) if last.end == r.start => last.end = r.end,
+                    _ => ranges.push(r),
+                }
+            }
+        }
+        ranges
     }
 
     /// The weight of the estimates an element has taken.
@@ -146,7 +163,7 @@ mod tests {
     fn an_elements_value_blends_its_estimates_with_the_baked_value() {
         let baked = Arc::new(vec![[1.0, 2.0, 3.0], [4.0, 4.0, 4.0], [9.0, 9.0, 9.0]]);
         let mut kept = KeptGathers::new(baked, 2.0);
-        assert!(!kept.take_changed());
+        assert!(kept.take_changed().is_empty());
         let only = |e: u32| [(e, 1.0), (e, 0.0), (e, 0.0), (e, 0.0)];
         kept.add([
             (only(0), Vec3::splat(4.0)),
@@ -154,7 +171,9 @@ mod tests {
             ([(0, 0.5), (7, 0.5), (0, 0.0), (0, 0.0)], Vec3::ONE),
             (only(1), Vec3::NAN),
         ]);
-        assert!(kept.take_changed() && !kept.take_changed());
+        let all = 0..3;
+        assert_eq!(kept.take_changed(), [all]);
+        assert!(kept.take_changed().is_empty());
         // Nothing of the sample that names element 7, none of the one that is NaN.
         assert_eq!(kept.values()[0], [3.25, 3.75, 4.25]);
         assert_eq!(kept.values()[1..], [[4.0; 3], [9.0; 3]]);
@@ -169,5 +188,19 @@ mod tests {
         assert_eq!(kept.values()[2], [18.0 / 2.75; 3]);
         kept.set_prior(0.0);
         assert_eq!(kept.values()[0], [5.5; 3]);
+    }
+
+    /// The values that changed are named by whole blocks, neighbouring blocks as one
+    /// range, the last block cut at the end.
+    #[test]
+    fn changed_values_are_named_by_blocks() {
+        let n = 3 * BLOCK + 10;
+        let mut kept = KeptGathers::new(Arc::new(vec![[1.0; 3]; n]), 1.0);
+        let only = |e: usize| [(e as u32, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)];
+        kept.add([BLOCK + 5, 2 * BLOCK, n - 1].map(|e| (only(e), Vec3::ONE)));
+        let from_the_second = BLOCK..n;
+        assert_eq!(kept.take_changed(), [from_the_second]);
+        kept.add([(only(7), Vec3::ONE), (only(n - 2), Vec3::ONE)]);
+        assert_eq!(kept.take_changed(), [0..BLOCK, 3 * BLOCK..n]);
     }
 }
