@@ -12,7 +12,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::{EyeView, Gpu, PixelTracer, VlfBase};
 use holocave_tracer::{TraceSettings, Tracer};
-use holocave_vlf::{Settings, VlfFile, bake};
+use holocave_vlf::Settings;
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -46,12 +46,7 @@ fn pixel_tracer(c: &mut Criterion) {
                 resolution: 64,
                 ..Settings::default()
             };
-            let (state, _) =
-                bake::<std::convert::Infallible>(&scene, &settings, None, &|_| {}, &mut |_| Ok(()))
-                    .unwrap_or_else(|e| match e {});
-            VlfFile::of(&scene, settings, state)
-                .write(&file)
-                .expect("write the light field");
+            common::write_field(&scene, settings, &file);
             eprintln!("adapter: {}", gpu.adapter);
             for rays in [Rays::Cpu, Rays::Gpu] {
                 let base = VlfBase::open(&file, scene.clone())

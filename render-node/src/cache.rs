@@ -414,12 +414,8 @@ impl RenderCache {
                 let priority = gpu.storage("priority", 4 * n);
                 let counters = gpu.storage("counters", 16);
                 let chosen = gpu.storage("chosen", 4 * u64::from(max_chosen));
-                let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("chosen read-back"),
-                    size: 16 + 4 * u64::from(max_chosen),
-                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                });
+                let staging =
+                    gpu.read_back_buffer("chosen read-back", 16 + 4 * u64::from(max_chosen));
                 let project_bg = passes
                     .project
                     .bind_group(&gpu, [&params, &points, &depth, &key, &visible, &counters]);

@@ -244,14 +244,19 @@ impl Gpu {
         let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
     }
 
-    /// Copies `size` bytes of `buffer` back to the CPU (blocking).
-    pub fn read(&self, buffer: &wgpu::Buffer, size: u64) -> Vec<u8> {
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("read-back"),
+    /// A buffer of `size` bytes that GPU results are copied into and mapped to be read.
+    pub fn read_back_buffer(&self, label: &str, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
             size,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
-        });
+        })
+    }
+
+    /// Copies `size` bytes of `buffer` back to the CPU (blocking).
+    pub fn read(&self, buffer: &wgpu::Buffer, size: u64) -> Vec<u8> {
+        let staging = self.read_back_buffer("read-back", size);
         let mut enc = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });

@@ -16,7 +16,10 @@ use holocave_render_node::{
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_vlf::Settings;
-use holocave_vlf::file::VlfFile;
+
+// Only the light field's writer is used here.
+#[allow(dead_code)]
+mod common;
 
 const SIZE: u32 = 32;
 
@@ -82,10 +85,7 @@ fn a_carried_objects_old_shadow_shows_lit_at_once() {
         resolution: 32,
         ..Settings::default()
     };
-    let (state, _) =
-        holocave_vlf::bake(&scene, &settings, None, &|_| {}, &mut |_| Ok::<(), ()>(()))
-            .expect("bake");
-    VlfFile::of(&scene, settings, state).write(&path).unwrap();
+    common::write_field(&scene, settings, &path);
     let base = Arc::new(VlfBase::open(&path, scene.clone()).unwrap());
 
     // The block a metre up in the sun, its shadow on the floor; then far away.

@@ -14,7 +14,6 @@ use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, VlfBase, WallDisplay};
 use holocave_scene::{Ray, Scene};
 use holocave_tracer::{TraceSettings, Tracer, render::render};
-use holocave_vlf::file::VlfFile;
 use holocave_vlf::{Lookup, Settings, view::shade};
 
 fn cornell() -> Arc<Scene> {
@@ -38,11 +37,7 @@ fn coarse() -> Settings {
 /// Bakes `scene` with `settings` into a file in `dir` and opens it as a node does.
 fn baked(scene: &Arc<Scene>, settings: &Settings, dir: &std::path::Path) -> VlfBase {
     let path = dir.join("cornell.vlf");
-    let (state, _) = holocave_vlf::bake(scene, settings, None, &|_| {}, &mut |_| Ok::<(), ()>(()))
-        .expect("bake");
-    VlfFile::of(scene, *settings, state)
-        .write(&path)
-        .expect("write the light field");
+    common::write_field(scene, *settings, &path);
     VlfBase::open(&path, scene.clone()).expect("open the light field")
 }
 
@@ -345,12 +340,7 @@ fn shadow_rays_made_on_the_gpu_draw_the_cpus_walls() {
     let scene = Arc::new(common::room::room_with_punctual_lights());
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("room.vlf");
-    let (state, _) =
-        holocave_vlf::bake(&scene, &coarse(), None, &|_| {}, &mut |_| Ok::<(), ()>(()))
-            .expect("bake");
-    VlfFile::of(&scene, coarse(), state)
-        .write(&path)
-        .expect("write the light field");
+    common::write_field(&scene, coarse(), &path);
     let cpu = VlfBase::open(&path, scene.clone()).unwrap();
     let on_gpu = (VlfBase::open(&path, scene.clone()).unwrap())
         .with_rays(&gpu, Rays::Gpu)

@@ -943,34 +943,43 @@ impl Accumulator {
         });
         let lights = direct.lights.punctual.len() as u32;
         let n = points.len();
-        // What the walk makes of each pixel's queries and its answers to them; the rest
-        // of its queries are sent (all of them without `made`).
-        let (plans, masks, sent) = match made {
+        // What the walk makes of each pixel's queries (each query's bit in the pixel's
+        // answer; none without `made`) and its answers to them.
+        let (bits, masks): (Vec<Vec<Option<u32>>>, Vec<u32>) = match made {
             Some(made) => {
                 let (plans, aims) = made_rays(&per_pixel, made.at_first_hit, lights);
                 let masks = (made.trace)(&plans, &aims);
-                let sent: Vec<Vec<ShadowQuery>> = (per_pixel.par_iter().zip(&plans))
-                    .map(|(queries, m)| {
-                        let bits = m.bits(queries, lights);
-                        let sent = queries.iter().zip(bits).filter(|(_, b)| b.is_none());
-                        sent.map(|(q, _)| *q).collect()
-                    })
+                let bits = (per_pixel.par_iter().zip(&plans))
+                    .map(|(queries, m)| m.bits(queries, lights))
                     .collect();
-                (plans, masks, Some(sent))
+                (bits, masks)
             }
-            None => (vec![MadeRays::default(); n], vec![0; n], None),
+            None => (vec![Vec::new(); n], vec![0; n]),
         };
+        let bit = |bits: &[Option<u32>], k: usize| bits.get(k).copied().flatten();
+        // The rest are sent: all of them without `made`.
+        let sent: Option<Vec<Vec<ShadowQuery>>> = made.map(|_| {
+            (per_pixel.par_iter().zip(&bits))
+                .map(|(queries, bits)| {
+                    let unmade = queries
+                        .iter()
+                        .enumerate()
+                        .filter(|&(k, _)| bit(bits, k).is_none());
+                    unmade.map(|(_, q)| *q).collect()
+                })
+                .collect()
+        });
         let sent = sent.as_ref().unwrap_or(&per_pixel);
         let answers = traced.blocked(sent);
         let answers = per_group(sent, &answers);
-        (per_pixel.par_iter().zip(plans).zip(masks))
+        (per_pixel.par_iter().zip(&bits).zip(masks))
             .zip(answers)
             .zip(self.sum.par_iter_mut())
             .zip(self.count.par_iter())
-            .map(|(((((queries, m), mask), answers), sum), &count)| {
+            .map(|(((((queries, bits), mask), answers), sum), &count)| {
                 let mut sent = answers.iter();
-                for (q, bit) in queries.iter().zip(m.bits(queries, lights)) {
-                    let b = match bit {
+                for (k, q) in queries.iter().enumerate() {
+                    let b = match bit(bits, k) {
                         Some(bit) => mask & (1 << bit) != 0,
                         None => *sent.next().unwrap_or(&true),
                     };

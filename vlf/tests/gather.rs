@@ -134,10 +134,10 @@ fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() 
 /// a screen's samples would be left behind. Each element's value is the gathers' mean
 /// blended with the bake's by the prior (16 samples here; about 60 gathers an element):
 /// what is left of the field's error is the gathers' one-bounce error, the elements' own
-/// noise, and the elements the first position did not see. Measured: 0.00923 → 0.00564
-/// (0.55× net of the reference's noise); 0.0127 with the lamp's light over the mirror left
+/// noise, and the elements the first position did not see. Measured: 0.00923 → 0.00572
+/// (0.56× net of the reference's noise); 0.0128 with the lamp's light over the mirror left
 /// out of the estimate (the field's remainder holds it, the walls' direct light does not),
-/// 0.057 with the estimate not divided by the lookup's weight.
+/// 0.058 with the estimate not divided by the lookup's weight.
 #[test]
 fn gathers_kept_in_the_elements_bring_another_view_to_the_gathers_error() {
     use holocave_vlf::kept_gathers::KeptGathers;

@@ -235,26 +235,15 @@ fn source_with(stack: usize, kernels: &str) -> String {
 /// The round trip's host-visible buffers for `n` rays: rays out (mapped for writing),
 /// answers back (mapped for reading).
 fn transfer_buffers(gpu: &Gpu, n: u32) -> (wgpu::Buffer, wgpu::Buffer) {
-    let buffer = |label, size, usage| {
-        gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage,
-            mapped_at_creation: false,
-        })
-    };
-    use wgpu::BufferUsages as U;
+    let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("gpu rays: rays out"),
+        size: 32 * u64::from(n),
+        usage: wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
     (
-        buffer(
-            "gpu rays: rays out",
-            32 * u64::from(n),
-            U::MAP_WRITE | U::COPY_SRC,
-        ),
-        buffer(
-            "gpu rays: answers back",
-            16 * u64::from(n),
-            U::MAP_READ | U::COPY_DST,
-        ),
+        out,
+        gpu.read_back_buffer("gpu rays: answers back", 16 * u64::from(n)),
     )
 }
 

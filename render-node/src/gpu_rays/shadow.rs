@@ -257,17 +257,11 @@ fn per_pixel_buffers(
     n: u32,
 ) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, wgpu::Buffer) {
     let n = u64::from(n.max(1));
-    let receive = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("gpu rays: made shadow rays' answers back"),
-        size: 4 * n,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
     (
         gpu.storage("gpu rays: made shadow rays' tasks", 12 * n),
         gpu.storage("gpu rays: the sun's shifts", 8 * n),
         gpu.storage("gpu rays: made shadow rays' answers", 4 * n),
-        receive,
+        gpu.read_back_buffer("gpu rays: made shadow rays' answers back", 4 * n),
     )
 }
 

@@ -378,12 +378,7 @@ mod tests {
         });
         let view = texture.create_view(&Default::default());
         let row = (size.0 * 4).div_ceil(256) * 256;
-        let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("offscreen read-back"),
-            size: u64::from(row * size.1),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let staging = gpu.read_back_buffer("offscreen read-back", u64::from(row * size.1));
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         pass.draw(gpu, &mut enc, &view, size, settings, eyes, eye_size, curve);
         enc.copy_texture_to_buffer(

@@ -1,5 +1,6 @@
 //! What the render node's tests and its `pixel_tracer` bench (which includes this file by
-//! path) share: the Cornell box, and the README's view of it; the room with punctual lights.
+//! path) share: the Cornell box, and the README's view of it; the room with punctual
+//! lights; a light field baked into a file.
 
 use glam::Vec3;
 use holocave_cave::WallView;
@@ -49,4 +50,14 @@ pub fn write_image(
     image
         .write_png(&dir.join(format!("{stem}.png")), exposure)
         .unwrap();
+}
+
+/// Bakes `scene`'s light field with `settings` (quietly) and writes it to `path`.
+#[allow(dead_code)]
+pub fn write_field(scene: &Scene, settings: holocave_vlf::Settings, path: &std::path::Path) {
+    let (state, _) = holocave_vlf::bake(scene, &settings, None, &|_| {}, &mut |_| Ok::<(), ()>(()))
+        .expect("bake");
+    holocave_vlf::VlfFile::of(scene, settings, state)
+        .write(path)
+        .expect("write the light field");
 }
