@@ -368,12 +368,14 @@ impl VlfBase {
     }
 
     /// Runs `f` with the field's values and the gathers kept in them, and the ranges of
-    /// them that changed since last asked, where any did.
+    /// them that changed since last asked, where any did; the lookups made on the CPU
+    /// (a mirror-drawn surface's base) read the changed values from now on.
     pub fn with_kept_values(&self, f: impl FnOnce(&[[f32; 3]], &[std::ops::Range<usize>])) {
         let mut kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(k) = kept.as_mut() {
             let changed = k.take_changed();
             if !changed.is_empty() {
+                self.visibility.update_drawn(k.values(), &changed);
                 f(k.values(), &changed);
             }
         }

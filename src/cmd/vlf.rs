@@ -435,6 +435,8 @@ fn view(a: ViewArgs) -> Result<()> {
             });
         if a.gathers > 0 {
             let remainder = std::sync::Arc::new(split.remainder.clone());
+            // The gathers see the surfaces as the walls draw them.
+            vis.draw_with(remainder.clone(), true);
             let kept = holocave_vlf::kept_gathers::of_still_view(
                 &vis,
                 direct,

@@ -62,7 +62,9 @@ pub struct Gathered {
     /// irradiance there this sample estimates — the part
     /// the field's remainder holds (after the bounce, and the emitters over a mirror) over
     /// the lookup's weight towards the eye: the quantity the element holds
-    /// ([`crate::kept_gathers`]).
+    /// ([`crate::kept_gathers`]). Where it sees a surface drawn as its mirror, the same
+    /// for its Lambertian base's elements, from what the base alone reflects after the
+    /// bounce.
     pub kept: Option<([(u32, f32); 4], Vec3)>,
 }
 
@@ -80,8 +82,12 @@ struct Pending {
     /// What arrives at `x` along the bounce, but `y`'s direct light.
     arriving: Vec3,
     /// The elements the lookup at `x` interpolates and its weight towards the eye, where
-    /// it is a diffuse element's.
+    /// it is a diffuse element's or the Lambertian base's of a surface drawn as its
+    /// mirror.
     element: Option<([(u32, f32); 4], Vec3)>,
+    /// The element is a mirror-drawn surface's base: only the light its Lambertian base
+    /// reflects is kept (the rest is what its lobe mirrors, not the element's).
+    base_only: bool,
 }
 
 /// The ray leaving `x` that the BSDF drew, and what it carries to the eye.
@@ -89,6 +95,8 @@ struct Bounce {
     ray: Ray,
     /// `x`'s weight towards the eye times the BSDF sample's weight.
     throughput: Vec3,
+    /// The part of `throughput` that the Lambertian base reflects.
+    diffuse: Vec3,
     pdf: f32,
     delta: bool,
 }
@@ -152,6 +160,11 @@ fn at_eye(
     rng: SmallRng,
 ) -> Pending {
     let (lookup, point, first) = vis.lookup_point_and_hit(ray, hit);
+    let element = diffuse_element(&lookup);
+    let base = element
+        .is_none()
+        .then(|| vis.mirrored_base(&ray, first))
+        .flatten();
     let mut p = Pending {
         g: Gathered {
             radiance: Vec3::from(lookup.emitted),
@@ -167,7 +180,8 @@ fn at_eye(
         via_mirror: false,
         bounce: None,
         arriving: Vec3::ZERO,
-        element: diffuse_element(&lookup),
+        element: element.or(base),
+        base_only: base.is_some(),
     };
     vis.with_placed(|placed| {
         p.g.material = first.map(|h| placed.surface(&h).material);
@@ -194,6 +208,7 @@ fn at_eye(
         let Some(s) = x.bsdf.sample(frame.to_local(x.wo), uc, u) else {
             return;
         };
+        let wo = frame.to_local(x.wo);
         let wi = frame.to_world(s.wi).normalize();
         // An opaque surface reflects only to the side it is seen from.
         if !x.bsdf.transmits() && x.normal.dot(wi) * x.normal.dot(x.wo) <= 0.0 {
@@ -205,6 +220,7 @@ fn at_eye(
         p.bounce = Some(Bounce {
             ray: Ray::leaving(x.position, x.normal, wi),
             throughput: x.weight * s.weight,
+            diffuse: x.weight * x.bsdf.eval_diffuse(wo, s.wi) * s.wi.z.abs() / s.pdf,
             pdf: s.pdf,
             delta: s.delta,
         });
@@ -257,17 +273,24 @@ fn finish(placed: &PlacedScene, p: Pending, queries: &[ShadowQuery], blocked: &[
     {
         remainder += v.radiance;
     }
+    // What the Lambertian base alone reflects of the light along the bounce (a delta
+    // bounce's share is none of it).
+    let mut base = Vec3::ZERO;
     if let Some(b) = &p.bounce {
         let at_y = answers.fold(Vec3::ZERO, |sum, a| sum + a.radiance);
         remainder += b.throughput * (p.arriving + at_y);
+        if !b.delta {
+            base = b.diffuse * (p.arriving + at_y);
+        }
     }
     g.radiance += remainder;
     if !g.radiance.is_finite() {
         g.radiance = Vec3::ZERO;
     }
+    let kept = if p.base_only { base } else { remainder };
     g.kept = p
         .element
-        .map(|(e, weight)| (e, remainder / weight))
+        .map(|(e, weight)| (e, kept / weight))
         .filter(|(_, estimate)| estimate.is_finite());
     g
 }

@@ -29,14 +29,14 @@ use rayon::prelude::*;
 
 use crate::StaticRays;
 use crate::bake::{environment, sky};
-use crate::elements::{Elements, interpolate};
+use crate::elements::{Elements, bilinear_cells, interpolate};
 use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
 use crate::sequence::{R2, r_sequence};
 use crate::surface::{
     Chain, Seen, albedo_towards, follow, follow_all, follow_first, follow_from, highlights,
-    mirrored, mirrored_gloss, side_facing,
+    mirrored, mirrored_gloss, seen, side_facing,
 };
 use crate::tiles::Tiles;
 
@@ -195,6 +195,19 @@ impl Visibility {
         *self.drawn.write().unwrap_or_else(|e| e.into_inner()) = Some((values, remainder));
     }
 
+    /// Copies `ranges` of `values` into the values given to [`Self::draw_with`]: the
+    /// gathers kept in the field's elements ([`crate::kept_gathers`]), which the lookups
+    /// shaded on the GPU read there and a mirror-drawn surface's base reads here.
+    pub fn update_drawn(&self, values: &[[f32; 3]], ranges: &[std::ops::Range<usize>]) {
+        let mut drawn = self.drawn.write().unwrap_or_else(|e| e.into_inner());
+        if let Some((v, _)) = drawn.as_mut() {
+            let v = Arc::make_mut(v);
+            for r in ranges {
+                v[r.clone()].copy_from_slice(&values[r.clone()]);
+            }
+        }
+    }
+
     /// Runs `f` with the values given to [`Self::draw_with`], if any, and whether the
     /// per-pixel pass adds the direct light at the points.
     fn with_drawn<T>(&self, f: impl FnOnce(Option<&[[f32; 3]]>, bool) -> T) -> T {
@@ -340,6 +353,33 @@ impl Visibility {
         let (l, p) =
             self.with_drawn(|v, d| self.lookup_chain(chain, &objects, Some(&placed), v, d));
         (l, p, first)
+    }
+
+    /// Where `ray` first meets, at `first` (a static hit), a surface drawn as its mirror
+    /// ([`Self::drawn_as_mirror`]) whose Lambertian base reflects: the elements the base's
+    /// light is interpolated from there, with their weights, and what the base sends
+    /// towards the eye per unit of their irradiance, `ρ_d(cos θ_o) / π` — what a gather
+    /// there keeps in the field ([`crate::gather`]).
+    pub fn mirrored_base(&self, ray: &Ray, first: Option<Hit>) -> Option<([(u32, f32); 4], Vec3)> {
+        let hit = first?;
+        let s = self.with_placed(|placed| {
+            placed
+                .object_of(hit.triangle)
+                .is_none()
+                .then(|| seen(placed, hit, ray.dir))
+        })?;
+        let drawn = self.with_drawn(|v, _| self.drawn_as_mirror(&s, ray.dir, v));
+        let cos_o = s.shading_normal.dot(ray.dir).abs();
+        let weight = Bsdf::new(&s.params).diffuse_reflectance(cos_o) * std::f32::consts::FRAC_1_PI;
+        if !drawn || weight.min_element() <= 0.0 {
+            return None;
+        }
+        let cells = self.elements.triangles[hit.triangle as usize];
+        let side = side_facing(s.normal, ray.dir);
+        Some((
+            bilinear_cells(cells.base(side), cells.res, hit.u, hit.v),
+            weight,
+        ))
     }
 
     /// Runs `f` with the scene as this frame places its moving objects.
