@@ -580,3 +580,63 @@ fn the_field_gives_way_sooner_where_a_pixels_samples_agree() {
         shown(kb, n as f32)
     );
 }
+
+/// A point whose samples from one eye hit two surfaces (a pixel across an emitter's edge:
+/// a wall at 2 m, radiance 1, and a lamp 5 cm nearer, radiance 9) stands for that pixel
+/// seen from there. From that eye it shows as the pixel's mean; from 30 cm aside a
+/// view-independent sample of the lamp at the very place it keeps does not join it, and
+/// where it projects among that eye's own points 5 % farther it hides none of them. (A
+/// lamp-edge point taken over by the other eye of a still head showed the lamp's light
+/// in a ceiling pixel of the Cornell box.)
+#[test]
+fn a_point_mixing_two_surfaces_stands_only_for_its_own_pixel() {
+    let (wall, lamp) = (1, 2);
+    let v = view(Vec3::new(0.0, 1.0, 1.0));
+    let mixed = |c: &mut RenderCache| {
+        draw(c, &v);
+        let s = sample_on(&v, 4, 4, 2.0, 1.0, wall).view_independent();
+        c.insert(0, &[s]);
+        draw(c, &v);
+        let s = sample_on(&v, 4, 4, 1.95, 9.0, lamp).view_independent();
+        c.insert(0, &[s]);
+        draw(c, &v);
+    };
+    let mut c = cache(256);
+    mixed(&mut c);
+    assert_eq!(c.image(0).at(4, 4), Vec3::splat(5.0), "the pixel's mean");
+
+    let aside = view(v.eye() + Vec3::new(0.3, 0.0, 0.0));
+    let at = v.wall.ray(Vec2::new(4.5, 4.5)).at(1.95);
+    let (px, py, depth) = aside.project(at).expect("in view aside");
+    let (px, py) = (px as u32, py as u32);
+    c.draw(&[aside], &[8], false, &mut StepTimes::default());
+    assert_eq!(
+        c.image(0).at(px, py),
+        Vec3::splat(5.0),
+        "shown where nothing else is"
+    );
+    let lamp_aside = sample_at(&aside, py * W + px, at, 9.0, lamp).view_independent();
+    c.insert(0, &[lamp_aside]);
+    let mut points: Vec<[f32; 2]> = (c.points().iter())
+        .filter(|p| p.pos[3] < 1e6)
+        .map(|p| [p.rad[0], p.rad[3]])
+        .collect();
+    points.sort_by(|a, b| a[0].total_cmp(&b[0]));
+    assert_eq!(
+        points,
+        [[5.0, 2.0], [9.0, 1.0]],
+        "radiance and count of the points"
+    );
+
+    let mut c = cache(256);
+    mixed(&mut c);
+    let behind = sample_on(&aside, px, py, 1.05 * depth, 0.5, wall).view_independent();
+    c.draw(&[aside], &[8], false, &mut StepTimes::default());
+    c.insert(0, &[behind]);
+    c.draw(&[aside], &[8], false, &mut StepTimes::default());
+    assert_eq!(
+        c.image(0).at(px, py),
+        Vec3::splat(0.5),
+        "the eye's own point shows"
+    );
+}

@@ -13,7 +13,18 @@ struct Point {
     pos: vec4<f32>,    // xyz world position, w age in frames (>= MAX_AGE: empty slot)
     rad: vec4<f32>,    // rgb mean radiance, w number of samples averaged
     origin: vec4<f32>, // xyz ray origin, w surface id (bitcast u32)
-    square: vec4<f32>, // x mean squared luminance (as rad's mean), yzw unused
+    square: vec4<f32>, // x mean squared luminance (as rad's mean), y 1 when mixed, zw unused
+}
+
+// Ray origins closer than this (m) count as the same eye position.
+const SAME_ORIGIN: f32 = 1.0e-4;
+
+// Whether a point's samples, all from one eye position, hit more than one surface: the
+// mean of a pixel across a silhouette or an emitter's edge, which stands for that pixel
+// seen from there and for no surface. From elsewhere it never takes samples, and it shows
+// only where nothing else lies within the depth tolerance (`project.wgsl`).
+fn point_mixed(p: Point) -> bool {
+    return p.square.y > 0.5;
 }
 
 // A surface id holds the material in its low 24 bits and the moving object the point lies

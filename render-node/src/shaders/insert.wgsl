@@ -8,6 +8,8 @@
 //          surface (marked view-independent) joins it from any eye position, without
 //          the cap, since what such a surface sends does not depend on where it is seen
 //          from;
+//          a sample of another surface than the point's from the same eye position
+//          makes it a mixed point (common.wgsl), which no other eye position joins;
 //          a sample from another eye position whose colour differs a lot from the
 //          pixel's well-sampled point asks for the points around it to be aged
 //          (premature aging), counted per pixel;
@@ -47,8 +49,6 @@ struct InsertParams {
 // batches: `age_changed` clears what it applies).
 @group(0) @binding(5) var<storage, read_write> aging: array<atomic<u32>>;
 
-// Ray origins closer than this (m) count as the same eye position.
-const SAME_ORIGIN: f32 = 1.0e-4;
 // Ray origins closer than this (m) may share a point if the hits agree.
 const NEAR_ORIGIN: f32 = 0.02;
 // Hits closer than this fraction of their distance are the same place.
@@ -113,17 +113,20 @@ fn match_samples(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let w = max(s.weight.x, 1.0);
     var n = p.rad.w + w;
+    let same_surface = bitcast<u32>(p.origin.w) == bitcast<u32>(s.rad.w);
     if (moved > SAME_ORIGIN) {
-        let same_surface = bitcast<u32>(p.origin.w) == bitcast<u32>(s.rad.w);
         let same_place = distance(p.pos.xyz, s.pos.xyz) <= SAME_PLACE * s.origin.w;
         let view_independent = s.weight.y > 0.5;
-        if (!same_surface || !same_place || (moved > NEAR_ORIGIN && !view_independent)) {
+        if (point_mixed(p) || !same_surface || !same_place
+            || (moved > NEAR_ORIGIN && !view_independent)) {
             return;
         }
         if (!view_independent) {
             n = min(n, MOVING_MAX_COUNT);
         }
         p.origin = vec4<f32>(s.origin.xyz, p.origin.w);
+    } else if (!same_surface) {
+        p.square.y = 1.0;
     }
     let share = min(w / n, 1.0);
     p.rad = vec4<f32>(p.rad.xyz + (s.rad.xyz - p.rad.xyz) * share, n);

@@ -2,6 +2,7 @@
 // linear passes over the points (WGSL has only 32-bit atomics, so depth and the rest of
 // the key are resolved one after the other):
 //   1. atomicMin of the depth (positive f32 bits order like u32),
+//      (but for mixed points made from another eye position: common.wgsl),
 //   2. among points within 1% of the pixel's nearest depth, atomicMin of the key
 //      (quantised distance by which their ray missed this eye, then point index: the
 //      holodeck paper's §2.4.2 convergence, deterministic on ties).
@@ -61,11 +62,17 @@ fn project_depth(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= P.npoints) {
         return;
     }
-    let pr = project(points[i]);
+    let p = points[i];
+    let pr = project(p);
     if (!pr.ok) {
         return;
     }
     visible[i] = 1u;
+    // A mixed point made from another eye position hides nothing: it stands for a pixel
+    // of that view, not for a surface in front of this one's points.
+    if (point_mixed(p) && distance(p.origin.xyz, P.eye.xyz) > SAME_ORIGIN) {
+        return;
+    }
     atomicMin(&depth_img[pr.pixel], bitcast<u32>(pr.depth));
 }
 
@@ -80,8 +87,9 @@ fn project_key(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pr.ok) {
         return;
     }
-    let nearest = bitcast<f32>(atomicLoad(&depth_img[pr.pixel]));
-    if (pr.depth <= nearest * DEPTH_TOLERANCE) {
+    // (No depth: only mixed points from elsewhere project here; they may show.)
+    let nearest = atomicLoad(&depth_img[pr.pixel]);
+    if (nearest == EMPTY || pr.depth <= bitcast<f32>(nearest) * DEPTH_TOLERANCE) {
         let key = make_key(miss_distance(p, P.eye.xyz), i, P.index_bits);
         atomicMin(&key_img[pr.pixel], key);
     }
