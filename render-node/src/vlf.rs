@@ -34,6 +34,7 @@ use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
+use holocave_vlf::glow_edges;
 use holocave_vlf::kept_gathers::KeptGathers;
 use holocave_vlf::split::Split;
 use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
@@ -463,9 +464,11 @@ impl VlfBase {
             pool.pop().unwrap_or_default()
         };
         let mut lookups = self.pixels_into(&view.wall, &mut pixels);
+        let edges = glow_edges::find(&view.wall, &lookups, &pixels.points);
         if self.direct {
             self.add_direct(eye, view, &mut lookups, &pixels);
         }
+        edges.resolve(&self.visibility, &view.wall, &mut lookups);
         let out = f(lookups, &pixels);
         let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
         pool.push(pixels);

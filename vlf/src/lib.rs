@@ -33,7 +33,9 @@
 //! - [`objects`]: moving objects as the walls draw them (placed, lit from probes, shadowing);
 //! - [`probe`]: irradiance probes (order-2 harmonics) lighting what the field does not hold;
 //! - [`view`]: per-pixel visibility and the lookup (the render node does the lookup on
-//!   the GPU).
+//!   the GPU);
+//! - [`glow_edges`]: the edges of emitters and the sky drawn with their share of the
+//!   pixel (a wall takes one lookup through each pixel's centre).
 //!
 //! What differs from the paper: mirrors and smooth glass are followed exactly (by eye rays
 //! and by the lines that cross them) instead of being stored as directional radiance
@@ -60,6 +62,7 @@ pub mod directions;
 pub mod elements;
 pub mod file;
 pub mod gather;
+pub mod glow_edges;
 pub mod kept_gathers;
 pub mod objects;
 pub mod octahedral;

@@ -382,6 +382,22 @@ impl Visibility {
         ))
     }
 
+    /// What glows along `ray` through `placed` as the walls draw it — the emitters and
+    /// the sky seen directly or through mirrors and glass, what a lookup's `emitted`
+    /// holds before the direct light — and whether the ray ends on a surface that does
+    /// not glow, whose light is a lookup's element or tile part
+    /// ([`crate::glow_edges`]).
+    pub fn glow_along(&self, placed: &PlacedScene, ray: Ray) -> (Vec3, bool) {
+        let chain = follow(placed, ray, &environment(&self.lights));
+        match &chain.end {
+            Some((s, _)) => (
+                chain.emitted + chain.weight * s.emitted,
+                s.emitted.max_element() <= 0.0,
+            ),
+            None => (chain.emitted, false),
+        }
+    }
+
     /// Runs `f` with the scene as this frame places its moving objects.
     pub fn with_placed<T>(&self, f: impl FnOnce(&PlacedScene) -> T) -> T {
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
