@@ -263,7 +263,10 @@ fn finish(placed: &PlacedScene, p: Pending, queries: &[ShadowQuery], blocked: &[
     for a in answers.by_ref().take(p.at_x) {
         e += a;
     }
-    g.radiance += e.radiance - e.sky;
+    // The sky at `x` comes along the bounce, reflected by the surface's own lobe: neither
+    // the sky's samples nor its sharpened reflection (what that lobe reflects beyond the
+    // tile's) are taken here as well.
+    g.radiance += e.radiance - e.sky - e.sharpened;
     // What the light field's remainder holds at `x`: the light after the bounce, and the
     // emitters' light over a mirror (the walls' direct light per pixel leaves it to the
     // field).

@@ -399,7 +399,7 @@ impl PixelDirect {
                 }
                 let g = (p.bsdf.eval(wo, local).0 - widened.eval(wo, local).0) * i.z;
                 let c = g * sky.radiance(wi) * p.weight / (pdf * count as f32);
-                if let Some(q) = shadow_query(p, &towards_sky(wi, pdf), c, Sampled::Other) {
+                if let Some(q) = shadow_query(p, &towards_sky(wi, pdf), c, Sampled::Sharpening) {
                     f(q);
                 }
             }
@@ -421,6 +421,11 @@ impl PixelDirect {
         Estimate {
             radiance: q.radiance,
             sky: if q.light == Sampled::Sky {
+                q.radiance
+            } else {
+                Vec3::ZERO
+            },
+            sharpened: if q.light == Sampled::Sharpening {
                 q.radiance
             } else {
                 Vec3::ZERO
@@ -674,7 +679,9 @@ pub enum Sampled {
     Sun(u64),
     /// A direction of the sky's direct light ([`PixelDirect::with_sky`]).
     Sky,
-    /// An emitter over a mirror, or the sky's sharpened reflection.
+    /// The sky's sharpened reflection ([`PixelDirect::with_sharp_sky_reflections`]).
+    Sharpening,
+    /// An emitter over a mirror.
     Other,
 }
 
@@ -684,6 +691,9 @@ pub struct Estimate {
     pub radiance: Vec3,
     /// The sky's share of `radiance` ([`PixelDirect::with_sky`]; zero without).
     pub sky: Vec3,
+    /// The sharpened reflection's share of `radiance`: what the surface's own lobe
+    /// reflects of the sky less what its tile's widened lobe does.
+    pub sharpened: Vec3,
     /// A moving object blocked one of its shadow rays.
     pub object_shadow: bool,
 }
@@ -692,6 +702,7 @@ impl std::ops::AddAssign for Estimate {
     fn add_assign(&mut self, o: Estimate) {
         self.radiance += o.radiance;
         self.sky += o.sky;
+        self.sharpened += o.sharpened;
         self.object_shadow |= o.object_shadow;
     }
 }
@@ -786,6 +797,7 @@ fn mean(sum: &Estimate, count: u32) -> Estimate {
     Estimate {
         radiance: sum.radiance / count as f32,
         sky: sum.sky / count as f32,
+        sharpened: sum.sharpened / count as f32,
         object_shadow: sum.object_shadow,
     }
 }

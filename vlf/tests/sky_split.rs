@@ -284,5 +284,27 @@ fn the_sky_reflected_by_a_narrower_lobe_than_a_tile_holds_is_sharpened_per_pixel
             "a first estimate sharpens by {first} on average, the BSDFs' own sampling by {}",
             a - b
         );
+
+        // A gather sample there reflects the sky along its bounce with the surface's own
+        // lobe, so it takes no sharpened reflection as well: each of 4,096 is what it is
+        // with a per-pixel pass that sharpens nothing (the same rays and draws; the
+        // ceiling, where the bounces end, is diffuse), within float rounding.
+        let rays = vec![Ray::new(eye, Vec3::NEG_Y); 4096];
+        let traced = holocave_vlf::CpuRays(&scene);
+        let plain = PixelDirect::new(scene.clone());
+        let gather = |direct: &PixelDirect| {
+            holocave_vlf::gather::gather_all(&vis, direct, &split.remainder, &rays, 9, &traced)
+        };
+        let (with, without) = (gather(&split.direct), gather(&plain));
+        let worst = (with.iter().zip(&without))
+            .map(|(a, b)| (a.radiance - b.radiance).abs().max_element())
+            .fold(0.0f32, f32::max);
+        let mean = with.iter().map(|g| f64::from(g.radiance.x)).sum::<f64>() / 4096.0;
+        assert!(
+            worst <= 1e-4 * (mean as f32 + SKY_L),
+            "a gather differs by up to {worst} with the sharpening (mean {mean}, the \
+             sharpened reflection {})",
+            a - b
+        );
     }
 }
