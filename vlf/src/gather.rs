@@ -38,7 +38,7 @@ use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
 
 use crate::elements::bilinear_cells;
-use crate::pixel_direct::{Estimate, PixelDirect, ShadowQuery};
+use crate::pixel_direct::{Estimate, PixelDirect, Sampled, ShadowQuery};
 use crate::static_rays::{StaticRays, per_group};
 use crate::view::Lookup;
 use crate::view::Visibility;
@@ -257,22 +257,24 @@ fn finish(placed: &PlacedScene, p: Pending, queries: &[ShadowQuery], blocked: &[
     let mut answers = queries
         .iter()
         .zip(blocked)
-        .map(|(q, &b)| PixelDirect::resolve(placed, q, b));
+        .map(|(q, &b)| (q.light, PixelDirect::resolve(placed, q, b)));
     let mut g = p.g;
     let mut e = Estimate::default();
-    for a in answers.by_ref().take(p.at_x) {
-        e += a;
-    }
     // The sky at `x` comes along the bounce, reflected by the surface's own lobe: neither
     // the sky's samples nor its sharpened reflection (what that lobe reflects beyond the
     // tile's) are taken here as well.
-    g.radiance += e.radiance - e.sky - e.sharpened;
+    for (light, a) in answers.by_ref().take(p.at_x) {
+        if light != Sampled::Sharpening {
+            e += a;
+        }
+    }
+    g.radiance += e.radiance - e.sky;
     // What the light field's remainder holds at `x`: the light after the bounce, and the
     // emitters' light over a mirror (the walls' direct light per pixel leaves it to the
     // field).
     let mut remainder = Vec3::ZERO;
     if p.via_mirror
-        && let Some(v) = answers.next()
+        && let Some((_, v)) = answers.next()
     {
         remainder += v.radiance;
     }
@@ -280,7 +282,7 @@ fn finish(placed: &PlacedScene, p: Pending, queries: &[ShadowQuery], blocked: &[
     // bounce's share is none of it).
     let mut base = Vec3::ZERO;
     if let Some(b) = &p.bounce {
-        let at_y = answers.fold(Vec3::ZERO, |sum, a| sum + a.radiance);
+        let at_y = answers.fold(Vec3::ZERO, |sum, (_, a)| sum + a.radiance);
         remainder += b.throughput * (p.arriving + at_y);
         if !b.delta {
             base = b.diffuse * (p.arriving + at_y);

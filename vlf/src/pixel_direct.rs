@@ -425,11 +425,6 @@ impl PixelDirect {
             } else {
                 Vec3::ZERO
             },
-            sharpened: if q.light == Sampled::Sharpening {
-                q.radiance
-            } else {
-                Vec3::ZERO
-            },
             object_shadow: false,
         }
     }
@@ -691,9 +686,6 @@ pub struct Estimate {
     pub radiance: Vec3,
     /// The sky's share of `radiance` ([`PixelDirect::with_sky`]; zero without).
     pub sky: Vec3,
-    /// The sharpened reflection's share of `radiance`: what the surface's own lobe
-    /// reflects of the sky less what its tile's widened lobe does.
-    pub sharpened: Vec3,
     /// A moving object blocked one of its shadow rays.
     pub object_shadow: bool,
 }
@@ -702,7 +694,6 @@ impl std::ops::AddAssign for Estimate {
     fn add_assign(&mut self, o: Estimate) {
         self.radiance += o.radiance;
         self.sky += o.sky;
-        self.sharpened += o.sharpened;
         self.object_shadow |= o.object_shadow;
     }
 }
@@ -797,7 +788,6 @@ fn mean(sum: &Estimate, count: u32) -> Estimate {
     Estimate {
         radiance: sum.radiance / count as f32,
         sky: sum.sky / count as f32,
-        sharpened: sum.sharpened / count as f32,
         object_shadow: sum.object_shadow,
     }
 }
