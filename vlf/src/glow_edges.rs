@@ -15,6 +15,7 @@
 
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
+use holocave_scene::PlacedScene;
 use holocave_scene::color::luminance;
 use rayon::prelude::*;
 
@@ -112,48 +113,67 @@ impl GlowEdges {
     /// were found, or not) with the share of each pixel that glows, seen by `vis` in
     /// `view`.
     pub fn resolve(&self, vis: &Visibility, view: &WallView, lookups: &mut [Lookup]) {
-        let k = SUBPIXELS;
         let resolved: Vec<(usize, Lookup)> = vis.with_placed(|placed| {
             (self.pixels.par_iter())
                 .map(|e| {
-                    let (x, y) = (
-                        (e.pixel as u32 % view.width) as f32,
-                        (e.pixel as u32 / view.width) as f32,
-                    );
-                    let along = |o: Vec2| vis.glow_along(placed, view.ray(Vec2::new(x, y) + o));
-                    let (_, centre_on_surface) = along(Vec2::splat(0.5));
-                    let mut glow = Vec3::ZERO;
-                    let mut on_surface = 0u32;
-                    for s in 0..k * k {
-                        let o = (Vec2::new((s % k) as f32, (s / k) as f32) + 0.5) / k as f32;
-                        let (g, surface) = along(o);
-                        glow += g;
-                        on_surface += u32::from(surface);
-                    }
-                    let glow = glow / (k * k) as f32;
-                    let share = on_surface as f32 / (k * k) as f32;
-                    let l = lookups[e.pixel];
-                    let surface_part = |l: &Lookup, own_glow: Vec3| Lookup {
-                        weight: (Vec3::from(l.weight) * share).to_array(),
-                        emitted: ((Vec3::from(l.emitted) - own_glow) * share + glow).to_array(),
-                        ..*l
-                    };
-                    let drawn = match e.beside {
-                        _ if centre_on_surface => surface_part(&l, e.glow),
-                        Some((j, beside_glow)) if share > 0.0 => {
-                            surface_part(&lookups[j], beside_glow)
-                        }
-                        _ => Lookup {
-                            emitted: (Vec3::from(l.emitted) - e.glow + glow).to_array(),
-                            ..l
-                        },
-                    };
-                    (e.pixel, drawn)
+                    let c = Coverage::of(vis, placed, view, e.pixel);
+                    (e.pixel, c.drawn(e, lookups))
                 })
                 .collect()
         });
         for (i, l) in resolved {
             lookups[i] = l;
+        }
+    }
+}
+
+/// What the rays through one pixel find.
+struct Coverage {
+    /// The ray through its centre ends on a surface that does not glow.
+    centre_on_surface: bool,
+    /// The mean glow of the [`SUBPIXELS`]² rays.
+    glow: Vec3,
+    /// The share of them that end on a surface that does not glow.
+    share: f32,
+}
+
+impl Coverage {
+    fn of(vis: &Visibility, placed: &PlacedScene, view: &WallView, pixel: usize) -> Coverage {
+        let k = SUBPIXELS;
+        let corner = Vec2::new(
+            (pixel as u32 % view.width) as f32,
+            (pixel as u32 / view.width) as f32,
+        );
+        let along = |o: Vec2| vis.glow_along(placed, view.ray(corner + o));
+        let (mut glow, mut on_surface) = (Vec3::ZERO, 0u32);
+        for s in 0..k * k {
+            let (g, surface) = along((Vec2::new((s % k) as f32, (s / k) as f32) + 0.5) / k as f32);
+            glow += g;
+            on_surface += u32::from(surface);
+        }
+        Coverage {
+            centre_on_surface: along(Vec2::splat(0.5)).1,
+            glow: glow / (k * k) as f32,
+            share: on_surface as f32 / (k * k) as f32,
+        }
+    }
+
+    /// Edge pixel `e`'s lookup: its own surface part (or, where its centre glows, its
+    /// neighbour's) scaled to the share, and the mean glow.
+    fn drawn(&self, e: &Edge, lookups: &[Lookup]) -> Lookup {
+        let surface_part = |l: &Lookup, own_glow: Vec3| Lookup {
+            weight: (Vec3::from(l.weight) * self.share).to_array(),
+            emitted: ((Vec3::from(l.emitted) - own_glow) * self.share + self.glow).to_array(),
+            ..*l
+        };
+        let l = &lookups[e.pixel];
+        match e.beside {
+            _ if self.centre_on_surface => surface_part(l, e.glow),
+            Some((j, beside_glow)) if self.share > 0.0 => surface_part(&lookups[j], beside_glow),
+            _ => Lookup {
+                emitted: (Vec3::from(l.emitted) - e.glow + self.glow).to_array(),
+                ..*l
+            },
         }
     }
 }
