@@ -34,7 +34,6 @@ use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::gather::{Gathered, gather_all};
-use holocave_vlf::glow_edges;
 use holocave_vlf::kept_gathers::KeptGathers;
 use holocave_vlf::split::Split;
 use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
@@ -42,6 +41,7 @@ use holocave_vlf::{
     Accumulator, Aim, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, StaticRays,
     Visibility,
 };
+use holocave_vlf::{glow_edges, surface_edges};
 use rayon::prelude::*;
 
 use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
@@ -468,7 +468,10 @@ impl VlfBase {
         if self.direct {
             self.add_direct(eye, view, &mut lookups, &pixels);
         }
-        edges.resolve(&self.visibility, &view.wall, &mut lookups);
+        let shading = (pixels.points.as_slice(), self.values());
+        let vis = &self.visibility;
+        surface_edges::resolve(vis, &view.wall, &mut lookups, shading, &edges.pixels());
+        edges.resolve(vis, &view.wall, &mut lookups);
         let out = f(lookups, &pixels);
         let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
         pool.push(pixels);

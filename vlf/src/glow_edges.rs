@@ -109,6 +109,11 @@ impl GlowEdges {
         self.pixels.is_empty()
     }
 
+    /// The pixels at an edge, in order.
+    pub fn pixels(&self) -> Vec<usize> {
+        self.pixels.iter().map(|e| e.pixel).collect()
+    }
+
     /// Draws the edges' pixels of `lookups` (the direct light per pixel added since they
     /// were found, or not) with the share of each pixel that glows, seen by `vis` in
     /// `view`.

@@ -35,7 +35,8 @@
 //! - [`view`]: per-pixel visibility and the lookup (the render node does the lookup on
 //!   the GPU);
 //! - [`glow_edges`]: the edges of emitters and the sky drawn with their share of the
-//!   pixel (a wall takes one lookup through each pixel's centre).
+//!   pixel (a wall takes one lookup through each pixel's centre), and
+//!   [`surface_edges`]: the edges between a bright and a dark surface, likewise.
 //!
 //! What differs from the paper: mirrors and smooth glass are followed exactly (by eye rays
 //! and by the lines that cross them) instead of being stored as directional radiance
@@ -78,6 +79,7 @@ pub mod split;
 pub mod static_rays;
 pub mod subfield;
 pub mod surface;
+pub mod surface_edges;
 pub mod tile_albedo;
 pub mod tiles;
 pub mod view;

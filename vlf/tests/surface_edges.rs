@@ -1,0 +1,125 @@
+//! A bright square in front of a dark wall drawn with one lookup per pixel: along its
+//! outline each pixel shows the share of it each surface covers
+//! (`holocave_vlf::surface_edges`), not one of them whole.
+
+mod common;
+
+use std::sync::Arc;
+
+use glam::Vec3;
+use holocave_cave::WallView;
+use holocave_scene::color::luminance;
+use holocave_vlf::glow_edges::SUBPIXELS;
+use holocave_vlf::surface_edges;
+use holocave_vlf::view::shade_one;
+use holocave_vlf::{Settings, Visibility};
+
+/// The square's irradiance against the wall's: each shows `ρ/π` of it.
+const BRIGHT: f32 = 60.0;
+const DARK: f32 = 2.0;
+
+/// Against the same view drawn with 32 × 32 lookups per pixel, every pixel along the
+/// square's edges (its corners aside) is within `1 / (2 · SUBPIXELS)` of the contrast
+/// (half a ray's column in each column the edge crosses) plus the reference's own
+/// `1 / 64`; a corner's pixel, whose other side is taken from one neighbour, within twice
+/// that; with one lookup a pixel the edge cuts is off by a good part of the contrast.
+#[test]
+fn a_bright_squares_edges_show_the_share_of_each_pixel_it_covers() {
+    // The square moved by fractions of a pixel, so its edges cut pixels whose centres
+    // see it and pixels whose centres see the wall.
+    let mut before_worst = 0.0f32;
+    let mut looked = 0;
+    for shift in [0.0f32, 0.011, 0.023, 0.034] {
+        let (before, n) = bright_square_edges(Vec3::new(-0.37 + shift, -0.29 + shift, -1.5));
+        before_worst = before_worst.max(before);
+        looked += n;
+    }
+    assert!(looked > 100, "{looked} pixels looked at");
+    assert!(
+        before_worst > 0.4 * contrast(),
+        "the edges cut pixels: {before_worst}"
+    );
+}
+
+fn contrast() -> f32 {
+    (BRIGHT - DARK) * 0.5 * std::f32::consts::FRAC_1_PI
+}
+
+/// Asserts the bounds for the square with its corner at `o`; returns the worst error
+/// along an edge with one lookup, and how many pixels were looked at.
+fn bright_square_edges(o: Vec3) -> (f32, usize) {
+    let wall = common::quad(Vec3::new(-5.0, -5.0, -2.0), Vec3::X * 10.0, Vec3::Y * 10.0);
+    let (a, b) = (0.78, 0.7);
+    let square = common::quad(o, Vec3::X * a, Vec3::Y * b);
+    let tris: Vec<([Vec3; 3], u32)> = (wall.iter().map(|t| (*t, 0)))
+        .chain(square.iter().map(|t| (*t, 1)))
+        .collect();
+    let materials = vec![
+        common::lambert("wall", 0.5, Vec3::ZERO),
+        common::lambert("square", 0.5, Vec3::ZERO),
+    ];
+    let scene = Arc::new(common::scene(
+        "a bright square",
+        &tris,
+        materials,
+        Vec::new(),
+    ));
+    let vis = Visibility::of(scene, &Settings::default());
+    let mut values = vec![[DARK; 3]; vis.tiles().elements as usize];
+    for t in 2..4 {
+        let c = vis.elements().triangles[t];
+        let cells = holocave_vlf::elements::cells(c.res);
+        for e in c.base(0)..c.base(1) + cells {
+            values[e as usize] = [BRIGHT; 3];
+        }
+    }
+    let view = WallView {
+        eye: Vec3::new(0.03, 0.02, 1.0),
+        pa: Vec3::new(-1.0, -0.75, 0.0),
+        pb: Vec3::new(1.0, -0.75, 0.0),
+        pc: Vec3::new(-1.0, 0.75, 0.0),
+        width: 32,
+        height: 24,
+    };
+    let reference = vis.render(&view, &values, 32);
+    let corners: Vec<usize> = [(0.0, 0.0), (a, 0.0), (0.0, b), (a, b)]
+        .iter()
+        .filter_map(|&(x, y)| {
+            let c = o + Vec3::new(x, y, 0.0);
+            let (px, py) = view.project((c - view.eye).as_dvec3())?;
+            Some(py as usize * view.width as usize + px as usize)
+        })
+        .collect();
+    assert_eq!(corners.len(), 4);
+    let worst = |lookups: &[holocave_vlf::Lookup]| {
+        let mut w = (0.0f32, 0.0f32);
+        for (i, (l, r)) in lookups.iter().zip(&reference.pixels).enumerate() {
+            let e = (luminance(shade_one(l, &values)) - luminance(*r)).abs();
+            if corners.contains(&i) {
+                w.1 = w.1.max(e);
+            } else {
+                w.0 = w.0.max(e);
+            }
+        }
+        w
+    };
+    let (mut lookups, points) = vis.pixels_and_points(&view);
+    let before = worst(&lookups);
+    let looked = surface_edges::resolve(&vis, &view, &mut lookups, (&points, &values), &[]);
+    let after = worst(&lookups);
+    let k = SUBPIXELS as f32;
+    let edge = contrast() * (0.5 / k + 1.0 / 64.0);
+    eprintln!(
+        "corner at {o}: {looked} pixels looked at; worst error along an edge {:.3} with one \
+         lookup, {:.3} resolved (bound {edge:.3}); at a corner {:.3}, {:.3}",
+        before.0, after.0, before.1, after.1
+    );
+    assert!(after.0 <= edge, "along an edge {}, bound {edge}", after.0);
+    assert!(
+        after.1 <= 2.0 * edge,
+        "at a corner {}, bound {}",
+        after.1,
+        2.0 * edge
+    );
+    (before.0, looked)
+}
