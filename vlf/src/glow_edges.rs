@@ -54,22 +54,26 @@ fn glow_of(l: &Lookup, point: Option<&DirectPoint>) -> Option<Vec3> {
     (shaded || point.is_none()).then(|| Vec3::from(l.emitted))
 }
 
+/// The four neighbours of pixel `i` of a `w` × `h` image (rows from the top) that lie in
+/// it.
+pub(crate) fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = (i % w, i / w);
+    [
+        (x > 0).then(|| i - 1),
+        (x + 1 < w).then(|| i + 1),
+        (y > 0).then(|| i - w),
+        (y + 1 < h).then(|| i + w),
+    ]
+    .into_iter()
+    .flatten()
+}
+
 /// The pixels of `view` (rows from the top) whose glow differs from a neighbour's, found
 /// in `lookups` and their `points` before the direct light is added.
 pub fn find(view: &WallView, lookups: &[Lookup], points: &[Option<DirectPoint>]) -> GlowEdges {
     let (w, h) = (view.width as usize, view.height as usize);
     let glow = |i: usize| glow_of(&lookups[i], points.get(i).and_then(Option::as_ref));
-    let neighbours = move |i: usize| {
-        let (x, y) = (i % w, i / w);
-        [
-            (x > 0).then(|| i - 1),
-            (x + 1 < w).then(|| i + 1),
-            (y > 0).then(|| i - w),
-            (y + 1 < h).then(|| i + w),
-        ]
-        .into_iter()
-        .flatten()
-    };
+    let neighbours = move |i: usize| neighbours(i, w, h);
     let pixels = (0..(w * h).min(lookups.len()))
         .into_par_iter()
         .filter_map(|i| {

@@ -16,7 +16,7 @@ use holocave_cave::WallView;
 use holocave_scene::color::luminance;
 use rayon::prelude::*;
 
-use crate::glow_edges::SUBPIXELS;
+use crate::glow_edges::{SUBPIXELS, neighbours};
 use crate::pixel_direct::DirectPoint;
 use crate::view::{Lookup, Visibility, shade_one};
 
@@ -47,17 +47,7 @@ pub fn resolve(
         .map(|l| luminance(shade_one(l, values)))
         .collect();
     let floor = FLOOR * shown.par_iter().sum::<f32>() / n.max(1) as f32;
-    let neighbours = move |i: usize| {
-        let (x, y) = (i % w, i / w);
-        [
-            (x > 0).then(|| i - 1),
-            (x + 1 < w).then(|| i + 1),
-            (y > 0).then(|| i - w),
-            (y + 1 < h).then(|| i + w),
-        ]
-        .into_iter()
-        .flatten()
-    };
+    let neighbours = move |i: usize| neighbours(i, w, h);
     let differs = |i: usize, j: usize| {
         let d = (shown[i] - shown[j]).abs();
         d > CONTRAST * shown[i].max(shown[j]) && d > floor

@@ -7,7 +7,6 @@ mod common;
 use std::sync::Arc;
 
 use glam::Vec3;
-use holocave_cave::WallView;
 use holocave_scene::color::luminance;
 use holocave_vlf::glow_edges::{self, SUBPIXELS};
 use holocave_vlf::view::shade_one;
@@ -43,14 +42,7 @@ fn a_glowing_squares_edges_show_the_share_of_each_pixel_that_glows() {
     let vis = Visibility::of(scene, &Settings::default());
     let values = vec![[IRRADIANCE; 3]; vis.tiles().elements as usize];
     let contrast = GLOW - 0.5 * std::f32::consts::FRAC_1_PI * IRRADIANCE;
-    let view = WallView {
-        eye: Vec3::new(0.03, 0.02, 1.0),
-        pa: Vec3::new(-1.0, -0.75, 0.0),
-        pb: Vec3::new(1.0, -0.75, 0.0),
-        pc: Vec3::new(-1.0, 0.75, 0.0),
-        width: 32,
-        height: 24,
-    };
+    let view = common::edge_view();
     let reference = vis.render(&view, &values, 32);
     let (mut lookups, points) = vis.pixels_and_points(&view);
     let shown = |lookups: &[holocave_vlf::Lookup]| -> Vec<f32> {
@@ -60,14 +52,7 @@ fn a_glowing_squares_edges_show_the_share_of_each_pixel_that_glows() {
             .collect()
     };
     // The pixels holding a corner of the square, where two edges meet.
-    let corners: Vec<usize> = [(0.0, 0.0), (0.78, 0.0), (0.0, 0.7), (0.78, 0.7)]
-        .iter()
-        .filter_map(|&(a, b)| {
-            let c = Vec3::new(-0.37 + a, -0.29 + b, -1.5);
-            let (x, y) = view.project((c - view.eye).as_dvec3())?;
-            Some(y as usize * view.width as usize + x as usize)
-        })
-        .collect();
+    let corners = common::corner_pixels(&view, Vec3::new(-0.37, -0.29, -1.5), (0.78, 0.7));
     assert_eq!(corners.len(), 4);
     // The worst error on a pixel an edge crosses, and on one holding a corner.
     let worst = |shown: &[f32]| {

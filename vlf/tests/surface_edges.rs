@@ -7,7 +7,6 @@ mod common;
 use std::sync::Arc;
 
 use glam::Vec3;
-use holocave_cave::WallView;
 use holocave_scene::color::luminance;
 use holocave_vlf::glow_edges::SUBPIXELS;
 use holocave_vlf::surface_edges;
@@ -73,23 +72,9 @@ fn bright_square_edges(o: Vec3) -> (f32, usize) {
             values[e as usize] = [BRIGHT; 3];
         }
     }
-    let view = WallView {
-        eye: Vec3::new(0.03, 0.02, 1.0),
-        pa: Vec3::new(-1.0, -0.75, 0.0),
-        pb: Vec3::new(1.0, -0.75, 0.0),
-        pc: Vec3::new(-1.0, 0.75, 0.0),
-        width: 32,
-        height: 24,
-    };
+    let view = common::edge_view();
     let reference = vis.render(&view, &values, 32);
-    let corners: Vec<usize> = [(0.0, 0.0), (a, 0.0), (0.0, b), (a, b)]
-        .iter()
-        .filter_map(|&(x, y)| {
-            let c = o + Vec3::new(x, y, 0.0);
-            let (px, py) = view.project((c - view.eye).as_dvec3())?;
-            Some(py as usize * view.width as usize + px as usize)
-        })
-        .collect();
+    let corners = common::corner_pixels(&view, o, (a, b));
     assert_eq!(corners.len(), 4);
     let worst = |lookups: &[holocave_vlf::Lookup]| {
         let mut w = (0.0f32, 0.0f32);

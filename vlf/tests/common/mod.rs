@@ -187,3 +187,29 @@ pub fn two_seed_reference(
     let noise = a.relative_mse(&b) / 4.0;
     (mean, noise, [a, b])
 }
+
+/// A 32 × 24 view through a 2 m × 1.5 m screen at z = 0 from an eye 1 m in front of it,
+/// a little off its centre: what the edge tests draw (`glow_edges`, `surface_edges`).
+pub fn edge_view() -> holocave_cave::WallView {
+    holocave_cave::WallView {
+        eye: Vec3::new(0.03, 0.02, 1.0),
+        pa: Vec3::new(-1.0, -0.75, 0.0),
+        pb: Vec3::new(1.0, -0.75, 0.0),
+        pc: Vec3::new(-1.0, 0.75, 0.0),
+        width: 32,
+        height: 24,
+    }
+}
+
+/// The pixels of `view` holding the corners of the rectangle from `o` spanning `a` along
+/// x and `b` along y.
+pub fn corner_pixels(view: &holocave_cave::WallView, o: Vec3, (a, b): (f32, f32)) -> Vec<usize> {
+    [(0.0, 0.0), (a, 0.0), (0.0, b), (a, b)]
+        .iter()
+        .filter_map(|&(x, y)| {
+            let c = o + Vec3::new(x, y, 0.0);
+            let (px, py) = view.project((c - view.eye).as_dvec3())?;
+            Some(py as usize * view.width as usize + px as usize)
+        })
+        .collect()
+}
