@@ -468,9 +468,14 @@ impl VlfBase {
         if self.direct {
             self.add_direct(eye, view, &mut lookups, &pixels);
         }
-        let shading = (pixels.points.as_slice(), self.values());
         let vis = &self.visibility;
-        surface_edges::resolve(vis, &view.wall, &mut lookups, shading, &edges.pixels());
+        surface_edges::resolve(
+            vis,
+            &view.wall,
+            &mut lookups,
+            &pixels.points,
+            &edges.pixels(),
+        );
         edges.resolve(vis, &view.wall, &mut lookups);
         let out = f(lookups, &pixels);
         let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());

@@ -20,7 +20,7 @@ use holocave_scene::color::luminance;
 use rayon::prelude::*;
 
 use crate::pixel_direct::DirectPoint;
-use crate::view::{Lookup, Visibility};
+use crate::view::{Lookup, Visibility, grid_point};
 
 /// Rays along each side of a pixel at a glowing edge: a straight edge's share of the
 /// pixel is found within half a ray's column in each of the `SUBPIXELS` columns it
@@ -156,7 +156,7 @@ impl Coverage {
         let along = |o: Vec2| vis.glow_along(placed, view.ray(corner + o));
         let (mut glow, mut on_surface) = (Vec3::ZERO, 0u32);
         for s in 0..k * k {
-            let (g, surface) = along((Vec2::new((s % k) as f32, (s / k) as f32) + 0.5) / k as f32);
+            let (g, surface) = along(grid_point(s, k));
             glow += g;
             on_surface += u32::from(surface);
         }

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use crate::glow_edges::{SUBPIXELS, neighbours};
 use crate::pixel_direct::DirectPoint;
-use crate::view::{Lookup, Visibility, shade_one};
+use crate::view::{Lookup, Visibility, grid_point, shade_one};
 
 /// Radiance differing from a neighbour's by more than this share of the larger, and by
 /// more than [`FLOOR`] of the view's mean, marks an edge worth the rays.
@@ -31,10 +31,24 @@ fn on_plane(p: &DirectPoint, at: Vec3, t: f32) -> bool {
 }
 
 /// Draws the pixels of `lookups` (those of `view`, rows from the top, their points in
-/// `points`, shaded from `values`) at edges between surfaces with each side's share,
-/// but for those in `glowing` (in order: [`crate::glow_edges`]'); returns how many pixels
-/// it looked at.
+/// `points`) at edges between surfaces with each side's share, but for those in
+/// `glowing` (in order: [`crate::glow_edges`]'), shading the far side from the values
+/// `vis` draws with ([`Visibility::draw_with`]: nothing without them); returns how many
+/// pixels it looked at.
 pub fn resolve(
+    vis: &Visibility,
+    view: &WallView,
+    lookups: &mut [Lookup],
+    points: &[Option<DirectPoint>],
+    glowing: &[usize],
+) -> usize {
+    vis.with_drawn(|values, _| match values {
+        Some(values) => resolve_with(vis, view, lookups, (points, values), glowing),
+        None => 0,
+    })
+}
+
+fn resolve_with(
     vis: &Visibility,
     view: &WallView,
     lookups: &mut [Lookup],
@@ -78,8 +92,7 @@ pub fn resolve(
                 let corner = Vec2::new((i % w) as f32, (i / w) as f32);
                 let own = (0..k * k)
                     .filter(|s| {
-                        let o = (Vec2::new((s % k) as f32, (s / k) as f32) + 0.5) / k as f32;
-                        let ray = view.ray(corner + o);
+                        let ray = view.ray(corner + grid_point(*s, k));
                         placed
                             .closest_hit(&ray, f32::INFINITY)
                             .is_some_and(|hit| on_plane(p, ray.at(hit.t), hit.t))

@@ -210,7 +210,7 @@ impl Visibility {
 
     /// Runs `f` with the values given to [`Self::draw_with`], if any, and whether the
     /// per-pixel pass adds the direct light at the points.
-    fn with_drawn<T>(&self, f: impl FnOnce(Option<&[[f32; 3]]>, bool) -> T) -> T {
+    pub(crate) fn with_drawn<T>(&self, f: impl FnOnce(Option<&[[f32; 3]]>, bool) -> T) -> T {
         let drawn = self.drawn.read().unwrap_or_else(|e| e.into_inner());
         match drawn.as_ref() {
             Some((values, remainder)) => f(Some(values.as_slice()), *remainder),
@@ -791,11 +791,7 @@ impl Visibility {
             let (x, y) = ((i % w) as f32, (i / w) as f32);
             let mut sum = Vec3::ZERO;
             for s in 0..k * k {
-                let o = Vec2::new(
-                    ((s % k) as f32 + 0.5) / k as f32,
-                    ((s / k) as f32 + 0.5) / k as f32,
-                );
-                let ray = view.ray(Vec2::new(x, y) + o);
+                let ray = view.ray(Vec2::new(x, y) + grid_point(s, k));
                 let chain = follow(&placed, ray, &env);
                 let (l, p) = self.lookup_chain(
                     chain,
@@ -821,6 +817,12 @@ impl Visibility {
         });
         image
     }
+}
+
+/// The centre of cell `s` (row by row) of a `k × k` grid over a pixel, in the pixel's
+/// own coordinates (`[0, 1]²`): where the `s`-th of a pixel's `k²` rays passes.
+pub fn grid_point(s: u32, k: u32) -> Vec2 {
+    (Vec2::new((s % k) as f32, (s / k) as f32) + 0.5) / k as f32
 }
 
 /// The light field's part of the sky's light ([`crate::State::sky_values`]) as a prior

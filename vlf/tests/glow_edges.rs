@@ -24,21 +24,13 @@ const IRRADIANCE: f32 = 20.0;
 /// third of the glow, so a pixel that kept its whole surface part would be off by it.
 #[test]
 fn a_glowing_squares_edges_show_the_share_of_each_pixel_that_glows() {
-    let wall = common::quad(Vec3::new(-5.0, -5.0, -2.0), Vec3::X * 10.0, Vec3::Y * 10.0);
-    let lamp = common::quad(Vec3::new(-0.37, -0.29, -1.5), Vec3::X * 0.78, Vec3::Y * 0.7);
-    let tris: Vec<([Vec3; 3], u32)> = (wall.iter().map(|t| (*t, 0)))
-        .chain(lamp.iter().map(|t| (*t, 1)))
-        .collect();
-    let materials = vec![
+    let (o, size) = (Vec3::new(-0.37, -0.29, -1.5), (0.78, 0.7));
+    let materials = [
         common::lambert("wall", 0.5, Vec3::ZERO),
         common::lambert("lamp", 0.0, Vec3::splat(GLOW)),
     ];
-    let scene = Arc::new(common::scene(
-        "a glowing square",
-        &tris,
-        materials,
-        Vec::new(),
-    ));
+    let scene = common::square_before_a_wall("a glowing square", o, size, materials);
+    let scene = Arc::new(scene);
     let vis = Visibility::of(scene, &Settings::default());
     let values = vec![[IRRADIANCE; 3]; vis.tiles().elements as usize];
     let contrast = GLOW - 0.5 * std::f32::consts::FRAC_1_PI * IRRADIANCE;
@@ -52,7 +44,7 @@ fn a_glowing_squares_edges_show_the_share_of_each_pixel_that_glows() {
             .collect()
     };
     // The pixels holding a corner of the square, where two edges meet.
-    let corners = common::corner_pixels(&view, Vec3::new(-0.37, -0.29, -1.5), (0.78, 0.7));
+    let corners = common::corner_pixels(&view, o, size);
     assert_eq!(corners.len(), 4);
     // The worst error on a pixel an edge crosses, and on one holding a corner.
     let worst = |shown: &[f32]| {

@@ -47,21 +47,16 @@ fn contrast() -> f32 {
 /// Asserts the bounds for the square with its corner at `o`; returns the worst error
 /// along an edge with one lookup, and how many pixels were looked at.
 fn bright_square_edges(o: Vec3) -> (f32, usize) {
-    let wall = common::quad(Vec3::new(-5.0, -5.0, -2.0), Vec3::X * 10.0, Vec3::Y * 10.0);
     let (a, b) = (0.78, 0.7);
-    let square = common::quad(o, Vec3::X * a, Vec3::Y * b);
-    let tris: Vec<([Vec3; 3], u32)> = (wall.iter().map(|t| (*t, 0)))
-        .chain(square.iter().map(|t| (*t, 1)))
-        .collect();
-    let materials = vec![
+    let materials = [
         common::lambert("wall", 0.5, Vec3::ZERO),
         common::lambert("square", 0.5, Vec3::ZERO),
     ];
-    let scene = Arc::new(common::scene(
+    let scene = Arc::new(common::square_before_a_wall(
         "a bright square",
-        &tris,
+        o,
+        (a, b),
         materials,
-        Vec::new(),
     ));
     let vis = Visibility::of(scene, &Settings::default());
     let mut values = vec![[DARK; 3]; vis.tiles().elements as usize];
@@ -90,7 +85,8 @@ fn bright_square_edges(o: Vec3) -> (f32, usize) {
     };
     let (mut lookups, points) = vis.pixels_and_points(&view);
     let before = worst(&lookups);
-    let looked = surface_edges::resolve(&vis, &view, &mut lookups, (&points, &values), &[]);
+    vis.draw_with(Arc::new(values.clone()), false);
+    let looked = surface_edges::resolve(&vis, &view, &mut lookups, &points, &[]);
     let after = worst(&lookups);
     let k = SUBPIXELS as f32;
     let edge = contrast() * (0.5 / k + 1.0 / 64.0);

@@ -213,3 +213,20 @@ pub fn corner_pixels(view: &holocave_cave::WallView, o: Vec3, (a, b): (f32, f32)
         })
         .collect()
 }
+
+/// A wall at z = −2 facing +z (material 0, triangles 0 and 1) and before it, at `o` in
+/// z = −1.5, a square of `a` × `b` (material 1, triangles 2 and 3): what the edge tests
+/// look at through [`edge_view`].
+pub fn square_before_a_wall(
+    name: &str,
+    o: Vec3,
+    (a, b): (f32, f32),
+    [wall, square]: [Material; 2],
+) -> Scene {
+    let back = quad(Vec3::new(-5.0, -5.0, -2.0), Vec3::X * 10.0, Vec3::Y * 10.0);
+    let front = quad(o, Vec3::X * a, Vec3::Y * b);
+    let tris: Vec<([Vec3; 3], u32)> = (back.iter().map(|t| (*t, 0)))
+        .chain(front.iter().map(|t| (*t, 1)))
+        .collect();
+    scene(name, &tris, vec![wall, square], Vec::new())
+}
