@@ -10,6 +10,12 @@
 //! look like the neighbour beyond the edge (the one it differs from most whose point is
 //! not on that plane), whose radiance, shaded as the walls shade it, joins the lookup's
 //! emitted light while the lookup's own part is scaled to its share.
+//!
+//! A pixel whose centre sees no surface point (its ray leaves the scene, or a mirror
+//! shows nothing) is the dark side of such an edge: there the rays find the share that
+//! sees the plane of the neighbour's point, which takes that neighbour's radiance. On the
+//! Cornell box's front wall the floor's front edge and the mirror's outline were a
+//! quarter of the light field's error while only the bright side was drawn so.
 
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;
@@ -68,38 +74,53 @@ fn resolve_with(
     };
     let pixels: Vec<usize> = (0..n)
         .into_par_iter()
-        .filter(|&i| points[i].is_some() && neighbours(i).any(|j| differs(i, j)))
+        .filter(|&i| {
+            neighbours(i).any(|j| differs(i, j) && (points[i].is_some() || points[j].is_some()))
+        })
         .filter(|i| glowing.binary_search(i).is_err())
         .collect();
     let k = SUBPIXELS;
     let drawn: Vec<(usize, Lookup)> = vis.with_placed(|placed| {
         (pixels.par_iter())
             .filter_map(|&i| {
-                let p = points[i].as_ref()?;
-                // The neighbour beyond the edge: the one this pixel differs from most
-                // whose point is elsewhere than this point's plane.
-                let beyond = neighbours(i)
-                    .filter(|&j| differs(i, j))
-                    .filter(|&j| {
-                        points[j]
-                            .as_ref()
-                            .is_none_or(|q| !on_plane(p, q.position, 1.0))
-                    })
-                    .max_by(|&a, &b| {
-                        let d = |j: usize| (shown[i] - shown[j]).abs();
-                        d(a).total_cmp(&d(b))
-                    })?;
+                let d = |j: usize| (shown[i] - shown[j]).abs();
+                let widest =
+                    |js: &mut dyn Iterator<Item = usize>| js.max_by(|&a, &b| d(a).total_cmp(&d(b)));
+                // The neighbour beyond the edge, and the plane whose share of the pixel
+                // is this pixel's own: with a point of its own, the neighbour it differs
+                // from most whose point is elsewhere than this point's plane, and this
+                // point's plane; without, the neighbour it differs from most that has a
+                // point, and everything but that point's plane.
+                let (beyond, plane, own_is_on) = match points[i].as_ref() {
+                    Some(p) => {
+                        let beyond = widest(&mut neighbours(i).filter(|&j| {
+                            differs(i, j)
+                                && points[j]
+                                    .as_ref()
+                                    .is_none_or(|q| !on_plane(p, q.position, 1.0))
+                        }))?;
+                        (beyond, p, true)
+                    }
+                    None => {
+                        let beyond = widest(
+                            &mut neighbours(i).filter(|&j| differs(i, j) && points[j].is_some()),
+                        )?;
+                        (beyond, points[beyond].as_ref()?, false)
+                    }
+                };
                 let corner = Vec2::new((i % w) as f32, (i / w) as f32);
-                let own = (0..k * k)
+                let on = (0..k * k)
                     .filter(|s| {
                         let ray = view.ray(corner + grid_point(*s, k));
                         placed
                             .closest_hit(&ray, f32::INFINITY)
-                            .is_some_and(|hit| on_plane(p, ray.at(hit.t), hit.t))
+                            .is_some_and(|hit| on_plane(plane, ray.at(hit.t), hit.t))
                     })
                     .count();
-                let share = own as f32 / (k * k) as f32;
-                if own == 0 || own == (k * k) as usize {
+                let all = (k * k) as usize;
+                let own = if own_is_on { on } else { all - on };
+                let share = own as f32 / all as f32;
+                if own == 0 || own == all {
                     return None;
                 }
                 let l = &lookups[i];

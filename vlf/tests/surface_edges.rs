@@ -1,5 +1,5 @@
-//! A bright square in front of a dark wall drawn with one lookup per pixel: along its
-//! outline each pixel shows the share of it each surface covers
+//! A bright square in front of a dark wall, or of nothing, drawn with one lookup per
+//! pixel: along its outline each pixel shows the share of it each side covers
 //! (`holocave_vlf::surface_edges`), not one of them whole.
 
 mod common;
@@ -29,38 +29,62 @@ fn a_bright_squares_edges_show_the_share_of_each_pixel_it_covers() {
     let mut before_worst = 0.0f32;
     let mut looked = 0;
     for shift in [0.0f32, 0.011, 0.023, 0.034] {
-        let (before, n) = bright_square_edges(Vec3::new(-0.37 + shift, -0.29 + shift, -1.5));
+        let (before, n) = bright_square_edges(Vec3::new(-0.37 + shift, -0.29 + shift, -1.5), true);
         before_worst = before_worst.max(before);
         looked += n;
     }
     assert!(looked > 100, "{looked} pixels looked at");
     assert!(
-        before_worst > 0.4 * contrast(),
+        before_worst > 0.4 * contrast(DARK),
         "the edges cut pixels: {before_worst}"
     );
 }
 
-fn contrast() -> f32 {
-    (BRIGHT - DARK) * 0.5 * std::f32::consts::FRAC_1_PI
+/// The same with nothing behind the square: the pixels outside it whose centres see
+/// nothing take the share of them the square covers.
+#[test]
+fn a_bright_square_before_nothing_shows_the_share_of_each_pixel_it_covers() {
+    let mut before_worst = 0.0f32;
+    for shift in [0.0f32, 0.011, 0.023, 0.034] {
+        let (before, _) = bright_square_edges(Vec3::new(-0.37 + shift, -0.29 + shift, -1.5), false);
+        before_worst = before_worst.max(before);
+    }
+    assert!(
+        before_worst > 0.4 * contrast(0.0),
+        "the edges cut pixels: {before_worst}"
+    );
 }
 
-/// Asserts the bounds for the square with its corner at `o`; returns the worst error
-/// along an edge with one lookup, and how many pixels were looked at.
-fn bright_square_edges(o: Vec3) -> (f32, usize) {
+fn contrast(dark: f32) -> f32 {
+    (BRIGHT - dark) * 0.5 * std::f32::consts::FRAC_1_PI
+}
+
+/// Asserts the bounds for the square with its corner at `o`, before the dark wall or
+/// before nothing; returns the worst error along an edge with one lookup, and how many
+/// pixels were looked at.
+fn bright_square_edges(o: Vec3, wall: bool) -> (f32, usize) {
     let (a, b) = (0.78, 0.7);
     let materials = [
         common::lambert("wall", 0.5, Vec3::ZERO),
         common::lambert("square", 0.5, Vec3::ZERO),
     ];
-    let scene = Arc::new(common::square_before_a_wall(
-        "a bright square",
-        o,
-        (a, b),
-        materials,
-    ));
-    let vis = Visibility::of(scene, &Settings::default());
-    let mut values = vec![[DARK; 3]; vis.tiles().elements as usize];
-    for t in 2..4 {
+    let scene = if wall {
+        common::square_before_a_wall("a bright square", o, (a, b), materials)
+    } else {
+        let square = common::quad(o, Vec3::X * a, Vec3::Y * b);
+        let tris: Vec<_> = square.iter().map(|t| (*t, 1)).collect();
+        common::scene(
+            "a bright square alone",
+            &tris,
+            materials.to_vec(),
+            Vec::new(),
+        )
+    };
+    let vis = Visibility::of(Arc::new(scene), &Settings::default());
+    let dark = if wall { DARK } else { 0.0 };
+    let mut values = vec![[dark; 3]; vis.tiles().elements as usize];
+    let square = if wall { 2..4 } else { 0..2 };
+    for t in square {
         let c = vis.elements().triangles[t];
         let cells = holocave_vlf::elements::cells(c.res);
         for e in c.base(0)..c.base(1) + cells {
@@ -89,7 +113,7 @@ fn bright_square_edges(o: Vec3) -> (f32, usize) {
     let looked = surface_edges::resolve(&vis, &view, &mut lookups, &points, &[]);
     let after = worst(&lookups);
     let k = SUBPIXELS as f32;
-    let edge = contrast() * (0.5 / k + 1.0 / 64.0);
+    let edge = contrast(dark) * (0.5 / k + 1.0 / 64.0);
     eprintln!(
         "corner at {o}: {looked} pixels looked at; worst error along an edge {:.3} with one \
          lookup, {:.3} resolved (bound {edge:.3}); at a corner {:.3}, {:.3}",
