@@ -33,6 +33,7 @@ use glam::{Mat4, Vec3};
 use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
 use holocave_vlf::baked::{self, Opened};
+use holocave_vlf::footprint::Screen;
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::kept_gathers::KeptGathers;
 use holocave_vlf::split::Split;
@@ -190,6 +191,7 @@ impl VlfBase {
             direct: nee,
             remainder: indirect,
             sky,
+            caustics,
         } = Split::new(
             scene.clone(),
             &f.settings,
@@ -203,6 +205,9 @@ impl VlfBase {
         let indirect = Arc::new(indirect);
         let visibility = Visibility::new(scene, elements, tiles);
         visibility.light_objects(total.clone());
+        if let Some(c) = caustics {
+            visibility.draw_caustics(c);
+        }
         let base = VlfBase {
             total,
             indirect,
@@ -563,8 +568,9 @@ impl VlfBase {
             }),
             None => acc.add(direct, placed, points),
         });
-        let each = (lookups.par_iter_mut().zip(estimates)).zip(acc.counts());
-        each.for_each(|((l, d), &n)| {
+        let screen = Screen::of(&view.wall, 1);
+        let each = (lookups.par_iter_mut().zip(estimates)).zip(acc.counts().par_iter().zip(points));
+        each.for_each(|((l, d), (&n, p))| {
             let added = match &self.sky {
                 Some(values) => SkyPrior {
                     values,
@@ -574,7 +580,10 @@ impl VlfBase {
                 None => d.radiance,
             };
             let tile_albedo = direct.tile_albedo(l, &self.indirect);
-            l.emitted = (glam::Vec3::from(l.emitted) + added + tile_albedo).to_array();
+            let caustic = p.as_ref().map_or(glam::Vec3::ZERO, |p| {
+                self.visibility.caustic_light(l, p, Some(&screen))
+            });
+            l.emitted = (glam::Vec3::from(l.emitted) + added + tile_albedo + caustic).to_array();
             if d.object_shadow {
                 l.samples = 0.0;
             }

@@ -449,11 +449,12 @@ fn lookups_drawn_into_a_cache_on_another_device_are_sent_whole() {
 }
 
 /// Gathers kept in the field (`VlfBase::keep_gathers`): the gathers of a still view, kept
-/// in the elements they land on, bring what the field shows from 15 cm away — as after
-/// the head moved, where a screen's samples are left behind — closer to the path-traced
-/// reference; and the render cache shades the kept values as the CPU does once they are
-/// uploaded (`RenderCache::update_vlf_values`). Each pixel's direct light averaged over 64
-/// frames on both sides, so that what differs is the field's remainder.
+/// in the elements they land on, hold what the field's remainder holds — its caustics
+/// left out, which the walls take per pixel — so what the field shows from 15 cm away (as
+/// after the head moved, where a screen's samples are left behind) stays as close to the
+/// path-traced reference; and the render cache shades the kept values as the CPU does once
+/// they are uploaded (`RenderCache::update_vlf_values`). Each pixel's direct light
+/// averaged over 64 frames on both sides, so that what differs is the field's remainder.
 #[test]
 fn gathers_kept_in_the_field_show_from_another_eye() {
     const SIZE: u32 = 32;
@@ -503,10 +504,13 @@ fn gathers_kept_in_the_field_show_from_another_eye() {
     eprintln!(
         "from 15 cm away, against 4096 spp: the field {field:.5}, with the gathers kept {with_kept:.5}"
     );
-    // The vlf crate's test of the same (`tests/gather.rs`) finds 0.55× net of the
-    // reference's noise; with that noise in both figures, below 0.8×.
+    // With the caustics per pixel this coarse field is already near the reference
+    // (0.0370 before them, 0.0084 now), and the kept gathers add their noise (2 % here);
+    // kept with their caustics as well, which the walls also take per pixel, they were
+    // 23 % worse. The vlf crate's test (`tests/gather.rs`) holds their gain where the
+    // field is wrong.
     assert!(
-        with_kept < 0.8 * field,
+        with_kept < 1.1 * field,
         "kept {with_kept:.5}, the field {field:.5}"
     );
 

@@ -416,6 +416,9 @@ fn view(a: ViewArgs) -> Result<()> {
     let values = std::sync::Arc::new(f.state.values());
     vis.light_objects(values.clone());
     vis.place_objects(&a.objects.placements(&scene)?);
+    if let Some(c) = &split.caustics {
+        vis.draw_caustics(c.clone());
+    }
     let direct = &split.direct;
     let image = if a.no_direct || direct.is_empty() {
         vis.render(&view, &values, a.aa)

@@ -104,6 +104,11 @@ pub struct State {
     pub sky: Vec<[f32; 3]>,
     /// The same part of `tiles`.
     pub tiles_sky: Vec<[f32; 3]>,
+    /// The part of `irradiance` that emitters sent through mirrors and glass at the first
+    /// bounce, their caustics (kept sharp, as the direct part): what a view that takes
+    /// caustics per pixel ([`crate::caustics`]) leaves out. Empty in a scene without
+    /// mirrors or glass.
+    pub caustics: Vec<[f32; 3]>,
     /// The flux (luminance) that first reached the surfaces: direct light, the sky along
     /// the lines, what delta surfaces show.
     pub arrived: f64,
@@ -675,6 +680,9 @@ pub fn bake_with<E>(
                 s.sky = sky_first.clone();
                 s.tiles_sky = sky_first_tiles.clone();
             }
+            s.caustics = caustics
+                .as_ref()
+                .map_or_else(Vec::new, |c| c.irradiance.clone());
             s
         }
         None => {
@@ -691,6 +699,9 @@ pub fn bake_with<E>(
                 tiles_direct: direct_tiles,
                 sky: sky_first.clone(),
                 tiles_sky: sky_first_tiles.clone(),
+                caustics: caustics
+                    .as_ref()
+                    .map_or_else(Vec::new, |c| c.irradiance.clone()),
                 arrived,
                 residuals: vec![residual],
                 converged: false,

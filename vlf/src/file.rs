@@ -12,16 +12,19 @@
 //! `IRRA` that came by next-event estimation: what a view computing the direct light per
 //! pixel leaves out), `TDIR` (the same part of `TILE`), `SKYE` (the part of `IRRA` that
 //! the sky sent along the lines at the first bounce: what a view taking the sky per pixel
-//! as well leaves out) and `TSKY` (the same part of `TILE`).
+//! as well leaves out), `TSKY` (the same part of `TILE`) and `CAUS` (the part of `IRRA`
+//! that emitters sent through mirrors and glass at the first bounce, their caustics: what
+//! a view taking caustics per pixel leaves out; empty without mirrors or glass).
 //!
 //! Version 2 added the glossy tiles (the threshold and bins in `META`, `TILE`, `TLST`);
 //! version 3 the direct parts (`DIRE`, `TDIR`); version 4 the sky's (`SKYE`, `TSKY`), and
 //! no tile on a glossy element smaller than a line's reach (a new layout); version 5 the
 //! tiles' bins averaged over each bin (same layout, other values); version 6 no tile on a
-//! glossy element smaller than four times a line's reach, pooled instead (a new layout).
+//! glossy element smaller than four times a line's reach, pooled instead (a new layout);
+//! version 7 the caustics' part (`CAUS`).
 //! An older file is refused with the version it has (bake it again): read as this
 //! version it would draw its direct light twice (1, 2), have another tile layout (3, 5),
-//! or its glossy surfaces 5 % too dark (4).
+//! or its glossy surfaces 5 % too dark (4), or draw its caustics twice (6).
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -32,11 +35,11 @@ use holocave_scene::Scene;
 use crate::bake::{Settings, State};
 
 const MAGIC: &[u8; 8] = b"HOLOVLF\0";
-const VERSION: u32 = 6;
+const VERSION: u32 = 7;
 const HEADER: usize = 16;
 const CHUNK_HEADER: usize = 16;
-/// Chunks in a file: META, IRRA, LAST, TILE, TLST, DIRE, TDIR, SKYE, TSKY.
-const CHUNKS: u32 = 9;
+/// Chunks in a file: META, IRRA, LAST, TILE, TLST, DIRE, TDIR, SKYE, TSKY, CAUS.
+const CHUNKS: u32 = 10;
 
 #[derive(Debug, thiserror::Error)]
 pub enum VlfError {
@@ -165,6 +168,8 @@ impl VlfFile {
         put_f32s(&mut skye, &self.state.sky);
         let mut tsky = Vec::new();
         put_f32s(&mut tsky, &self.state.tiles_sky);
+        let mut caus = Vec::new();
+        put_f32s(&mut caus, &self.state.caustics);
         for (tag, payload) in [
             (b"META", self.meta()),
             (b"IRRA", irra),
@@ -175,6 +180,7 @@ impl VlfFile {
             (b"TDIR", tdir),
             (b"SKYE", skye),
             (b"TSKY", tsky),
+            (b"CAUS", caus),
         ] {
             bytes.extend_from_slice(tag);
             bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
@@ -324,8 +330,19 @@ impl Reader<'_> {
         tag: &'static str,
         count: u64,
     ) -> Result<Vec<[f32; 3]>, VlfError> {
+        self.array_of(at, tag, &[count])
+    }
+
+    /// An array of any of `counts` values (the first named in an error).
+    fn array_of(
+        &self,
+        at: &mut usize,
+        tag: &'static str,
+        counts: &[u64],
+    ) -> Result<Vec<[f32; 3]>, VlfError> {
         let (p, base) = self.chunk(at, tag)?;
-        if p.len() as u64 != count * 12 {
+        let count = counts[0];
+        if !counts.iter().any(|&c| p.len() as u64 == c * 12) {
             return Err(VlfError::Malformed {
                 path: self.path.into(),
                 chunk: tag.into(),
@@ -409,10 +426,12 @@ impl Reader<'_> {
         let tiles_direct = self.array(&mut at, "TDIR", tile_count)?;
         let sky = self.array(&mut at, "SKYE", count)?;
         let tiles_sky = self.array(&mut at, "TSKY", tile_count)?;
+        // Empty without mirrors or glass.
+        let caustics = self.array_of(&mut at, "CAUS", &[count, 0])?;
         if at != self.bytes.len() {
             return Err(VlfError::Malformed {
                 path: path.into(),
-                chunk: "TSKY".into(),
+                chunk: "CAUS".into(),
                 offset: at as u64,
                 what: format!("{} bytes after the last chunk", self.bytes.len() - at),
             });
@@ -441,6 +460,7 @@ impl Reader<'_> {
                 tiles_direct,
                 sky,
                 tiles_sky,
+                caustics,
                 arrived,
                 residuals,
                 converged,

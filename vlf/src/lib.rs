@@ -36,7 +36,9 @@
 //!   the GPU);
 //! - [`glow_edges`]: the edges of emitters and the sky drawn with their share of the
 //!   pixel (a wall takes one lookup through each pixel's centre), and
-//!   [`surface_edges`]: the edges between a bright and a dark surface, likewise.
+//!   [`surface_edges`]: the edges between a bright and a dark surface, likewise;
+//! - [`caustics`]: the emitters' light through mirrors and glass per pixel, from a photon
+//!   map, where the field's elements would blur it.
 //!
 //! What differs from the paper: mirrors and smooth glass are followed exactly (by eye rays
 //! and by the lines that cross them) instead of being stored as directional radiance
@@ -58,10 +60,12 @@
 pub mod accuracy;
 pub mod bake;
 pub mod baked;
+pub mod caustics;
 pub mod direct;
 pub mod directions;
 pub mod elements;
 pub mod file;
+pub mod footprint;
 pub mod gather;
 pub mod glow_edges;
 pub mod kept_gathers;

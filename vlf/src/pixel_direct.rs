@@ -51,6 +51,7 @@ use holocave_tracer::sampling::power_heuristic;
 use rayon::prelude::*;
 use std::sync::Arc;
 
+use crate::footprint::Screen;
 use crate::sequence::{R2, R3, r_sequence};
 use crate::static_rays::{StaticRays, per_group};
 use crate::tile_albedo::TileAlbedo;
@@ -729,26 +730,6 @@ struct Seen {
     anchor: Vec3,
 }
 
-/// Whether `q` lies in the footprint on its surface of the pixel that sees `p` along `v`
-/// (eye to point), for a screen of `pixel` metres a pixel with unit normal `normal`,
-/// `to_screen` from the eye. At the point's depth a pixel covers `pixel · depth /
-/// to_screen` in the plane parallel to the screen; on the surface, that square is
-/// stretched along the view's trace by `cos(screen) / cos(surface)` (a floor seen at a
-/// grazing angle from a wall: many times) and keeps its width across: the footprint is
-/// the ellipse with those half-axes round the point.
-fn in_footprint(q: Vec3, p: &DirectPoint, v: Vec3, screen: (f32, Vec3, f32)) -> bool {
-    let (pixel, normal, to_screen) = screen;
-    let dir = v.normalize_or_zero();
-    let depth_cos = dir.dot(normal).abs();
-    let width = pixel * v.length() * depth_cos / to_screen.max(f32::MIN_POSITIVE);
-    let length = width * depth_cos / dir.dot(p.normal).abs().max(1e-3);
-    let trace = (dir - p.normal * p.normal.dot(dir)).normalize_or_zero();
-    let d = q - p.position;
-    let along = d.dot(trace);
-    let across = (d - trace * along).length();
-    (along / length).powi(2) + (across / width).powi(2) <= 1.0
-}
-
 /// What a pixel keeps between frames: where its mean was made, the sum of its estimates
 /// and their count.
 type PixelMean = (Option<Seen>, Estimate, u32);
@@ -870,12 +851,7 @@ impl Accumulator {
             self.restart();
             return;
         }
-        // Metres per pixel on the screen, and the screen's plane.
-        let pixel = (from.pb - from.pa).length() / from.width as f32;
-        let normal = (from.pb - from.pa)
-            .cross(from.pc - from.pa)
-            .normalize_or_zero();
-        let to_screen = (from.pa - from.eye).dot(normal).abs();
+        let screen = Screen::of(from, 1);
         let (seen, sum, count) = (&self.seen, &self.sum, &self.count);
         let carried: Vec<PixelMean> = points
             .par_iter()
@@ -893,7 +869,7 @@ impl Accumulator {
                 match seen[j] {
                     Some(s)
                         if s.triangle == p.triangle
-                            && in_footprint(s.anchor, p, v, (pixel, normal, to_screen)) =>
+                            && screen.footprint(p, 1.0).contains(s.anchor) =>
                     {
                         let carried = Seen {
                             last: p.position,

@@ -14,12 +14,19 @@
 //! pixel instead, and the field is read less its sky
 //! ([`State::indirect_values_without_sky`]), under the field's sky as a prior
 //! ([`crate::view::SkyPrior`]).
+//!
+//! Where emitters shine through mirrors and glass, their caustics are taken per pixel
+//! from a photon map ([`Caustics`]) and the field is read less its caustic part
+//! ([`State::caustics`]).
 
 use std::sync::Arc;
 
 use holocave_scene::Scene;
 
+use holocave_tracer::lights::Lights;
+
 use crate::bake::{Settings, State};
+use crate::caustics::{Caustics, PHOTONS};
 use crate::elements::Elements;
 use crate::pixel_direct::PixelDirect;
 use crate::plane_smooth::smooth_over_planes;
@@ -35,6 +42,9 @@ pub struct Split {
     /// With the whole sky per pixel, the field's sky: the prior of the pixels' own mean
     /// ([`crate::view::SkyPrior`]).
     pub sky: Option<Vec<[f32; 3]>>,
+    /// The emitters' caustics per pixel, where the scene has any and the field holds
+    /// their part ([`crate::view::Visibility::draw_caustics`]).
+    pub caustics: Option<Arc<Caustics>>,
 }
 
 impl Split {
@@ -50,16 +60,30 @@ impl Split {
     ) -> Result<Split, String> {
         let direct = PixelDirect::new(scene.clone());
         let directions = Settings::rounded_directions(settings.directions);
+        let caustics = (state.caustics.len() == elements.count)
+            .then(|| Caustics::trace(&scene, &Lights::new(&scene), PHOTONS))
+            .flatten()
+            .map(Arc::new);
+        // The field less what is taken per pixel; smoothed over planes after, so that
+        // the caustics' sharp part is not spread into the rest.
+        let remainder = |values: Vec<[f32; 3]>| {
+            let values = match &caustics {
+                Some(_) => less_caustics(values, &state.caustics),
+                None => values,
+            };
+            smooth_over_planes(&scene, elements, tiles, &values)
+        };
         if sky_per_pixel {
             let parts = state.indirect_values_without_sky().zip(state.sky_values());
-            let (remainder, field_sky) = parts
+            let (without_sky, field_sky) = parts
                 .ok_or("holds no sky part: bake it again to take the sky per pixel".to_string())?;
             return Ok(Split {
                 direct: direct
                     .with_sky(true)
                     .with_tile_albedo(TileAlbedo::new(tiles, directions, None)),
-                remainder: smooth_over_planes(&scene, elements, tiles, &remainder),
+                remainder: remainder(without_sky),
                 sky: Some(field_sky),
+                caustics,
             });
         }
         let floor = alpha_floor(settings.tile_bins, directions);
@@ -69,8 +93,18 @@ impl Split {
             direct: direct
                 .with_sharp_sky_reflections(floor, tiles.triangles_widened(elements))
                 .with_tile_albedo(tile_albedo),
-            remainder: smooth_over_planes(&scene, elements, tiles, &state.indirect_values()),
+            remainder: remainder(state.indirect_values()),
             sky: None,
+            caustics,
         })
     }
+}
+
+/// `values` (the elements', then the tiles') less the elements' `caustics`; never below
+/// zero (the rounding of the subtraction).
+fn less_caustics(mut values: Vec<[f32; 3]>, caustics: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    for (v, c) in values.iter_mut().zip(caustics) {
+        *v = std::array::from_fn(|k| (v[k] - c[k]).max(0.0));
+    }
+    values
 }

@@ -29,7 +29,9 @@ use rayon::prelude::*;
 
 use crate::StaticRays;
 use crate::bake::{environment, sky};
+use crate::caustics::Caustics;
 use crate::elements::{Elements, bilinear_cells, interpolate};
+use crate::footprint::Screen;
 use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
@@ -109,6 +111,10 @@ pub struct Arriving {
     /// Set when the ray ends on an emitter over exactly one delta surface (a mirror when
     /// the tracer samples lights through it).
     pub over_mirror: Option<OverMirror>,
+    /// The part of `radiance` that is an emitter seen through mirrors and glass: the
+    /// emitters' caustics, where the walls take them per pixel
+    /// ([`Visibility::caustic_light`]).
+    pub caustic: Vec3,
 }
 
 /// An emitter seen over one delta surface: that part of [`Arriving::radiance`], and the
@@ -148,6 +154,9 @@ pub struct Visibility {
     /// Whether the objects darken the light field's part near them (off only to measure
     /// what that does: [`Visibility::without_darkening`]).
     darkening: bool,
+    /// The emitters' caustics, taken per pixel with the direct light
+    /// ([`Visibility::draw_caustics`]).
+    caustics: OnceLock<Arc<Caustics>>,
 }
 
 impl Visibility {
@@ -163,6 +172,37 @@ impl Visibility {
             lights,
             light: OnceLock::new(),
             drawn: RwLock::new(None),
+            caustics: OnceLock::new(),
+        }
+    }
+
+    /// Takes the emitters' caustics per pixel from `caustics` wherever the direct light is
+    /// (the remainder drawn then leaves their part out: [`crate::split::Split`]).
+    pub fn draw_caustics(&self, caustics: Arc<Caustics>) {
+        let _ = self.caustics.set(caustics);
+    }
+
+    /// Whether the caustics are taken per pixel ([`Visibility::draw_caustics`]).
+    pub fn caustics_per_pixel(&self) -> bool {
+        self.caustics.get().is_some()
+    }
+
+    /// The caustics' light towards the eye of lookup `l`, whose point is `p`: its weight
+    /// (`ρ/π` and what the delta surfaces on the way let through) times the irradiance
+    /// the photons bring there, where it sees an element (a glossy tile keeps its own);
+    /// averaged over the pixel's footprint where the point is seen straight from the
+    /// eye of `screen` (through mirrors and glass the footprint is not known).
+    pub fn caustic_light(&self, l: &Lookup, p: &DirectPoint, screen: Option<&Screen>) -> Vec3 {
+        match self.caustics.get() {
+            Some(c) if l.base != u32::MAX => {
+                let straight = p.weight == Vec3::ONE;
+                // A pixel's area as an ellipse's: half-axes 1/√π of its sides.
+                let footprint = screen
+                    .filter(|_| straight)
+                    .map(|s| s.footprint(p, std::f32::consts::PI.sqrt().recip()));
+                Vec3::from(l.weight) * c.irradiance(p.position, p.normal, footprint)
+            }
+            _ => Vec3::ZERO,
         }
     }
 
@@ -280,6 +320,10 @@ impl Visibility {
             }
             _ => None,
         };
+        let caustic = match &chain.end {
+            Some((s, _)) if chain.deltas > 0 => chain.weight * s.emitted,
+            _ => Vec3::ZERO,
+        };
         // Straight out of the scene: the sky only (the sun comes by next-event
         // estimation); onto a surface: not its emission (the emitters come so too).
         let escaped = chain.end.is_none();
@@ -298,6 +342,7 @@ impl Visibility {
             lookup: l,
             point,
             over_mirror,
+            caustic,
         }
     }
 
@@ -787,6 +832,7 @@ impl Visibility {
         let env = environment(&self.lights);
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
+        let screen = Screen::of(view, k);
         image.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
             let (x, y) = ((i % w) as f32, (i / w) as f32);
             let mut sum = Vec3::ZERO;
@@ -810,7 +856,7 @@ impl Visibility {
                     sum += match &sky {
                         Some(prior) => prior.direct(&l, &e, estimates),
                         None => e.radiance,
-                    };
+                    } + self.caustic_light(&l, &p, Some(&screen));
                 }
             }
             *px = sum / (k * k) as f32;

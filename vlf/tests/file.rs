@@ -116,7 +116,7 @@ fn a_truncated_file_names_the_chunk_and_offset() {
     assert_eq!(
         chunks.iter().map(|c| c.0.as_str()).collect::<Vec<_>>(),
         [
-            "META", "IRRA", "LAST", "TILE", "TLST", "DIRE", "TDIR", "SKYE", "TSKY"
+            "META", "IRRA", "LAST", "TILE", "TLST", "DIRE", "TDIR", "SKYE", "TSKY", "CAUS"
         ]
     );
     // Cuts in the header (in the magic number, in the version and count after it), and in
@@ -190,7 +190,7 @@ fn a_damaged_byte_names_the_chunk() {
     // (another tile layout, no sky's part), a version 4 one (its tiles' bins taken at
     // their centres) and a version 5 one (tiles on elements up to four times smaller) are
     // refused, saying to bake it again.
-    for version in [1u32, 2, 3, 4, 5] {
+    for version in [1u32, 2, 3, 4, 5, 6] {
         let mut old = bytes.clone();
         old[8..12].copy_from_slice(&version.to_le_bytes());
         let (p, r) = read_bytes(dir.path(), "old.vlf", &old);
@@ -218,7 +218,7 @@ fn a_damaged_byte_names_the_chunk() {
     let e = r.unwrap_err();
     names_file(&e, &p);
     assert!(
-        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "TSKY" && *offset == bytes.len() as u64),
+        matches!(&e, VlfError::Malformed { chunk, offset, .. } if chunk == "CAUS" && *offset == bytes.len() as u64),
         "{e:?}"
     );
 
@@ -489,4 +489,28 @@ fn a_kept_bake_is_set_aside_for_another_version_of_its_scene_and_comes_back() {
     assert_eq!(back.state.irradiance, made.state.irradiance);
     assert!(set_aside_path(&out, second.fingerprint()).exists());
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_caustics_part_reads_back_and_a_wrong_length_is_refused() {
+    // Empty (no mirror or glass) and one value an element both read back; any other
+    // length is refused, naming the chunk.
+    let dir = tempfile::tempdir().unwrap();
+    let mut f = baked(&furnace("box", 0.5));
+    assert!(f.state.caustics.is_empty(), "a furnace has no caustics");
+    let n = f.state.irradiance.len();
+    f.state.caustics = (0..n).map(|i| [i as f32, 0.5, 2.0]).collect();
+    let path = dir.path().join("caustics.vlf");
+    f.write(&path).unwrap();
+    assert_eq!(VlfFile::read(&path).unwrap(), f);
+
+    f.state.caustics.pop();
+    let path = dir.path().join("short.vlf");
+    f.write(&path).unwrap();
+    let e = VlfFile::read(&path).unwrap_err();
+    names_file(&e, &path);
+    assert!(
+        matches!(&e, VlfError::Malformed { chunk, .. } if chunk == "CAUS"),
+        "{e:?}"
+    );
 }

@@ -35,6 +35,7 @@ fn tail_of_a_geometric_series_is_what_is_left() {
         tiles_direct: vec![],
         sky: vec![],
         tiles_sky: vec![],
+        caustics: vec![],
         arrived: 1.0,
         residuals: r[..3].to_vec(),
         converged: false,
