@@ -119,6 +119,9 @@ struct History {
     eye: usize,
     view: WallView,
     means: Accumulator,
+    /// Each pixel's point and the caustics' light there as last drawn: a still view's
+    /// pixels see the same points frame after frame, and take it again from here.
+    caustics: Vec<(Vec3, Vec3)>,
 }
 
 /// Emissive triangles beyond this many are taken together, as one light the size of all.
@@ -532,7 +535,7 @@ impl VlfBase {
         // in place of the least recently drawn. Never the other eye's: the two eyes of a
         // wall would take each other's in turn, carrying the means across the eyes'
         // parallax every frame.
-        let (mut acc, moved_from) = {
+        let (mut acc, moved_from, kept_caustics) = {
             let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
             let own_screen = |x: &History| x.eye == eye && x.view.same_screen(&view.wall);
             let nearest = (0..h.len())
@@ -542,11 +545,14 @@ impl VlfBase {
                     d(a).total_cmp(&d(b))
                 });
             match h.iter().position(|x| own_screen(x) && x.view == view.wall) {
-                Some(i) => (h.swap_remove(i).means, None),
+                Some(i) => {
+                    let x = h.swap_remove(i);
+                    (x.means, None, x.caustics)
+                }
                 None => match nearest {
                     Some(i) => {
                         let x = h.swap_remove(i);
-                        (x.means, Some(x.view))
+                        (x.means, Some(x.view), Vec::new())
                     }
                     None => {
                         if h.len() >= HISTORIES
@@ -554,7 +560,7 @@ impl VlfBase {
                         {
                             h.swap_remove(oldest);
                         }
-                        (Accumulator::new(), None)
+                        (Accumulator::new(), None, Vec::new())
                     }
                 },
             }
@@ -569,8 +575,22 @@ impl VlfBase {
             None => acc.add(direct, placed, points),
         });
         let screen = Screen::of(&view.wall, 1);
-        let each = (lookups.par_iter_mut().zip(estimates)).zip(acc.counts().par_iter().zip(points));
-        each.for_each(|((l, d), (&n, p))| {
+        let caustics: Vec<(Vec3, Vec3)> = (points.par_iter().zip(&*lookups))
+            .enumerate()
+            .map(|(i, (p, l))| match p {
+                Some(p) => match kept_caustics.get(i) {
+                    Some(&(at, c)) if at == p.position => (at, c),
+                    _ => (
+                        p.position,
+                        self.visibility.caustic_light(l, p, Some(&screen)),
+                    ),
+                },
+                None => (Vec3::NAN, Vec3::ZERO),
+            })
+            .collect();
+        let each =
+            (lookups.par_iter_mut().zip(estimates)).zip(acc.counts().par_iter().zip(&caustics));
+        each.for_each(|((l, d), (&n, &(_, caustic)))| {
             let added = match &self.sky {
                 Some(values) => SkyPrior {
                     values,
@@ -580,9 +600,6 @@ impl VlfBase {
                 None => d.radiance,
             };
             let tile_albedo = direct.tile_albedo(l, &self.indirect);
-            let caustic = p.as_ref().map_or(glam::Vec3::ZERO, |p| {
-                self.visibility.caustic_light(l, p, Some(&screen))
-            });
             l.emitted = (glam::Vec3::from(l.emitted) + added + tile_albedo + caustic).to_array();
             if d.object_shadow {
                 l.samples = 0.0;
@@ -595,6 +612,7 @@ impl VlfBase {
             eye,
             view: view.wall,
             means: acc,
+            caustics,
         });
     }
 }
