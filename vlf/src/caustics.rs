@@ -20,6 +20,7 @@
 
 use glam::{IVec3, Vec2, Vec3};
 use holocave_scene::color::luminance;
+use holocave_scene::ray::surface_epsilon;
 use holocave_scene::{PlacedScene, Ray, Scene};
 use holocave_tracer::lights::Lights;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
@@ -106,27 +107,45 @@ impl Targets {
 }
 
 impl Caustics {
-    /// The caustic map of `scene`'s static part, `photons` shot (the same on any machine:
-    /// each photon draws from its own seeded generator); `None` without emitters or
-    /// without mirrors and glass.
+    /// The caustic map of `scene`'s static part, `photons` shot from each kind of light
+    /// it has — its emitters, the sun, its punctual lights — (the same on any machine:
+    /// each photon draws from its own seeded generator); `None` without mirrors and glass
+    /// or without lights.
     pub fn trace(scene: &Scene, lights: &Lights, photons: usize) -> Option<Caustics> {
         let targets = Targets::of(scene)?;
-        lights.sample_area_point(0.5, Vec2::splat(0.5))?;
         let placed = scene.statics();
+        let (lo, hi) = scene.bounds();
+        let diagonal = (hi - lo).length().max(f32::MIN_POSITIVE);
+        let kinds = [
+            lights.has_area().then_some(Kind::Emitters),
+            lights.sun.is_some().then_some(Kind::Sun),
+            (!lights.punctual.is_empty()).then_some(Kind::Punctual),
+        ];
+        let kinds: Vec<Kind> = kinds.into_iter().flatten().collect();
+        if kinds.is_empty() {
+            return None;
+        }
         let scale = 1.0 / photons as f32;
-        let stored: Vec<Photon> = (0..photons)
+        let stored: Vec<Photon> = (kinds.iter().enumerate())
+            .flat_map(|(k, &kind)| (0..photons).map(move |i| (k, kind, i)))
+            .collect::<Vec<_>>()
             .into_par_iter()
-            .filter_map(|i| {
-                let mut rng = SmallRng::seed_from_u64(i as u64 ^ 0x9e37_79b9_7f4a_7c15);
-                shoot(scene, &placed, lights, &targets, &mut rng).map(|mut p| {
+            .filter_map(|(k, kind, i)| {
+                let seed = ((k * photons + i) as u64) ^ 0x9e37_79b9_7f4a_7c15;
+                let mut rng = SmallRng::seed_from_u64(seed);
+                let light = Light {
+                    scene,
+                    lights,
+                    kind,
+                    diagonal,
+                };
+                shoot(scene, &placed, &light, &targets, &mut rng).map(|mut p| {
                     p.power *= scale;
                     p
                 })
             })
             .collect();
-        let (lo, hi) = scene.bounds();
-        let reach = REACH * (hi - lo).length().max(f32::MIN_POSITIVE);
-        Some(Caustics::of(stored, reach))
+        Some(Caustics::of(stored, REACH * diagonal))
     }
 
     fn of(mut photons: Vec<Photon>, reach: f32) -> Caustics {
@@ -286,42 +305,93 @@ const SCANNED: usize = 16 * NEAREST;
 /// angle stretches a pixel's footprint far along the view).
 pub const FOOTPRINT_REACHES: f32 = 4.0;
 
-/// One photon: an emitter point and a delta-surface point drawn, its power from the
-/// pair's geometry (unscaled by the photon count), carried through the delta surfaces to
-/// the first that is not; `None` where the two do not see each other or the photon is
-/// lost.
+/// The lights photons are shot from, a kind at a time: only these reach a surface through
+/// mirrors and glass without the walls or the field holding it already (the emitters'
+/// part is the field's caustic part, which the walls then leave out; the sun's and the
+/// punctual lights' are in neither: their shadow rays stop at glass and mirrors, and the
+/// field's lines carry the sky, not the sun's disc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    Emitters,
+    Sun,
+    Punctual,
+}
+
+struct Light<'a> {
+    scene: &'a Scene,
+    lights: &'a Lights,
+    kind: Kind,
+    /// The scene's diagonal: a ray from beyond it stands for the sun's.
+    diagonal: f32,
+}
+
+impl Light<'_> {
+    /// Where a photon towards `target` starts, its unit direction and the distance to the
+    /// target, and its power there over the target's area (the light's radiance or
+    /// intensity, the geometry, the density of the light's sample; the target's cosine
+    /// and density are the caller's); `None` where it sends nothing that way.
+    fn towards(&self, target: Vec3, rng: &mut SmallRng) -> Option<(Vec3, Vec3, f32, Vec3)> {
+        match self.kind {
+            Kind::Emitters => {
+                let (uc, u) = (rng.random(), Vec2::new(rng.random(), rng.random()));
+                let light = self.lights.sample_area_point(uc, u)?;
+                let to = target - light.position;
+                let dist = to.length();
+                let dir = to / dist;
+                let facing = light.normal.dot(dir);
+                let cos = if light.double_sided {
+                    facing.abs()
+                } else {
+                    facing
+                };
+                let from = light.position
+                    + light.normal * (surface_epsilon(light.position) * facing.signum());
+                (dist > 0.0 && cos > 0.0).then(|| {
+                    let power = light.emission(self.scene) * (cos / (dist * dist * light.density));
+                    (from, dir, dist, power)
+                })
+            }
+            Kind::Sun => {
+                let ls = self
+                    .lights
+                    .sample_sun(Vec2::new(rng.random(), rng.random()))?;
+                let from = target + ls.wi * self.diagonal;
+                Some((from, -ls.wi, self.diagonal, ls.contribution))
+            }
+            Kind::Punctual => {
+                let n = self.lights.punctual.len();
+                let i = ((rng.random::<f32>() * n as f32) as usize).min(n - 1);
+                let ls = self.lights.sample_punctual(i, target)?;
+                let dist = ls.dist.min(self.diagonal);
+                let from = target + ls.wi * dist;
+                Some((from, -ls.wi, dist, ls.contribution * n as f32))
+            }
+        }
+    }
+}
+
+/// One photon: a point on a mirror or glass triangle and a light's sample towards it
+/// drawn, its power from the pair's geometry (unscaled by the photon count), carried
+/// through the delta surfaces to the first that is not; `None` where the two do not see
+/// each other or the photon is lost.
 fn shoot(
     scene: &Scene,
     placed: &PlacedScene,
-    lights: &Lights,
+    light: &Light,
     targets: &Targets,
     rng: &mut SmallRng,
 ) -> Option<Photon> {
-    let light = lights.sample_area_point(rng.random(), Vec2::new(rng.random(), rng.random()))?;
     let (t, target) = targets.sample(scene, rng.random(), Vec2::new(rng.random(), rng.random()));
-    let to = target - light.position;
-    let dist = to.length();
-    if dist <= 0.0 {
-        return None;
-    }
-    let dir = to / dist;
-    let facing = light.normal.dot(dir);
-    let cos_light = if light.double_sided {
-        facing.abs()
-    } else {
-        facing
-    };
+    let (from, dir, dist, power) = light.towards(target, rng)?;
     let cos_target = scene.face_normal(t).dot(dir).abs();
-    if cos_light <= 0.0 || cos_target <= 0.0 {
+    if cos_target <= 0.0 {
         return None;
     }
-    let ray = Ray::leaving(light.position, light.normal, dir);
-    let hit = placed.closest_hit(&ray, dist * 1.01)?;
+    let hit = placed.closest_hit(&Ray::new(from, dir), dist * 1.01)?;
     if hit.triangle != t {
         return None;
     }
-    let density = light.density / targets.area();
-    let mut power = light.emission(scene) * (cos_light * cos_target / (dist * dist * density));
+    let mut power = power * (cos_target * targets.area());
     let mut s = seen(placed, hit, dir);
     let mut dir = dir;
     for _ in 0..MAX_DELTA_DEPTH {

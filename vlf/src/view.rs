@@ -320,8 +320,14 @@ impl Visibility {
             }
             _ => None,
         };
+        // The caustics the photon map holds: an emitter, or the sun's disc, seen through
+        // mirrors and glass (the sun's found by walking again with the sky alone).
         let caustic = match &chain.end {
             Some((s, _)) if chain.deltas > 0 => chain.weight * s.emitted,
+            None if chain.deltas > 0 && self.lights.sun.is_some() => {
+                let sky_alone = |d: Vec3| sky(&self.lights, d);
+                chain.emitted - follow_from(&statics, ray, first, &sky_alone).emitted
+            }
             _ => Vec3::ZERO,
         };
         // Straight out of the scene: the sky only (the sun comes by next-event

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use glam::{Vec3, Vec4};
 use holocave_scene::color::luminance;
-use holocave_scene::{LoadOptions, Material, Scene};
+use holocave_scene::{Daylight, LoadOptions, Material, PunctualLight, Scene, Sun};
 use holocave_tracer::fresnel;
 use holocave_tracer::lights::Lights;
 use holocave_vlf::Settings;
@@ -126,4 +126,97 @@ fn a_lamps_image_in_a_mirror_lights_the_ceiling_as_the_image_would() {
     // of sixteen by a quarter of that: both asserted at four of their deviations.
     assert!((mean - 1.0).abs() < 0.125, "mean ratio {mean}");
     assert!(worst < 0.5, "worst ratio off by {worst}");
+}
+
+/// The mirror floor of `light_over_a_mirror`, a strip of ceiling beside where the light
+/// comes down, and the photons' irradiance at sixteen points of the strip against
+/// `want`; returns the mean ratio and the worst ratio's distance from one.
+fn ceiling_through_a_mirror(
+    daylight: Daylight,
+    lights: Vec<PunctualLight>,
+    want: &dyn Fn(Vec3) -> f32,
+) -> (f32, f32) {
+    const BASE: f32 = 0.9;
+    let mirror = Material {
+        name: "mirror".into(),
+        base_color: Vec4::new(BASE, BASE, BASE, 1.0),
+        metallic: 1.0,
+        roughness: 0.0,
+        ..Material::default()
+    };
+    let materials = vec![mirror, common::lambert("ceiling", 0.5, Vec3::ZERO)];
+    // The mirror at y = 0 facing up; the ceiling's strip at y = 2, x from −3 to −1,
+    // facing down (the sun from +x at 60° passes beside it on its way down).
+    let quads = [
+        (
+            common::quad(Vec3::new(-2.0, 0.0, 2.0), Vec3::X * 4.0, Vec3::Z * -4.0),
+            0,
+        ),
+        (
+            common::quad(Vec3::new(-3.0, 2.0, -2.0), Vec3::X * 2.0, Vec3::Z * 4.0),
+            1,
+        ),
+    ];
+    let tris: Vec<([Vec3; 3], u32)> = (quads.iter())
+        .flat_map(|(q, m)| q.iter().map(move |t| (*t, *m)))
+        .collect();
+    let scene = common::scene_of("a light over a mirror", &tris, materials, |p| {
+        p.daylight = daylight;
+        p.lights = lights;
+    });
+    let map = Caustics::trace(&scene, &Lights::new(&scene), PHOTONS).expect("photons");
+    let (mut sum, mut worst) = (0.0f32, 0.0f32);
+    for k in 0..16 {
+        let p = Vec3::new(
+            -2.6 + 0.4 * (k % 4) as f32,
+            2.0,
+            -0.9 + 0.6 * (k / 4) as f32,
+        );
+        let got = luminance(map.irradiance(p, Vec3::NEG_Y, None));
+        let want = want(p);
+        eprintln!("{p}: photons {got:.5}, expected {want:.5}");
+        sum += got / want;
+        worst = worst.max((got / want - 1.0).abs());
+    }
+    (sum / 16.0, worst)
+}
+
+/// The sun and a point light over a mirror light the ceiling through it: the sun's patch
+/// `R(θ) E cos θ` (its radiance times the disc's solid angle), the point light as its
+/// mirror image would, `R(θ) I cos θ / d²`. Neither reaches the walls otherwise: their
+/// shadow rays stop at the mirror, and the field's lines carry no sun.
+#[test]
+fn the_sun_and_a_point_light_reach_the_ceiling_through_a_mirror() {
+    let schlick = |cos: f32| fresnel::schlick(Vec3::splat(0.9), Vec3::ONE, cos).x;
+    let sun = Sun {
+        direction: Vec3::new(0.5, 3f32.sqrt() / 2.0, 0.0),
+        angular_radius: 0.0047,
+        radiance: Vec3::splat(1000.0),
+    };
+    let e = sun.radiance.x * sun.solid_angle();
+    let cos = 3f32.sqrt() / 2.0;
+    let daylight = Daylight {
+        sun: Some(sun),
+        sky: None,
+        ..Default::default()
+    };
+    let (mean, worst) = ceiling_through_a_mirror(daylight, Vec::new(), &|_| schlick(cos) * e * cos);
+    // As for the lamp above: four deviations of the mean of sixteen, and of one.
+    assert!((mean - 1.0).abs() < 0.125, "the sun: mean ratio {mean}");
+    assert!(worst < 0.5, "the sun: worst ratio off by {worst}");
+
+    let at = Vec3::new(1.0, 1.5, 0.0);
+    let light = common::point_light(at, 20.0);
+    let intensity = light.intensity.x;
+    let image = Vec3::new(at.x, -at.y, at.z);
+    let (mean, worst) = ceiling_through_a_mirror(Daylight::default(), vec![light], &|p| {
+        let d = p - image;
+        let cos = d.y / d.length();
+        schlick(cos) * intensity * cos / d.length_squared()
+    });
+    assert!(
+        (mean - 1.0).abs() < 0.125,
+        "the point light: mean ratio {mean}"
+    );
+    assert!(worst < 0.5, "the point light: worst ratio off by {worst}");
 }
