@@ -1,11 +1,13 @@
-//! Caustics per pixel: the light emitters send onto a surface through mirrors and glass,
-//! from a photon map (Jensen's caustic map) instead of the light field's elements.
+//! Caustics per pixel: the light the emitters, the sun and the punctual lights send onto a
+//! surface through mirrors and glass, from a photon map (Jensen's caustic map).
 //!
-//! The field holds that light per element ([`crate::State::caustics`]), which spreads a
-//! glass sphere's focused caustic over the elements around it: on the Cornell box the
-//! spot under the sphere read 0.03 where the path tracer has 0.16, a sixth of the walls'
-//! error. Photons are shot once per scene from the emissive triangles at points drawn on
-//! the mirror and glass triangles (so every photon reaches a delta surface; the pair's
+//! The field holds the emitters' part per element ([`crate::State::caustics`]), which
+//! spreads a glass sphere's focused caustic over the elements around it: on the Cornell
+//! box the spot under the sphere read 0.03 where the path tracer has 0.16. The sun's and
+//! the punctual lights' part was on no wall at all: their shadow rays stop at mirrors and
+//! glass, and the field's lines carry the sky, not the sun's disc. (The sky's own light
+//! through glass stays the field's, along its lines.) Photons are shot once per scene from
+//! each kind of light at points drawn on the mirror and glass triangles (so every photon reaches a delta surface; the pair's
 //! geometry term and a visibility test make its power), carried through the delta
 //! surfaces (each step choosing reflection or refraction by their weights), and stored
 //! where they first reach a surface that is not delta. A pixel that sees such a surface
@@ -14,9 +16,6 @@
 //! focused caustic is the pixel's mean, as the path tracer's, not its value at the
 //! pixel's centre: that was twice as bright under the Cornell box's sphere), over a
 //! footprint grown until it holds [`NEAREST`] photons where it holds fewer.
-//!
-//! Only the emitters' caustics are mapped, as only they are in the field's caustic part:
-//! the sun and sky arrive along the lines' ends, punctual lights nowhere on a line.
 
 use glam::{IVec3, Vec2, Vec3};
 use holocave_scene::color::luminance;
@@ -29,8 +28,8 @@ use rayon::prelude::*;
 use crate::footprint::Ellipse;
 use crate::surface::{MAX_DELTA_DEPTH, delta_step, seen, seen_at};
 
-/// Photons shot per scene (pairs of an emitter point and a delta-surface point; those
-/// that do not see each other are lost).
+/// Photons shot per kind of light (pairs of a light's sample and a delta-surface point;
+/// those that do not see each other are lost).
 pub const PHOTONS: usize = 1 << 20;
 
 /// Photons an estimate averages: the relative noise of one is about `1/√NEAREST`.
