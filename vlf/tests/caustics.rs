@@ -19,6 +19,25 @@ fn cornell() -> Arc<Scene> {
     Arc::new(Scene::load(&path, &LoadOptions::default()).expect("the Cornell box loads"))
 }
 
+/// The mirrors' base colour (a metal's: its reflectance at normal incidence).
+const MIRROR_BASE: f32 = 0.9;
+
+/// A smooth metal mirror.
+fn mirror() -> Material {
+    Material {
+        name: "mirror".into(),
+        base_color: Vec4::new(MIRROR_BASE, MIRROR_BASE, MIRROR_BASE, 1.0),
+        metallic: 1.0,
+        roughness: 0.0,
+        ..Material::default()
+    }
+}
+
+/// The mirror's reflectance at `cos` from its normal (Schlick's, as the tracer's metal).
+fn reflectance(cos: f32) -> f32 {
+    fresnel::schlick(Vec3::splat(MIRROR_BASE), Vec3::ONE, cos).x
+}
+
 /// The flux the photons bring to the surfaces equals the flux of the field's caustic
 /// part (its elements' irradiance times their areas).
 #[test]
@@ -47,16 +66,8 @@ fn the_photons_carry_the_fields_caustic_flux() {
 #[test]
 fn a_lamps_image_in_a_mirror_lights_the_ceiling_as_the_image_would() {
     const L: f32 = 10.0;
-    const BASE: f32 = 0.9;
-    let mirror = Material {
-        name: "mirror".into(),
-        base_color: Vec4::new(BASE, BASE, BASE, 1.0),
-        metallic: 1.0,
-        roughness: 0.0,
-        ..Material::default()
-    };
     let materials = vec![
-        mirror,
+        mirror(),
         common::lambert("lamp", 0.0, Vec3::splat(L)),
         common::lambert("ceiling", 0.5, Vec3::ZERO),
     ];
@@ -99,7 +110,7 @@ fn a_lamps_image_in_a_mirror_lights_the_ceiling_as_the_image_would() {
                 if at_lamp.x.abs() < 0.1 && at_lamp.z.abs() < 0.1 {
                     continue;
                 }
-                let r = fresnel::schlick(Vec3::splat(BASE), Vec3::ONE, cos).x;
+                let r = reflectance(cos);
                 e += L * r * cos * cos / d.length_squared() * side * side;
             }
         }
@@ -128,23 +139,15 @@ fn a_lamps_image_in_a_mirror_lights_the_ceiling_as_the_image_would() {
     assert!(worst < 0.5, "worst ratio off by {worst}");
 }
 
-/// The mirror floor of `light_over_a_mirror`, a strip of ceiling beside where the light
-/// comes down, and the photons' irradiance at sixteen points of the strip against
+/// A mirror floor lit by `daylight` and `lights`, a strip of ceiling beside where the
+/// light comes down, and the photons' irradiance at sixteen points of the strip against
 /// `want`; returns the mean ratio and the worst ratio's distance from one.
 fn ceiling_through_a_mirror(
     daylight: Daylight,
     lights: Vec<PunctualLight>,
     want: &dyn Fn(Vec3) -> f32,
 ) -> (f32, f32) {
-    const BASE: f32 = 0.9;
-    let mirror = Material {
-        name: "mirror".into(),
-        base_color: Vec4::new(BASE, BASE, BASE, 1.0),
-        metallic: 1.0,
-        roughness: 0.0,
-        ..Material::default()
-    };
-    let materials = vec![mirror, common::lambert("ceiling", 0.5, Vec3::ZERO)];
+    let materials = vec![mirror(), common::lambert("ceiling", 0.5, Vec3::ZERO)];
     // The mirror at y = 0 facing up; the ceiling's strip at y = 2, x from −3 to −1,
     // facing down (the sun from +x at 60° passes beside it on its way down).
     let quads = [
@@ -187,7 +190,6 @@ fn ceiling_through_a_mirror(
 /// shadow rays stop at the mirror, and the field's lines carry no sun.
 #[test]
 fn the_sun_and_a_point_light_reach_the_ceiling_through_a_mirror() {
-    let schlick = |cos: f32| fresnel::schlick(Vec3::splat(0.9), Vec3::ONE, cos).x;
     let sun = Sun {
         direction: Vec3::new(0.5, 3f32.sqrt() / 2.0, 0.0),
         angular_radius: 0.0047,
@@ -200,7 +202,8 @@ fn the_sun_and_a_point_light_reach_the_ceiling_through_a_mirror() {
         sky: None,
         ..Default::default()
     };
-    let (mean, worst) = ceiling_through_a_mirror(daylight, Vec::new(), &|_| schlick(cos) * e * cos);
+    let (mean, worst) =
+        ceiling_through_a_mirror(daylight, Vec::new(), &|_| reflectance(cos) * e * cos);
     // As for the lamp above: four deviations of the mean of sixteen, and of one.
     assert!((mean - 1.0).abs() < 0.125, "the sun: mean ratio {mean}");
     assert!(worst < 0.5, "the sun: worst ratio off by {worst}");
@@ -212,7 +215,7 @@ fn the_sun_and_a_point_light_reach_the_ceiling_through_a_mirror() {
     let (mean, worst) = ceiling_through_a_mirror(Daylight::default(), vec![light], &|p| {
         let d = p - image;
         let cos = d.y / d.length();
-        schlick(cos) * intensity * cos / d.length_squared()
+        reflectance(cos) * intensity * cos / d.length_squared()
     });
     assert!(
         (mean - 1.0).abs() < 0.125,
