@@ -456,6 +456,7 @@ pub fn mirrored(
         weight: reflected * rest.weight,
         emitted: emitted + weight * s.emitted + reflected * rest.emitted,
         deltas: deltas + 1 + rest.deltas,
+        beside: scaled(rest.beside, reflected),
     })
 }
 
@@ -469,6 +470,11 @@ pub struct Chain {
     pub emitted: Vec3,
     /// Delta surfaces followed before the end.
     pub deltas: u32,
+    /// The surfaces that glass's weaker branches on the way end on (not delta), each with
+    /// the ray that reached it and the weight the way there carried: what they show is
+    /// the viewer's to shade ([`crate::view::Visibility`] from the field's values), the
+    /// chain's `emitted` holding only their emission.
+    pub beside: Vec<(Seen, Ray, Vec3)>,
 }
 
 pub fn follow(scene: &PlacedScene, ray: Ray, environment: &dyn Fn(Vec3) -> Vec3) -> Chain {
@@ -594,6 +600,7 @@ fn walk_with(
 ) -> Option<Chain> {
     let mut weight = Vec3::ONE;
     let mut emitted = Vec3::ZERO;
+    let mut beside = Vec::new();
     for level in 0..=depth {
         let hit = match first.take() {
             Some(h) => h,
@@ -606,6 +613,7 @@ fn walk_with(
                 weight,
                 emitted,
                 deltas: level,
+                beside,
             });
         };
         let s = seen(scene, hit, ray.dir);
@@ -615,6 +623,7 @@ fn walk_with(
                 weight,
                 emitted,
                 deltas: level,
+                beside,
             });
         }
         emitted += weight * s.emitted;
@@ -634,11 +643,17 @@ fn walk_with(
                 (depth - level - 1) / 2,
                 next,
             )?;
+            let carried = weight * wk;
             let shown = side.emitted
                 + side
                     .end
+                    .as_ref()
                     .map_or(Vec3::ZERO, |(e, _)| side.weight * e.emitted);
-            emitted += weight * wk * shown;
+            emitted += carried * shown;
+            if let Some((e, r)) = side.end {
+                beside.push((e, r, carried * side.weight));
+            }
+            beside.extend(scaled(side.beside, carried));
         }
         weight *= w;
         ray = Ray::leaving(s.position, s.normal, wi);
@@ -648,7 +663,16 @@ fn walk_with(
         weight: Vec3::ZERO,
         emitted,
         deltas: depth + 1,
+        beside,
     })
+}
+
+/// `beside` with every weight times `by`.
+fn scaled(mut beside: Vec<(Seen, Ray, Vec3)>, by: Vec3) -> Vec<(Seen, Ray, Vec3)> {
+    for b in &mut beside {
+        b.2 *= by;
+    }
+    beside
 }
 
 #[cfg(test)]

@@ -440,13 +440,48 @@ impl Visibility {
     /// ([`crate::glow_edges`]).
     pub fn glow_along(&self, placed: &PlacedScene, ray: Ray) -> (Vec3, bool) {
         let chain = follow(placed, ray, &environment(&self.lights));
+        let emitted = chain.emitted + self.beside_light(&chain.beside, Some(placed));
         match &chain.end {
             Some((s, _)) => (
-                chain.emitted + chain.weight * s.emitted,
+                emitted + chain.weight * s.emitted,
                 s.emitted.max_element() <= 0.0,
             ),
-            None => (chain.emitted, false),
+            None => (emitted, false),
         }
+    }
+
+    /// What the surfaces that glass's weaker branches end on ([`Chain::beside`]) show,
+    /// from the field's values (all of its light: [`Visibility::light_objects`]), where
+    /// each is a diffuse element of the static scene: the reflection of the room in a
+    /// glass sphere, which near its rim is as strong as what it lets through. Nothing
+    /// before the field's values are set.
+    fn beside_light(&self, beside: &[(Seen, Ray, Vec3)], placed: Option<&PlacedScene>) -> Vec3 {
+        let Some(total) = self.light.get() else {
+            return Vec3::ZERO;
+        };
+        // A weight below a thousandth shows nothing an 8-bit pixel holds.
+        (beside.iter())
+            .filter(|(s, _, w)| {
+                w.max_element() >= 1e-3
+                    && placed.is_none_or(|p| p.object_of(s.hit.triangle).is_none())
+                    && (s.hit.triangle as usize) < self.elements.triangles.len()
+            })
+            .map(|(s, r, weight)| {
+                let side = side_facing(s.normal, r.dir);
+                let element = self
+                    .elements
+                    .element(s.hit.triangle, side, s.hit.u, s.hit.v);
+                if self.tiles.of(element).is_some() || mirrored_gloss(&s.params) {
+                    return Vec3::ZERO;
+                }
+                let cells = self.elements.triangles[s.hit.triangle as usize];
+                let irradiance = interpolate(total, cells.base(side), cells.res, s.hit.u, s.hit.v);
+                *weight
+                    * albedo_towards(&s.params, s.shading_normal.dot(r.dir))
+                    * std::f32::consts::FRAC_1_PI
+                    * irradiance
+            })
+            .sum()
     }
 
     /// Runs `f` with the scene as this frame places its moving objects.
@@ -541,12 +576,13 @@ impl Visibility {
     /// count), and darkens the light field's part near the objects.
     fn lookup_chain(
         &self,
-        chain: Chain,
+        mut chain: Chain,
         objects: &ObjectLight,
         placed: Option<&PlacedScene>,
         values: Option<&[[f32; 3]]>,
         direct_at_point: bool,
     ) -> (Lookup, Option<DirectPoint>) {
+        chain.emitted += self.beside_light(&chain.beside, placed);
         let Some((s, r)) = chain.end else {
             let none = Lookup {
                 emitted: chain.emitted.to_array(),
