@@ -440,13 +440,12 @@ impl Visibility {
     /// ([`crate::glow_edges`]).
     pub fn glow_along(&self, placed: &PlacedScene, ray: Ray) -> (Vec3, bool) {
         let chain = follow(placed, ray, &environment(&self.lights));
-        let emitted = chain.emitted + self.beside_light(&chain.beside, Some(placed));
         match &chain.end {
             Some((s, _)) => (
-                emitted + chain.weight * s.emitted,
+                chain.emitted + chain.weight * s.emitted,
                 s.emitted.max_element() <= 0.0,
             ),
-            None => (emitted, false),
+            None => (chain.emitted, false),
         }
     }
 
@@ -582,7 +581,8 @@ impl Visibility {
         values: Option<&[[f32; 3]]>,
         direct_at_point: bool,
     ) -> (Lookup, Option<DirectPoint>) {
-        chain.emitted += self.beside_light(&chain.beside, placed);
+        let beside = self.beside_light(&chain.beside, placed);
+        chain.emitted += beside;
         let Some((s, r)) = chain.end else {
             let none = Lookup {
                 emitted: chain.emitted.to_array(),
@@ -605,6 +605,7 @@ impl Visibility {
             wo: -r.dir,
             bsdf: Bsdf::new(&s.params),
             weight: chain.weight,
+            beside,
         };
         // A glossy surface of the static scene without a tile: its Lambertian base's light,
         // its highlights (the per-pixel pass's where it adds the direct light here, else
