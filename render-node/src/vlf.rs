@@ -575,7 +575,10 @@ impl VlfBase {
             None => acc.add(direct, placed, points),
         });
         let screen = Screen::of(&view.wall, 1);
+        // Without caustics per pixel, none kept (a pixel past the end adds none).
+        let per_pixel = self.visibility.caustics_per_pixel();
         let caustics: Vec<(Vec3, Vec3)> = (points.par_iter().zip(&*lookups))
+            .take(if per_pixel { points.len() } else { 0 })
             .enumerate()
             .map(|(i, (p, l))| match p {
                 Some(p) => match kept_caustics.get(i) {
@@ -588,9 +591,11 @@ impl VlfBase {
                 None => (Vec3::NAN, Vec3::ZERO),
             })
             .collect();
-        let each =
-            (lookups.par_iter_mut().zip(estimates)).zip(acc.counts().par_iter().zip(&caustics));
-        each.for_each(|((l, d), (&n, &(_, caustic)))| {
+        let none = (Vec3::NAN, Vec3::ZERO);
+        let caustic_of = |i: usize| caustics.get(i).unwrap_or(&none).1;
+        let each = (lookups.par_iter_mut().zip(estimates).enumerate()).zip(acc.counts());
+        each.for_each(|((i, (l, d)), &n)| {
+            let caustic = caustic_of(i);
             let added = match &self.sky {
                 Some(values) => SkyPrior {
                     values,
