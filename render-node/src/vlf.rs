@@ -524,6 +524,34 @@ impl VlfBase {
         }))
     }
 
+    /// Each pixel's point and the caustics' light there ([`Visibility::caustic_light`]),
+    /// taken from `kept` (the same view's, as last drawn) where the pixel sees the same
+    /// point; none where the scene has no caustics per pixel.
+    fn caustics(
+        &self,
+        view: &EyeView,
+        lookups: &[Lookup],
+        points: &[Option<DirectPoint>],
+        kept: &[(Vec3, Vec3)],
+    ) -> Vec<(Vec3, Vec3)> {
+        if !self.visibility.caustics_per_pixel() {
+            return Vec::new();
+        }
+        let screen = Screen::of(&view.wall, 1);
+        (points.par_iter().zip(lookups).enumerate())
+            .map(|(i, (p, l))| match p {
+                Some(p) => match kept.get(i) {
+                    Some(&(at, c)) if at == p.position => (at, c),
+                    _ => (
+                        p.position,
+                        self.visibility.caustic_light(l, p, Some(&screen)),
+                    ),
+                },
+                None => (Vec3::NAN, Vec3::ZERO),
+            })
+            .collect()
+    }
+
     /// Adds each pixel's running mean of the direct light at its point (in `pixels`) to
     /// its lookup's `emitted` light, this frame's estimate included.
     fn add_direct(&self, eye: usize, view: &EyeView, lookups: &mut [Lookup], pixels: &Pixels) {
@@ -574,28 +602,10 @@ impl VlfBase {
             }),
             None => acc.add(direct, placed, points),
         });
-        let screen = Screen::of(&view.wall, 1);
-        // Without caustics per pixel, none kept (a pixel past the end adds none).
-        let per_pixel = self.visibility.caustics_per_pixel();
-        let caustics: Vec<(Vec3, Vec3)> = (points.par_iter().zip(&*lookups))
-            .take(if per_pixel { points.len() } else { 0 })
-            .enumerate()
-            .map(|(i, (p, l))| match p {
-                Some(p) => match kept_caustics.get(i) {
-                    Some(&(at, c)) if at == p.position => (at, c),
-                    _ => (
-                        p.position,
-                        self.visibility.caustic_light(l, p, Some(&screen)),
-                    ),
-                },
-                None => (Vec3::NAN, Vec3::ZERO),
-            })
-            .collect();
-        let none = (Vec3::NAN, Vec3::ZERO);
-        let caustic_of = |i: usize| caustics.get(i).unwrap_or(&none).1;
+        let caustics = self.caustics(view, lookups, points, &kept_caustics);
         let each = (lookups.par_iter_mut().zip(estimates).enumerate()).zip(acc.counts());
         each.for_each(|((i, (l, d)), &n)| {
-            let caustic = caustic_of(i);
+            let caustic = caustics.get(i).map_or(Vec3::ZERO, |c| c.1);
             let added = match &self.sky {
                 Some(values) => SkyPrior {
                     values,

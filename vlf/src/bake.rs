@@ -145,6 +145,17 @@ impl State {
         Some(less(&self.indirect_values(), &self.sky_values()?))
     }
 
+    /// `values` as the lookups read them (the elements', then the tiles') less the
+    /// elements' caustic part ([`State::caustics`]), for a view that takes the caustics per
+    /// pixel; as they are where the state holds none.
+    pub fn less_caustics(&self, values: Vec<[f32; 3]>) -> Vec<[f32; 3]> {
+        let n = self.caustics.len();
+        if n != self.irradiance.len() || values.len() < n {
+            return values;
+        }
+        [less(&values[..n], &self.caustics), values[n..].to_vec()].concat()
+    }
+
     /// The sky's first arrival as the lookups read it: the elements' part, then the
     /// tiles'; `None` for a file that does not hold it.
     pub fn sky_values(&self) -> Option<Vec<[f32; 3]>> {

@@ -7,8 +7,9 @@
 //! the punctual lights' part was on no wall at all: their shadow rays stop at mirrors and
 //! glass, and the field's lines carry the sky, not the sun's disc. (The sky's own light
 //! through glass stays the field's, along its lines.) Photons are shot once per scene from
-//! each kind of light at points drawn on the mirror and glass triangles (so every photon reaches a delta surface; the pair's
-//! geometry term and a visibility test make its power), carried through the delta
+//! each kind of light at points drawn on the mirror and glass triangles (so every photon
+//! reaches a delta surface; the pair's geometry term and a visibility test make its
+//! power), carried through the delta
 //! surfaces (each step choosing reflection or refraction by their weights), and stored
 //! where they first reach a surface that is not delta. A pixel that sees such a surface
 //! reads the photons' irradiance around its point on the same plane, where the field's
@@ -120,25 +121,25 @@ impl Caustics {
             lights.sun.is_some().then_some(Kind::Sun),
             (!lights.punctual.is_empty()).then_some(Kind::Punctual),
         ];
-        let kinds: Vec<Kind> = kinds.into_iter().flatten().collect();
-        if kinds.is_empty() {
+        let kinds: Vec<Light> = (kinds.into_iter().flatten())
+            .map(|kind| Light {
+                scene,
+                lights,
+                kind,
+                diagonal,
+            })
+            .collect();
+        if kinds.is_empty() || photons == 0 {
             return None;
         }
         let scale = 1.0 / photons as f32;
-        let stored: Vec<Photon> = (kinds.iter().enumerate())
-            .flat_map(|(k, &kind)| (0..photons).map(move |i| (k, kind, i)))
-            .collect::<Vec<_>>()
+        // Photon `j` is the `j % photons`-th of kind `j / photons`, with its own generator.
+        let stored: Vec<Photon> = (0..kinds.len() * photons)
             .into_par_iter()
-            .filter_map(|(k, kind, i)| {
-                let seed = ((k * photons + i) as u64) ^ 0x9e37_79b9_7f4a_7c15;
-                let mut rng = SmallRng::seed_from_u64(seed);
-                let light = Light {
-                    scene,
-                    lights,
-                    kind,
-                    diagonal,
-                };
-                shoot(scene, &placed, &light, &targets, &mut rng).map(|mut p| {
+            .filter_map(|j| {
+                let light = &kinds[j / photons];
+                let mut rng = SmallRng::seed_from_u64(j as u64 ^ 0x9e37_79b9_7f4a_7c15);
+                shoot(scene, &placed, light, &targets, &mut rng).map(|mut p| {
                     p.power *= scale;
                     p
                 })

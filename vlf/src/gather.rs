@@ -81,13 +81,12 @@ struct Pending {
     bounce: Option<Bounce>,
     /// What arrives at `x` along the bounce, but `y`'s direct light.
     arriving: Vec3,
-    /// Of that, the emitters seen through mirrors and glass ([`crate::view::Arriving::caustic`]).
+    /// Of that, the lights seen through mirrors and glass ([`crate::view::Arriving::caustic`]).
     caustic: Vec3,
-    /// The walls take the emitters' caustics per pixel ([`Visibility::caustic_light`]):
-    /// what is kept in the field leaves them out. (The sample itself keeps the caustics it
-    /// finds along its bounce: taken from the photon map at `x` instead, its variance fell
-    /// fourfold, so the light field's prior fell from 40 samples to 12, and the gathers'
-    /// own bias, weighted up, made the Cornell box's error in motion 2.43e-3 → 2.94e-3.)
+    /// The walls take the caustics per pixel ([`Visibility::caustic_light`]): what is kept
+    /// in the field leaves them out. The sample itself keeps those it finds along its
+    /// bounce: its variance is what the light field's prior is measured against
+    /// (`docs/vlf-direct.md`, "Caustics per pixel").
     caustics_per_pixel: bool,
     /// The elements the lookup at `x` interpolates and its weight towards the eye, where
     /// it is a diffuse element's or the Lambertian base's of a surface drawn as its
@@ -285,8 +284,8 @@ fn finish(placed: &PlacedScene, p: Pending, queries: &[ShadowQuery], blocked: &[
     g.radiance += e.radiance - e.sky;
     // What the light field's remainder holds at `x`: the light after the bounce, and the
     // emitters' light over a mirror (the walls' direct light per pixel leaves it to the
-    // field); of each, the emitters' caustics (over the mirror, and through mirrors and
-    // glass along the bounce).
+    // field); of each, the caustics (the emitters over the mirror, and the lights through
+    // mirrors and glass along the bounce).
     let (mut remainder, mut caustic) = (Vec3::ZERO, Vec3::ZERO);
     if p.via_mirror
         && let Some((_, v)) = answers.next()

@@ -15,9 +15,9 @@
 //! ([`State::indirect_values_without_sky`]), under the field's sky as a prior
 //! ([`crate::view::SkyPrior`]).
 //!
-//! Where emitters shine through mirrors and glass, their caustics are taken per pixel
-//! from a photon map ([`Caustics`]) and the field is read less its caustic part
-//! ([`State::caustics`]).
+//! Where lights shine through mirrors and glass, their caustics are taken per pixel from a
+//! photon map ([`Caustics`]) and the field is read less its caustic part (the emitters':
+//! [`State::caustics`]).
 
 use std::sync::Arc;
 
@@ -42,8 +42,8 @@ pub struct Split {
     /// With the whole sky per pixel, the field's sky: the prior of the pixels' own mean
     /// ([`crate::view::SkyPrior`]).
     pub sky: Option<Vec<[f32; 3]>>,
-    /// The emitters' caustics per pixel, where the scene has any and the field holds
-    /// their part ([`crate::view::Visibility::draw_caustics`]).
+    /// The caustics per pixel, where the scene has mirrors or glass and lights
+    /// ([`crate::view::Visibility::draw_caustics`]).
     pub caustics: Option<Arc<Caustics>>,
 }
 
@@ -60,15 +60,12 @@ impl Split {
     ) -> Result<Split, String> {
         let direct = PixelDirect::new(scene.clone());
         let directions = Settings::rounded_directions(settings.directions);
-        let caustics = (state.caustics.len() == elements.count)
-            .then(|| Caustics::trace(&scene, &Lights::new(&scene), PHOTONS))
-            .flatten()
-            .map(Arc::new);
+        let caustics = Caustics::trace(&scene, &Lights::new(&scene), PHOTONS).map(Arc::new);
         // The field less what is taken per pixel; smoothed over planes after, so that
         // the caustics' sharp part is not spread into the rest.
         let remainder = |values: Vec<[f32; 3]>| {
             let values = match &caustics {
-                Some(_) => less_caustics(values, &state.caustics),
+                Some(_) => state.less_caustics(values),
                 None => values,
             };
             smooth_over_planes(&scene, elements, tiles, &values)
@@ -98,13 +95,4 @@ impl Split {
             caustics,
         })
     }
-}
-
-/// `values` (the elements', then the tiles') less the elements' `caustics`; never below
-/// zero (the rounding of the subtraction).
-fn less_caustics(mut values: Vec<[f32; 3]>, caustics: &[[f32; 3]]) -> Vec<[f32; 3]> {
-    for (v, c) in values.iter_mut().zip(caustics) {
-        *v = std::array::from_fn(|k| (v[k] - c[k]).max(0.0));
-    }
-    values
 }

@@ -111,8 +111,8 @@ pub struct Arriving {
     /// Set when the ray ends on an emitter over exactly one delta surface (a mirror when
     /// the tracer samples lights through it).
     pub over_mirror: Option<OverMirror>,
-    /// The part of `radiance` that is an emitter seen through mirrors and glass: the
-    /// emitters' caustics, where the walls take them per pixel
+    /// The part of `radiance` that is an emitter or the sun's disc seen through mirrors
+    /// and glass: the caustics, where the walls take them per pixel
     /// ([`Visibility::caustic_light`]).
     pub caustic: Vec3,
 }
@@ -154,8 +154,7 @@ pub struct Visibility {
     /// Whether the objects darken the light field's part near them (off only to measure
     /// what that does: [`Visibility::without_darkening`]).
     darkening: bool,
-    /// The emitters' caustics, taken per pixel with the direct light
-    /// ([`Visibility::draw_caustics`]).
+    /// The caustics, taken per pixel with the direct light ([`Visibility::draw_caustics`]).
     caustics: OnceLock<Arc<Caustics>>,
 }
 
@@ -176,8 +175,8 @@ impl Visibility {
         }
     }
 
-    /// Takes the emitters' caustics per pixel from `caustics` wherever the direct light is
-    /// (the remainder drawn then leaves their part out: [`crate::split::Split`]).
+    /// Takes the caustics per pixel from `caustics` wherever the direct light is (the
+    /// remainder drawn then leaves the field's part out: [`crate::split::Split`]).
     pub fn draw_caustics(&self, caustics: Arc<Caustics>) {
         let _ = self.caustics.set(caustics);
     }
