@@ -47,13 +47,13 @@ struct Edge {
 
 /// What a lookup's `emitted` light holds of glow alone, where it holds nothing else
 /// before the direct light is added: an element's or a tile's (the emitters and sky on the
-/// way and at the end, less what glass's weaker branches show of surfaces:
-/// [`DirectPoint::beside`]), or nothing seen at all. A surface drawn as its mirror holds
+/// way and at the end, less what it holds of surfaces: [`DirectPoint::surfaces`]), or
+/// nothing seen at all. A surface drawn as its mirror holds
 /// its reflections there too, and is left as it is.
 fn glow_of(l: &Lookup, point: Option<&DirectPoint>) -> Option<Vec3> {
     let shaded = l.base != u32::MAX || l.tile != u32::MAX;
-    let beside = point.map_or(Vec3::ZERO, |p| p.beside);
-    (shaded || point.is_none()).then(|| Vec3::from(l.emitted) - beside)
+    let surfaces = point.map_or(Vec3::ZERO, |p| p.surfaces);
+    (shaded || point.is_none()).then(|| Vec3::from(l.emitted) - surfaces)
 }
 
 /// The four neighbours of pixel `i` of a `w` × `h` image (rows from the top) that lie in

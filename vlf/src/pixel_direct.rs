@@ -70,10 +70,11 @@ pub struct DirectPoint {
     pub bsdf: Bsdf,
     /// What the delta surfaces between the eye and the point let through.
     pub weight: Vec3,
-    /// The light of the surfaces glass's weaker branches on the way end on, which the
-    /// lookup's emitted light holds (not glow: [`crate::glow_edges`] leaves it to the
-    /// surface part).
-    pub beside: Vec3,
+    /// The light of surfaces that the lookup's emitted light holds (not glow:
+    /// [`crate::glow_edges`] leaves it to the surface part): those glass's weaker branches
+    /// on the way end on, and the room a widened tile's own lobe reflects beyond the tile
+    /// ([`crate::view::Visibility::sharpened_reflection`]).
+    pub surfaces: Vec3,
 }
 
 /// The per-pixel direct light of one scene.

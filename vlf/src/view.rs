@@ -40,10 +40,11 @@ use crate::surface::{
     Chain, Seen, albedo_towards, follow, follow_all, follow_first, follow_from, highlights,
     mirrored, mirrored_gloss, seen, side_facing,
 };
-use crate::tiles::Tiles;
+use crate::tiles::{Glossy, Tiles};
 
 /// Directions a mirrored-gloss surface seen directly takes of its lobe
-/// ([`Visibility::blurred_reflection`]).
+/// ([`Visibility::blurred_reflection`]), and a widened tile of each of its two lobes
+/// ([`Visibility::sharpened_reflection`]).
 pub const BLURRED_RAYS: u64 = 8;
 
 /// What one pixel (or one ray) sees of the light field.
@@ -511,19 +512,17 @@ impl Visibility {
     /// the sun (its highlight is [`highlights`]' or the per-pixel pass's). Emitters
     /// seen directly are left out with `emitters_by_nee` (the per-pixel pass takes them
     /// at this surface with its full BSDF). Each direction's own mirrored-gloss surfaces
-    /// are taken as mirrors.
+    /// are taken as mirrors. The lobe is `bsdf`'s and the scene's outside `environment`.
     fn blurred_reflection(
         &self,
         scene: &PlacedScene,
         objects: &ObjectLight,
-        s: &Seen,
-        dir: Vec3,
+        (s, dir): (&Seen, Vec3),
         total: &[[f32; 3]],
         emitters_by_nee: bool,
+        (bsdf, environment): (&Bsdf, &dyn Fn(Vec3) -> Vec3),
     ) -> Vec3 {
-        let bsdf = Bsdf::new(&s.params);
         let lobe = bsdf.ggx();
-        let sky = |d: Vec3| sky(&self.lights, d);
         let frame = Frame::new(s.shading_normal);
         let wo = frame.to_local(-dir);
         if wo.z <= 0.0 {
@@ -544,7 +543,7 @@ impl Visibility {
             // the way in given the way out (the rest of `f cos / pdf` cancels).
             let weight = bsdf.specular_reflectance(wo.dot(m)) * lobe.g2(wo, wi) / lobe.g1(wo);
             let ray = Ray::leaving(s.position, s.normal, frame.to_world(wi));
-            let chain = follow(scene, ray, &sky);
+            let chain = follow(scene, ray, environment);
             // An emitter of the static scene seen directly is the per-pixel pass's
             // highlight where that pass runs at this surface; behind a mirror or glass, or
             // on a surface drawn as a mirror, what it shows comes only along this ray.
@@ -567,6 +566,32 @@ impl Visibility {
             sum += weight * (shade_one(&l, total) - emission);
         }
         sum / BLURRED_RAYS as f32
+    }
+
+    /// What the glossy surface `s`, seen along `dir`, reflects of the room (as the light
+    /// field draws it: `total`) beyond what its tile `glossy` holds, where the tile widens
+    /// a lobe narrower than its bins resolve: the surface's own lobe's blurred reflection
+    /// less the widened lobe's, each from [`BLURRED_RAYS`] directions drawn with the same
+    /// numbers (so that where the room is smooth their noise cancels). A bright object
+    /// small against a bin — the breakfast room's teapot in its marble table top — is
+    /// spread by the tile over the bin; the lobe shows it. The sky is left out (the
+    /// per-pixel pass sharpens its reflection: [`PixelDirect::with_sharp_sky_reflections`]),
+    /// and so are the emitters seen directly (the per-pixel pass takes them with the
+    /// surface's own BSDF).
+    fn sharpened_reflection(
+        &self,
+        scene: &PlacedScene,
+        objects: &ObjectLight,
+        (s, dir): (&Seen, Vec3),
+        total: &[[f32; 3]],
+        glossy: &Glossy,
+    ) -> Vec3 {
+        let outside = |_: Vec3| Vec3::ZERO;
+        let lobe = |bsdf: &Bsdf| {
+            self.blurred_reflection(scene, objects, (s, dir), total, true, (bsdf, &outside))
+        };
+        let own = Bsdf::new(&s.params);
+        lobe(&own) - lobe(&own.widened(glossy.bsdf.ggx().alpha))
     }
 
     /// The lookup of what a chain of surfaces ends on; `placed` tells a moving object's
@@ -596,7 +621,7 @@ impl Visibility {
             self.elements
                 .element(s.hit.triangle, side, s.hit.u, s.hit.v)
         };
-        let point = DirectPoint {
+        let mut point = DirectPoint {
             triangle: s.hit.triangle,
             position: s.position,
             normal: s.normal,
@@ -604,7 +629,7 @@ impl Visibility {
             wo: -r.dir,
             bsdf: Bsdf::new(&s.params),
             weight: chain.weight,
-            beside,
+            surfaces: beside,
         };
         // A glossy surface of the static scene without a tile: its Lambertian base's light,
         // its highlights (the per-pixel pass's where it adds the direct light here, else
@@ -625,8 +650,14 @@ impl Visibility {
             if chain.deltas == 0
                 && let Some(total) = self.light.get()
             {
-                let blurred =
-                    self.blurred_reflection(scene, objects, &s, r.dir, total, direct_at_point);
+                let blurred = self.blurred_reflection(
+                    scene,
+                    objects,
+                    (&s, r.dir),
+                    total,
+                    direct_at_point,
+                    (&bsdf, &sky),
+                );
                 let mut shown = base + blurred;
                 if !direct_at_point {
                     shown += highlights(scene, &self.lights, &s, &bsdf, r.dir);
@@ -677,10 +708,31 @@ impl Visibility {
         if let Some(g) = self.tiles.of(element) {
             let (x, y) = self.tiles.view_coords(g, r.dir, s.shading_normal);
             let k = self.tiles.bins;
+            // Seen directly by a pixel that takes its direct light here, a widened tile's
+            // surface shows the room its own lobe reflects.
+            let glossy = &self.tiles.tiles[g as usize];
+            let tile = self.tiles.elements + g * k * k;
+            let mut emitted = emitted;
+            if glossy.widened
+                && direct_at_point
+                && chain.deltas == 0
+                && let (Some(values), Some(total)) = (values, self.light.get())
+            {
+                let statics = self.scene.statics();
+                let scene = placed.unwrap_or(&statics);
+                // Never below what the tile shows: a difference of two few-ray estimates
+                // can be.
+                let shown = octahedral::interpolate(values, tile, k, x, y) * chain.weight * open;
+                let sharpened = (chain.weight
+                    * self.sharpened_reflection(scene, objects, (&s, r.dir), total, glossy))
+                .max(-shown);
+                emitted = (Vec3::from(emitted) + sharpened).to_array();
+                point.surfaces += sharpened;
+            }
             let l = Lookup {
                 weight: (chain.weight * open).to_array(),
                 emitted,
-                tile: self.tiles.elements + g * k * k,
+                tile,
                 bins: k,
                 x,
                 y,
