@@ -37,7 +37,7 @@ use holocave_vlf::footprint::Screen;
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::kept_gathers::KeptGathers;
 use holocave_vlf::split::Split;
-use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
+use holocave_vlf::view::{BLURRED_RAYS, SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
 use holocave_vlf::{
     Accumulator, Aim, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, StaticRays,
     Visibility,
@@ -122,6 +122,34 @@ struct History {
     /// Each pixel's point and the caustics' light there as last drawn: a still view's
     /// pixels see the same points frame after frame, and take it again from here.
     caustics: Vec<(Vec3, Vec3)>,
+    /// Each pixel's point, the mean of the glossy reflections drawn there
+    /// ([`DirectPoint::reflected`]) and how many frames it holds.
+    reflections: Vec<(Vec3, Vec3, u32)>,
+    /// How many frames in a row this eye has drawn this view: the next one's reflections
+    /// take the directions that follow theirs ([`Visibility::draw_reflections`]).
+    still: u64,
+}
+
+/// Each pixel's point, the mean of the glossy reflections drawn there
+/// ([`DirectPoint::reflected`]) with this frame's, and how many frames that holds: where
+/// the pixel saw the same point last frame (`kept`) the mean goes on, else it starts
+/// again; none where a pixel sees no point.
+fn reflection_means(
+    points: &[Option<DirectPoint>],
+    kept: &[(Vec3, Vec3, u32)],
+) -> Vec<(Vec3, Vec3, u32)> {
+    (points.par_iter().enumerate())
+        .map(|(i, p)| match p {
+            Some(p) => match kept.get(i) {
+                Some(&(at, mean, n)) if at == p.position => {
+                    let n = n.saturating_add(1);
+                    (at, mean + (p.reflected - mean) / n as f32, n)
+                }
+                _ => (p.position, p.reflected, 1),
+            },
+            None => (Vec3::NAN, Vec3::ZERO, 0),
+        })
+        .collect()
 }
 
 /// Emissive triangles beyond this many are taken together, as one light the size of all.
@@ -471,6 +499,12 @@ impl VlfBase {
             let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
             pool.pop().unwrap_or_default()
         };
+        // A still view's frames take the glossy lobes' directions on from the last frame's.
+        let still = {
+            let h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+            (h.iter().find(|x| x.eye == eye && x.view == view.wall)).map_or(0, |x| x.still)
+        };
+        (self.visibility).draw_reflections(still * BLURRED_RAYS, BLURRED_RAYS);
         let mut lookups = self.pixels_into(&view.wall, &mut pixels);
         let edges = glow_edges::find(&view.wall, &lookups, &pixels.points);
         if self.direct {
@@ -552,7 +586,8 @@ impl VlfBase {
             .collect()
     }
 
-    /// Adds each pixel's running mean of the direct light at its point (in `pixels`) to
+    /// Adds each pixel's running mean of the direct light at its point (in `pixels`), its
+    /// caustics and the mean of its glossy reflections, to
     /// its lookup's `emitted` light, this frame's estimate included.
     fn add_direct(&self, eye: usize, view: &EyeView, lookups: &mut [Lookup], pixels: &Pixels) {
         let points = &pixels.points;
@@ -563,7 +598,7 @@ impl VlfBase {
         // in place of the least recently drawn. Never the other eye's: the two eyes of a
         // wall would take each other's in turn, carrying the means across the eyes'
         // parallax every frame.
-        let (mut acc, moved_from, kept_caustics) = {
+        let (mut acc, moved_from, kept_caustics, kept_reflections, still) = {
             let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
             let own_screen = |x: &History| x.eye == eye && x.view.same_screen(&view.wall);
             let nearest = (0..h.len())
@@ -575,12 +610,12 @@ impl VlfBase {
             match h.iter().position(|x| own_screen(x) && x.view == view.wall) {
                 Some(i) => {
                     let x = h.swap_remove(i);
-                    (x.means, None, x.caustics)
+                    (x.means, None, x.caustics, x.reflections, x.still + 1)
                 }
                 None => match nearest {
                     Some(i) => {
                         let x = h.swap_remove(i);
-                        (x.means, Some(x.view), Vec::new())
+                        (x.means, Some(x.view), Vec::new(), Vec::new(), 1)
                     }
                     None => {
                         if h.len() >= HISTORIES
@@ -588,7 +623,7 @@ impl VlfBase {
                         {
                             h.swap_remove(oldest);
                         }
-                        (Accumulator::new(), None, Vec::new())
+                        (Accumulator::new(), None, Vec::new(), Vec::new(), 1)
                     }
                 },
             }
@@ -603,9 +638,15 @@ impl VlfBase {
             None => acc.add(direct, placed, points),
         });
         let caustics = self.caustics(view, lookups, points, &kept_caustics);
+        let reflections = reflection_means(points, &kept_reflections);
         let each = (lookups.par_iter_mut().zip(estimates).enumerate()).zip(acc.counts());
         each.for_each(|((i, (l, d)), &n)| {
             let caustic = caustics.get(i).map_or(Vec3::ZERO, |c| c.1);
+            // The mean of the frames' reflections in place of this frame's.
+            let reflected = match (&points[i], reflections.get(i)) {
+                (Some(p), Some(r)) => r.1 - p.reflected,
+                _ => Vec3::ZERO,
+            };
             let added = match &self.sky {
                 Some(values) => SkyPrior {
                     values,
@@ -615,7 +656,8 @@ impl VlfBase {
                 None => d.radiance,
             };
             let tile_albedo = direct.tile_albedo(l, &self.indirect);
-            l.emitted = (glam::Vec3::from(l.emitted) + added + tile_albedo + caustic).to_array();
+            l.emitted = (glam::Vec3::from(l.emitted) + added + tile_albedo + caustic + reflected)
+                .to_array();
             if d.object_shadow {
                 l.samples = 0.0;
             }
@@ -628,6 +670,53 @@ impl VlfBase {
             view: view.wall,
             means: acc,
             caustics,
+            reflections,
+            still,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use holocave_tracer::bsdf::Bsdf;
+
+    fn point(at: Vec3, reflected: Vec3) -> Option<DirectPoint> {
+        Some(DirectPoint {
+            triangle: 0,
+            position: at,
+            normal: Vec3::Y,
+            shading_normal: Vec3::Y,
+            wo: Vec3::Y,
+            bsdf: Bsdf::new(&Default::default()),
+            weight: Vec3::ONE,
+            surfaces: reflected,
+            reflected,
+        })
+    }
+
+    /// A pixel that sees the same point frame after frame shows the mean of the frames'
+    /// reflections; one that sees another point starts again, and one that sees none
+    /// holds nothing.
+    #[test]
+    fn a_still_pixels_reflections_are_the_mean_of_its_frames() {
+        let (a, b) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0));
+        let frames = [1.0f32, 4.0, 7.0, 2.0];
+        let mut kept = Vec::new();
+        for (k, &r) in frames.iter().enumerate() {
+            let points = [point(a, Vec3::splat(r)), point(b, Vec3::splat(r)), None];
+            let moved = [point(a, Vec3::splat(r)), point(a, Vec3::splat(r)), None];
+            // The second pixel sees `a` on odd frames and `b` on even ones.
+            let now = if k % 2 == 0 { &points } else { &moved };
+            kept = reflection_means(now, &kept);
+            let mean = frames[..=k].iter().sum::<f32>() / (k + 1) as f32;
+            assert_eq!(kept[0].2, k as u32 + 1);
+            assert!((kept[0].1.x - mean).abs() < 1e-6, "{:?} after {k}", kept[0]);
+            assert_eq!(
+                kept[1],
+                (now[1].as_ref().unwrap().position, Vec3::splat(r), 1)
+            );
+            assert_eq!((kept[2].1, kept[2].2), (Vec3::ZERO, 0));
+        }
     }
 }

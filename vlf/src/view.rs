@@ -14,6 +14,7 @@
 //! values, the elements' irradiance followed by the tiles' radiance
 //! ([`crate::State::values`]).
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock, RwLock};
 
 use glam::{Vec2, Vec3};
@@ -46,6 +47,10 @@ use crate::tiles::{Glossy, Tiles};
 /// ([`Visibility::blurred_reflection`]), and a widened tile of each of its two lobes
 /// ([`Visibility::sharpened_reflection`]).
 pub const BLURRED_RAYS: u64 = 8;
+
+/// The most frames whose reflections' directions [`Visibility::render_with_direct`]
+/// averages (a still node averages all of its frames').
+pub const AVERAGED_FRAMES: u32 = 32;
 
 /// What one pixel (or one ray) sees of the light field.
 /// Laid out as the render node's shader reads it (`Lookup` in
@@ -157,6 +162,9 @@ pub struct Visibility {
     darkening: bool,
     /// The caustics, taken per pixel with the direct light ([`Visibility::draw_caustics`]).
     caustics: OnceLock<Arc<Caustics>>,
+    /// The first and the number of the directions of each lobe's sequence the blurred
+    /// and sharpened reflections take ([`Visibility::draw_reflections`]).
+    reflection_rays: (AtomicU64, AtomicU64),
 }
 
 impl Visibility {
@@ -173,7 +181,21 @@ impl Visibility {
             light: OnceLock::new(),
             drawn: RwLock::new(None),
             caustics: OnceLock::new(),
+            reflection_rays: (AtomicU64::new(0), AtomicU64::new(BLURRED_RAYS)),
         }
+    }
+
+    /// The lookups made from now on take `count` directions of each glossy lobe they
+    /// reflect from ([`Self::blurred_reflection`], [`Self::sharpened_reflection`]), from
+    /// the `first` of the lobe's sequence on ([`BLURRED_RAYS`] from 0 until this is
+    /// called). The frames of a still view take the sequence on, `BLURRED_RAYS` a frame,
+    /// so that their mean is that of all their directions
+    /// ([`DirectPoint::reflected`]).
+    pub fn draw_reflections(&self, first: u64, count: u64) {
+        self.reflection_rays.0.store(first, Ordering::Relaxed);
+        self.reflection_rays
+            .1
+            .store(count.max(1), Ordering::Relaxed);
     }
 
     /// Takes the caustics per pixel from `caustics` wherever the direct light is (the
@@ -504,8 +526,8 @@ impl Visibility {
 
     /// What the reflecting lobes (the BSDF's GGX lobe, with the metal's and the specular
     /// layer's Fresnel) of the mirrored-gloss surface `s`, seen along `dir`, reflect of
-    /// the scene as the light field draws it (`total`: all of its light): [`BLURRED_RAYS`]
-    /// directions drawn from the lobe's visible normals, each weighted by the Fresnel at
+    /// the scene as the light field draws it (`total`: all of its light): the directions
+    /// [`Self::draw_reflections`] takes drawn from the lobe's visible normals, each weighted by the Fresnel at
     /// its microfacet and the masking on the way in (at grazing a rough lobe reflects less
     /// than a smooth surface's Fresnel says), the same ones wherever the point is seen
     /// from the same place (the sequence is rotated by the point's hash), the sky without
@@ -532,7 +554,9 @@ impl Visibility {
             ^ u64::from((s.hit.u * 65536.0) as u32) << 16
             ^ u64::from((s.hit.v * 65536.0) as u32);
         let mut sum = Vec3::ZERO;
-        for k in 0..BLURRED_RAYS {
+        let first = self.reflection_rays.0.load(Ordering::Relaxed);
+        let count = self.reflection_rays.1.load(Ordering::Relaxed);
+        for k in first..first + count {
             let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
             let m = lobe.sample_visible(wo, u);
             let wi = fresnel::reflect(wo, m);
@@ -565,14 +589,14 @@ impl Visibility {
             let (l, _) = self.lookup_chain(chain, objects, Some(scene), Some(total), false);
             sum += weight * (shade_one(&l, total) - emission);
         }
-        sum / BLURRED_RAYS as f32
+        sum / count as f32
     }
 
     /// What the glossy surface `s`, seen along `dir`, reflects of the room (as the light
     /// field draws it: `total`) beyond what its tile `glossy` holds, where the tile widens
     /// a lobe narrower than its bins resolve: the surface's own lobe's blurred reflection
-    /// less the widened lobe's, each from [`BLURRED_RAYS`] directions drawn with the same
-    /// numbers (so that where the room is smooth their noise cancels). A bright object
+    /// less the widened lobe's, each from the directions [`Self::draw_reflections`] takes,
+    /// drawn with the same numbers (so that where the room is smooth their noise cancels). A bright object
     /// small against a bin — the breakfast room's teapot in its marble table top — is
     /// spread by the tile over the bin; the lobe shows it. The sky is left out (the
     /// per-pixel pass sharpens its reflection: [`PixelDirect::with_sharp_sky_reflections`]),
@@ -630,6 +654,7 @@ impl Visibility {
             bsdf: Bsdf::new(&s.params),
             weight: chain.weight,
             surfaces: beside,
+            reflected: Vec3::ZERO,
         };
         // A glossy surface of the static scene without a tile: its Lambertian base's light,
         // its highlights (the per-pixel pass's where it adds the direct light here, else
@@ -666,6 +691,7 @@ impl Visibility {
                     emitted: (chain.emitted + chain.weight * shown).to_array(),
                     ..Lookup::NONE
                 };
+                point.reflected = chain.weight * blurred;
                 return (l, direct_at_point.then_some(point));
             }
             let shown = highlights(scene, &self.lights, &s, &bsdf, r.dir) + base;
@@ -728,6 +754,7 @@ impl Visibility {
                 .max(-shown);
                 emitted = (Vec3::from(emitted) + sharpened).to_array();
                 point.surfaces += sharpened;
+                point.reflected = sharpened;
             }
             let l = Lookup {
                 weight: (chain.weight * open).to_array(),
@@ -896,7 +923,8 @@ impl Visibility {
     /// first, one on each later one). With `sky`, the sky's light is taken per pixel too
     /// (`direct` [`PixelDirect::with_sky`], `values`
     /// [`crate::State::indirect_values_without_sky`]), under the light field's sky part as
-    /// a prior.
+    /// a prior. The glossy lobes' reflections take the directions of up to
+    /// [`AVERAGED_FRAMES`] frames.
     pub fn render_with_direct(
         &self,
         view: &WallView,
@@ -906,7 +934,13 @@ impl Visibility {
         frames: u32,
         sky: Option<SkyPrior>,
     ) -> Image {
-        self.render_lookups(view, values, k, Some(direct), frames, sky)
+        let before = self.reflection_rays.0.load(Ordering::Relaxed);
+        let count = self.reflection_rays.1.load(Ordering::Relaxed);
+        let averaged = u64::from(frames.clamp(1, AVERAGED_FRAMES));
+        self.draw_reflections(0, BLURRED_RAYS * averaged);
+        let image = self.render_lookups(view, values, k, Some(direct), frames, sky);
+        self.draw_reflections(before, count);
+        image
     }
 
     /// `k × k` lookups per pixel, each with the direct light per pixel when given.
