@@ -37,7 +37,7 @@ use holocave_vlf::footprint::Screen;
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::kept_gathers::KeptGathers;
 use holocave_vlf::split::Split;
-use holocave_vlf::view::{BLURRED_RAYS, SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
+use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
 use holocave_vlf::{
     Accumulator, Aim, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, StaticRays,
     Visibility,
@@ -504,7 +504,7 @@ impl VlfBase {
             let h = self.history.lock().unwrap_or_else(|e| e.into_inner());
             (h.iter().find(|x| x.eye == eye && x.view == view.wall)).map_or(0, |x| x.still)
         };
-        (self.visibility).draw_reflections(still * BLURRED_RAYS, BLURRED_RAYS);
+        (self.visibility).draw_reflections(still, 1);
         let mut lookups = self.pixels_into(&view.wall, &mut pixels);
         let edges = glow_edges::find(&view.wall, &lookups, &pixels.points);
         if self.direct {

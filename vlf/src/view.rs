@@ -43,10 +43,13 @@ use crate::surface::{
 };
 use crate::tiles::{Glossy, Tiles};
 
-/// Directions a mirrored-gloss surface seen directly takes of its lobe
-/// ([`Visibility::blurred_reflection`]), and a widened tile of each of its two lobes
-/// ([`Visibility::sharpened_reflection`]).
+/// Directions a frame a mirrored-gloss surface seen directly takes of its lobe
+/// ([`Visibility::blurred_reflection`]).
 pub const BLURRED_RAYS: u64 = 8;
+
+/// Directions a frame a widened tile's surface takes of each of its two lobes
+/// ([`Visibility::sharpened_reflection`]).
+pub const SHARPENED_RAYS: u64 = 2;
 
 /// The most frames whose reflections' directions [`Visibility::render_with_direct`]
 /// averages (a still node averages all of its frames').
@@ -162,8 +165,8 @@ pub struct Visibility {
     darkening: bool,
     /// The caustics, taken per pixel with the direct light ([`Visibility::draw_caustics`]).
     caustics: OnceLock<Arc<Caustics>>,
-    /// The first and the number of the directions of each lobe's sequence the blurred
-    /// and sharpened reflections take ([`Visibility::draw_reflections`]).
+    /// The first and the number of the frames whose directions of each lobe's sequence
+    /// the blurred and sharpened reflections take ([`Visibility::draw_reflections`]).
     reflection_rays: (AtomicU64, AtomicU64),
 }
 
@@ -181,21 +184,29 @@ impl Visibility {
             light: OnceLock::new(),
             drawn: RwLock::new(None),
             caustics: OnceLock::new(),
-            reflection_rays: (AtomicU64::new(0), AtomicU64::new(BLURRED_RAYS)),
+            reflection_rays: (AtomicU64::new(0), AtomicU64::new(1)),
         }
     }
 
-    /// The lookups made from now on take `count` directions of each glossy lobe they
-    /// reflect from ([`Self::blurred_reflection`], [`Self::sharpened_reflection`]), from
-    /// the `first` of the lobe's sequence on ([`BLURRED_RAYS`] from 0 until this is
-    /// called). The frames of a still view take the sequence on, `BLURRED_RAYS` a frame,
-    /// so that their mean is that of all their directions
-    /// ([`DirectPoint::reflected`]).
-    pub fn draw_reflections(&self, first: u64, count: u64) {
+    /// The lookups made from now on take the directions of `frames` frames from frame
+    /// `first` on of each glossy lobe they reflect from ([`BLURRED_RAYS`] a frame for
+    /// [`Self::blurred_reflection`], [`SHARPENED_RAYS`] for each of
+    /// [`Self::sharpened_reflection`]'s two lobes; frame 0 until this is called): a still
+    /// view's frames take each lobe's sequence on, so that their mean is that of all
+    /// their directions ([`DirectPoint::reflected`]).
+    pub fn draw_reflections(&self, first: u64, frames: u64) {
         self.reflection_rays.0.store(first, Ordering::Relaxed);
         self.reflection_rays
             .1
-            .store(count.max(1), Ordering::Relaxed);
+            .store(frames.max(1), Ordering::Relaxed);
+    }
+
+    /// The indices in a lobe's sequence of the directions the lookups take, `per_frame`
+    /// a frame ([`Self::draw_reflections`]).
+    fn reflection_window(&self, per_frame: u64) -> std::ops::Range<u64> {
+        let first = self.reflection_rays.0.load(Ordering::Relaxed);
+        let frames = self.reflection_rays.1.load(Ordering::Relaxed);
+        first * per_frame..(first + frames) * per_frame
     }
 
     /// Takes the caustics per pixel from `caustics` wherever the direct light is (the
@@ -542,7 +553,7 @@ impl Visibility {
         (s, dir): (&Seen, Vec3),
         total: &[[f32; 3]],
         emitters_by_nee: bool,
-        (bsdf, environment): (&Bsdf, &dyn Fn(Vec3) -> Vec3),
+        (bsdf, environment, window): (&Bsdf, &dyn Fn(Vec3) -> Vec3, std::ops::Range<u64>),
     ) -> Vec3 {
         let lobe = bsdf.ggx();
         let frame = Frame::new(s.shading_normal);
@@ -554,9 +565,8 @@ impl Visibility {
             ^ u64::from((s.hit.u * 65536.0) as u32) << 16
             ^ u64::from((s.hit.v * 65536.0) as u32);
         let mut sum = Vec3::ZERO;
-        let first = self.reflection_rays.0.load(Ordering::Relaxed);
-        let count = self.reflection_rays.1.load(Ordering::Relaxed);
-        for k in first..first + count {
+        let count = window.end - window.start;
+        for k in window {
             let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
             let m = lobe.sample_visible(wo, u);
             let wi = fresnel::reflect(wo, m);
@@ -612,7 +622,15 @@ impl Visibility {
     ) -> Vec3 {
         let outside = |_: Vec3| Vec3::ZERO;
         let lobe = |bsdf: &Bsdf| {
-            self.blurred_reflection(scene, objects, (s, dir), total, true, (bsdf, &outside))
+            let window = self.reflection_window(SHARPENED_RAYS);
+            self.blurred_reflection(
+                scene,
+                objects,
+                (s, dir),
+                total,
+                true,
+                (bsdf, &outside, window),
+            )
         };
         let own = Bsdf::new(&s.params);
         lobe(&own) - lobe(&own.widened(glossy.bsdf.ggx().alpha))
@@ -681,7 +699,7 @@ impl Visibility {
                     (&s, r.dir),
                     total,
                     direct_at_point,
-                    (&bsdf, &sky),
+                    (&bsdf, &sky, self.reflection_window(BLURRED_RAYS)),
                 );
                 let mut shown = base + blurred;
                 if !direct_at_point {
@@ -937,7 +955,7 @@ impl Visibility {
         let before = self.reflection_rays.0.load(Ordering::Relaxed);
         let count = self.reflection_rays.1.load(Ordering::Relaxed);
         let averaged = u64::from(frames.clamp(1, AVERAGED_FRAMES));
-        self.draw_reflections(0, BLURRED_RAYS * averaged);
+        self.draw_reflections(0, averaged);
         let image = self.render_lookups(view, values, k, Some(direct), frames, sky);
         self.draw_reflections(before, count);
         image
