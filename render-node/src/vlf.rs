@@ -37,7 +37,7 @@ use holocave_vlf::footprint::Screen;
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::kept_gathers::KeptGathers;
 use holocave_vlf::split::Split;
-use holocave_vlf::view::{SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
+use holocave_vlf::view::{ReflectionFrames, SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
 use holocave_vlf::{
     Accumulator, Aim, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, StaticRays,
     Visibility,
@@ -132,20 +132,21 @@ struct History {
 
 /// Each pixel's point, the mean of the glossy reflections drawn there
 /// ([`DirectPoint::reflected`]) with this frame's, and how many frames that holds: where
-/// the pixel saw the same point last frame (`kept`) the mean goes on, else it starts
-/// again; none where a pixel sees no point.
+/// the pixel saw the same point last frame (`kept`) the mean goes on (kept as it is in a
+/// frame that drew none there), else it starts again; none where a pixel sees no point.
 fn reflection_means(
     points: &[Option<DirectPoint>],
     kept: &[(Vec3, Vec3, u32)],
 ) -> Vec<(Vec3, Vec3, u32)> {
     (points.par_iter().enumerate())
         .map(|(i, p)| match p {
-            Some(p) => match kept.get(i) {
-                Some(&(at, mean, n)) if at == p.position => {
+            Some(p) => match (kept.get(i), p.reflected) {
+                (Some(&(at, mean, n)), Some(r)) if at == p.position => {
                     let n = n.saturating_add(1);
-                    (at, mean + (p.reflected - mean) / n as f32, n)
+                    (at, mean + (r - mean) / n as f32, n)
                 }
-                _ => (p.position, p.reflected, 1),
+                (Some(&k), None) if k.0 == p.position => k,
+                (_, r) => (p.position, r.unwrap_or(Vec3::ZERO), u32::from(r.is_some())),
             },
             None => (Vec3::NAN, Vec3::ZERO, 0),
         })
@@ -504,7 +505,7 @@ impl VlfBase {
             let h = self.history.lock().unwrap_or_else(|e| e.into_inner());
             (h.iter().find(|x| x.eye == eye && x.view == view.wall)).map_or(0, |x| x.still)
         };
-        (self.visibility).draw_reflections(still, 1);
+        (self.visibility).draw_reflections(ReflectionFrames::still(still));
         let mut lookups = self.pixels_into(&view.wall, &mut pixels);
         let edges = glow_edges::find(&view.wall, &lookups, &pixels.points);
         if self.direct {
@@ -644,7 +645,7 @@ impl VlfBase {
             let caustic = caustics.get(i).map_or(Vec3::ZERO, |c| c.1);
             // The mean of the frames' reflections in place of this frame's.
             let reflected = match (&points[i], reflections.get(i)) {
-                (Some(p), Some(r)) => r.1 - p.reflected,
+                (Some(p), Some(r)) => r.1 - p.reflected.unwrap_or(Vec3::ZERO),
                 _ => Vec3::ZERO,
             };
             let added = match &self.sky {
@@ -681,7 +682,7 @@ mod tests {
     use super::*;
     use holocave_tracer::bsdf::Bsdf;
 
-    fn point(at: Vec3, reflected: Vec3) -> Option<DirectPoint> {
+    fn point(at: Vec3, reflected: Option<Vec3>) -> Option<DirectPoint> {
         Some(DirectPoint {
             triangle: 0,
             position: at,
@@ -690,32 +691,32 @@ mod tests {
             wo: Vec3::Y,
             bsdf: Bsdf::new(&Default::default()),
             weight: Vec3::ONE,
-            surfaces: reflected,
+            surfaces: reflected.unwrap_or(Vec3::ZERO),
             reflected,
         })
     }
 
     /// A pixel that sees the same point frame after frame shows the mean of the frames'
-    /// reflections; one that sees another point starts again, and one that sees none
-    /// holds nothing.
+    /// reflections (kept through a frame that draws none there); one that sees another
+    /// point starts again, and one that sees none holds nothing.
     #[test]
     fn a_still_pixels_reflections_are_the_mean_of_its_frames() {
         let (a, b) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0));
-        let frames = [1.0f32, 4.0, 7.0, 2.0];
+        let frames = [Some(1.0f32), Some(4.0), None, Some(7.0), Some(2.0)];
         let mut kept = Vec::new();
-        for (k, &r) in frames.iter().enumerate() {
-            let points = [point(a, Vec3::splat(r)), point(b, Vec3::splat(r)), None];
-            let moved = [point(a, Vec3::splat(r)), point(a, Vec3::splat(r)), None];
+        let mut drawn = Vec::new();
+        for (k, r) in frames.iter().enumerate() {
+            let r = r.map(Vec3::splat);
             // The second pixel sees `a` on odd frames and `b` on even ones.
-            let now = if k % 2 == 0 { &points } else { &moved };
-            kept = reflection_means(now, &kept);
-            let mean = frames[..=k].iter().sum::<f32>() / (k + 1) as f32;
-            assert_eq!(kept[0].2, k as u32 + 1);
+            let second = if k % 2 == 0 { b } else { a };
+            let now = [point(a, r), point(second, r), None];
+            kept = reflection_means(&now, &kept);
+            drawn.extend(r.map(|r| r.x));
+            let mean = drawn.iter().sum::<f32>() / drawn.len() as f32;
+            assert_eq!(kept[0].2 as usize, drawn.len());
             assert!((kept[0].1.x - mean).abs() < 1e-6, "{:?} after {k}", kept[0]);
-            assert_eq!(
-                kept[1],
-                (now[1].as_ref().unwrap().position, Vec3::splat(r), 1)
-            );
+            let fresh = (second, r.unwrap_or(Vec3::ZERO), u32::from(r.is_some()));
+            assert_eq!(kept[1], fresh);
             assert_eq!((kept[2].1, kept[2].2), (Vec3::ZERO, 0));
         }
     }

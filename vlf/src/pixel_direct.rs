@@ -76,9 +76,10 @@ pub struct DirectPoint {
     /// ([`crate::view::Visibility::sharpened_reflection`]).
     pub surfaces: Vec3,
     /// What the lookup's emitted light holds of a glossy lobe's reflection drawn from a
-    /// few of its directions ([`crate::view::Visibility::draw_reflections`]): a still
-    /// view's frames take other directions, and a pixel shows the mean of its frames'.
-    pub reflected: Vec3,
+    /// few of its directions ([`crate::view::ReflectionFrames`]), where it was drawn: a
+    /// still view's frames take other directions, and a pixel shows the mean of its
+    /// frames'.
+    pub reflected: Option<Vec3>,
 }
 
 /// The per-pixel direct light of one scene.

@@ -14,7 +14,7 @@
 //! values, the elements' irradiance followed by the tiles' radiance
 //! ([`crate::State::values`]).
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::ops::Range;
 use std::sync::{Arc, OnceLock, RwLock};
 
 use glam::{Vec2, Vec3};
@@ -51,8 +51,8 @@ pub const BLURRED_RAYS: u64 = 8;
 /// ([`Visibility::sharpened_reflection`]).
 pub const SHARPENED_RAYS: u64 = 2;
 
-/// The most frames whose reflections' directions [`Visibility::render_with_direct`]
-/// averages (a still node averages all of its frames').
+/// The most frames of a still view whose glossy reflections' directions are averaged
+/// ([`ReflectionFrames`]).
 pub const AVERAGED_FRAMES: u32 = 32;
 
 /// What one pixel (or one ray) sees of the light field.
@@ -165,9 +165,49 @@ pub struct Visibility {
     darkening: bool,
     /// The caustics, taken per pixel with the direct light ([`Visibility::draw_caustics`]).
     caustics: OnceLock<Arc<Caustics>>,
-    /// The first and the number of the frames whose directions of each lobe's sequence
-    /// the blurred and sharpened reflections take ([`Visibility::draw_reflections`]).
-    reflection_rays: (AtomicU64, AtomicU64),
+    /// The frames whose directions of each lobe's sequence the blurred and sharpened
+    /// reflections take ([`Visibility::draw_reflections`]).
+    reflection_frames: RwLock<ReflectionFrames>,
+}
+
+/// The frames of a still view whose directions of each glossy lobe the lookups take: a
+/// view's frames take each lobe's sequence on, so that their mean is that of all their
+/// directions ([`DirectPoint::reflected`]). [`BLURRED_RAYS`] a frame for a surface drawn
+/// as its mirror ([`Visibility::blurred_reflection`]), always; [`SHARPENED_RAYS`] a frame
+/// of each of a widened tile's two lobes ([`Visibility::sharpened_reflection`]), none
+/// where `sharpened` is empty: a view's first frame, and a still view's frames after
+/// [`AVERAGED_FRAMES`], whose mean the walls keep (the sharpening doubles the frame of a
+/// wall that sees only such a floor; in motion the tile's reflection is shown).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReflectionFrames {
+    pub blurred: Range<u64>,
+    pub sharpened: Range<u64>,
+}
+
+impl ReflectionFrames {
+    /// Frame `n` of a view that has not moved since frame 0.
+    pub fn still(n: u64) -> ReflectionFrames {
+        let sharpened = if (1..=u64::from(AVERAGED_FRAMES)).contains(&n) {
+            n..n + 1
+        } else {
+            0..0
+        };
+        ReflectionFrames {
+            blurred: n..n + 1,
+            sharpened,
+        }
+    }
+
+    /// Every frame's of a still view after `frames` frames ([`Self::still`] of each),
+    /// up to [`AVERAGED_FRAMES`] of each kind.
+    pub fn after(frames: u32) -> ReflectionFrames {
+        let frames = u64::from(frames.max(1));
+        let most = u64::from(AVERAGED_FRAMES);
+        ReflectionFrames {
+            blurred: 0..frames.min(most),
+            sharpened: 1..frames.min(most + 1),
+        }
+    }
 }
 
 impl Visibility {
@@ -184,29 +224,24 @@ impl Visibility {
             light: OnceLock::new(),
             drawn: RwLock::new(None),
             caustics: OnceLock::new(),
-            reflection_rays: (AtomicU64::new(0), AtomicU64::new(1)),
+            reflection_frames: RwLock::new(ReflectionFrames::still(0)),
         }
     }
 
-    /// The lookups made from now on take the directions of `frames` frames from frame
-    /// `first` on of each glossy lobe they reflect from ([`BLURRED_RAYS`] a frame for
-    /// [`Self::blurred_reflection`], [`SHARPENED_RAYS`] for each of
-    /// [`Self::sharpened_reflection`]'s two lobes; frame 0 until this is called): a still
-    /// view's frames take each lobe's sequence on, so that their mean is that of all
-    /// their directions ([`DirectPoint::reflected`]).
-    pub fn draw_reflections(&self, first: u64, frames: u64) {
-        self.reflection_rays.0.store(first, Ordering::Relaxed);
-        self.reflection_rays
-            .1
-            .store(frames.max(1), Ordering::Relaxed);
+    /// The lookups made from now on take the glossy lobes' directions of `frames`
+    /// ([`ReflectionFrames::still`] of frame 0 until this is called).
+    pub fn draw_reflections(&self, frames: ReflectionFrames) {
+        *self
+            .reflection_frames
+            .write()
+            .unwrap_or_else(|e| e.into_inner()) = frames;
     }
 
-    /// The indices in a lobe's sequence of the directions the lookups take, `per_frame`
-    /// a frame ([`Self::draw_reflections`]).
-    fn reflection_window(&self, per_frame: u64) -> std::ops::Range<u64> {
-        let first = self.reflection_rays.0.load(Ordering::Relaxed);
-        let frames = self.reflection_rays.1.load(Ordering::Relaxed);
-        first * per_frame..(first + frames) * per_frame
+    /// Which frames' directions the lookups take ([`Self::draw_reflections`]).
+    pub fn reflection_frames(&self) -> ReflectionFrames {
+        (self.reflection_frames.read())
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
     }
 
     /// Takes the caustics per pixel from `caustics` wherever the direct light is (the
@@ -622,7 +657,8 @@ impl Visibility {
     ) -> Vec3 {
         let outside = |_: Vec3| Vec3::ZERO;
         let lobe = |bsdf: &Bsdf| {
-            let window = self.reflection_window(SHARPENED_RAYS);
+            let frames = self.reflection_frames().sharpened;
+            let window = frames.start * SHARPENED_RAYS..frames.end * SHARPENED_RAYS;
             self.blurred_reflection(
                 scene,
                 objects,
@@ -672,7 +708,7 @@ impl Visibility {
             bsdf: Bsdf::new(&s.params),
             weight: chain.weight,
             surfaces: beside,
-            reflected: Vec3::ZERO,
+            reflected: None,
         };
         // A glossy surface of the static scene without a tile: its Lambertian base's light,
         // its highlights (the per-pixel pass's where it adds the direct light here, else
@@ -699,7 +735,10 @@ impl Visibility {
                     (&s, r.dir),
                     total,
                     direct_at_point,
-                    (&bsdf, &sky, self.reflection_window(BLURRED_RAYS)),
+                    (&bsdf, &sky, {
+                        let frames = self.reflection_frames().blurred;
+                        frames.start * BLURRED_RAYS..frames.end * BLURRED_RAYS
+                    }),
                 );
                 let mut shown = base + blurred;
                 if !direct_at_point {
@@ -709,7 +748,7 @@ impl Visibility {
                     emitted: (chain.emitted + chain.weight * shown).to_array(),
                     ..Lookup::NONE
                 };
-                point.reflected = chain.weight * blurred;
+                point.reflected = Some(chain.weight * blurred);
                 return (l, direct_at_point.then_some(point));
             }
             let shown = highlights(scene, &self.lights, &s, &bsdf, r.dir) + base;
@@ -760,6 +799,7 @@ impl Visibility {
             if glossy.widened
                 && direct_at_point
                 && chain.deltas == 0
+                && !self.reflection_frames().sharpened.is_empty()
                 && let (Some(values), Some(total)) = (values, self.light.get())
             {
                 let statics = self.scene.statics();
@@ -772,7 +812,7 @@ impl Visibility {
                 .max(-shown);
                 emitted = (Vec3::from(emitted) + sharpened).to_array();
                 point.surfaces += sharpened;
-                point.reflected = sharpened;
+                point.reflected = Some(sharpened);
             }
             let l = Lookup {
                 weight: (chain.weight * open).to_array(),
@@ -941,8 +981,8 @@ impl Visibility {
     /// first, one on each later one). With `sky`, the sky's light is taken per pixel too
     /// (`direct` [`PixelDirect::with_sky`], `values`
     /// [`crate::State::indirect_values_without_sky`]), under the light field's sky part as
-    /// a prior. The glossy lobes' reflections take the directions of up to
-    /// [`AVERAGED_FRAMES`] frames.
+    /// a prior. The glossy lobes' reflections take the directions of those frames, up to
+    /// [`AVERAGED_FRAMES`] ([`ReflectionFrames::after`]).
     pub fn render_with_direct(
         &self,
         view: &WallView,
@@ -952,12 +992,10 @@ impl Visibility {
         frames: u32,
         sky: Option<SkyPrior>,
     ) -> Image {
-        let before = self.reflection_rays.0.load(Ordering::Relaxed);
-        let count = self.reflection_rays.1.load(Ordering::Relaxed);
-        let averaged = u64::from(frames.clamp(1, AVERAGED_FRAMES));
-        self.draw_reflections(0, averaged);
+        let before = self.reflection_frames();
+        self.draw_reflections(ReflectionFrames::after(frames));
         let image = self.render_lookups(view, values, k, Some(direct), frames, sky);
-        self.draw_reflections(before, count);
+        self.draw_reflections(before);
         image
     }
 

@@ -11,7 +11,7 @@ use holocave_cave::WallView;
 use holocave_scene::{Material, Scene};
 use holocave_vlf::split::Split;
 use holocave_vlf::tiles::alpha_floor;
-use holocave_vlf::view::SHARPENED_RAYS;
+use holocave_vlf::view::{ReflectionFrames, SHARPENED_RAYS};
 use holocave_vlf::{Settings, Visibility};
 
 /// A varnished floor (black under its varnish; GGX α 0.0625, a quarter of what its tiles
@@ -125,12 +125,16 @@ fn square_before_varnish() -> (Arc<Scene>, Visibility, Split, WallView) {
 fn a_still_views_reflections_take_more_directions_frame_after_frame() {
     let (_, vis, _, view) = square_before_varnish();
     let reflected = |first: u64, count: u64| -> Vec<f64> {
-        vis.draw_reflections(first, count);
+        vis.draw_reflections(ReflectionFrames {
+            blurred: first..first + count,
+            sharpened: first..first + count,
+        });
         let (_, points) = vis.pixels_and_points(&view);
         (points.iter())
             .map(|p| {
                 p.as_ref()
-                    .map_or(0.0, |p| f64::from(p.reflected.element_sum()))
+                    .and_then(|p| p.reflected)
+                    .map_or(0.0, |r| f64::from(r.element_sum()))
             })
             .collect()
     };
