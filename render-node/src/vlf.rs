@@ -534,6 +534,15 @@ impl VlfBase {
         Some(x.means.counts().to_vec())
     }
 
+    /// How many frames' glossy reflections each pixel's mean holds for eye `eye` in
+    /// `view`, as last drawn ([`DirectPoint::reflected`]); `None` when that eye has no
+    /// means of that view.
+    pub fn reflections_held(&self, eye: usize, view: &WallView) -> Option<Vec<u32>> {
+        let h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        let x = h.iter().find(|x| x.eye == eye && x.view == *view)?;
+        Some(x.reflections.iter().map(|r| r.2).collect())
+    }
+
     /// Runs `f` with the shadow rays the GPU makes from the wall's first hits kept there
     /// (which pixels see their first hit, and the GPU's answers to their made rays); with
     /// `None` where the rays are not on the GPU or it makes none of this scene's.

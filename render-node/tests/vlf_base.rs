@@ -284,6 +284,50 @@ fn each_eye_keeps_its_own_means() {
     }
 }
 
+/// A still viewer of glossy walls whose lobe is narrower than their tiles resolve (the
+/// Cornell box's walls a metal of GGX α 0.09, widened to 0.26 at this bake): the first
+/// frame shows the tiles' reflections; frames 1 to 32 add the walls' own lobes' reflection
+/// of the room beyond the tiles' (`Visibility::sharpened_reflection`), each from new
+/// directions, and the pixels show their mean; after that none is drawn and the mean is
+/// kept. Every pixel that sees a widened tile holds as many frames' as have passed, up to
+/// 32 and 32 after; one that sees a glossy surface too small for a tile (drawn as its
+/// mirror) one more, every frame; by frame 40 most show other light than at the first.
+#[test]
+fn a_still_viewer_sees_the_glossy_walls_sharpened_and_keeps_their_mean() {
+    let scene = glossy_cornell();
+    let dir = tempfile::tempdir().unwrap();
+    let base = baked(&scene, &coarse(), dir.path());
+    let view = EyeView::looking_at(wall(32), 0.05).unwrap();
+    let first = base.lookups(0, &view);
+    for frame in 1..=40u32 {
+        let lookups = base.lookups(0, &view);
+        let held = base
+            .reflections_held(0, &view.wall)
+            .expect("the eye's means");
+        let (tiles, mirrors) = (frame.min(32), frame + 1);
+        let sharpened = held.iter().filter(|&&n| n == tiles).count();
+        assert!(
+            sharpened > held.len() / 4,
+            "frame {frame}: {sharpened} of {} pixels hold {tiles} frames",
+            held.len()
+        );
+        let other: Vec<u32> = (held.iter().copied())
+            .filter(|&n| n != 0 && n != tiles && n != mirrors)
+            .collect();
+        assert!(
+            other.is_empty(),
+            "frame {frame}: pixels hold {:?} frames",
+            &other[..other.len().min(8)]
+        );
+        if frame == 40 {
+            let moved = (lookups.iter().zip(&first))
+                .filter(|(a, b)| a.emitted != b.emitted)
+                .count();
+            assert!(moved > sharpened / 2, "{moved} pixels changed");
+        }
+    }
+}
+
 /// Gather samples with their rays traced on the GPU (`--rays gpu`: the eye rays' first
 /// hits, the bounces', every shadow ray, each batch in one round trip) are the CPU's
 /// samples: the Cornell box, whose mirror and glass are followed on the CPU from the
