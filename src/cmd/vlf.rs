@@ -122,8 +122,9 @@ pub struct ViewArgs {
         requires = "sky_per_pixel"
     )]
     pub sky_prior: f32,
-    /// Frames of per-pixel direct light averaged (what a still wall shows after that
-    /// many frames; 1: the first frame).
+    /// Frames of per-pixel direct light averaged, and of the glossy reflections'
+    /// directions (up to 32): what a still wall shows after that many frames; 1: the
+    /// first frame.
     #[arg(long, default_value_t = 1)]
     pub frames: u32,
     /// Also take N frames of gathers, one through every pixel a frame, kept in the
