@@ -22,9 +22,9 @@ use holocave_cave::WallView;
 use holocave_scene::color::luminance;
 use rayon::prelude::*;
 
-use crate::glow_edges::{SUBPIXELS, neighbours};
+use crate::glow_edges::{SUBPIXELS, neighbours, subpixel};
 use crate::pixel_direct::DirectPoint;
-use crate::view::{Lookup, Visibility, grid_point, shade_one};
+use crate::view::{Lookup, Visibility, shade_one};
 
 /// Radiance differing from a neighbour's by more than this share of the larger, and by
 /// more than [`FLOOR`] of the view's mean, marks an edge worth the rays.
@@ -111,7 +111,7 @@ fn resolve_with(
                 let corner = Vec2::new((i % w) as f32, (i / w) as f32);
                 let on = (0..k * k)
                     .filter(|s| {
-                        let ray = view.ray(corner + grid_point(*s, k));
+                        let ray = view.ray(corner + subpixel(*s, k * k));
                         placed
                             .closest_hit(&ray, f32::INFINITY)
                             .is_some_and(|hit| on_plane(plane, ray.at(hit.t), hit.t))

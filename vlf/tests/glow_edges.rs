@@ -63,12 +63,13 @@ fn a_glowing_squares_edges_show_the_share_of_each_pixel_that_glows() {
     let edges = glow_edges::find(&view, &lookups, &points);
     edges.resolve(&vis, &view, &mut lookups);
     let after = worst(&shown(&lookups));
-    // One edge: half a ray's column in each of the columns it crosses; a corner: the two
-    // edges', each crossing at most every column or row. The reference's own: 1/64.
-    let k = SUBPIXELS as f32;
+    // One edge along the pixels' rows or columns: half of one of the rays' `n` rows or
+    // columns (`glow_edges::subpixel`); a corner: the two edges'. The reference's own:
+    // 1/64.
+    let n = (SUBPIXELS * SUBPIXELS) as f32;
     let (edge, corner) = (
-        contrast * (0.5 / k + 1.0 / 64.0),
-        contrast * (1.0 / k + 2.0 / 64.0),
+        contrast * (0.5 / n + 1.0 / 64.0),
+        contrast * (1.0 / n + 2.0 / 64.0),
     );
     eprintln!(
         "{} pixels at the edges; worst error along an edge {:.3} with one lookup, {:.3} \
