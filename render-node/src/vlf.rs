@@ -119,36 +119,67 @@ struct History {
     eye: usize,
     view: WallView,
     means: Accumulator,
-    /// Each pixel's point and the caustics' light there as last drawn: a still view's
-    /// pixels see the same points frame after frame, and take it again from here.
-    caustics: Vec<(Vec3, Vec3)>,
-    /// Each pixel's point, the mean of the glossy reflections drawn there
-    /// ([`DirectPoint::reflected`]) and how many frames it holds.
-    reflections: Vec<(Vec3, Vec3, u32)>,
+    /// What each pixel keeps of its point while it sees it: a still view's pixels see
+    /// the same points frame after frame.
+    at_points: Vec<AtPoint>,
     /// How many frames in a row this eye has drawn this view: the next one's reflections
     /// take the directions that follow theirs ([`Visibility::draw_reflections`]).
     still: u64,
 }
 
-/// Each pixel's point, the mean of the glossy reflections drawn there
-/// ([`DirectPoint::reflected`]) with this frame's, and how many frames that holds: where
-/// the pixel saw the same point last frame (`kept`) the mean goes on (kept as it is in a
-/// frame that drew none there), else it starts again; none where a pixel sees no point.
-fn reflection_means(
+/// What a pixel keeps of the point it sees, from frame to frame while it sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct AtPoint {
+    at: Vec3,
+    /// The caustics' light there ([`Visibility::caustic_light`]), taken once.
+    caustic: Vec3,
+    /// The mean of the glossy reflections drawn there ([`DirectPoint::reflected`]), and
+    /// over how many frames.
+    reflected: Vec3,
+    frames: u32,
+}
+
+impl AtPoint {
+    /// Where a pixel sees no point.
+    const NONE: AtPoint = AtPoint {
+        at: Vec3::NAN,
+        caustic: Vec3::ZERO,
+        reflected: Vec3::ZERO,
+        frames: 0,
+    };
+}
+
+/// What each pixel keeps of its point (`points`, this frame's), with this frame's
+/// reflections in the mean: where the pixel saw the same point last frame (`kept`) its
+/// caustics are taken again and its mean goes on (kept as it is in a frame that drew none
+/// there), else `caustic` gives the point's caustics and the mean starts again.
+fn at_points(
     points: &[Option<DirectPoint>],
-    kept: &[(Vec3, Vec3, u32)],
-) -> Vec<(Vec3, Vec3, u32)> {
+    kept: &[AtPoint],
+    caustic: impl Fn(usize, &DirectPoint) -> Vec3 + Sync,
+) -> Vec<AtPoint> {
     (points.par_iter().enumerate())
-        .map(|(i, p)| match p {
-            Some(p) => match (kept.get(i), p.reflected) {
-                (Some(&(at, mean, n)), Some(r)) if at == p.position => {
-                    let n = n.saturating_add(1);
-                    (at, mean + (r - mean) / n as f32, n)
+        .map(|(i, p)| {
+            let Some(p) = p else {
+                return AtPoint::NONE;
+            };
+            match (kept.get(i).filter(|k| k.at == p.position), p.reflected) {
+                (Some(&k), Some(r)) => {
+                    let frames = k.frames.saturating_add(1);
+                    AtPoint {
+                        reflected: k.reflected + (r - k.reflected) / frames as f32,
+                        frames,
+                        ..k
+                    }
                 }
-                (Some(&k), None) if k.0 == p.position => k,
-                (_, r) => (p.position, r.unwrap_or(Vec3::ZERO), u32::from(r.is_some())),
-            },
-            None => (Vec3::NAN, Vec3::ZERO, 0),
+                (Some(&k), None) => k,
+                (None, r) => AtPoint {
+                    at: p.position,
+                    caustic: caustic(i, p),
+                    reflected: r.unwrap_or(Vec3::ZERO),
+                    frames: u32::from(r.is_some()),
+                },
+            }
         })
         .collect()
 }
@@ -540,7 +571,7 @@ impl VlfBase {
     pub fn reflections_held(&self, eye: usize, view: &WallView) -> Option<Vec<u32>> {
         let h = self.history.lock().unwrap_or_else(|e| e.into_inner());
         let x = h.iter().find(|x| x.eye == eye && x.view == *view)?;
-        Some(x.reflections.iter().map(|r| r.2).collect())
+        Some(x.at_points.iter().map(|a| a.frames).collect())
     }
 
     /// Runs `f` with the shadow rays the GPU makes from the wall's first hits kept there
@@ -568,34 +599,6 @@ impl VlfBase {
         }))
     }
 
-    /// Each pixel's point and the caustics' light there ([`Visibility::caustic_light`]),
-    /// taken from `kept` (the same view's, as last drawn) where the pixel sees the same
-    /// point; none where the scene has no caustics per pixel.
-    fn caustics(
-        &self,
-        view: &EyeView,
-        lookups: &[Lookup],
-        points: &[Option<DirectPoint>],
-        kept: &[(Vec3, Vec3)],
-    ) -> Vec<(Vec3, Vec3)> {
-        if !self.visibility.caustics_per_pixel() {
-            return Vec::new();
-        }
-        let screen = Screen::of(&view.wall, 1);
-        (points.par_iter().zip(lookups).enumerate())
-            .map(|(i, (p, l))| match p {
-                Some(p) => match kept.get(i) {
-                    Some(&(at, c)) if at == p.position => (at, c),
-                    _ => (
-                        p.position,
-                        self.visibility.caustic_light(l, p, Some(&screen)),
-                    ),
-                },
-                None => (Vec3::NAN, Vec3::ZERO),
-            })
-            .collect()
-    }
-
     /// Adds each pixel's running mean of the direct light at its point (in `pixels`), its
     /// caustics and the mean of its glossy reflections, to
     /// its lookup's `emitted` light, this frame's estimate included.
@@ -608,7 +611,7 @@ impl VlfBase {
         // in place of the least recently drawn. Never the other eye's: the two eyes of a
         // wall would take each other's in turn, carrying the means across the eyes'
         // parallax every frame.
-        let (mut acc, moved_from, kept_caustics, kept_reflections, still) = {
+        let (mut acc, moved_from, kept, still) = {
             let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
             let own_screen = |x: &History| x.eye == eye && x.view.same_screen(&view.wall);
             let nearest = (0..h.len())
@@ -620,12 +623,12 @@ impl VlfBase {
             match h.iter().position(|x| own_screen(x) && x.view == view.wall) {
                 Some(i) => {
                     let x = h.swap_remove(i);
-                    (x.means, None, x.caustics, x.reflections, x.still + 1)
+                    (x.means, None, x.at_points, x.still + 1)
                 }
                 None => match nearest {
                     Some(i) => {
                         let x = h.swap_remove(i);
-                        (x.means, Some(x.view), Vec::new(), Vec::new(), 1)
+                        (x.means, Some(x.view), Vec::new(), 1)
                     }
                     None => {
                         if h.len() >= HISTORIES
@@ -633,7 +636,7 @@ impl VlfBase {
                         {
                             h.swap_remove(oldest);
                         }
-                        (Accumulator::new(), None, Vec::new(), Vec::new(), 1)
+                        (Accumulator::new(), None, Vec::new(), 1)
                     }
                 },
             }
@@ -647,15 +650,19 @@ impl VlfBase {
             }),
             None => acc.add(direct, placed, points),
         });
-        let caustics = self.caustics(view, lookups, points, &kept_caustics);
-        let reflections = reflection_means(points, &kept_reflections);
+        let screen = Screen::of(&view.wall, 1);
+        let at_points = at_points(points, &kept, |i, p| {
+            (self.visibility).caustic_light(&lookups[i], p, Some(&screen))
+        });
         let each = (lookups.par_iter_mut().zip(estimates).enumerate()).zip(acc.counts());
         each.for_each(|((i, (l, d)), &n)| {
-            let caustic = caustics.get(i).map_or(Vec3::ZERO, |c| c.1);
-            // The mean of the frames' reflections in place of this frame's.
-            let reflected = match (&points[i], reflections.get(i)) {
-                (Some(p), Some(r)) => r.1 - p.reflected.unwrap_or(Vec3::ZERO),
-                _ => Vec3::ZERO,
+            // The caustics, and the mean of the frames' reflections in place of this
+            // frame's.
+            let kept = &at_points[i];
+            let caustic = kept.caustic;
+            let reflected = match &points[i] {
+                Some(p) => kept.reflected - p.reflected.unwrap_or(Vec3::ZERO),
+                None => Vec3::ZERO,
             };
             let added = match &self.sky {
                 Some(values) => SkyPrior {
@@ -679,8 +686,7 @@ impl VlfBase {
             eye,
             view: view.wall,
             means: acc,
-            caustics,
-            reflections,
+            at_points,
             still,
         });
     }
@@ -719,14 +725,18 @@ mod tests {
             // The second pixel sees `a` on odd frames and `b` on even ones.
             let second = if k % 2 == 0 { b } else { a };
             let now = [point(a, r), point(second, r), None];
-            kept = reflection_means(&now, &kept);
+            kept = at_points(&now, &kept, |_, _| Vec3::ZERO);
             drawn.extend(r.map(|r| r.x));
             let mean = drawn.iter().sum::<f32>() / drawn.len() as f32;
-            assert_eq!(kept[0].2 as usize, drawn.len());
-            assert!((kept[0].1.x - mean).abs() < 1e-6, "{:?} after {k}", kept[0]);
+            assert_eq!(kept[0].frames as usize, drawn.len());
+            assert!(
+                (kept[0].reflected.x - mean).abs() < 1e-6,
+                "{:?} after {k}",
+                kept[0]
+            );
             let fresh = (second, r.unwrap_or(Vec3::ZERO), u32::from(r.is_some()));
-            assert_eq!(kept[1], fresh);
-            assert_eq!((kept[2].1, kept[2].2), (Vec3::ZERO, 0));
+            assert_eq!((kept[1].at, kept[1].reflected, kept[1].frames), fresh);
+            assert_eq!((kept[2].reflected, kept[2].frames), (Vec3::ZERO, 0));
         }
     }
 }

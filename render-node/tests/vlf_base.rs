@@ -291,16 +291,17 @@ fn each_eye_keeps_its_own_means() {
 /// directions, and the pixels show their mean; after that none is drawn and the mean is
 /// kept. Every pixel that sees a widened tile holds as many frames' as have passed, up to
 /// 32 and 32 after; one that sees a glossy surface too small for a tile (drawn as its
-/// mirror) one more, every frame; by frame 40 most show other light than at the first.
+/// mirror) one more, every frame. (That the mean is the frames' is
+/// `a_still_pixels_reflections_are_the_mean_of_its_frames`, in the crate.)
 #[test]
 fn a_still_viewer_sees_the_glossy_walls_sharpened_and_keeps_their_mean() {
     let scene = glossy_cornell();
     let dir = tempfile::tempdir().unwrap();
     let base = baked(&scene, &coarse(), dir.path());
     let view = EyeView::looking_at(wall(32), 0.05).unwrap();
-    let first = base.lookups(0, &view);
+    base.lookups(0, &view);
     for frame in 1..=40u32 {
-        let lookups = base.lookups(0, &view);
+        base.lookups(0, &view);
         let held = base
             .reflections_held(0, &view.wall)
             .expect("the eye's means");
@@ -319,12 +320,6 @@ fn a_still_viewer_sees_the_glossy_walls_sharpened_and_keeps_their_mean() {
             "frame {frame}: pixels hold {:?} frames",
             &other[..other.len().min(8)]
         );
-        if frame == 40 {
-            let moved = (lookups.iter().zip(&first))
-                .filter(|(a, b)| a.emitted != b.emitted)
-                .count();
-            assert!(moved > sharpened / 2, "{moved} pixels changed");
-        }
     }
 }
 

@@ -6,7 +6,7 @@
 //! smooth only where the head stays still: on the Cornell box's front wall the lamp's
 //! outline (the 1 % of pixels with the largest error) made 70 % of the light field's
 //! relative error against a pixel-averaged reference. Where a pixel's glow differs from a
-//! neighbour's by more than [`CONTRAST`], [`SUBPIXELS`]² rays through the pixel find what
+//! neighbour's by more than [`CONTRAST`], [`EDGE_RAYS`] rays through the pixel find what
 //! glows along them and whether they end on a surface that does not: the lookup's
 //! surface part (its element or tile, and the direct light per pixel) is scaled to the
 //! share of the rays that end on a surface, and its glow is the rays' mean. A pixel whose
@@ -22,24 +22,19 @@ use rayon::prelude::*;
 use crate::pixel_direct::DirectPoint;
 use crate::view::{Lookup, Visibility};
 
-/// Rays along each side of a pixel at an edge (`SUBPIXELS`² through each pixel, at the
-/// points of [`subpixel`]).
-pub const SUBPIXELS: u32 = 4;
+/// Rays through each pixel at an edge, at the points of [`subpixel`] (a power of two).
+pub const EDGE_RAYS: u32 = 16;
 
-/// The `s`-th of `n` points (a power of two) in a pixel at which the edges' rays cross
-/// it: Hammersley's, `((s + ½)/n, φ₂(s) + ½/n)` (`φ₂` the base-2 radical inverse), each
-/// in its own of `n` rows and of `n` columns. A regular `k × k` grid has only `k` rows,
-/// so a pixel's share of an edge along them (a table top's front edge on a floor wall)
-/// was found to within `1/(2k)`, an eighth of the pixel at `k` = 4: a row or column of
-/// this set is `1/n` of the pixel, a sixteenth.
-pub fn subpixel(s: u32, n: u32) -> Vec2 {
-    let bits = n.trailing_zeros();
-    let inverse = if bits == 0 {
-        0
-    } else {
-        s.reverse_bits() >> (32 - bits)
-    };
-    Vec2::new(s as f32 + 0.5, inverse as f32 + 0.5) / n as f32
+/// The `s`-th of the [`EDGE_RAYS`] points in a pixel at which the edges' rays cross it:
+/// Hammersley's, `((s + ½)/n, φ₂(s) + ½/n)` (`φ₂` the base-2 radical inverse), each in
+/// its own of `n` rows and of `n` columns, so that a pixel's share of an edge along its
+/// rows or columns is found to within `1/(2n)`. A regular `k × k` grid has only `k`
+/// rows: an edge along them (a table top's front edge on a floor wall) was found to
+/// within `1/(2k)`, an eighth of the pixel at 16 rays.
+pub fn subpixel(s: u32) -> Vec2 {
+    let bits = EDGE_RAYS.trailing_zeros();
+    let inverse = s.reverse_bits() >> (32 - bits);
+    Vec2::new(s as f32 + 0.5, inverse as f32 + 0.5) / EDGE_RAYS as f32
 }
 
 /// Glow differing from a neighbour's by more than this share of the larger marks an edge.
@@ -63,8 +58,8 @@ struct Edge {
 /// What a lookup's `emitted` light holds of glow alone, where it holds nothing else
 /// before the direct light is added: an element's or a tile's (the emitters and sky on the
 /// way and at the end, less what it holds of surfaces: [`DirectPoint::surfaces`]), or
-/// nothing seen at all. A surface drawn as its mirror holds
-/// its reflections there too, and is left as it is.
+/// nothing seen at all. A surface drawn as its mirror holds its reflections there too,
+/// and is left as it is.
 fn glow_of(l: &Lookup, point: Option<&DirectPoint>) -> Option<Vec3> {
     let shaded = l.base != u32::MAX || l.tile != u32::MAX;
     let surfaces = point.map_or(Vec3::ZERO, |p| p.surfaces);
@@ -157,7 +152,7 @@ impl GlowEdges {
 struct Coverage {
     /// The ray through its centre ends on a surface that does not glow.
     centre_on_surface: bool,
-    /// The mean glow of the [`SUBPIXELS`]² rays.
+    /// The mean glow of the [`EDGE_RAYS`] rays.
     glow: Vec3,
     /// The share of them that end on a surface that does not glow.
     share: f32,
@@ -165,22 +160,21 @@ struct Coverage {
 
 impl Coverage {
     fn of(vis: &Visibility, placed: &PlacedScene, view: &WallView, pixel: usize) -> Coverage {
-        let k = SUBPIXELS;
         let corner = Vec2::new(
             (pixel as u32 % view.width) as f32,
             (pixel as u32 / view.width) as f32,
         );
         let along = |o: Vec2| vis.glow_along(placed, view.ray(corner + o));
         let (mut glow, mut on_surface) = (Vec3::ZERO, 0u32);
-        for s in 0..k * k {
-            let (g, surface) = along(subpixel(s, k * k));
+        for s in 0..EDGE_RAYS {
+            let (g, surface) = along(subpixel(s));
             glow += g;
             on_surface += u32::from(surface);
         }
         Coverage {
             centre_on_surface: along(Vec2::splat(0.5)).1,
-            glow: glow / (k * k) as f32,
-            share: on_surface as f32 / (k * k) as f32,
+            glow: glow / EDGE_RAYS as f32,
+            share: on_surface as f32 / EDGE_RAYS as f32,
         }
     }
 

@@ -5,7 +5,7 @@
 //! dark one, each pixel along the edge showed one of them whole: on the room's floor wall,
 //! seen by a still head, one such column (ours 4, the pixel-averaged reference 31) made
 //! most of the light field's relative error. Where a pixel's radiance differs from a
-//! neighbour's by more than [`CONTRAST`], [`SUBPIXELS`]² rays through the pixel find the
+//! neighbour's by more than [`CONTRAST`], [`EDGE_RAYS`] rays through the pixel find the
 //! share that sees the plane of its centre's point; the rest of the pixel is taken to
 //! look like the neighbour beyond the edge (the one it differs from most whose point is
 //! not on that plane), whose radiance, shaded as the walls shade it, joins the lookup's
@@ -22,7 +22,7 @@ use holocave_cave::WallView;
 use holocave_scene::color::luminance;
 use rayon::prelude::*;
 
-use crate::glow_edges::{SUBPIXELS, neighbours, subpixel};
+use crate::glow_edges::{EDGE_RAYS, neighbours, subpixel};
 use crate::pixel_direct::DirectPoint;
 use crate::view::{Lookup, Visibility, shade_one};
 
@@ -79,7 +79,6 @@ fn resolve_with(
         })
         .filter(|i| glowing.binary_search(i).is_err())
         .collect();
-    let k = SUBPIXELS;
     let drawn: Vec<(usize, Lookup)> = vis.with_placed(|placed| {
         (pixels.par_iter())
             .filter_map(|&i| {
@@ -109,15 +108,15 @@ fn resolve_with(
                     }
                 };
                 let corner = Vec2::new((i % w) as f32, (i / w) as f32);
-                let on = (0..k * k)
+                let on = (0..EDGE_RAYS)
                     .filter(|s| {
-                        let ray = view.ray(corner + subpixel(*s, k * k));
+                        let ray = view.ray(corner + subpixel(*s));
                         placed
                             .closest_hit(&ray, f32::INFINITY)
                             .is_some_and(|hit| on_plane(plane, ray.at(hit.t), hit.t))
                     })
                     .count();
-                let all = (k * k) as usize;
+                let all = EDGE_RAYS as usize;
                 let own = if own_is_on { on } else { all - on };
                 let share = own as f32 / all as f32;
                 if own == 0 || own == all {

@@ -41,7 +41,7 @@ use crate::surface::{
     Chain, Seen, albedo_towards, follow, follow_all, follow_first, follow_from, highlights,
     mirrored, mirrored_gloss, seen, side_facing,
 };
-use crate::tiles::{Glossy, Tiles};
+use crate::tiles::Tiles;
 
 /// Directions a frame a mirrored-gloss surface seen directly takes of its lobe
 /// ([`Visibility::blurred_reflection`]).
@@ -207,6 +207,16 @@ impl ReflectionFrames {
             blurred: 0..frames.min(most),
             sharpened: 1..frames.min(most + 1),
         }
+    }
+
+    /// The indices in a mirror-drawn surface's lobe sequence of these frames' directions.
+    fn blurred_rays(&self) -> Range<u64> {
+        self.blurred.start * BLURRED_RAYS..self.blurred.end * BLURRED_RAYS
+    }
+
+    /// The same for each of a widened tile's two lobes.
+    fn sharpened_rays(&self) -> Range<u64> {
+        self.sharpened.start * SHARPENED_RAYS..self.sharpened.end * SHARPENED_RAYS
     }
 }
 
@@ -573,14 +583,14 @@ impl Visibility {
     /// What the reflecting lobes (the BSDF's GGX lobe, with the metal's and the specular
     /// layer's Fresnel) of the mirrored-gloss surface `s`, seen along `dir`, reflect of
     /// the scene as the light field draws it (`total`: all of its light): the directions
-    /// [`Self::draw_reflections`] takes drawn from the lobe's visible normals, each weighted by the Fresnel at
-    /// its microfacet and the masking on the way in (at grazing a rough lobe reflects less
-    /// than a smooth surface's Fresnel says), the same ones wherever the point is seen
-    /// from the same place (the sequence is rotated by the point's hash), the sky without
-    /// the sun (its highlight is [`highlights`]' or the per-pixel pass's). Emitters
-    /// seen directly are left out with `emitters_by_nee` (the per-pixel pass takes them
-    /// at this surface with its full BSDF). Each direction's own mirrored-gloss surfaces
-    /// are taken as mirrors. The lobe is `bsdf`'s and the scene's outside `environment`.
+    /// `rays` of the lobe's sequence of visible normals (rotated by the point's hash: the
+    /// same for the same point and frames, [`ReflectionFrames`]), each weighted by the
+    /// Fresnel at its microfacet and the masking on the way in (at grazing a rough lobe
+    /// reflects less than a smooth surface's Fresnel says), the sky without the sun (its
+    /// highlight is [`highlights`]' or the per-pixel pass's). Emitters seen directly are
+    /// left out with `emitters_by_nee` (the per-pixel pass takes them at this surface with
+    /// its full BSDF). Each direction's own mirrored-gloss surfaces are taken as mirrors.
+    /// The lobe is `bsdf`'s and the scene's outside `environment`.
     fn blurred_reflection(
         &self,
         scene: &PlacedScene,
@@ -588,7 +598,7 @@ impl Visibility {
         (s, dir): (&Seen, Vec3),
         total: &[[f32; 3]],
         emitters_by_nee: bool,
-        (bsdf, environment, window): (&Bsdf, &dyn Fn(Vec3) -> Vec3, std::ops::Range<u64>),
+        (bsdf, environment, rays): (&Bsdf, &dyn Fn(Vec3) -> Vec3, Range<u64>),
     ) -> Vec3 {
         let lobe = bsdf.ggx();
         let frame = Frame::new(s.shading_normal);
@@ -600,8 +610,8 @@ impl Visibility {
             ^ u64::from((s.hit.u * 65536.0) as u32) << 16
             ^ u64::from((s.hit.v * 65536.0) as u32);
         let mut sum = Vec3::ZERO;
-        let count = window.end - window.start;
-        for k in window {
+        let count = rays.end - rays.start;
+        for k in rays {
             let u = Vec2::new(r_sequence(R2, 2, 0, k, seed), r_sequence(R2, 2, 1, k, seed));
             let m = lobe.sample_visible(wo, u);
             let wi = fresnel::reflect(wo, m);
@@ -637,39 +647,31 @@ impl Visibility {
         sum / count as f32
     }
 
-    /// What the glossy surface `s`, seen along `dir`, reflects of the room (as the light
-    /// field draws it: `total`) beyond what its tile `glossy` holds, where the tile widens
-    /// a lobe narrower than its bins resolve: the surface's own lobe's blurred reflection
-    /// less the widened lobe's, each from the directions [`Self::draw_reflections`] takes,
-    /// drawn with the same numbers (so that where the room is smooth their noise cancels). A bright object
-    /// small against a bin — the breakfast room's teapot in its marble table top — is
-    /// spread by the tile over the bin; the lobe shows it. The sky is left out (the
-    /// per-pixel pass sharpens its reflection: [`PixelDirect::with_sharp_sky_reflections`]),
-    /// and so are the emitters seen directly (the per-pixel pass takes them with the
-    /// surface's own BSDF).
+    /// What the glossy surface `s` (its BSDF `own`), seen along `dir`, reflects of the room
+    /// (as the light field draws it: `total`) beyond what its tile holds, where the tile
+    /// widens the lobe to GGX `widened` because its bins resolve no narrower: the own
+    /// lobe's blurred reflection less the widened lobe's, each from the directions `rays`
+    /// of its sequence, drawn with the same numbers (so that where the room is smooth
+    /// their noise cancels). A bright object small against a bin — the breakfast room's
+    /// teapot in its marble table top — is spread by the tile over the bin; the lobe shows
+    /// it. The sky is left out (the per-pixel pass sharpens its reflection:
+    /// [`PixelDirect::with_sharp_sky_reflections`]), and so are the emitters seen directly
+    /// (the per-pixel pass takes them with the surface's own BSDF).
     fn sharpened_reflection(
         &self,
         scene: &PlacedScene,
         objects: &ObjectLight,
         (s, dir): (&Seen, Vec3),
         total: &[[f32; 3]],
-        glossy: &Glossy,
+        (own, widened): (&Bsdf, f32),
+        rays: Range<u64>,
     ) -> Vec3 {
         let outside = |_: Vec3| Vec3::ZERO;
         let lobe = |bsdf: &Bsdf| {
-            let frames = self.reflection_frames().sharpened;
-            let window = frames.start * SHARPENED_RAYS..frames.end * SHARPENED_RAYS;
-            self.blurred_reflection(
-                scene,
-                objects,
-                (s, dir),
-                total,
-                true,
-                (bsdf, &outside, window),
-            )
+            let drawn = (bsdf, &outside as &dyn Fn(Vec3) -> Vec3, rays.clone());
+            self.blurred_reflection(scene, objects, (s, dir), total, true, drawn)
         };
-        let own = Bsdf::new(&s.params);
-        lobe(&own) - lobe(&own.widened(glossy.bsdf.ggx().alpha))
+        lobe(own) - lobe(&own.widened(widened))
     }
 
     /// The lookup of what a chain of surfaces ends on; `placed` tells a moving object's
@@ -735,10 +737,7 @@ impl Visibility {
                     (&s, r.dir),
                     total,
                     direct_at_point,
-                    (&bsdf, &sky, {
-                        let frames = self.reflection_frames().blurred;
-                        frames.start * BLURRED_RAYS..frames.end * BLURRED_RAYS
-                    }),
+                    (&bsdf, &sky, self.reflection_frames().blurred_rays()),
                 );
                 let mut shown = base + blurred;
                 if !direct_at_point {
@@ -796,20 +795,28 @@ impl Visibility {
             let glossy = &self.tiles.tiles[g as usize];
             let tile = self.tiles.elements + g * k * k;
             let mut emitted = emitted;
+            let frames = self.reflection_frames();
             if glossy.widened
                 && direct_at_point
                 && chain.deltas == 0
-                && !self.reflection_frames().sharpened.is_empty()
+                && !frames.sharpened.is_empty()
                 && let (Some(values), Some(total)) = (values, self.light.get())
             {
                 let statics = self.scene.statics();
                 let scene = placed.unwrap_or(&statics);
+                let lobes = (&point.bsdf, glossy.bsdf.ggx().alpha);
+                let reflected = self.sharpened_reflection(
+                    scene,
+                    objects,
+                    (&s, r.dir),
+                    total,
+                    lobes,
+                    frames.sharpened_rays(),
+                );
                 // Never below what the tile shows: a difference of two few-ray estimates
                 // can be.
                 let shown = octahedral::interpolate(values, tile, k, x, y) * chain.weight * open;
-                let sharpened = (chain.weight
-                    * self.sharpened_reflection(scene, objects, (&s, r.dir), total, glossy))
-                .max(-shown);
+                let sharpened = (chain.weight * reflected).max(-shown);
                 emitted = (Vec3::from(emitted) + sharpened).to_array();
                 point.surfaces += sharpened;
                 point.reflected = Some(sharpened);

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use holocave_scene::color::luminance;
-use holocave_vlf::glow_edges::{self, SUBPIXELS};
+use holocave_vlf::glow_edges::{self, EDGE_RAYS};
 use holocave_vlf::view::shade_one;
 use holocave_vlf::{Settings, Visibility};
 
@@ -16,9 +16,10 @@ const GLOW: f32 = 10.0;
 const IRRADIANCE: f32 = 20.0;
 
 /// Against the same view drawn with 32 × 32 lookups per pixel, every pixel of the
-/// one-lookup drawing with its edges resolved is within `1 / (2 · SUBPIXELS)` of the
-/// glow (a straight edge's share is found within half a ray's column in each of the
-/// columns it crosses) plus the reference's own `1 / 64`; without, a pixel the edge
+/// one-lookup drawing with its edges resolved is within `1 / (2 · EDGE_RAYS)` of the
+/// glow along an edge (the square's edges run along the pixels' rows and columns, each
+/// of which holds one of the rays: `glow_edges::subpixel`), twice that at a corner, plus
+/// the reference's own `1 / 64`; without, a pixel the edge
 /// cuts near its middle is off by about half the contrast. The square's edges cut the
 /// pixels at fractions of them; the wall behind shows `ρ/π` of an irradiance of 20, a
 /// third of the glow, so a pixel that kept its whole surface part would be off by it.
@@ -63,10 +64,9 @@ fn a_glowing_squares_edges_show_the_share_of_each_pixel_that_glows() {
     let edges = glow_edges::find(&view, &lookups, &points);
     edges.resolve(&vis, &view, &mut lookups);
     let after = worst(&shown(&lookups));
-    // One edge along the pixels' rows or columns: half of one of the rays' `n` rows or
-    // columns (`glow_edges::subpixel`); a corner: the two edges'. The reference's own:
-    // 1/64.
-    let n = (SUBPIXELS * SUBPIXELS) as f32;
+    // One edge along the pixels' rows or columns: half of one of the rays' rows or
+    // columns; a corner: the two edges'. The reference's own: 1/64.
+    let n = EDGE_RAYS as f32;
     let (edge, corner) = (
         contrast * (0.5 / n + 1.0 / 64.0),
         contrast * (1.0 / n + 2.0 / 64.0),

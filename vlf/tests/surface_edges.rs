@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use holocave_scene::color::luminance;
-use holocave_vlf::glow_edges::SUBPIXELS;
+use holocave_vlf::glow_edges::EDGE_RAYS;
 use holocave_vlf::surface_edges;
 use holocave_vlf::view::shade_one;
 use holocave_vlf::{Settings, Visibility};
@@ -18,8 +18,9 @@ const BRIGHT: f32 = 60.0;
 const DARK: f32 = 2.0;
 
 /// Against the same view drawn with 32 × 32 lookups per pixel, every pixel along the
-/// square's edges (its corners aside) is within `1 / (2 · SUBPIXELS)` of the contrast
-/// (half a ray's column in each column the edge crosses) plus the reference's own
+/// square's edges (its corners aside) is within `1 / (2 · EDGE_RAYS)` of the contrast
+/// (the edges run along the pixels' rows and columns, each of which holds one of the
+/// rays: `glow_edges::subpixel`) plus the reference's own
 /// `1 / 64`; a corner's pixel, whose other side is taken from one neighbour, within twice
 /// that; with one lookup a pixel the edge cuts is off by a good part of the contrast.
 #[test]
@@ -112,8 +113,8 @@ fn bright_square_edges(o: Vec3, wall: bool) -> (f32, usize) {
     vis.draw_with(Arc::new(values.clone()), false);
     let looked = surface_edges::resolve(&vis, &view, &mut lookups, &points, &[]);
     let after = worst(&lookups);
-    let k = SUBPIXELS as f32;
-    let edge = contrast(dark) * (0.5 / k + 1.0 / 64.0);
+    let n = EDGE_RAYS as f32;
+    let edge = contrast(dark) * (0.5 / n + 1.0 / 64.0);
     eprintln!(
         "corner at {o}: {looked} pixels looked at; worst error along an edge {:.3} with one \
          lookup, {:.3} resolved (bound {edge:.3}); at a corner {:.3}, {:.3}",
