@@ -708,6 +708,7 @@ mod tests {
             weight: Vec3::ONE,
             surfaces: reflected.unwrap_or(Vec3::ZERO),
             reflected,
+            span: [Vec3::ZERO; 2],
         })
     }
 

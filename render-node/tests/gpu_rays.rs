@@ -554,11 +554,13 @@ fn negative_zeros_bad_rays_and_tmax_on_a_quad() {
 /// GPU's `sin`, `cos`, `sqrt`, fused multiply-adds, a 24-bit sample; an aimed ray by its
 /// point alone), so answers may differ only for rays that graze an edge: at most one in
 /// a thousand, plus one. Each answer's bit is found here from the layout the shader
-/// states (punctual lights, then the sun's samples, then the aims in order).
+/// states (punctual lights, then the sun's samples, then the aims in order). Twice: a
+/// pixel's first three estimates at its point, and a later one moved within the pixel
+/// (made from the barycentrics the CPU sends).
 #[test]
 fn shadow_rays_made_on_the_gpu_are_the_cpus() {
     use holocave_render_node::gpu_rays::ShadowMaker;
-    use holocave_vlf::{Sampled, made_rays};
+    use holocave_vlf::{DirectPoint, MadeFrom};
     let scene = std::sync::Arc::new(room::room_with_punctual_lights());
     let vis = Visibility::of(scene.clone(), &Settings::default());
     // The sky per pixel too: a sky sample and a BSDF sample of the sky an estimate.
@@ -572,26 +574,121 @@ fn shadow_rays_made_on_the_gpu_are_the_cpus() {
     let hits = engine.read_hits(&gpu, n);
     let mut kept = None;
     engine.keep_hits(&gpu, n, &mut kept);
-    // Each pixel's queries of three estimates (the sun's samples 0 to 7 or so, three of
-    // the lamp, six of the sky), where it sees its first hit.
-    let lights = scene.lights.len() as u32;
+    let engine = engine;
     let at_first_hit: Vec<bool> = (points.iter().zip(&hits))
         .map(|(p, h)| matches!((p, h), (Some(p), Some(h)) if p.triangle == h.triangle))
         .collect();
-    let per_pixel: Vec<Vec<_>> = (points.iter().zip(&at_first_hit))
-        .enumerate()
-        .map(|(i, (p, &first))| {
-            let mut queries = Vec::new();
-            if let (Some(p), true) = (p, first) {
-                for e in 0..3 {
-                    direct.queries(p, i as u64, e, &mut queries);
+    let mut check = |points: &[Option<DirectPoint>], estimates: std::ops::Range<u64>| {
+        let per_pixel: Vec<Vec<_>> = (points.iter().zip(&at_first_hit))
+            .enumerate()
+            .map(|(i, (p, &first))| {
+                let mut queries = Vec::new();
+                if let (Some(p), true) = (p, first) {
+                    for e in estimates.clone() {
+                        direct.queries(p, i as u64, e, &mut queries);
+                    }
                 }
-            }
-            queries
+                queries
+            })
+            .collect();
+        let from: Vec<MadeFrom> = (points.iter().zip(&at_first_hit))
+            .enumerate()
+            .map(|(i, (p, &first))| match p {
+                Some(p) if first && estimates.end - estimates.start == 1 => {
+                    match direct.within_pixel(p, i as u64, estimates.start) {
+                        Some((_, at)) => MadeFrom::Moved(at),
+                        None => MadeFrom::FirstHit,
+                    }
+                }
+                _ if first => MadeFrom::FirstHit,
+                _ => MadeFrom::Sent,
+            })
+            .collect();
+        let moved = from
+            .iter()
+            .filter(|f| matches!(f, MadeFrom::Moved(_)))
+            .count();
+        let on_gpu = (&engine, kept.as_ref().unwrap(), &gpu);
+        let counts = made_as_the_cpus(&scene, &mut maker, on_gpu, &per_pixel, &from);
+        (counts, moved)
+    };
+    // A pixel's first three estimates at its point (the sun's samples 0 to 7 or so,
+    // three of the lamp, six of the sky).
+    let at_point: Vec<Option<DirectPoint>> = (points.iter())
+        .map(|p| {
+            p.map(|p| DirectPoint {
+                span: [Vec3::ZERO; 2],
+                ..p
+            })
         })
         .collect();
-    let (plans, aims) = made_rays(&per_pixel, &at_first_hit, lights);
-    let masks = maker.trace(&gpu, &engine, kept.as_ref().unwrap(), &plans, &aims);
+    let (counts, moved) = check(&at_point, 0..3);
+    assert_made_as_the_cpus(counts);
+    assert_eq!(moved, 0);
+    // Three later estimates, one at a time, each moved within the pixel.
+    let seen = at_first_hit.iter().filter(|&&f| f).count();
+    let mut later = MadeCounts::default();
+    for e in 3..6 {
+        let (counts, moved) = check(&points, e..e + 1);
+        assert!(
+            moved * 2 > seen,
+            "{moved} of {seen} pixels' estimates moved"
+        );
+        for k in 0..4 {
+            later.rays[k] += counts.rays[k];
+            later.blocked[k] += counts.blocked[k];
+        }
+        later.differ += counts.differ;
+    }
+    assert_made_as_the_cpus(later);
+}
+
+/// Rays made on the GPU and answered on the CPU: to punctual lights, the sun, the lamp and
+/// the sky; how many the CPU finds blocked; how many the two answer otherwise.
+#[derive(Clone, Copy, Default)]
+struct MadeCounts {
+    rays: [usize; 4],
+    blocked: [usize; 4],
+    differ: usize,
+}
+
+/// Enough rays of each kind, blocked and not, to tell; the answers differing at most
+/// once in a thousand, plus one.
+fn assert_made_as_the_cpus(c: MadeCounts) {
+    let MadeCounts {
+        rays,
+        blocked,
+        differ,
+    } = c;
+    eprintln!(
+        "made shadow rays: {} to punctual lights ({} blocked), {} to the sun ({} blocked), \
+         {} to the lamp ({} blocked), {} to the sky ({} blocked); \
+         {differ} answered otherwise than the CPU's",
+        rays[0], blocked[0], rays[1], blocked[1], rays[2], blocked[2], rays[3], blocked[3]
+    );
+    for k in 0..4 {
+        assert!(
+            rays[k] > 1000 && blocked[k] > 100 && rays[k] - blocked[k] > 100,
+            "{rays:?} rays, {blocked:?} blocked: too few of either to tell"
+        );
+    }
+    let total: usize = rays.iter().sum();
+    assert!(differ <= total / 1000 + 1, "{differ} differ");
+}
+
+/// Checks the rays `maker` makes of each pixel's `queries` from where `from` says against
+/// the CPU's answers to the queries (see `shadow_rays_made_on_the_gpu_are_the_cpus`).
+fn made_as_the_cpus(
+    scene: &Scene,
+    maker: &mut holocave_render_node::gpu_rays::ShadowMaker,
+    (engine, kept, gpu): (&GpuRays, &holocave_render_node::gpu_rays::KeptHits, &Gpu),
+    per_pixel: &[Vec<holocave_vlf::ShadowQuery>],
+    from: &[holocave_vlf::MadeFrom],
+) -> MadeCounts {
+    use holocave_vlf::{Sampled, made_rays};
+    let lights = scene.lights.len() as u32;
+    let (plans, aims) = made_rays(per_pixel, from, lights);
+    let masks = maker.trace(gpu, engine, kept, &plans, &aims);
     assert_eq!(masks.len(), per_pixel.len());
     let (mut rays, mut blocked, mut differ) = ([0usize; 4], [0usize; 4], 0);
     for ((queries, plan), mask) in per_pixel.iter().zip(&plans).zip(&masks) {
@@ -613,23 +710,14 @@ fn shadow_rays_made_on_the_gpu_are_the_cpus() {
             differ += usize::from(cpu != (mask & (1 << bit) != 0));
         }
     }
-    eprintln!(
-        "made shadow rays: {} to punctual lights ({} blocked), {} to the sun ({} blocked), \
-         {} to the lamp ({} blocked), {} to the sky ({} blocked); \
-         {differ} answered otherwise than the CPU's",
-        rays[0], blocked[0], rays[1], blocked[1], rays[2], blocked[2], rays[3], blocked[3]
-    );
-    for k in 0..4 {
-        assert!(
-            rays[k] > 1000 && blocked[k] > 100 && rays[k] - blocked[k] > 100,
-            "{rays:?} rays, {blocked:?} blocked: too few of either to tell"
-        );
-    }
-    let total: usize = rays.iter().sum();
-    assert!(differ <= total / 1000 + 1, "{differ} differ");
     // Every one of them made: none left to send.
     assert_eq!(
         plans.iter().map(|m| m.aimed as usize).sum::<usize>(),
         rays[2] + rays[3]
     );
+    MadeCounts {
+        rays,
+        blocked,
+        differ,
+    }
 }

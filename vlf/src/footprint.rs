@@ -63,6 +63,33 @@ impl Screen {
     }
 }
 
+/// How the point a pixel's ray finds on the plane of `p` (through `p.position`, normal
+/// `p.normal`) moves as the ray sweeps one cell of the pixel divided into `k × k`: across
+/// the cell's width and down its height. Within a pixel the map from the screen to the
+/// plane is affine up to the pixel's angle squared, so the cell covers `p.position + s ·
+/// span[0] + t · span[1]`, `s, t ∈ [−½, ½]`, on the plane. Zero where the plane or the
+/// screen is seen edge on.
+pub fn pixel_span(view: &WallView, k: u32, p: &DirectPoint) -> [Vec3; 2] {
+    let k = k.max(1) as f32;
+    let across = (view.pb - view.pa) / (view.width as f32 * k);
+    let down = (view.pa - view.pc) / (view.height as f32 * k);
+    let screen = (view.pb - view.pa).cross(view.pc - view.pa);
+    let v = p.position - view.eye;
+    // The ray through the cell's centre meets the screen at `eye + d` and the point at
+    // `eye + t d`; moved by `δ` on the screen, it meets the plane `t (δ − d (n·δ)/(n·d))`
+    // further on.
+    let d = v * ((view.pa - view.eye).dot(screen) / v.dot(screen));
+    let t = v.dot(screen) / (view.pa - view.eye).dot(screen);
+    let n = p.normal;
+    let moved = |delta: Vec3| t * (delta - d * (n.dot(delta) / n.dot(d)));
+    let span = [moved(across), moved(down)];
+    if span.iter().all(|s| s.is_finite()) {
+        span
+    } else {
+        [Vec3::ZERO; 2]
+    }
+}
+
 impl Ellipse {
     pub fn contains(&self, q: Vec3) -> bool {
         let d = q - self.centre;

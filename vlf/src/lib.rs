@@ -95,8 +95,8 @@ pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
 pub use pixel_direct::{
-    Accumulator, Aim, DirectPoint, Estimate, Made, MadeRays, PixelDirect, Sampled, ShadowQuery,
-    SunSequence, made_rays, sun_sequence,
+    Accumulator, Aim, DirectPoint, Estimate, Made, MadeFrom, MadeRays, PixelDirect, Sampled,
+    ShadowQuery, SunSequence, made_rays, sun_sequence,
 };
 pub use static_rays::{CpuRays, StaticRays};
 pub use tiles::Tiles;

@@ -52,7 +52,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 use crate::footprint::Screen;
-use crate::sequence::{R2, R3, r_sequence};
+use crate::sequence::{R2, R3, R4, r_sequence};
 use crate::static_rays::{StaticRays, per_group};
 use crate::tile_albedo::TileAlbedo;
 use crate::view::{Lookup, OverMirror};
@@ -80,6 +80,14 @@ pub struct DirectPoint {
     /// still view's frames take other directions, and a pixel shows the mean of its
     /// frames'.
     pub reflected: Option<Vec3>,
+    /// Where the pixel's estimates are taken: moving through the pixel across its width
+    /// and down its height moves the point along these on its plane
+    /// ([`crate::footprint::pixel_span`]). Each estimate takes its own place in the pixel
+    /// ([`PixelDirect::within_pixel`]), so that a still pixel's mean is the mean over its
+    /// patch, as the path tracer's: a shadow's edge through the pixel shows as the part of
+    /// it that is lit. Zero where the point is seen through a mirror or glass, or is a
+    /// moving object's: its estimates are all taken at `position`.
+    pub span: [Vec3; 2],
 }
 
 /// The per-pixel direct light of one scene.
@@ -110,6 +118,18 @@ pub const FIRST_SUN_SAMPLES: u64 = 4;
 /// window is reflected in it at the first frame; four make a new point's reflection
 /// four pairs deep, paid only where a pixel starts over, and only on sharpened lobes.
 pub const FIRST_SHARPENING_PAIRS: u64 = 4;
+
+/// The barycentrics `(u, v)` of `x`, a point of the plane of triangle `a b c`, where it
+/// lies on the triangle (`x = a + u (b − a) + v (c − a)`, as a hit's); `None` where not.
+fn barycentrics_on(x: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Option<[f32; 2]> {
+    let (e1, e2, w) = (b - a, c - a, x - a);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (dw1, dw2) = (w.dot(e1), w.dot(e2));
+    let det = d11 * d22 - d12 * d12;
+    let u = (d22 * dw1 - d12 * dw2) / det;
+    let v = (d11 * dw2 - d12 * dw1) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0).then_some([u, v])
+}
 
 /// Whether light arriving along `wi` reaches the viewer from `p`: opaque surfaces only
 /// receive light on the side they are seen from.
@@ -286,6 +306,24 @@ impl PixelDirect {
         shadow_query(p, ls, c, light)
     }
 
+    /// The point of `p`'s pixel (pixel `seed`) where its `n`-th estimate is taken, and its
+    /// barycentrics on `p`'s triangle: the `n`-th place of the pixel's R4 sequence on
+    /// `p.span`, where that lies on the triangle; `None` (the estimate is taken at `p`
+    /// itself) where it does not, or the point has no span. A pixel across two triangles
+    /// of one surface takes the part beyond its own triangle at its centre: its mean
+    /// leans towards the centre's light there, never onto another surface (a
+    /// neighbouring triangle may face elsewhere, or be hidden).
+    pub fn within_pixel(&self, p: &DirectPoint, seed: u64, n: u64) -> Option<(Vec3, [f32; 2])> {
+        if p.span == [Vec3::ZERO; 2] {
+            return None;
+        }
+        let s = r_sequence(R4, 12, 0, n, seed) - 0.5;
+        let t = r_sequence(R4, 12, 1, n, seed) - 0.5;
+        let at = p.position + p.span[0] * s + p.span[1] * t;
+        let [a, b, c] = *self.scene.triangle(p.triangle);
+        barycentrics_on(at, a, b, c).map(|uv| (at, uv))
+    }
+
     /// The shadow rays of the `n`-th estimate at `p` of pixel `seed`'s sequence (one
     /// light sample of each kind), appended to `out`.
     pub fn queries(&self, p: &DirectPoint, seed: u64, n: u64, out: &mut Vec<ShadowQuery>) {
@@ -295,6 +333,9 @@ impl PixelDirect {
     /// Calls `f` with each shadow ray of the `n`-th estimate at `p` of pixel `seed`'s
     /// sequence.
     fn each_query(&self, p: &DirectPoint, seed: u64, n: u64, mut f: impl FnMut(ShadowQuery)) {
+        let moved =
+            (self.within_pixel(p, seed, n)).map(|(at, _)| DirectPoint { position: at, ..*p });
+        let p = moved.as_ref().unwrap_or(p);
         let frame = Frame::new(p.shading_normal);
         let l = &self.lights;
         if l.has_area() {
@@ -537,14 +578,32 @@ pub fn sun_sequence(seed: u64) -> SunSequence {
 /// rays the CPU chose, the pixel's [`Aim`]s `first_aim .. first_aim + aimed` (points on
 /// the area lamps, the sky's directions: their distributions depend on the point and
 /// the CPU shades with the samples it draws, so it sends each sample's direction and
-/// distance, and the walk makes the ray from its own hit).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// distance, and the walk makes the ray from its own hit). All from one point: the first
+/// hit, or where `at` puts the pixel's one estimate of the frame on the hit's triangle.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MadeRays {
     pub first_sun: u32,
     pub suns: u32,
     pub punctual: bool,
     pub first_aim: u32,
     pub aimed: u32,
+    /// The barycentrics on the first hit's triangle of the point the rays leave from,
+    /// where the estimate was moved within the pixel ([`PixelDirect::within_pixel`]);
+    /// `None`: the first hit itself.
+    pub at: Option<[f32; 2]>,
+}
+
+/// Where a walk makes a pixel's shadow rays from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MadeFrom {
+    /// Nowhere: its rays are sent (its point lies beyond a mirror or glass, or its
+    /// estimates this frame leave from more than one point).
+    Sent,
+    /// The pixel's first hit.
+    FirstHit,
+    /// This point of the first hit's triangle (barycentrics): the frame's one estimate
+    /// moved within the pixel.
+    Moved([f32; 2]),
 }
 
 /// A light sample as seen from the point that takes it: the direction towards it and its
@@ -612,22 +671,22 @@ impl MadeRays {
     }
 }
 
-/// What the walk makes of each pixel's `queries` (those of pixels that see their first
-/// hit, `at_first_hit`; none of the others', whose points lie beyond a mirror or glass),
-/// the scene having `lights` punctual lights: each pixel's [`MadeRays`] and the aims of
-/// all of them in order.
+/// What the walk makes of each pixel's `queries`, made from where `from` says, the
+/// scene having `lights` punctual lights: each pixel's [`MadeRays`] and the aims of all
+/// of them in order.
 pub fn made_rays(
     queries: &[Vec<ShadowQuery>],
-    at_first_hit: &[bool],
+    from: &[MadeFrom],
     lights: u32,
 ) -> (Vec<MadeRays>, Vec<Aim>) {
-    let mut plans: Vec<MadeRays> = (queries.par_iter().zip(at_first_hit))
-        .map(|(q, &first)| {
-            if first {
-                MadeRays::of(q, lights)
-            } else {
-                MadeRays::default()
-            }
+    let mut plans: Vec<MadeRays> = (queries.par_iter().zip(from))
+        .map(|(q, from)| match *from {
+            MadeFrom::Sent => MadeRays::default(),
+            MadeFrom::FirstHit => MadeRays::of(q, lights),
+            MadeFrom::Moved(at) => MadeRays {
+                at: Some(at),
+                ..MadeRays::of(q, lights)
+            },
         })
         .collect();
     let mut aims = Vec::new();
@@ -919,23 +978,36 @@ impl Accumulator {
         traced: &dyn StaticRays,
         made: Option<&Made>,
     ) -> Vec<Estimate> {
-        // The estimates each pixel takes this frame, as shadow rays.
-        let per_pixel = self.each_pixel(direct, points, |i, p, first, take, _| {
-            let mut queries = Vec::new();
-            if let Some(p) = p {
-                for n in first..first + u64::from(take) {
-                    direct.queries(p, i as u64, n, &mut queries);
+        // The estimates each pixel takes this frame, as shadow rays, and where they leave
+        // from for a walk that makes them from the pixel's first hit's triangle.
+        let (per_pixel, from): (Vec<Vec<ShadowQuery>>, Vec<MadeFrom>) = self
+            .each_pixel(direct, points, |i, p, first, take, _| {
+                let mut queries = Vec::new();
+                let mut from = MadeFrom::FirstHit;
+                if let Some(p) = p {
+                    for n in first..first + u64::from(take) {
+                        direct.queries(p, i as u64, n, &mut queries);
+                        from = match (direct.within_pixel(p, i as u64, n), take) {
+                            (None, _) if from == MadeFrom::FirstHit => from,
+                            (Some((_, at)), 1) => MadeFrom::Moved(at),
+                            _ => MadeFrom::Sent,
+                        };
+                    }
                 }
-            }
-            queries
-        });
+                (queries, from)
+            })
+            .into_iter()
+            .unzip();
         let lights = direct.lights.punctual.len() as u32;
         let n = points.len();
         // What the walk makes of each pixel's queries (each query's bit in the pixel's
         // answer; none without `made`) and its answers to them.
         let (bits, masks): (Vec<Vec<Option<u32>>>, Vec<u32>) = match made {
             Some(made) => {
-                let (plans, aims) = made_rays(&per_pixel, made.at_first_hit, lights);
+                let from: Vec<MadeFrom> = (made.at_first_hit.iter().zip(from))
+                    .map(|(&first, from)| if first { from } else { MadeFrom::Sent })
+                    .collect();
+                let (plans, aims) = made_rays(&per_pixel, &from, lights);
                 let masks = (made.trace)(&plans, &aims);
                 let bits = (per_pixel.par_iter().zip(&plans))
                     .map(|(queries, m)| m.bits(queries, lights))
@@ -1023,21 +1095,32 @@ mod tests {
             crowded.clone(),
             too_many.clone(),
             first.clone(),
+            first.clone(),
         ];
-        let (plans, aims) = made_rays(&pixels, &[true, true, true, false], lights);
+        let moved = MadeFrom::Moved([0.25, 0.5]);
+        let from = [
+            MadeFrom::FirstHit,
+            MadeFrom::FirstHit,
+            MadeFrom::FirstHit,
+            MadeFrom::Sent,
+            moved,
+        ];
+        let (plans, aims) = made_rays(&pixels, &from, lights);
         let expected_first = MadeRays {
             first_sun: 5,
             suns: 2,
             punctual: true,
             first_aim: 0,
             aimed: 2,
+            at: None,
         };
         assert_eq!(plans[0], expected_first);
         assert_eq!(
             plans[0].bits(&first, lights),
             [5, 0, 1, 2, 3, 4, 6].map(Some).to_vec()
         );
-        assert_eq!(aims.len(), 2);
+        // The first pixel's two aims, and the last one's.
+        assert_eq!(aims.len(), 4);
         assert_eq!(aims[0].dist, 2.0);
         assert!(aims[1].dist.is_infinite());
         // 3 lights and 28 samples leave one bit: both aims are sent.
@@ -1058,5 +1141,14 @@ mod tests {
         );
         assert!(plans[2].bits(&too_many, lights).iter().all(Option::is_none));
         assert!(plans[3].bits(&first, lights).iter().all(Option::is_none));
+        // Moved within the pixel: the same rays, from the point given.
+        assert_eq!(
+            plans[4],
+            MadeRays {
+                first_aim: 2,
+                at: Some([0.25, 0.5]),
+                ..expected_first
+            }
+        );
     }
 }

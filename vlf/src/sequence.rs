@@ -1,9 +1,14 @@
-//! The R low-discrepancy sequences (Roberts 2018): each pixel's light samples, and the
+//! The R low-discrepancy sequences (Roberts 2018): each pixel's light samples and places in
+//! the pixel, and the
 //! deterministic BSDF samples of the bake's albedo tables.
 
 /// The plastic number and its 3-D analogue: the R sequences' generators.
 pub(crate) const R2: f64 = 1.324_717_957_244_746;
 pub(crate) const R3: f64 = 1.220_744_084_605_759_5;
+/// The 4-D analogue (the positive root of `x⁵ = x + 1`): its first two components place a
+/// pixel's estimates in the pixel, a sequence of its own that never runs in step with the
+/// lights' R2 and R3 samples.
+pub(crate) const R4: f64 = 1.167_303_978_261_418_7;
 
 /// A pixel's hash, spread over `[0, 1)`.
 fn hash01(seed: u64, k: u64) -> f64 {

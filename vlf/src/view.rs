@@ -32,7 +32,7 @@ use crate::StaticRays;
 use crate::bake::{environment, sky};
 use crate::caustics::Caustics;
 use crate::elements::{Elements, bilinear_cells, interpolate};
-use crate::footprint::Screen;
+use crate::footprint::{Screen, pixel_span};
 use crate::objects::ObjectLight;
 use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
@@ -711,6 +711,7 @@ impl Visibility {
             weight: chain.weight,
             surfaces: beside,
             reflected: None,
+            span: [Vec3::ZERO; 2],
         };
         // A glossy surface of the static scene without a tile: its Lambertian base's light,
         // its highlights (the per-pixel pass's where it adds the direct light here, else
@@ -954,7 +955,11 @@ impl Visibility {
                             Some(_) => follow_first(&placed, ray, hit, &env),
                         };
                         match chain {
-                            Some(chain) => (*l, *p) = draw(chain),
+                            Some(chain) => {
+                                let straight = chain.deltas == 0;
+                                (*l, *p) = draw(chain);
+                                spread_over_pixel(p, straight, view, 1, &placed);
+                            }
                             None => beyond.push((c * chunk + k, ray, hit)),
                         }
                     }
@@ -1030,13 +1035,15 @@ impl Visibility {
             for s in 0..k * k {
                 let ray = view.ray(Vec2::new(x, y) + grid_point(s, k));
                 let chain = follow(&placed, ray, &env);
-                let (l, p) = self.lookup_chain(
+                let straight = chain.deltas == 0;
+                let (l, mut p) = self.lookup_chain(
                     chain,
                     &objects,
                     Some(&placed),
                     Some(values),
                     direct.is_some(),
                 );
+                spread_over_pixel(&mut p, straight, view, k, &placed);
                 sum += shade_one(&l, values);
                 if let Some(direct) = direct {
                     sum += direct.tile_albedo(&l, values);
@@ -1053,6 +1060,24 @@ impl Visibility {
             *px = sum / (k * k) as f32;
         });
         image
+    }
+}
+
+/// Spreads the estimates of the point `p` that one cell of a pixel (`k × k` of it) sees
+/// over the cell's patch of its surface, where the eye sees it `straight` (through no
+/// mirror or glass) and it is the static scene's.
+fn spread_over_pixel(
+    p: &mut Option<DirectPoint>,
+    straight: bool,
+    view: &WallView,
+    k: u32,
+    placed: &PlacedScene,
+) {
+    if let Some(p) = p
+        .as_mut()
+        .filter(|p| straight && placed.object_of(p.triangle).is_none())
+    {
+        p.span = pixel_span(view, k, p);
     }
 }
 

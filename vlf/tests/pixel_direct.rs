@@ -287,6 +287,117 @@ fn under_the_plates(eye: Vec3) -> WallView {
     }
 }
 
+/// The floor's exact irradiance at `(x, 0, z)`: the quadrature's within the penumbrae
+/// (interpolated between points 1/64 of a penumbra apart, where the curve bends by a
+/// millionth of `E_lit`), the lit value or zero beyond them.
+fn exact_irradiance() -> impl Fn(f32) -> f64 {
+    let s = sun_direction();
+    let lit =
+        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
+    let centre = -H * TILT.tan();
+    let edges = [centre - W / 2.0, centre + W / 2.0];
+    let half = H * ((TILT + SUN_R).tan() - TILT.tan()) + 1e-3;
+    let steps = 128;
+    let tables: Vec<Vec<f64>> = (edges.iter())
+        .map(|e| {
+            (0..=steps)
+                .map(|k| {
+                    quadrature(
+                        f64::from(e - half + 2.0 * half * k as f32 / steps as f32),
+                        400,
+                    )
+                })
+                .collect()
+        })
+        .collect();
+    move |x: f32| {
+        for (e, table) in edges.iter().zip(&tables) {
+            if (x - e).abs() < half {
+                let f = (x - (e - half)) / (2.0 * half) * steps as f32;
+                let k = (f.floor() as usize).min(steps - 1);
+                let a = f64::from(f - k as f32);
+                return table[k] * (1.0 - a) + table[k + 1] * a;
+            }
+        }
+        if x > edges[0] && x < edges[1] {
+            lit
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A still view's pixel across the patch's edge shows the mean light over its patch of
+/// the floor, as the path tracer's pixel does, not the light at its centre: each estimate
+/// is taken at its own place in the pixel (`DirectPoint::span`). After 1024 frames every
+/// pixel whose patch holds an edge is within 4σ of the mean of a 64 × 64 grid of the
+/// pixel's rays over the exact irradiance (the grid's own error at most two of its
+/// columns, 2/64 of `E_lit`), allowing for the span's affine map of the pixel onto the
+/// floor against the rays' (their two means' difference, computed per pixel).
+#[test]
+fn a_still_pixel_across_a_shadows_edge_shows_its_patchs_mean() {
+    let scene = Arc::new(slit());
+    let vis = Visibility::of(scene.clone(), &Settings::default());
+    let direct = PixelDirect::new(scene.clone());
+    let view = under_the_plates(Vec3::new(-0.6, 0.8, 0.0));
+    let points = vis.pixels_and_points(&view).1;
+    let mut acc = Accumulator::new();
+    let frames = 1024;
+    let mut means = Vec::new();
+    for _ in 0..frames {
+        means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
+    }
+    let exact = exact_irradiance();
+    let s = sun_direction();
+    let lit =
+        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
+    let sigma = lit * (1.0 + f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos())))
+        / (2.0 * f64::from(frames).sqrt());
+    let g = 64;
+    let (mut checked, mut across, mut worst) = (0, 0, 0f64);
+    for (i, p) in points.iter().enumerate() {
+        let Some(p) = p else { continue };
+        let (x, y) = ((i % 48) as f32, (i / 48) as f32);
+        // The pixel's rays on a grid, and the span's points for the same places.
+        let mut rays_mean = 0.0;
+        let mut span_mean = 0.0;
+        let mut one_triangle = true;
+        for a in 0..g {
+            for b in 0..g {
+                let (u, v) = ((a as f32 + 0.5) / g as f32, (b as f32 + 0.5) / g as f32);
+                let ray = view.ray(Vec2::new(x + u, y + v));
+                let Some(hit) = scene.closest_hit(&ray, f32::INFINITY) else {
+                    one_triangle = false;
+                    continue;
+                };
+                one_triangle &= hit.triangle == p.triangle;
+                rays_mean += exact(ray.at(hit.t).x);
+                let at = p.position + p.span[0] * (u - 0.5) + p.span[1] * (v - 0.5);
+                span_mean += exact(at.x);
+            }
+        }
+        // A pixel across the floor's two triangles takes the other's part at its centre.
+        if !one_triangle {
+            continue;
+        }
+        let n = f64::from(g * g);
+        let (rays_mean, span_mean) = (rays_mean / n, span_mean / n);
+        let shown = f64::from(means[i].radiance.x) * std::f64::consts::PI / f64::from(RHO);
+        let tolerance = 4.0 * sigma + 2.0 * lit / f64::from(g) + (rays_mean - span_mean).abs();
+        checked += 1;
+        if rays_mean > 0.2 * lit && rays_mean < 0.8 * lit {
+            across += 1;
+        }
+        worst = worst.max((shown - rays_mean).abs() / lit);
+        assert!(
+            (shown - rays_mean).abs() <= tolerance,
+            "pixel ({x}, {y}): {shown:.4} after {frames} frames, its patch's mean {rays_mean:.4} ± {tolerance:.4}"
+        );
+    }
+    eprintln!("{checked} pixels, {across} across an edge; worst error {worst:.4} of E_lit");
+    assert!(across >= 20, "only {across} pixels across an edge");
+}
+
 /// A moving eye keeps the running means: after 16 frames of one view, the eye moved 2 cm
 /// (the screen, a CAVE wall, stays), almost every pixel carries its mean on and adds one
 /// estimate to it, and the lit patch and the umbra are still exact.

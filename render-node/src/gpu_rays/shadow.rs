@@ -1,10 +1,11 @@
 //! Shadow rays made on the GPU (`shadow.wgsl` beside this file): the per-pixel direct
 //! light's rays, made from each pixel's first hit where the wall's closest-hit pass left
-//! it, so that the hits never cross the bus — only each pixel's [`MadeRays`] (12 bytes),
+//! it, so that the hits never cross the bus — only each pixel's [`MadeRays`] (20 bytes),
 //! the aims of the rays the CPU chose (16 bytes each) and the answers (a bit a ray).
 //!
 //! The rays are the CPU's ([`holocave_vlf::pixel_direct`]) made again: the point from the
-//! triangle's vertices and the hit's barycentrics (`surface_point`'s operations), the
+//! triangle's vertices and the hit's barycentrics (`surface_point`'s operations), or
+//! those the CPU sends where it moved the pixel's estimate within the pixel, the
 //! offset off the surface (`leave_surface`), the segment to a light point (`segment_ray`)
 //! or the ray to infinity. Towards the punctual lights and the sun's disc the GPU makes
 //! the whole ray: the sun's sample `k` of the pixel's R2 sequence from its fixed-point
@@ -189,11 +190,20 @@ impl ShadowMaker {
             return Vec::new();
         }
         self.reserve(gpu, n);
-        let tasks: Vec<[u32; 3]> = rays
+        let tasks: Vec<[u32; 5]> = rays
             .iter()
             .map(|m| {
-                let counts = m.suns.min(0xff) | (u32::from(m.punctual) << 8);
-                [m.first_sun, counts | (m.aimed.min(0xff) << 16), m.first_aim]
+                let counts = m.suns.min(0xff)
+                    | (u32::from(m.punctual) << 8)
+                    | (u32::from(m.at.is_some()) << 9);
+                let [u, v] = m.at.unwrap_or_default().map(f32::to_bits);
+                [
+                    m.first_sun,
+                    counts | (m.aimed.min(0xff) << 16),
+                    m.first_aim,
+                    u,
+                    v,
+                ]
             })
             .collect();
         gpu.queue
@@ -258,7 +268,7 @@ fn per_pixel_buffers(
 ) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, wgpu::Buffer) {
     let n = u64::from(n.max(1));
     (
-        gpu.storage("gpu rays: made shadow rays' tasks", 12 * n),
+        gpu.storage("gpu rays: made shadow rays' tasks", 20 * n),
         gpu.storage("gpu rays: the sun's shifts", 8 * n),
         gpu.storage("gpu rays: made shadow rays' answers", 4 * n),
         gpu.read_back_buffer("gpu rays: made shadow rays' answers back", 4 * n),

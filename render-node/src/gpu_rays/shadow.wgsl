@@ -42,8 +42,10 @@ struct Face {
 @group(0) @binding(4) var<storage, read_write> masks: array<u32>;
 // The wall's first hits: t, triangle (NO_HIT on a miss), u, v.
 @group(0) @binding(5) var<storage, read> firsts: array<vec4<u32>>;
-// Three words a pixel: the first of its sun samples; their count (low byte), bit 8 set
-// when its punctual lights' rays are made, its aims' count (third byte); its first aim.
+// Five words a pixel: the first of its sun samples; their count (low byte), bit 8 set
+// when its punctual lights' rays are made, bit 9 when they leave from the barycentrics
+// of the last two words (the estimate moved within the pixel) instead of the hit's, its
+// aims' count (third byte); its first aim; the moved point's u and v.
 @group(0) @binding(6) var<storage, read> tasks: array<u32>;
 // Per pixel: its sun sequence's shifts in 32-bit fixed point.
 @group(0) @binding(7) var<storage, read> shifts: array<vec2<u32>>;
@@ -108,9 +110,9 @@ fn made_shadow_rays(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= sp.count) {
         return;
     }
-    let first_sun = tasks[3u * i];
-    let counts = tasks[3u * i + 1u];
-    let first_aim = tasks[3u * i + 2u];
+    let first_sun = tasks[5u * i];
+    let counts = tasks[5u * i + 1u];
+    let first_aim = tasks[5u * i + 2u];
     let suns = counts & 0xffu;
     let punctual = (counts & 0x100u) != 0u;
     let aimed = (counts >> 16u) & 0xffu;
@@ -122,8 +124,9 @@ fn made_shadow_rays(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     // The point as holocave_scene's surface_point makes it, from the vertices.
     let f = faces[hit.y];
-    let u = bitcast<f32>(hit.z);
-    let v = bitcast<f32>(hit.w);
+    let moved = (counts & 0x200u) != 0u;
+    let u = bitcast<f32>(select(hit.z, tasks[5u * i + 3u], moved));
+    let v = bitcast<f32>(select(hit.w, tasks[5u * i + 4u], moved));
     let w = vec3<f32>(1.0 - u - v, u, v);
     let p = f.p0.xyz * w.x + f.p1.xyz * w.y + f.p2.xyz * w.z;
     let ng = vec3<f32>(f.p0.w, f.p1.w, f.p2.w);
