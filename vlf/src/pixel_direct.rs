@@ -113,6 +113,10 @@ pub struct PixelDirect {
 /// eight samples deep. The extra rays are paid only where a pixel starts over.
 pub const FIRST_SUN_SAMPLES: u64 = 4;
 
+/// Samples of the area lamps in each estimate a pixel takes at a new point: as the sun's,
+/// so that a penumbra is eight samples deep from the first frame of a point.
+pub const FIRST_AREA_SAMPLES: u64 = 4;
+
 /// Pairs of samples of the sky's sharpened reflection (one from the true lobe, one from
 /// the widened one) in each estimate a pixel takes at a new point. One pair a pixel, a
 /// signed difference of two lobes, speckled a varnished floor dark and light where a
@@ -310,19 +314,26 @@ impl PixelDirect {
     /// The point of `p`'s pixel (pixel `seed`) where its `n`-th estimate is taken, and its
     /// barycentrics on `p`'s triangle: the `n`-th place of the pixel's R4 sequence on
     /// `p.span`, where that lies on the triangle; `None` (the estimate is taken at `p`
-    /// itself) where it does not, or the point has no span. A pixel across two triangles
+    /// itself) where it does not, or the point has no span, and for the estimates of the
+    /// point's first frame ([`Self::first_estimates`]): that frame shows the centre's
+    /// light, sharp, and its shadow rays leave from one point (a GPU makes them from its
+    /// hit: [`MadeFrom`]); a still pixel's later frames spread the mean over the pixel,
+    /// the first frame's weight in it falling as one over their number. A pixel across two triangles
     /// of one surface takes the part beyond its own triangle at its centre: its mean
     /// leans towards the centre's light there, never onto another surface (a
     /// neighbouring triangle may face elsewhere, or be hidden).
     pub fn within_pixel(&self, p: &DirectPoint, seed: u64, n: u64) -> Option<(Vec3, [f32; 2])> {
-        if p.span == [Vec3::ZERO; 2] {
+        if p.span == [Vec3::ZERO; 2] || n < u64::from(self.first_estimates()) {
             return None;
         }
         let s = r_sequence(R4, 12, 0, n, seed) - 0.5;
         let t = r_sequence(R4, 12, 1, n, seed) - 0.5;
         let at = p.position + p.span[0] * s + p.span[1] * t;
         let [a, b, c] = *self.scene.triangle(p.triangle);
-        barycentrics_on(at, a, b, c).map(|uv| (at, uv))
+        // The point made again from its barycentrics as a hit's is (`surface_point`):
+        // a walk that makes its rays from them makes the same point.
+        let [u, v] = barycentrics_on(at, a, b, c)?;
+        Some((a * (1.0 - u - v) + b * u + c * v, [u, v]))
     }
 
     /// The shadow rays of the `n`-th estimate at `p` of pixel `seed`'s sequence (one
@@ -340,12 +351,16 @@ impl PixelDirect {
         let frame = Frame::new(p.shading_normal);
         let l = &self.lights;
         if l.has_area() {
-            let uc = r_sequence(R3, 3, 0, n, seed);
-            let u = Vec2::new(r_sequence(R3, 3, 1, n, seed), r_sequence(R3, 3, 2, n, seed));
-            if let Some(q) = (l.sample_area(&self.scene, p.position, uc, u))
-                .and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, Sampled::Area))
-            {
-                f(q);
+            let (first, count) = self.samples_of(n, FIRST_AREA_SAMPLES);
+            for k in first..first + count {
+                let uc = r_sequence(R3, 3, 0, k, seed);
+                let u = Vec2::new(r_sequence(R3, 3, 1, k, seed), r_sequence(R3, 3, 2, k, seed));
+                if let Some(mut q) = (l.sample_area(&self.scene, p.position, uc, u))
+                    .and_then(|ls| self.query(p, &frame, &ls, |_| 1.0, Sampled::Area))
+                {
+                    q.radiance /= count as f32;
+                    f(q);
+                }
             }
         }
         for i in 0..l.punctual.len() {
