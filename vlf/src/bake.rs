@@ -260,6 +260,30 @@ fn neighbourhoods(elements: &Elements, mut f: impl FnMut(usize, &[(usize, f32)])
     }
 }
 
+/// The least open share whose lines' light is put over the open part alone: a sliver
+/// less open than this is hit by few lines, and is drawn from its neighbours (the
+/// smoothing weighs it by its open area).
+const LEAST_OPEN: f32 = 1.0 / 16.0;
+
+/// Each value (an element's irradiance, or a tile's bin) over its element's open part
+/// (`open`: the element's open share, per value): the lines brought what they brought
+/// over the whole element, none of it to its part inside an object resting on it, so
+/// the light beyond the `sharp` part (taken at open points already) is divided by the
+/// open share. The propagation itself keeps the whole areas: given a covered element's
+/// open area, a sliver returned light to the object's inside with a gain above one, and
+/// the bounces diverged.
+fn over_open_part(open: &[f32], sharp: &[[f32; 3]], total: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    (total.iter().zip(sharp).zip(open))
+        .map(|((t, s), &o)| {
+            if o >= 1.0 || o <= 0.0 {
+                return *t;
+            }
+            let (t, s) = (Vec3::from(*t), Vec3::from(*s));
+            (s + (t - s) / o.max(LEAST_OPEN)).to_array()
+        })
+        .collect()
+}
+
 /// The drawn irradiance: the light that must stay sharp (`sharp`: direct light with its
 /// shadows, caustics) as it is; the rest (the sky along the lines and the inter-reflected
 /// light), smooth in nature but carrying the lines' sampling noise, averaged over each
@@ -593,7 +617,7 @@ pub fn bake_with<E>(
     let start = Instant::now();
     let tris = elements.triangles.len();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let (direct, direct_tiles) = direct_irradiance(
+    let (direct, open, direct_tiles) = direct_irradiance(
         scene,
         &lights,
         elements,
@@ -611,12 +635,33 @@ pub fn bake_with<E>(
         },
     );
     stats.direct = start.elapsed();
+    // Each element's open area (its part inside a closed object resting on it left
+    // out): the smoothing weighs it by that, and the light its lines bring is put over
+    // it ([`over_open_part`]).
+    let open_area: Vec<f32> = area.iter().zip(&open).map(|(a, o)| a * o).collect();
+    let tile_open: Vec<f32> = (tiles.tiles.iter())
+        .flat_map(|t| std::iter::repeat_n(open[t.element as usize], tiles.per_tile()))
+        .collect();
     // The light that arrives first: direct light, the sky along the lines, what delta
     // surfaces show (caustics). Computed again on resume (deterministic).
     let start = Instant::now();
     let line_dirs = &directions.lines;
     let reflection = Reflection::new(&tiles);
     let pools = Pools::new(scene, elements, &tiles, &area, &needed, least);
+    // The open shares `over_open_part` divides by: an element's own, or a pooled
+    // element's pool's (a pool receives the light of its members over their summed area).
+    let pool_open: Vec<f32> = (pools.members.iter().zip(&pools.area))
+        .map(|(m, a)| m.iter().map(|&e| open_area[e as usize]).sum::<f32>() / a)
+        .collect();
+    let value_open: Vec<f32> = (open.iter().zip(&pools.of))
+        .map(|(&o, &p)| {
+            if p == u32::MAX {
+                o
+            } else {
+                pool_open[p as usize]
+            }
+        })
+        .collect();
     let lines = Lines {
         pools: Some(&pools),
         subfields: &subfields,
@@ -676,9 +721,11 @@ pub fn bake_with<E>(
     // Smoothed as the irradiance is when it converges (the smoothing is linear, so the
     // split still sums to the total).
     let smooth_sky = |state: &mut State| {
-        let sky = smooth_indirect(elements, &area, &zero, &sky_first);
-        state.sky = pools.smooth(&area, &zero, &sky);
-        state.tiles_sky = smooth_tiles(elements, &tiles, &area, &zero_tiles, &sky_first_tiles);
+        let sky = over_open_part(&value_open, &zero, &sky_first);
+        let sky = smooth_indirect(elements, &open_area, &zero, &sky);
+        state.sky = pools.smooth(&open_area, &zero, &sky);
+        let sky_tiles = over_open_part(&tile_open, &zero_tiles, &sky_first_tiles);
+        state.tiles_sky = smooth_tiles(elements, &tiles, &open_area, &zero_tiles, &sky_tiles);
     };
     let mut state = match resume {
         Some(mut s) => {
@@ -737,9 +784,11 @@ pub fn bake_with<E>(
     while !state.converged {
         if tail(&state.residuals) < settings.tolerance || state.bounces >= settings.max_bounces {
             state.converged = true;
-            state.irradiance = smooth_indirect(elements, &area, sharp, &state.irradiance);
-            state.irradiance = pools.smooth(&area, sharp, &state.irradiance);
-            state.tiles = smooth_tiles(elements, &tiles, &area, sharp_tiles, &state.tiles);
+            state.irradiance = over_open_part(&value_open, sharp, &state.irradiance);
+            state.irradiance = smooth_indirect(elements, &open_area, sharp, &state.irradiance);
+            state.irradiance = pools.smooth(&open_area, sharp, &state.irradiance);
+            state.tiles = over_open_part(&tile_open, sharp_tiles, &state.tiles);
+            state.tiles = smooth_tiles(elements, &tiles, &open_area, sharp_tiles, &state.tiles);
             smooth_sky(&mut state);
             save(&state)?;
             break;

@@ -4,9 +4,15 @@
 //! of light and one shadow ray per point. The sky is not sampled here: it is as large as
 //! the sphere of directions, and the lines carry it (`propagate`). A glossy element's
 //! samples also go into its tile: each adds `f(ω_b, ω_i) E_i / samples` to every bin.
+//!
+//! The points also tell how much of each element is open: a point inside a closed object
+//! resting on the surface (the floor under a box, a wall's foot inside a cupboard) sees no
+//! light and no eye sees it. It is left out of the element's mean, and the bake puts the
+//! light the lines bring the element over its open part only (`bake::over_open_part`).
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{Hit, Scene};
+use holocave_scene::{Hit, Ray, Scene};
+use holocave_tracer::frame::Frame;
 use holocave_tracer::integrator::light_unblocked;
 use holocave_tracer::lights::{LightSample, Lights};
 use rand::{Rng, SeedableRng};
@@ -28,11 +34,39 @@ pub fn irradiance_from(scene: &Scene, ls: &LightSample, p: Vec3, ng: Vec3, ns: V
     ls.contribution * cos
 }
 
-/// What direct light gives one element: its irradiance, and its tile's bins if glossy.
-type Found = (u32, [f32; 3], Vec<Vec3>);
+/// Whether the point `p` of a surface (face normal `ng`, its side's normal `ns`) lies
+/// inside a closed object resting on the surface: the ray along `ns` and four leaning 60°
+/// from it all meet a surface from behind. Under a box standing on a floor they meet the
+/// box's faces from inside; under a table's top they meet its underside from the front,
+/// and beside a box they leave by the open side.
+fn covered(scene: &Scene, p: Vec3, ng: Vec3, ns: Vec3) -> bool {
+    let from_behind = |d: Vec3| {
+        let ray = Ray::leaving(p, ng, d);
+        (scene.closest_hit(&ray, f32::INFINITY))
+            .is_some_and(|h| scene.face_normal(h.triangle).dot(d) > 0.0)
+    };
+    if !from_behind(ns) {
+        return false;
+    }
+    let frame = Frame::new(ns);
+    let (sin, cos) = (60f32.to_radians().sin(), 60f32.to_radians().cos());
+    (0..4).all(|k| {
+        let phi = k as f32 * std::f32::consts::FRAC_PI_2;
+        from_behind(frame.to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)))
+    })
+}
+
+/// What direct light gives one element: its irradiance, the open share of its points,
+/// and its tile's bins if glossy.
+type Found = (u32, [f32; 3], f32, Vec<Vec3>);
+
+/// The share of each element's area that is open (not inside a closed object resting on
+/// it), as [`direct_irradiance`] found it from its points; 1 where it took none.
+pub type OpenShares = Vec<f32>;
 
 /// The direct irradiance of every element whose `needed` flag is set (others get zero),
-/// with `samples` points each, and the radiance it gives every glossy tile (`tiles`).
+/// with `samples` points each over its open part, the open share of each element (1
+/// where not needed), and the radiance it gives every glossy tile (`tiles`).
 /// Deterministic: each element has its own random stream.
 pub fn direct_irradiance(
     scene: &Scene,
@@ -42,8 +76,9 @@ pub fn direct_irradiance(
     samples: u32,
     tiles: &Tiles,
     on_triangle: &(dyn Fn() + Sync),
-) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+) -> (Vec<[f32; 3]>, OpenShares, Vec<[f32; 3]>) {
     let mut out = vec![[0f32; 3]; elements.count];
+    let mut open = vec![1f32; elements.count];
     let mut tile_out = vec![[0f32; 3]; tiles.len()];
     let per_triangle: Vec<Vec<Found>> = elements
         .triangles
@@ -53,28 +88,53 @@ pub fn direct_irradiance(
             let mut found = Vec::new();
             let r = cells.res;
             for side in 0..2u32 {
+                // The covered probes of each needed cell, in cell order.
+                let mut probes = Vec::new();
                 for j in 0..r {
                     for i in 0..r - j {
-                        let e = cells.base(side) + cell_index(i, j, r);
-                        if !needed[e as usize] {
-                            continue;
+                        if needed[(cells.base(side) + cell_index(i, j, r)) as usize] {
+                            probes.push(covered_probes(scene, (t as u32, side), (i, j, r)));
                         }
-                        let g = tiles.of(e);
-                        let mut bins =
-                            vec![Vec3::ZERO; if g.is_some() { tiles.per_tile() } else { 0 }];
-                        let glossy = g.map(|g| (tiles, g, bins.as_mut_slice()));
-                        let e_irr = element_direct(
-                            scene,
-                            lights,
-                            (t as u32, side),
-                            (i, j, r),
-                            e,
-                            samples,
-                            glossy,
-                        );
-                        found.push((e, e_irr.to_array(), bins));
                     }
                 }
+                let side_of = |skip_covered: bool| {
+                    let mut found = Vec::new();
+                    let mut probes = probes.iter();
+                    for j in 0..r {
+                        for i in 0..r - j {
+                            let e = cells.base(side) + cell_index(i, j, r);
+                            if !needed[e as usize] {
+                                continue;
+                            }
+                            let skip_covered = skip_covered && probes.next() != Some(&0);
+                            let g = tiles.of(e);
+                            let mut bins =
+                                vec![Vec3::ZERO; if g.is_some() { tiles.per_tile() } else { 0 }];
+                            let glossy = g.map(|g| (tiles, g, bins.as_mut_slice()));
+                            let (e_irr, e_open) = element_direct(
+                                scene,
+                                lights,
+                                (t as u32, side, skip_covered),
+                                (i, j, r),
+                                e,
+                                samples,
+                                glossy,
+                            );
+                            found.push((e, e_irr.to_array(), e_open, bins));
+                        }
+                    }
+                    found
+                };
+                // A side covered all over is no contact: its faces' normals point the
+                // other way round (a room modelled as a box with outward normals, seen
+                // from inside, meets its own walls from behind everywhere), or it lies
+                // wholly inside an object, where nothing sees it. Taken as open.
+                let all_covered = probes.iter().all(|&p| p == 5);
+                let mut side_found = side_of(!all_covered);
+                if !side_found.is_empty() && side_found.iter().all(|f| f.2 == 0.0) {
+                    side_found = side_of(false);
+                }
+                found.extend(side_found);
             }
             on_triangle();
             found
@@ -82,8 +142,9 @@ pub fn direct_irradiance(
         .collect();
     let k = tiles.per_tile();
     for list in per_triangle {
-        for (e, v, bins) in list {
+        for (e, v, o, bins) in list {
             out[e as usize] = v;
+            open[e as usize] = o;
             if let Some(g) = tiles.of(e) {
                 let at = g as usize * k;
                 for (o, b) in tile_out[at..at + k].iter_mut().zip(bins) {
@@ -92,47 +153,86 @@ pub fn direct_irradiance(
             }
         }
     }
-    (out, tile_out)
+    (out, open, tile_out)
+}
+
+/// How many of a cell's corners and its middle are covered ([`covered`]), of five: its
+/// samples are tested one by one only where some are (an object resting on the surface
+/// within the cell and touching none of them, a thin leg, goes unseen), and a side whose
+/// cells are covered at all five is taken as open without testing its samples.
+fn covered_probes(scene: &Scene, (t, side): (u32, u32), (i, j, r): (u32, u32, u32)) -> u32 {
+    let diagonal = i + j == r - 1;
+    let probes = [
+        (0.01, 0.01),
+        (0.99, 0.01),
+        (0.01, 0.99),
+        (0.99, 0.99),
+        (0.5, 0.5),
+    ];
+    (probes.into_iter())
+        .filter(|&(mut a, mut b)| {
+            if diagonal && a + b > 1.0 {
+                (a, b) = (1.0 - a, 1.0 - b);
+            }
+            let (u, v) = ((i as f32 + a) / r as f32, (j as f32 + b) / r as f32);
+            let sp = scene.surface(&Hit {
+                triangle: t,
+                t: 0.0,
+                u,
+                v,
+            });
+            let ng = sp.geometric_normal;
+            covered(scene, sp.position, ng, if side == 0 { ng } else { -ng })
+        })
+        .count() as u32
 }
 
 fn element_direct(
     scene: &Scene,
     lights: &Lights,
-    (t, side): (u32, u32),
+    (t, side, skip_covered): (u32, u32, bool),
     (i, j, r): (u32, u32, u32),
     e: u32,
     samples: u32,
     mut glossy: Option<(&Tiles, u32, &mut [Vec3])>,
-) -> Vec3 {
+) -> (Vec3, f32) {
     let mut rng = Pcg32::seed_from_u64(u64::from(e).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x5EED);
     let k = (samples as f32).sqrt().ceil().max(1.0) as u32;
     let diagonal = i + j == r - 1;
-    let mut sum = Vec3::ZERO;
-    for s in 0..samples {
-        let (mut a, mut b) = (
-            ((s % k) as f32 + rng.random::<f32>()) / k as f32,
-            ((s / k % k) as f32 + rng.random::<f32>()) / k as f32,
-        );
+    let point = |(mut a, mut b): (f32, f32)| {
         if diagonal && a + b > 1.0 {
             (a, b) = (1.0 - a, 1.0 - b);
         }
         let (u, v) = ((i as f32 + a) / r as f32, (j as f32 + b) / r as f32);
-        let sp = scene.surface(&Hit {
+        scene.surface(&Hit {
             triangle: t,
             t: 0.0,
             u,
             v,
-        });
+        })
+    };
+    let side_normal = |ng: Vec3| if side == 0 { ng } else { -ng };
+    let mut sum = Vec3::ZERO;
+    let mut open = 0u32;
+    for s in 0..samples {
+        let sp = point((
+            ((s % k) as f32 + rng.random::<f32>()) / k as f32,
+            ((s / k % k) as f32 + rng.random::<f32>()) / k as f32,
+        ));
         let ng = sp.geometric_normal;
-        let ns = if side == 0 { ng } else { -ng };
+        let ns = side_normal(ng);
         let p = sp.position;
+        if skip_covered && covered(scene, p, ng, ns) {
+            continue;
+        }
+        open += 1;
         let mut add = |ls: &LightSample| {
             let e = irradiance_from(scene, ls, p, ng, ns);
             sum += e;
             if let Some((tiles, g, bins)) = glossy.as_mut()
                 && e.max_element() > 0.0
             {
-                tiles.accumulate(*g, ls.wi, e / samples.max(1) as f32, bins);
+                tiles.accumulate(*g, ls.wi, e, bins);
             }
         };
         if lights.has_area() {
@@ -152,5 +252,15 @@ fn element_direct(
             add(&ls);
         }
     }
-    sum / samples.max(1) as f32
+    // The mean over the open points (none open: nothing lit, and nothing seen).
+    let n = open.max(1) as f32;
+    if let Some((_, _, bins)) = glossy {
+        bins.iter_mut().for_each(|b| *b /= n);
+    }
+    let share = if samples == 0 {
+        1.0
+    } else {
+        open as f32 / samples as f32
+    };
+    (sum / n, share)
 }

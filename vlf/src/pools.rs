@@ -156,9 +156,15 @@ impl Pools {
     /// mean of its members' `total − sharp`; its `sharp` part (direct light, caustics)
     /// stays its own. Linear in `total`, so a split of the total smooths to the split's
     /// sum.
+    /// `area` weighs the members and the pools: the elements' open areas (their parts
+    /// inside an object resting on them left out), so that a pool wholly under an object
+    /// weighs nothing.
     pub fn smooth(&self, area: &[f32], sharp: &[[f32; 3]], total: &[[f32; 3]]) -> Vec<[f32; 3]> {
         let rest = |e: u32| Vec3::from(total[e as usize]) - Vec3::from(sharp[e as usize]);
-        let value: Vec<Vec3> = (self.members.iter().zip(&self.area))
+        let weight: Vec<f32> = (self.members.iter())
+            .map(|m| m.iter().map(|&e| area[e as usize]).sum())
+            .collect();
+        let value: Vec<Vec3> = (self.members.iter().zip(&weight))
             .map(|(m, a)| {
                 m.iter().map(|&e| rest(e) * area[e as usize]).sum::<Vec3>()
                     / a.max(f32::MIN_POSITIVE)
@@ -182,7 +188,7 @@ impl Pools {
                     continue;
                 };
                 let t = Vec3::ONE - o + f * (2.0 * o - Vec3::ONE);
-                let weight = t.x * t.y * t.z * self.area[p as usize];
+                let weight = t.x * t.y * t.z * weight[p as usize];
                 sum += value[p as usize] * weight;
                 w += weight;
             }
