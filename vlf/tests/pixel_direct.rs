@@ -37,6 +37,13 @@ fn sun_direction() -> Vec3 {
     Vec3::new(TILT.sin(), TILT.cos(), 0.0)
 }
 
+/// The lit floor's irradiance: `L (s·n) π sin² r` exactly (the sun's disc's
+/// cosine-weighted solid angle).
+fn lit_irradiance() -> f64 {
+    let s = sun_direction();
+    f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2)
+}
+
 fn slit() -> Scene {
     let big = 3.0;
     // The floor faces +y (a × b = z × x); the plates face −y.
@@ -133,9 +140,7 @@ fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
     // Lit: E = L (s·n) π sin² r exactly (the disc's cosine-weighted solid angle); one
     // direction in the disc gives L Ω cos θ_d, which differs from it by at most the
     // relative change of cos θ over the disc, tan θ_s sin r + (1 − cos r) = 0.27 %.
-    let s = sun_direction();
-    let lit =
-        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
+    let lit = lit_irradiance();
     let q = quadrature(-0.577, 400);
     assert!(
         (q - lit).abs() < 1e-4 * lit,
@@ -291,9 +296,7 @@ fn under_the_plates(eye: Vec3) -> WallView {
 /// (interpolated between points 1/64 of a penumbra apart, where the curve bends by a
 /// millionth of `E_lit`), the lit value or zero beyond them.
 fn exact_irradiance() -> impl Fn(f32) -> f64 {
-    let s = sun_direction();
-    let lit =
-        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
+    let lit = lit_irradiance();
     let centre = -H * TILT.tan();
     let edges = [centre - W / 2.0, centre + W / 2.0];
     let half = H * ((TILT + SUN_R).tan() - TILT.tan()) + 1e-3;
@@ -348,9 +351,7 @@ fn a_still_pixel_across_a_shadows_edge_shows_its_patchs_mean() {
         means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
     }
     let exact = exact_irradiance();
-    let s = sun_direction();
-    let lit =
-        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
+    let lit = lit_irradiance();
     let sigma = lit * (1.0 + f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos())))
         / (2.0 * f64::from(frames).sqrt());
     let g = 64;
@@ -443,9 +444,7 @@ fn assert_patch_exact(
     means: &[Estimate],
     margin: f32,
 ) -> (u32, u32) {
-    let s = sun_direction();
-    let lit =
-        f64::from(SUN_L) * f64::from(s.y) * std::f64::consts::PI * f64::from(SUN_R).sin().powi(2);
+    let lit = lit_irradiance();
     // One sample's most, plus f32 rounding.
     let one = f64::from(TILT.tan() * SUN_R.sin() + (1.0 - SUN_R.cos())) + 1e-5;
     let centre = -H * TILT.tan();
