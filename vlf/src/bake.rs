@@ -718,14 +718,22 @@ pub fn bake_with<E>(
         ),
         None => (got.irradiance.clone(), got.tiles.clone()),
     };
-    // Smoothed as the irradiance is when it converges (the smoothing is linear, so the
-    // split still sums to the total).
+    // A converged part of the light as it is drawn: over the elements' open parts, all
+    // but its `sharp` part smoothed (elements, pools, tiles).
+    let drawn = |sharp: &[[f32; 3]], total: &[[f32; 3]]| {
+        let open_part = over_open_part(&value_open, sharp, total);
+        let smoothed = smooth_indirect(elements, &open_area, sharp, &open_part);
+        pools.smooth(&open_area, sharp, &smoothed)
+    };
+    let drawn_tiles = |sharp: &[[f32; 3]], total: &[[f32; 3]]| {
+        let open_part = over_open_part(&tile_open, sharp, total);
+        smooth_tiles(elements, &tiles, &open_area, sharp, &open_part)
+    };
+    // The sky's part drawn as the irradiance is when it converges (linear, so the split
+    // still sums to the total).
     let smooth_sky = |state: &mut State| {
-        let sky = over_open_part(&value_open, &zero, &sky_first);
-        let sky = smooth_indirect(elements, &open_area, &zero, &sky);
-        state.sky = pools.smooth(&open_area, &zero, &sky);
-        let sky_tiles = over_open_part(&tile_open, &zero_tiles, &sky_first_tiles);
-        state.tiles_sky = smooth_tiles(elements, &tiles, &open_area, &zero_tiles, &sky_tiles);
+        state.sky = drawn(&zero, &sky_first);
+        state.tiles_sky = drawn_tiles(&zero_tiles, &sky_first_tiles);
     };
     let mut state = match resume {
         Some(mut s) => {
@@ -784,11 +792,8 @@ pub fn bake_with<E>(
     while !state.converged {
         if tail(&state.residuals) < settings.tolerance || state.bounces >= settings.max_bounces {
             state.converged = true;
-            state.irradiance = over_open_part(&value_open, sharp, &state.irradiance);
-            state.irradiance = smooth_indirect(elements, &open_area, sharp, &state.irradiance);
-            state.irradiance = pools.smooth(&open_area, sharp, &state.irradiance);
-            state.tiles = over_open_part(&tile_open, sharp_tiles, &state.tiles);
-            state.tiles = smooth_tiles(elements, &tiles, &open_area, sharp_tiles, &state.tiles);
+            state.irradiance = drawn(sharp, &state.irradiance);
+            state.tiles = drawn_tiles(sharp_tiles, &state.tiles);
             smooth_sky(&mut state);
             save(&state)?;
             break;

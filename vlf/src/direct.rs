@@ -11,7 +11,7 @@
 //! light the lines bring the element over its open part only (`bake::over_open_part`).
 
 use glam::{Vec2, Vec3};
-use holocave_scene::{Hit, Ray, Scene};
+use holocave_scene::{Hit, Ray, Scene, SurfacePoint};
 use holocave_tracer::frame::Frame;
 use holocave_tracer::integrator::light_unblocked;
 use holocave_tracer::lights::{LightSample, Lights};
@@ -60,13 +60,10 @@ fn covered(scene: &Scene, p: Vec3, ng: Vec3, ns: Vec3) -> bool {
 /// and its tile's bins if glossy.
 type Found = (u32, [f32; 3], f32, Vec<Vec3>);
 
-/// The share of each element's area that is open (not inside a closed object resting on
-/// it), as [`direct_irradiance`] found it from its points; 1 where it took none.
-pub type OpenShares = Vec<f32>;
-
 /// The direct irradiance of every element whose `needed` flag is set (others get zero),
-/// with `samples` points each over its open part, the open share of each element (1
-/// where not needed), and the radiance it gives every glossy tile (`tiles`).
+/// with `samples` points each over its open part, the open share of each element's area
+/// (not inside a closed object resting on it, as its points found; 1 where not needed),
+/// and the radiance it gives every glossy tile (`tiles`).
 /// Deterministic: each element has its own random stream.
 pub fn direct_irradiance(
     scene: &Scene,
@@ -76,7 +73,7 @@ pub fn direct_irradiance(
     samples: u32,
     tiles: &Tiles,
     on_triangle: &(dyn Fn() + Sync),
-) -> (Vec<[f32; 3]>, OpenShares, Vec<[f32; 3]>) {
+) -> (Vec<[f32; 3]>, Vec<f32>, Vec<[f32; 3]>) {
     let mut out = vec![[0f32; 3]; elements.count];
     let mut open = vec![1f32; elements.count];
     let mut tile_out = vec![[0f32; 3]; tiles.len()];
@@ -160,8 +157,7 @@ pub fn direct_irradiance(
 /// samples are tested one by one only where some are (an object resting on the surface
 /// within the cell and touching none of them, a thin leg, goes unseen), and a side whose
 /// cells are covered at all five is taken as open without testing its samples.
-fn covered_probes(scene: &Scene, (t, side): (u32, u32), (i, j, r): (u32, u32, u32)) -> u32 {
-    let diagonal = i + j == r - 1;
+fn covered_probes(scene: &Scene, (t, side): (u32, u32), cell: (u32, u32, u32)) -> u32 {
     let probes = [
         (0.01, 0.01),
         (0.99, 0.01),
@@ -170,21 +166,38 @@ fn covered_probes(scene: &Scene, (t, side): (u32, u32), (i, j, r): (u32, u32, u3
         (0.5, 0.5),
     ];
     (probes.into_iter())
-        .filter(|&(mut a, mut b)| {
-            if diagonal && a + b > 1.0 {
-                (a, b) = (1.0 - a, 1.0 - b);
-            }
-            let (u, v) = ((i as f32 + a) / r as f32, (j as f32 + b) / r as f32);
-            let sp = scene.surface(&Hit {
-                triangle: t,
-                t: 0.0,
-                u,
-                v,
-            });
+        .filter(|&ab| {
+            let sp = cell_point(scene, t, cell, ab);
             let ng = sp.geometric_normal;
-            covered(scene, sp.position, ng, if side == 0 { ng } else { -ng })
+            covered(scene, sp.position, ng, side_normal(side, ng))
         })
         .count() as u32
+}
+
+/// The point of triangle `t` at `(a, b)` of cell `(i, j)` of its `r × r` grid (`[0, 1)²`
+/// over the cell; a diagonal cell, a triangle, folds the far half back onto itself).
+fn cell_point(
+    scene: &Scene,
+    t: u32,
+    (i, j, r): (u32, u32, u32),
+    (a, b): (f32, f32),
+) -> SurfacePoint {
+    let (a, b) = if i + j == r - 1 && a + b > 1.0 {
+        (1.0 - a, 1.0 - b)
+    } else {
+        (a, b)
+    };
+    scene.surface(&Hit {
+        triangle: t,
+        t: 0.0,
+        u: (i as f32 + a) / r as f32,
+        v: (j as f32 + b) / r as f32,
+    })
+}
+
+/// The normal of `side` (0: the face's front) of a face of normal `ng`.
+fn side_normal(side: u32, ng: Vec3) -> Vec3 {
+    if side == 0 { ng } else { -ng }
 }
 
 fn element_direct(
@@ -198,29 +211,16 @@ fn element_direct(
 ) -> (Vec3, f32) {
     let mut rng = Pcg32::seed_from_u64(u64::from(e).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x5EED);
     let k = (samples as f32).sqrt().ceil().max(1.0) as u32;
-    let diagonal = i + j == r - 1;
-    let point = |(mut a, mut b): (f32, f32)| {
-        if diagonal && a + b > 1.0 {
-            (a, b) = (1.0 - a, 1.0 - b);
-        }
-        let (u, v) = ((i as f32 + a) / r as f32, (j as f32 + b) / r as f32);
-        scene.surface(&Hit {
-            triangle: t,
-            t: 0.0,
-            u,
-            v,
-        })
-    };
-    let side_normal = |ng: Vec3| if side == 0 { ng } else { -ng };
     let mut sum = Vec3::ZERO;
     let mut open = 0u32;
     for s in 0..samples {
-        let sp = point((
+        let ab = (
             ((s % k) as f32 + rng.random::<f32>()) / k as f32,
             ((s / k % k) as f32 + rng.random::<f32>()) / k as f32,
-        ));
+        );
+        let sp = cell_point(scene, t, (i, j, r), ab);
         let ng = sp.geometric_normal;
-        let ns = side_normal(ng);
+        let ns = side_normal(side, ng);
         let p = sp.position;
         if skip_covered && covered(scene, p, ng, ns) {
             continue;

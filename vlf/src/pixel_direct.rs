@@ -337,16 +337,30 @@ impl PixelDirect {
     }
 
     /// The shadow rays of the `n`-th estimate at `p` of pixel `seed`'s sequence (one
-    /// light sample of each kind), appended to `out`.
-    pub fn queries(&self, p: &DirectPoint, seed: u64, n: u64, out: &mut Vec<ShadowQuery>) {
-        self.each_query(p, seed, n, |q| out.push(q));
+    /// light sample of each kind), appended to `out`; returns the barycentrics of the
+    /// point they leave from where the estimate was moved within the pixel
+    /// ([`Self::within_pixel`]).
+    pub fn queries(
+        &self,
+        p: &DirectPoint,
+        seed: u64,
+        n: u64,
+        out: &mut Vec<ShadowQuery>,
+    ) -> Option<[f32; 2]> {
+        self.each_query(p, seed, n, |q| out.push(q))
     }
 
     /// Calls `f` with each shadow ray of the `n`-th estimate at `p` of pixel `seed`'s
-    /// sequence.
-    fn each_query(&self, p: &DirectPoint, seed: u64, n: u64, mut f: impl FnMut(ShadowQuery)) {
-        let moved =
-            (self.within_pixel(p, seed, n)).map(|(at, _)| DirectPoint { position: at, ..*p });
+    /// sequence; returns where it was moved within the pixel, as [`Self::queries`].
+    fn each_query(
+        &self,
+        p: &DirectPoint,
+        seed: u64,
+        n: u64,
+        mut f: impl FnMut(ShadowQuery),
+    ) -> Option<[f32; 2]> {
+        let within = self.within_pixel(p, seed, n);
+        let moved = within.map(|(at, _)| DirectPoint { position: at, ..*p });
         let p = moved.as_ref().unwrap_or(p);
         let frame = Frame::new(p.shading_normal);
         let l = &self.lights;
@@ -385,6 +399,7 @@ impl PixelDirect {
         } else if self.sharpens(p) {
             self.sharpening_queries(p, &frame, seed, n, &mut f);
         }
+        within.map(|(_, uv)| uv)
     }
 
     /// The sky's two samples of an estimate, combined by multiple importance sampling
@@ -1017,10 +1032,9 @@ impl Accumulator {
                 let mut from = MadeFrom::FirstHit;
                 if let Some(p) = p {
                     for n in first..first + u64::from(take) {
-                        direct.queries(p, i as u64, n, &mut queries);
-                        from = match (direct.within_pixel(p, i as u64, n), take) {
+                        from = match (direct.queries(p, i as u64, n, &mut queries), take) {
                             (None, _) if from == MadeFrom::FirstHit => from,
-                            (Some((_, at)), 1) => MadeFrom::Moved(at),
+                            (Some(at), 1) => MadeFrom::Moved(at),
                             _ => MadeFrom::Sent,
                         };
                     }
