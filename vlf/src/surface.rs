@@ -142,50 +142,55 @@ const TOWARDS_STEPS: usize = 32;
 /// lobe rises there; a Lambertian surface's is its albedo at every view.
 pub fn albedo_towards(p: &SurfaceParams, cos_o: f32) -> Vec3 {
     let (i, f) = table_step(cos_o.abs(), TOWARDS_STEPS);
-    let table = towards_terms(p);
-    let at = |k: usize| table[k].0 + table[k].1 * p.base_color;
-    (at(i) * (1.0 - f) + at(i + 1) * f).clamp(Vec3::ZERO, Vec3::ONE)
+    with_towards_terms(p, |table| {
+        let at = |k: usize| table[k].0 + table[k].1 * p.base_color;
+        (at(i) * (1.0 - f) + at(i + 1) * f).clamp(Vec3::ZERO, Vec3::ONE)
+    })
 }
 
 type TowardsTable = std::sync::Arc<Vec<(Vec3, Vec3)>>;
 
-/// `a` and `b` of [`albedo_towards`] (`a + b · base`, affine in the base colour as
-/// [`diffuse_albedo`] is) over `cos θ_o`, for the parameters of `p` other than its base
-/// colour and emission; integrated once per distinct set and kept.
-fn towards_terms(p: &SurfaceParams) -> TowardsTable {
+/// Calls `f` with `a` and `b` of [`albedo_towards`] (`a + b · base`, affine in the base
+/// colour as [`diffuse_albedo`] is) over `cos θ_o`, for the parameters of `p` other than
+/// its base colour and emission; integrated once per distinct set and kept.
+fn with_towards_terms<R>(p: &SurfaceParams, f: impl FnOnce(&[(Vec3, Vec3)]) -> R) -> R {
     static CACHE: OnceLock<RwLock<HashMap<AlbedoKey, TowardsTable>>> = OnceLock::new();
     let cache = CACHE.get_or_init(|| RwLock::new(HashMap::new()));
     let (q, key) = albedo_params(p);
-    // Neighbouring pixels mostly see one material (as in `albedo_terms`).
+    // Neighbouring pixels mostly see one material (as in `albedo_terms`); the last table
+    // is read in place, not cloned: threads cloning one shared table fought over its
+    // reference count (a tenth of a wall's per-pixel work on two cores).
     thread_local! {
         static LAST: std::cell::RefCell<Option<(AlbedoKey, TowardsTable)>> =
             const { std::cell::RefCell::new(None) };
     }
-    let last = LAST.with_borrow(|l| {
-        l.as_ref()
-            .filter(|(k, _)| *k == key)
-            .map(|(_, t)| t.clone())
-    });
-    if let Some(t) = last {
-        return t;
+    let found = LAST.with_borrow(|l| l.as_ref().is_some_and(|(k, _)| *k == key));
+    if !found {
+        let cached = cache
+            .read()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(&key)
+            .cloned();
+        let table = cached.unwrap_or_else(|| {
+            let table = integrate_towards_terms(&q);
+            (cache.write().unwrap_or_else(|e| e.into_inner())).insert(key, table.clone());
+            table
+        });
+        LAST.set(Some((key, table)));
     }
-    let cached = cache
-        .read()
-        .unwrap_or_else(|e| e.into_inner())
-        .get(&key)
-        .cloned();
-    if let Some(t) = cached {
-        LAST.set(Some((key, t.clone())));
-        return t;
-    }
+    LAST.with_borrow(|l| f(&l.as_ref().expect("the table was just kept").1))
+}
+
+/// The table of [`with_towards_terms`] for `q` (its base colour zero).
+fn integrate_towards_terms(q: &SurfaceParams) -> TowardsTable {
     let (black, white) = (
-        Bsdf::new(&q),
+        Bsdf::new(q),
         Bsdf::new(&SurfaceParams {
             base_color: Vec3::ONE,
-            ..q
+            ..*q
         }),
     );
-    let table: TowardsTable = std::sync::Arc::new(
+    std::sync::Arc::new(
         (0..TOWARDS_STEPS)
             .map(|k| {
                 let wo = at_cos(k, TOWARDS_STEPS).max(Vec3::new(0.0, 0.0, 1e-3));
@@ -193,10 +198,7 @@ fn towards_terms(p: &SurfaceParams) -> TowardsTable {
                 (a, reflected_albedo(&white, wo) - a)
             })
             .collect(),
-    );
-    (cache.write().unwrap_or_else(|e| e.into_inner())).insert(key, table.clone());
-    LAST.set(Some((key, table.clone())));
-    table
+    )
 }
 
 /// `bsdf`'s directional albedo towards `wo` (local), of reflection alone (what a side's
