@@ -44,6 +44,9 @@ type Contribution = (u32, Vec3);
 /// (so it arrives from `+d`), and the radiance.
 type Arrival = (u32, bool, Vec3);
 
+/// Light arriving at a glossy tile: the tile, the direction it comes from, its irradiance.
+type TileArrival = (u32, Vec3, Vec3);
+
 /// The lines of a bake and their weights: everything a bounce needs besides the radiance.
 pub struct Lines<'a> {
     pub subfields: &'a [Subfield],
@@ -144,6 +147,30 @@ fn gather(
     }
 }
 
+/// Adds each arrival `(tile, from, irradiance)` to its tile's bins in `incoming`, the
+/// tiles in parallel: each tile takes its arrivals in the order given, so the sums are
+/// the same, bit for bit, as one after the other (a glossy scene's arrivals, one
+/// thread's work, were most of its bake).
+fn splat_by_tile(lines: &Lines, arrivals: &mut [TileArrival], incoming: &mut [Vec3]) {
+    let tiles = lines.tiles;
+    let bins = tiles.per_tile();
+    arrivals.sort_by_key(|a| a.0);
+    let mut runs: Vec<(&mut [Vec3], &[TileArrival])> = Vec::new();
+    let (mut rest, mut done) = (incoming, 0usize);
+    for run in arrivals.chunk_by(|a, b| a.0 == b.0) {
+        let g = run[0].0 as usize;
+        let (_, from_g) = std::mem::take(&mut rest).split_at_mut((g - done) * bins);
+        let (bins_of_g, after) = from_g.split_at_mut(bins);
+        runs.push((bins_of_g, run));
+        (rest, done) = (after, g + 1);
+    }
+    runs.into_par_iter().for_each(|(out, run)| {
+        for &(g, from, l) in run {
+            lines.reflection.splat(tiles, g, from, l, out);
+        }
+    });
+}
+
 /// One bounce over all subfields: the irradiance each element receives from `sending`,
 /// and the radiance each glossy tile makes of it.
 pub fn bounce(lines: &Lines, sending: Sending) -> Received {
@@ -171,6 +198,7 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
                 (out, glossy)
             })
             .collect();
+        let mut arrivals = Vec::new();
         for (i, (part, glossy)) in parts.iter().enumerate() {
             let k = c * CHUNK + i;
             let w = lines.weight[k];
@@ -184,10 +212,10 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
                 } else {
                     -lines.dirs[k]
                 };
-                let g_bins = &mut incoming[g as usize * bins..(g as usize + 1) * bins];
-                lines.reflection.splat(tiles, g, from, l * w, g_bins);
+                arrivals.push((g, from, l * w));
             }
         }
+        splat_by_tile(lines, &mut arrivals, &mut incoming);
     }
     // Pooled tiles (`pools`; none at present: see there) reflect the light that arrived
     // at their whole pool.

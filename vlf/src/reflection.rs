@@ -75,25 +75,34 @@ impl Reflection {
     pub fn new(tiles: &Tiles) -> Reflection {
         let n = tiles.per_tile();
         let per_matrix = n * n * std::mem::size_of::<Vec3>();
-        let most = MAX_BYTES / per_matrix.max(1);
-        let mut index: HashMap<[u32; 11], u32> = HashMap::new();
-        let mut first: Vec<usize> = Vec::new();
-        let of_tile = tiles
-            .tiles
+        Self::with_matrices(tiles, MAX_BYTES / per_matrix.max(1))
+    }
+
+    /// As [`Self::new`], with at most `most` matrices.
+    fn with_matrices(tiles: &Tiles, most: usize) -> Reflection {
+        let n = tiles.per_tile();
+        // The BSDFs most tiles share get the matrices the budget allows: a scene's
+        // textured glossy surfaces (a distinct BSDF per texel) must not take them from
+        // its painted walls (one BSDF for a wall's thousands of tiles).
+        let keys: Vec<[u32; 11]> = tiles.tiles.iter().map(|t| params_key(&t.params)).collect();
+        let mut shared: HashMap<[u32; 11], (usize, usize)> = HashMap::new();
+        for (g, k) in keys.iter().enumerate() {
+            shared.entry(*k).or_insert((0, g)).0 += 1;
+        }
+        let mut by_tiles: Vec<(usize, usize, [u32; 11])> = shared
+            .into_iter()
+            .map(|(k, (count, g))| (count, g, k))
+            .collect();
+        by_tiles.sort_unstable_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+        by_tiles.truncate(most);
+        by_tiles.sort_unstable_by_key(|&(_, g, _)| g);
+        let first: Vec<usize> = by_tiles.iter().map(|&(_, g, _)| g).collect();
+        let index: HashMap<[u32; 11], u32> = (by_tiles.iter().zip(0..))
+            .map(|(&(_, _, k), m)| (k, m))
+            .collect();
+        let of_tile = keys
             .iter()
-            .enumerate()
-            .map(|(g, t)| {
-                let k = params_key(&t.params);
-                if let Some(&m) = index.get(&k) {
-                    return m;
-                }
-                if first.len() >= most {
-                    return NONE;
-                }
-                first.push(g);
-                index.insert(k, first.len() as u32 - 1);
-                first.len() as u32 - 1
-            })
+            .map(|k| index.get(k).copied().unwrap_or(NONE))
             .collect();
         let matrices: Vec<Vec3> = first
             .par_iter()
@@ -263,6 +272,18 @@ mod tests {
                 assert!((*a - *b).length() <= 1e-5 * b.length().max(1e-3), "{a} {b}");
             }
         }
+    }
+
+    /// Where the budget holds fewer matrices than there are BSDFs, the BSDF most tiles
+    /// share gets one, wherever its tiles come in the list.
+    #[test]
+    fn the_most_shared_bsdf_gets_the_matrix_the_budget_allows() {
+        let mut tiles = tiles();
+        tiles.tiles.rotate_right(1);
+        let reflection = Reflection::with_matrices(&tiles, 1);
+        assert_eq!(reflection.of_tile, vec![NONE, 0, 0]);
+        let n = tiles.per_tile();
+        assert_eq!(reflection.matrices.len(), n * n);
     }
 
     /// Light binned by where it arrives from makes the tile send out the energy the
