@@ -155,7 +155,7 @@ impl WallDisplay {
         };
         let found = prior::measure(
             view,
-            |rays| base.field_radiance(rays, 16),
+            |rays, estimates| base.field_radiance(rays, estimates),
             |rays, seed| m.radiance(rays, seed),
         );
         tracing::info!(
@@ -167,6 +167,7 @@ impl WallDisplay {
         // `crate::prior`): a gather's mean has the field's error one bounce later.
         let spread = if m.gathers() { 0.0 } else { found.spread };
         self.cache.set_vlf_prior(self.prior, spread);
+        base.under_samples(found);
         if self.gathers() {
             base.keep_gathers(self.prior);
         }

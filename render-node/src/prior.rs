@@ -46,6 +46,14 @@
 //! `vlf+holodeck` 0.99× of `vlf`, 0.98× each with one `k`). Taking each
 //! pixel's `b²` from its own samples as well made the gathers 1.26× `vlf`'s error in
 //! motion.
+//!
+//! The field's value in a pixel holds the mean of the pixel's direct-light estimates,
+//! whose noise falls as a still view's frames add to it: `b² = b_f² + σ_d²/m` after `m`
+//! estimates. The measure takes the field with 16 estimates and with 4 to tell the two
+//! apart, and each pixel's samples count by its own `m` ([`Measured::worth_at`], through
+//! the lookup's `samples`): measured once at the first frame, one `k` let the room's floor
+//! wall's gathers pull a converged still view back towards their own noise (its error
+//! rose from frame 60 to 300, ending 1.24 times the field's alone).
 
 use std::str::FromStr;
 
@@ -109,15 +117,44 @@ pub struct Measured {
     /// A sample's variance over `μ² + 0.01`, in luminance, the mean over the pixels: what
     /// a pixel's own spread is set against (`shaders/vlf.wgsl`).
     pub spread: f32,
+    /// The share of the field's squared error that is its per-pixel direct light's
+    /// noise, measured with [`MEASURED_ESTIMATES`] estimates in its mean (0 where not
+    /// measured): the part a pixel's running mean takes off as it grows
+    /// ([`Measured::worth_at`]).
+    pub direct_share: f32,
     pub pixels: usize,
+}
+
+/// Direct-light estimates in the mean of the field's values [`measure`] takes, and in the
+/// second, smaller mean it takes to tell the direct light's noise from the rest.
+pub const MEASURED_ESTIMATES: u32 = 16;
+const FEW_ESTIMATES: u32 = 4;
+
+impl Measured {
+    /// How much a pixel's samples count, against the field's worth `k` measured, where
+    /// the pixel's direct light is the mean of `estimates` estimates: the field's squared
+    /// error there over the one measured, `b²(m) / b²(16)` with
+    /// `b²(m) = b_f² + σ_d²/m` (the rest's error, and the direct light's noise falling
+    /// with the estimates), since `(k V + r n C̄)/(k + r n)` shows the field worth
+    /// `k/r = σ²/b²(m)` samples. A still view's pixel, its direct light converging, lets
+    /// its samples count less and less; a pixel that starts over, more.
+    pub fn worth_at(&self, estimates: u32) -> f32 {
+        let s = self.direct_share.clamp(0.0, 1.0);
+        1.0 - s + s * MEASURED_ESTIMATES as f32 / estimates.max(1) as f32
+    }
 }
 
 impl std::fmt::Display for Measured {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "the light field worth {:.1} samples (a sample's relative variance {:.3e}, in luminance {:.3e}, the field's squared error against the samples' mean {:.3e}, {} pixels × {PER_PIXEL} samples)",
-            self.samples, self.variance, self.spread, self.bias2, self.pixels
+            "the light field worth {:.1} samples (a sample's relative variance {:.3e}, in luminance {:.3e}, the field's squared error against the samples' mean {:.3e}, {:.0} % of it the direct light's noise at {MEASURED_ESTIMATES} estimates, {} pixels × {PER_PIXEL} samples)",
+            self.samples,
+            self.variance,
+            self.spread,
+            self.bias2,
+            100.0 * self.direct_share,
+            self.pixels
         )
     }
 }
@@ -168,6 +205,7 @@ pub fn from_samples(field: &[Vec3], samples: &[Vec<Vec3>]) -> Measured {
         variance: var,
         bias2,
         spread: (terms.iter().map(|t| t.2).sum::<f64>() / n) as f32,
+        direct_share: 0.0,
         pixels: terms.len(),
     }
 }
@@ -194,10 +232,12 @@ pub fn grid_rays(view: &EyeView, offset: impl Fn(usize) -> Vec2) -> Vec<Ray> {
 /// take them: the field's error includes what one ray per pixel misses at edges.
 pub fn measure(
     view: &EyeView,
-    field: impl Fn(&[Ray]) -> Vec<Vec3>,
+    field: impl Fn(&[Ray], u32) -> Vec<Vec3>,
     sample: impl Fn(&[Ray], u64) -> Vec<Vec3>,
 ) -> Measured {
-    let v = field(&grid_rays(view, |_| Vec2::splat(0.5)));
+    let centres = grid_rays(view, |_| Vec2::splat(0.5));
+    let v = field(&centres, MEASURED_ESTIMATES);
+    let few = field(&centres, FEW_ESTIMATES);
     let mut per_pixel = vec![Vec::with_capacity(PER_PIXEL as usize); v.len()];
     let mut rng = SmallRng::seed_from_u64(0x5EED);
     for k in 0..PER_PIXEL {
@@ -210,12 +250,71 @@ pub fn measure(
             p.push(s);
         }
     }
-    from_samples(&v, &per_pixel)
+    let measured = from_samples(&v, &per_pixel);
+    Measured {
+        direct_share: direct_share(from_samples(&few, &per_pixel).bias2, measured.bias2),
+        ..measured
+    }
+}
+
+/// The share of `b²(16)` that is the direct light's noise, from the squared errors of the
+/// field with [`FEW_ESTIMATES`] and with [`MEASURED_ESTIMATES`] in its direct light's
+/// mean: `b²(m) = b_f² + σ_d²/m` gives `σ_d² = (b²(4) − b²(16)) / (1/4 − 1/16)`. 0 where
+/// the two do not tell (the field's error not above its noise, or the fewer estimates
+/// no worse).
+fn direct_share(few: f64, measured: f64) -> f32 {
+    let (a, b) = (
+        1.0 / f64::from(FEW_ESTIMATES),
+        1.0 / f64::from(MEASURED_ESTIMATES),
+    );
+    if measured <= 0.0 || few <= measured {
+        return 0.0;
+    }
+    let noise = (few - measured) / (a - b);
+    (noise * b / measured).clamp(0.0, 1.0) as f32
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The field's squared error with 4 and 16 direct estimates, `b_f² + σ_d²/m`, splits
+    /// into the rest's and the direct light's noise, and a pixel's samples count by its
+    /// own estimates: as much as measured at 16, less as its mean grows, more below.
+    #[test]
+    fn the_direct_lights_noise_is_told_from_the_rest_and_falls_with_the_estimates() {
+        let (rest, noise) = (0.01f64, 0.16f64);
+        let b2 = |m: f64| rest + noise / m;
+        let share = direct_share(b2(4.0), b2(16.0));
+        assert!((share - 0.5).abs() < 1e-6, "{share}");
+        let measured = Measured {
+            samples: 100.0,
+            variance: 1.0,
+            bias2: b2(16.0),
+            spread: 0.0,
+            direct_share: share,
+            pixels: 1,
+        };
+        for m in [1u32, 4, 16, 64, 300] {
+            let want = (b2(f64::from(m)) / b2(16.0)) as f32;
+            let got = measured.worth_at(m);
+            assert!(
+                (got - want).abs() < 1e-5 * want,
+                "{m}: {got} against {want}"
+            );
+        }
+        // Nothing to tell: the fewer estimates no worse, or no error at all.
+        assert_eq!(direct_share(b2(16.0), b2(16.0)), 0.0);
+        assert_eq!(direct_share(0.0, 0.0), 0.0);
+        assert_eq!(
+            Measured {
+                direct_share: 0.0,
+                ..measured
+            }
+            .worth_at(300),
+            1.0
+        );
+    }
 
     /// Pixels whose samples have a known variance about a known mean, and a field off by a
     /// known amount: the measured `k` is `σ² / b²` within the sampling error of its parts.

@@ -48,6 +48,7 @@ use rayon::prelude::*;
 use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
 use crate::gpu_rays::lookups::{LookupComposer, split};
 use crate::gpu_rays::{GpuRays, KeptHits, OnGpu, Query, Rays, ShadowMaker};
+use crate::prior::Measured;
 use crate::{EyeView, Gpu, RenderCache, RenderNodeError};
 
 /// How many samples the light field is worth in a pixel unless told. Blending `n`
@@ -90,6 +91,10 @@ pub struct VlfBase {
     /// The gather samples kept in the field's elements, once a display's samples are
     /// gathers ([`VlfBase::keep_gathers`]).
     kept: Mutex<Option<KeptGathers>>,
+    /// The field's worth under a display's samples, as measured there
+    /// ([`VlfBase::under_samples`]): each pixel's samples count by its direct light's
+    /// estimates.
+    measured: Mutex<Option<Measured>>,
 }
 
 /// The GPU that traces a node's rays: its engine, the maker of the direct light's shadow
@@ -283,6 +288,7 @@ impl VlfBase {
             shadow_lights,
             visibility,
             kept: Mutex::new(None),
+            measured: Mutex::new(None),
         };
         Ok(base.with_direct(true))
     }
@@ -434,6 +440,13 @@ impl VlfBase {
             None => *kept = Some(KeptGathers::new(self.indirect.clone(), prior)),
         }
         true
+    }
+
+    /// Draws the lookups for a display whose samples measured the field's worth as
+    /// `measured`: each pixel's samples count by how many estimates its direct light's
+    /// mean holds ([`Measured::worth_at`], in [`Lookup::samples`]).
+    pub fn under_samples(&self, measured: Measured) {
+        *self.measured.lock().unwrap_or_else(|e| e.into_inner()) = Some(measured);
     }
 
     /// Runs `f` with the field's values and the gathers kept in them, and the ranges of
@@ -654,6 +667,7 @@ impl VlfBase {
         let at_points = at_points(points, &kept, |i, p| {
             (self.visibility).caustic_light(&lookups[i], p, Some(&screen))
         });
+        let measured = *self.measured.lock().unwrap_or_else(|e| e.into_inner());
         let each = (lookups.par_iter_mut().zip(estimates).enumerate()).zip(acc.counts());
         each.for_each(|((i, (l, d)), &n)| {
             // The caustics, and the mean of the frames' reflections in place of this
@@ -677,6 +691,8 @@ impl VlfBase {
                 .to_array();
             if d.object_shadow {
                 l.samples = 0.0;
+            } else if let Some(m) = &measured {
+                l.samples *= m.worth_at(n);
             }
         });
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());

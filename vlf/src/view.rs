@@ -82,7 +82,8 @@ pub struct Lookup {
     pub y: f32,
     /// How much the render cache's samples count here: 1, or 0 where a moving object
     /// changes what the static caches hold (the object itself, its shadows, its
-    /// surroundings), so the pixel shows this lookup's light alone.
+    /// surroundings), so the pixel shows this lookup's light alone; under a display's
+    /// measured prior, scaled by how far the pixel's direct light has converged.
     pub samples: f32,
     /// The moving object the point seen lies on (its index + 1; 0: the static scene).
     /// The render cache's samples count only from a point on the same one, so that a
