@@ -117,9 +117,9 @@ pub struct Measured {
     /// A sample's variance over `μ² + 0.01`, in luminance, the mean over the pixels: what
     /// a pixel's own spread is set against (`shaders/vlf.wgsl`).
     pub spread: f32,
-    /// The share of the field's squared error that is its per-pixel direct light's
-    /// noise, measured with [`MEASURED_ESTIMATES`] estimates in its mean (0 where not
-    /// measured): the part a pixel's running mean takes off as it grows
+    /// The share of the squared error `samples` stands for (`variance / samples`) that is
+    /// the per-pixel direct light's noise with [`MEASURED_ESTIMATES`] estimates in its
+    /// mean (0 where not measured): the part a pixel's running mean takes off as it grows
     /// ([`Measured::worth_at`]).
     pub direct_share: f32,
     pub pixels: usize,
@@ -148,7 +148,7 @@ impl std::fmt::Display for Measured {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "the light field worth {:.1} samples (a sample's relative variance {:.3e}, in luminance {:.3e}, the field's squared error against the samples' mean {:.3e}, {:.0} % of it the direct light's noise at {MEASURED_ESTIMATES} estimates, {} pixels × {PER_PIXEL} samples)",
+            "the light field worth {:.1} samples (a sample's relative variance {:.3e}, in luminance {:.3e}, the field's squared error against the samples' mean {:.3e}, {:.0} % of the error k stands for the direct light's noise at {MEASURED_ESTIMATES} estimates, {} pixels × {PER_PIXEL} samples)",
             self.samples,
             self.variance,
             self.spread,
@@ -252,26 +252,31 @@ pub fn measure(
     }
     let measured = from_samples(&v, &per_pixel);
     Measured {
-        direct_share: direct_share(from_samples(&few, &per_pixel).bias2, measured.bias2),
+        direct_share: direct_share(
+            from_samples(&few, &per_pixel).bias2,
+            measured.bias2,
+            measured.variance / f64::from(measured.samples),
+        ),
         ..measured
     }
 }
 
-/// The share of `b²(16)` that is the direct light's noise, from the squared errors of the
-/// field with [`FEW_ESTIMATES`] and with [`MEASURED_ESTIMATES`] in its direct light's
-/// mean: `b²(m) = b_f² + σ_d²/m` gives `σ_d² = (b²(4) − b²(16)) / (1/4 − 1/16)`. 0 where
-/// the two do not tell (the field's error not above its noise, or the fewer estimates
-/// no worse).
-fn direct_share(few: f64, measured: f64) -> f32 {
+/// The share of the squared error `k` stands for (`stands_for`, `σ²/k`: the measured
+/// `b²(16)`, or the least the measure resolves where that is below it) that is the direct
+/// light's noise, from the squared errors of the field with [`FEW_ESTIMATES`] (`few`) and
+/// with [`MEASURED_ESTIMATES`] (`measured`) in its direct light's mean: `b²(m) = b_f² +
+/// σ_d²/m` gives `σ_d² = (b²(4) − b²(16)) / (1/4 − 1/16)`. 0 where the fewer estimates
+/// measure no worse.
+fn direct_share(few: f64, measured: f64, stands_for: f64) -> f32 {
     let (a, b) = (
         1.0 / f64::from(FEW_ESTIMATES),
         1.0 / f64::from(MEASURED_ESTIMATES),
     );
-    if measured <= 0.0 || few <= measured {
+    if stands_for <= 0.0 || few <= measured {
         return 0.0;
     }
     let noise = (few - measured) / (a - b);
-    (noise * b / measured).clamp(0.0, 1.0) as f32
+    (noise * b / stands_for).clamp(0.0, 1.0) as f32
 }
 
 #[cfg(test)]
@@ -285,8 +290,12 @@ mod tests {
     fn the_direct_lights_noise_is_told_from_the_rest_and_falls_with_the_estimates() {
         let (rest, noise) = (0.01f64, 0.16f64);
         let b2 = |m: f64| rest + noise / m;
-        let share = direct_share(b2(4.0), b2(16.0));
+        let share = direct_share(b2(4.0), b2(16.0), b2(16.0));
         assert!((share - 0.5).abs() < 1e-6, "{share}");
+        // Where `k` stands for a larger error than measured (the least the measure
+        // resolves), the direct light's noise is a smaller share of it.
+        let unresolved = direct_share(b2(4.0), b2(16.0), 2.0 * b2(16.0));
+        assert!((unresolved - 0.25).abs() < 1e-6, "{unresolved}");
         let measured = Measured {
             samples: 100.0,
             variance: 1.0,
@@ -304,8 +313,8 @@ mod tests {
             );
         }
         // Nothing to tell: the fewer estimates no worse, or no error at all.
-        assert_eq!(direct_share(b2(16.0), b2(16.0)), 0.0);
-        assert_eq!(direct_share(0.0, 0.0), 0.0);
+        assert_eq!(direct_share(b2(16.0), b2(16.0), b2(16.0)), 0.0);
+        assert_eq!(direct_share(b2(4.0), b2(16.0), 0.0), 0.0);
         assert_eq!(
             Measured {
                 direct_share: 0.0,
