@@ -137,10 +137,15 @@ impl Measured {
     /// `b²(m) = b_f² + σ_d²/m` (the rest's error, and the direct light's noise falling
     /// with the estimates), since `(k V + r n C̄)/(k + r n)` shows the field worth
     /// `k/r = σ²/b²(m)` samples. A still view's pixel, its direct light converging, lets
-    /// its samples count less and less; a pixel that starts over, more.
+    /// its samples count less and less; a pixel that starts over, more. No estimates: the
+    /// pixel sees no point that takes direct light (the sky, nothing), and its field value
+    /// has no such noise to lose: its samples count as measured.
     pub fn worth_at(&self, estimates: u32) -> f32 {
+        if estimates == 0 {
+            return 1.0;
+        }
         let s = self.direct_share.clamp(0.0, 1.0);
-        1.0 - s + s * MEASURED_ESTIMATES as f32 / estimates.max(1) as f32
+        1.0 - s + s * MEASURED_ESTIMATES as f32 / estimates as f32
     }
 }
 
@@ -312,6 +317,8 @@ mod tests {
                 "{m}: {got} against {want}"
             );
         }
+        // A pixel without direct light: as measured.
+        assert_eq!(measured.worth_at(0), 1.0);
         // Nothing to tell: the fewer estimates no worse, or no error at all.
         assert_eq!(direct_share(b2(16.0), b2(16.0), b2(16.0)), 0.0);
         assert_eq!(direct_share(b2(4.0), b2(16.0), 0.0), 0.0);
