@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use crate::direct::direct_irradiance;
 use crate::directions::Directions;
 use crate::elements::{Elements, cell_index};
+use crate::exitance::Exitance;
 use crate::pools::Pools;
 use crate::propagate::{Lines, Sending, bounce, flux};
 use crate::reflection::Reflection;
@@ -647,6 +648,8 @@ pub fn bake_with<E>(
     let start = Instant::now();
     let line_dirs = &directions.lines;
     let reflection = Reflection::new(&tiles);
+    let black: Vec<bool> = needed.iter().map(|n| !n).collect();
+    let exitance = Exitance::new(scene, &centre, &tiles, &black);
     let pools = Pools::new(scene, elements, &tiles, &area, &needed, least);
     // The open shares `over_open_part` divides by: an element's own, or a pooled
     // element's pool's (a pool receives the light of its members over their summed area).
@@ -670,6 +673,7 @@ pub fn bake_with<E>(
         ends: &ends,
         area: &receiving,
         tiles: &tiles,
+        exitance: &exitance,
         reflection: &reflection,
     };
     let zero = vec![[0f32; 3]; elements.count];

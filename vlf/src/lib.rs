@@ -52,7 +52,8 @@
 //! direction towards the eye. Lobes narrower than the bins or the line directions are
 //! widened to [`tiles::alpha_floor`] (blurred highlights, not aliased ones). Rougher
 //! surfaces are diffuse elements: the field passes on their albedo's mean over the views
-//! ([`surface::diffuse_albedo`]), and a pixel shows its element's light times the albedo
+//! ([`surface::diffuse_albedo`]), each line taking the share its direction gets of it
+//! ([`exitance`]: a rough dielectric sends less towards grazing directions), and a pixel shows its element's light times the albedo
 //! towards its eye ([`surface::albedo_towards`]); a scene without glossy surfaces has no
 //! tiles at all. The lines are not grouped into the paper's tiles: each line keeps its own
 //! crossings.
@@ -64,6 +65,7 @@ pub mod caustics;
 pub mod direct;
 pub mod directions;
 pub mod elements;
+pub mod exitance;
 pub mod file;
 pub mod footprint;
 pub mod gather;

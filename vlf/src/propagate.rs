@@ -11,7 +11,8 @@
 //! where `h²` is a line's cross-section and `A_e` the element's area: each line stands
 //! for the light through its `h²` of cross-section, spread over the `A_e` it lands on
 //! (the `cos θ` of irradiance and the `1/cos θ` of the footprint cancel). Then
-//! `B_k = ρ/π · ΔE_k`. The first bounce's sources are the sky at the lines' ends and the
+//! `B_k = ρ/π · ΔE_k`, sent along each line as the element's directional albedo spreads it
+//! (`exitance`). The first bounce's sources are the sky at the lines' ends and the
 //! light seen through delta surfaces; the light of small emitters and the sun comes by
 //! next-event estimation (`direct`), added before.
 //!
@@ -29,6 +30,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::exitance::Exitance;
 use crate::pools::Pools;
 use crate::reflection::Reflection;
 use crate::subfield::{Crossing, DELTA, Link, Subfield};
@@ -59,6 +61,8 @@ pub struct Lines<'a> {
     /// The area each element's light is spread over.
     pub area: &'a [f32],
     pub tiles: &'a Tiles,
+    /// How each diffuse element's light leaves it over directions.
+    pub exitance: &'a Exitance,
     /// The tiles' BSDFs between bins.
     pub reflection: &'a Reflection,
     /// Small elements pooled with their neighbours (`None`: each alone).
@@ -80,19 +84,20 @@ pub struct Received {
     pub tiles: Vec<[f32; 3]>,
 }
 
-/// What element `e` sends along `dir`.
-fn out_of(e: u32, dir: Vec3, tiles: &Tiles, sending: &Sending) -> Vec3 {
+/// What element `e` sends along `dir`: a glossy one what its tile holds that way, a
+/// diffuse one its `B` as its directional albedo spreads it ([`Exitance`]).
+fn out_of(e: u32, dir: Vec3, lines: &Lines, sending: &Sending) -> Vec3 {
     if e == u32::MAX {
         Vec3::ZERO
-    } else if let Some(g) = tiles.of(e) {
-        tiles.radiance(sending.tiles, g, dir)
+    } else if let Some(g) = lines.tiles.of(e) {
+        lines.tiles.radiance(sending.tiles, g, dir)
     } else {
-        Vec3::from(sending.radiance[e as usize])
+        Vec3::from(sending.radiance[e as usize]) * lines.exitance.towards(e, dir)
     }
 }
 
 /// What a side of a crossing sends along its line, in direction `dir`.
-fn outgoing(side: u32, dir: Vec3, links: &[Link], tiles: &Tiles, sending: &Sending) -> Vec3 {
+fn outgoing(side: u32, dir: Vec3, links: &[Link], lines: &Lines, sending: &Sending) -> Vec3 {
     if side & DELTA != 0 {
         let l = &links[(side & !DELTA) as usize];
         let emitted = if sending.first_bounce {
@@ -100,9 +105,9 @@ fn outgoing(side: u32, dir: Vec3, links: &[Link], tiles: &Tiles, sending: &Sendi
         } else {
             Vec3::ZERO
         };
-        l.weight * out_of(l.element, l.toward, tiles, sending) + emitted
+        l.weight * out_of(l.element, l.toward, lines, sending) + emitted
     } else {
-        out_of(side, dir, tiles, sending)
+        out_of(side, dir, lines, sending)
     }
 }
 
@@ -111,12 +116,13 @@ fn outgoing(side: u32, dir: Vec3, links: &[Link], tiles: &Tiles, sending: &Sendi
 fn gather(
     s: &Subfield,
     d: Vec3,
-    tiles: &Tiles,
+    lines: &Lines,
     sending: &Sending,
     ends: (Vec3, Vec3),
     out: &mut Vec<Contribution>,
     glossy: &mut Vec<Arrival>,
 ) {
+    let tiles = lines.tiles;
     for w in s.line_start.windows(2) {
         let line: &[Crossing] = &s.crossings[w[0] as usize..w[1] as usize];
         let mut receive = |side: u32, backwards: bool, l: Vec3| {
@@ -136,12 +142,12 @@ fn gather(
             receive(
                 pair[1].minus,
                 false,
-                outgoing(pair[0].plus, d, &s.links, tiles, sending),
+                outgoing(pair[0].plus, d, &s.links, lines, sending),
             );
             receive(
                 pair[0].plus,
                 true,
-                outgoing(pair[1].minus, -d, &s.links, tiles, sending),
+                outgoing(pair[1].minus, -d, &s.links, lines, sending),
             );
         }
     }
@@ -189,7 +195,7 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
                 gather(
                     s,
                     lines.dirs[k],
-                    tiles,
+                    lines,
                     &sending,
                     lines.ends[k],
                     &mut out,

@@ -6,8 +6,8 @@
 //!
 //! Non-delta materials rougher than the threshold, rough glass, and a mix of a delta lobe
 //! with a diffuse one (a half-metallic mirror) are drawn as diffuse with their whole
-//! albedo: the energy they reflect is right, their view dependence is missing (the render
-//! cache's exact samples add it where a viewer looks).
+//! albedo: the energy they reflect is right, and each line and each eye takes the share
+//! of it that its direction gets under even light (`exitance`, [`albedo_towards`]).
 
 use std::collections::HashMap;
 use std::sync::{OnceLock, RwLock};
@@ -50,7 +50,7 @@ pub fn diffuse_albedo(p: &SurfaceParams) -> Vec3 {
     (a + b * p.base_color).clamp(Vec3::ZERO, Vec3::ONE)
 }
 
-type AlbedoKey = [u32; 8];
+pub(crate) type AlbedoKey = [u32; 8];
 
 /// `p` with its base colour and emission zero and its metallic and roughness quantised to
 /// 1/1024 (finer than an 8-bit texture), as an albedo's tables are integrated, and the key
@@ -130,7 +130,7 @@ fn integrate_albedo_terms(key: AlbedoKey, q: &SurfaceParams) -> (Vec3, Vec3) {
 }
 
 /// Entries of a material's [`albedo_towards`] table over `cos θ_o ∈ [0, 1]`.
-const TOWARDS_STEPS: usize = 32;
+pub(crate) const TOWARDS_STEPS: usize = 32;
 
 /// The fraction of light arriving evenly from all directions that a non-delta surface
 /// sends towards a viewer at `cos_o` (the cosine between its shading normal and the
@@ -179,6 +179,21 @@ fn with_towards_terms<R>(p: &SurfaceParams, f: impl FnOnce(&[(Vec3, Vec3)]) -> R
         LAST.set(Some((key, table)));
     }
     LAST.with_borrow(|l| f(&l.as_ref().expect("the table was just kept").1))
+}
+
+/// The parameters of `p` that [`albedo_towards`]'s table depends on (all but the base
+/// colour and emission), as a key, and that table: `a + b · base` at each of
+/// [`TOWARDS_STEPS`] views evenly over `cos θ_o ∈ [0, 1]`.
+pub(crate) fn towards_terms(p: &SurfaceParams) -> (AlbedoKey, Vec<(Vec3, Vec3)>) {
+    (
+        albedo_key_of(p),
+        with_towards_terms(p, |table| table.to_vec()),
+    )
+}
+
+/// The key of [`towards_terms`] alone.
+pub(crate) fn albedo_key_of(p: &SurfaceParams) -> AlbedoKey {
+    albedo_params(p).1
 }
 
 /// The table of [`with_towards_terms`] for `q` (its base colour zero).

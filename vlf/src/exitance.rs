@@ -1,0 +1,209 @@
+//! What a diffuse element sends towards each direction: its light `B = ρ/π · E` (the
+//! bihemispherical albedo's share of its irradiance, [`crate::surface::diffuse_albedo`])
+//! times how its material's directional albedo towards that direction
+//! ([`crate::surface::albedo_towards`]) compares with that mean — the radiance a viewer
+//! there would see of it under even light, which is what the view draws of it too.
+//!
+//! A rough dielectric's Lambertian base is dimmed towards grazing exits by the Fresnel
+//! transmission out, `1 − F(θo)`: the breakfast room's white walls (GGX α 0.94 over a
+//! Lambertian base) send a third of their mean towards a direction 87° off their normal,
+//! and half at 84°. Two walls meeting in a corner see each other at just those angles
+//! near the corner; sent evenly, their exchange there was twice the path tracer's and the
+//! corner a quarter too bright. Each profile is scaled so that its cosine-weighted mean
+//! over the hemisphere is exactly one: an element sends out in all the light
+//! `B` says, so the bake's energy is what it was; only its direction changes.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+use holocave_scene::Scene;
+use rayon::prelude::*;
+
+use crate::surface::{TOWARDS_STEPS, albedo_key_of, seen_at, table_step, towards_terms};
+use crate::tiles::Tiles;
+
+const NONE: u32 = u32::MAX;
+
+/// One element as the propagation's senders read it.
+#[derive(Clone, Copy, Debug)]
+struct Facing {
+    /// Its shading normal at its centre.
+    normal: Vec3,
+    /// Its base colour there.
+    base: Vec3,
+    /// One over its profile's cosine-weighted mean for that base colour.
+    per_mean: Vec3,
+    /// Its material's profile; [`NONE`]: it sends evenly (Lambertian, a tile's, a delta
+    /// surface's, or black).
+    profile: u32,
+}
+
+/// A directional albedo over `cos θ_o`: `a + b · base` at [`TOWARDS_STEPS`] views.
+struct Profile {
+    steps: Vec<(Vec3, Vec3)>,
+    /// `∫ (a + b · base)(c) 2c dc`'s `a` and `b`: the mean weighted by the cosine.
+    mean: (Vec3, Vec3),
+}
+
+impl Profile {
+    fn new(steps: Vec<(Vec3, Vec3)>) -> Self {
+        // The interpolated table's cosine-weighted mean, by the midpoint rule on a grid
+        // far finer than the table (each of its pieces is linear).
+        const N: usize = 4096;
+        let mut mean = (Vec3::ZERO, Vec3::ZERO);
+        for k in 0..N {
+            let c = (k as f32 + 0.5) / N as f32;
+            let (a, b) = interpolate(&steps, c);
+            let w = 2.0 * c / N as f32;
+            mean = (mean.0 + a * w, mean.1 + b * w);
+        }
+        Profile { steps, mean }
+    }
+
+    /// Whether every view gets the same: a Lambertian material.
+    fn is_even(&self) -> bool {
+        let (a0, b0) = self.steps[0];
+        (self.steps.iter()).all(|(a, b)| a.abs_diff_eq(a0, 1e-6) && b.abs_diff_eq(b0, 1e-6))
+    }
+}
+
+/// `a` and `b` of a table at `cos`, linear between its steps.
+fn interpolate(steps: &[(Vec3, Vec3)], cos: f32) -> (Vec3, Vec3) {
+    let (i, t) = table_step(cos, TOWARDS_STEPS);
+    let (lo, hi) = (steps[i], steps[i + 1]);
+    (lo.0.lerp(hi.0, t), lo.1.lerp(hi.1, t))
+}
+
+/// Every element's profile of directions.
+pub struct Exitance {
+    facing: Vec<Facing>,
+    profiles: Vec<Profile>,
+}
+
+impl Exitance {
+    /// The profiles of the elements whose centres are `centre` (triangle and
+    /// barycentrics); the elements with a tile (they send what their tile holds) and
+    /// `black` ones send evenly.
+    pub fn new(scene: &Scene, centre: &[(u32, f32, f32)], tiles: &Tiles, black: &[bool]) -> Self {
+        let seen: Vec<Option<_>> = (centre.par_iter().enumerate())
+            .map(|(e, &(t, u, v))| {
+                let s = seen_at(scene, t, u, v);
+                let sends = !s.delta && tiles.of(e as u32).is_none() && !black[e];
+                sends.then(|| (albedo_key_of(&s.params), s.params, s.shading_normal))
+            })
+            .collect();
+        let mut index = HashMap::new();
+        let mut profiles = Vec::new();
+        let mut even = Vec::new();
+        for (key, params, _) in seen.iter().flatten() {
+            index.entry(*key).or_insert_with(|| {
+                let profile = Profile::new(towards_terms(params).1);
+                even.push(profile.is_even());
+                profiles.push(profile);
+                profiles.len() as u32 - 1
+            });
+        }
+        let facing = (seen.par_iter())
+            .map(|s| match s {
+                Some((key, params, normal)) if !even[index[key] as usize] => {
+                    let profile = index[key];
+                    let (a, b) = profiles[profile as usize].mean;
+                    let mean = a + b * params.base_color;
+                    let per_mean = Vec3::select(mean.cmpgt(Vec3::ZERO), mean.recip(), Vec3::ZERO);
+                    Facing {
+                        normal: *normal,
+                        base: params.base_color,
+                        per_mean,
+                        profile,
+                    }
+                }
+                _ => Facing {
+                    normal: Vec3::ZERO,
+                    base: Vec3::ZERO,
+                    per_mean: Vec3::ZERO,
+                    profile: NONE,
+                },
+            })
+            .collect();
+        Exitance { facing, profiles }
+    }
+
+    /// Every element sending evenly (a bake of Lambertian surfaces only; tests).
+    pub fn even(elements: usize) -> Self {
+        let none = Facing {
+            normal: Vec3::ZERO,
+            base: Vec3::ZERO,
+            per_mean: Vec3::ZERO,
+            profile: NONE,
+        };
+        Exitance {
+            facing: vec![none; elements],
+            profiles: Vec::new(),
+        }
+    }
+
+    /// What element `e` sends along `dir` per unit of its `B`: its directional albedo
+    /// towards `dir` over its cosine-weighted mean (1 for an element that sends evenly).
+    pub fn towards(&self, e: u32, dir: Vec3) -> Vec3 {
+        let Some(f) = self.facing.get(e as usize) else {
+            return Vec3::ONE;
+        };
+        if f.profile == NONE {
+            return Vec3::ONE;
+        }
+        let steps = &self.profiles[f.profile as usize].steps;
+        let (a, b) = interpolate(steps, f.normal.dot(dir).abs());
+        (a + b * f.base) * f.per_mean
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use holocave_scene::SurfaceParams;
+
+    fn white_matt(specular: f32) -> SurfaceParams {
+        SurfaceParams {
+            base_color: Vec3::splat(0.9),
+            metallic: 0.0,
+            roughness: 0.968,
+            emission: Vec3::ZERO,
+            specular,
+            specular_color: Vec3::ONE,
+            transmission: 0.0,
+            ior: 1.5,
+        }
+    }
+
+    /// The profile of the breakfast room's walls falls towards grazing exits and its
+    /// cosine-weighted mean is one (the element sends out all of `B`); a Lambertian one
+    /// is even.
+    #[test]
+    fn a_rough_dielectric_sends_less_towards_grazing_and_all_of_its_light_in_all() {
+        let profile = Profile::new(towards_terms(&white_matt(1.0)).1);
+        let base = Vec3::splat(0.9);
+        let mean = profile.mean.0 + profile.mean.1 * base;
+        let at = |c: f32| {
+            let (a, b) = interpolate(&profile.steps, c);
+            (a + b * base) / mean
+        };
+        assert!(
+            at(0.05).x < 0.4 && at(0.1).x < 0.6,
+            "{} {}",
+            at(0.05),
+            at(0.1)
+        );
+        assert!(at(1.0).x > 1.0 && at(1.0).x < 1.1, "{}", at(1.0));
+        // ∫ ratio 2c dc = 1, by a rule independent of the one the mean was taken with.
+        let n = 1000;
+        let sum: f32 = (0..n)
+            .map(|k| {
+                let c = (k as f32 + 0.5) / n as f32;
+                at(c).x * 2.0 * c / n as f32
+            })
+            .sum();
+        assert!((sum - 1.0).abs() < 1e-3, "{sum}");
+        assert!(!profile.is_even());
+        assert!(Profile::new(towards_terms(&white_matt(0.0)).1).is_even());
+    }
+}
