@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use holocave_scene::Scene;
+use holocave_tracer::frame::Frame;
 use holocave_tracer::lights::Lights;
 use rayon::prelude::*;
 
@@ -423,6 +424,35 @@ pub(crate) fn sky(lights: &Lights, dir: Vec3) -> Vec3 {
     lights.sky.as_ref().map_or(Vec3::ZERO, |s| s.radiance(dir))
 }
 
+/// The sky's mean over the cone of solid angle `omega` about `dir`: what the lines of a
+/// direction that stands for `omega` of the sphere bring in from outside. Taken at `dir`
+/// alone, a direction whose cone straddles the horizon brought the bright sky just above
+/// it over the whole cone, half of which is the darker ground: low sky through a window
+/// (the breakfast room's, facing a low sun) lit the wall across from it a tenth too
+/// bright. Equal parts of the cone's solid angle, rings in `1 − cos θ` by spokes.
+pub(crate) fn sky_over(lights: &Lights, dir: Vec3, omega: f32) -> Vec3 {
+    const RINGS: usize = 8;
+    const SPOKES: usize = 16;
+    if lights.sky.is_none() {
+        return Vec3::ZERO;
+    }
+    let frame = Frame::new(dir);
+    let one_minus_cos = (omega / std::f32::consts::TAU).clamp(0.0, 2.0);
+    let mut sum = Vec3::ZERO;
+    for ring in 0..RINGS {
+        let x = (ring as f32 + 0.5) / RINGS as f32 * one_minus_cos;
+        let sin = (x * (2.0 - x)).max(0.0).sqrt();
+        for spoke in 0..SPOKES {
+            // Each ring's spokes turned by half a step from the last's.
+            let turn = (spoke as f32 + 0.5 * (ring % 2) as f32) / SPOKES as f32;
+            let phi = std::f32::consts::TAU * turn;
+            let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), 1.0 - x);
+            sum += sky(lights, frame.to_world(local).normalize());
+        }
+    }
+    sum / (RINGS * SPOKES) as f32
+}
+
 /// Casts the subfields of one bake: the same on every thread and in every worker
 /// process, so a subfield is the same whoever casts it.
 pub struct Caster<'a> {
@@ -549,7 +579,11 @@ pub fn bake_with<E>(
     let ends: Vec<(Vec3, Vec3)> = directions
         .lines
         .iter()
-        .map(|d| (sky(&lights, -*d), sky(&lights, *d)))
+        .zip(&directions.pair)
+        .map(|(d, [a, _])| {
+            let omega = directions.solid_angle[*a as usize];
+            (sky_over(&lights, -*d, omega), sky_over(&lights, *d, omega))
+        })
         .collect();
     for s in &subfields {
         stats.lines_cast += u64::from(s.lines_cast);
@@ -614,6 +648,9 @@ pub fn bake_with<E>(
         }
         out
     };
+    // How each diffuse element takes and sends light over directions.
+    let black: Vec<bool> = needed.iter().map(|n| !n).collect();
+    let exitance = Exitance::new(scene, &centre, &tiles, &black);
     // Direct light (computed again on resume: see below).
     let start = Instant::now();
     let tris = elements.triangles.len();
@@ -624,7 +661,7 @@ pub fn bake_with<E>(
         elements,
         &needed,
         settings.direct_samples,
-        &tiles,
+        (&tiles, &exitance),
         &|| {
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             if n.is_multiple_of(64) || n == tris {
@@ -648,8 +685,6 @@ pub fn bake_with<E>(
     let start = Instant::now();
     let line_dirs = &directions.lines;
     let reflection = Reflection::new(&tiles);
-    let black: Vec<bool> = needed.iter().map(|n| !n).collect();
-    let exitance = Exitance::new(scene, &centre, &tiles, &black);
     let pools = Pools::new(scene, elements, &tiles, &area, &needed, least);
     // The open shares `over_open_part` divides by: an element's own, or a pooled
     // element's pool's (a pool receives the light of its members over their summed area).
@@ -839,4 +874,66 @@ pub fn bake_with<E>(
     }
     stats.propagation += start.elapsed();
     Ok((state, stats))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use holocave_scene::{Daylight, SceneParts, Sky, SkyModel};
+
+    /// The breakfast room's clear sky (its sun low over +X) over a ground of a fifth of
+    /// its zenith: each direction's light over its share of the sphere sums to the sky's
+    /// whole, within the cones' misfit to the directions' cells.
+    #[test]
+    fn the_directions_bring_in_the_skys_light_over_their_cells() {
+        let sun = Vec3::new(0.92, 0.30, -0.25).normalize();
+        let parts = SceneParts {
+            positions: vec![[Vec3::ZERO, Vec3::X, Vec3::Z]],
+            shading: vec![holocave_scene::TriangleShading {
+                normals: None,
+                uvs: [glam::Vec2::ZERO; 3],
+                material: 0,
+            }],
+            materials: vec![holocave_scene::Material::default()],
+            daylight: Daylight {
+                sky: Some(Sky {
+                    model: SkyModel::CieClear {
+                        zenith: Vec3::ONE,
+                        sun,
+                    },
+                    ground: Vec3::splat(0.2),
+                }),
+                ..Default::default()
+            },
+            ..SceneParts::default()
+        };
+        let scene = Scene::from_parts(parts, std::path::Path::new("sky")).unwrap();
+        let lights = Lights::new(&scene);
+        let directions = Directions::at_least(642);
+        let (mut point, mut cone) = (0f64, 0f64);
+        for (d, [a, _]) in directions.lines.iter().zip(&directions.pair) {
+            let omega = directions.solid_angle[*a as usize];
+            for d in [*d, -*d] {
+                point += f64::from(sky(&lights, d).x * omega);
+                cone += f64::from(sky_over(&lights, d, omega).x * omega);
+            }
+        }
+        // The whole, over a fine grid in (cos θ, φ) (equal solid angles).
+        let n = 2000;
+        let mut whole = 0f64;
+        for i in 0..n {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            for j in 0..n {
+                let phi = std::f32::consts::TAU * (j as f32 + 0.5) / n as f32;
+                let s = (1.0 - z * z).max(0.0).sqrt();
+                let d = Vec3::new(s * phi.cos(), z, s * phi.sin());
+                whole += f64::from(sky(&lights, d).x);
+            }
+        }
+        whole *= 4.0 * std::f64::consts::PI / (n * n) as f64;
+        eprintln!(
+            "the sky's whole {whole}: directions at their centres {point}, over cones {cone}"
+        );
+        assert!((cone / whole - 1.0).abs() < 0.005, "{cone} against {whole}");
+    }
 }

@@ -1,7 +1,8 @@
 //! Direct light from the lights that are far smaller than the direction spacing — area
 //! emitters, punctual lights and the sun — by next-event estimation with the tracer's
 //! light sampling: `samples` stratified points in each element, one sample of each kind
-//! of light and one shadow ray per point. The sky is not sampled here: it is as large as
+//! of light and one shadow ray per point, each counted as the element's directional
+//! albedo weighs its direction (`exitance`). The sky is not sampled here: it is as large as
 //! the sphere of directions, and the lines carry it (`propagate`). A glossy element's
 //! samples also go into its tile: each adds `f(ω_b, ω_i) E_i / samples` to every bin.
 //!
@@ -20,6 +21,7 @@ use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
 use crate::elements::{Elements, cell_index};
+use crate::exitance::Exitance;
 use crate::tiles::Tiles;
 
 /// The irradiance one light sample gives the point `p` on the side with normal `ns`.
@@ -71,7 +73,7 @@ pub fn direct_irradiance(
     elements: &Elements,
     needed: &[bool],
     samples: u32,
-    tiles: &Tiles,
+    (tiles, exitance): (&Tiles, &Exitance),
     on_triangle: &(dyn Fn() + Sync),
 ) -> (Vec<[f32; 3]>, Vec<f32>, Vec<[f32; 3]>) {
     let mut out = vec![[0f32; 3]; elements.count];
@@ -113,7 +115,7 @@ pub fn direct_irradiance(
                                 lights,
                                 (t as u32, side, skip_covered),
                                 (i, j, r),
-                                e,
+                                (e, exitance),
                                 samples,
                                 glossy,
                             );
@@ -205,7 +207,7 @@ fn element_direct(
     lights: &Lights,
     (t, side, skip_covered): (u32, u32, bool),
     (i, j, r): (u32, u32, u32),
-    e: u32,
+    (e, exitance): (u32, &Exitance),
     samples: u32,
     mut glossy: Option<(&Tiles, u32, &mut [Vec3])>,
 ) -> (Vec3, f32) {
@@ -227,12 +229,12 @@ fn element_direct(
         }
         open += 1;
         let mut add = |ls: &LightSample| {
-            let e = irradiance_from(scene, ls, p, ng, ns);
-            sum += e;
+            let irradiance = irradiance_from(scene, ls, p, ng, ns);
+            sum += irradiance * exitance.towards(e, ls.wi);
             if let Some((tiles, g, bins)) = glossy.as_mut()
-                && e.max_element() > 0.0
+                && irradiance.max_element() > 0.0
             {
-                tiles.accumulate(*g, ls.wi, e, bins);
+                tiles.accumulate(*g, ls.wi, irradiance, bins);
             }
         };
         if lights.has_area() {

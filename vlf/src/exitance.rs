@@ -1,17 +1,23 @@
-//! What a diffuse element sends towards each direction: its light `B = ρ/π · E` (the
-//! bihemispherical albedo's share of its irradiance, [`crate::surface::diffuse_albedo`])
-//! times how its material's directional albedo towards that direction
-//! ([`crate::surface::albedo_towards`]) compares with that mean — the radiance a viewer
-//! there would see of it under even light, which is what the view draws of it too.
+//! How a diffuse element takes light in and sends it out over directions: by its
+//! material's directional albedo ([`crate::surface::albedo_towards`]) over its mean
+//! ([`crate::surface::diffuse_albedo`]), the ratio `a(θ)` [`Exitance::towards`] gives.
+//! The element's BSDF is taken as `f(ωo, ωi) = ρ a(θo) a(θi) / π`: separable, reciprocal,
+//! and under even light the directional albedo `ρ a(θo)` exactly. So the light arriving
+//! along a line or from a light sample counts `a(θi)` times its irradiance (what the
+//! element keeps as its irradiance `E`), and the element sends along a line `B a(θo)`
+//! with `B = ρ/π · E`; the view draws it with `ρ a(θo) E / π`, its albedo towards the eye.
 //!
 //! A rough dielectric's Lambertian base is dimmed towards grazing exits by the Fresnel
 //! transmission out, `1 − F(θo)`: the breakfast room's white walls (GGX α 0.94 over a
 //! Lambertian base) send a third of their mean towards a direction 87° off their normal,
 //! and half at 84°. Two walls meeting in a corner see each other at just those angles
 //! near the corner; sent evenly, their exchange there was twice the path tracer's and the
-//! corner a quarter too bright. Each profile is scaled so that its cosine-weighted mean
-//! over the hemisphere is exactly one: an element sends out in all the light
-//! `B` says, so the bake's energy is what it was; only its direction changes.
+//! corner a quarter too bright. By reciprocity the same paint keeps less of the light
+//! arriving at grazing angles and up to 4 % more of light arriving near its normal (the
+//! sun patch across the room): taken evenly, the breakfast room's walls were 1.5 %
+//! darker than the path tracer's. Each profile is scaled so that its cosine-weighted mean
+//! over the hemisphere is exactly one: under even light an element takes in and sends
+//! out what `ρ` says.
 
 use std::collections::HashMap;
 
@@ -142,8 +148,10 @@ impl Exitance {
         }
     }
 
-    /// What element `e` sends along `dir` per unit of its `B`: its directional albedo
-    /// towards `dir` over its cosine-weighted mean (1 for an element that sends evenly).
+    /// `a(θ)` of element `e` for the direction `dir` (either way along it): its
+    /// directional albedo there over its cosine-weighted mean (1 for an element that
+    /// takes and sends evenly). What it sends along `dir` per unit of its `B`, and what
+    /// light arriving along `dir` counts per unit of irradiance.
     pub fn towards(&self, e: u32, dir: Vec3) -> Vec3 {
         let Some(f) = self.facing.get(e as usize) else {
             return Vec3::ONE;

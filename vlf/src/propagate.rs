@@ -11,8 +11,8 @@
 //! where `h²` is a line's cross-section and `A_e` the element's area: each line stands
 //! for the light through its `h²` of cross-section, spread over the `A_e` it lands on
 //! (the `cos θ` of irradiance and the `1/cos θ` of the footprint cancel). Then
-//! `B_k = ρ/π · ΔE_k`, sent along each line as the element's directional albedo spreads it
-//! (`exitance`). The first bounce's sources are the sky at the lines' ends and the
+//! `B_k = ρ/π · ΔE_k`, each line's light counted and sent as the element's directional
+//! albedo weighs that direction (`exitance`). The first bounce's sources are the sky at the lines' ends and the
 //! light seen through delta surfaces; the light of small emitters and the sun comes by
 //! next-event estimation (`direct`), added before.
 //!
@@ -127,7 +127,7 @@ fn gather(
         let line: &[Crossing] = &s.crossings[w[0] as usize..w[1] as usize];
         let mut receive = |side: u32, backwards: bool, l: Vec3| {
             if side & DELTA == 0 && l.max_element() > 0.0 {
-                out.push((side, l));
+                out.push((side, l * lines.exitance.towards(side, d)));
                 if let Some(g) = tiles.of(side) {
                     glossy.push((g, backwards, l));
                 }
