@@ -222,8 +222,8 @@ fn made_lambertian_the_walls_and_floor_are_the_path_tracers() {
 /// 1.9 %), for what the
 /// field does not hold of the glossy surfaces (measured by making each Lambertian in
 /// both the field and the path tracer, the sun alone: the glazed teapot, jug and cups
-/// reflect the sun onto the walls in view, where the field spreads that light evenly,
-/// 1.4 % of the image; the walls' own gloss 0.8 %; the tiles 0.35 %). Drawn with their
+/// 1.4 % of the image, spread over all of it; the walls' own gloss 0.8 %; the tiles
+/// 0.35 %). Drawn with their
 /// albedo's mean over all views instead of their albedo towards the eye
 /// (`surface::albedo_towards`), the walls were 2.8 % too dark (seen from nearer their
 /// normal) and the floor 8.6 % too bright (seen at 60–85° off its normal).
