@@ -649,8 +649,7 @@ pub fn bake_with<E>(
         out
     };
     // How each diffuse element takes and sends light over directions.
-    let black: Vec<bool> = needed.iter().map(|n| !n).collect();
-    let exitance = Exitance::new(scene, &centre, &tiles, &black);
+    let exitance = Exitance::new(scene, &centre, &tiles, &needed);
     // Direct light (computed again on resume: see below).
     let start = Instant::now();
     let tris = elements.triangles.len();

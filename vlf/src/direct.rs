@@ -2,8 +2,8 @@
 //! emitters, punctual lights and the sun — by next-event estimation with the tracer's
 //! light sampling: `samples` stratified points in each element, one sample of each kind
 //! of light and one shadow ray per point, each counted as the element's directional
-//! albedo weighs its direction (`exitance`). The sky is not sampled here: it is as large as
-//! the sphere of directions, and the lines carry it (`propagate`). A glossy element's
+//! albedo weighs its direction (`exitance`). The sky is not sampled here: it is as large
+//! as the sphere of directions, and the lines carry it (`propagate`). A glossy element's
 //! samples also go into its tile: each adds `f(ω_b, ω_i) E_i / samples` to every bin.
 //!
 //! The points also tell how much of each element is open: a point inside a closed object

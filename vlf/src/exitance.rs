@@ -28,7 +28,7 @@ use glam::Vec3;
 use holocave_scene::Scene;
 use rayon::prelude::*;
 
-use crate::surface::{TOWARDS_STEPS, albedo_key_of, seen_at, table_step, towards_terms};
+use crate::surface::{TOWARDS_STEPS, albedo_key_of, seen_at, table_step, towards_table};
 use crate::tiles::Tiles;
 
 const NONE: u32 = u32::MAX;
@@ -92,29 +92,26 @@ pub struct Exitance {
 impl Exitance {
     /// The profiles of the elements whose centres are `centre` (triangle and
     /// barycentrics); the elements with a tile (they send what their tile holds) and
-    /// `black` ones send evenly.
-    pub fn new(scene: &Scene, centre: &[(u32, f32, f32)], tiles: &Tiles, black: &[bool]) -> Self {
+    /// those not `needed` (black) send evenly.
+    pub fn new(scene: &Scene, centre: &[(u32, f32, f32)], tiles: &Tiles, needed: &[bool]) -> Self {
         let seen: Vec<Option<_>> = (centre.par_iter().enumerate())
             .map(|(e, &(t, u, v))| {
                 let s = seen_at(scene, t, u, v);
-                let sends = !s.delta && tiles.of(e as u32).is_none() && !black[e];
+                let sends = !s.delta && tiles.of(e as u32).is_none() && needed[e];
                 sends.then(|| (albedo_key_of(&s.params), s.params, s.shading_normal))
             })
             .collect();
         let mut index = HashMap::new();
-        let mut profiles = Vec::new();
-        let mut even = Vec::new();
+        let mut profiles: Vec<Profile> = Vec::new();
         for (key, params, _) in seen.iter().flatten() {
             index.entry(*key).or_insert_with(|| {
-                let profile = Profile::new(towards_terms(params).1);
-                even.push(profile.is_even());
-                profiles.push(profile);
+                profiles.push(Profile::new(towards_table(params)));
                 profiles.len() as u32 - 1
             });
         }
         let facing = (seen.par_iter())
             .map(|s| match s {
-                Some((key, params, normal)) if !even[index[key] as usize] => {
+                Some((key, params, normal)) if !profiles[index[key] as usize].is_even() => {
                     let profile = index[key];
                     let (a, b) = profiles[profile as usize].mean;
                     let mean = a + b * params.base_color;
@@ -135,20 +132,6 @@ impl Exitance {
             })
             .collect();
         Exitance { facing, profiles }
-    }
-
-    /// Every element sending evenly (a bake of Lambertian surfaces only; tests).
-    pub fn even(elements: usize) -> Self {
-        let none = Facing {
-            normal: Vec3::ZERO,
-            base: Vec3::ZERO,
-            per_mean: Vec3::ZERO,
-            profile: NONE,
-        };
-        Exitance {
-            facing: vec![none; elements],
-            profiles: Vec::new(),
-        }
     }
 
     /// `a(θ)` of element `e` for the direction `dir` (either way along it): its
@@ -191,7 +174,7 @@ mod tests {
     /// is even.
     #[test]
     fn a_rough_dielectric_sends_less_towards_grazing_and_all_of_its_light_in_all() {
-        let profile = Profile::new(towards_terms(&white_matt(1.0)).1);
+        let profile = Profile::new(towards_table(&white_matt(1.0)));
         let base = Vec3::splat(0.9);
         let mean = profile.mean.0 + profile.mean.1 * base;
         let at = |c: f32| {
@@ -215,6 +198,6 @@ mod tests {
             .sum();
         assert!((sum - 1.0).abs() < 1e-3, "{sum}");
         assert!(!profile.is_even());
-        assert!(Profile::new(towards_terms(&white_matt(0.0)).1).is_even());
+        assert!(Profile::new(towards_table(&white_matt(0.0))).is_even());
     }
 }

@@ -12,9 +12,9 @@
 //! for the light through its `h²` of cross-section, spread over the `A_e` it lands on
 //! (the `cos θ` of irradiance and the `1/cos θ` of the footprint cancel). Then
 //! `B_k = ρ/π · ΔE_k`, each line's light counted and sent as the element's directional
-//! albedo weighs that direction (`exitance`). The first bounce's sources are the sky at the lines' ends and the
-//! light seen through delta surfaces; the light of small emitters and the sun comes by
-//! next-event estimation (`direct`), added before.
+//! albedo weighs that direction (`exitance`). The first bounce's sources are the sky at
+//! the lines' ends and the light seen through delta surfaces; the light of small
+//! emitters and the sun comes by next-event estimation (`direct`), added before.
 //!
 //! A glossy receiver (`tiles`) takes each line's `L · Δω h² / A_e` as `dE` arriving from
 //! the line's direction, shares it bilinearly between the bins nearest that direction,

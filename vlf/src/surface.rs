@@ -181,17 +181,14 @@ fn with_towards_terms<R>(p: &SurfaceParams, f: impl FnOnce(&[(Vec3, Vec3)]) -> R
     LAST.with_borrow(|l| f(&l.as_ref().expect("the table was just kept").1))
 }
 
-/// The parameters of `p` that [`albedo_towards`]'s table depends on (all but the base
-/// colour and emission), as a key, and that table: `a + b · base` at each of
-/// [`TOWARDS_STEPS`] views evenly over `cos θ_o ∈ [0, 1]`.
-pub(crate) fn towards_terms(p: &SurfaceParams) -> (AlbedoKey, Vec<(Vec3, Vec3)>) {
-    (
-        albedo_key_of(p),
-        with_towards_terms(p, |table| table.to_vec()),
-    )
+/// [`albedo_towards`]'s table for `p`: `a + b · base` at each of [`TOWARDS_STEPS`] views
+/// evenly over `cos θ_o ∈ [0, 1]`.
+pub(crate) fn towards_table(p: &SurfaceParams) -> Vec<(Vec3, Vec3)> {
+    with_towards_terms(p, |table| table.to_vec())
 }
 
-/// The key of [`towards_terms`] alone.
+/// The parameters of `p` that [`towards_table`] depends on (all but the base colour and
+/// emission), as a key.
 pub(crate) fn albedo_key_of(p: &SurfaceParams) -> AlbedoKey {
     albedo_params(p).1
 }
