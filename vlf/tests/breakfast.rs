@@ -10,10 +10,10 @@
 //! every material the light field draws as diffuse to the tracer's own BSDF; the field's
 //! transport, with every material made Lambertian, to the path tracer's within 1 %; and
 //! the walls and floor as the walls of a CAVE draw them (the light field and the direct
-//! light per pixel) within a few per cent of the path tracer's, which needs the small
-//! glossy elements (the chairs, cups, teapot: 263 k triangles far smaller than a line's
+//! light per pixel) within 2 % of the path tracer's, which needs the small glossy
+//! elements (the chairs, cups, teapot: 263 k triangles far smaller than a line's
 //! cross-section) drawn diffuse and pooled rather than each given a tile that keeps only
-//! a fraction of its light.
+//! a fraction of its light, and drawn with the albedo their narrow lobes really have.
 
 use std::path::{Path, PathBuf};
 
@@ -216,23 +216,20 @@ fn made_lambertian_the_walls_and_floor_are_the_path_tracers() {
     }
 }
 
-/// The walls and floor with their own materials: the floor within 2 % (the goal
-/// for the mean bias) and the walls within 3 %, plus three standard errors of the
-/// references' mean. The goal is 2 % for both; the walls are 2.4 % dark (the floor
-/// 1.9 %), for what the
-/// field does not hold of the glossy surfaces (measured by making each Lambertian in
-/// both the field and the path tracer, the sun alone: the glazed teapot, jug and cups
-/// 1.4 % of the image, spread over all of it; the walls' own gloss 0.8 %; the tiles
-/// 0.35 %). Drawn with their
-/// albedo's mean over all views instead of their albedo towards the eye
-/// (`surface::albedo_towards`), the walls were 2.8 % too dark (seen from nearer their
-/// normal) and the floor 8.6 % too bright (seen at 60–85° off its normal).
+/// The walls and floor with their own materials, each within the goal for the
+/// mean bias, 2 %, plus three standard errors of the references' mean. Measured: the
+/// walls −0.80 %, the floor +1.57 % (its references 1.10 % apart). With the elements
+/// drawn diffuse given an albedo by a midpoint rule of `eval` (32 × 32 incident cells,
+/// blind to the glazed ceramics' and the chairs' narrow lobes), the walls were −2.43 %,
+/// which fails. Drawn with their albedo's mean over all views instead of their albedo
+/// towards the eye (`surface::albedo_towards`), the walls were 2.8 % too dark (seen from
+/// nearer their normal) and the floor 8.6 % too bright (seen at 60–85° off its normal).
 #[test]
-fn the_walls_and_floor_are_within_a_few_percent_of_the_path_tracer() {
+fn the_walls_and_floor_are_within_two_per_cent_of_the_path_tracer() {
     let [(walls, walls_se), (floor, floor_se)] = walls_and_floor(|_| {});
     assert!(
-        walls.abs() <= 0.03 + 3.0 * walls_se,
-        "the walls {:+.2} % off the path tracer's (allowed 3 % + {:.2} %)",
+        walls.abs() <= 0.02 + 3.0 * walls_se,
+        "the walls {:+.2} % off the path tracer's (allowed 2 % + {:.2} %)",
         100.0 * walls,
         300.0 * walls_se
     );
