@@ -129,16 +129,31 @@ impl Bsdf {
     }
 
     /// The Lambertian base's `f` between directions at `cos_o` and `cos_i` from the
-    /// normal (on the same side), through the specular layer's Fresnel both ways.
+    /// normal (on the same side), through the specular layer's Fresnel both ways:
+    /// separable, [`Self::lambert_out`] times [`Self::through_layer`].
     fn lambert_base(&self, cos_o: f32, cos_i: f32) -> Vec3 {
-        // Without a specular layer (F0 = F90 = 0) the base is plain Lambert.
+        self.lambert_out(cos_o) * self.through_layer(cos_i)
+    }
+
+    /// The Lambertian base's `f` towards a direction at `cos_o` from the normal, for light
+    /// that has passed the specular layer on its way in: `ρ/π` through the layer's Fresnel
+    /// on the way out.
+    pub fn lambert_out(&self, cos_o: f32) -> Vec3 {
         let lambert = self.dielectric * self.base * FRAC_1_PI;
         if !self.spec_on {
+            // Without a specular layer (F0 = F90 = 0) the base is plain Lambert.
             return lambert;
         }
-        let fo = fresnel::schlick(self.spec_f0, self.spec_f90, cos_o);
-        let fi = fresnel::schlick(self.spec_f0, self.spec_f90, cos_i);
-        lambert * (Vec3::ONE - fo) * (Vec3::ONE - fi)
+        lambert * (Vec3::ONE - fresnel::schlick(self.spec_f0, self.spec_f90, cos_o))
+    }
+
+    /// The share of light arriving at `cos_i` from the normal that passes the specular
+    /// layer to the Lambertian base: `1 − F(θ_i)` (all of it without a layer).
+    pub fn through_layer(&self, cos_i: f32) -> Vec3 {
+        if !self.spec_on {
+            return Vec3::ONE;
+        }
+        Vec3::ONE - fresnel::schlick(self.spec_f0, self.spec_f90, cos_i)
     }
 
     /// Whether any lobe is not a delta: only then is light sampling worth a shadow ray.

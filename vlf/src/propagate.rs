@@ -159,7 +159,7 @@ fn gather(
 /// thread's work, were most of its bake).
 fn splat_by_tile(lines: &Lines, arrivals: &mut [TileArrival], incoming: &mut [Vec3]) {
     let tiles = lines.tiles;
-    let bins = tiles.per_tile();
+    let bins = Reflection::slots(tiles);
     arrivals.sort_by_key(|a| a.0);
     let mut runs: Vec<(&mut [Vec3], &[TileArrival])> = Vec::new();
     let (mut rest, mut done) = (incoming, 0usize);
@@ -182,9 +182,10 @@ fn splat_by_tile(lines: &Lines, arrivals: &mut [TileArrival], incoming: &mut [Ve
 pub fn bounce(lines: &Lines, sending: Sending) -> Received {
     let tiles = lines.tiles;
     let bins = tiles.per_tile();
+    let slots = Reflection::slots(tiles);
     let mut irradiance = vec![Vec3::ZERO; lines.area.len()];
     // The light arriving at each tile, binned by the direction it comes from.
-    let mut incoming = vec![Vec3::ZERO; tiles.len()];
+    let mut incoming = vec![Vec3::ZERO; tiles.tiles.len() * slots];
     for (c, chunk) in lines.subfields.chunks(CHUNK).enumerate() {
         let parts: Vec<(Vec<Contribution>, Vec<Arrival>)> = chunk
             .par_iter()
@@ -230,11 +231,11 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
             .members
             .iter()
             .map(|m| {
-                let mut sum = vec![Vec3::ZERO; if tiles.of(m[0]).is_some() { bins } else { 0 }];
+                let mut sum = vec![Vec3::ZERO; if tiles.of(m[0]).is_some() { slots } else { 0 }];
                 for &e in m {
                     if let Some(h) = tiles.of(e) {
-                        let at = h as usize * bins;
-                        for (s, x) in sum.iter_mut().zip(&incoming[at..at + bins]) {
+                        let at = h as usize * slots;
+                        for (s, x) in sum.iter_mut().zip(&incoming[at..at + slots]) {
                             *s += *x;
                         }
                     }
@@ -246,7 +247,7 @@ pub fn bounce(lines: &Lines, sending: Sending) -> Received {
     };
     // The BSDF applied once per tile to all the light that arrived.
     let tiles_out = incoming
-        .par_chunks(bins.max(1))
+        .par_chunks(slots)
         .zip(&tiles.tiles)
         .enumerate()
         .flat_map_iter(|(g, (arrived, t))| {

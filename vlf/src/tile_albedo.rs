@@ -228,7 +228,7 @@ fn response(tiles: &Tiles, t: Glossy, directions: &Directions) -> Vec<Vec3> {
     let alone = tiles.alone(t);
     let reflection = Reflection::new(&alone);
     let n = alone.per_tile();
-    let mut arrived = vec![Vec3::ZERO; n];
+    let mut arrived = vec![Vec3::ZERO; Reflection::slots(&alone)];
     for (d, omega) in directions.dirs.iter().zip(&directions.solid_angle) {
         let cos = t.frame.n.dot(*d);
         if cos > 0.0 {

@@ -291,6 +291,26 @@ impl Tiles {
             .sum()
     }
 
+    /// [`Self::bin_bsdf`] of the BSDF's glossy lobes alone (its Lambertian base left out:
+    /// [`Self::bin_lambert_out`]).
+    pub fn bin_glossy(&self, bsdf: &Bsdf, b: usize, wi: Vec3) -> Vec3 {
+        let n = (BIN_SUB * BIN_SUB) as usize;
+        self.samples[b * n..(b + 1) * n]
+            .iter()
+            .map(|(wo, w)| (bsdf.eval(*wo, wi).0 - bsdf.eval_diffuse(*wo, wi)) * *w)
+            .sum()
+    }
+
+    /// The Lambertian base's `f` into bin `b` for light that has passed the specular
+    /// layer ([`Bsdf::lambert_out`]), averaged over the bin as [`Self::bin_bsdf`] is.
+    pub fn bin_lambert_out(&self, bsdf: &Bsdf, b: usize) -> Vec3 {
+        let n = (BIN_SUB * BIN_SUB) as usize;
+        self.samples[b * n..(b + 1) * n]
+            .iter()
+            .map(|(wo, w)| bsdf.lambert_out(wo.z) * *w)
+            .sum()
+    }
+
     /// The radiance tile `g` sends along world direction `dir`, from `values` (the tiles'
     /// bins only, tile `g` at `g k²`).
     pub fn radiance(&self, values: &[[f32; 3]], g: u32, dir: Vec3) -> Vec3 {
