@@ -24,14 +24,14 @@
 //! version 7 the caustics' part (`CAUS`); version 8 the diffuse elements' light sent by
 //! their directional albedo (`exitance`; the same chunks, other values); version 9 the
 //! albedo of elements drawn diffuse sampled from their BSDF (the same chunks, other
-//! values); version 10 the tiles' Lambertian base taken at each arrival's own angle (the
-//! same chunks, other values).
+//! values); version 10 the tiles' Lambertian base taken at each arrival's own angle;
+//! version 11 a widened lobe's energy the surface's (the same chunks, other values).
 //! An older file is refused with the version it has (bake it again): read as this
 //! version it would draw its direct light twice (1, 2), have another tile layout (3, 5),
 //! or its glossy surfaces 5 % too dark (4), or draw its caustics twice (6), or its
 //! corners of rough glossy paint a quarter too bright (7), or its small glossy elements
 //! (glazed cups, plastic chairs) with a fraction of their albedo (8), or its glossy
-//! floors a few per cent dark where light comes in low (9).
+//! floors a few per cent dark where light comes in low (9, 10).
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -42,7 +42,7 @@ use holocave_scene::Scene;
 use crate::bake::{Settings, State};
 
 const MAGIC: &[u8; 8] = b"HOLOVLF\0";
-const VERSION: u32 = 10;
+const VERSION: u32 = 11;
 const HEADER: usize = 16;
 const CHUNK_HEADER: usize = 16;
 /// Chunks in a file: META, IRRA, LAST, TILE, TLST, DIRE, TDIR, SKYE, TSKY, CAUS.
