@@ -268,6 +268,24 @@ mod tests {
         }
     }
 
+    /// `bsdf`'s directional albedo from `local` by 40,000 samples of its own sampling
+    /// (a lattice in the direction, a second one choosing the lobe): about 0.2 %.
+    fn sampled_albedo(bsdf: &Bsdf, local: Vec3) -> Vec3 {
+        let samples = 40_000;
+        let mut albedo = Vec3::ZERO;
+        for i in 0..samples {
+            let u = glam::Vec2::new(
+                (i as f32 + 0.5) / samples as f32,
+                ((i as u64 * 2_654_435_761) % 1_000_003) as f32 / 1_000_003.0,
+            );
+            let uc = ((i as u64 * 40_503) % 65_537) as f32 / 65_537.0;
+            if let Some(bs) = bsdf.sample(local, uc, u) {
+                albedo += bs.weight;
+            }
+        }
+        albedo / samples as f32
+    }
+
     /// Three tiles, two of one material, in frames turned every which way.
     fn tiles() -> Tiles {
         let k = 8;
@@ -380,19 +398,7 @@ mod tests {
             let local = Vec3::new(theta.sin(), 0.0, theta.cos());
             let wi = t.frame.to_world(local);
             let de = Vec3::ONE;
-            let samples = 40_000;
-            let mut albedo = Vec3::ZERO;
-            for i in 0..samples {
-                let u = glam::Vec2::new(
-                    (i as f32 + 0.5) / samples as f32,
-                    ((i as u64 * 2_654_435_761) % 1_000_003) as f32 / 1_000_003.0,
-                );
-                let uc = ((i as u64 * 40_503) % 65_537) as f32 / 65_537.0;
-                if let Some(bs) = surface.sample(local, uc, u) {
-                    albedo += bs.weight;
-                }
-            }
-            let truth = albedo / samples as f32 * de * std::f32::consts::FRAC_1_PI;
+            let truth = sampled_albedo(&surface, local) * de * std::f32::consts::FRAC_1_PI;
             let as_array = |v: &[Vec3]| v.iter().map(|x| x.to_array()).collect::<Vec<_>>();
             let mut binned = vec![Vec3::ZERO; Reflection::slots(&tiles)];
             reflection.splat(&tiles, 0, wi, de, &mut binned);
@@ -457,19 +463,7 @@ mod tests {
                 let as_array = |v: &[Vec3]| v.iter().map(|x| x.to_array()).collect::<Vec<_>>();
                 let a = tiles.radiosity(&as_array(&out));
                 let bsdf = tiles.tiles[g as usize].bsdf;
-                let samples = 40_000;
-                let mut albedo = Vec3::ZERO;
-                for i in 0..samples {
-                    let u = glam::Vec2::new(
-                        (i as f32 + 0.5) / samples as f32,
-                        ((i as u64 * 2_654_435_761) % 1_000_003) as f32 / 1_000_003.0,
-                    );
-                    let uc = ((i as u64 * 40_503) % 65_537) as f32 / 65_537.0;
-                    if let Some(bs) = bsdf.sample(local, uc, u) {
-                        albedo += bs.weight;
-                    }
-                }
-                let truth = albedo / samples as f32 * de * std::f32::consts::FRAC_1_PI;
+                let truth = sampled_albedo(&bsdf, local) * de * std::f32::consts::FRAC_1_PI;
                 let off = |x: Vec3| ((x - truth) / truth).abs().max_element();
                 assert!(
                     off(a) < BOUND,
