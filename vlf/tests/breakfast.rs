@@ -218,7 +218,7 @@ fn made_lambertian_the_walls_and_floor_are_the_path_tracers() {
 
 /// The walls and floor with their own materials, each within the goal for the
 /// mean bias, 2 %, plus three standard errors of the references' mean. Measured: the
-/// walls −0.80 %, the floor +1.57 % (its references 1.10 % apart). With the elements
+/// walls −0.44 %, the floor +1.82 % (its references 1.10 % apart). With the elements
 /// drawn diffuse given an albedo by a midpoint rule of `eval` (32 × 32 incident cells,
 /// blind to the glazed ceramics' and the chairs' narrow lobes), the walls were −2.43 %,
 /// which fails. Drawn with their albedo's mean over all views instead of their albedo
