@@ -1,6 +1,6 @@
 //! What a glossy tile does with the light a bounce brings: each tile's BSDF from its
 //! bins' centres into its bins, `M[b][j] = f(bin b, ω_j)` (averaged over bin `b`:
-//! `Tiles::bin_bsdf`; `k² × k²`, in the tile's local frame), so that
+//! `Tiles::bin_mean`; `k² × k²`, in the tile's local frame), so that
 //! a bounce's binned arrivals `E_j` become the bins' radiance `L_b = Σ_j M[b][j] E_j`.
 //!
 //! In the tile's frame the matrix depends on the BSDF alone, so tiles of one material
@@ -373,7 +373,7 @@ mod tests {
         let (x, y) = octahedral::encode(wo, tiles.bins);
         let b = (y as usize).min(tiles.bins as usize - 1) * tiles.bins as usize
             + (x as usize).min(tiles.bins as usize - 1);
-        let want = tiles.bin_bsdf(&t.bsdf, b, wi) * de;
+        let want = tiles.bin_mean(b, |wo| t.bsdf.eval(wo, wi).0) * de;
         let off = ((out[b] - want) / want).abs().max_element();
         assert!(off < 0.01, "bin {b}: {} against {want} ({off})", out[b]);
     }

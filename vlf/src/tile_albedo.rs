@@ -5,12 +5,11 @@
 //! ([`crate::tiles::alpha_floor`]); the wider GGX lobe loses more of its light to masking
 //! and shadowing towards grazing (the room's varnish, α 0.06 widened to 0.22, 0.7 % at 30°
 //! off its normal, 2.2 % at 57°, 5.7 % at 63° and 14 % at 70°, luminance). The bake gives
-//! each arrival the surface's energy back ([`crate::tiles::Glossy::glossy_scale`]), but
-//! the widened lobe shares it out over the views otherwise than the surface's: lit
-//! evenly, the bins send +1.3 % at 30°, +5.3 % at 57°, −2.4 % at 70° (before that scale
-//! they were 3–7 % too dark along the walls, seen from a standing eye). And the bins, lit evenly, send out
-//! what the lobe reflects only to within their binning (the room's varnish: 1–1.6 % too
-//! little at 10–30°). Neither can be put right in the bins themselves: the surface's
+//! each arrival the surface's energy ([`crate::tiles::Glossy::glossy_scale`]), but the
+//! widened lobe shares it out over the views otherwise than the surface's does, and the
+//! bins hold it only to within their binning: lit evenly, the room's varnish's bins send
+//! the surface's albedo +0.2 % at 10°, +1.3 % at 30°, +5.3 % at 57° and −2.4 % at 70°.
+//! Neither can be put right in the bins themselves: the surface's
 //! albedo climbs steeply towards grazing, and the bins' bilinear interpolation of it
 //! overshot by 11 % at 63° (tried first).
 //!

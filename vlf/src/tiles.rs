@@ -17,7 +17,7 @@
 //! reads: its bin `b` is entry `elements + g k² + b`.
 //!
 //! **What a tile stores.** `L_o(b) = Σ f(b, ω_i) dE(ω_i)` over the light arriving, with
-//! `f(b, ω_i)` the BSDF averaged over bin `b` ([`Tiles::bin_bsdf`], [`BIN_SUB`]):
+//! `f(b, ω_i)` the BSDF averaged over bin `b` ([`Tiles::bin_mean`], [`BIN_SUB`]):
 //! every line's `dE = L Δω h²/A` (the same weight as diffuse irradiance) and every
 //! next-event sample of direct light, with the tracer's BSDF ([`Bsdf::eval`]). A lobe
 //! narrower than the bins or the line directions cannot be resolved: the bins would alias
@@ -85,9 +85,9 @@ impl Glossy {
     /// normal, over what the tile's widened ones do (their directional albedos less the
     /// Lambertian base's, per channel; 1 where the lobe is the surface's own). A widened
     /// lobe keeps its shape but sends the surface's energy: GGX masks and shadows more of
-    /// a wider lobe near grazing, and the room's varnish (`α` 0.06 widened to 0.22) lost
-    /// 5–11 % (red to blue) of the light it reflects at 65° off its normal — the sun's on
-    /// the patch of floor that the rest of the room is lit by.
+    /// a wider lobe near grazing, and the room's varnish widened (`α` 0.06 to 0.22)
+    /// reflects 5–11 % (red to blue) less than the surface at 65° off its normal — where
+    /// the sun lights the patch of floor that the rest of the room is lit by.
     pub fn glossy_scale(&self, cos_i: f32) -> Vec3 {
         if !self.widened {
             return Vec3::ONE;
@@ -310,35 +310,27 @@ impl Tiles {
         }
     }
 
-    /// The BSDF from local direction `wi` into bin `b`, averaged over the bin (weighted by
-    /// `cos θ dω`, so the bin's radiance times its `projected` is the exitance the bin
-    /// stands for).
-    pub fn bin_bsdf(&self, bsdf: &Bsdf, b: usize, wi: Vec3) -> Vec3 {
+    /// The mean of `f` over the local directions of bin `b`, weighted by `cos θ dω` (so
+    /// that a BSDF's mean, times the bin's `projected`, is the exitance the bin stands
+    /// for).
+    pub fn bin_mean(&self, b: usize, f: impl Fn(Vec3) -> Vec3) -> Vec3 {
         let n = (BIN_SUB * BIN_SUB) as usize;
         self.samples[b * n..(b + 1) * n]
             .iter()
-            .map(|(wo, w)| bsdf.eval(*wo, wi).0 * *w)
+            .map(|(wo, w)| f(*wo) * *w)
             .sum()
     }
 
-    /// [`Self::bin_bsdf`] of the BSDF's glossy lobes alone (its Lambertian base left out:
-    /// [`Self::bin_lambert_out`]).
+    /// The BSDF's glossy lobes (its Lambertian base left out: [`Self::bin_lambert_out`])
+    /// from local direction `wi` into bin `b`, averaged over the bin.
     pub fn bin_glossy(&self, bsdf: &Bsdf, b: usize, wi: Vec3) -> Vec3 {
-        let n = (BIN_SUB * BIN_SUB) as usize;
-        self.samples[b * n..(b + 1) * n]
-            .iter()
-            .map(|(wo, w)| (bsdf.eval(*wo, wi).0 - bsdf.eval_diffuse(*wo, wi)) * *w)
-            .sum()
+        self.bin_mean(b, |wo| bsdf.eval(wo, wi).0 - bsdf.eval_diffuse(wo, wi))
     }
 
     /// The Lambertian base's `f` into bin `b` for light that has passed the specular
-    /// layer ([`Bsdf::lambert_out`]), averaged over the bin as [`Self::bin_bsdf`] is.
+    /// layer ([`Bsdf::lambert_out`]), averaged over the bin.
     pub fn bin_lambert_out(&self, bsdf: &Bsdf, b: usize) -> Vec3 {
-        let n = (BIN_SUB * BIN_SUB) as usize;
-        self.samples[b * n..(b + 1) * n]
-            .iter()
-            .map(|(wo, w)| bsdf.lambert_out(wo.z) * *w)
-            .sum()
+        self.bin_mean(b, |wo| bsdf.lambert_out(wo.z))
     }
 
     /// The radiance tile `g` sends along world direction `dir`, from `values` (the tiles'

@@ -127,8 +127,9 @@ fn a_glossy_plane_under_a_directional_light_reflects_its_bsdf() {
         assert!((frame.n - Vec3::Y).length() < 1e-6);
         let wi = frame.to_local(to_light);
         let exact_at = |x: f64, y: f64| bsdf.eval(decode(x, y, k).as_vec3(), wi).0 * e;
-        // What a bin holds: the BSDF averaged over the bin (`Tiles::bin_bsdf`).
-        let bin_at = |i: u32, j: u32| t.bin_bsdf(&bsdf, (j * k + i) as usize, wi) * e;
+        // What a bin holds: the BSDF averaged over the bin.
+        let bin_at =
+            |i: u32, j: u32| t.bin_mean((j * k + i) as usize, |wo| bsdf.eval(wo, wi).0) * e;
         let wo = frame.to_local(-ray.dir);
         let exact = bsdf.eval(wo, wi).0 * e;
 
