@@ -159,15 +159,15 @@ fn gather(
 /// thread's work, were most of its bake).
 fn splat_by_tile(lines: &Lines, arrivals: &mut [TileArrival], incoming: &mut [Vec3]) {
     let tiles = lines.tiles;
-    let bins = Reflection::slots(tiles);
+    let slots = Reflection::slots(tiles);
     arrivals.sort_by_key(|a| a.0);
     let mut runs: Vec<(&mut [Vec3], &[TileArrival])> = Vec::new();
     let (mut rest, mut done) = (incoming, 0usize);
     for run in arrivals.chunk_by(|a, b| a.0 == b.0) {
         let g = run[0].0 as usize;
-        let (_, from_g) = std::mem::take(&mut rest).split_at_mut((g - done) * bins);
-        let (bins_of_g, after) = from_g.split_at_mut(bins);
-        runs.push((bins_of_g, run));
+        let (_, from_g) = std::mem::take(&mut rest).split_at_mut((g - done) * slots);
+        let (slots_of_g, after) = from_g.split_at_mut(slots);
+        runs.push((slots_of_g, run));
         (rest, done) = (after, g + 1);
     }
     runs.into_par_iter().for_each(|(out, run)| {

@@ -15,16 +15,17 @@
 //! reflected energy with it: 46 % too much at 69° on the room's varnish. So each arrival's
 //! glossy part is scaled, per colour channel, by the albedo its true direction has (the
 //! BSDF's directional albedo, by importance sampling, tabulated over `cos θ` per BSDF,
-//! less its Lambertian base's; a widened lobe's at the surface's own energy,
-//! `Glossy::glossy_scale`) over the albedo its binned share gets (the bins' quadrature):
+//! less its Lambertian base's; a widened lobe's at the surface's own energy: the
+//! surface's narrower lobe's albedo) over the albedo its binned share gets (the bins'
+//! quadrature):
 //! a tile reflects the energy the surface would for the exact direction, and only the
 //! lobe's shape is binned. The matrix averages the lobe over each bin
 //! (`Tiles::bin_glossy`).
 //!
 //! **The Lambertian base is not binned.** Its `f` is separable, `f_o(θ_o) t(θ_i)` (the
 //! base through the specular layer's Fresnel out and in), so a tile keeps one more value
-//! beside its bins, the light that passed the layer, each arrival counted at its own
-//! angle, and sends it out along `f_o` averaged over each bin. One scale for the whole
+//! beside its bins, what the base reflects (each arrival at its own angle, by the base's
+//! exact albedo there), and sends it out along `f_o` averaged over each bin. One scale for the whole
 //! arrival, as it was, took the glossy part's excess at a grazing arrival's binned
 //! angles out of the base as well: light from a low window on the room's varnished floor
 //! (60–80° off its normal) reached the eye 3–5 % too dark.
@@ -54,13 +55,12 @@ pub struct Reflection {
     /// Per matrix, `k²` values: the albedo `Σ_b M[b][j] cos θ_b Δω_b` of light arriving
     /// at bin centre `j`.
     binned_albedo: Vec<Vec3>,
-    /// Per matrix, [`ALBEDO_STEPS`] values: the albedo of the glossy lobes for light
-    /// arriving at `cos θ`, at the surface's energy ([`crate::tiles::Glossy::glossy_scale`]).
+    /// Per matrix, [`ALBEDO_STEPS`] values: the albedo of the surface's own glossy lobes
+    /// (narrower than the tile's where widened) for light arriving at `cos θ`.
     true_albedo: Vec<Vec3>,
     /// Per matrix, `k²` values: the Lambertian base's `f` into each bin
-    /// ([`Tiles::bin_lambert_out`]), and their albedo `Σ_b f_b cos θ_b Δω_b`.
-    lambert_out: Vec<Vec3>,
-    lambert_albedo: Vec<Vec3>,
+    /// ([`Tiles::bin_lambert_out`]), scaled to an albedo `Σ_b f_b cos θ_b Δω_b` of 1.
+    lambert_shape: Vec<Vec3>,
     /// Each tile's matrix, or [`NONE`] (evaluate the BSDF per arrival).
     of_tile: Vec<u32>,
 }
@@ -146,38 +146,35 @@ impl Reflection {
         let true_albedo = first
             .par_iter()
             .flat_map_iter(|&g| {
-                let t = tiles.tiles[g];
+                let (surface, base) = (tiles.tiles[g].surface_bsdf(), tiles.tiles[g].bsdf);
                 (0..ALBEDO_STEPS).map(move |i| {
                     let wi = at_cos(i, ALBEDO_STEPS);
-                    let all = directional_albedo(&t.bsdf, wi, ALBEDO_SAMPLES);
-                    let glossy = (all - t.bsdf.diffuse_reflectance(wi.z)).max(Vec3::ZERO);
-                    glossy * t.glossy_scale(wi.z)
+                    let all = directional_albedo(&surface, wi, ALBEDO_SAMPLES);
+                    (all - base.diffuse_reflectance(wi.z)).max(Vec3::ZERO)
                 })
             })
             .collect();
-        let lambert_out: Vec<Vec3> = first
+        let lambert_shape = first
             .iter()
             .flat_map(|&g| {
                 let bsdf = tiles.tiles[g].bsdf;
-                (0..n).map(move |b| tiles.bin_lambert_out(&bsdf, b))
+                let out: Vec<Vec3> = (0..n).map(|b| tiles.bin_lambert_out(&bsdf, b)).collect();
+                let albedo: Vec3 = out.iter().zip(&tiles.projected).map(|(f, p)| *f * *p).sum();
+                let unit = Vec3::select(albedo.cmpgt(Vec3::ZERO), 1.0 / albedo, Vec3::ZERO);
+                out.into_iter().map(move |f| f * unit)
             })
-            .collect();
-        let lambert_albedo = lambert_out
-            .chunks_exact(n.max(1))
-            .map(|f| f.iter().zip(&tiles.projected).map(|(f, p)| *f * *p).sum())
             .collect();
         Reflection {
             matrices,
             binned_albedo,
             true_albedo,
-            lambert_out,
-            lambert_albedo,
+            lambert_shape,
             of_tile,
         }
     }
 
-    /// Values a tile's incoming light takes: its bins, then the light that passed the
-    /// specular layer to the Lambertian base.
+    /// Values a tile's incoming light takes: its bins, then what its Lambertian base
+    /// reflects.
     pub fn slots(tiles: &Tiles) -> usize {
         tiles.per_tile() + 1
     }
@@ -186,9 +183,8 @@ impl Reflection {
     /// (the tile's [`Self::slots`]): its glossy part to the bins over the directions light
     /// arrives from, shared bilinearly between the four nearest bin centres (the
     /// transpose of [`octahedral::interpolate`]: a direction's share moves smoothly from
-    /// bin to bin) and scaled to reflect the energy of its true direction; what passes
-    /// the specular layer at its own angle to the last slot, scaled so that the base
-    /// reflects its exact albedo.
+    /// bin to bin) and scaled to reflect the energy of its true direction; the base's
+    /// exact albedo at its own angle to the last slot.
     pub fn splat(&self, tiles: &Tiles, g: u32, wi: Vec3, de: Vec3, incoming: &mut [Vec3]) {
         let m = self.of_tile[g as usize];
         if m == NONE {
@@ -217,7 +213,7 @@ impl Reflection {
         for (j, w) in shares {
             incoming[j as usize] += de * scale * w;
         }
-        incoming[n] += de * ratio(base, self.lambert_albedo[m as usize]);
+        incoming[n] += de * base;
     }
 
     /// Adds to `out` (tile `g`'s bins) the radiance the light `incoming` (its
@@ -238,10 +234,10 @@ impl Reflection {
                         *o += *f * *e;
                     }
                 }
-                let passed = incoming[n];
-                let lambert = &self.lambert_out[m * n..(m + 1) * n];
-                for (o, f) in out.iter_mut().zip(lambert) {
-                    *o += *f * passed;
+                let base = incoming[n];
+                let shape = &self.lambert_shape[m * n..(m + 1) * n];
+                for (o, f) in out.iter_mut().zip(shape) {
+                    *o += *f * base;
                 }
             }
         }
@@ -321,8 +317,8 @@ mod tests {
     }
 
     /// Tiles with equal BSDFs share one matrix, and a matrix gives what the glossy lobes
-    /// from the bins' centres averaged over each bin give, the light that passed the
-    /// specular layer what the Lambertian base averaged over each bin gives.
+    /// from the bins' centres averaged over each bin give, what the base reflects what
+    /// the Lambertian base averaged over each bin gives, scaled to that albedo.
     #[test]
     fn equal_bsdfs_share_a_matrix_that_evaluates_like_the_bsdf() {
         let tiles = tiles();
@@ -337,11 +333,14 @@ mod tests {
             let (mut by_matrix, mut by_bsdf) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
             reflection.apply(&tiles, g, &incoming, &mut by_matrix);
             let bsdf = tiles.tiles[g as usize].bsdf;
+            let base_albedo: Vec3 = (0..n)
+                .map(|b| tiles.bin_lambert_out(&bsdf, b) * tiles.projected[b])
+                .sum();
             for (b, o) in by_bsdf.iter_mut().enumerate() {
                 for (e, wi) in incoming.iter().zip(&tiles.centres) {
                     *o += tiles.bin_glossy(&bsdf, b, *wi) * *e;
                 }
-                *o += tiles.bin_lambert_out(&bsdf, b) * incoming[n];
+                *o += tiles.bin_lambert_out(&bsdf, b) / base_albedo * incoming[n];
             }
             for (a, b) in by_matrix.iter().zip(&by_bsdf) {
                 assert!((*a - *b).length() <= 1e-5 * b.length().max(1e-3), "{a} {b}");

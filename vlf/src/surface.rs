@@ -257,27 +257,24 @@ pub(crate) fn directional_albedo(bsdf: &Bsdf, wo: Vec3, samples: u32) -> Vec3 {
 /// Views of the albedo's integral over `cos θ_o`.
 const VIEWS: u32 = 64;
 
-/// Samples of each view's directional albedo.
-const SAMPLES_PER_VIEW: u32 = 4096;
-
-/// `(1/π) ∫∫ f cos θo cos θi dωi dωo`: the mean over views of their directional albedo
-/// ([`directional_albedo`], the BSDF's own sampling), the views cosine-weighted, one in
-/// each of [`VIEWS`] equal steps of `cos² θ_o` (an isotropic BSDF's albedo does not depend
-/// on the azimuth); deterministic, so a bake stays bit for bit the same. Within 0.3 % of
-/// 32 × 32 views in `cos θ` and `φ`. A midpoint rule over directions with `eval`
-/// needs lobes far wider than its cells: at 32 × 32 incident cells it took the glazed
-/// ceramics (GGX `α` 0.04) for 0.40 where they reflect 0.51, the chairs' plastic (`α`
-/// 0.14) 2 % dark, a metal (`α` 0.0075) for 0.03 where it reflects 0.52 — and small
-/// glossy elements are drawn diffuse with this albedo (they get no tile), so a room of
-/// glazed cups and plastic chairs lost their light. Sampling takes every lobe's weight
-/// exactly, a delta lobe's included.
+/// `(1/π) ∫∫ f cos θo cos θi dωi dωo` over reflection: the mean over views of what each
+/// reflects ([`reflected_albedo`], the BSDF's own sampling), the views cosine-weighted,
+/// one in each of [`VIEWS`] equal steps of `cos² θ_o` (an isotropic BSDF's albedo does not
+/// depend on the azimuth); deterministic, so a bake stays bit for bit the same. Within
+/// 0.3 % of 32 × 32 views in `cos θ` and `φ`. Sampling takes every lobe's weight, a delta
+/// lobe's included; a midpoint rule of `eval` over 32 × 32 incident cells takes the
+/// glazed ceramics (GGX `α` 0.04) for 0.40 where they reflect 0.51, the chairs' plastic
+/// (`α` 0.14) 2 % dark and a polished metal (`α` 0.0075) for 0.03 where it reflects 0.52
+/// — and small glossy elements, which get no tile, pass on this albedo.
 fn bihemispherical_albedo(p: &SurfaceParams) -> Vec3 {
     let bsdf = Bsdf::new(p);
     let sum: Vec3 = (0..VIEWS)
         .map(|k| {
             let cos = ((k as f32 + 0.5) / VIEWS as f32).sqrt();
-            let wo = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
-            directional_albedo(&bsdf, wo, SAMPLES_PER_VIEW)
+            reflected_albedo(
+                &bsdf,
+                Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos),
+            )
         })
         .sum();
     sum / VIEWS as f32

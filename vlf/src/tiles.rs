@@ -303,10 +303,13 @@ impl Tiles {
         if wi.z <= 0.0 {
             return;
         }
-        let (glossy, passed) = (t.glossy_scale(wi.z) * de, t.bsdf.through_layer(wi.z) * de);
+        let (scale, through) = (t.glossy_scale(wi.z), t.bsdf.through_layer(wi.z));
         for (o, b) in out.iter_mut().zip(0..) {
-            *o += self.bin_glossy(&t.bsdf, b, wi) * glossy
-                + self.bin_lambert_out(&t.bsdf, b) * passed;
+            // The base's share of the bin is separable (`Bsdf::lambert_out` times
+            // `through_layer`): one evaluation of the BSDF a direction, as for the whole.
+            let all = self.bin_mean(b, |wo| t.bsdf.eval(wo, wi).0);
+            let base = self.bin_lambert_out(&t.bsdf, b) * through;
+            *o += ((all - base) * scale + base) * de;
         }
     }
 

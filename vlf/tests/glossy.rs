@@ -217,11 +217,12 @@ fn integrated(f: impl Fn(Vec3) -> Vec3) -> Vec3 {
 /// sends `L × albedo(ω_o)` of what the tile reflects (the widened lobe at the surface's
 /// energy for each arrival, and the base; times the sky directions' cosine quadrature
 /// `Q`), in luminance. The rest is the lobe's binning on the light's side and the
-/// viewer's and the sky beyond the floor's edge (0.5 %): 2.7 % at most here (at 50°),
-/// held to 3 % — it was 1.3 %, held to 2 %, while the widened lobe kept its own energy:
-/// at the surface's it weighs the arrivals near grazing, whose energy it raises by up to
-/// a third, and there the bins shift light the most; with what the pixel adds for it
-/// (`tile_albedo`), 0.23 % at most, held to 0.5 %. With
+/// viewer's and the sky beyond the floor's edge (0.5 %): 2.85 % at most here (at 50°),
+/// held to 3 %, a bound set from that measurement, not derived — it was 1.3 %, held to
+/// 2 %, while the widened lobe kept its own energy: at the surface's it weighs the
+/// arrivals near grazing, whose energy it raises by up to a third, and there the bins
+/// shift light the most; with what the pixel adds for it (`tile_albedo`), 0.23 % at
+/// most, held to 0.5 %. With
 /// each bin's BSDF taken at its centre alone the lobe, as narrow as the bins, was
 /// aliased, and the energy scaling took the excess from the whole arrival: 5.3 % too
 /// dark at 10° (the room's floor view 2.9 % too dark overall).
