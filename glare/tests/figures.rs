@@ -3,7 +3,7 @@
 use std::f64::consts::PI;
 
 use glam::{DVec3, Vec3};
-use holocave_glare::figures::{DGP_CONSTANT, DGP_EV, DGP_EV_EXPONENT, DGP_LOG, evaluate};
+use holocave_glare::figures::evaluate;
 use holocave_glare::{Fisheye, GlareError, LuminanceMap, Rules, Threshold};
 use holocave_scene::Photometry;
 use holocave_tracer::film::Image;
@@ -145,10 +145,10 @@ fn one_source_on_a_uniform_background() {
                 .fold(0.0, f64::max)
     );
 
+    // Wienold & Christoffersen's coefficients, written out here so that a wrong one in
+    // the library fails.
     let dgp_hand = |ev: f64, p: f64| {
-        DGP_EV * ev
-            + DGP_LOG * (1.0 + ls * ls * omega / (ev.powf(DGP_EV_EXPONENT) * p * p)).log10()
-            + DGP_CONSTANT
+        5.87e-5 * ev + 9.18e-2 * (1.0 + ls * ls * omega / (ev.powf(1.87) * p * p)).log10() + 0.16
     };
     let ugr_hand = |ev: f64, p: f64| {
         let lb = (ev - ls * cos_omega) / PI;
@@ -211,7 +211,7 @@ fn low_light_correction() {
     let bound = uniform_ev_bound(128);
     for (ev, corrected) in [(100.0, true), (2000.0, false)] {
         let fig = evaluate(&paint(&f, |_| ev / PI), &Rules::default()).unwrap();
-        let plain = DGP_CONSTANT + DGP_EV * fig.ev_lux;
+        let plain = 0.16 + 5.87e-5 * fig.ev_lux;
         let e = (0.024 * fig.ev_lux - 4.0).exp();
         let hand = if corrected {
             plain * e / (1.0 + e)

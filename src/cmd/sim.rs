@@ -329,21 +329,22 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             q(0.99),
             q(1.0)
         );
-        return Ok(());
+    } else {
+        let every = args.every.max(1);
+        let written: Vec<u64> = all.into_iter().filter(|f| f % every == 0).collect();
+        let mosaics = write_mosaics(&args.out, &cave, &unfolded, &written)?;
+        for p in &mosaics {
+            println!("mosaic {}", p.display());
+        }
+        println!(
+            "{} mosaics in {}; frame states in {}; room → scene transforms in {}",
+            mosaics.len(),
+            args.out.join("mosaic").display(),
+            args.out.join("states.bin").display(),
+            args.out.join("navigation.csv").display()
+        );
     }
-    let every = args.every.max(1);
-    let written: Vec<u64> = all.into_iter().filter(|f| f % every == 0).collect();
-    let mosaics = write_mosaics(&args.out, &cave, &unfolded, &written)?;
-    for p in &mosaics {
-        println!("mosaic {}", p.display());
-    }
-    println!(
-        "{} mosaics in {}; frame states in {}; room → scene transforms in {}",
-        mosaics.len(),
-        args.out.join("mosaic").display(),
-        args.out.join("states.bin").display(),
-        args.out.join("navigation.csv").display()
-    );
+    // A session's glare, windows or not: every frame's view from the frame states.
     if let (Some(size), Some(vlf)) = (args.glare, &vlf) {
         measure_glare(&args, &scene.get()?, vlf, size)?;
     }

@@ -260,12 +260,17 @@ mod tests {
     /// A 61° × 40° view of a room-like image: a dim coloured floor of 0.001 to 1 cd/m²
     /// (colour loss and acuity at work), a fine grating, a bright window of 20 000 cd/m²
     /// (the veil), some black; and two sources from another wall.
-    fn scene() -> (Image, impl Fn(Vec2) -> Vec3, VeilSources) {
+    /// A window, gratings and dim strips, `scale` times as bright: from 1 down to 1e-7 the
+    /// picture's luminance (veil included) goes through the mesopic range to the rods'
+    /// grey below it. `width` is the screen's at a distance of 1: 1.2 (1.5 pixels a
+    /// degree) is sharper than the eye at any light, 0.05 (35 a degree) is blurred in dim
+    /// light.
+    fn scene(scale: f32, width: f32) -> (Image, impl Fn(Vec2) -> Vec3, VeilSources) {
         let (w, h) = (90u32, 60u32);
         let dirs = move |p: Vec2| {
             Vec3::new(
-                -0.6 + 1.2 * p.x / w as f32,
-                0.4 - 0.8 * p.y / h as f32,
+                width * (p.x / w as f32 - 0.5),
+                width * (1.0 / 3.0 - 2.0 / 3.0 * p.y / h as f32),
                 -1.0,
             )
         };
@@ -284,17 +289,17 @@ mod tests {
                 } else {
                     Vec3::new(0.3, 0.5, 0.8) * 10f32.powf(-1.0 + 2.0 * t)
                 };
-                img.pixels[(y * w + x) as usize] = c / 179.0;
+                img.pixels[(y * w + x) as usize] = c * scale / 179.0;
             }
         }
         let sources = VeilSources(vec![
             VeilSource {
                 dir: Vec3::new(-1.0, -0.5, 0.2).normalize(),
-                flux: Vec3::new(3.0, 2.5, 2.0),
+                flux: Vec3::new(3.0, 2.5, 2.0) * scale,
             },
             VeilSource {
                 dir: Vec3::new(0.3, -1.0, -0.4).normalize(),
-                flux: Vec3::new(0.5, 0.5, 0.6),
+                flux: Vec3::new(0.5, 0.5, 0.6) * scale,
             },
         ]);
         (img, dirs, sources)
@@ -303,14 +308,22 @@ mod tests {
     #[test]
     fn the_gpu_sees_what_the_cpu_sees() {
         let gpu = Gpu::new().expect("a GPU adapter (lavapipe without a GPU)");
-        let (img, dirs, sources) = scene();
+        for width in [1.2, 0.05] {
+            for scale in [1.0, 1e-3, 1e-5, 1e-7] {
+                gpu_equals_cpu(&gpu, scale, width);
+            }
+        }
+    }
+
+    fn gpu_equals_cpu(gpu: &Gpu, scale: f32, width: f32) {
+        let (img, dirs, sources) = scene(scale, width);
         let cpu = crate::vision::perceive(&img, &dirs, &sources, 179.0);
         let fovea = Fovea::new(img.width, img.height, &dirs);
         let data: Vec<[f32; 4]> = img.pixels.iter().map(|p| [p.x, p.y, p.z, 1.0]).collect();
         let buf = gpu.storage_init("image", bytemuck::cast_slice(&data));
-        let mut pass = VisionPass::new(&gpu);
+        let mut pass = VisionPass::new(gpu);
         for _ in 0..2 {
-            pass.run(&gpu, &buf, &fovea, &sources, 179.0);
+            pass.run(gpu, &buf, &fovea, &sources, 179.0);
             let n = u64::from(img.width * img.height);
             let bytes = gpu.read(&pass.seen, 16 * n);
             let seen: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
@@ -340,7 +353,7 @@ mod tests {
                 .unwrap();
             assert!(d <= 1, "{d} 8-bit steps apart");
             // The sources shared with other walls: the same samples, the same flux.
-            let shared = pass.sources(&gpu, &fovea);
+            let shared = pass.sources(gpu, &fovea);
             assert_eq!(shared.0.len(), cpu.sources.0.len());
             assert!(!shared.0.is_empty(), "the window is a source");
             for (g, c) in shared.0.iter().zip(&cpu.sources.0) {
