@@ -23,7 +23,7 @@ pub struct Figures {
 }
 
 fn luminance(c: Vec3) -> f64 {
-    f64::from(c.dot(Vec3::new(0.2126, 0.7152, 0.0722)))
+    f64::from(holocave_scene::luminance(c))
 }
 
 /// `image`'s figures against `reference` (the same size), blocks of `block` pixels.

@@ -24,7 +24,7 @@
 use std::collections::HashMap;
 
 use glam::{IVec3, Vec3};
-use holocave_scene::{Hit, Scene};
+use holocave_scene::{Hit, Scene, luminance};
 use rayon::prelude::*;
 
 use crate::elements::Elements;
@@ -49,8 +49,6 @@ const LARGE: f32 = 0.25;
 /// neighbours in one tent (the breakfast room opened in 6 s instead of 2.4) for streaks no
 /// one sees on a strip a few centimetres wide.
 const LEAST_ELEMENT: f32 = 0.25;
-/// Rec. 709 luminance weights.
-const LUMINANCE: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
 /// `values` (the elements', then the tiles') with each element of a large triangle
 /// averaged over the elements of its plane and side within [`RADIUS`] element sizes that
@@ -122,7 +120,7 @@ pub fn smooth_over_planes(
             let n = r.len() as f32;
             let mean = values[r]
                 .iter()
-                .map(|v| Vec3::from(*v).dot(LUMINANCE))
+                .map(|v| luminance(Vec3::from(*v)))
                 .sum::<f32>()
                 / n;
             mean.max(f32::MIN_POSITIVE).ln()

@@ -300,7 +300,7 @@ mod tests {
         let (tiles, surface) = widened_varnish();
         let k = tiles.bins;
         let widened = tiles.tiles[0].bsdf;
-        let lum = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let lum = holocave_scene::luminance;
         // The elements' one entry, then the tile's bins.
         let mut values = vec![[0.0f32; 3]];
         let lit = response(&tiles, tiles.tiles[0], &Directions::at_least(642));

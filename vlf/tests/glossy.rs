@@ -294,7 +294,7 @@ fn a_varnished_floor_under_a_uniform_sky_reflects_its_directional_albedo() {
         let expected = tile_albedo(&tile, wo) * SKY * q as f32;
         // In luminance, as the accuracy figures are (the blue channel, with the least
         // base colour, has the lobe's binning as a larger share: 2.4 % at 30°).
-        let lum = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let lum = holocave_scene::luminance;
         let off = (lum(drawn) / lum(expected) - 1.0).abs();
         eprintln!(
             "{degrees}°: drawn {drawn}, expected {expected}: {:.2} %",

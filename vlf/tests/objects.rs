@@ -47,6 +47,38 @@ fn meets_box(scene: &Scene, at: &Placement, p: Vec3, d: Vec3) -> bool {
     near <= far
 }
 
+/// The cosine-weighted fraction of the sun's disc (`s`, angular radius `r`) seen from `p`
+/// past the block at `at`, by a polar midpoint rule of `n × n` cells, and the share of the
+/// disc's weight in cells whose corners and middle do not all agree: the rule's error is
+/// at most that share (a cell the block's edge crosses is off by at most its weight).
+fn disc_seen(scene: &Scene, at: &Placement, p: Vec3, s: Vec3, r: f32, n: usize) -> (f64, f64) {
+    let (u, v) = (s.any_orthonormal_vector(), s.any_orthonormal_vector().cross(s));
+    let dir = |rho: f32, phi: f32| {
+        (s * rho.cos() + (u * phi.cos() + v * phi.sin()) * rho.sin()).normalize()
+    };
+    let seen = |d: Vec3| !meets_box(scene, at, p, d);
+    let (dr, dp) = (r / n as f32, std::f32::consts::TAU / n as f32);
+    let (mut total, mut lit, mut crossed) = (0f64, 0f64, 0f64);
+    for i in 0..n {
+        for j in 0..n {
+            let (rho, phi) = ((i as f32 + 0.5) * dr, (j as f32 + 0.5) * dp);
+            let d = dir(rho, phi);
+            let w = f64::from(rho.sin() * dr * dp * d.y);
+            let mid = seen(d);
+            let corners = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                .map(|(a, b)| seen(dir((i + a) as f32 * dr, (j + b) as f32 * dp)));
+            total += w;
+            if mid {
+                lit += w;
+            }
+            if corners.iter().any(|&c| c != mid) {
+                crossed += w;
+            }
+        }
+    }
+    (lit / total, crossed / total)
+}
+
 /// The floor points of a grid that the sun reaches with the block away, each with its
 /// point as a pixel looking straight down would find it.
 fn sunlit_floor(vis: &Visibility, direct: &PixelDirect) -> Vec<DirectPoint> {
@@ -72,7 +104,9 @@ fn sunlit_floor(vis: &Visibility, direct: &PixelDirect) -> Vec<DirectPoint> {
 /// shadow: where the whole sun disc is behind the block (its centre and four rim
 /// directions all meet the box) the floor is dark and the estimate says an object did
 /// it; where none of the disc is, the floor gets exactly what it gets with the block
-/// away (the same sample of the same sun); and the shadow moves with the block.
+/// away (the same sample of the same sun); across the penumbra, after 1024 frames, the
+/// share of the disc the block leaves seen (as the slit's edge test in `pixel_direct.rs`);
+/// and the shadow moves with the block.
 #[test]
 fn the_blocks_sun_shadow_is_exact_wherever_it_goes() {
     let scene = room_with_movable_block();
@@ -139,6 +173,57 @@ fn the_blocks_sun_shadow_is_exact_wherever_it_goes() {
             "placement {k}: {umbra} in umbra, {clear} clear"
         );
         shadows.push(shadow);
+
+        // The penumbra, across the edge between the nearest umbra and clear grid points:
+        // the mean of N frames' estimates against the seen fraction of the disc times the
+        // same frames' estimates with the block away. Each estimate is the disc's light
+        // times a visibility of 0 or 1, so the mean of N has σ ≤ E/(2√N); the rule's error
+        // is at most its crossed share, and the cosine across the disc changes the light by
+        // at most tan θ_s sin r + (1 − cos r) of itself.
+        let frames = 1024u32;
+        let theta = s.y.acos();
+        let cosine = f64::from(theta.tan() * sun.angular_radius.sin())
+            + f64::from(1.0 - sun.angular_radius.cos());
+        let in_umbra = |q: Vec3| rim.iter().all(|d| meets_box(&scene, &at, q, d.normalize()));
+        let in_clear = |q: Vec3| !rim.iter().any(|d| meets_box(&scene, &at, q, d.normalize()));
+        let (a, b) = lit
+            .iter()
+            .filter(|p| in_umbra(p.position))
+            .flat_map(|u| {
+                lit.iter()
+                    .filter(|c| in_clear(c.position))
+                    .map(move |c| (u.position, c.position))
+            })
+            .min_by(|x, y| (x.0 - x.1).length().total_cmp(&(y.0 - y.1).length()))
+            .expect("an umbra and a clear point");
+        let (mut penumbra, mut worst) = (0, 0f64);
+        for step in 0..400 {
+            let q = a + (b - a) * ((step as f32 + 0.5) / 400.0);
+            let (seen, crossed) = disc_seen(&scene, &at, q, s, sun.angular_radius, 64);
+            if seen <= 0.0 || seen >= 1.0 {
+                continue;
+            }
+            penumbra += 1;
+            vis.place_objects(&block_at(away()));
+            let (_, point) = vis.lookup_and_point(Ray::new(q + Vec3::Y * 0.5, Vec3::NEG_Y));
+            let point = point.expect("the floor");
+            let free = vis.with_placed(|sc| direct.mean(sc, &point, 7, 0, frames)).radiance;
+            vis.place_objects(&block_at(at));
+            let e = vis.with_placed(|sc| direct.mean(sc, &point, 7, 0, frames)).radiance;
+            let free = f64::from(free.x);
+            let sigma = free / (2.0 * f64::from(frames).sqrt());
+            let tolerance = 4.0 * sigma + (crossed + cosine) * free;
+            worst = worst.max((f64::from(e.x) - seen * free).abs() / tolerance);
+            assert!(
+                (f64::from(e.x) - seen * free).abs() <= tolerance,
+                "placement {k}: at {q} {} of the disc is seen: {} against {} ± {tolerance}",
+                seen,
+                e.x,
+                seen * free
+            );
+        }
+        eprintln!("placement {k}: {penumbra} penumbra points, worst at {worst:.2} of its bound");
+        assert!(penumbra >= 5, "placement {k}: {penumbra} penumbra points");
     }
     assert_ne!(shadows[0], shadows[1], "the shadow moved with the block");
 }

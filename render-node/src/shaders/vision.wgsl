@@ -201,7 +201,7 @@ fn at_level(k: u32, x: u32, y: u32) -> vec3<f32> {
 // `vision::scotopic::scotopic`: Y·(1.33·(1 + (Y + Z)/X) − 1.68) of Rec. 709 RGB.
 fn scotopic(c: vec3<f32>) -> f32 {
     let x = 0.4124 * c.x + 0.3576 * c.y + 0.1805 * c.z;
-    let y = 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+    let y = luminance(c);
     let z = 0.0193 * c.x + 0.1192 * c.y + 0.9505 * c.z;
     if (x <= 0.0) {
         return 0.0;

@@ -23,7 +23,7 @@ pub const BOT_MESOPIC: f32 = 5.62e-3;
 pub fn xyz(c: Vec3) -> Vec3 {
     Vec3::new(
         0.4124 * c.x + 0.3576 * c.y + 0.1805 * c.z,
-        0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z,
+        holocave_scene::luminance(c),
         0.0193 * c.x + 0.1192 * c.y + 0.9505 * c.z,
     )
 }

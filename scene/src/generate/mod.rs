@@ -4,7 +4,7 @@
 mod cornell;
 mod gltf_writer;
 mod room;
-pub(crate) mod shapes;
+pub mod shapes;
 
 pub use gltf_writer::GltfWriter;
 
