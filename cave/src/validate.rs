@@ -134,6 +134,18 @@ fn check_dead_node_ms(ms: f64) -> Result<(), String> {
 }
 
 impl Cave {
+    /// The place in the config of the wall named `name`, or an error naming the walls there
+    /// are.
+    pub fn wall_index(&self, name: &str) -> Result<usize, String> {
+        self.walls
+            .iter()
+            .position(|w| w.name == name)
+            .ok_or_else(|| {
+                let names: Vec<&str> = self.walls.iter().map(|w| w.name.as_str()).collect();
+                format!("no wall {name:?} (walls: {})", names.join(", "))
+            })
+    }
+
     /// Declares a node out after `ms` milliseconds instead of the config's timeout.
     pub fn set_dead_node_ms(&mut self, ms: f64) -> Result<(), String> {
         check_dead_node_ms(ms)?;

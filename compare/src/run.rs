@@ -11,9 +11,10 @@ use std::time::{Duration, Instant};
 use holocave_cave::WallView;
 use holocave_cave::{Cave, Eye, Wall, wall_frusta};
 use holocave_holodeck::run::RayAllowance;
+use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::{
     DisplayBuilder, EyeView, Feed, HolodeckOptions, HolodeckSource, LightField, Prior,
-    RenderNodeError, VlfBase,
+    RenderNodeError, VlfBase, VlfDrawing,
 };
 use holocave_scene::Scene;
 use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
@@ -250,9 +251,16 @@ impl Compare<'_> {
     /// The light field of the vlf methods, opened for this scene.
     fn vlf_base(&self, s: &Settings) -> Result<Arc<VlfBase>, CompareError> {
         let v = s.vlf.as_ref().ok_or(CompareError::NoVlf)?;
-        Ok(Arc::new(
-            VlfBase::open(&v.path, self.scene.clone())?.with_direct(v.direct),
-        ))
+        Ok(Arc::new(VlfBase::for_wall(
+            &v.path,
+            self.scene.clone(),
+            VlfDrawing {
+                direct: v.direct,
+                sky_per_pixel: false,
+                rays: Rays::Cpu,
+            },
+            None,
+        )?))
     }
 
     /// The holodeck method's file: the given one if it exists (warm), else a new one for

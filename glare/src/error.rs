@@ -29,4 +29,7 @@ pub enum GlareError {
     /// Writing a file (picture, log).
     #[error("writing {path}: {message}")]
     Write { path: PathBuf, message: String },
+    /// The light field a session's fisheyes are drawn from.
+    #[error("the light field {path}: {message}")]
+    LightField { path: PathBuf, message: String },
 }

@@ -32,6 +32,15 @@ pub struct LiveGlare {
 }
 
 impl LiveGlare {
+    /// [`Self::start`] into `dir`'s [`crate::log::GLARE_CSV`], the folder made if missing.
+    pub fn start_in(meter: GlareMeter, dir: &Path) -> Result<LiveGlare, GlareError> {
+        std::fs::create_dir_all(dir).map_err(|e| GlareError::Write {
+            path: dir.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        Self::start(meter, &dir.join(crate::log::GLARE_CSV))
+    }
+
     /// Starts measuring with `meter` into a new CSV at `csv`.
     pub fn start(meter: GlareMeter, csv: &Path) -> Result<LiveGlare, GlareError> {
         let mut log = GlareLog::create(csv)?;

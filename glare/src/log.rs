@@ -8,6 +8,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::error::GlareError;
+
+/// The CSV a session's glare is written to, in its output folder.
+pub const GLARE_CSV: &str = "glare.csv";
 use crate::figures::Figures;
 
 /// The DGP limits the summary counts time above.

@@ -31,6 +31,29 @@ impl GlareMeter {
     /// A meter drawing `size × size` fisheyes with `drawing`, `up` the world's up (the
     /// fisheye's up unless a view looks along it), figures by `rules` in `photometry`'s
     /// units.
+    /// The meter of a session's glare: `size`² fisheyes of `scene` drawn from the light
+    /// field at `vlf` with the direct light per pixel, as the walls draw them, by the
+    /// default rules in the scene's photometric units (`sim --glare`, `master --glare`,
+    /// `node --standalone --glare`).
+    pub fn of_light_field(
+        scene: &std::sync::Arc<holocave_scene::Scene>,
+        vlf: &std::path::Path,
+        size: u32,
+    ) -> Result<Self, GlareError> {
+        let opened = holocave_vlf::baked::open(vlf, scene).map_err(|e| GlareError::LightField {
+            path: vlf.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        let drawing = Drawing::light_field(scene.clone(), opened, false, 1, 1);
+        GlareMeter::new(
+            drawing,
+            size,
+            Vec3::Y,
+            Rules::default(),
+            scene.daylight.photometry,
+        )
+    }
+
     pub fn new(
         drawing: Drawing,
         size: u32,

@@ -19,7 +19,7 @@ use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, f
 use crate::gpu_rays::Rays;
 use crate::{
     DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderNodeError, VlfBase,
-    WallDisplay,
+    VlfDrawing, WallDisplay,
 };
 
 /// Pause between attempts to reach the master.
@@ -74,13 +74,8 @@ pub struct VlfOptions {
     pub prior: Prior,
     /// Without a holodeck, the node's own samples are gathers over the light field.
     pub gather: bool,
-    /// Where each pixel's first hit is traced.
-    pub rays: Rays,
-    /// The direct light per pixel (false: the light field alone, its baked direct light
-    /// included).
-    pub direct: bool,
-    /// The sky's light per pixel too ([`VlfBase::open_with_sky`]).
-    pub sky_per_pixel: bool,
+    /// What the wall computes per pixel and where its rays go.
+    pub drawing: VlfDrawing,
 }
 
 struct VlfChoice {
@@ -115,18 +110,14 @@ impl VlfChoice {
         }
     }
 
-    /// Opens the file and places its pixels' first rays where `rays` says.
+    /// Opens the file as the options draw it.
     fn open(&self, path: &std::path::Path) -> Result<VlfBase, RenderNodeError> {
-        let base = VlfBase::open_with_sky(path, self.scene.clone(), self.options.sky_per_pixel)?
-            .with_direct(self.options.direct);
-        if self.options.rays == Rays::Cpu {
-            return Ok(base);
-        }
-        let gpu = match &self.gpu {
-            Some(g) => g.clone(),
-            None => Gpu::new()?,
-        };
-        base.with_rays(&gpu, self.options.rays)
+        VlfBase::for_wall(
+            path,
+            self.scene.clone(),
+            self.options.drawing,
+            self.gpu.as_ref(),
+        )
     }
 }
 
@@ -170,7 +161,7 @@ impl DisplayMaker {
     /// first; without a window's device, one device is opened now for the displays and the
     /// light field's rays alike (the lookups are composed where the cache reads them).
     pub fn with_vlf(mut self, scene: Arc<Scene>, options: VlfOptions) -> DisplayMaker {
-        if self.builder.gpu.is_none() && options.rays != Rays::Cpu {
+        if self.builder.gpu.is_none() && options.drawing.rays != Rays::Cpu {
             match Gpu::new() {
                 Ok(gpu) => self.builder.gpu = Some(gpu),
                 Err(e) => tracing::warn!("{e}; each display opens its own device"),

@@ -63,7 +63,7 @@ pub use prior::Prior;
 pub use source::{PixelTracer, TracerThread};
 pub use tonemap::{ToneMapper, ToneMode};
 pub use view::EyeView;
-pub use vlf::VlfBase;
+pub use vlf::{VlfBase, VlfDrawing};
 
 #[derive(Debug, thiserror::Error)]
 pub enum RenderNodeError {

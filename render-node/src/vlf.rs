@@ -227,7 +227,40 @@ pub fn shadow_lights(scene: &Scene) -> Vec<ShadowLight> {
     lights
 }
 
+/// How a wall draws its light field: what it computes per pixel and where its rays go.
+#[derive(Clone, Copy, Debug)]
+pub struct VlfDrawing {
+    /// The direct light per pixel (false: the light field alone, its baked direct light
+    /// included).
+    pub direct: bool,
+    /// The sky's light per pixel too ([`VlfBase::open_with_sky`]).
+    pub sky_per_pixel: bool,
+    /// Where each pixel's rays are traced.
+    pub rays: Rays,
+}
+
 impl VlfBase {
+    /// The light field at `path` as a wall draws it (`drawing`), checked against `scene`;
+    /// its rays on `gpu` when `drawing.rays` puts them on a GPU (`None`: a device of its
+    /// own). The one way `node`, the cluster node and `compare` open a wall's light field.
+    pub fn for_wall(
+        path: &Path,
+        scene: Arc<Scene>,
+        drawing: VlfDrawing,
+        gpu: Option<&Gpu>,
+    ) -> Result<VlfBase, RenderNodeError> {
+        let base =
+            Self::open_with_sky(path, scene, drawing.sky_per_pixel)?.with_direct(drawing.direct);
+        if drawing.rays == Rays::Cpu {
+            return Ok(base);
+        }
+        let gpu = match gpu {
+            Some(g) => g.clone(),
+            None => Gpu::new()?,
+        };
+        base.with_rays(&gpu, drawing.rays)
+    }
+
     /// Opens `path`, refusing a file baked for another scene or with another layout.
     pub fn open(path: &Path, scene: Arc<Scene>) -> Result<VlfBase, RenderNodeError> {
         Self::open_with_sky(path, scene, false)

@@ -122,20 +122,10 @@ pub fn run(args: CompareArgs) -> Result<()> {
     let walls: Vec<&Wall> = if args.wall == "all" {
         cave.walls.iter().collect()
     } else {
-        vec![
-            cave.walls
-                .iter()
-                .find(|w| w.name == args.wall)
-                .with_context(|| {
-                    let names: Vec<&str> = cave.walls.iter().map(|w| w.name.as_str()).collect();
-                    format!(
-                        "{}: no wall {:?} (walls: {})",
-                        args.config.display(),
-                        args.wall,
-                        names.join(", ")
-                    )
-                })?,
-        ]
+        let index = cave
+            .wall_index(&args.wall)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", args.config.display()))?;
+        vec![&cave.walls[index]]
     };
     let scene = super::render::load_scene(&args.scene, args.daylight.clone(), false)?;
     let scene = Arc::new(

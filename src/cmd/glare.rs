@@ -9,6 +9,9 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
 use holocave_glare::draw::Drawing;
+use holocave_glare::live::LiveGlare;
+use holocave_glare::log::GLARE_CSV;
+use holocave_glare::meter::GlareMeter;
 use holocave_glare::picture::{write_preview, write_radiance_hdr};
 use holocave_glare::{Fisheye, LuminanceMap, Rules, Threshold, evaluate};
 use holocave_tracer::{TraceSettings, Tracer};
@@ -146,50 +149,22 @@ pub fn run(a: GlareArgs) -> Result<()> {
     Ok(())
 }
 
-/// The meter of a session's glare: `size`² fisheyes drawn from the light field `vlf` with
-/// the direct light per pixel, as the walls draw them (`sim --glare`, `master --glare`).
-pub(crate) fn session_meter(
-    scene: &Arc<holocave_scene::Scene>,
-    vlf: &std::path::Path,
-    size: u32,
-) -> Result<holocave_glare::meter::GlareMeter> {
-    let opened = holocave_vlf::baked::open(vlf, scene)?;
-    let photometry = scene.daylight.photometry;
-    let drawing = Drawing::light_field(scene.clone(), opened, false, 1, 1);
-    Ok(holocave_glare::meter::GlareMeter::new(
-        drawing,
-        size,
-        Vec3::Y,
-        Rules::default(),
-        photometry,
-    )?)
-}
-
-/// The CSV a session's glare is written to, in its output folder.
-pub(crate) const GLARE_CSV: &str = "glare.csv";
-
 /// Glare measured live while a session runs (`master --glare`, `node --standalone
-/// --glare`): `size`² fisheyes from the light field `vlf`, into `dir/glare.csv` (the folder
-/// made if missing).
+/// --glare`): `size`² fisheyes from the light field `vlf`, into `dir/glare.csv`.
 pub(crate) fn start_live(
     scene: &Arc<holocave_scene::Scene>,
     vlf: &std::path::Path,
     size: u32,
     dir: &std::path::Path,
-) -> Result<holocave_glare::live::LiveGlare> {
-    let meter = session_meter(scene, vlf, size)?;
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    Ok(holocave_glare::live::LiveGlare::start(
-        meter,
-        &dir.join(GLARE_CSV),
+) -> Result<LiveGlare> {
+    Ok(LiveGlare::start_in(
+        GlareMeter::of_light_field(scene, vlf, size)?,
+        dir,
     )?)
 }
 
 /// Stops live glare and prints the session's summary.
-pub(crate) fn finish_live(
-    glare: holocave_glare::live::LiveGlare,
-    dir: &std::path::Path,
-) -> Result<()> {
+pub(crate) fn finish_live(glare: LiveGlare, dir: &std::path::Path) -> Result<()> {
     let summary = glare.finish()?;
     println!(
         "glare of the head's view in {}: {summary}",

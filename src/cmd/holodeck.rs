@@ -110,23 +110,6 @@ fn view_of(a: &ViewArgs) -> anyhow::Result<WallView> {
         .view(scene.as_ref().map(|(s, p)| (s, p.as_path())), a.size)
 }
 
-/// The image averaged over `k`×`k` blocks (edges dropped).
-fn blocks(i: &Image, k: u32) -> Image {
-    let mut out = Image::new(i.width / k, i.height / k);
-    for y in 0..out.height {
-        for x in 0..out.width {
-            let mut s = Vec3::ZERO;
-            for dy in 0..k {
-                for dx in 0..k {
-                    s += i.at(x * k + dx, y * k + dy);
-                }
-            }
-            out.pixels[(y * out.width + x) as usize] = s / (k * k) as f32;
-        }
-    }
-    out
-}
-
 fn run_view(a: ViewArgs) -> anyhow::Result<()> {
     let view = view_of(&a)?;
     let h = HoloFile::open(&a.file)?;
@@ -167,7 +150,7 @@ fn run_view(a: ViewArgs) -> anyhow::Result<()> {
              {:.4}, reference {:.4} {:.4} {:.4}",
             r.display(),
             image.relative_mse(&reference),
-            blocks(&image, 8).relative_mse(&blocks(&reference, 8)),
+            image.block_means(8).relative_mse(&reference.block_means(8)),
             m.x,
             m.y,
             m.z,

@@ -30,7 +30,7 @@ use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
 use holocave_render_node::{
     DisplayBuilder, EyeView, Gpu, LightField, RenderCache, SampleFeed, ToneMapper, ToneMode,
-    VlfBase, WallDisplay,
+    VlfBase, VlfDrawing, WallDisplay,
 };
 use holocave_scene::Scene;
 use holocave_tracer::{TraceSettings, Tracer};
@@ -222,24 +222,10 @@ pub fn run(args: NodeArgs) -> Result<()> {
     let cave = load_cave(&args.config)?;
     // The wall's display id at the holodeck is its place in the config (every node reads
     // the same config).
-    let (display_id, wall) = cave
-        .walls
-        .iter()
-        .enumerate()
-        .find(|(_, w)| w.name == args.wall)
-        .map(|(i, w)| (i as u32, w.clone()))
-        .with_context(|| {
-            format!(
-                "{}: no wall {:?} (walls: {})",
-                args.config.display(),
-                args.wall,
-                cave.walls
-                    .iter()
-                    .map(|w| w.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        })?;
+    let index = cave
+        .wall_index(&args.wall)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.config.display()))?;
+    let (display_id, wall) = (index as u32, cave.walls[index].clone());
     // `--layout` and `--window-*` for this run; a standalone wall keeps its own eyes when
     // they include the layout's.
     let wall = args.window.wall_for_run(&wall, args.master.is_none())?;
@@ -312,6 +298,15 @@ fn glare_views(
         .collect()
 }
 
+/// How the node's flags draw the light field.
+fn vlf_drawing(args: &NodeArgs) -> VlfDrawing {
+    VlfDrawing {
+        direct: !args.no_direct,
+        sky_per_pixel: args.sky_per_pixel,
+        rays: args.rays,
+    }
+}
+
 fn load_tracer(path: &Path, daylight: Option<PathBuf>) -> Result<(Arc<Scene>, Arc<Tracer>)> {
     let scene = Arc::new(super::render::load_scene(path, daylight, false)?);
     let tracer = Arc::new(Tracer::new(scene.clone(), TraceSettings::default()));
@@ -377,11 +372,12 @@ fn standalone(
     builder.gather = args.gather;
     if let Some(path) = &args.vlf {
         builder.light_field = Some(LightField {
-            base: Arc::new(
-                VlfBase::open_with_sky(path, scene.clone(), args.sky_per_pixel)?
-                    .with_direct(!args.no_direct)
-                    .with_rays(&gpu, args.rays)?,
-            ),
+            base: Arc::new(VlfBase::for_wall(
+                path,
+                scene.clone(),
+                vlf_drawing(args),
+                Some(&gpu),
+            )?),
             prior: args.vlf_prior,
         });
     }
@@ -609,9 +605,7 @@ fn in_cluster(
             own: args.vlf.clone(),
             prior: args.vlf_prior,
             gather: args.gather,
-            rays: args.rays,
-            direct: !args.no_direct,
-            sky_per_pixel: args.sky_per_pixel,
+            drawing: vlf_drawing(args),
         },
     );
     let (counters, reason) = match windows {

@@ -358,10 +358,10 @@ fn measure_glare(
     vlf: &Path,
     size: u32,
 ) -> Result<()> {
-    let meter = super::glare::session_meter(scene, vlf, size)?;
+    let meter = holocave_glare::meter::GlareMeter::of_light_field(scene, vlf, size)?;
     let states = args.out.join("states.bin");
     let views = frame_views(&states)?;
-    let csv = args.out.join(super::glare::GLARE_CSV);
+    let csv = args.out.join(holocave_glare::log::GLARE_CSV);
     let summary = measure_session(&meter, &views, &csv)?;
     println!(
         "glare of {} eye views in {}: {summary}",

@@ -154,11 +154,41 @@ impl Image {
             .sum();
         sum / (3 * self.pixels.len().max(1)) as f64
     }
+
+    /// The image averaged over `k`×`k` blocks; a part block at the right or bottom edge is
+    /// dropped.
+    pub fn block_means(&self, k: u32) -> Image {
+        let mut out = Image::new(self.width / k, self.height / k);
+        for y in 0..out.height {
+            for x in 0..out.width {
+                let mut s = Vec3::ZERO;
+                for dy in 0..k {
+                    for dx in 0..k {
+                        s += self.at(x * k + dx, y * k + dy);
+                    }
+                }
+                out.pixels[(y * out.width + x) as usize] = s / (k * k) as f32;
+            }
+        }
+        out
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn block_means_average_whole_blocks_and_drop_the_edges() {
+        let mut i = Image::new(5, 3);
+        for (n, p) in i.pixels.iter_mut().enumerate() {
+            *p = Vec3::splat(n as f32);
+        }
+        let b = i.block_means(2);
+        assert_eq!((b.width, b.height), (2, 1));
+        // Pixels 0, 1, 5, 6 and 2, 3, 7, 8.
+        assert_eq!(b.pixels, vec![Vec3::splat(3.0), Vec3::splat(5.0)]);
+    }
 
     #[test]
     fn auto_exposure_maps_the_lit_pixels_log_average_to_middle_grey() {

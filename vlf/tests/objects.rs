@@ -52,7 +52,10 @@ fn meets_box(scene: &Scene, at: &Placement, p: Vec3, d: Vec3) -> bool {
 /// disc's weight in cells whose corners and middle do not all agree: the rule's error is
 /// at most that share (a cell the block's edge crosses is off by at most its weight).
 fn disc_seen(scene: &Scene, at: &Placement, p: Vec3, s: Vec3, r: f32, n: usize) -> (f64, f64) {
-    let (u, v) = (s.any_orthonormal_vector(), s.any_orthonormal_vector().cross(s));
+    let (u, v) = (
+        s.any_orthonormal_vector(),
+        s.any_orthonormal_vector().cross(s),
+    );
     let dir = |rho: f32, phi: f32| {
         (s * rho.cos() + (u * phi.cos() + v * phi.sin()) * rho.sin()).normalize()
     };
@@ -207,9 +210,13 @@ fn the_blocks_sun_shadow_is_exact_wherever_it_goes() {
             vis.place_objects(&block_at(away()));
             let (_, point) = vis.lookup_and_point(Ray::new(q + Vec3::Y * 0.5, Vec3::NEG_Y));
             let point = point.expect("the floor");
-            let free = vis.with_placed(|sc| direct.mean(sc, &point, 7, 0, frames)).radiance;
+            let free = vis
+                .with_placed(|sc| direct.mean(sc, &point, 7, 0, frames))
+                .radiance;
             vis.place_objects(&block_at(at));
-            let e = vis.with_placed(|sc| direct.mean(sc, &point, 7, 0, frames)).radiance;
+            let e = vis
+                .with_placed(|sc| direct.mean(sc, &point, 7, 0, frames))
+                .radiance;
             let free = f64::from(free.x);
             let sigma = free / (2.0 * f64::from(frames).sqrt());
             let tolerance = 4.0 * sigma + (crossed + cosine) * free;
