@@ -75,7 +75,7 @@ fn a_replayed_walk_gives_the_same_navigation_csv_bit_for_bit_at_the_walking_spee
         assert_eq!(r[0] as usize, k);
         assert_eq!(r[1], k as f64 * period_ns, "frame {k}'s time");
     }
-    // The walk's first step: 1.5 s straight ahead (−Z) at full deflection. Over its first
+    // The walk's first step: 1 s straight ahead (−Z) at full deflection. Over its first
     // half second nothing is in the way, so each frame moves exactly 1.4 m/s × one period
     // straight ahead (f64 rounding of a few metres: 1e-9 m) and level (the floor's
     // vertices lie within ±4e-7 m of its plane: 1e-6 m).
@@ -89,7 +89,7 @@ fn a_replayed_walk_gives_the_same_navigation_csv_bit_for_bit_at_the_walking_spee
             -step
         );
     }
-    // Then the joystick turns right (from 1.5 s): the rotation leaves the identity about −Y.
+    // Then the joystick turns right (from 1 s): the rotation leaves the identity about −Y.
     let last = rows.last().unwrap();
     assert!(last[6] < -0.05, "turned right: qy = {}", last[6]);
     let _ = std::fs::remove_dir_all(&dir);

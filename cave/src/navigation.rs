@@ -4,6 +4,7 @@
 //! of travel. [`NavigationSection`] is the section as written; [`Navigation`] the checked
 //! settings the master's navigation runs on.
 
+use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use crate::config::RigidTransform;
@@ -74,6 +75,10 @@ pub struct NavigationSection {
     pub max_drop: f64,
     /// The farthest teleport (m).
     pub teleport_range: f64,
+    /// The rooms the user may walk into, as holodeck sections besides the CAVE's: boxes
+    /// `[x0, y0, z0, x1, y1, z1]` in scene metres (`holocave holodeck sections` proposes
+    /// them; `--section` on the command line takes their place).
+    pub sections: Vec<[f64; 6]>,
 }
 
 impl Default for NavigationSection {
@@ -103,6 +108,7 @@ impl Default for NavigationSection {
             step_height: 0.35,
             max_drop: 2.0,
             teleport_range: 50.0,
+            sections: Vec::new(),
         }
     }
 }
@@ -142,6 +148,8 @@ pub struct Navigation {
     pub step_height: f64,
     pub max_drop: f64,
     pub teleport_range: f64,
+    /// Holodeck sections besides the CAVE's: `[lo, hi]` in scene metres.
+    pub sections: Vec<[DVec3; 2]>,
 }
 
 impl Default for Navigation {
@@ -218,6 +226,17 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
             ));
         }
     }
+    let mut sections = Vec::new();
+    for (i, b) in s.sections.iter().enumerate() {
+        let (lo, hi) = (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]));
+        if lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all() {
+            sections.push([lo, hi]);
+        } else {
+            problems.push(format!(
+                "navigation.sections[{i}]: {b:?} is not a box (x0, y0, z0 below x1, y1, z1, finite)"
+            ));
+        }
+    }
     if s.forward_axis == s.turn_axis {
         problems.push(format!(
             "navigation.turn_axis: {} is also the forward axis",
@@ -246,6 +265,7 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
         step_height: s.step_height,
         max_drop: s.max_drop,
         teleport_range: s.teleport_range,
+        sections,
     }
 }
 
@@ -260,7 +280,7 @@ mod tests {
         assert!((n.turn_rate - 45f64.to_radians()).abs() < 1e-15);
         assert!(n.grab_yaw_only, "no roll by default");
         let s: NavigationSection = toml::from_str(
-            "walk_speed = -1.0\ngrab_button = 1\nteleport_button = 1\ndead_zone = 2.0\nforward_sign = 0.5\nmode_button = 2",
+            "walk_speed = -1.0\ngrab_button = 1\nteleport_button = 1\ndead_zone = 2.0\nforward_sign = 0.5\nmode_button = 2\nsections = [[0, 0, 0, 1, 2, 3], [0, 0, 0, 1, -2, 3]]",
         )
         .unwrap();
         let mut problems = Vec::new();
@@ -272,9 +292,13 @@ mod tests {
             "navigation.dead_zone",
             "navigation.forward_sign",
             "navigation.mode_button",
+            "navigation.sections[1]",
         ] {
             assert!(all.contains(key), "{key} not named in:\n{all}");
         }
-        assert_eq!(problems.len(), 5, "{all}");
+        assert_eq!(problems.len(), 6, "{all}");
+        let s: NavigationSection = toml::from_str("sections = [[0, 0, 0, 1, 2, 3]]").unwrap();
+        let n = check(&s, &mut problems);
+        assert_eq!(n.sections, vec![[DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0)]]);
     }
 }

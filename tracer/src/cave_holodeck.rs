@@ -68,7 +68,8 @@ pub struct Serving {
 
 impl CaveHolodeck {
     /// Opens the holodeck at `path`, or creates it for `cave` (its [`CaveSection`], then
-    /// an interior section for each box of `more`) when it does not exist; creating needs
+    /// an interior section for each box of `more`, or where `more` is empty of the
+    /// config's `[navigation] sections`) when it does not exist; creating needs
     /// `scene`, loaded from `scene_path`. Opening warns when the file was made for another scene or another
     /// CAVE. `made_by` names the command in a new file's settings.
     pub fn open_or_create(
@@ -82,6 +83,10 @@ impl CaveHolodeck {
         let bad = |message: String| CaveHolodeckError::File {
             path: path.display().to_string(),
             message,
+        };
+        let more = match more.is_empty() {
+            true => &cave.navigation.sections[..],
+            false => more,
         };
         let identity = scene.map(|s| scene_identity(scene_path, s));
         if path.exists() {
@@ -284,7 +289,7 @@ pub struct HostSpec<'a> {
     /// The command that creates a new file (`master`, `sim`).
     pub made_by: &'a str,
     /// Interior sections a new file gets besides the CAVE's (boxes `lo, hi` in scene
-    /// coordinates: the rooms a walk-through goes to).
+    /// coordinates: the rooms a walk-through goes to); empty: the config's.
     pub sections: &'a [[DVec3; 2]],
     pub stop: Arc<AtomicBool>,
     /// The file is the command's own (`sim`'s default): one made for another version of

@@ -1,5 +1,6 @@
 //! A CAVE's holodeck with the sections of a walk-through: created with the CAVE's section
-//! and the rooms given, opened again as it was, a box that is no box refused.
+//! and the rooms given (or the config's), opened again as it was, a box that is no box
+//! refused.
 
 use std::path::Path;
 
@@ -48,6 +49,30 @@ fn a_new_file_holds_the_caves_section_then_each_room_given() {
         CaveHolodeck::open_or_create(&path, &cave, &scene_path, None, "test", &rooms[..1]).unwrap();
     assert_eq!(opened.file.sections().len(), 3);
     assert_eq!(opened.file.sections()[0].origin(), first);
+}
+
+/// Without rooms given, a new file takes the config's `[navigation] sections`; rooms given
+/// take their place.
+#[test]
+fn the_configs_sections_are_the_rooms_unless_others_are_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, scene_path) = room_scene(dir.path());
+    let mut cave = room_cave();
+    let room = [DVec3::new(-2.0, 1.0, -1.5), DVec3::new(0.0, 2.5, 1.5)];
+    cave.navigation.sections = vec![room];
+    let path = dir.path().join("config.hdk");
+    let made =
+        CaveHolodeck::open_or_create(&path, &cave, &scene_path, Some(&scene), "test", &[])
+            .unwrap();
+    assert_eq!(made.file.sections().len(), 2);
+    assert_eq!(made.file.sections()[1].origin(), room[0]);
+    let given = [[DVec3::new(0.5, 1.0, -1.5), DVec3::new(2.0, 2.5, 1.5)]; 2];
+    let path = dir.path().join("given.hdk");
+    let made =
+        CaveHolodeck::open_or_create(&path, &cave, &scene_path, Some(&scene), "test", &given)
+            .unwrap();
+    assert_eq!(made.file.sections().len(), 3);
+    assert_eq!(made.file.sections()[1].origin(), given[0][0]);
 }
 
 #[test]
