@@ -1019,12 +1019,18 @@ mod layout_tests {
         EyeParams, GpuPoint, InsertParams, Lookup, NewSample, ObjectMove, ShadowLight, VlfParams,
         insert, objects, vlf,
     };
-    use crate::gpu::layout::assert_same_layout;
+    use crate::gpu::layout::{assert_same_layout, every_field};
     use crate::gpu::with_common;
 
     #[test]
     fn common_wgsl_point_and_eye_params_are_laid_out_as_in_rust() {
         let src = with_common(insert::SOURCE);
+        every_field!(GpuPoint {
+            pos,
+            rad,
+            origin,
+            square
+        });
         assert_same_layout(
             &src,
             "Point",
@@ -1036,6 +1042,18 @@ mod layout_tests {
                 ("square", offset_of!(GpuPoint, square)),
             ],
         );
+        every_field!(EyeParams {
+            view_proj,
+            eye,
+            width,
+            height,
+            npoints,
+            target_samples,
+            max_chosen,
+            frame,
+            eye_index,
+            index_bits
+        });
         assert_same_layout(
             &src,
             "EyeParams",
@@ -1058,6 +1076,12 @@ mod layout_tests {
     #[test]
     fn insert_wgsl_new_sample_and_insert_params_are_laid_out_as_in_rust() {
         let src = with_common(insert::SOURCE);
+        every_field!(NewSample {
+            pos,
+            rad,
+            origin,
+            weight
+        });
         assert_same_layout(
             &src,
             "NewSample",
@@ -1069,6 +1093,16 @@ mod layout_tests {
                 ("weight", offset_of!(NewSample, weight)),
             ],
         );
+        every_field!(InsertParams {
+            count,
+            cursor,
+            ngroups,
+            group_size,
+            npoints,
+            index_bits,
+            width,
+            height
+        });
         assert_same_layout(
             &src,
             "InsertParams",
@@ -1114,6 +1148,15 @@ mod layout_tests {
                 ("object", offset_of!(Lookup, object)),
             ],
         );
+        every_field!(VlfParams {
+            width,
+            height,
+            index_bits,
+            prior,
+            chunk,
+            spread,
+            _pad
+        });
         assert_same_layout(
             &src,
             "VlfParams",
@@ -1134,6 +1177,13 @@ mod layout_tests {
     #[test]
     fn objects_wgsl_move_light_and_params_are_laid_out_as_in_rust() {
         let src = with_common(objects::SOURCE);
+        every_field!(ObjectMove {
+            delta,
+            before,
+            after,
+            object,
+            pad
+        });
         assert_same_layout(
             &src,
             "Move",
@@ -1148,6 +1198,7 @@ mod layout_tests {
                 ("pad2", offset_of!(ObjectMove, pad) + 8),
             ],
         );
+        every_field!(ShadowLight { at, spread });
         assert_same_layout(
             &src,
             "ShadowLight",
@@ -1157,6 +1208,12 @@ mod layout_tests {
                 ("spread", offset_of!(ShadowLight, spread)),
             ],
         );
+        every_field!(MoveParams {
+            npoints,
+            nmoves,
+            nlights,
+            pad
+        });
         assert_same_layout(
             &src,
             "MoveParams",

@@ -62,8 +62,7 @@ fn the_configs_sections_are_the_rooms_unless_others_are_given() {
     cave.navigation.sections = vec![room];
     let path = dir.path().join("config.hdk");
     let made =
-        CaveHolodeck::open_or_create(&path, &cave, &scene_path, Some(&scene), "test", &[])
-            .unwrap();
+        CaveHolodeck::open_or_create(&path, &cave, &scene_path, Some(&scene), "test", &[]).unwrap();
     assert_eq!(made.file.sections().len(), 2);
     assert_eq!(made.file.sections()[1].origin(), room[0]);
     let given = [[DVec3::new(0.5, 1.0, -1.5), DVec3::new(2.0, 2.5, 1.5)]; 2];

@@ -200,3 +200,47 @@ impl LookupComposer {
         gpu.queue.submit([enc.finish()]);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::*;
+    use crate::gpu::layout::{assert_same_layout, every_field};
+    use crate::gpu::with_common;
+
+    #[test]
+    fn the_wgsl_structs_are_laid_out_as_in_rust() {
+        let src = with_common(include_str!("lookups.wgsl"));
+        every_field!(Shade {
+            weight,
+            side,
+            emitted,
+            sent
+        });
+        assert_same_layout(
+            &src,
+            "Shade",
+            size_of::<Shade>(),
+            &[
+                ("weight", offset_of!(Shade, weight)),
+                ("side", offset_of!(Shade, side)),
+                ("emitted", offset_of!(Shade, emitted)),
+                ("sent", offset_of!(Shade, sent)),
+            ],
+        );
+        every_field!(LookupParams { count, row, pad });
+        let pad = offset_of!(LookupParams, pad);
+        assert_same_layout(
+            &src,
+            "LookupParams",
+            size_of::<LookupParams>(),
+            &[
+                ("count", offset_of!(LookupParams, count)),
+                ("row", offset_of!(LookupParams, row)),
+                ("pad0", pad),
+                ("pad1", pad + 4),
+            ],
+        );
+    }
+}

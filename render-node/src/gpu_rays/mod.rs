@@ -745,7 +745,7 @@ mod tests {
     use std::mem::{offset_of, size_of};
 
     use super::*;
-    use crate::gpu::layout::assert_same_layout;
+    use crate::gpu::layout::{assert_same_layout, every_field};
     use crate::gpu::with_common;
 
     #[test]
@@ -759,6 +759,12 @@ mod tests {
     #[test]
     fn the_wgsl_structs_are_laid_out_as_in_rust() {
         let src = with_common(&source(8));
+        every_field!(GpuRay {
+            origin,
+            tmax,
+            dir,
+            pad
+        });
         assert_same_layout(
             &src,
             "GpuRay",
@@ -771,6 +777,18 @@ mod tests {
             ],
         );
         let pad = offset_of!(RayParams, pad);
+        every_field!(RayParams {
+            count,
+            row,
+            width,
+            height,
+            eye,
+            pa,
+            pb,
+            pc,
+            tmax,
+            pad
+        });
         assert_same_layout(
             &src,
             "RayParams",

@@ -282,3 +282,62 @@ fn aims_buffer(gpu: &Gpu, n: usize) -> wgpu::Buffer {
         16 * n.max(1) as u64,
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::*;
+    use crate::gpu::layout::{assert_same_layout, every_field};
+
+    #[test]
+    fn the_wgsl_structs_are_laid_out_as_in_rust() {
+        let src = source_with(
+            8,
+            &format!(
+                "const MAX_LIGHTS: u32 = {MAX_MADE_LIGHTS}u;\n{}",
+                include_str!("shadow.wgsl")
+            ),
+        );
+        every_field!(MadeLight {
+            position_kind,
+            direction
+        });
+        assert_same_layout(
+            &src,
+            "MadeLight",
+            size_of::<MadeLight>(),
+            &[
+                ("position_kind", offset_of!(MadeLight, position_kind)),
+                ("direction", offset_of!(MadeLight, direction)),
+            ],
+        );
+        every_field!(ShadowParams {
+            count,
+            row,
+            lights,
+            sun,
+            sun_t,
+            sun_b,
+            sun_n,
+            step,
+            light
+        });
+        assert_same_layout(
+            &src,
+            "ShadowParams",
+            size_of::<ShadowParams>(),
+            &[
+                ("count", offset_of!(ShadowParams, count)),
+                ("row", offset_of!(ShadowParams, row)),
+                ("lights", offset_of!(ShadowParams, lights)),
+                ("sun", offset_of!(ShadowParams, sun)),
+                ("sun_t", offset_of!(ShadowParams, sun_t)),
+                ("sun_b", offset_of!(ShadowParams, sun_b)),
+                ("sun_n", offset_of!(ShadowParams, sun_n)),
+                ("step", offset_of!(ShadowParams, step)),
+                ("light", offset_of!(ShadowParams, light)),
+            ],
+        );
+    }
+}

@@ -1,8 +1,22 @@
 //! Test support: the layout of a WGSL struct as naga (wgpu's shader compiler) lays it
 //! out, compared with the Rust `#[repr(C)]` struct that is uploaded as its bytes. Every
 //! Rust/WGSL pair has a test beside the Rust struct: the same size, the same members in
-//! the same order at the same offsets (`std::mem::offset_of!` on the Rust side). A field
-//! added, removed, reordered or retyped on one side only fails it.
+//! the same order at the same offsets (`std::mem::offset_of!` on the Rust side), and every
+//! field of the Rust struct named ([`every_field`]). A field added, removed, reordered or
+//! retyped on one side only fails it.
+
+/// Names every field of the Rust struct (a pattern without `..`), so that a field added to
+/// it alone stops its layout test from compiling until the field is listed there too; the
+/// list of members [`assert_same_layout`] is given cannot see such a field when it fits in
+/// padding.
+macro_rules! every_field {
+    ($t:ident { $($f:ident),* $(,)? }) => {
+        let _ = |v: $t| {
+            let $t { $($f: _),* } = v;
+        };
+    };
+}
+pub(crate) use every_field;
 
 /// A struct of a WGSL module as naga lays it out.
 #[derive(Debug)]

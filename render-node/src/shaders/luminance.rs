@@ -136,6 +136,12 @@ mod tests {
     #[test]
     fn luminance_wgsl_params_are_laid_out_as_in_rust() {
         use std::mem::{offset_of, size_of};
+        crate::gpu::layout::every_field!(LumParams {
+            n,
+            bins,
+            efficacy,
+            pad
+        });
         crate::gpu::layout::assert_same_layout(
             &crate::gpu::with_common(SOURCE),
             "LumParams",

@@ -280,6 +280,25 @@ mod tests {
     #[test]
     fn tonemap_wgsl_screen_is_laid_out_as_in_rust() {
         use std::mem::{offset_of, size_of};
+        crate::gpu::layout::every_field!(Screen {
+            window,
+            eye_size,
+            arrangement,
+            first,
+            second,
+            flags,
+            linear,
+            log_min,
+            log_max,
+            log_scale,
+            cdf,
+            efficacy,
+            fc_log_min,
+            fc_decades,
+            legend_w,
+            legend_h,
+            pad
+        });
         crate::gpu::layout::assert_same_layout(
             &with_common(SOURCE),
             "Screen",

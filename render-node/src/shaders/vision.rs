@@ -220,6 +220,16 @@ mod tests {
     #[test]
     fn vision_wgsl_structs_are_laid_out_as_in_rust() {
         let src = with_common(SOURCE);
+        crate::gpu::layout::every_field!(VisionParams {
+            width,
+            height,
+            cols,
+            rows,
+            imported,
+            levels,
+            efficacy,
+            veil_uniform
+        });
         crate::gpu::layout::assert_same_layout(
             &src,
             "VisionParams",
@@ -235,6 +245,7 @@ mod tests {
                 ("veil_uniform", offset_of!(VisionParams, veil_uniform)),
             ],
         );
+        crate::gpu::layout::every_field!(Cell { dir, ppd });
         crate::gpu::layout::assert_same_layout(
             &src,
             "Cell",
@@ -244,6 +255,7 @@ mod tests {
                 ("ppd", offset_of!(Cell, ppd)),
             ],
         );
+        crate::gpu::layout::every_field!(Source { dir, flux });
         crate::gpu::layout::assert_same_layout(
             &src,
             "Source",
