@@ -15,7 +15,7 @@
 //! cross-section) drawn diffuse and pooled rather than each given a tile that keeps only
 //! a fraction of its light, and drawn with the albedo their narrow lobes really have.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{Vec2, Vec3};
 use holocave_scene::{LoadOptions, Scene};
@@ -23,24 +23,9 @@ use holocave_tracer::bsdf::Bsdf;
 use holocave_vlf::Settings;
 use holocave_vlf::surface::diffuse_albedo;
 
-fn shared_scene(rel: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/scenes")
-        .join(rel);
-    if p.exists() {
-        return Some(p);
-    }
-    let why = format!(
-        "{} is absent (the shared scenes live in ../shared/scenes)",
-        p.display()
-    );
-    assert!(
-        std::env::var("HOLOCAVE_REQUIRE_SHARED").as_deref() != Ok("1"),
-        "HOLOCAVE_REQUIRE_SHARED=1 and {why}"
-    );
-    eprintln!("SKIPPED: {why}");
-    None
-}
+/// The project's one skip-or-fail rule for `../shared` (`tests/common/require.rs`).
+#[path = "../../tests/common/require.rs"]
+mod require;
 
 /// `(1/π) ∫∫ f cos θo cos θi` by a midpoint rule of `n × n` cells (uniform in `cos θ` and
 /// `φ`) over each hemisphere, with the tracer's `eval`.
@@ -67,7 +52,7 @@ fn bsdf_albedo(bsdf: &Bsdf, n: usize) -> Vec3 {
 
 #[test]
 fn the_breakfast_rooms_diffuse_albedos_are_the_path_tracers() {
-    let Some(path) = shared_scene("breakfast_room/BreakfastRoom.gltf") else {
+    let Some(path) = require::shared("scenes/breakfast_room/BreakfastRoom.gltf") else {
         return;
     };
     let daylight =
@@ -116,7 +101,7 @@ fn the_breakfast_rooms_diffuse_albedos_are_the_path_tracers() {
 /// first: each region's bias of the mean luminance, and its references' standard error
 /// (half their difference, relative).
 fn walls_and_floor(material: impl Fn(&mut holocave_scene::Material)) -> [(f64, f64); 2] {
-    let Some(path) = shared_scene("breakfast_room/BreakfastRoom.gltf") else {
+    let Some(path) = require::shared("scenes/breakfast_room/BreakfastRoom.gltf") else {
         return [(0.0, 0.0); 2];
     };
     let daylight =
