@@ -28,9 +28,6 @@ pub struct GlareMeter {
 const OTHER_UPS: [Vec3; 2] = [Vec3::NEG_Z, Vec3::X];
 
 impl GlareMeter {
-    /// A meter drawing `size × size` fisheyes with `drawing`, `up` the world's up (the
-    /// fisheye's up unless a view looks along it), figures by `rules` in `photometry`'s
-    /// units.
     /// The meter of a session's glare: `size`² fisheyes of `scene` drawn from the light
     /// field at `vlf` with the direct light per pixel, as the walls draw them, by the
     /// default rules in the scene's photometric units (`sim --glare`, `master --glare`,
@@ -54,6 +51,9 @@ impl GlareMeter {
         )
     }
 
+    /// A meter drawing `size × size` fisheyes with `drawing`, `up` the world's up (the
+    /// fisheye's up unless a view looks along it), figures by `rules` in `photometry`'s
+    /// units.
     pub fn new(
         drawing: Drawing,
         size: u32,
