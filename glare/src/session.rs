@@ -28,6 +28,15 @@ pub struct FrameView {
     pub look: Vec3,
 }
 
+/// The head's gaze in scene coordinates: its forward direction (−Z in the head's frame,
+/// turned by `orientation` in the room) through the room → scene transform.
+pub fn gaze(room_to_scene: &DMat4, orientation: glam::DQuat) -> Vec3 {
+    room_to_scene
+        .transform_vector3(orientation * DVec3::NEG_Z)
+        .as_vec3()
+        .normalize_or_zero()
+}
+
 /// A frame state's views: each eye of its first wall (every wall has the same eyes),
 /// looking where the head looks, in scene coordinates.
 pub fn views_of(state: &FrameState) -> Vec<FrameView> {
@@ -35,8 +44,10 @@ pub fn views_of(state: &FrameState) -> Vec<FrameView> {
         return Vec::new();
     };
     let nav = DMat4::from_cols_array(&state.navigation);
-    let head = glam::Quat::from_array(state.head.orientation).as_dquat();
-    let look = nav.transform_vector3(head * DVec3::NEG_Z).as_vec3();
+    let look = gaze(
+        &nav,
+        glam::Quat::from_array(state.head.orientation).as_dquat(),
+    );
     wall.eyes
         .iter()
         .map(|e| FrameView {

@@ -16,7 +16,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use clap::{Args, ValueEnum};
 use glam::{DMat4, Quat, Vec3};
 use holocave_cave::{Cave, Eye, Wall, load_cave};
-use holocave_glare::session::FrameView;
+use holocave_glare::session::{FrameView, gaze};
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
@@ -283,9 +283,7 @@ fn glare_views(
     views: &[EyeView],
     room_to_scene: &DMat4,
 ) -> Vec<FrameView> {
-    let look = (room_to_scene.transform_vector3((pose.orientation * Vec3::NEG_Z).as_dvec3()))
-        .as_vec3()
-        .normalize_or_zero();
+    let look = gaze(room_to_scene, pose.orientation.as_dquat());
     eyes.iter()
         .zip(views)
         .map(|(e, v)| FrameView {

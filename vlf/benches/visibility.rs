@@ -127,7 +127,7 @@ fn ball_scene(dir: &Path, rings: u32, segments: u32, movable: bool) -> (Arc<Scen
 }
 
 /// A moving object's cost by its triangles: the wall's 1024 × 768 visibility on all cores
-/// with a ball of 48 to 260 k triangles (a fifth of the pixels see it) in the static scene,
+/// with a ball of 48 to 260 k triangles (about 9 % of the pixels see it) in the static scene,
 /// against the same ball as a moving object (its own BVH walked under its placement).
 fn objects_by_triangles(c: &mut Criterion) {
     let dir = tempfile::tempdir().expect("a scratch folder");
