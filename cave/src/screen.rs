@@ -7,6 +7,8 @@
 use glam::{DVec3, Vec2, Vec3};
 use holocave_scene::{NamedCamera, Ray};
 
+use crate::size::Size;
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WallView {
     pub eye: Vec3,
@@ -18,6 +20,11 @@ pub struct WallView {
 }
 
 impl WallView {
+    /// Its image's size.
+    pub fn size(&self) -> Size {
+        Size::new(self.width, self.height)
+    }
+
     /// Whether `other` is an image on the same screen (corners and pixels), whatever
     /// eye it is seen from.
     pub fn same_screen(&self, other: &WallView) -> bool {
@@ -27,15 +34,15 @@ impl WallView {
 
     /// The view of a scene's camera, its screen one metre in front of it and of the image's
     /// aspect.
-    pub fn through_camera(cam: &NamedCamera, width: u32, height: u32) -> Self {
-        let [pa, pb, pc] = cam.screen(width as f32 / height as f32);
+    pub fn through_camera(cam: &NamedCamera, size: Size) -> Self {
+        let [pa, pb, pc] = cam.screen(size.aspect());
         WallView {
             eye: cam.position,
             pa,
             pb,
             pc,
-            width,
-            height,
+            width: size.width,
+            height: size.height,
         }
     }
 

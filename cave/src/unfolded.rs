@@ -4,6 +4,8 @@
 //! go in a row below. One layout for the mosaics `sim` writes and for the windows
 //! `sim --window` opens.
 
+use crate::size::Size;
+
 /// Where one wall's image goes in the unfolded CAVE, in pixels from the top-left corner.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Place {
@@ -24,62 +26,64 @@ pub struct Unfolded {
 
 const ROOM: [&str; 4] = ["front", "left", "right", "floor"];
 
-/// Lays out walls whose images are `(name, (width, height))`; a room wall that is not
-/// there takes no room.
-pub fn unfold(walls: &[(String, (u32, u32))]) -> Unfolded {
+/// Lays out walls whose images are `(name, size)`; a room wall that is not there takes no
+/// room.
+pub fn unfold(walls: &[(String, Size)]) -> Unfolded {
     let get = |n: &str| {
         walls
             .iter()
             .find(|(w, _)| w == n)
-            .map_or((0, 0), |(_, s)| *s)
+            .map_or(Size::new(0, 0), |(_, s)| *s)
     };
     let (front, left, right, floor) = (get("front"), get("left"), get("right"), get("floor"));
     // Walls stand on the floor: their bottom edges on the top of the floor row.
-    let top = left.1.max(front.1).max(right.1);
-    let middle = front.0.max(floor.0);
-    let others: Vec<&(String, (u32, u32))> = walls
+    let top = left.height.max(front.height).max(right.height);
+    let middle = front.width.max(floor.width);
+    let others: Vec<&(String, Size)> = walls
         .iter()
         .filter(|(w, _)| !ROOM.contains(&w.as_str()))
         .collect();
-    let others_width: u32 = others.iter().map(|(_, s)| s.0).sum();
-    let others_height = others.iter().map(|(_, s)| s.1).max().unwrap_or(0);
+    let others_width: u32 = others.iter().map(|(_, s)| s.width).sum();
+    let others_height = others.iter().map(|(_, s)| s.height).max().unwrap_or(0);
     let places = walls
         .iter()
-        .map(|(name, (w, h))| {
+        .map(|(name, size)| {
+            let h = size.height;
             let (x, y) = match name.as_str() {
                 "left" => (0, top - h),
-                "front" => (left.0, top - h),
-                "right" => (left.0 + middle, top - h),
-                "floor" => (left.0, top),
+                "front" => (left.width, top - h),
+                "right" => (left.width + middle, top - h),
+                "floor" => (left.width, top),
                 _ => {
                     let before = others
                         .iter()
                         .take_while(|(o, _)| o != name)
-                        .map(|(_, s)| s.0)
+                        .map(|(_, s)| s.width)
                         .sum();
-                    (before, top + floor.1)
+                    (before, top + floor.height)
                 }
             };
             Place {
                 wall: name.clone(),
                 x,
                 y,
-                width: *w,
-                height: *h,
+                width: size.width,
+                height: h,
             }
         })
         .collect();
     Unfolded {
-        width: (left.0 + middle + right.0).max(others_width),
-        height: top + floor.1 + others_height,
+        width: (left.width + middle + right.width).max(others_width),
+        height: top + floor.height + others_height,
         places,
     }
 }
 
 impl Unfolded {
-    /// The layout scaled by the largest factor that fits `(width, height)` (every place at
-    /// least one pixel).
-    pub fn fit(&self, (width, height): (u32, u32)) -> Vec<Place> {
+    /// The layout scaled by the largest factor that fits `screen` (every place at least one
+    /// pixel).
+    pub fn fit(&self, screen: Size) -> Vec<Place> {
+        let Size { width, height } = screen;
         let zoom = (f64::from(width) / f64::from(self.width.max(1)))
             .min(f64::from(height) / f64::from(self.height.max(1)));
         let z = |v: u32| (f64::from(v) * zoom).floor() as u32;
@@ -105,8 +109,10 @@ impl Unfolded {
 mod tests {
     use super::*;
 
-    fn walls(list: &[(&str, (u32, u32))]) -> Vec<(String, (u32, u32))> {
-        list.iter().map(|(n, s)| (n.to_string(), *s)).collect()
+    fn walls(list: &[(&str, (u32, u32))]) -> Vec<(String, Size)> {
+        list.iter()
+            .map(|(n, (w, h))| (n.to_string(), Size::new(*w, *h)))
+            .collect()
     }
 
     #[test]
@@ -155,7 +161,7 @@ mod tests {
             ("floor", (128, 128)),
         ]));
         // 384 x 224 eye pixels; 1280 / 384 = 3.33 < 1024 / 224 = 4.57.
-        let placed = u.fit((1280, 1024));
+        let placed = u.fit(Size::new(1280, 1024));
         let at = |n: &str| placed.iter().find(|p| p.wall == n).unwrap().clone();
         let p = at("left");
         assert_eq!((p.x, p.y, p.width, p.height), (0, 0, 426, 320));

@@ -9,6 +9,7 @@ use holocave_tracking::params::TrackingParams;
 use holocave_tracking::source::SourceSpec;
 
 use crate::config::{CaveFile, ClusterConfig, RigidTransform, StereoMode};
+use crate::size::Size;
 
 /// Closest an eye may come to a wall's plane (m) before its frustum is a fault, and the
 /// margin (×10) the room's inside point must keep from every wall.
@@ -45,7 +46,7 @@ pub struct Wall {
     pub normal: DVec3,
     pub width: f64,
     pub height: f64,
-    pub pixels: [u32; 2],
+    pub pixels: Size,
     pub stereo: StereoMode,
     pub node: String,
     /// Where and how the wall is shown when its node opens windows.
@@ -59,7 +60,7 @@ impl Wall {
     pub fn new(
         name: &str,
         [pa, pb, pc]: [DVec3; 3],
-        pixels: [u32; 2],
+        pixels: Size,
         stereo: StereoMode,
         node: &str,
     ) -> Wall {
@@ -301,7 +302,7 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
         let mut wall = Wall::new(
             &w.name,
             [pa, pb, pc],
-            [w.pixels[0].max(0) as u32, w.pixels[1].max(0) as u32],
+            Size::new(w.pixels[0].max(0) as u32, w.pixels[1].max(0) as u32),
             w.stereo,
             &w.node,
         );
@@ -407,8 +408,8 @@ mod tests {
             );
             assert!(w.distance(DVec3::new(0.0, 1.5, 0.0)) > 1.4);
         }
-        assert_eq!(cave.walls[0].pixels, [1024, 768]);
-        assert_eq!(cave.walls[3].pixels, [1024, 1024]);
+        assert_eq!(cave.walls[0].pixels, Size::new(1024, 768));
+        assert_eq!(cave.walls[3].pixels, Size::new(1024, 1024));
         assert_eq!(cave.walls[0].normal, DVec3::Z);
         assert_eq!(cave.walls[3].normal, DVec3::Y);
         assert_eq!(cave.ipd, 0.064);
@@ -425,7 +426,10 @@ mod tests {
         assert_eq!(front[0].layout, Layout::SideBySide);
         assert!(front[0].squeezed);
         assert_eq!(front[0].fullscreen, Fullscreen::Borderless);
-        assert_eq!(front[0].window_size((1024, 768)), (1024, 768));
+        assert_eq!(
+            front[0].window_size(Size::new(1024, 768)),
+            Size::new(1024, 768)
+        );
         assert!(cave.walls[2].windows[0].flip_x);
         let floor = &cave.walls[3].windows;
         assert_eq!(

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::StereoMode;
 use crate::frustum::Eye;
+use crate::size::Size;
 
 /// Largest window side or position (pixels) a config may ask for.
 pub const MAX_WINDOW_PIXELS: i64 = 16_384;
@@ -170,7 +171,7 @@ impl PresentMode {
 pub struct WindowSettings {
     pub monitor: Option<Monitor>,
     pub position: Option<[i32; 2]>,
-    pub size: Option<[u32; 2]>,
+    pub size: Option<Size>,
     pub fullscreen: Fullscreen,
     pub layout: Layout,
     pub squeezed: bool,
@@ -207,13 +208,13 @@ impl WindowSettings {
     /// The window's size for eye images of `eye` pixels: the configured size, or what
     /// the layout needs to show every eye pixel once (twice the width side by side,
     /// twice the height top-bottom, unless squeezed).
-    pub fn window_size(&self, eye: (u32, u32)) -> (u32, u32) {
-        if let Some([w, h]) = self.size {
-            return (w, h);
+    pub fn window_size(&self, eye: Size) -> Size {
+        if let Some(size) = self.size {
+            return size;
         }
         match (self.layout, self.squeezed) {
-            (Layout::SideBySide, false) => (eye.0 * 2, eye.1),
-            (Layout::TopBottom, false) => (eye.0, eye.1 * 2),
+            (Layout::SideBySide, false) => Size::new(eye.width * 2, eye.height),
+            (Layout::TopBottom, false) => Size::new(eye.width, eye.height * 2),
             _ => eye,
         }
     }
@@ -226,7 +227,7 @@ impl WindowSettings {
             Some(Monitor::Name(n)) => format!("monitor {n:?}"),
         };
         match self.size {
-            Some([w, h]) => s += &format!(", {w}x{h}"),
+            Some(size) => s += &format!(", {size}"),
             None => s += ", size from the layout",
         }
         if let Some([x, y]) = self.position {
@@ -314,7 +315,7 @@ fn check_window(
                 "{at}.size: [{width}, {height}] must be 1 to {MAX_WINDOW_PIXELS} pixels each way"
             ));
         } else {
-            s.size = Some([width as u32, height as u32]);
+            s.size = Some(Size::new(width as u32, height as u32));
         }
     }
     s.fullscreen = match w.fullscreen.as_deref() {
@@ -416,14 +417,14 @@ mod tests {
         assert_eq!(s.len(), 2);
         assert_eq!(s[0].monitor, Some(Monitor::Name("DP-1".into())));
         assert_eq!(s[0].position, Some([10, -20]));
-        assert_eq!(s[0].window_size((4, 3)), (1024, 768));
+        assert_eq!(s[0].window_size(Size::new(4, 3)), Size::new(1024, 768));
         assert_eq!(s[0].fullscreen, Fullscreen::Borderless);
         assert_eq!(s[0].layout, Layout::TopBottom);
         assert!(s[0].squeezed && s[0].swap_eyes && s[0].flip_x && !s[0].flip_y);
         assert_eq!(s[0].present_mode, PresentMode::Mailbox);
         assert_eq!(s[1].monitor, Some(Monitor::Index(1)));
         assert_eq!(s[1].layout, Layout::Right);
-        assert_eq!(s[1].window_size((4, 3)), (4, 3));
+        assert_eq!(s[1].window_size(Size::new(4, 3)), Size::new(4, 3));
         assert!(!s[1].cursor);
     }
 
@@ -432,7 +433,7 @@ mod tests {
         let mut p = Vec::new();
         let s = check_windows("w", StereoMode::Pair, &[], &mut p);
         assert_eq!(s, vec![WindowSettings::with_layout(Layout::SideBySide)]);
-        assert_eq!(s[0].window_size((4, 3)), (8, 3));
+        assert_eq!(s[0].window_size(Size::new(4, 3)), Size::new(8, 3));
         let s = check_windows("w", StereoMode::Mono, &[], &mut p);
         assert_eq!(s[0].layout, Layout::Mono);
         assert!(p.is_empty());

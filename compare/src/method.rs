@@ -64,12 +64,16 @@ impl Method {
     pub fn needs_vlf(self) -> bool {
         matches!(self, Method::Vlf | Method::VlfHolodeck | Method::VlfGather)
     }
+}
 
-    /// A method by its name; the error lists the names.
-    pub fn parse(s: &str) -> Result<Method, String> {
+/// A method by its name; the error lists the names.
+impl std::str::FromStr for Method {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Method, String> {
         Method::ALL
             .into_iter()
-            .find(|m| m.name() == s)
+            .find(|m| m.name() == s.trim())
             .ok_or_else(|| {
                 let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
                 format!("{s:?} is not a method (methods: {})", names.join(", "))
@@ -271,9 +275,9 @@ mod tests {
     #[test]
     fn methods_parse_by_name_and_a_wrong_one_lists_them() {
         for m in Method::ALL {
-            assert_eq!(Method::parse(m.name()), Ok(m));
+            assert_eq!(m.name().parse(), Ok(m));
         }
-        let e = Method::parse("vlf-alone").unwrap_err();
+        let e = "vlf-alone".parse::<Method>().unwrap_err();
         assert!(
             e.contains("trace, accumulate, cache, holodeck, vlf, vlf+holodeck, vlf+gather"),
             "{e}"

@@ -25,6 +25,7 @@ use holocave_tracking::Pose;
 use crate::method::{Drawer, Method, spp_for};
 use crate::reference::References;
 use crate::report::{self, Row, Summary};
+use holocave_cave::Size;
 
 /// Why a comparison could not run.
 #[derive(Debug, thiserror::Error)]
@@ -88,7 +89,7 @@ pub struct Settings {
     /// Measure every `every`-th frame (and the last).
     pub every: u64,
     /// Each eye's image size.
-    pub size: (u32, u32),
+    pub size: Size,
     /// Paths per pixel of the references.
     pub reference_spp: u32,
     /// Output folder.
@@ -137,7 +138,7 @@ pub struct Outcome {
 impl Compare<'_> {
     /// Each frame's eye views for the head poses (one pose per frame); a frame whose eye
     /// faults keeps the last good views.
-    fn views(&self, poses: &[Pose], size: (u32, u32)) -> Result<Vec<Vec<EyeView>>, CompareError> {
+    fn views(&self, poses: &[Pose], size: Size) -> Result<Vec<Vec<EyeView>>, CompareError> {
         let eyes = Eye::for_mode(self.wall.stereo);
         let mut out: Vec<Vec<EyeView>> = Vec::with_capacity(poses.len());
         let mut faults = 0;
@@ -170,7 +171,7 @@ impl Compare<'_> {
     /// A method's drawer, its state fresh.
     fn drawer(&self, method: Method, s: &Settings, eyes: usize) -> Result<Drawer, CompareError> {
         let tracer = Arc::new(Tracer::new(self.scene.clone(), TraceSettings::default()));
-        let spp = spp_for(s.budget, s.size.0, s.size.1);
+        let spp = spp_for(s.budget, s.size.width, s.size.height);
         let builder = DisplayBuilder::new(s.size, eyes, s.budget, tracer.clone());
         Ok(match method {
             Method::Trace => Drawer::Trace { tracer, spp },

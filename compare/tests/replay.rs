@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::Quat;
+use holocave_cave::Size;
 use holocave_cave::{Cave, load_cave};
 use holocave_compare::{Compare, Method, Settings};
 use holocave_scene::{LoadOptions, Scene};
@@ -65,7 +66,7 @@ fn settings(
     }
 }
 
-const SIZE: (u32, u32) = (16, 12);
+const SIZE: Size = Size::new(16, 12);
 
 #[test]
 fn trace_at_the_references_budget_reaches_its_reference_and_every_file_is_written() {
@@ -74,7 +75,7 @@ fn trace_at_the_references_budget_reaches_its_reference_and_every_file_is_writte
     let dir = tempfile::tempdir().unwrap();
     const REFERENCE_SPP: u32 = 64;
     // The references' own budget: every pixel gets as many paths as a reference's.
-    let budget = SIZE.0 * SIZE.1 * REFERENCE_SPP;
+    let budget = SIZE.width * SIZE.height * REFERENCE_SPP;
     let settings = settings(vec![Method::Trace], budget, 2, REFERENCE_SPP, dir.path());
     let poses = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 5];
     let outcome = compare.run(&settings, &poses, &mut |_, _, _| {}).unwrap();
@@ -142,7 +143,7 @@ fn a_trace_outside_the_cave_and_an_empty_method_list_are_named() {
     let (cave, compare) = (&cornell.cave, cornell.front());
     let dir = tempfile::tempdir().unwrap();
     let mut settings = Settings {
-        size: (8, 8),
+        size: Size::new(8, 8),
         ..settings(vec![], 64, 1, 4, dir.path())
     };
     let inside = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 3];
@@ -174,7 +175,7 @@ fn the_holodeck_traces_the_budget_of_every_frame() {
     let dir = tempfile::tempdir().unwrap();
     // One path per pixel and eye.
     let methods = vec![Method::Trace, Method::Holodeck];
-    let settings = settings(methods, SIZE.0 * SIZE.1, 4, 4, dir.path());
+    let settings = settings(methods, SIZE.width * SIZE.height, 4, 4, dir.path());
     // The head walks 2 cm a frame (0.6 m/s) across the CAVE: new views every frame.
     let poses: Vec<Pose> = (0..12)
         .map(|f| {
@@ -219,7 +220,7 @@ fn the_cache_spends_a_budget_of_several_paths_per_pixel() {
     let (cave, compare) = (&cornell.cave, cornell.front());
     let dir = tempfile::tempdir().unwrap();
     let methods = vec![Method::Trace, Method::Cache];
-    let settings = settings(methods, 4 * SIZE.0 * SIZE.1, 4, 4, dir.path());
+    let settings = settings(methods, 4 * SIZE.width * SIZE.height, 4, 4, dir.path());
     let poses = vec![Pose::new(cave.inside.as_vec3(), Quat::IDENTITY); 5];
     let outcome = compare.run(&settings, &poses, &mut |_, _, _| {}).unwrap();
     let grant = 2 * u64::from(settings.budget);

@@ -4,6 +4,7 @@
 //! from each eye; each frame chooses 1/16 of the pixels per eye. Per-step figures come from
 //! submitting each step alone and waiting for it, so they include one submit and wait each.
 
+use holocave_cave::Size;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -39,7 +40,12 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32, vlf: bool) {
     let adapter = gpu.adapter.clone();
     let n = w * h;
     let budget = n / 16;
-    let mut cache = RenderCache::new(gpu, &[(w, h), (w, h)], 2 * n * 5 / 4, budget * 2);
+    let mut cache = RenderCache::new(
+        gpu,
+        &[Size::new(w, h), Size::new(w, h)],
+        2 * n * 5 / 4,
+        budget * 2,
+    );
     let vs = views(w, h);
     if vlf {
         let (count, lookups) = room_lookups(&vs);
@@ -100,7 +106,11 @@ fn bench_size(c: &mut Criterion, w: u32, h: u32, vlf: bool) {
 
 fn display(c: &mut Criterion) {
     bench_size(c, 512, 512, false);
-    for (w, h) in common::sizes(&[(1024, 768)]) {
+    for Size {
+        width: w,
+        height: h,
+    } in common::sizes(&[Size::new(1024, 768)])
+    {
         bench_size(c, w, h, false);
         bench_size(c, w, h, true);
     }

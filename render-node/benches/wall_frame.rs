@@ -6,6 +6,7 @@
 //! where there is no GPU). The render cache's passes at these sizes
 //! are `benches/display.rs`; a wall's frame is the two together.
 
+use holocave_cave::Size;
 use std::sync::Arc;
 
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -64,7 +65,11 @@ fn bench(c: &mut Criterion) {
         let base = VlfBase::open(&file, scene.clone())
             .and_then(|b| b.with_rays(&gpu, rays))
             .expect("open the light field");
-        for (w, h) in common::sizes(&[(128, 96), (1024, 768)]) {
+        for Size {
+            width: w,
+            height: h,
+        } in common::sizes(&[Size::new(128, 96), Size::new(1024, 768)])
+        {
             let views = views(w, h);
             let mut g = c.benchmark_group(format!("wall_frame/{w}x{h}"));
             g.sample_size(10);

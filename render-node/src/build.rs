@@ -12,6 +12,7 @@ use crate::vlf::DEFAULT_PRIOR_SAMPLES;
 use crate::{
     Gpu, HolodeckSource, PixelTracer, Prior, RenderCache, RenderNodeError, VlfBase, WallDisplay,
 };
+use holocave_cave::Size;
 
 /// Where a display's samples come from.
 pub enum Feed {
@@ -35,7 +36,7 @@ pub struct LightField {
 #[derive(Clone)]
 pub struct DisplayBuilder {
     /// Pixels per eye.
-    pub size: (u32, u32),
+    pub size: Size,
     pub eyes: usize,
     /// Samples asked for per eye and frame.
     pub samples: u32,
@@ -57,7 +58,7 @@ pub struct DisplayBuilder {
 impl DisplayBuilder {
     /// Displays of `eyes` eyes at `size` pixels asking for `samples` per eye and frame, one
     /// path per sample, seed 1, no light field, on a new device.
-    pub fn new(size: (u32, u32), eyes: usize, samples: u32, tracer: Arc<Tracer>) -> Self {
+    pub fn new(size: Size, eyes: usize, samples: u32, tracer: Arc<Tracer>) -> Self {
         DisplayBuilder {
             size,
             eyes,

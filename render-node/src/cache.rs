@@ -20,6 +20,7 @@ use holocave_tracer::film::Image;
 
 use crate::gpu::Gpu;
 use crate::{EyeView, RenderNodeError};
+use holocave_cave::Size;
 use holocave_vlf::Lookup;
 
 #[path = "shaders/age.rs"]
@@ -351,19 +352,19 @@ impl RenderCache {
     /// The cache a wall's node uses: `eyes` images of `size`, room for every pixel of every
     /// eye and a quarter more (points off screen survive a head turn), and up to twice the
     /// `samples` an eye asks for per frame chosen.
-    pub fn for_wall(gpu: Gpu, size: (u32, u32), eyes: usize, samples: u32) -> RenderCache {
-        let capacity = size.0 * size.1 * eyes as u32 * 5 / 4;
+    pub fn for_wall(gpu: Gpu, size: Size, eyes: usize, samples: u32) -> RenderCache {
+        let capacity = size.width * size.height * eyes as u32 * 5 / 4;
         RenderCache::new(gpu, &vec![size; eyes], capacity, samples.saturating_mul(2))
     }
 
     /// Samples an eye asks for per frame unless told: a sixteenth of its pixels.
-    pub fn default_samples(size: (u32, u32)) -> u32 {
-        (size.0 * size.1 / 16).max(1)
+    pub fn default_samples(size: Size) -> u32 {
+        (size.width * size.height / 16).max(1)
     }
 
     /// A cache of `capacity` points (rounded up to whole groups) for eyes of the given
     /// sizes; at most `max_chosen` pixels are chosen per eye and frame.
-    pub fn new(gpu: Gpu, eyes: &[(u32, u32)], capacity: u32, max_chosen: u32) -> RenderCache {
+    pub fn new(gpu: Gpu, eyes: &[Size], capacity: u32, max_chosen: u32) -> RenderCache {
         let ngroups = capacity.div_ceil(GROUP_SIZE).max(1);
         let capacity = ngroups * GROUP_SIZE;
         let max_chosen = max_chosen.max(1);
@@ -404,7 +405,7 @@ impl RenderCache {
 
         let eyes: Vec<EyeBuffers> = eyes
             .iter()
-            .map(|&(width, height)| {
+            .map(|&Size { width, height }| {
                 let n = u64::from(width) * u64::from(height);
                 let params = gpu.uniform("eye params", std::mem::size_of::<EyeParams>() as u64);
                 let depth = gpu.storage("depth", 4 * n);
@@ -651,8 +652,8 @@ impl RenderCache {
         self.eyes.len()
     }
 
-    pub fn eye_size(&self, eye: usize) -> (u32, u32) {
-        (self.eyes[eye].width, self.eyes[eye].height)
+    pub fn eye_size(&self, eye: usize) -> Size {
+        Size::new(self.eyes[eye].width, self.eyes[eye].height)
     }
 
     /// Draws every eye from the cache, chooses the pixels each eye should sample next
@@ -926,7 +927,7 @@ fn exactly(chosen: &mut Vec<u32>, target: u32, pixels: u32, taken: &mut Vec<bool
 #[cfg(test)]
 mod tests {
     use super::exactly;
-    use super::{Lookup, RenderCache};
+    use super::{Lookup, RenderCache, Size};
     use crate::gpu::Gpu;
 
     /// The light field's values split over the four buffers (here 300 floats each, a
@@ -937,7 +938,7 @@ mod tests {
     fn values_split_over_buffers_read_as_one() {
         let gpu = Gpu::new().expect("a GPU adapter (lavapipe without a GPU)");
         let (w, h) = (20u32, 19u32);
-        let mut cache = RenderCache::new(gpu, &[(w, h)], 64, 64);
+        let mut cache = RenderCache::new(gpu, &[Size::new(w, h)], 64, 64);
         let values: Vec<[f32; 3]> = (0..380).map(|i| [i as f32, 0.5 * i as f32, 1.0]).collect();
         cache.set_vlf_split(&values, 0.0, 300).unwrap();
         let lookups: Vec<Lookup> = (0..w * h)

@@ -15,6 +15,7 @@ use holocave_protocol::handshake::{self, Role, Welcome};
 use holocave_protocol::session::Sealer;
 
 use crate::{EyeView, WallDisplay};
+use holocave_cave::Size;
 
 /// How long the handshake may take.
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(2);
@@ -163,7 +164,7 @@ impl MasterLink {
 
 /// The eye views of `wall` in a frame state, at `size` pixels; `None` if the state has no
 /// such wall (a master with another config).
-pub fn eye_views(state: &FrameState, wall: &Wall, size: (u32, u32)) -> Option<Vec<EyeView>> {
+pub fn eye_views(state: &FrameState, wall: &Wall, size: Size) -> Option<Vec<EyeView>> {
     let w = state.wall(&wall.name)?;
     let nav = DMat4::from_cols_array(&state.navigation);
     Some(
@@ -249,7 +250,7 @@ pub fn follow(
     link: &mut MasterLink,
     display: &mut WallDisplay,
     wall: &Wall,
-    size: (u32, u32),
+    size: Size,
     slow_by: Duration,
     counters: &mut NodeCounters,
     present: &mut dyn Presentation,

@@ -21,6 +21,7 @@ use crate::{
     DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderNodeError, VlfBase,
     VlfDrawing, WallDisplay,
 };
+use holocave_cave::Size;
 
 /// Pause between attempts to reach the master.
 const RETRY: Duration = Duration::from_millis(100);
@@ -128,7 +129,7 @@ impl DisplayMaker {
     pub fn new(
         member: &Membership,
         display_id: u32,
-        size: (u32, u32),
+        size: Size,
         samples: u32,
         tracer: Arc<Tracer>,
     ) -> DisplayMaker {
@@ -189,7 +190,7 @@ impl DisplayMaker {
     }
 
     /// Pixels per eye.
-    pub fn size(&self) -> (u32, u32) {
+    pub fn size(&self) -> Size {
         self.builder.size
     }
 

@@ -27,17 +27,17 @@ pub fn cave_mosaic(layout: &Unfolded, images: &[(&str, &RgbImage)]) -> RgbImage 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use holocave_cave::unfold;
+    use holocave_cave::{Size, unfold};
 
     #[test]
     fn each_image_lands_on_its_place_and_a_missing_one_leaves_it_grey() {
         let solid = |w, h, v| RgbImage::from_pixel(w, h, Rgb([v, v, v]));
         let layout = unfold(
             &[
-                ("front", (4, 3)),
-                ("left", (4, 3)),
-                ("right", (4, 3)),
-                ("floor", (4, 4)),
+                ("front", Size::new(4, 3)),
+                ("left", Size::new(4, 3)),
+                ("right", Size::new(4, 3)),
+                ("floor", Size::new(4, 4)),
             ]
             .map(|(n, s)| (n.to_owned(), s)),
         );

@@ -16,6 +16,7 @@ use holocave_cave::{Eye, PresentMode, WindowSettings};
 
 use crate::gpu::Gpu;
 use crate::tonemap::ToneCurve;
+use holocave_cave::Size;
 
 #[path = "shaders/luminance.rs"]
 mod luminance;
@@ -43,9 +44,9 @@ impl SharedSize {
             .store((u64::from(w) << 32) | u64::from(h), Ordering::Release);
     }
 
-    pub fn get(&self) -> (u32, u32) {
+    pub fn get(&self) -> Size {
         let v = self.0.load(Ordering::Acquire);
-        ((v >> 32) as u32, v as u32)
+        Size::new((v >> 32) as u32, v as u32)
     }
 }
 
@@ -100,7 +101,7 @@ pub struct Presenter {
     /// Reconfigure before the next acquire (suboptimal texture).
     stale: bool,
     /// The window size the surface was last configured for.
-    requested: (u32, u32),
+    requested: Size,
     pub times: PresentTimes,
 }
 
@@ -153,7 +154,13 @@ impl Presenter {
             wgpu::PresentMode::Fifo
         };
         let requested = size.get();
-        let (w, h) = fit(gpu, requested.0.max(1), requested.1.max(1));
+        let Size {
+            width: w,
+            height: h,
+        } = fit(
+            gpu,
+            Size::new(requested.width.max(1), requested.height.max(1)),
+        );
         let config = wgpu::SurfaceConfiguration {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
             format,
@@ -191,15 +198,16 @@ impl Presenter {
     }
 
     /// The surface's size now.
-    pub fn surface_size(&self) -> (u32, u32) {
-        (self.config.width, self.config.height)
+    pub fn surface_size(&self) -> Size {
+        Size::new(self.config.width, self.config.height)
     }
 
     fn reconfigure(&mut self) {
-        let (w, h) = self.size.get();
-        if w > 0 && h > 0 {
-            (self.config.width, self.config.height) = fit(&self.gpu, w, h);
-            self.requested = (w, h);
+        let requested = self.size.get();
+        if requested.area() > 0 {
+            let fitted = fit(&self.gpu, requested);
+            (self.config.width, self.config.height) = (fitted.width, fitted.height);
+            self.requested = requested;
         }
         self.surface.configure(&self.gpu.device, &self.config);
         self.stale = false;
@@ -221,16 +229,16 @@ impl Presenter {
     pub fn prepare(
         &mut self,
         eyes: [&wgpu::Buffer; 2],
-        eye_size: (u32, u32),
+        eye_size: Size,
         curve: Option<&ToneCurve>,
     ) -> Prepared {
         self.abandon();
-        let (w, h) = self.size.get();
-        if w == 0 || h == 0 {
+        let size = self.size.get();
+        if size.area() == 0 {
             self.times.skipped += 1;
             return Prepared::Skipped(Skip::Empty);
         }
-        if self.stale || (w, h) != self.requested {
+        if self.stale || size != self.requested {
             self.reconfigure();
         }
         let t = Instant::now();
@@ -273,7 +281,7 @@ impl Presenter {
             &self.gpu,
             &mut enc,
             &view,
-            (self.config.width, self.config.height),
+            self.surface_size(),
             &self.settings,
             eyes,
             eye_size,
@@ -309,7 +317,13 @@ impl Presenter {
 
 /// A window size the device can present: larger sides are clamped to its largest texture
 /// (the picture then covers part of the window; configuring larger would be an error).
-fn fit(gpu: &Gpu, w: u32, h: u32) -> (u32, u32) {
+fn fit(
+    gpu: &Gpu,
+    Size {
+        width: w,
+        height: h,
+    }: Size,
+) -> Size {
     let max = gpu.device.limits().max_texture_dimension_2d;
     if w > max || h > max {
         tracing::warn!(
@@ -318,7 +332,7 @@ fn fit(gpu: &Gpu, w: u32, h: u32) -> (u32, u32) {
             h.min(max)
         );
     }
-    (w.min(max), h.min(max))
+    Size::new(w.min(max), h.min(max))
 }
 
 /// The cache's eye indices of the layout's first and second eye (the same twice for a

@@ -19,6 +19,7 @@ use holocave_tracking::Pose;
 use crate::{
     DisplayBuilder, EyeView, Feed, HolodeckOptions, HolodeckSource, RenderNodeError, WallDisplay,
 };
+use holocave_cave::Size;
 
 /// The holodeck a standalone wall draws from, served in its own process.
 pub struct OwnHolodeck<'a> {
@@ -134,7 +135,7 @@ pub fn run(
     display: &mut WallDisplay,
     cave: &Cave,
     wall: &Wall,
-    size: (u32, u32),
+    size: Size,
     schedule: Schedule,
     head: &mut dyn FnMut(u64) -> Pose,
     objects: Option<&ObjectPaths>,

@@ -3,6 +3,7 @@
 //! is always the CAVE's (`holocave_cave::frustum`); this only carries it to the GPU.
 
 use glam::{DMat4, DVec3, Mat4, Vec3};
+use holocave_cave::Size;
 use holocave_cave::WallView;
 use holocave_cave::{Frustum, FrustumFault, Wall, config::StereoMode, off_axis};
 use holocave_protocol::cluster::EyeState;
@@ -21,7 +22,7 @@ pub struct EyeView {
 impl EyeView {
     /// The view of `wall` through an eye's frustum, with the room placed in the scene by
     /// `room_to_scene`, drawn at `size` pixels.
-    pub fn new(frustum: &Frustum, wall: &Wall, room_to_scene: &DMat4, size: (u32, u32)) -> Self {
+    pub fn new(frustum: &Frustum, wall: &Wall, room_to_scene: &DMat4, size: Size) -> Self {
         EyeView {
             view_proj: frustum.view_proj().as_mat4(),
             near: frustum.near as f32,
@@ -36,7 +37,7 @@ impl EyeView {
 
     /// The view of `wall` as a frame state sends it (matrices already made by the master,
     /// the eye in scene coordinates, the room placed by `navigation`).
-    pub fn from_state(eye: &EyeState, wall: &Wall, navigation: &DMat4, size: (u32, u32)) -> Self {
+    pub fn from_state(eye: &EyeState, wall: &Wall, navigation: &DMat4, size: Size) -> Self {
         EyeView {
             view_proj: (DMat4::from_cols_array(&eye.proj) * DMat4::from_cols_array(&eye.view))
                 .as_mat4(),
@@ -52,7 +53,7 @@ impl EyeView {
         let screen = Wall::new(
             "screen",
             [wall.pa, wall.pb, wall.pc].map(Vec3::as_dvec3),
-            [wall.width, wall.height],
+            wall.size(),
             StereoMode::Mono,
             "",
         );
@@ -62,12 +63,7 @@ impl EyeView {
             f64::from(near),
             &DMat4::IDENTITY,
         )?;
-        Ok(EyeView::new(
-            &f,
-            &screen,
-            &DMat4::IDENTITY,
-            (wall.width, wall.height),
-        ))
+        Ok(EyeView::new(&f, &screen, &DMat4::IDENTITY, wall.size()))
     }
 
     pub fn eye(&self) -> Vec3 {
@@ -90,15 +86,15 @@ impl EyeView {
 }
 
 /// The pixel rays of `wall` seen from `eye` (scene coordinates).
-fn wall_view(wall: &Wall, room_to_scene: &DMat4, eye: DVec3, size: (u32, u32)) -> WallView {
+fn wall_view(wall: &Wall, room_to_scene: &DMat4, eye: DVec3, size: Size) -> WallView {
     let scene = |p: DVec3| room_to_scene.transform_point3(p).as_vec3();
     WallView {
         eye: eye.as_vec3(),
         pa: scene(wall.pa),
         pb: scene(wall.pb),
         pc: scene(wall.pc),
-        width: size.0,
-        height: size.1,
+        width: size.width,
+        height: size.height,
     }
 }
 

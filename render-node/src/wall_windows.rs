@@ -3,6 +3,7 @@
 //! (drawn, waited for) before the node says Ready and shown on the master's Swap, and each
 //! present's time logged; and the skew between walls, read back from those logs.
 
+use holocave_cave::Size;
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -177,7 +178,10 @@ impl<'a> WindowOutput<'a> {
                 self.vision.push(VisionPass::new(gpu));
             }
             for (eye, view) in display.views.iter().enumerate() {
-                let (w, h) = display.cache.eye_size(eye);
+                let Size {
+                    width: w,
+                    height: h,
+                } = display.cache.eye_size(eye);
                 let fovea = Fovea::new(w, h, &wall_directions(&view.wall));
                 self.vision[eye].run(
                     gpu,
@@ -199,7 +203,10 @@ impl<'a> WindowOutput<'a> {
             }
         };
         // The histogram made on the GPU: the frame itself is never read back.
-        let (w, h) = display.cache.eye_size(0);
+        let Size {
+            width: w,
+            height: h,
+        } = display.cache.eye_size(0);
         let hist = self
             .histogrammer
             .histogram(gpu, buffer(0), w * h, self.tone.efficacy);
@@ -269,7 +276,10 @@ impl<'a> WindowOutput<'a> {
             let t = &p.times;
             let n = t.prepared.max(1) as f64;
             let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
-            let (w, h) = p.surface_size();
+            let Size {
+                width: w,
+                height: h,
+            } = p.surface_size();
             s += &format!(
                 "window {k} ({w}x{h}, {}): {} frames drawn, {} shown, {} skipped, {} abandoned; per frame: acquire {:.2} ms, draw + wait {:.2} ms, present {:.2} ms\n",
                 p.settings.layout.name(),

@@ -25,6 +25,7 @@ use winit::window::{Window, WindowId};
 use crate::desk::{DeskFeed, DeskKeys, control_of};
 use crate::present::{Presenter, SharedSize};
 use crate::{Gpu, RenderNodeError};
+use holocave_cave::Size;
 
 /// One window to open.
 #[derive(Clone, Debug)]
@@ -33,7 +34,7 @@ pub struct WindowSpec {
     pub title: String,
     pub settings: WindowSettings,
     /// Its size in pixels (the settings' size, or what the layout needs).
-    pub size: (u32, u32),
+    pub size: Size,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -325,7 +326,10 @@ fn create_window(
         .transpose()?;
     let mut attrs = Window::default_attributes()
         .with_title(spec.title.clone())
-        .with_inner_size(PhysicalSize::new(spec.size.0.max(1), spec.size.1.max(1)));
+        .with_inner_size(PhysicalSize::new(
+            spec.size.width.max(1),
+            spec.size.height.max(1),
+        ));
     let origin = monitor
         .as_ref()
         .map_or(PhysicalPosition::new(0, 0), MonitorHandle::position);
@@ -358,7 +362,7 @@ fn create_window(
             // The mode of the window's size at the highest refresh rate.
             let mode = modes
                 .iter()
-                .filter(|v| (v.size().width, v.size().height) == spec.size)
+                .filter(|v| Size::new(v.size().width, v.size().height) == spec.size)
                 .max_by_key(|v| v.refresh_rate_millihertz())
                 .cloned()
                 .ok_or_else(|| {
@@ -370,8 +374,8 @@ fn create_window(
                     WindowError::Monitor(format!(
                         "window {:?}: exclusive fullscreen at {}x{}, but monitor {:?} has no such video mode (it has {})",
                         spec.title,
-                        spec.size.0,
-                        spec.size.1,
+                        spec.size.width,
+                        spec.size.height,
                         m.name().unwrap_or_default(),
                         if sizes.is_empty() { "none".to_owned() } else { sizes.join(", ") }
                     ))

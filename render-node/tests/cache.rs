@@ -1,6 +1,7 @@
 //! The render cache's steps on a tiny image, checked pixel by pixel.
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
+use holocave_cave::Size;
 use holocave_cave::WallView;
 use holocave_render_node::cache::{GpuPoint, ObjectMove, Seen, ShadowLight, surface_id};
 use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
@@ -26,7 +27,7 @@ fn view(eye: Vec3) -> EyeView {
 
 fn cache(capacity: u32) -> RenderCache {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
-    RenderCache::new(gpu, &[(W, H)], capacity, 64)
+    RenderCache::new(gpu, &[Size::new(W, H)], capacity, 64)
 }
 
 /// A sample for pixel (x, y) of `v` at distance `d` along its centre ray.
@@ -182,7 +183,7 @@ fn replacement_takes_the_oldest_point_of_a_group() {
 fn dithering_chooses_about_the_budget_and_empty_pixels_first() {
     let v = view(Vec3::new(0.0, 1.0, 1.0));
     let gpu = Gpu::new().expect("a wgpu adapter");
-    let mut c = RenderCache::new(gpu, &[(64, 64)], 8192, 4096);
+    let mut c = RenderCache::new(gpu, &[Size::new(64, 64)], 8192, 4096);
     let v64 = EyeView::looking_at(
         WallView {
             width: 64,

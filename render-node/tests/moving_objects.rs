@@ -4,6 +4,7 @@
 //! it shadowed are dropped with it, so the floor where its shadow was shows lit at once,
 //! not a ghost of the shadow fading as new samples come.
 
+use holocave_cave::Size;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -46,7 +47,7 @@ fn floor_view() -> EyeView {
 /// cache's samples show almost alone).
 fn display(scene: &Arc<Scene>, base: &Arc<VlfBase>) -> WallDisplay {
     let tracer = Arc::new(Tracer::new(scene.clone(), TraceSettings::default()));
-    let mut b = DisplayBuilder::new((SIZE, SIZE), 1, SIZE * SIZE, tracer);
+    let mut b = DisplayBuilder::new(Size::new(SIZE, SIZE), 1, SIZE * SIZE, tracer);
     b.light_field = Some(LightField {
         base: base.clone(),
         prior: Prior::Samples(1.0),

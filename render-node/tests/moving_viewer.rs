@@ -9,6 +9,7 @@
 
 mod common;
 
+use holocave_cave::Size;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -137,7 +138,12 @@ fn follow_a_recorded_trace(run: u64) -> Option<Vec<(f64, f64)>> {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let n = SIZE * SIZE;
     let budget = n / 16;
-    let cache = RenderCache::new(gpu, &[(SIZE, SIZE), (SIZE, SIZE)], 2 * n * 5 / 4, budget);
+    let cache = RenderCache::new(
+        gpu,
+        &[Size::new(SIZE, SIZE), Size::new(SIZE, SIZE)],
+        2 * n * 5 / 4,
+        budget,
+    );
     let mut display = WallDisplay::new(cache, PixelTracer::new(tracer.clone(), 3 + run), budget);
 
     let mut next = 0usize;

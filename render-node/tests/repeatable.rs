@@ -12,6 +12,7 @@
 
 mod common;
 
+use holocave_cave::Size;
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -32,7 +33,12 @@ fn run(tracer: &Arc<Tracer>) -> Run {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let n = SIZE * SIZE;
     let budget = n / 16;
-    let cache = RenderCache::new(gpu, &[(SIZE, SIZE), (SIZE, SIZE)], n * 2, budget);
+    let cache = RenderCache::new(
+        gpu,
+        &[Size::new(SIZE, SIZE), Size::new(SIZE, SIZE)],
+        n * 2,
+        budget,
+    );
     let mut display = WallDisplay::new(cache, PixelTracer::new(tracer.clone(), 11), budget);
     let mut chosen = Vec::new();
     for frame in 0..FRAMES {

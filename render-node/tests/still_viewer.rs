@@ -7,6 +7,7 @@
 
 mod common;
 
+use holocave_cave::Size;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -36,7 +37,7 @@ fn still_viewer_converges_to_the_path_traced_reference() {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     eprintln!("adapter: {}", gpu.adapter);
     let n = SIZE * SIZE;
-    let cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n + n / 4, n);
+    let cache = RenderCache::new(gpu, &[Size::new(SIZE, SIZE)], n + n / 4, n);
     let mut display = WallDisplay::new(cache, PixelTracer::new(tracer, 1), n);
     let view = EyeView::looking_at(wall, 0.05).unwrap();
 

@@ -4,6 +4,7 @@
 
 mod common;
 
+use holocave_cave::Size;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -30,7 +31,7 @@ fn frames_do_not_wait_for_the_tracer() {
     let view = EyeView::looking_at(common::front_wall(common::EYE, size), 0.05).unwrap();
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let n = size * size;
-    let cache = RenderCache::new(gpu, &[(size, size)], n * 2, n);
+    let cache = RenderCache::new(gpu, &[Size::new(size, size)], n * 2, n);
     let mut display = WallDisplay::threaded(cache, PixelTracer::new(tracer, 5), n);
 
     let start = Instant::now();

@@ -4,6 +4,7 @@
 
 mod common;
 
+use holocave_cave::Size;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -76,7 +77,7 @@ fn the_gpu_lookup_equals_the_cpu_lookup() {
         }
 
         let n = size * size;
-        let mut cache = RenderCache::new(gpu.clone(), &[(size, size)], n, n);
+        let mut cache = RenderCache::new(gpu.clone(), &[Size::new(size, size)], n, n);
         cache.set_vlf(base.values(), 64.0).unwrap();
         cache.set_lookups(0, &lookups);
         let image = cache.vlf_image(0).expect("a light field is set");
@@ -137,7 +138,7 @@ fn a_cold_start_shows_the_light_field_and_a_still_viewer_converges() {
     let n = SIZE * SIZE;
     let base = Arc::new(base);
     let display_of = |samples: u32| {
-        let cache = RenderCache::new(gpu.clone(), &[(SIZE, SIZE)], n + n / 4, n);
+        let cache = RenderCache::new(gpu.clone(), &[Size::new(SIZE, SIZE)], n + n / 4, n);
         WallDisplay::new(cache, PixelTracer::new(tracer.clone(), 1), samples)
             .with_vlf(
                 base.clone(),
@@ -399,7 +400,7 @@ fn shadow_rays_made_on_the_gpu_draw_the_cpus_walls() {
         .unwrap();
     assert!(cpu.direct_per_pixel() && on_gpu.rays_on_gpu());
     let cam = scene.cameras.first().expect("the room's camera");
-    let view = EyeView::looking_at(WallView::through_camera(cam, 80, 60), 0.05).unwrap();
+    let view = EyeView::looking_at(WallView::through_camera(cam, Size::new(80, 60)), 0.05).unwrap();
     for frame in 0..3 {
         let a = shade(&cpu.lookups(0, &view), cpu.values());
         let b = shade(&on_gpu.lookups(0, &view), on_gpu.values());
@@ -429,7 +430,8 @@ fn shadow_rays_made_on_the_gpu_draw_the_cpus_walls() {
 fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let room = Arc::new(common::room::room_with_punctual_lights());
-    let room_view = WallView::through_camera(room.cameras.first().expect("a camera"), 64, 48);
+    let room_view =
+        WallView::through_camera(room.cameras.first().expect("a camera"), Size::new(64, 48));
     for (name, scene, wall) in [
         ("room", room, room_view),
         ("cornell", cornell(), wall(48)),
@@ -446,7 +448,7 @@ fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
         let (on_cpu, on_gpu) = (open(), open());
         let view = EyeView::looking_at(wall, 0.05).unwrap();
         let n = wall.width * wall.height;
-        let mut cache = RenderCache::new(gpu.clone(), &[(wall.width, wall.height)], n, n);
+        let mut cache = RenderCache::new(gpu.clone(), &[wall.size()], n, n);
         cache.set_vlf(on_gpu.values(), 64.0).unwrap();
         for frame in 0..2 {
             let cpu = on_cpu.lookups(0, &view);
@@ -490,7 +492,7 @@ fn lookups_drawn_into_a_cache_on_another_device_are_sent_whole() {
         .with_rays(&rays_gpu, Rays::Gpu)
         .unwrap();
     let view = EyeView::looking_at(wall(32), 0.05).unwrap();
-    let mut cache = RenderCache::new(cache_gpu.clone(), &[(32, 32)], 1024, 1024);
+    let mut cache = RenderCache::new(cache_gpu.clone(), &[Size::new(32, 32)], 1024, 1024);
     cache.set_vlf(base.values(), 64.0).unwrap();
     base.draw_lookups(0, &view, &mut cache);
     let buffer = cache.lookups_buffer(0).expect("a light field is set");
@@ -567,7 +569,7 @@ fn gathers_kept_in_the_field_show_from_another_eye() {
     );
 
     let n = SIZE * SIZE;
-    let mut cache = RenderCache::new(gpu, &[(SIZE, SIZE)], n, n);
+    let mut cache = RenderCache::new(gpu, &[Size::new(SIZE, SIZE)], n, n);
     cache.set_vlf(base.values(), 64.0).unwrap();
     cache.update_vlf_values(&kept, &changed);
     cache.set_lookups(0, &lookups);

@@ -38,8 +38,8 @@ pub fn run(cmd: CaveCommand) -> Result<()> {
             w.node,
             w.width,
             w.height,
-            w.pixels[0],
-            w.pixels[1],
+            w.pixels.width,
+            w.pixels.height,
             format!("{:?}", w.stereo).to_lowercase(),
             w.normal.x,
             w.normal.y,
@@ -50,9 +50,9 @@ pub fn run(cmd: CaveCommand) -> Result<()> {
     println!("\nwindows (holocave node --window):");
     for w in &cave.walls {
         for (k, win) in w.windows.iter().enumerate() {
-            let (x, y) = win.window_size((w.pixels[0], w.pixels[1]));
+            let shown = win.window_size(w.pixels);
             println!(
-                "{:<9} window {k}: {} ({x}x{y} at the wall's pixels)",
+                "{:<9} window {k}: {} ({shown} at the wall's pixels)",
                 w.name,
                 win.describe()
             );

@@ -17,6 +17,7 @@ use holocave_tracking::Pose;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::master::open_head;
+use holocave_cave::Size;
 
 #[derive(Args)]
 pub struct CompareArgs {
@@ -52,7 +53,7 @@ pub struct CompareArgs {
         default_value = "trace,accumulate,cache,holodeck,vlf,vlf+holodeck,vlf+gather",
         value_delimiter = ','
     )]
-    pub methods: Vec<String>,
+    pub methods: Vec<Method>,
     /// The light field of the vlf methods (default: DIR/<scene>.vlf, baked with default
     /// settings for the scene as compared — scaled and moved — when missing).
     #[arg(long)]
@@ -73,8 +74,8 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = 15)]
     pub every: u64,
     /// Each eye's image size, WxH (default: an eighth of the wall's pixels).
-    #[arg(long, value_parser = super::parse::size)]
-    pub size: Option<(u32, u32)>,
+    #[arg(long)]
+    pub size: Option<Size>,
     /// Paths per pixel of the converged references.
     #[arg(long, default_value_t = 1024)]
     pub reference_spp: u32,
@@ -94,13 +95,7 @@ pub struct CompareArgs {
 }
 
 pub fn run(args: CompareArgs) -> Result<()> {
-    let methods = args
-        .methods
-        .iter()
-        .filter(|m| !m.trim().is_empty())
-        .map(|m| Method::parse(m.trim()).map_err(anyhow::Error::msg))
-        .collect::<Result<Vec<_>>>()
-        .context("--methods")?;
+    let methods = args.methods.clone();
     if methods.is_empty() {
         bail!(
             "--methods: no methods given (trace, accumulate, cache, holodeck, vlf, vlf+holodeck, vlf+gather)"
@@ -193,13 +188,11 @@ fn compare_wall(
     out: PathBuf,
 ) -> Result<()> {
     let frames = poses.len() as u64;
-    let size = args
-        .size
-        .unwrap_or(((wall.pixels[0] / 8).max(8), (wall.pixels[1] / 8).max(8)));
+    let size = args.size.unwrap_or(wall.pixels.scaled(0.125, 8));
     let settings = Settings {
         methods: methods.to_vec(),
         fps: args.fps,
-        budget: args.budget.unwrap_or(size.0 * size.1),
+        budget: args.budget.unwrap_or(size.width * size.height),
         every: args.every.max(1),
         size,
         reference_spp: args.reference_spp.max(1),
@@ -222,8 +215,8 @@ fn compare_wall(
             .join(", "),
         wall.name,
         args.fps,
-        size.0,
-        size.1,
+        size.width,
+        size.height,
         settings.budget,
         settings.reference_spp
     );

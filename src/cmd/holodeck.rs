@@ -20,6 +20,7 @@ use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::view::{ViewOptions, reconstruct};
 
 use super::view::ViewFlags;
+use holocave_cave::Size;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
 
@@ -84,8 +85,8 @@ pub struct ViewArgs {
     #[command(flatten)]
     pub view: ViewFlags,
     /// Image size WxH in pixels.
-    #[arg(long, default_value = "256x256", value_parser = super::parse::size)]
-    pub size: (u32, u32),
+    #[arg(long, default_value = "256x256")]
+    pub size: Size,
     /// Largest angle in degrees between a sample's ray and the eye's line of sight to it.
     #[arg(long, default_value_t = 10.0)]
     pub max_angle: f64,

@@ -37,6 +37,7 @@ use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
 
 use super::master::open_head;
+use holocave_cave::Size;
 
 /// How a node's images are tone-mapped.
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -187,8 +188,8 @@ pub struct NodeArgs {
     #[arg(long)]
     pub(crate) seconds: Option<f64>,
     /// Image size per eye, WxH (default: the wall's pixels).
-    #[arg(long, value_parser = super::parse::size)]
-    pub(crate) size: Option<(u32, u32)>,
+    #[arg(long)]
+    pub(crate) size: Option<Size>,
     /// Samples traced per eye and frame (default: a sixteenth of the pixels).
     #[arg(long)]
     pub(crate) samples: Option<u32>,
@@ -229,7 +230,7 @@ pub fn run(args: NodeArgs) -> Result<()> {
     // `--layout` and `--window-*` for this run; a standalone wall keeps its own eyes when
     // they include the layout's.
     let wall = args.window.wall_for_run(&wall, args.master.is_none())?;
-    let size = args.size.unwrap_or((wall.pixels[0], wall.pixels[1]));
+    let size = args.size.unwrap_or(wall.pixels);
     let samples = args
         .samples
         .unwrap_or_else(|| RenderCache::default_samples(size));
@@ -315,7 +316,7 @@ fn standalone(
     args: &NodeArgs,
     cave: &Cave,
     wall: &Wall,
-    size: (u32, u32),
+    size: Size,
     samples: u32,
     windows: Option<Windows>,
 ) -> Result<()> {
@@ -415,8 +416,8 @@ fn standalone(
         "wall {:?}: {} eye(s) at {}x{}, {} points, {samples} samples per eye and frame, GPU {}",
         wall.name,
         eyes.len(),
-        size.0,
-        size.1,
+        size.width,
+        size.height,
         display.cache.capacity(),
         display.cache.gpu().adapter
     );
@@ -551,7 +552,7 @@ fn in_cluster(
     cave: Cave,
     wall: Wall,
     display_id: u32,
-    size: (u32, u32),
+    size: Size,
     samples: u32,
     windows: Option<Windows>,
 ) -> Result<()> {

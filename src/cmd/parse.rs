@@ -80,21 +80,6 @@ pub fn screen(s: &str) -> Result<[Vec3; 3], String> {
     Ok([pa, pb, pc])
 }
 
-/// `WxH`: an image size in pixels, both positive, at most 2^28 pixels.
-pub fn size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once('x')
-        .ok_or_else(|| format!("{s:?}: expected WxH"))?;
-    let w: u32 = w.parse().map_err(|e| format!("{s:?}: {e}"))?;
-    let h: u32 = h.parse().map_err(|e| format!("{s:?}: {e}"))?;
-    if w == 0 || h == 0 || u64::from(w) * u64::from(h) > 1 << 28 {
-        return Err(format!(
-            "{s:?}: size must be positive and at most 2^28 pixels"
-        ));
-    }
-    Ok((w, h))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -117,10 +102,6 @@ mod tests {
                 .unwrap_err()
                 .contains("rectangle")
         );
-        assert_eq!(size("64x48").unwrap(), (64, 48));
-        assert!(size("64").unwrap_err().contains("WxH"));
-        assert!(size("0x48").unwrap_err().contains("positive"));
-        assert!(size("65536x65536").unwrap_err().contains("2^28"));
         assert_eq!(aabb("0,0,0,1,2,3").unwrap()[1], DVec3::new(1.0, 2.0, 3.0));
         assert!(
             aabb("0,0,0,1,2")

@@ -7,6 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 
 use super::view::ViewFlags;
+use holocave_cave::Size;
 use holocave_scene::{LoadOptions, ObjectPaths, Placement, Scene};
 use holocave_tracer::render::render;
 use holocave_tracer::{TraceSettings, Tracer};
@@ -20,8 +21,8 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub view: ViewFlags,
     /// Image size WxH in pixels.
-    #[arg(long, default_value = "512x512", value_parser = super::parse::size)]
-    pub size: (u32, u32),
+    #[arg(long, default_value = "512x512")]
+    pub size: Size,
     /// Path samples per pixel.
     #[arg(long, default_value_t = 64)]
     pub spp: u32,
@@ -147,7 +148,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         scene.with_objects_at(&args.objects.placements(&scene)?)?
     };
     let efficacy = scene.daylight.photometry.efficacy;
-    let (width, height) = args.size;
+    let Size { width, height } = args.size;
     let view = args.view.view(Some((&scene, &args.scene)), args.size)?;
     let tracer = Tracer::new(Arc::new(scene), TraceSettings::default());
     let bar = ProgressBar::new(u64::from(height)).with_style(

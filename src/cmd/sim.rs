@@ -197,13 +197,12 @@ pub fn run(mut args: SimArgs) -> Result<()> {
                 .push(Watched::spawn(format!("worker {i}"), &mut command)?);
         }
     }
-    let size = |p: u32| ((f64::from(p) * args.scale).round() as u32).max(8);
     // One layout of the unfolded CAVE for the windows and the mosaics.
     let unfolded = unfold(
         &cave
             .walls
             .iter()
-            .map(|w| (w.name.clone(), (size(w.pixels[0]), size(w.pixels[1]))))
+            .map(|w| (w.name.clone(), w.pixels.scaled(args.scale, 8)))
             .collect::<Vec<_>>(),
     );
     let placed = unfolded.fit(args.windows.desktop);
@@ -232,7 +231,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .args(["--tone", args.tone.name()])
             .args([
                 "--size",
-                &format!("{}x{}", size(wall.pixels[0]), size(wall.pixels[1])),
+                &wall.pixels.scaled(args.scale, 8).to_string(),
                 "--every",
                 &args.every.to_string(),
             ])

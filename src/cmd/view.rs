@@ -13,6 +13,7 @@ use holocave_scene::Scene;
 use holocave_tracer::film::Image;
 
 use super::node::Tone;
+use holocave_cave::Size;
 
 /// Writes the PNG preview of `image` (drawn through `view`) to `png`: tone-mapped by
 /// `tone` (in human mode, seen from the view's eye) at the scene's `efficacy`, or the
@@ -52,13 +53,9 @@ pub struct ViewFlags {
 }
 
 impl ViewFlags {
-    /// The view the flags give at `width × height` pixels; `scene` (and the path naming it
+    /// The view the flags give at `size` pixels; `scene` (and the path naming it
     /// in errors) is needed for `--camera` only.
-    pub fn view(
-        &self,
-        scene: Option<(&Scene, &Path)>,
-        (width, height): (u32, u32),
-    ) -> Result<WallView> {
+    pub fn view(&self, scene: Option<(&Scene, &Path)>, size: Size) -> Result<WallView> {
         match (&self.camera, self.eye, self.screen) {
             (Some(name), _, _) => {
                 let (scene, path) = scene.context("--camera needs --scene")?;
@@ -73,15 +70,15 @@ impl ViewFlags {
                             path.display()
                         )
                     })?;
-                Ok(WallView::through_camera(cam, width, height))
+                Ok(WallView::through_camera(cam, size))
             }
             (None, Some(eye), Some([pa, pb, pc])) => Ok(WallView {
                 eye,
                 pa,
                 pb,
                 pc,
-                width,
-                height,
+                width: size.width,
+                height: size.height,
             }),
             _ => bail!("give --eye and --screen, or --camera"),
         }

@@ -16,6 +16,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use super::render::load_scene;
 use super::view::ViewFlags;
+use holocave_cave::Size;
 
 #[derive(Subcommand)]
 pub enum VlfCommand {
@@ -91,8 +92,8 @@ pub struct ViewArgs {
     #[command(flatten)]
     pub view: ViewFlags,
     /// Image size WxH in pixels.
-    #[arg(long, default_value = "512x512", value_parser = super::parse::size)]
-    pub size: (u32, u32),
+    #[arg(long, default_value = "512x512")]
+    pub size: Size,
     /// Lookups per pixel along each axis (k × k, antialiasing).
     #[arg(long, default_value_t = 2)]
     pub aa: u32,

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use anyhow::{Result, bail};
 use clap::Args;
+use holocave_cave::Size;
 use holocave_cave::{Eye, Layout, Place, Wall, WindowSettings};
 use holocave_render_node::present::layout_eyes;
 use holocave_render_node::window::WindowSpec;
@@ -31,8 +32,8 @@ pub struct WindowArgs {
     #[arg(long, value_parser = parse_position)]
     pub window_pos: Option<[i32; 2]>,
     /// The (first) window's size, WxH pixels (default: what the layout needs).
-    #[arg(long, value_parser = super::parse::size)]
-    pub window_size: Option<(u32, u32)>,
+    #[arg(long)]
+    pub window_size: Option<Size>,
     /// Append each presented frame's number and present time (ns since the Unix epoch)
     /// to this file, one "FRAME NS" line per frame.
     #[arg(long)]
@@ -66,8 +67,8 @@ impl WindowArgs {
             if let Some(p) = self.window_pos {
                 first.position = Some(p);
             }
-            if let Some((w, h)) = self.window_size {
-                first.size = Some([w, h]);
+            if let Some(size) = self.window_size {
+                first.size = Some(size);
             }
         }
         for (k, w) in wall.windows.iter().enumerate() {
@@ -78,7 +79,7 @@ impl WindowArgs {
     }
 
     /// The windows of `wall` for eye images of `size`.
-    pub fn specs(&self, wall: &Wall, size: (u32, u32)) -> Vec<WindowSpec> {
+    pub fn specs(&self, wall: &Wall, size: Size) -> Vec<WindowSpec> {
         let n = wall.windows.len();
         wall.windows
             .iter()
@@ -99,7 +100,7 @@ impl WindowArgs {
 /// `holocave sim --window`: each wall's node opens its window, the windows laid out as the
 /// unfolded CAVE (left | front | right, the floor under the front wall; other walls in a
 /// row below) and scaled to fit the screen.
-#[derive(Args, Clone, Debug, Default)]
+#[derive(Args, Clone, Debug)]
 pub struct SimWindowArgs {
     /// Show every wall live in a window of its own (needs DISPLAY) instead of writing images.
     #[arg(long)]
@@ -108,8 +109,8 @@ pub struct SimWindowArgs {
     #[arg(long, value_parser = parse_layout)]
     pub layout: Option<Layout>,
     /// The desktop the windows are laid out to fit, WxH pixels.
-    #[arg(long, value_parser = super::parse::size, default_value = "1280x1024")]
-    pub desktop: (u32, u32),
+    #[arg(long, default_value = "1280x1024")]
+    pub desktop: Size,
 }
 
 impl SimWindowArgs {

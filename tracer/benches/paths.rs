@@ -5,6 +5,7 @@
 //! `cargo bench -p holocave-tracer --bench paths`; criterion reports elements/s, i.e.
 //! samples/s.
 
+use holocave_cave::Size;
 use std::hint::black_box;
 use std::path::Path;
 use std::sync::Arc;
@@ -30,7 +31,7 @@ fn paths(c: &mut Criterion) {
         eprintln!("paths bench: skipped: the Cornell box has no camera \"front\"");
         return;
     };
-    let view = WallView::through_camera(&cam, SIZE, SIZE);
+    let view = WallView::through_camera(&cam, Size::new(SIZE, SIZE));
     let rays: Vec<_> = (0..SIZE * SIZE)
         .map(|i| view.ray(Vec2::new((i % SIZE) as f32 + 0.5, (i / SIZE) as f32 + 0.5)))
         .collect();

@@ -31,6 +31,7 @@
 mod common;
 
 use glam::Vec3;
+use holocave_cave::Size;
 use holocave_cave::WallView;
 use holocave_tracer::render::render;
 
@@ -49,7 +50,7 @@ fn cornell_error_falls_like_one_over_sqrt_spp() {
         .find(|c| c.name == "front")
         .expect("the Cornell box has a camera named front")
         .clone();
-    let view = WallView::through_camera(&cam, 32, 32);
+    let view = WallView::through_camera(&cam, Size::new(32, 32));
     let tracer = common::tracer(scene);
     let (n, repeats) = (64u32, 16u64);
     let start = std::time::Instant::now();

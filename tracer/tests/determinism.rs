@@ -6,6 +6,7 @@ mod common;
 
 use common::*;
 use glam::Vec3;
+use holocave_cave::Size;
 use holocave_cave::WallView;
 use holocave_scene::Ray;
 use holocave_tracer::render::render;
@@ -84,7 +85,7 @@ fn parallel_trace_equals_serial_trace_bit_for_bit() {
 #[test]
 fn rendering_is_deterministic() {
     let scene = cornell();
-    let view = WallView::through_camera(&scene.cameras[0], 24, 16);
+    let view = WallView::through_camera(&scene.cameras[0], Size::new(24, 16));
     let tracer = tracer(scene);
     let a = render(&tracer, &view, 8, 7, &|| {});
     let pool = rayon::ThreadPoolBuilder::new()

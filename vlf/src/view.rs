@@ -1153,6 +1153,7 @@ pub fn shade(lookups: &[Lookup], values: &[[f32; 3]]) -> Vec<Vec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use holocave_cave::Size;
     use holocave_scene::LoadOptions;
 
     /// The packets give every pixel the lookup of its own centre's ray, at a size that is
@@ -1168,7 +1169,7 @@ mod tests {
         let scene = Arc::new(Scene::load(&path, &LoadOptions::default()).unwrap());
         let vis = Visibility::of(scene.clone(), &crate::Settings::default());
         let (w, h) = (37, 23);
-        let view = WallView::through_camera(&scene.cameras[0], w, h);
+        let view = WallView::through_camera(&scene.cameras[0], Size::new(w, h));
         let lookups = vis.pixels(&view);
         assert_eq!(lookups.len(), (w * h) as usize);
         for (i, l) in lookups.iter().enumerate() {

@@ -25,6 +25,7 @@
 
 mod common;
 
+use holocave_cave::Size;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
@@ -47,7 +48,7 @@ fn cornell() -> Arc<Scene> {
 
 fn front(scene: &Scene) -> WallView {
     let cam = scene.cameras.iter().find(|c| c.name == "front").unwrap();
-    WallView::through_camera(cam, SIZE, SIZE)
+    WallView::through_camera(cam, Size::new(SIZE, SIZE))
 }
 
 /// `relative_mse` over the pixels of `mask` only, as a share of the whole image's.

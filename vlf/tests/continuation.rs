@@ -3,6 +3,7 @@
 //! one by one, every further ray sent to the batch walk and none of a pixel that ends at
 //! its first hit.
 
+use holocave_cave::Size;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
@@ -36,7 +37,7 @@ fn rays_through_mirrors_and_glass_traced_in_batches_are_the_rays_followed_one_by
     let scene = Arc::new(Scene::load(&path, &LoadOptions::default()).unwrap());
     let vis = Visibility::of(scene.clone(), &Settings::default());
     let cam = scene.cameras.iter().find(|c| c.name == "front").unwrap();
-    let view = WallView::through_camera(cam, 96, 72);
+    let view = WallView::through_camera(cam, Size::new(96, 72));
     let (one_by_one, points) = vis.pixels_and_points(&view);
 
     let w = view.width as usize;

@@ -6,6 +6,7 @@
 
 mod common;
 
+use holocave_cave::Size;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -75,7 +76,7 @@ fn coarse_cornell() -> (Arc<Scene>, Visibility, PixelDirect, Vec<[f32; 3]>) {
 #[test]
 fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() {
     let (scene, vis, direct, indirect) = coarse_cornell();
-    let view = WallView::through_camera(&scene.cameras[0], SIZE, SIZE);
+    let view = WallView::through_camera(&scene.cameras[0], Size::new(SIZE, SIZE));
     let (reference, noise, _) = common::two_seed_reference(&scene, &view, 2048);
 
     // What a still wall shows of the field: 4 × 4 lookups per pixel, the direct light per
@@ -142,7 +143,7 @@ fn gathers_see_the_fields_error_after_a_bounce_with_far_less_noise_than_paths() 
 fn gathers_kept_in_the_elements_bring_another_view_to_the_gathers_error() {
     use holocave_vlf::kept_gathers::KeptGathers;
     let (scene, vis, direct, indirect) = coarse_cornell();
-    let seen_from = WallView::through_camera(&scene.cameras[0], SIZE, SIZE);
+    let seen_from = WallView::through_camera(&scene.cameras[0], Size::new(SIZE, SIZE));
     // The head 15 cm to the right and 5 cm down, the screen where it was.
     let moved = WallView {
         eye: seen_from.eye + Vec3::new(0.15, -0.05, 0.0),

@@ -1,6 +1,7 @@
 //! What the render node's benches share: the two eyes of a 3 m wall seen from 1.5 m.
 
 use glam::Vec3;
+use holocave_cave::Size;
 use holocave_cave::WallView;
 use holocave_render_node::EyeView;
 
@@ -27,12 +28,12 @@ pub fn views(w: u32, h: u32) -> Vec<EyeView> {
 
 /// The per-eye sizes a bench runs at: `defaults`, and the one in `HOLOCAVE_BENCH_WALL`
 /// (`WxH`, e.g. `1920x1200`: a projector's wall, for `benches/gpu_rays.sh` on a GPU).
-pub fn sizes(defaults: &[(u32, u32)]) -> Vec<(u32, u32)> {
+pub fn sizes(defaults: &[Size]) -> Vec<Size> {
     let mut out = defaults.to_vec();
     if let Ok(s) = std::env::var("HOLOCAVE_BENCH_WALL") {
-        match s.split_once('x').map(|(w, h)| (w.parse(), h.parse())) {
-            Some((Ok(w), Ok(h))) if w > 0 && h > 0 => out.push((w, h)),
-            _ => eprintln!("HOLOCAVE_BENCH_WALL={s:?} is not WxH; ignored"),
+        match s.parse() {
+            Ok(size) => out.push(size),
+            Err(e) => eprintln!("HOLOCAVE_BENCH_WALL: {e}; ignored"),
         }
     }
     out

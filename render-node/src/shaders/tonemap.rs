@@ -7,6 +7,7 @@ use holocave_cave::{Layout, WindowSettings};
 use crate::falsecolor::{FalseColor, Legend};
 use crate::gpu::{Gpu, with_common};
 use crate::tonemap::{TONE_BINS, ToneCurve};
+use holocave_cave::Size;
 
 /// The shader (compiled after `common.wgsl`, as the compute passes are).
 pub(crate) const SOURCE: &str = include_str!("tonemap.wgsl");
@@ -51,8 +52,8 @@ pub struct ScreenPass {
     /// The false-colour legend's pixels on the GPU, for the eye size and scale it was made
     /// for.
     legend: wgpu::Buffer,
-    legend_for: Option<((u32, u32), FalseColor)>,
-    legend_size: (u32, u32),
+    legend_for: Option<(Size, FalseColor)>,
+    legend_size: Size,
 }
 
 /// A legend's pixels as the shader reads them: `0x00BBGGRR` per pixel.
@@ -143,7 +144,7 @@ impl ScreenPass {
             srgb_target: format.is_srgb(),
             legend: gpu.storage("false-colour legend", 16),
             legend_for: None,
-            legend_size: (0, 0),
+            legend_size: Size::new(0, 0),
         }
     }
 
@@ -156,10 +157,10 @@ impl ScreenPass {
         gpu: &Gpu,
         enc: &mut wgpu::CommandEncoder,
         target: &wgpu::TextureView,
-        window: (u32, u32),
+        window: Size,
         settings: &WindowSettings,
         eyes: [&wgpu::Buffer; 2],
-        eye_size: (u32, u32),
+        eye_size: Size,
         curve: Option<&ToneCurve>,
     ) {
         let mut flags = 0;
@@ -173,8 +174,8 @@ impl ScreenPass {
             flags |= ENCODE_SRGB;
         }
         let mut screen = Screen {
-            window: [window.0, window.1],
-            eye_size: [eye_size.0, eye_size.1],
+            window: [window.width, window.height],
+            eye_size: [eye_size.width, eye_size.height],
             arrangement: match settings.layout {
                 Layout::Mono | Layout::Left | Layout::Right => 0,
                 Layout::SideBySide => 1,
@@ -201,8 +202,10 @@ impl ScreenPass {
             screen.fc_log_min = fc.log_min;
             screen.fc_decades = fc.decades;
             if self.legend_for != Some((eye_size, fc)) {
-                let legend = Legend::new(&fc, eye_size.0, eye_size.1);
-                self.legend_size = legend.as_ref().map_or((0, 0), |l| (l.width, l.height));
+                let legend = Legend::new(&fc, eye_size.width, eye_size.height);
+                self.legend_size = legend
+                    .as_ref()
+                    .map_or(Size::new(0, 0), |l| Size::new(l.width, l.height));
                 if let Some(l) = legend {
                     self.legend = gpu.storage_init(
                         "false-colour legend",
@@ -211,7 +214,7 @@ impl ScreenPass {
                 }
                 self.legend_for = Some((eye_size, fc));
             }
-            (screen.legend_w, screen.legend_h) = self.legend_size;
+            (screen.legend_w, screen.legend_h) = (self.legend_size.width, self.legend_size.height);
         }
         if let Some(c) = curve {
             screen.efficacy = c.efficacy;
@@ -362,30 +365,30 @@ mod tests {
     fn draw(
         gpu: &Gpu,
         format: wgpu::TextureFormat,
-        size: (u32, u32),
+        size: Size,
         settings: &WindowSettings,
         eyes: [&wgpu::Buffer; 2],
         curve: Option<&ToneCurve>,
     ) -> image::RgbImage {
-        draw_eyes(gpu, format, size, settings, eyes, (W, H), curve)
+        draw_eyes(gpu, format, size, settings, eyes, Size::new(W, H), curve)
     }
 
     /// [`draw`] of eyes of `eye_size` pixels.
     fn draw_eyes(
         gpu: &Gpu,
         format: wgpu::TextureFormat,
-        size: (u32, u32),
+        size: Size,
         settings: &WindowSettings,
         eyes: [&wgpu::Buffer; 2],
-        eye_size: (u32, u32),
+        eye_size: Size,
         curve: Option<&ToneCurve>,
     ) -> image::RgbImage {
         let mut pass = ScreenPass::new(gpu, format);
         let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("offscreen"),
             size: wgpu::Extent3d {
-                width: size.0,
-                height: size.1,
+                width: size.width,
+                height: size.height,
                 depth_or_array_layers: 1,
             },
             mip_level_count: 1,
@@ -396,8 +399,8 @@ mod tests {
             view_formats: &[],
         });
         let view = texture.create_view(&Default::default());
-        let row = (size.0 * 4).div_ceil(256) * 256;
-        let staging = gpu.read_back_buffer("offscreen read-back", u64::from(row * size.1));
+        let row = (size.width * 4).div_ceil(256) * 256;
+        let staging = gpu.read_back_buffer("offscreen read-back", u64::from(row * size.height));
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         pass.draw(gpu, &mut enc, &view, size, settings, eyes, eye_size, curve);
         enc.copy_texture_to_buffer(
@@ -416,14 +419,14 @@ mod tests {
                 },
             },
             wgpu::Extent3d {
-                width: size.0,
-                height: size.1,
+                width: size.width,
+                height: size.height,
                 depth_or_array_layers: 1,
             },
         );
         gpu.queue.submit([enc.finish()]);
         let bytes = gpu.map_read(&staging);
-        image::RgbImage::from_fn(size.0, size.1, |x, y| {
+        image::RgbImage::from_fn(size.width, size.height, |x, y| {
             let o = (y * row + x * 4) as usize;
             image::Rgb([bytes[o], bytes[o + 1], bytes[o + 2]])
         })
@@ -441,14 +444,22 @@ mod tests {
     /// The CPU's picture of a layout: `ToneMapper::apply` of each eye, laid out, flipped.
     fn cpu_layout(
         settings: &WindowSettings,
-        size: (u32, u32),
+        size: Size,
         l: &image::RgbImage,
         r: &image::RgbImage,
     ) -> image::RgbImage {
         let (a, b) = if settings.swap_eyes { (r, l) } else { (l, r) };
-        image::RgbImage::from_fn(size.0, size.1, |x, y| {
-            let x = if settings.flip_x { size.0 - 1 - x } else { x };
-            let y = if settings.flip_y { size.1 - 1 - y } else { y };
+        image::RgbImage::from_fn(size.width, size.height, |x, y| {
+            let x = if settings.flip_x {
+                size.width - 1 - x
+            } else {
+                x
+            };
+            let y = if settings.flip_y {
+                size.height - 1 - y
+            } else {
+                y
+            };
             match settings.layout {
                 Layout::SideBySide if x < W => *a.get_pixel(x, y),
                 Layout::SideBySide => *b.get_pixel(x - W, y),
@@ -494,7 +505,7 @@ mod tests {
             cases.push(s);
         }
         for s in &cases {
-            let size = s.window_size((W, H));
+            let size = s.window_size(Size::new(W, H));
             let want = cpu_layout(s, size, &l8, &r8);
             for format in [
                 wgpu::TextureFormat::Rgba8Unorm,
@@ -525,7 +536,7 @@ mod tests {
         let got = draw(
             &gpu,
             wgpu::TextureFormat::Rgba8Unorm,
-            (W, H),
+            Size::new(W, H),
             &s,
             [&nb, &nb],
             Some(&curve),
@@ -534,7 +545,7 @@ mod tests {
         let black = draw(
             &gpu,
             wgpu::TextureFormat::Rgba8Unorm,
-            (W, H),
+            Size::new(W, H),
             &s,
             [&nb, &nb],
             None,
@@ -551,11 +562,11 @@ mod tests {
         let l8 = tone.apply(&left);
         let lb = upload(&gpu, &left);
         let mut s = WindowSettings::with_layout(Layout::Left);
-        s.size = Some([W * 3, H * 2]);
+        s.size = Some(Size::new(W * 3, H * 2));
         let got = draw(
             &gpu,
             wgpu::TextureFormat::Rgba8Unorm,
-            (W * 3, H * 2),
+            Size::new(W * 3, H * 2),
             &s,
             [&lb, &lb],
             tone.curve().as_ref(),
@@ -588,10 +599,10 @@ mod tests {
             let got = draw_eyes(
                 &gpu,
                 format,
-                (w, h),
+                Size::new(w, h),
                 &s,
                 [&buf, &buf],
-                (w, h),
+                Size::new(w, h),
                 tone.curve().as_ref(),
             );
             let d = max_diff(&got, &want);

@@ -3,6 +3,7 @@
 //! they are made on.
 #![allow(dead_code)]
 
+use holocave_cave::Size;
 use std::path::Path;
 
 use glam::Vec2;
@@ -44,5 +45,5 @@ pub fn ray_sets(scene: &Scene, view: &WallView) -> RaySets {
 /// The view through `scene`'s first camera at `width` × `height`.
 pub fn camera_view(scene: &Scene, width: u32, height: u32) -> WallView {
     let cam = scene.cameras.first().expect("the scene has a camera");
-    WallView::through_camera(cam, width, height)
+    WallView::through_camera(cam, Size::new(width, height))
 }
