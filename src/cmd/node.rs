@@ -24,6 +24,7 @@ use holocave_protocol::cluster::FrameState;
 use holocave_render_node::Prior;
 use holocave_render_node::cluster_node::{self, DisplayMaker, Membership, VlfOptions};
 use holocave_render_node::gpu_rays::Rays;
+use holocave_render_node::holodeck::HolodeckCounts;
 use holocave_render_node::output::{PresentedLog, eye_name, write_frame};
 use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWall};
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
@@ -320,17 +321,7 @@ fn standalone(
     samples: u32,
     windows: Option<Windows>,
 ) -> Result<()> {
-    if args.frames.is_none() && args.seconds.is_none() {
-        bail!("say when to stop: --frames N or --seconds S");
-    }
-    if args.holodeck.is_none() && (args.threads.is_some() || args.listen.is_some()) {
-        bail!("--threads and --listen are for the holodeck's server: give --holodeck H.hdk");
-    }
-    if args.holodeck.is_some() && args.sync {
-        tracing::warn!(
-            "--sync is ignored with --holodeck: samples arrive as the workers trace them"
-        );
-    }
+    check_standalone_flags(args)?;
     let eyes = Eye::for_mode(wall.stereo);
     let (scene, tracer) = load_tracer(&args.scene, args.daylight.clone())?;
     let objects = args
@@ -343,25 +334,7 @@ fn standalone(
             "the scene's moving objects are drawn over a light field only: give --vlf to see them"
         );
     }
-    // The replay clock: frame k shows the head at k / fps after the first sample.
-    let mut head = match args.still {
-        Some(_) => None,
-        None => Some(open_head(
-            cave,
-            args.tracker.as_deref(),
-            Clock::Replay,
-            args.prediction,
-            args.recenter,
-        )?),
-    };
-    let mut pose_at = |ns: u64| match (&mut head, args.still) {
-        (Some(h), _) => {
-            h.advance(ns);
-            h.pose_at(ns).0
-        }
-        (None, p) => Pose::new(p.unwrap_or(Vec3::ZERO), Quat::IDENTITY),
-    };
-
+    let mut pose_at = replayed_head(args, cave)?;
     let gpu = match &windows {
         Some(w) => w.screens.gpu.clone(),
         None => Gpu::new()?,
@@ -369,38 +342,8 @@ fn standalone(
     let mut builder = DisplayBuilder::new(size, eyes.len(), samples, tracer);
     builder.gpu = Some(gpu.clone());
     builder.gather = args.gather;
-    if let Some(path) = &args.vlf {
-        builder.light_field = Some(LightField {
-            base: Arc::new(VlfBase::for_wall(
-                path,
-                scene.clone(),
-                vlf_drawing(args),
-                Some(&gpu),
-            )?),
-            prior: args.vlf_prior,
-        });
-    }
-    let port = args
-        .listen
-        .as_ref()
-        .map(|a| {
-            let listener = TcpListener::bind(a).with_context(|| format!("--listen {a}"))?;
-            let credentials = super::credentials::of_cave(cave, &args.config)?;
-            anyhow::Ok(Port {
-                listener,
-                credentials,
-            })
-        })
-        .transpose()?;
-    let own = args.holodeck.as_deref().map(|path| OwnHolodeck {
-        path,
-        scene_path: &args.scene,
-        threads: args.threads.unwrap_or_else(|| {
-            std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-        }),
-        port,
-        stop: super::interrupt::ctrl_c_flag(),
-    });
+    builder.light_field = light_field(args, &scene, &gpu)?;
+    let own = own_holodeck(args, cave)?;
     let StandaloneWall {
         mut display,
         holodeck,
@@ -503,19 +446,107 @@ fn standalone(
     };
     drop(display);
     if let (Some(running), Some(path)) = (holodeck, &args.holodeck) {
-        let server = running.stop()?;
-        let s = server.stats();
-        let c = holo_counts.unwrap_or_default();
-        println!(
-            "{}: {} samples received ({} used, {} passing near an eye), {} traced and added by this run, {} in the holodeck",
-            path.display(),
-            c.received,
-            c.used,
-            c.near,
-            s.added,
-            s.samples
+        stop_own_holodeck(running, path, holo_counts.unwrap_or_default())?;
+    }
+    print_standalone_times(args, &totals, &dir);
+    Ok(())
+}
+
+/// `--vlf`'s light field as this node draws it, with its prior.
+fn light_field(args: &NodeArgs, scene: &Arc<Scene>, gpu: &Gpu) -> Result<Option<LightField>> {
+    let Some(path) = &args.vlf else {
+        return Ok(None);
+    };
+    let base = VlfBase::for_wall(path, scene.clone(), vlf_drawing(args), Some(gpu))?;
+    Ok(Some(LightField {
+        base: Arc::new(base),
+        prior: args.vlf_prior,
+    }))
+}
+
+/// The flags a standalone node needs together, checked before anything is opened.
+fn check_standalone_flags(args: &NodeArgs) -> Result<()> {
+    if args.frames.is_none() && args.seconds.is_none() {
+        bail!("say when to stop: --frames N or --seconds S");
+    }
+    if args.holodeck.is_none() && (args.threads.is_some() || args.listen.is_some()) {
+        bail!("--threads and --listen are for the holodeck's server: give --holodeck H.hdk");
+    }
+    if args.holodeck.is_some() && args.sync {
+        tracing::warn!(
+            "--sync is ignored with --holodeck: samples arrive as the workers trace them"
         );
     }
+    Ok(())
+}
+
+/// The head pose at a frame's time on the replay clock (frame k shows the head at k / fps
+/// after the tracker's first sample), or `--still`'s pose.
+fn replayed_head<'a>(args: &NodeArgs, cave: &'a Cave) -> Result<impl FnMut(u64) -> Pose + 'a> {
+    let still = args.still;
+    let mut head = match still {
+        Some(_) => None,
+        None => Some(open_head(
+            cave,
+            args.tracker.as_deref(),
+            Clock::Replay,
+            args.prediction,
+            args.recenter,
+        )?),
+    };
+    Ok(move |ns: u64| match &mut head {
+        Some(h) => {
+            h.advance(ns);
+            h.pose_at(ns).0
+        }
+        None => Pose::new(still.unwrap_or(Vec3::ZERO), Quat::IDENTITY),
+    })
+}
+
+/// The holodeck a standalone node opens itself (`--holodeck`), with its tracer threads
+/// and, with `--listen`, a port for TCP workers and displays.
+fn own_holodeck<'a>(args: &'a NodeArgs, cave: &Cave) -> Result<Option<OwnHolodeck<'a>>> {
+    let port = args
+        .listen
+        .as_ref()
+        .map(|a| {
+            let listener = TcpListener::bind(a).with_context(|| format!("--listen {a}"))?;
+            let credentials = super::credentials::of_cave(cave, &args.config)?;
+            anyhow::Ok(Port {
+                listener,
+                credentials,
+            })
+        })
+        .transpose()?;
+    Ok(args.holodeck.as_deref().map(|path| OwnHolodeck {
+        path,
+        scene_path: &args.scene,
+        threads: args.threads.unwrap_or_else(|| {
+            std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+        }),
+        port,
+        stop: super::interrupt::ctrl_c_flag(),
+    }))
+}
+
+/// Stops the node's own holodeck and says what this run received and added.
+fn stop_own_holodeck(running: Running, path: &Path, c: HolodeckCounts) -> Result<()> {
+    let server = running.stop()?;
+    let s = server.stats();
+    println!(
+        "{}: {} samples received ({} used, {} passing near an eye), {} traced and added by this run, {} in the holodeck",
+        path.display(),
+        c.received,
+        c.used,
+        c.near,
+        s.added,
+        s.samples
+    );
+    Ok(())
+}
+
+/// The run's times per frame and where its images went.
+fn print_standalone_times(args: &NodeArgs, totals: &standalone::Totals, dir: &Path) {
     let n = totals.frames.max(1) as f64;
     let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
     println!(
@@ -540,7 +571,6 @@ fn standalone(
             dir.display().to_string()
         }
     );
-    Ok(())
 }
 
 /// `--master`: follows the cluster's frames, appending every presented frame's number to

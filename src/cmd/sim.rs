@@ -14,7 +14,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::DVec3;
 use holocave::launch::{Group, Watched, worker_command};
-use holocave_cave::{Cave, Eye, Unfolded, load_cave, unfold};
+use holocave_cave::{Cave, Eye, Place, Unfolded, Wall, load_cave, unfold};
 use holocave_glare::session::{FrameView, measure_session, views_of};
 use holocave_master::cluster::{MasterOptions, run as run_master};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg};
@@ -24,6 +24,7 @@ use holocave_render_node::mosaic::cave_mosaic;
 use holocave_render_node::output::{PRESENTED_LOG, frame_png, read_presented};
 use holocave_render_node::wall_windows::present_skew;
 
+use holocave_holodeck::auth::Credentials;
 use holocave_tracer::cave_holodeck::{HostSpec, Hosted};
 
 use super::credentials;
@@ -116,23 +117,7 @@ pub struct SimArgs {
 }
 
 pub fn run(mut args: SimArgs) -> Result<()> {
-    let mut cave = load_cave(&args.config)?;
-    cave.set_dead_node_ms(args.dead_node_ms)
-        .map_err(|e| anyhow::anyhow!("--dead-node-ms {e}"))?;
-    cave.set_rate(args.rate)
-        .map_err(|e| anyhow::anyhow!("--rate {e}"))?;
-    args.windows.check()?;
-    if !(args.scale > 0.0 && args.scale <= 1.0) {
-        bail!("--scale {}: expected a fraction in (0, 1]", args.scale);
-    }
-    if args.head.tracker.is_none() {
-        if Path::new(DEFAULT_LOG).exists() {
-            args.head.tracker = Some(format!("file:{DEFAULT_LOG}"));
-            args.head.recenter = true;
-        } else {
-            args.head.tracker = Some("synthetic:walk".into());
-        }
-    }
+    let cave = checked_cave(&mut args)?;
     // The scene, loaded once if this process needs it (a bake, navigation, glare).
     let scene = super::render::SharedScene::new(&args.scene, args.daylight.clone());
     // A fresh secret for this run; the nodes and workers get it through their environment.
@@ -158,44 +143,16 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
         Some(super::vlf::baked_default(&*scene.get()?, &path)?)
     };
-    let hosted = if args.no_holodeck {
-        None
-    } else {
-        let path = (args.holodeck.clone())
-            .unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "hdk"));
-        Some(host(HostSpec {
-            path: &path,
-            cave: &cave,
-            scene_path: &args.scene,
-            threads: 0,
-            listen: "127.0.0.1:0",
-            credentials: credentials.clone(),
-            daylight: args.daylight.as_deref(),
-            made_by: "sim",
-            sections: &args.section,
-            stop: super::interrupt::ctrl_c_flag(),
-            follows_scene: args.holodeck.is_none(),
-        })?)
-    };
+    let hosted = host_holodeck(&args, &cave, &credentials)?;
     let mut children = Group::default();
     if let Some(h) = &hosted {
-        for i in 0..args.workers {
-            let log = std::fs::File::create(args.out.join(format!("worker{i}.log")))?;
-            let mut command = worker_command(
-                &exe,
-                &h.addr.to_string(),
-                &args.scene,
-                args.daylight.as_deref(),
-                &credentials,
-            );
-            command
-                .stdout(log.try_clone()?)
-                .stderr(log)
-                .stdin(Stdio::null());
-            children
-                .0
-                .push(Watched::spawn(format!("worker {i}"), &mut command)?);
-        }
+        spawn_workers(
+            &args,
+            &exe,
+            &h.addr.to_string(),
+            &credentials,
+            &mut children,
+        )?;
     }
     // One layout of the unfolded CAVE for the windows and the mosaics.
     let unfolded = unfold(
@@ -206,52 +163,15 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             .collect::<Vec<_>>(),
     );
     let placed = unfolded.fit(args.windows.desktop);
+    let nodes = Nodes {
+        exe: &exe,
+        master: &addr,
+        placed: &placed,
+        vlf: vlf.as_deref(),
+        secret: &secret,
+    };
     for wall in &cave.walls {
-        let dir = args.out.join(&wall.name);
-        std::fs::create_dir_all(&dir)?;
-        // A fresh presented.log (and present-times.log) per run.
-        let _ = std::fs::remove_file(dir.join(PRESENTED_LOG));
-        let _ = std::fs::remove_file(dir.join("present-times.log"));
-        let log = std::fs::File::create(dir.join("node.log"))?;
-        let mut command = Command::new(&exe);
-        command
-            .arg("node")
-            .args(["--master", &addr, "--wall", &wall.name])
-            .args(args.windows.node_args(&placed, wall, &args.out))
-            .arg("--config")
-            .arg(&args.config)
-            .arg("--scene")
-            .arg(&args.scene)
-            .args(
-                (args.daylight.iter())
-                    .flat_map(|d| [std::ffi::OsStr::new("--daylight"), d.as_os_str()]),
-            )
-            .arg("--out")
-            .arg(&args.out)
-            .args(["--tone", args.tone.name()])
-            .args([
-                "--size",
-                &wall.pixels.scaled(args.scale, 8).to_string(),
-                "--every",
-                &args.every.to_string(),
-            ])
-            // The light field the master names, read before joining (a node reading it
-            // after the welcome would hold up the first frames).
-            .args(
-                vlf.iter()
-                    .flat_map(|p| [std::ffi::OsStr::new("--vlf"), p.as_os_str()]),
-            )
-            .args(["--rays", &args.rays.to_string()])
-            .args(args.sky_per_pixel.then_some("--sky-per-pixel"))
-            .env(credentials::SECRET_VAR, &secret)
-            // Four nodes share this machine's cores: one tracing thread each.
-            .env("RAYON_NUM_THREADS", "1")
-            .stdout(log.try_clone()?)
-            .stderr(log)
-            .stdin(Stdio::null());
-        children
-            .0
-            .push(Watched::spawn(format!("node {}", wall.name), &mut command)?);
+        children.0.push(nodes.spawn(&args, wall)?);
     }
     let head = args.head.open(&cave)?;
     let mut navigation = args.head.navigation(&cave, Some(&scene))?;
@@ -292,7 +212,154 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         tracing::warn!("{problem}");
     }
     print_summary(&summary);
-    let presented = presented_logs(&args.out, &cave)?;
+    report_frames(&args, &cave, &unfolded)?;
+    // A session's glare, windows or not: every frame's view from the frame states.
+    if let (Some(size), Some(vlf)) = (args.glare, &vlf) {
+        measure_glare(&args, &scene.get()?, vlf, size)?;
+    }
+    Ok(())
+}
+
+/// The CAVE with `sim`'s overrides, the flags checked, and the tracker defaulted (the
+/// shipped log if it is there, else a synthetic walk).
+fn checked_cave(args: &mut SimArgs) -> Result<Cave> {
+    let mut cave = load_cave(&args.config)?;
+    cave.set_dead_node_ms(args.dead_node_ms)
+        .map_err(|e| anyhow::anyhow!("--dead-node-ms {e}"))?;
+    cave.set_rate(args.rate)
+        .map_err(|e| anyhow::anyhow!("--rate {e}"))?;
+    args.windows.check()?;
+    if !(args.scale > 0.0 && args.scale <= 1.0) {
+        bail!("--scale {}: expected a fraction in (0, 1]", args.scale);
+    }
+    if args.head.tracker.is_none() {
+        if Path::new(DEFAULT_LOG).exists() {
+            args.head.tracker = Some(format!("file:{DEFAULT_LOG}"));
+            args.head.recenter = true;
+        } else {
+            args.head.tracker = Some("synthetic:walk".into());
+        }
+    }
+    Ok(cave)
+}
+
+/// The CAVE's holodeck, hosted in this process for the workers and nodes (unless
+/// `--no-holodeck`).
+fn host_holodeck(args: &SimArgs, cave: &Cave, credentials: &Credentials) -> Result<Option<Hosted>> {
+    Ok(if args.no_holodeck {
+        None
+    } else {
+        let path = (args.holodeck.clone())
+            .unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "hdk"));
+        Some(host(HostSpec {
+            path: &path,
+            cave,
+            scene_path: &args.scene,
+            threads: 0,
+            listen: "127.0.0.1:0",
+            credentials: credentials.clone(),
+            daylight: args.daylight.as_deref(),
+            made_by: "sim",
+            sections: &args.section,
+            stop: super::interrupt::ctrl_c_flag(),
+            follows_scene: args.holodeck.is_none(),
+        })?)
+    })
+}
+
+/// `--workers` worker processes tracing for the holodeck at `addr`, each logging to
+/// `workerN.log`.
+fn spawn_workers(
+    args: &SimArgs,
+    exe: &Path,
+    addr: &str,
+    credentials: &Credentials,
+    children: &mut Group,
+) -> Result<()> {
+    for i in 0..args.workers {
+        let log = std::fs::File::create(args.out.join(format!("worker{i}.log")))?;
+        let mut command = worker_command(
+            exe,
+            addr,
+            &args.scene,
+            args.daylight.as_deref(),
+            credentials,
+        );
+        command
+            .stdout(log.try_clone()?)
+            .stderr(log)
+            .stdin(Stdio::null());
+        children
+            .0
+            .push(Watched::spawn(format!("worker {i}"), &mut command)?);
+    }
+    Ok(())
+}
+
+/// What every wall's node process is started with.
+struct Nodes<'a> {
+    exe: &'a Path,
+    /// The master's address.
+    master: &'a str,
+    placed: &'a [Place],
+    vlf: Option<&'a Path>,
+    secret: &'a str,
+}
+
+impl Nodes<'_> {
+    /// Starts `wall`'s node, its output in `OUT/<wall>/` (a fresh presented log).
+    fn spawn(&self, args: &SimArgs, wall: &Wall) -> Result<Watched> {
+        let dir = args.out.join(&wall.name);
+        std::fs::create_dir_all(&dir)?;
+        // A fresh presented.log (and present-times.log) per run.
+        let _ = std::fs::remove_file(dir.join(PRESENTED_LOG));
+        let _ = std::fs::remove_file(dir.join("present-times.log"));
+        let log = std::fs::File::create(dir.join("node.log"))?;
+        let mut command = Command::new(self.exe);
+        command
+            .arg("node")
+            .args(["--master", self.master, "--wall", &wall.name])
+            .args(args.windows.node_args(self.placed, wall, &args.out))
+            .arg("--config")
+            .arg(&args.config)
+            .arg("--scene")
+            .arg(&args.scene)
+            .args(
+                (args.daylight.iter())
+                    .flat_map(|d| [std::ffi::OsStr::new("--daylight"), d.as_os_str()]),
+            )
+            .arg("--out")
+            .arg(&args.out)
+            .args(["--tone", args.tone.name()])
+            .args([
+                "--size",
+                &wall.pixels.scaled(args.scale, 8).to_string(),
+                "--every",
+                &args.every.to_string(),
+            ])
+            // The light field the master names, read before joining (a node reading it
+            // after the welcome would hold up the first frames).
+            .args(
+                self.vlf
+                    .iter()
+                    .flat_map(|p| [std::ffi::OsStr::new("--vlf"), p.as_os_str()]),
+            )
+            .args(["--rays", &args.rays.to_string()])
+            .args(args.sky_per_pixel.then_some("--sky-per-pixel"))
+            .env(credentials::SECRET_VAR, self.secret)
+            // Four nodes share this machine's cores: one tracing thread each.
+            .env("RAYON_NUM_THREADS", "1")
+            .stdout(log.try_clone()?)
+            .stderr(log)
+            .stdin(Stdio::null());
+        Ok(Watched::spawn(format!("node {}", wall.name), &mut command)?)
+    }
+}
+
+/// Whether every wall presented the same frames; with windows, how far apart the walls
+/// presented them; without, the unfolded CAVE's mosaics of the written frames.
+fn report_frames(args: &SimArgs, cave: &Cave, unfolded: &Unfolded) -> Result<()> {
+    let presented = presented_logs(&args.out, cave)?;
     let all: BTreeSet<u64> = presented.values().flatten().copied().collect();
     match presented.values().all(|p| p.len() == all.len()) {
         true => println!(
@@ -331,7 +398,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     } else {
         let every = args.every.max(1);
         let written: Vec<u64> = all.into_iter().filter(|f| f % every == 0).collect();
-        let mosaics = write_mosaics(&args.out, &cave, &unfolded, &written)?;
+        let mosaics = write_mosaics(&args.out, cave, unfolded, &written)?;
         for p in &mosaics {
             println!("mosaic {}", p.display());
         }
@@ -342,10 +409,6 @@ pub fn run(mut args: SimArgs) -> Result<()> {
             args.out.join("states.bin").display(),
             args.out.join("navigation.csv").display()
         );
-    }
-    // A session's glare, windows or not: every frame's view from the frame states.
-    if let (Some(size), Some(vlf)) = (args.glare, &vlf) {
-        measure_glare(&args, &scene.get()?, vlf, size)?;
     }
     Ok(())
 }
