@@ -8,8 +8,8 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use holocave_cave::WallView;
 use holocave_cave::{Cave, Eye, Wall, wall_frusta};
+use holocave_cave::{Size, WallView};
 use holocave_holodeck::run::RayAllowance;
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::{
@@ -25,7 +25,6 @@ use holocave_tracking::Pose;
 use crate::method::{Drawer, Method, spp_for};
 use crate::reference::References;
 use crate::report::{self, Row, Summary};
-use holocave_cave::Size;
 
 /// Why a comparison could not run.
 #[derive(Debug, thiserror::Error)]

@@ -7,8 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::Quat;
-use holocave_cave::Size;
-use holocave_cave::{Cave, load_cave};
+use holocave_cave::{Cave, Size, load_cave};
 use holocave_compare::{Compare, Method, Settings};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracking::Pose;

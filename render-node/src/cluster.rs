@@ -7,7 +7,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError, channel};
 use std::time::{Duration, Instant};
 
 use glam::DMat4;
-use holocave_cave::Wall;
+use holocave_cave::{Size, Wall};
 use holocave_protocol::cluster::{
     DeskInput, FrameState, MAX_CLUSTER_FRAME, MasterMsg, NodeMsg, NodeStats, VeilSource,
 };
@@ -15,7 +15,6 @@ use holocave_protocol::handshake::{self, Role, Welcome};
 use holocave_protocol::session::Sealer;
 
 use crate::{EyeView, WallDisplay};
-use holocave_cave::Size;
 
 /// How long the handshake may take.
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(2);

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use holocave_cave::{Eye, Wall};
+use holocave_cave::{Eye, Size, Wall};
 use holocave_holodeck::auth::Credentials;
 use holocave_scene::Scene;
 use holocave_tracer::Tracer;
@@ -21,7 +21,6 @@ use crate::{
     DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderNodeError, VlfBase,
     VlfDrawing, WallDisplay,
 };
-use holocave_cave::Size;
 
 /// Pause between attempts to reach the master.
 const RETRY: Duration = Duration::from_millis(100);

@@ -12,11 +12,10 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use holocave_cave::{Eye, PresentMode, WindowSettings};
+use holocave_cave::{Eye, PresentMode, Size, WindowSettings};
 
 use crate::gpu::Gpu;
 use crate::tonemap::ToneCurve;
-use holocave_cave::Size;
 
 #[path = "shaders/luminance.rs"]
 mod luminance;
@@ -154,10 +153,7 @@ impl Presenter {
             wgpu::PresentMode::Fifo
         };
         let requested = size.get();
-        let Size {
-            width: w,
-            height: h,
-        } = fit(
+        let fitted = fit(
             gpu,
             Size::new(requested.width.max(1), requested.height.max(1)),
         );
@@ -165,8 +161,8 @@ impl Presenter {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
             format,
             color_space: Default::default(),
-            width: w,
-            height: h,
+            width: fitted.width,
+            height: fitted.height,
             present_mode,
             // One frame in flight: the swap-locked frame is the one shown next.
             desired_maximum_frame_latency: 1,
@@ -179,7 +175,7 @@ impl Presenter {
         };
         surface.configure(&gpu.device, &config);
         tracing::info!(
-            "window surface {w}x{h}, {format:?}, {present_mode:?}, layout {}",
+            "window surface {fitted}, {format:?}, {present_mode:?}, layout {}",
             settings.layout.name()
         );
         Ok(Presenter {
@@ -317,13 +313,8 @@ impl Presenter {
 
 /// A window size the device can present: larger sides are clamped to its largest texture
 /// (the picture then covers part of the window; configuring larger would be an error).
-fn fit(
-    gpu: &Gpu,
-    Size {
-        width: w,
-        height: h,
-    }: Size,
-) -> Size {
+fn fit(gpu: &Gpu, size: Size) -> Size {
+    let (w, h) = (size.width, size.height);
     let max = gpu.device.limits().max_texture_dimension_2d;
     if w > max || h > max {
         tracing::warn!(

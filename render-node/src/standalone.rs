@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use holocave_cave::{Cave, Eye, Wall, wall_frusta};
+use holocave_cave::{Cave, Eye, Size, Wall, wall_frusta};
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_scene::{ObjectPaths, Scene};
@@ -19,7 +19,6 @@ use holocave_tracking::Pose;
 use crate::{
     DisplayBuilder, EyeView, Feed, HolodeckOptions, HolodeckSource, RenderNodeError, WallDisplay,
 };
-use holocave_cave::Size;
 
 /// The holodeck a standalone wall draws from, served in its own process.
 pub struct OwnHolodeck<'a> {

@@ -3,9 +3,8 @@
 //! is always the CAVE's (`holocave_cave::frustum`); this only carries it to the GPU.
 
 use glam::{DMat4, DVec3, Mat4, Vec3};
-use holocave_cave::Size;
-use holocave_cave::WallView;
 use holocave_cave::{Frustum, FrustumFault, Wall, config::StereoMode, off_axis};
+use holocave_cave::{Size, WallView};
 use holocave_protocol::cluster::EyeState;
 
 /// What the render cache needs to draw one eye.

@@ -3,14 +3,13 @@
 //! (drawn, waited for) before the node says Ready and shown on the master's Swap, and each
 //! present's time logged; and the skew between walls, read back from those logs.
 
-use holocave_cave::Size;
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use glam::Vec3;
-use holocave_cave::{Eye, Wall};
+use holocave_cave::{Eye, Size, Wall};
 use holocave_protocol::cluster::{DeskInput, FrameState, VeilSource as WireVeil};
 
 use crate::cluster::Presentation;

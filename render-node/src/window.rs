@@ -13,7 +13,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::{Scope, ScopedJoinHandle};
 
-use holocave_cave::{Fullscreen, Monitor, WindowSettings};
+use holocave_cave::{Fullscreen, Monitor, Size, WindowSettings};
 use winit::application::ApplicationHandler;
 use winit::dpi::{PhysicalPosition, PhysicalSize};
 use winit::event::{ElementState, KeyEvent, MouseButton, WindowEvent};
@@ -25,7 +25,6 @@ use winit::window::{Window, WindowId};
 use crate::desk::{DeskFeed, DeskKeys, control_of};
 use crate::present::{Presenter, SharedSize};
 use crate::{Gpu, RenderNodeError};
-use holocave_cave::Size;
 
 /// One window to open.
 #[derive(Clone, Debug)]

@@ -1,8 +1,7 @@
 //! The render cache's steps on a tiny image, checked pixel by pixel.
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
-use holocave_cave::Size;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_render_node::cache::{GpuPoint, ObjectMove, Seen, ShadowLight, surface_id};
 use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
 use holocave_vlf::Lookup;

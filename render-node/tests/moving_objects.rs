@@ -4,12 +4,11 @@
 //! it shadowed are dropped with it, so the floor where its shadow was shows lit at once,
 //! not a ghost of the shadow fading as new samples come.
 
-use holocave_cave::Size;
 use std::path::Path;
 use std::sync::Arc;
 
 use glam::{Quat, Vec3};
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_protocol::cluster::WireObject;
 use holocave_render_node::{
     DisplayBuilder, EyeView, Feed, LightField, Prior, VlfBase, WallDisplay,

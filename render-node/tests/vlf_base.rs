@@ -4,13 +4,12 @@
 
 mod common;
 
-use holocave_cave::Size;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, VlfBase, WallDisplay};
 use holocave_scene::{Ray, Scene};

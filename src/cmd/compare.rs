@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use holocave_cave::{Cave, Wall, load_cave};
+use holocave_cave::{Cave, Size, Wall, load_cave};
 use holocave_compare::{Compare, Method, Settings, VlfSetting};
 use holocave_master::head::Clock;
 use holocave_render_node::Prior;
@@ -17,7 +17,6 @@ use holocave_tracking::Pose;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::master::open_head;
-use holocave_cave::Size;
 
 #[derive(Args)]
 pub struct CompareArgs {

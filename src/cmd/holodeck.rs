@@ -8,7 +8,7 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use glam::Vec3;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_holodeck::HoloFile;
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::file::check::{check, holds, salvage};
@@ -20,7 +20,6 @@ use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::view::{ViewOptions, reconstruct};
 
 use super::view::ViewFlags;
-use holocave_cave::Size;
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
 

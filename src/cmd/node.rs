@@ -15,7 +15,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, anyhow, bail};
 use clap::{Args, ValueEnum};
 use glam::{DMat4, Quat, Vec3};
-use holocave_cave::{Cave, Eye, Wall, load_cave};
+use holocave_cave::{Cave, Eye, Size, Wall, load_cave};
 use holocave_glare::session::{FrameView, gaze};
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
@@ -38,7 +38,6 @@ use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
 
 use super::master::open_head;
-use holocave_cave::Size;
 
 /// How a node's images are tone-mapped.
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]

@@ -6,14 +6,13 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_render_node::tonemap::wall_directions;
 use holocave_render_node::vision::VeilSources;
 use holocave_scene::Scene;
 use holocave_tracer::film::Image;
 
 use super::node::Tone;
-use holocave_cave::Size;
 
 /// Writes the PNG preview of `image` (drawn through `view`) to `png`: tone-mapped by
 /// `tone` (in human mode, seen from the view's eye) at the scene's `efficacy`, or the

@@ -7,8 +7,7 @@ use std::path::Path;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use holocave_cave::Size;
-use holocave_cave::{Eye, Layout, Place, Wall, WindowSettings};
+use holocave_cave::{Eye, Layout, Place, Size, Wall, WindowSettings};
 use holocave_render_node::present::layout_eyes;
 use holocave_render_node::window::WindowSpec;
 

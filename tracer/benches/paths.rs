@@ -5,14 +5,13 @@
 //! `cargo bench -p holocave-tracer --bench paths`; criterion reports elements/s, i.e.
 //! samples/s.
 
-use holocave_cave::Size;
 use std::hint::black_box;
 use std::path::Path;
 use std::sync::Arc;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec2;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
 

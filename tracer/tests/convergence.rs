@@ -31,8 +31,7 @@
 mod common;
 
 use glam::Vec3;
-use holocave_cave::Size;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_tracer::render::render;
 
 fn mean_sd(v: &[f64]) -> (f64, f64) {

@@ -6,8 +6,7 @@ mod common;
 
 use common::*;
 use glam::Vec3;
-use holocave_cave::Size;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::Ray;
 use holocave_tracer::render::render;
 use holocave_tracer::{TracedRay, Tracer};

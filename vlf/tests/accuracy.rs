@@ -25,13 +25,12 @@
 
 mod common;
 
-use holocave_cave::Size;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec2;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::film::Image;
 

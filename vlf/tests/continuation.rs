@@ -3,12 +3,11 @@
 //! one by one, every further ray sent to the batch walk and none of a pixel that ends at
 //! its first hit.
 
-use holocave_cave::Size;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use glam::Vec2;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{Hit, LoadOptions, Ray, Scene};
 use holocave_vlf::surface::seen_at;
 use holocave_vlf::view::Visibility;

@@ -6,12 +6,11 @@
 
 mod common;
 
-use holocave_cave::Size;
 use std::path::Path;
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{LoadOptions, Ray, Scene};
 use holocave_tracer::film::Image;
 use holocave_tracer::{TraceSettings, Tracer};

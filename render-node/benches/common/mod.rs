@@ -1,8 +1,7 @@
 //! What the render node's benches share: the two eyes of a 3 m wall seen from 1.5 m.
 
 use glam::Vec3;
-use holocave_cave::Size;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_render_node::EyeView;
 
 /// Both eyes (6.4 cm apart) of a 3 × 3 m wall 1.5 m ahead, at `w × h` pixels each.

@@ -2,12 +2,11 @@
 //! a window's surface texture.
 
 use bytemuck::{Pod, Zeroable};
-use holocave_cave::{Layout, WindowSettings};
+use holocave_cave::{Layout, Size, WindowSettings};
 
 use crate::falsecolor::{FalseColor, Legend};
 use crate::gpu::{Gpu, with_common};
 use crate::tonemap::{TONE_BINS, ToneCurve};
-use holocave_cave::Size;
 
 /// The shader (compiled after `common.wgsl`, as the compute passes are).
 pub(crate) const SOURCE: &str = include_str!("tonemap.wgsl");

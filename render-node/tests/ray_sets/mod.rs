@@ -3,11 +3,10 @@
 //! they are made on.
 #![allow(dead_code)]
 
-use holocave_cave::Size;
 use std::path::Path;
 
 use glam::Vec2;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::ray_sets::{RaySets, sun};
 use holocave_scene::{LoadOptions, Scene};
 
