@@ -109,19 +109,17 @@ impl Unfolded {
 mod tests {
     use super::*;
 
-    fn walls(list: &[(&str, (u32, u32))]) -> Vec<(String, Size)> {
-        list.iter()
-            .map(|(n, (w, h))| (n.to_string(), Size::new(*w, *h)))
-            .collect()
+    fn walls(list: &[(&str, Size)]) -> Vec<(String, Size)> {
+        list.iter().map(|(n, s)| (n.to_string(), *s)).collect()
     }
 
     #[test]
     fn walls_land_where_the_room_unfolds() {
         let u = unfold(&walls(&[
-            ("front", (4, 3)),
-            ("left", (4, 3)),
-            ("right", (4, 3)),
-            ("floor", (4, 4)),
+            ("front", Size::new(4, 3)),
+            ("left", Size::new(4, 3)),
+            ("right", Size::new(4, 3)),
+            ("floor", Size::new(4, 4)),
         ]));
         assert_eq!((u.width, u.height), (12, 7));
         let at = |n: &str| {
@@ -137,10 +135,10 @@ mod tests {
     #[test]
     fn other_walls_go_in_a_row_below_and_a_shorter_wall_stands_on_the_floor() {
         let u = unfold(&walls(&[
-            ("front", (8, 6)),
-            ("left", (4, 4)),
-            ("ceiling", (8, 8)),
-            ("back", (8, 6)),
+            ("front", Size::new(8, 6)),
+            ("left", Size::new(4, 4)),
+            ("ceiling", Size::new(8, 8)),
+            ("back", Size::new(8, 6)),
         ]));
         // No right wall, no floor: the row below starts under the top row.
         assert_eq!((u.width, u.height), (16, 14));
@@ -155,10 +153,10 @@ mod tests {
     #[test]
     fn the_unfolded_cave_fits_the_screen() {
         let u = unfold(&walls(&[
-            ("front", (128, 96)),
-            ("left", (128, 96)),
-            ("right", (128, 96)),
-            ("floor", (128, 128)),
+            ("front", Size::new(128, 96)),
+            ("left", Size::new(128, 96)),
+            ("right", Size::new(128, 96)),
+            ("floor", Size::new(128, 128)),
         ]));
         // 384 x 224 eye pixels; 1280 / 384 = 3.33 < 1024 / 224 = 4.57.
         let placed = u.fit(Size::new(1280, 1024));

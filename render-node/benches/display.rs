@@ -4,7 +4,6 @@
 //! from each eye; each frame chooses 1/16 of the pixels per eye. Per-step figures come from
 //! submitting each step alone and waiting for it, so they include one submit and wait each.
 
-use holocave_cave::Size;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -12,6 +11,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 mod common;
 use common::views;
 use glam::Vec2;
+use holocave_cave::Size;
 use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
 use holocave_vlf::Lookup;
 

@@ -6,13 +6,13 @@
 //! where there is no GPU). The render cache's passes at these sizes
 //! are `benches/display.rs`; a wall's frame is the two together.
 
-use holocave_cave::Size;
 use std::sync::Arc;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 
 mod common;
 use common::views;
+use holocave_cave::Size;
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::{EyeView, Gpu, VlfBase};
 use holocave_scene::{LoadOptions, Scene};

@@ -5,6 +5,7 @@
 
 use std::sync::Arc;
 
+use holocave_cave::Size;
 use holocave_tracer::Tracer;
 
 use crate::vlf::DEFAULT_PRIOR_SAMPLES;
@@ -12,7 +13,6 @@ use crate::vlf::DEFAULT_PRIOR_SAMPLES;
 use crate::{
     Gpu, HolodeckSource, PixelTracer, Prior, RenderCache, RenderNodeError, VlfBase, WallDisplay,
 };
-use holocave_cave::Size;
 
 /// Where a display's samples come from.
 pub enum Feed {

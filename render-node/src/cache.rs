@@ -16,11 +16,11 @@ use std::time::{Duration, Instant};
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
+use holocave_cave::Size;
 use holocave_tracer::film::Image;
 
 use crate::gpu::Gpu;
 use crate::{EyeView, RenderNodeError};
-use holocave_cave::Size;
 use holocave_vlf::Lookup;
 
 #[path = "shaders/age.rs"]

@@ -32,15 +32,15 @@ use screen::ScreenPass;
 pub struct SharedSize(Arc<AtomicU64>);
 
 impl SharedSize {
-    pub fn new(w: u32, h: u32) -> SharedSize {
+    pub fn new(size: Size) -> SharedSize {
         let s = SharedSize::default();
-        s.set(w, h);
+        s.set(size);
         s
     }
 
-    pub fn set(&self, w: u32, h: u32) {
-        self.0
-            .store((u64::from(w) << 32) | u64::from(h), Ordering::Release);
+    pub fn set(&self, size: Size) {
+        let word = (u64::from(size.width) << 32) | u64::from(size.height);
+        self.0.store(word, Ordering::Release);
     }
 
     pub fn get(&self) -> Size {
@@ -314,16 +314,14 @@ impl Presenter {
 /// A window size the device can present: larger sides are clamped to its largest texture
 /// (the picture then covers part of the window; configuring larger would be an error).
 fn fit(gpu: &Gpu, size: Size) -> Size {
-    let (w, h) = (size.width, size.height);
     let max = gpu.device.limits().max_texture_dimension_2d;
-    if w > max || h > max {
+    let fitted = Size::new(size.width.min(max), size.height.min(max));
+    if fitted != size {
         tracing::warn!(
-            "a {w}x{h} window is larger than this GPU's {max}-pixel textures; drawing {}x{}",
-            w.min(max),
-            h.min(max)
+            "a {size} window is larger than this GPU's {max}-pixel textures; drawing {fitted}"
         );
     }
-    Size::new(w.min(max), h.min(max))
+    fitted
 }
 
 /// The cache's eye indices of the layout's first and second eye (the same twice for a

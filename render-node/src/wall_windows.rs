@@ -275,12 +275,9 @@ impl<'a> WindowOutput<'a> {
             let t = &p.times;
             let n = t.prepared.max(1) as f64;
             let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
-            let Size {
-                width: w,
-                height: h,
-            } = p.surface_size();
             s += &format!(
-                "window {k} ({w}x{h}, {}): {} frames drawn, {} shown, {} skipped, {} abandoned; per frame: acquire {:.2} ms, draw + wait {:.2} ms, present {:.2} ms\n",
+                "window {k} ({}, {}): {} frames drawn, {} shown, {} skipped, {} abandoned; per frame: acquire {:.2} ms, draw + wait {:.2} ms, present {:.2} ms\n",
+                p.surface_size(),
                 p.settings.layout.name(),
                 t.prepared,
                 t.shown,

@@ -218,7 +218,7 @@ where
             }
             WindowEvent::Resized(size) => {
                 if let Some((_, s)) = self.sizes.iter().find(|(w, _)| *w == id) {
-                    s.set(size.width, size.height);
+                    s.set(Size::new(size.width, size.height));
                 }
             }
             _ => {}
@@ -240,7 +240,7 @@ impl<F, T> App<'_, '_, F, T> {
             let window = Arc::new(create_window(event_loop, &monitors, spec)?);
             window.set_cursor_visible(spec.settings.cursor);
             let s = window.inner_size();
-            let size = SharedSize::new(s.width, s.height);
+            let size = SharedSize::new(Size::new(s.width, s.height));
             self.sizes.push((window.id(), size.clone()));
             windows.push((window, size));
         }
@@ -367,14 +367,13 @@ fn create_window(
                 .ok_or_else(|| {
                     let mut sizes: Vec<String> = modes
                         .iter()
-                        .map(|v| format!("{}x{}", v.size().width, v.size().height))
+                        .map(|v| Size::new(v.size().width, v.size().height).to_string())
                         .collect();
                     sizes.dedup();
                     WindowError::Monitor(format!(
-                        "window {:?}: exclusive fullscreen at {}x{}, but monitor {:?} has no such video mode (it has {})",
+                        "window {:?}: exclusive fullscreen at {}, but monitor {:?} has no such video mode (it has {})",
                         spec.title,
-                        spec.size.width,
-                        spec.size.height,
+                        spec.size,
                         m.name().unwrap_or_default(),
                         if sizes.is_empty() { "none".to_owned() } else { sizes.join(", ") }
                     ))

@@ -9,12 +9,12 @@
 
 mod common;
 
-use holocave_cave::Size;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
+use holocave_cave::Size;
 use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, WallDisplay};
 use holocave_tracer::film::Image;
 use holocave_tracer::{TraceSettings, Tracer, render::render};

@@ -12,10 +12,10 @@
 
 mod common;
 
-use holocave_cave::Size;
 use std::sync::Arc;
 
 use glam::Vec3;
+use holocave_cave::Size;
 use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, WallDisplay};
 use holocave_tracer::{TraceSettings, Tracer};
 

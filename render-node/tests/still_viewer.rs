@@ -7,11 +7,11 @@
 
 mod common;
 
-use holocave_cave::Size;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
+use holocave_cave::Size;
 use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, WallDisplay};
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 

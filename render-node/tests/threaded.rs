@@ -4,10 +4,10 @@
 
 mod common;
 
-use holocave_cave::Size;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use holocave_cave::Size;
 use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, SampleFeed, WallDisplay};
 use holocave_tracer::{TraceSettings, Tracer};
 

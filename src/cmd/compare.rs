@@ -94,12 +94,7 @@ pub struct CompareArgs {
 }
 
 pub fn run(args: CompareArgs) -> Result<()> {
-    let methods = args.methods.clone();
-    if methods.is_empty() {
-        bail!(
-            "--methods: no methods given (trace, accumulate, cache, holodeck, vlf, vlf+holodeck, vlf+gather)"
-        );
-    }
+    let methods = &args.methods;
     if !(args.fps > 0.0 && args.fps <= 1000.0) {
         bail!("--fps {}: not a frame rate (0 to 1000 Hz)", args.fps);
     }
@@ -165,7 +160,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
             &cave,
             wall,
             scene.clone(),
-            &methods,
+            methods,
             &poses,
             vlf.clone(),
             out,
@@ -206,7 +201,7 @@ fn compare_wall(
         scene_path: &args.scene,
     };
     println!(
-        "comparing {} on wall {:?}: {frames} frames at {} Hz, {}x{} per eye, {} rays per eye and frame, references at {} spp",
+        "comparing {} on wall {:?}: {frames} frames at {} Hz, {size} per eye, {} rays per eye and frame, references at {} spp",
         methods
             .iter()
             .map(|m| m.name())
@@ -214,8 +209,6 @@ fn compare_wall(
             .join(", "),
         wall.name,
         args.fps,
-        size.width,
-        size.height,
         settings.budget,
         settings.reference_spp
     );

@@ -355,11 +355,9 @@ fn standalone(
         println!("holodeck workers and displays may connect to {a}");
     }
     println!(
-        "wall {:?}: {} eye(s) at {}x{}, {} points, {samples} samples per eye and frame, GPU {}",
+        "wall {:?}: {} eye(s) at {size}, {} points, {samples} samples per eye and frame, GPU {}",
         wall.name,
         eyes.len(),
-        size.width,
-        size.height,
         display.cache.capacity(),
         display.cache.gpu().adapter
     );

@@ -16,6 +16,7 @@ use glam::DVec3;
 use holocave::launch::{Group, Watched, worker_command};
 use holocave_cave::{Cave, Eye, Place, Unfolded, Wall, load_cave, unfold};
 use holocave_glare::session::{FrameView, measure_session, views_of};
+use holocave_holodeck::auth::Credentials;
 use holocave_master::cluster::{MasterOptions, run as run_master};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg};
 use holocave_protocol::frame::{FrameError, read_frame};
@@ -23,8 +24,6 @@ use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::mosaic::cave_mosaic;
 use holocave_render_node::output::{PRESENTED_LOG, frame_png, read_presented};
 use holocave_render_node::wall_windows::present_skew;
-
-use holocave_holodeck::auth::Credentials;
 use holocave_tracer::cave_holodeck::{HostSpec, Hosted};
 
 use super::credentials;

@@ -124,8 +124,8 @@ impl SimWindowArgs {
         Ok(())
     }
 
-    /// The node's arguments for `wall` (eye images of `size`): its window placed in the
-    /// unfolded CAVE, its present times logged to `DIR/<wall>/present-times.log`; or
+    /// The node's arguments for `wall`: its window placed in the unfolded CAVE (at
+    /// `placed`'s size), its present times logged to `DIR/<wall>/present-times.log`; or
     /// `--headless`.
     pub fn node_args(&self, placed: &[Place], wall: &Wall, out: &Path) -> Vec<String> {
         if !self.window {
@@ -153,7 +153,7 @@ impl SimWindowArgs {
                 "--window-pos".to_owned(),
                 format!("{},{}", p.x, p.y),
                 "--window-size".to_owned(),
-                format!("{}x{}", p.width, p.height),
+                Size::new(p.width, p.height).to_string(),
             ]);
         }
         a

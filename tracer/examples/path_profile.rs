@@ -17,7 +17,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::render::render;
 use holocave_tracer::{TraceSettings, Tracer};
@@ -53,10 +53,8 @@ fn main() -> Result<(), String> {
     let [pa, pb, pc] = corners[..] else {
         return Err(format!("{wall:?}: expected three corners PA;PB;PC"));
     };
-    let (w, h) = size
-        .split_once('x')
-        .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
-        .ok_or(format!("{size:?}: expected WxH"))?;
+    let size: Size = size.parse()?;
+    let (w, h) = (size.width, size.height);
     let spp: u32 = spp.parse().map_err(|e| format!("{spp:?}: {e}"))?;
     let scene = Scene::load(scene_path.as_ref(), &LoadOptions::default())
         .map_err(|e| format!("{scene_path}: {e}"))?;

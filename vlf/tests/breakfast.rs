@@ -15,10 +15,10 @@
 //! cross-section) drawn diffuse and pooled rather than each given a tile that keeps only
 //! a fraction of its light, and drawn with the albedo their narrow lobes really have.
 
-use holocave_cave::Size;
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
+use holocave_cave::{Size, WallView};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_vlf::Settings;
@@ -120,7 +120,7 @@ fn walls_and_floor(material: impl Fn(&mut holocave_scene::Material)) -> [(f64, f
     let camera = (scene.cameras.iter())
         .find(|c| c.name == "CameraMain")
         .expect("CameraMain");
-    let view = holocave_cave::WallView::through_camera(camera, Size::new(160, 90));
+    let view = WallView::through_camera(camera, Size::new(160, 90));
     let settings = Settings::default();
     let (state, _) =
         holocave_vlf::bake(&scene, &settings, None, &|_| {}, &mut |_| Ok::<(), ()>(()))
