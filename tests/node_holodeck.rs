@@ -11,9 +11,9 @@ use std::sync::Arc;
 
 use common::cornell_front_node;
 use glam::{Quat, Vec3};
-use holocave_cave::WallView;
 use holocave_cave::load_cave;
 use holocave_cave::{Eye, eye_position};
+use holocave_cave::{Size, WallView};
 use holocave_scene::{LoadOptions, Scene, luminance};
 use holocave_tracer::film::Image;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
@@ -129,8 +129,7 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
         pa: to_scene(wall.pa),
         pb: to_scene(wall.pb),
         pc: to_scene(wall.pc),
-        width: W,
-        height: H,
+        size: Size::new(W, H),
     };
     let scene = Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default()).unwrap();
     let tracer = Tracer::new(Arc::new(scene), TraceSettings::default());

@@ -15,21 +15,15 @@ pub struct WallView {
     pub pa: Vec3,
     pub pb: Vec3,
     pub pc: Vec3,
-    pub width: u32,
-    pub height: u32,
+    /// The image's size in pixels.
+    pub size: Size,
 }
 
 impl WallView {
-    /// Its image's size.
-    pub fn size(&self) -> Size {
-        Size::new(self.width, self.height)
-    }
-
     /// Whether `other` is an image on the same screen (corners and pixels), whatever
     /// eye it is seen from.
     pub fn same_screen(&self, other: &WallView) -> bool {
-        (self.pa, self.pb, self.pc, self.width, self.height)
-            == (other.pa, other.pb, other.pc, other.width, other.height)
+        (self.pa, self.pb, self.pc, self.size) == (other.pa, other.pb, other.pc, other.size)
     }
 
     /// The view of a scene's camera, its screen one metre in front of it and of the image's
@@ -41,16 +35,15 @@ impl WallView {
             pa,
             pb,
             pc,
-            width: size.width,
-            height: size.height,
+            size,
         }
     }
 
     /// The ray from the eye through the point `(x, y)` of the image, in pixels from the
     /// top-left corner (fractional: `(0.5, 0.5)` is the centre of the first pixel).
     pub fn ray(&self, pixel: Vec2) -> Ray {
-        let s = pixel.x / self.width as f32;
-        let t = 1.0 - pixel.y / self.height as f32;
+        let s = pixel.x / self.size.width as f32;
+        let t = 1.0 - pixel.y / self.size.height as f32;
         let p = self.pa + (self.pb - self.pa) * s + (self.pc - self.pa) * t;
         Ray::new(self.eye, (p - self.eye).normalize_or_zero())
     }
@@ -74,8 +67,8 @@ impl WallView {
         let s = p.dot(r) / r.length_squared();
         let q = p.dot(u) / u.length_squared();
         Some((
-            s * f64::from(self.width),
-            (1.0 - q) * f64::from(self.height),
+            s * f64::from(self.size.width),
+            (1.0 - q) * f64::from(self.size.height),
         ))
     }
 
@@ -105,8 +98,7 @@ mod tests {
             pa: Vec3::new(-1.5, 0.0, -1.5),
             pb: Vec3::new(1.5, 0.0, -1.5),
             pc: Vec3::new(-1.5, 3.0, -1.5),
-            width: 100,
-            height: 50,
+            size: Size::new(100, 50),
         };
         let through = |x: f32, y: f32| {
             let r = v.ray(Vec2::new(x, y));

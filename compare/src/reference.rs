@@ -41,7 +41,7 @@ impl References<'_> {
         for v in [view.eye, view.pa, view.pb, view.pc] {
             v.to_array().map(f32::to_bits).hash(&mut h);
         }
-        (view.width, view.height, self.spp, seed).hash(&mut h);
+        (view.size.width, view.size.height, self.spp, seed).hash(&mut h);
         self.dir.join(format!("{:016x}.exr", h.finish()))
     }
 
@@ -55,7 +55,7 @@ impl References<'_> {
         if path.exists() {
             // A damaged file is rendered again rather than trusted.
             if let Ok(img) = Image::read_exr(&path)
-                && (img.width, img.height) == (view.width, view.height)
+                && (img.width, img.height) == (view.size.width, view.size.height)
             {
                 return Ok(img);
             }

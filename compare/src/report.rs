@@ -70,7 +70,7 @@ pub fn write_views(path: &Path, views: &[(u64, usize, WallView)]) -> std::io::Re
         for v in [w.eye, w.pa, w.pb, w.pc] {
             fields.extend(v.to_array().map(|c| c.to_string()));
         }
-        fields.extend([w.width.to_string(), w.height.to_string()]);
+        fields.extend([w.size.width.to_string(), w.size.height.to_string()]);
         let _ = writeln!(s, "{}", fields.join(","));
     }
     std::fs::write(path, s)
@@ -243,6 +243,7 @@ pub fn plot(path: &Path, rows: &[Row], methods: &[&'static str]) -> Result<(), S
 #[cfg(test)]
 mod tests {
     use super::*;
+    use holocave_cave::Size;
 
     fn row(method: &'static str, frame: u64, seconds: f64, rel_mse: f64, speed: f64) -> Row {
         Row {
@@ -285,8 +286,7 @@ mod tests {
                     pa: glam::Vec3::new(-1.5, -1.0, 0.2),
                     pb: glam::Vec3::new(1.5, -1.0, 0.2),
                     pc: glam::Vec3::new(-1.5, 2.0, 0.2),
-                    width: 256,
-                    height: 192,
+                    size: Size::new(256, 192),
                 },
             ),
             (
@@ -297,8 +297,7 @@ mod tests {
                     pa: glam::Vec3::new(-1.5, 0.0, -1.5),
                     pb: glam::Vec3::new(1.5, 0.0, -1.5),
                     pc: glam::Vec3::new(-1.5, 3.0, -1.5),
-                    width: 1024,
-                    height: 768,
+                    size: Size::new(1024, 768),
                 },
             ),
         ];
@@ -327,8 +326,8 @@ mod tests {
             assert_eq!(v3("pa"), w.pa);
             assert_eq!(v3("pb"), w.pb);
             assert_eq!(v3("pc"), w.pc);
-            assert_eq!(field("width").parse::<u32>().unwrap(), w.width);
-            assert_eq!(field("height").parse::<u32>().unwrap(), w.height);
+            assert_eq!(field("width").parse::<u32>().unwrap(), w.size.width);
+            assert_eq!(field("height").parse::<u32>().unwrap(), w.size.height);
         }
     }
 

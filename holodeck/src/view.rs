@@ -197,10 +197,11 @@ fn project(
     // view-dependence errors against coverage.
     let (v, depth) = ws.seen_from(view.eye.as_dvec3(), opts.max_angle, size)?;
     let (x, y) = view.project(v)?;
-    if !(x >= 0.0 && y >= 0.0 && x < f64::from(view.width) && y < f64::from(view.height)) {
+    if !(x >= 0.0 && y >= 0.0 && x < f64::from(view.size.width) && y < f64::from(view.size.height))
+    {
         return None;
     }
-    let pixel = y as usize * view.width as usize + x as usize;
+    let pixel = y as usize * view.size.width as usize + x as usize;
     Some((pixel, depth))
 }
 
@@ -210,7 +211,7 @@ pub fn reconstruct(
     view: &WallView,
     opts: &ViewOptions,
 ) -> Result<Picture, FileError> {
-    let n = view.width as usize * view.height as usize;
+    let n = view.size.area();
     let mut nearest = vec![f64::INFINITY; n];
     let mut hits = Vec::new();
     let mut samples = Vec::new();
@@ -268,8 +269,8 @@ pub fn reconstruct(
         .collect();
     let samples_used = counts.iter().map(|&c| u64::from(c)).sum();
     Ok(Picture {
-        width: view.width,
-        height: view.height,
+        width: view.size.width,
+        height: view.size.height,
         pixels,
         counts,
         samples_read,
@@ -283,6 +284,7 @@ mod tests {
     use crate::section::{Section, ViewClass};
     use crate::server::{Mode, Server, ServerConfig};
     use glam::Vec3;
+    use holocave_cave::Size;
     use holocave_protocol::holodeck::SamplePacket;
 
     /// An analytic scene around an interior section: a back plane z = -2 whose colour
@@ -339,8 +341,7 @@ mod tests {
             pa: eye + Vec3::new(-0.5, -0.5, -1.0),
             pb: eye + Vec3::new(0.5, -0.5, -1.0),
             pc: eye + Vec3::new(-0.5, 0.5, -1.0),
-            width: 40,
-            height: 40,
+            size: Size::new(40, 40),
         };
         let pic = reconstruct(&h, &view, &ViewOptions::default()).unwrap();
         assert!(pic.coverage() > 0.85, "coverage {}", pic.coverage());

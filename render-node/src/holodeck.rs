@@ -262,7 +262,7 @@ impl Worker {
     /// The beam a jittered eye ray through `pixel` belongs to, in the section serving it
     /// ([`serving_section`]: the one holding the eye, else the first the ray enters).
     fn beam_of(&mut self, view: &EyeView, pixel: u32) -> Option<BeamKey> {
-        let w = view.wall.width;
+        let w = view.wall.size.width;
         let j = Vec2::new(self.rng.random(), self.rng.random());
         let ray = view
             .wall
@@ -409,7 +409,11 @@ impl Worker {
             (DVec3::splat(f64::NAN), 0, 0, Vec::new())
         });
         for (b, view) in self.best.iter_mut().zip(&self.views) {
-            let (eye, w, h) = (view.eye().as_dvec3(), view.wall.width, view.wall.height);
+            let (eye, w, h) = (
+                view.eye().as_dvec3(),
+                view.wall.size.width,
+                view.wall.size.height,
+            );
             let d = b.0.distance(eye);
             let moved = d.is_nan() || d > self.options.eye_radius * 0.25;
             if moved || b.1 != w || b.2 != h {
@@ -445,7 +449,7 @@ impl Worker {
             let Some((x, y, _)) = view.project(point.as_vec3()) else {
                 continue;
             };
-            let (w, h) = (view.wall.width, view.wall.height);
+            let (w, h) = (view.wall.size.width, view.wall.size.height);
             if !(x >= 0.0 && y >= 0.0 && x < w as f32 && y < h as f32) {
                 continue;
             }

@@ -218,7 +218,7 @@ pub fn from_samples(field: &[Vec3], samples: &[Vec<Vec3>]) -> Measured {
 /// The rays through a [`GRID`]² grid of `view`'s pixels, each at `offset(pixel)` within
 /// its pixel (`(0.5, 0.5)`: the centre).
 pub fn grid_rays(view: &EyeView, offset: impl Fn(usize) -> Vec2) -> Vec<Ray> {
-    let (w, h) = (view.wall.width, view.wall.height);
+    let (w, h) = (view.wall.size.width, view.wall.size.height);
     let (gx, gy) = (GRID.min(w), GRID.min(h));
     (0..gy)
         .flat_map(|j| (0..gx).map(move |i| (i, j)))

@@ -116,7 +116,7 @@ impl PixelTracer {
     /// One sample per chosen pixel (index `y * width + x`), through a random point of the
     /// pixel so that a still view converges to the pixel's mean, as `holocave render`.
     pub fn sample(&mut self, view: &EyeView, pixels: &[u32]) -> Vec<NewSample> {
-        let w = view.wall.width;
+        let w = view.wall.size.width;
         let rays: Vec<Ray> = pixels
             .iter()
             .map(|&p| {

@@ -52,7 +52,7 @@ impl EyeView {
         let screen = Wall::new(
             "screen",
             [wall.pa, wall.pb, wall.pc].map(Vec3::as_dvec3),
-            wall.size(),
+            wall.size,
             StereoMode::Mono,
             "",
         );
@@ -62,7 +62,7 @@ impl EyeView {
             f64::from(near),
             &DMat4::IDENTITY,
         )?;
-        Ok(EyeView::new(&f, &screen, &DMat4::IDENTITY, wall.size()))
+        Ok(EyeView::new(&f, &screen, &DMat4::IDENTITY, wall.size))
     }
 
     pub fn eye(&self) -> Vec3 {
@@ -77,8 +77,8 @@ impl EyeView {
         }
         let (nx, ny) = (c.x / c.w, c.y / c.w);
         Some((
-            (nx * 0.5 + 0.5) * self.wall.width as f32,
-            (0.5 - ny * 0.5) * self.wall.height as f32,
+            (nx * 0.5 + 0.5) * self.wall.size.width as f32,
+            (0.5 - ny * 0.5) * self.wall.size.height as f32,
             c.w,
         ))
     }
@@ -92,8 +92,7 @@ fn wall_view(wall: &Wall, room_to_scene: &DMat4, eye: DVec3, size: Size) -> Wall
         pa: scene(wall.pa),
         pb: scene(wall.pb),
         pc: scene(wall.pc),
-        width: size.width,
-        height: size.height,
+        size,
     }
 }
 
@@ -109,8 +108,7 @@ mod tests {
             pa: Vec3::new(-1.5, 0.0, -1.5),
             pb: Vec3::new(1.5, 0.0, -1.5),
             pc: Vec3::new(-1.5, 3.0, -1.5),
-            width: 64,
-            height: 48,
+            size: Size::new(64, 48),
         };
         let v = EyeView::looking_at(wall, 0.05).unwrap();
         for &(x, y) in &[(0.5, 0.5), (10.25, 30.75), (63.5, 47.5), (32.0, 24.0)] {

@@ -16,8 +16,7 @@ fn view(eye: Vec3) -> EyeView {
             pa: Vec3::new(-1.0, 0.0, -1.0),
             pb: Vec3::new(1.0, 0.0, -1.0),
             pc: Vec3::new(-1.0, 2.0, -1.0),
-            width: W,
-            height: H,
+            size: Size::new(W, H),
         },
         0.05,
     )
@@ -185,8 +184,7 @@ fn dithering_chooses_about_the_budget_and_empty_pixels_first() {
     let mut c = RenderCache::new(gpu, &[Size::new(64, 64)], 8192, 4096);
     let v64 = EyeView::looking_at(
         WallView {
-            width: 64,
-            height: 64,
+            size: Size::new(64, 64),
             ..v.wall
         },
         0.05,

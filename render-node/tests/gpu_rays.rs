@@ -475,7 +475,7 @@ fn a_wall_traced_on_the_gpu_is_the_cpus_wall() {
         // The rays: the eye exactly, directions within a few float steps of the CPU's.
         let mut worst = 0.0f32;
         for (i, r) in made.iter().enumerate() {
-            let (x, y) = (i as u32 % view.width, i as u32 / view.width);
+            let (x, y) = (i as u32 % view.size.width, i as u32 / view.size.width);
             let cpu = view.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
             assert_eq!(Vec3::from(r.origin), cpu.origin, "pixel ({x}, {y})");
             let off = (Vec3::from(r.dir) - cpu.dir).abs().max_element();

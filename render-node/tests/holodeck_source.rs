@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::{DVec3, Vec2, Vec3};
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_holodeck::auth::{Credentials, Port};
 use holocave_holodeck::run::{RayAllowance, RunOptions, start_held};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
@@ -53,8 +53,7 @@ fn eye_view(eye: Vec3) -> EyeView {
             pa: Vec3::new(-1.0, -1.0, -1.0),
             pb: Vec3::new(1.0, -1.0, -1.0),
             pc: Vec3::new(-1.0, 1.0, -1.0),
-            width: SIZE,
-            height: SIZE,
+            size: Size::new(SIZE, SIZE),
         },
         0.05,
     )

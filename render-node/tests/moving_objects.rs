@@ -36,8 +36,7 @@ fn floor_view() -> EyeView {
         pa: Vec3::new(-2.0, 0.0, 2.0),
         pb: Vec3::new(2.0, 0.0, 2.0),
         pc: Vec3::new(-2.0, 0.0, -2.0),
-        width: SIZE,
-        height: SIZE,
+        size: Size::new(SIZE, SIZE),
     };
     EyeView::looking_at(wall, 0.05).expect("the eye is above the floor")
 }

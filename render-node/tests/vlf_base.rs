@@ -353,9 +353,9 @@ fn gathers_traced_on_the_gpu_are_the_cpus() {
     let view = wall(32);
     let rays: Vec<Ray> = (0..4)
         .flat_map(|k| {
-            (0..view.width * view.height).map(move |i| {
+            (0..view.size.width * view.size.height).map(move |i| {
                 let jitter = Vec2::new(0.25 + 0.5 * (k % 2) as f32, 0.25 + 0.5 * (k / 2) as f32);
-                let pixel = Vec2::new((i % view.width) as f32, (i / view.width) as f32);
+                let pixel = Vec2::new((i % view.size.width) as f32, (i / view.size.width) as f32);
                 view.ray(pixel + jitter)
             })
         })
@@ -446,8 +446,8 @@ fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
         };
         let (on_cpu, on_gpu) = (open(), open());
         let view = EyeView::looking_at(wall, 0.05).unwrap();
-        let n = wall.width * wall.height;
-        let mut cache = RenderCache::new(gpu.clone(), &[wall.size()], n, n);
+        let n = wall.size.width * wall.size.height;
+        let mut cache = RenderCache::new(gpu.clone(), &[wall.size], n, n);
         cache.set_vlf(on_gpu.values(), 64.0).unwrap();
         for frame in 0..2 {
             let cpu = on_cpu.lookups(0, &view);

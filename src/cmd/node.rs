@@ -424,17 +424,7 @@ fn standalone(
         super::glare::finish_live(g, &dir)?;
     }
     if let Some(o) = &mut output {
-        let last = totals.frames.saturating_sub(1);
-        if args.window.linger > 0.0 && !o.screens.closed() {
-            // Tests wait for this line before taking a screenshot.
-            println!(
-                "lingering: frame {last} on screen for {} s",
-                args.window.linger
-            );
-            let _ = std::io::stdout().flush();
-            o.linger(&display, args.window.linger, args.fps, last);
-        }
-        print!("{}", o.summary());
+        finish_windows(args, o, &display, totals.frames);
     }
     drop(output);
     let holo_counts = match &display.feed {
@@ -447,6 +437,22 @@ fn standalone(
     }
     print_standalone_times(args, &totals, &dir);
     Ok(())
+}
+
+/// The windows' end: the last frame kept on screen for `--linger` seconds, then their
+/// summary.
+fn finish_windows(args: &NodeArgs, o: &mut WindowOutput, display: &WallDisplay, frames: u64) {
+    let last = frames.saturating_sub(1);
+    if args.window.linger > 0.0 && !o.screens.closed() {
+        // Tests wait for this line before taking a screenshot.
+        println!(
+            "lingering: frame {last} on screen for {} s",
+            args.window.linger
+        );
+        let _ = std::io::stdout().flush();
+        o.linger(display, args.window.linger, args.fps, last);
+    }
+    print!("{}", o.summary());
 }
 
 /// `--vlf`'s light field as this node draws it, with its prior.

@@ -76,8 +76,7 @@ impl ViewFlags {
                 pa,
                 pb,
                 pc,
-                width: size.width,
-                height: size.height,
+                size,
             }),
             _ => bail!("give --eye and --screen, or --camera"),
         }

@@ -64,8 +64,7 @@ fn main() -> Result<(), String> {
         pa,
         pb,
         pc,
-        width: w,
-        height: h,
+        size,
     };
 
     let defaults = TraceSettings::default();

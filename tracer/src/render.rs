@@ -19,8 +19,8 @@ pub fn render(
     seed: u64,
     on_row: &(dyn Fn() + Sync),
 ) -> Image {
-    let mut image = Image::new(view.width, view.height);
-    let w = view.width as usize;
+    let mut image = Image::new(view.size.width, view.size.height);
+    let w = view.size.width as usize;
     image
         .pixels
         .par_chunks_mut(w)

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_vlf::{Settings, Visibility};
 
@@ -26,8 +26,7 @@ fn view(eye: Vec3, z: f32, width: u32, height: u32) -> WallView {
         pa: Vec3::new(-1.5, 0.0, z),
         pb: Vec3::new(1.5, 0.0, z),
         pc: Vec3::new(-1.5, 3.0, z),
-        width,
-        height,
+        size: Size::new(width, height),
     }
 }
 

@@ -37,7 +37,7 @@ impl Screen {
             .normalize_or_zero();
         Screen {
             eye: view.eye,
-            pixel: (view.pb - view.pa).length() / (view.width * k.max(1)) as f32,
+            pixel: (view.pb - view.pa).length() / (view.size.width * k.max(1)) as f32,
             normal,
             to_screen: (view.pa - view.eye).dot(normal).abs(),
         }
@@ -71,8 +71,8 @@ impl Screen {
 /// screen is seen edge on.
 pub fn pixel_span(view: &WallView, k: u32, p: &DirectPoint) -> [Vec3; 2] {
     let k = k.max(1) as f32;
-    let across = (view.pb - view.pa) / (view.width as f32 * k);
-    let down = (view.pa - view.pc) / (view.height as f32 * k);
+    let across = (view.pb - view.pa) / (view.size.width as f32 * k);
+    let down = (view.pa - view.pc) / (view.size.height as f32 * k);
     let screen = (view.pb - view.pa).cross(view.pc - view.pa);
     let v = p.position - view.eye;
     // The ray through the cell's centre meets the screen at `eye + d` and the point at

@@ -83,7 +83,7 @@ pub(crate) fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = u
 /// The pixels of `view` (rows from the top) whose glow differs from a neighbour's, found
 /// in `lookups` and their `points` before the direct light is added.
 pub fn find(view: &WallView, lookups: &[Lookup], points: &[Option<DirectPoint>]) -> GlowEdges {
-    let (w, h) = (view.width as usize, view.height as usize);
+    let (w, h) = (view.size.width as usize, view.size.height as usize);
     let glow = |i: usize| glow_of(&lookups[i], points.get(i).and_then(Option::as_ref));
     let neighbours = move |i: usize| neighbours(i, w, h);
     let pixels = (0..(w * h).min(lookups.len()))
@@ -161,8 +161,8 @@ struct Coverage {
 impl Coverage {
     fn of(vis: &Visibility, placed: &PlacedScene, view: &WallView, pixel: usize) -> Coverage {
         let corner = Vec2::new(
-            (pixel as u32 % view.width) as f32,
-            (pixel as u32 / view.width) as f32,
+            (pixel as u32 % view.size.width) as f32,
+            (pixel as u32 / view.size.width) as f32,
         );
         let along = |o: Vec2| vis.glow_along(placed, view.ray(corner + o));
         let (mut glow, mut on_surface) = (Vec3::ZERO, 0u32);

@@ -137,9 +137,9 @@ pub fn of_still_view(
 ) -> KeptGathers {
     let mut kept = KeptGathers::new(remainder.clone(), prior);
     let mut rng = SmallRng::seed_from_u64(0x6A7E);
-    let w = view.width;
+    let w = view.size.width;
     for frame in 0..frames {
-        let rays: Vec<_> = (0..w * view.height)
+        let rays: Vec<_> = (0..w * view.size.height)
             .map(|i| {
                 let at = Vec2::new((i % w) as f32, (i / w) as f32);
                 view.ray(at + Vec2::new(rng.random(), rng.random()))

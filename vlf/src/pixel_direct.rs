@@ -960,8 +960,8 @@ impl Accumulator {
     /// moved a footprint from where its mean began, or one seen in a mirror, whose image
     /// moves otherwise).
     pub fn reproject(&mut self, from: &WallView, to: &WallView, points: &[Option<DirectPoint>]) {
-        let (w, h) = (from.width as usize, from.height as usize);
-        if self.seen.len() != w * h || points.len() != (to.width * to.height) as usize {
+        let (w, h) = (from.size.width as usize, from.size.height as usize);
+        if self.seen.len() != w * h || points.len() != to.size.area() {
             self.restart();
             return;
         }

@@ -61,7 +61,7 @@ fn resolve_with(
     (points, values): (&[Option<DirectPoint>], &[[f32; 3]]),
     glowing: &[usize],
 ) -> usize {
-    let (w, h) = (view.width as usize, view.height as usize);
+    let (w, h) = (view.size.width as usize, view.size.height as usize);
     let n = (w * h).min(lookups.len()).min(points.len());
     let shown: Vec<f32> = (lookups[..n].par_iter())
         .map(|l| luminance(shade_one(l, values)))

@@ -855,10 +855,13 @@ impl Visibility {
     /// Which pixels of `view` see a moving object through their centre.
     pub fn object_pixels(&self, view: &WallView) -> Vec<bool> {
         self.with_placed(|placed| {
-            (0..view.width * view.height)
+            (0..view.size.width * view.size.height)
                 .into_par_iter()
                 .map(|i| {
-                    let c = Vec2::new((i % view.width) as f32 + 0.5, (i / view.width) as f32 + 0.5);
+                    let c = Vec2::new(
+                        (i % view.size.width) as f32 + 0.5,
+                        (i / view.size.width) as f32 + 0.5,
+                    );
                     placed
                         .closest_hit(&view.ray(c), f32::INFINITY)
                         .is_some_and(|h| placed.object_of(h.triangle).is_some())
@@ -896,7 +899,7 @@ impl Visibility {
     ) -> Vec<Lookup> {
         match hits {
             Some((hits, further)) => {
-                assert_eq!(hits.len(), (view.width * view.height) as usize);
+                assert_eq!(hits.len(), view.size.area());
                 let first_hits = |placed: &PlacedScene, rays: &[Ray], first: usize| {
                     let hits = &hits[first..first + rays.len()];
                     rays.iter()
@@ -926,8 +929,8 @@ impl Visibility {
         first_hits: &FirstHits,
         further: Option<&dyn StaticRays>,
     ) -> Vec<Lookup> {
-        let w = view.width as usize;
-        let n = w * view.height as usize;
+        let w = view.size.width as usize;
+        let n = w * view.size.height as usize;
         let env = environment(&self.lights);
         let chunk = 8 * PACKET;
         let mut lookups = vec![Lookup::NONE; n];
@@ -1024,8 +1027,8 @@ impl Visibility {
     ) -> Image {
         let k = k.max(1);
         let estimates = direct.map_or(0, |d| d.first_estimates() + frames.max(1) - 1);
-        let mut image = Image::new(view.width, view.height);
-        let w = view.width as usize;
+        let mut image = Image::new(view.size.width, view.size.height);
+        let w = view.size.width as usize;
         let env = environment(&self.lights);
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);

@@ -142,8 +142,8 @@ fn walls_and_floor(material: impl Fn(&mut holocave_scene::Material)) -> [(f64, f
             (scene.closest_hit(&ray, f32::INFINITY))
                 .is_some_and(|h| scene.triangle_shading(h.triangle).material == m)
         };
-        let pixels: Vec<(u32, u32)> = (0..view.height)
-            .flat_map(|y| (0..view.width).map(move |x| (x, y)))
+        let pixels: Vec<(u32, u32)> = (0..view.size.height)
+            .flat_map(|y| (0..view.size.width).map(move |x| (x, y)))
             .filter(|&(x, y)| sees(x, y))
             .collect();
         assert!(pixels.len() > 500, "{} pixels of {name}", pixels.len());

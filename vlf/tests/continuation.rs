@@ -39,8 +39,8 @@ fn rays_through_mirrors_and_glass_traced_in_batches_are_the_rays_followed_one_by
     let view = WallView::through_camera(cam, Size::new(96, 72));
     let (one_by_one, points) = vis.pixels_and_points(&view);
 
-    let w = view.width as usize;
-    let rays: Vec<Ray> = (0..w * view.height as usize)
+    let w = view.size.width as usize;
+    let rays: Vec<Ray> = (0..w * view.size.height as usize)
         .map(|i| view.ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
         .collect();
     let firsts = CpuRays(&scene).closest_hits(&rays);

@@ -8,7 +8,7 @@ mod common;
 use std::sync::Arc;
 
 use glam::Vec3;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{Material, PunctualKind, PunctualLight};
 use holocave_vlf::split::Split;
 use holocave_vlf::{Settings, Visibility};
@@ -72,8 +72,7 @@ fn a_corner_of_glossy_paint_is_as_bright_as_the_path_tracers() {
         pa: Vec3::new(-0.375, 0.14, -0.5),
         pb: Vec3::new(0.375, 0.14, -0.5),
         pc: Vec3::new(-0.375, 0.425, -0.5),
-        width: 32,
-        height: 16,
+        size: Size::new(32, 16),
     };
     let drawn = vis.render_with_direct(&view, &split.remainder, 2, &split.direct, 1, None);
     let (reference, noise, _) = common::two_seed_reference(&scene, &view, 256);

@@ -24,8 +24,8 @@ const MEAN: u32 = 1024;
 /// The rays of a `side` × `side` grid of points in every pixel, pixel after pixel.
 fn grid_rays(view: &WallView, side: u32) -> Vec<Ray> {
     let mut rays = Vec::new();
-    for p in 0..view.width * view.height {
-        let (x, y) = ((p % view.width) as f32, (p / view.width) as f32);
+    for p in 0..view.size.width * view.size.height {
+        let (x, y) = ((p % view.size.width) as f32, (p / view.size.width) as f32);
         for j in 0..side {
             for i in 0..side {
                 let o = (Vec2::new(i as f32, j as f32) + 0.5) / side as f32;
@@ -39,7 +39,7 @@ fn grid_rays(view: &WallView, side: u32) -> Vec<Ray> {
 /// Per pixel: the mean of its `per` samples, and their relative variance summed over
 /// channels (as the relative MSE weighs it).
 fn mean_and_variance(view: &WallView, samples: &[Vec3], per: usize) -> (Image, f64) {
-    let mut image = Image::new(view.width, view.height);
+    let mut image = Image::new(view.size.width, view.size.height);
     let mut var = 0.0f64;
     for (px, s) in image.pixels.iter_mut().zip(samples.chunks(per)) {
         let mean = s.iter().sum::<Vec3>() / per as f32;

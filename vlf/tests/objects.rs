@@ -7,6 +7,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use glam::{Quat, Vec3};
+use holocave_cave::Size;
 use holocave_scene::{LoadOptions, Placement, Ray, Scene};
 use holocave_vlf::{DirectPoint, PixelDirect, Settings, Visibility};
 
@@ -283,8 +284,7 @@ fn an_object_out_of_sight_changes_nothing_seen() {
         pa: Vec3::new(-1.5, 0.0, -1.5),
         pb: Vec3::new(1.5, 0.0, -1.5),
         pc: Vec3::new(-1.5, 3.0, -1.5),
-        width: 64,
-        height: 48,
+        size: Size::new(64, 48),
     };
     vis.place_objects(&block_at(away()));
     let seen = vis.pixels(&wall);

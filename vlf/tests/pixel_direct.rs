@@ -9,7 +9,7 @@ mod common;
 use std::sync::Arc;
 
 use glam::{DVec3, Vec2, Vec3, Vec4};
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{Daylight, Material, Ray, Scene, Sun};
 use holocave_tracer::film::Image;
 use holocave_vlf::{Accumulator, DirectPoint, Estimate, PixelDirect, Settings, Visibility};
@@ -287,8 +287,7 @@ fn under_the_plates(eye: Vec3) -> WallView {
         pa: Vec3::new(-1.8, 0.4, 0.6),
         pb: Vec3::new(0.6, 0.4, 0.6),
         pc: Vec3::new(-1.8, 0.4, -0.6),
-        width: 48,
-        height: 24,
+        size: Size::new(48, 24),
     }
 }
 
@@ -550,8 +549,7 @@ fn highlight_view() -> WallView {
         pa: c - right * 0.3 - up * 0.3,
         pb: c + right * 0.3 - up * 0.3,
         pc: c - right * 0.3 + up * 0.3,
-        width: SIZE,
-        height: SIZE,
+        size: Size::new(SIZE, SIZE),
     }
 }
 
@@ -565,11 +563,11 @@ fn drawn(
     first: u64,
     frames: u32,
 ) -> Image {
-    let mut image = Image::new(view.width, view.height);
+    let mut image = Image::new(view.size.width, view.size.height);
     for (i, px) in image.pixels.iter_mut().enumerate() {
         let (x, y) = (
-            (i as u32 % view.width) as f32,
-            (i as u32 / view.width) as f32,
+            (i as u32 % view.size.width) as f32,
+            (i as u32 / view.size.width) as f32,
         );
         let mut sum = Vec3::ZERO;
         for s in 0..AA * AA {

@@ -14,7 +14,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use glam::Vec3;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{LoadOptions, Scene};
 use holocave_vlf::{Settings, Visibility};
 
@@ -33,8 +33,7 @@ fn room_error_falls_with_directions_and_lines() {
         pa: Vec3::new(-1.5, 0.0, -1.5),
         pb: Vec3::new(1.5, 0.0, -1.5),
         pc: Vec3::new(-1.5, 3.0, -1.5),
-        width: SIZE,
-        height: SIZE,
+        size: Size::new(SIZE, SIZE),
     };
     let (reference, noise, _) = common::two_seed_reference(&scene, &view, SPP);
     eprintln!("reference: 2 × {SPP} spp, its own error n̂ = {noise:.5}");

@@ -7,7 +7,7 @@ mod common;
 use std::sync::Arc;
 
 use glam::Vec3;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{Material, Scene};
 use holocave_vlf::split::Split;
 use holocave_vlf::tiles::alpha_floor;
@@ -108,8 +108,7 @@ fn square_before_varnish() -> (Arc<Scene>, Visibility, Split, WallView) {
         pa: Vec3::new(-0.3, 0.0, -0.2),
         pb: Vec3::new(0.3, 0.0, -0.2),
         pc: Vec3::new(-0.3, 0.0, -0.8),
-        width: 32,
-        height: 32,
+        size: Size::new(32, 32),
     };
     (scene, vis, split, view)
 }

@@ -15,8 +15,7 @@ pub fn views(w: u32, h: u32) -> Vec<EyeView> {
                     pa: Vec3::new(-1.5, 0.0, -1.5),
                     pb: Vec3::new(1.5, 0.0, -1.5),
                     pc: Vec3::new(-1.5, 3.0, -1.5),
-                    width: w,
-                    height: h,
+                    size: Size::new(w, h),
                 },
                 0.05,
             )

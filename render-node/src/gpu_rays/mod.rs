@@ -423,7 +423,7 @@ impl GpuRays {
             pad: [0.0; 3],
         };
         if let Some(v) = view {
-            (p.width, p.height) = (v.width, v.height);
+            (p.width, p.height) = (v.size.width, v.size.height);
             (p.eye, p.pa, p.pb, p.pc) = (v4(v.eye), v4(v.pa), v4(v.pb), v4(v.pc));
         }
         gpu.queue
@@ -534,7 +534,7 @@ impl GpuRays {
     /// ray buffer, on the GPU, as the current batch, and puts `query` to them, all in one
     /// submission; returns the number of rays.
     pub fn trace_wall(&mut self, gpu: &Gpu, view: &WallView, tmax: f32, query: Query) -> u32 {
-        let n = view.width * view.height;
+        let n = view.size.width * view.size.height;
         self.reserve(gpu, n);
         self.set_params(gpu, n, Some(view), tmax);
         let mut enc = gpu.device.create_command_encoder(&Default::default());
@@ -547,7 +547,7 @@ impl GpuRays {
     /// Makes `view`'s pixel rays on the GPU (as [`GpuRays::trace_wall`]) without tracing
     /// them.
     pub fn generate_wall(&mut self, gpu: &Gpu, view: &WallView, tmax: f32) -> u32 {
-        let n = view.width * view.height;
+        let n = view.size.width * view.size.height;
         self.reserve(gpu, n);
         self.set_params(gpu, n, Some(view), tmax);
         let mut enc = gpu.device.create_command_encoder(&Default::default());

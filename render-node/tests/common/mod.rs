@@ -3,7 +3,7 @@
 //! lights; a light field baked into a file.
 
 use glam::Vec3;
-use holocave_cave::WallView;
+use holocave_cave::{Size, WallView};
 use holocave_scene::{LoadOptions, Scene};
 
 /// Skip or fail without `../shared` (`tests/common/require.rs` of the checkout).
@@ -31,8 +31,7 @@ pub fn front_wall(eye: Vec3, size: u32) -> WallView {
         pa: Vec3::new(-1.0, 0.0, 1.2),
         pb: Vec3::new(1.0, 0.0, 1.2),
         pc: Vec3::new(-1.0, 2.0, 1.2),
-        width: size,
-        height: size,
+        size: Size::new(size, size),
     }
 }
 

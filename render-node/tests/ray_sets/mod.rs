@@ -32,9 +32,9 @@ pub fn sponza() -> Option<Scene> {
 /// The sets of `holocave_scene::ray_sets` through `view`, primary rays through the pixel
 /// centres row by row.
 pub fn ray_sets(scene: &Scene, view: &WallView) -> RaySets {
-    let mut primary = Vec::with_capacity((view.width * view.height) as usize);
-    for y in 0..view.height {
-        for x in 0..view.width {
+    let mut primary = Vec::with_capacity(view.size.area());
+    for y in 0..view.size.height {
+        for x in 0..view.size.width {
             primary.push(view.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5)));
         }
     }

@@ -6,6 +6,7 @@ use std::convert::Infallible;
 use std::path::Path;
 
 use glam::{Vec2, Vec3, Vec4};
+use holocave_cave::Size;
 use holocave_scene::{Material, PunctualKind, PunctualLight, Scene, SceneParts, TriangleShading};
 use holocave_vlf::{Settings, State, Stats, bake};
 
@@ -180,7 +181,7 @@ pub fn two_seed_reference(
         holocave_tracer::Tracer::new(scene.clone(), holocave_tracer::TraceSettings::default());
     let a = holocave_tracer::render::render(&tracer, view, spp, 1, &|| {});
     let b = holocave_tracer::render::render(&tracer, view, spp, 2, &|| {});
-    let mut mean = holocave_tracer::film::Image::new(view.width, view.height);
+    let mut mean = holocave_tracer::film::Image::new(view.size.width, view.size.height);
     for (r, (a, b)) in mean.pixels.iter_mut().zip(a.pixels.iter().zip(&b.pixels)) {
         *r = (*a + *b) * 0.5;
     }
@@ -196,8 +197,7 @@ pub fn edge_view() -> holocave_cave::WallView {
         pa: Vec3::new(-1.0, -0.75, 0.0),
         pb: Vec3::new(1.0, -0.75, 0.0),
         pc: Vec3::new(-1.0, 0.75, 0.0),
-        width: 32,
-        height: 24,
+        size: Size::new(32, 24),
     }
 }
 
@@ -209,7 +209,7 @@ pub fn corner_pixels(view: &holocave_cave::WallView, o: Vec3, (a, b): (f32, f32)
         .filter_map(|&(x, y)| {
             let c = o + Vec3::new(x, y, 0.0);
             let (px, py) = view.project((c - view.eye).as_dvec3())?;
-            Some(py as usize * view.width as usize + px as usize)
+            Some(py as usize * view.size.width as usize + px as usize)
         })
         .collect()
 }
