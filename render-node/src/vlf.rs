@@ -47,6 +47,7 @@ use rayon::prelude::*;
 
 use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
 use crate::gpu_rays::lookups::{LookupComposer, split};
+use crate::gpu_rays::surfaces::SceneSurfaces;
 use crate::gpu_rays::{GpuRays, KeptHits, OnGpu, Query, Rays, ShadowMaker};
 use crate::prior::Measured;
 use crate::{EyeView, Gpu, RenderCache, RenderNodeError};
@@ -395,7 +396,8 @@ impl VlfBase {
         self.gpu_rays = if rays.on_gpu(gpu) {
             let engine = GpuRays::for_scene(gpu, self.visibility.scene())?;
             let maker = ShadowMaker::new(gpu, &engine, self.visibility.scene()).map(Mutex::new);
-            let composer = LookupComposer::new(gpu, self.visibility.elements());
+            let surfaces = SceneSurfaces::new(gpu, self.visibility.scene());
+            let composer = LookupComposer::new(gpu, self.visibility.elements(), surfaces);
             Some(OnGpuRays {
                 gpu: gpu.clone(),
                 engine: Mutex::new(engine),
@@ -556,8 +558,9 @@ impl VlfBase {
                 && let Some(target) = cache.lookups_buffer(eye)
             {
                 let elements = self.visibility.elements();
-                let (shades, sent) = split(elements, &lookups, &pixels.points, hits);
                 let mut composer = g.composer.lock().unwrap_or_else(|e| e.into_inner());
+                let surfaces = &composer.surfaces;
+                let (shades, sent) = split(elements, surfaces, &lookups, &pixels.points, hits);
                 composer.compose(&g.gpu, kept, &shades, &sent, target);
             } else {
                 cache.set_lookups(eye, &lookups);
@@ -755,6 +758,7 @@ mod tests {
             wo: Vec3::Y,
             bsdf: Bsdf::new(&Default::default()),
             weight: Vec3::ONE,
+            albedo: Vec3::ZERO,
             surfaces: reflected.unwrap_or(Vec3::ZERO),
             reflected,
             span: [Vec3::ZERO; 2],

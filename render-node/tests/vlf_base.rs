@@ -11,9 +11,11 @@ use std::time::Instant;
 use glam::{Vec2, Vec3};
 use holocave_cave::{Size, WallView};
 use holocave_render_node::gpu_rays::Rays;
+use holocave_render_node::gpu_rays::surfaces::SceneSurfaces;
 use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, VlfBase, WallDisplay};
-use holocave_scene::{Ray, Scene};
+use holocave_scene::{Encoding, Hit, Ray, Scene, SceneParts, Texture, TextureRef, TriangleShading};
 use holocave_tracer::{TraceSettings, Tracer, render::render};
+use holocave_vlf::surface::towards_table;
 use holocave_vlf::{Lookup, Settings, view::shade};
 
 fn cornell() -> Arc<Scene> {
@@ -420,22 +422,128 @@ fn shadow_rays_made_on_the_gpu_draw_the_cpus_walls() {
     }
 }
 
+/// The Cornell box with texture coordinates (each vertex's `x + z` and `y − z`, 2.3 times a
+/// metre: tiled, negative and past one) and textures on its white walls (sRGB, 16 × 8
+/// texels of scattered colours) and its red wall (linear, 5 × 3): a base colour that
+/// varies inside each texel and wraps at the texture's edges; its green wall a rough
+/// dielectric (glTF's specular layer over the base), whose albedo changes with the view.
+fn textured_cornell() -> Arc<Scene> {
+    let box_ = common::cornell();
+    let n = box_.triangle_count() as u32;
+    let positions: Vec<[Vec3; 3]> = (0..n).map(|i| *box_.triangle(i)).collect();
+    let shading = (0..n)
+        .map(|i| TriangleShading {
+            uvs: box_
+                .triangle(i)
+                .map(|p| Vec2::new(p.x + p.z, p.y - p.z) * 2.3),
+            ..*box_.triangle_shading(i)
+        })
+        .collect();
+    let scattered = |w: u32, h: u32, seed: u32| -> Vec<[u8; 4]> {
+        (0..w * h)
+            .map(|k| {
+                let x = (k + seed).wrapping_mul(2_654_435_761);
+                [(x >> 24) as u8, (x >> 16) as u8, (x >> 8) as u8, 255]
+            })
+            .collect()
+    };
+    let textures = vec![
+        Texture::new(
+            "scattered".into(),
+            16,
+            8,
+            scattered(16, 8, 1),
+            Encoding::Srgb,
+        ),
+        Texture::new("linear".into(), 5, 3, scattered(5, 3, 7), Encoding::Linear),
+    ];
+    let mut materials = box_.materials.clone();
+    for (name, texture) in [("white", 0), ("red", 1)] {
+        let m = (materials.iter_mut().find(|m| m.name == name)).expect("the box's material");
+        m.base_color_texture = Some(TextureRef { texture });
+    }
+    let green = (materials.iter_mut().find(|m| m.name == "green")).expect("the green wall");
+    (green.metallic, green.roughness, green.specular) = (0.0, 1.0, 1.0);
+    let parts = SceneParts {
+        name: "textured cornell".into(),
+        positions,
+        shading,
+        materials,
+        textures,
+        lights: box_.lights.clone(),
+        cameras: box_.cameras.clone(),
+        daylight: box_.daylight.clone(),
+        ..Default::default()
+    };
+    Arc::new(Scene::from_parts(parts, std::path::Path::new("textured_cornell.gltf")).unwrap())
+}
+
+/// How far the GPU's weight of a composed lookup may be from the CPU's (`surfaces.rs`):
+/// the texture coordinates interpolated with fused multiply-adds (3 ε of the largest
+/// coordinate `s`), moving a texel position by `w · 3 ε s + 2 ε w` in a texture `w` texels
+/// wide, and the colour by as much (a texel step is at most 1); the shading normal and the
+/// ray's direction (normalised, the division and square root 2.5 ulp each) moving the
+/// view's cosine by 64 ε, so the table's position by 31 times that, the albedo by that
+/// times its largest step `table_step`; 8 ε of rounding in the table's blend; all over π.
+fn weight_bound(scene: &Scene, table_step: f32) -> f32 {
+    let eps = f32::EPSILON;
+    let s = (0..scene.triangle_count() as u32)
+        .flat_map(|i| scene.triangle_shading(i).uvs)
+        .fold(0.0f32, |m, uv| m.max(uv.abs().max_element()));
+    let texels =
+        (scene.textures.iter()).fold(0.0f32, |m, t| m.max(t.width().max(t.height()) as f32));
+    let colour = 2.0 * (texels * 3.0 * eps * s + 2.0 * eps * texels) + 8.0 * eps;
+    (colour + 31.0 * 64.0 * eps * table_step + 8.0 * eps) * std::f32::consts::FRAC_1_PI
+}
+
+/// The largest change between two steps of any of `scene`'s materials' albedo tables.
+fn largest_table_step(scene: &Scene) -> f32 {
+    (scene.materials.iter())
+        .map(|m| towards_table(&m.params(&scene.textures, Vec2::ZERO)))
+        .flat_map(|t| {
+            t.windows(2)
+                .map(|w| ((w[1].0 - w[0].0).abs() + (w[1].1 - w[0].1).abs()).max_element())
+                .collect::<Vec<_>>()
+        })
+        .fold(0.0, f32::max)
+}
+
 /// With the rays on the GPU, the lookups the render cache receives are composed there from
-/// the wall's first hits (element and barycentrics from the hit, weight and emitted light
-/// sent; mirrors, glass, tiles sent whole): bit for bit the lookups the CPU makes of the
-/// same frame, in the room (its sun and lamps), the Cornell box (mirror, glass, area lamp)
-/// and the box with glossy walls (tiles).
+/// the wall's first hits (element and barycentrics from the hit, the weight from the
+/// material data on the GPU, the emitted light sent; mirrors, glass, tiles sent whole):
+/// bit for bit the lookups the CPU makes of the same frame but for the weights, which are
+/// within [`weight_bound`], in the room (its sun and lamps), the Cornell box (mirror,
+/// glass, area lamp), the box with glossy walls (tiles) and the box with textures.
 #[test]
 fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
     let room = Arc::new(common::room::room_with_punctual_lights());
     let room_view =
         WallView::through_camera(room.cameras.first().expect("a camera"), Size::new(64, 48));
+    let textured = textured_cornell();
+    let surfaces = SceneSurfaces::new(&gpu, &textured);
+    let on_gpu = (0..textured.triangle_count() as u32)
+        .filter(|&i| {
+            surfaces.shades(&Hit {
+                t: 1.0,
+                triangle: i,
+                u: 0.0,
+                v: 0.0,
+            })
+        })
+        .count();
+    assert_eq!(
+        on_gpu,
+        textured.triangle_count(),
+        "every triangle's material on the GPU"
+    );
     for (name, scene, wall) in [
         ("room", room, room_view),
         ("cornell", cornell(), wall(48)),
         ("glossy cornell", glossy_cornell(), wall(48)),
+        ("textured cornell", textured, wall(48)),
     ] {
+        let bound = weight_bound(&scene, largest_table_step(&scene));
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("cornell.vlf");
         drop(baked(&scene, &coarse(), dir.path()));
@@ -455,14 +563,28 @@ fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
             let buffer = cache.lookups_buffer(0).expect("a light field is set");
             let bytes = gpu.read(buffer, buffer.size());
             let composed: &[Lookup] = bytemuck::cast_slice(&bytes[..cpu.len() * 64]);
+            let but_weight = |l: &Lookup| Lookup {
+                weight: [0.0; 3],
+                ..*l
+            };
             let differ = (cpu.iter().zip(composed))
-                .filter(|(a, b)| bytemuck::bytes_of(*a) != bytemuck::bytes_of(*b))
+                .filter(|(a, b)| {
+                    bytemuck::bytes_of(&but_weight(a)) != bytemuck::bytes_of(&but_weight(b))
+                })
                 .count();
+            let apart = (cpu.iter().zip(composed))
+                .map(|(a, b)| {
+                    (Vec3::from(a.weight) - Vec3::from(b.weight))
+                        .abs()
+                        .max_element()
+                })
+                .fold(0.0f32, f32::max);
             let elements = (cpu.iter())
                 .filter(|l| l.base != u32::MAX && l.tile == u32::MAX)
                 .count();
             eprintln!(
-                "{name}, frame {frame}: {differ} of {} lookups differ ({elements} on elements)",
+                "{name}, frame {frame}: {differ} of {} lookups differ but for the weight \
+                 ({elements} on elements); weights at most {apart:e} apart (bound {bound:e})",
                 cpu.len()
             );
             assert!(
@@ -470,6 +592,10 @@ fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
                 "{name}: {elements} element lookups"
             );
             assert_eq!(differ, 0, "{name}, frame {frame}");
+            assert!(
+                apart <= bound,
+                "{name}, frame {frame}: weights {apart:e} apart"
+            );
         }
     }
 }

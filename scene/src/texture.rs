@@ -25,7 +25,8 @@ pub struct Texture {
     encoding: Encoding,
 }
 
-fn srgb_table() -> &'static [f32; 256] {
+/// The linear value of each 8-bit sRGB code: what a colour texture's texel reads as.
+pub fn srgb_table() -> &'static [f32; 256] {
     static TABLE: OnceLock<[f32; 256]> = OnceLock::new();
     TABLE.get_or_init(|| {
         std::array::from_fn(|i| {
@@ -73,6 +74,19 @@ impl Texture {
 
     pub fn encoding(&self) -> Encoding {
         self.encoding
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The texels in row-major order, first row at v = 0.
+    pub fn texels(&self) -> &[[u8; 4]] {
+        &self.texels
     }
 
     fn texel(&self, x: i64, y: i64) -> Vec4 {

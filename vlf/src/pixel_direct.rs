@@ -70,6 +70,10 @@ pub struct DirectPoint {
     pub bsdf: Bsdf,
     /// What the delta surfaces between the eye and the point let through.
     pub weight: Vec3,
+    /// Where the lookup reads an element: the surface's directional albedo towards `wo`
+    /// ([`crate::surface::albedo_towards`]), by which (over π, and times `weight`) the
+    /// element's irradiance reaches the eye; zero elsewhere.
+    pub albedo: Vec3,
     /// The light of surfaces that the lookup's emitted light holds (not glow:
     /// [`crate::glow_edges`] leaves it to the surface part): those glass's weaker branches
     /// on the way end on, and the room a widened tile's own lobe reflects beyond the tile

@@ -129,7 +129,7 @@ fn integrate_albedo_terms(key: AlbedoKey, q: &SurfaceParams) -> (Vec3, Vec3) {
 }
 
 /// Entries of a material's [`albedo_towards`] table over `cos θ_o ∈ [0, 1]`.
-pub(crate) const TOWARDS_STEPS: usize = 32;
+pub const TOWARDS_STEPS: usize = 32;
 
 /// The fraction of light arriving evenly from all directions that a non-delta surface
 /// sends towards a viewer at `cos_o` (the cosine between its shading normal and the
@@ -182,7 +182,7 @@ fn with_towards_terms<R>(p: &SurfaceParams, f: impl FnOnce(&[(Vec3, Vec3)]) -> R
 
 /// [`albedo_towards`]'s table for `p`: `a + b · base` at each of [`TOWARDS_STEPS`] views
 /// evenly over `cos θ_o ∈ [0, 1]`.
-pub(crate) fn towards_table(p: &SurfaceParams) -> Vec<(Vec3, Vec3)> {
+pub fn towards_table(p: &SurfaceParams) -> Vec<(Vec3, Vec3)> {
     with_towards_terms(p, |table| table.to_vec())
 }
 

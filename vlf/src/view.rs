@@ -710,6 +710,7 @@ impl Visibility {
             wo: -r.dir,
             bsdf: Bsdf::new(&s.params),
             weight: chain.weight,
+            albedo: Vec3::ZERO,
             surfaces: beside,
             reflected: None,
             span: [Vec3::ZERO; 2],
@@ -835,16 +836,13 @@ impl Visibility {
             };
             return (l, Some(point));
         }
+        point.albedo = albedo_towards(&s.params, s.shading_normal.dot(r.dir));
         let l = Lookup {
             base: cells.base(side),
             res: cells.res,
             u: s.hit.u,
             v: s.hit.v,
-            weight: (chain.weight
-                * open
-                * albedo_towards(&s.params, s.shading_normal.dot(r.dir))
-                * std::f32::consts::FRAC_1_PI)
-                .to_array(),
+            weight: (chain.weight * open * point.albedo * std::f32::consts::FRAC_1_PI).to_array(),
             emitted,
             samples,
             ..Lookup::NONE

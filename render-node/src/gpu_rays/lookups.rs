@@ -1,19 +1,24 @@
 //! The light field's lookups read from the wall's first hits on the GPU
 //! (`lookups.wgsl` beside this file): where a pixel's point is its first hit on an element
-//! (the common pixel: no mirror, glass, glossy tile or moving object on the way), the
-//! lookup's element and barycentrics come from the hit kept there, and the CPU sends only
-//! what it computed of the pixel — the weight (the albedo, from the material's textures)
-//! and the emitted light (the per-pixel direct light's running mean among it): 32 bytes
-//! instead of the lookup's 64. Other pixels' lookups are sent whole.
+//! (the common pixel: no mirror, glass, glossy tile or moving object on the way) and its
+//! material is shaded there ([`SceneSurfaces`]), the lookup's element and barycentrics come
+//! from the hit kept there and its weight from the surface's albedo towards the pixel's
+//! ray, and the CPU sends only the emitted light it computed (the per-pixel direct light's
+//! running mean among it): 16 bytes instead of the lookup's 64. Other pixels' lookups are
+//! sent whole.
 //!
-//! The composed lookups are the CPU's bit for bit: a pixel is composed only where the
-//! CPU's lookup is exactly what the kernel writes from that hit ([`split`]).
+//! The composed lookups are the CPU's bit for bit but for the weight, which is the CPU's
+//! within the float bound of the material data's operations (`surfaces.rs`): a pixel is
+//! composed only where the CPU's lookup is what the kernel writes from that hit, its
+//! weight the surface's own albedo over π (not scaled by an edge's share or by moving
+//! objects' shade) ([`split`]).
 
 use bytemuck::{Pod, Zeroable};
 use holocave_scene::Hit;
 use holocave_vlf::{DirectPoint, Elements, Lookup};
 use rayon::prelude::*;
 
+use super::surfaces::SceneSurfaces;
 use super::{KeptHits, dispatch, grid};
 use crate::gpu::{Binding, ComputePass, Gpu};
 
@@ -21,13 +26,10 @@ use crate::gpu::{Binding, ComputePass, Gpu};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct Shade {
-    pub weight: [f32; 3],
-    /// The side of the triangle seen: 0 front, 1 back.
-    pub side: u32,
     pub emitted: [f32; 3],
-    /// The index of the pixel's whole lookup among those sent; `u32::MAX`: composed from
-    /// its hit.
-    pub sent: u32,
+    /// The side of the triangle seen (0 front, 1 back) where the lookup is composed on
+    /// the GPU; `2 + k` where it is the `k`-th of those sent whole.
+    pub tag: u32,
 }
 
 /// `LookupParams` in the shader.
@@ -43,6 +45,7 @@ struct LookupParams {
 /// shade, and its whole lookup where the GPU cannot compose it from the hit.
 fn shade_of(
     elements: &Elements,
+    surfaces: &SceneSurfaces,
     l: &Lookup,
     point: Option<&DirectPoint>,
     hit: Option<&Hit>,
@@ -63,13 +66,18 @@ fn shade_of(
         emitted: l.emitted,
         ..Lookup::NONE
     };
+    let own_weight = l.weight == (p.albedo * std::f32::consts::FRAC_1_PI).to_array();
     match side {
-        Some(side) if p.triangle == h.triangle && composed == *l && l.base != u32::MAX => {
+        Some(side)
+            if p.triangle == h.triangle
+                && composed == *l
+                && l.base != u32::MAX
+                && own_weight
+                && surfaces.shades(h) =>
+        {
             Ok(Shade {
-                weight: l.weight,
-                side,
                 emitted: l.emitted,
-                sent: u32::MAX,
+                tag: side,
             })
         }
         _ => Err(*l),
@@ -80,12 +88,13 @@ fn shade_of(
 /// `lookups`, the pixels' `points` and their first `hits`.
 pub fn split(
     elements: &Elements,
+    surfaces: &SceneSurfaces,
     lookups: &[Lookup],
     points: &[Option<DirectPoint>],
     hits: &[Option<Hit>],
 ) -> (Vec<Shade>, Vec<Lookup>) {
     let each: Vec<Result<Shade, Lookup>> = (lookups.par_iter().zip(points).zip(hits))
-        .map(|((l, p), h)| shade_of(elements, l, p.as_ref(), h.as_ref()))
+        .map(|((l, p), h)| shade_of(elements, surfaces, l, p.as_ref(), h.as_ref()))
         .collect();
     let mut sent = Vec::new();
     let shades = each
@@ -94,10 +103,8 @@ pub fn split(
             s.unwrap_or_else(|l| {
                 sent.push(l);
                 Shade {
-                    weight: [0.0; 3],
-                    side: 0,
                     emitted: [0.0; 3],
-                    sent: sent.len() as u32 - 1,
+                    tag: 2 + sent.len() as u32 - 1,
                 }
             })
         })
@@ -105,17 +112,18 @@ pub fn split(
     (shades, sent)
 }
 
-/// The composer of one scene's lookups (its element table on the GPU).
+/// The composer of one scene's lookups (its element table and surfaces on the GPU).
 pub struct LookupComposer {
     pass: ComputePass<1>,
     params: wgpu::Buffer,
     cells: wgpu::Buffer,
+    pub surfaces: SceneSurfaces,
     shades: wgpu::Buffer,
     sent: wgpu::Buffer,
 }
 
 impl LookupComposer {
-    pub fn new(gpu: &Gpu, elements: &Elements) -> LookupComposer {
+    pub fn new(gpu: &Gpu, elements: &Elements, surfaces: SceneSurfaces) -> LookupComposer {
         let cells: Vec<[u32; 2]> = (elements.triangles.iter())
             .map(|c| [c.offset, c.res])
             .collect();
@@ -129,8 +137,12 @@ impl LookupComposer {
             pass: ComputePass::new(
                 gpu,
                 "gpu lookups",
-                include_str!("lookups.wgsl"),
-                &[Uniform, ro, ro, ro, ro, rw],
+                &format!(
+                    "{}\n{}",
+                    include_str!("surfaces.wgsl"),
+                    include_str!("lookups.wgsl")
+                ),
+                &[Uniform, ro, ro, ro, ro, rw, ro, ro, ro, ro, ro, ro, ro],
                 ["compose"],
             ),
             params: gpu.uniform(
@@ -138,7 +150,8 @@ impl LookupComposer {
                 std::mem::size_of::<LookupParams>() as u64,
             ),
             cells,
-            shades: gpu.storage("gpu lookups: shades", 32),
+            surfaces,
+            shades: gpu.storage("gpu lookups: shades", 16),
             sent: gpu.storage("gpu lookups: sent whole", 64),
         }
     }
@@ -164,7 +177,7 @@ impl LookupComposer {
                 *buffer = gpu.storage(label, bytes);
             }
         };
-        fit(&mut self.shades, 32 * u64::from(n), "gpu lookups: shades");
+        fit(&mut self.shades, 16 * u64::from(n), "gpu lookups: shades");
         fit(
             &mut self.sent,
             64 * sent.len() as u64,
@@ -184,6 +197,7 @@ impl LookupComposer {
         };
         gpu.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let [s0, s1, s2, s3, s4, s5] = &self.surfaces.buffers;
         let bind = self.pass.bind_group(
             gpu,
             &[
@@ -193,6 +207,13 @@ impl LookupComposer {
                 &self.shades,
                 &self.sent,
                 target,
+                s0,
+                s1,
+                s2,
+                s3,
+                s4,
+                s5,
+                &hits.rays,
             ],
         );
         let mut enc = gpu.device.create_command_encoder(&Default::default());
@@ -211,22 +232,19 @@ mod tests {
 
     #[test]
     fn the_wgsl_structs_are_laid_out_as_in_rust() {
-        let src = with_common(include_str!("lookups.wgsl"));
-        every_field!(Shade {
-            weight,
-            side,
-            emitted,
-            sent
-        });
+        let src = with_common(&format!(
+            "{}\n{}",
+            include_str!("surfaces.wgsl"),
+            include_str!("lookups.wgsl")
+        ));
+        every_field!(Shade { emitted, tag });
         assert_same_layout(
             &src,
             "Shade",
             size_of::<Shade>(),
             &[
-                ("weight", offset_of!(Shade, weight)),
-                ("side", offset_of!(Shade, side)),
                 ("emitted", offset_of!(Shade, emitted)),
-                ("sent", offset_of!(Shade, sent)),
+                ("tag", offset_of!(Shade, tag)),
             ],
         );
         every_field!(LookupParams { count, row, pad });

@@ -1,8 +1,9 @@
-// The light field's lookups composed on the GPU (see lookups.rs): each pixel's from the
-// wall's first hit where the CPU found its point there on an element (the element's first
-// cell and resolution from the triangle's table, the hit's barycentrics), with the weight
-// and emitted light the CPU sent; the others copied whole from the lookups the CPU sent.
-// Written as holocave_vlf::Lookup's sixteen words.
+// The light field's lookups composed on the GPU (see lookups.rs), after surfaces.wgsl:
+// each pixel's from the wall's first hit where the CPU found its point there on an
+// element its material's table shades (the element's first cell and resolution from the
+// triangle's table, the hit's barycentrics, the weight from the surface's albedo towards
+// the pixel's ray), with the emitted light the CPU sent; the others copied whole from the
+// lookups the CPU sent. Written as holocave_vlf::Lookup's sixteen words.
 
 struct LookupParams {
     count: u32,
@@ -11,14 +12,12 @@ struct LookupParams {
     pad1: u32,
 }
 
-// What the CPU sends of a pixel: the lookup's weight and emitted light, the side of the
-// triangle seen (0 front, 1 back), and the index of its whole lookup among the sent ones
-// (NONE: composed here).
+// What the CPU sends of a pixel: the lookup's emitted light, and a tag: the side of the
+// triangle seen (0 front, 1 back) where the lookup is composed here, 2 + k where it is the
+// k-th of the lookups sent whole.
 struct Shade {
-    weight: vec3<f32>,
-    side: u32,
     emitted: vec3<f32>,
-    sent: u32,
+    tag: u32,
 }
 
 @group(0) @binding(0) var<uniform> lp: LookupParams;
@@ -30,9 +29,12 @@ struct Shade {
 @group(0) @binding(3) var<storage, read> shades: array<Shade>;
 @group(0) @binding(4) var<storage, read> sent: array<u32>;
 @group(0) @binding(5) var<storage, read_write> lookups: array<u32>;
+// The wall's pixel rays (GpuRay: origin and tmax, direction and a pad).
+@group(0) @binding(12) var<storage, read> pixel_rays: array<vec4<f32>>;
 
 const NONE: u32 = 0xffffffffu;
 const WORDS: u32 = 16u;
+const FRAC_1_PI: f32 = 0.31830988618379067;
 
 @compute @workgroup_size(64)
 fn compose(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -42,22 +44,27 @@ fn compose(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let s = shades[i];
     let o = WORDS * i;
-    if (s.sent != NONE) {
+    if (s.tag >= 2u) {
+        let whole = WORDS * (s.tag - 2u);
         for (var k = 0u; k < WORDS; k += 1u) {
-            lookups[o + k] = sent[WORDS * s.sent + k];
+            lookups[o + k] = sent[whole + k];
         }
         return;
     }
     let h = hits[i];
     let c = cells[h.y];
     let res = c.y;
-    lookups[o] = c.x + s.side * (res * (res + 1u) / 2u);
+    let at = surface_at(h.y, bitcast<f32>(h.z), bitcast<f32>(h.w));
+    let m = material_surfaces[at.material];
+    let albedo = albedo_towards(m, base_color_at(m, at.uv), dot(at.shading_normal, pixel_rays[2u * i + 1u].xyz));
+    let weight = albedo * FRAC_1_PI;
+    lookups[o] = c.x + s.tag * (res * (res + 1u) / 2u);
     lookups[o + 1u] = res;
     lookups[o + 2u] = h.z;
     lookups[o + 3u] = h.w;
-    lookups[o + 4u] = bitcast<u32>(s.weight.x);
-    lookups[o + 5u] = bitcast<u32>(s.weight.y);
-    lookups[o + 6u] = bitcast<u32>(s.weight.z);
+    lookups[o + 4u] = bitcast<u32>(weight.x);
+    lookups[o + 5u] = bitcast<u32>(weight.y);
+    lookups[o + 6u] = bitcast<u32>(weight.z);
     lookups[o + 7u] = bitcast<u32>(s.emitted.x);
     lookups[o + 8u] = bitcast<u32>(s.emitted.y);
     lookups[o + 9u] = bitcast<u32>(s.emitted.z);

@@ -83,6 +83,7 @@ use crate::gpu::{Binding, ComputePass, Gpu};
 
 pub mod lookups;
 mod shadow;
+pub mod surfaces;
 pub use shadow::{MAX_MADE_LIGHTS, ShadowMaker};
 
 /// `@workgroup_size` of the kernels (`WORKGROUP` in the shader).
@@ -645,21 +646,25 @@ impl GpuRays {
 }
 
 /// A wall's first hits kept on the GPU (four words a pixel, as the closest-hit pass
-/// answers), for the shadow rays made from them.
+/// answers) with the pixels' rays, for the shadow rays made from them and the lookups
+/// composed from them.
 pub struct KeptHits {
     buffer: wgpu::Buffer,
+    rays: wgpu::Buffer,
     pixels: u32,
 }
 
 impl GpuRays {
-    /// Keeps the first `n` answers of the last closest-hit query (a wall's first hits) in
-    /// `kept`, on the GPU, for [`ShadowMaker::trace`]; call it before the engine's next
-    /// query.
+    /// Keeps the first `n` answers of the last closest-hit query (a wall's first hits) and
+    /// their rays in `kept`, on the GPU, for [`ShadowMaker::trace`] and
+    /// [`lookups::LookupComposer::compose`]; call it before the engine's next query.
     pub fn keep_hits(&self, gpu: &Gpu, n: u32, kept: &mut Option<KeptHits>) {
         let bytes = 16 * u64::from(n);
+        let ray_bytes = std::mem::size_of::<GpuRay>() as u64 * u64::from(n);
         if kept.as_ref().is_none_or(|k| k.buffer.size() < bytes) {
             *kept = Some(KeptHits {
                 buffer: gpu.storage("gpu rays: a wall's first hits", bytes),
+                rays: gpu.storage("gpu rays: a wall's pixel rays", ray_bytes),
                 pixels: 0,
             });
         }
@@ -668,6 +673,7 @@ impl GpuRays {
         if bytes > 0 {
             let mut enc = gpu.device.create_command_encoder(&Default::default());
             enc.copy_buffer_to_buffer(&self.out, 0, &k.buffer, 0, bytes);
+            enc.copy_buffer_to_buffer(&self.rays, 0, &k.rays, 0, ray_bytes);
             gpu.queue.submit([enc.finish()]);
         }
     }
