@@ -127,6 +127,14 @@ impl SceneSurfaces {
             })
             .collect();
         debug_assert_eq!(towards.len() % (2 * TOWARDS_STEPS), 0);
+        let shaded = on_gpu.iter().filter(|&&on| on).count();
+        tracing::info!(
+            "material data on the GPU: {shaded} of {} materials shaded there, {} textures \
+             ({:.1} MB of texels); the others' pixels shaded on the CPU",
+            on_gpu.len(),
+            textures.len(),
+            texels.len() as f64 * 4e-6,
+        );
         let upload = |label, bytes: &[u8]| {
             // A binding is never empty.
             gpu.storage_init(label, if bytes.is_empty() { &[0; 16] } else { bytes })
