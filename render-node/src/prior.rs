@@ -40,7 +40,7 @@
 //! own mean, which for a path is the true radiance; a gather's mean keeps the field's
 //! error one bounce later, and there the pixels whose gathers agree are not the ones
 //! where the field is wrong. Measured (`holocave compare`, the Cornell box's front wall,
-//! a still head, 10 s, docs/vlf-direct.md): per pixel, the paths' error at the end fell
+//! a still head, 10 s, docs/performance/history.md): per pixel, the paths' error at the end fell
 //! from 2.82e-3 to 2.21e-3 and the gathers' rose from 1.54e-3 to 2.06e-3; in motion
 //! neither moved beyond the runs' spread (per pixel for both feeds `vlf+gather` 0.97× and
 //! `vlf+holodeck` 0.99× of `vlf`, 0.98× each with one `k`). Taking each

@@ -25,7 +25,7 @@
 //! whole error at `x`. The sun patch a surface sees and the light a lamp casts on the
 //! walls around are exact in it. What a still view converges to with these samples is
 //! therefore not the path tracer's image but this one-bounce image (see
-//! `docs/vlf-direct.md`, "Exact samples").
+//! `docs/performance/history.md`, "Exact samples").
 //!
 //! Moving objects are not seen by the bounce (it reads the static field); where the eye
 //! sees one, the sample is what the wall draws there (its probe's light and its direct
@@ -86,7 +86,7 @@ struct Pending {
     /// The walls take the caustics per pixel ([`Visibility::caustic_light`]): what is kept
     /// in the field leaves them out. The sample itself keeps those it finds along its
     /// bounce: its variance is what the light field's prior is measured against
-    /// (`docs/vlf-direct.md`, "Caustics per pixel").
+    /// (`docs/performance/history.md`, "Caustics per pixel").
     caustics_per_pixel: bool,
     /// The elements the lookup at `x` interpolates and its weight towards the eye, where
     /// it is a diffuse element's or the Lambertian base's of a surface drawn as its

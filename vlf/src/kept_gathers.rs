@@ -21,7 +21,7 @@ use crate::static_rays::StaticRays;
 use crate::view::Visibility;
 
 /// How many gathers a baked value is worth in `holocave vlf view --gathers` by default:
-/// what a node measures on the Cornell box's front wall (`docs/vlf-direct.md`); on the
+/// what a node measures on the Cornell box's front wall (`docs/performance/compare.md`); on the
 /// breakfast room 8 to 128 drew alike after 300 frames.
 pub const STILL_VIEW_PRIOR: f32 = 43.0;
 

@@ -16,7 +16,7 @@
 //! a factor, which stays. A glossy element's tile is averaged bin by bin with the tiles of
 //! its plane (they share one frame, so a bin is the same direction in each).
 //!
-//! Measured (`docs/vlf-direct.md`): the room's front wall (the front wall of `sim`)
+//! Measured (`docs/performance/history.md`): the room's front wall (the front wall of `sim`)
 //! 0.0060 → 0.0052 against two 2048-path renders whose own error is 0.0043, the streaks
 //! gone; the room's floor view 0.0035 → 0.0027 (its varnished table top's streaks were in
 //! its tiles); the breakfast room unchanged (0.0494 → 0.0496).

@@ -19,7 +19,7 @@
 //! member's BSDF — was tried: on the breakfast room that bake's bounces grew after the
 //! sixth.) Measured on the breakfast room's `CameraMain` against `render`: pools of diffuse
 //! elements took the walls from −24 % to −16 % (92 directions, 64 lines); with the small
-//! glossy elements pooled as well, +1.4 % (162 / 96; `docs/vlf-direct.md`).
+//! glossy elements pooled as well, +1.4 % (162 / 96; `docs/performance/history.md`).
 
 use std::collections::HashMap;
 

@@ -1100,7 +1100,7 @@ pub struct SkyPrior<'a> {
 }
 
 /// How many of a pixel's own sky samples the light field's sky is worth on the walls
-/// (`node --sky-per-pixel`): measured on the room's floor view (`docs/vlf-direct.md`,
+/// (`node --sky-per-pixel`): measured on the room's floor view (`docs/performance/history.md`,
 /// "The sky per pixel"), 32 kept the first frame at the field's error and made every
 /// later one better than 64 did; 16 and 4 were worse at the first frame.
 pub const SKY_PRIOR_SAMPLES: f32 = 32.0;
