@@ -47,7 +47,6 @@ use rayon::prelude::*;
 
 use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
 use crate::gpu_rays::lookups::{LookupComposer, split};
-use crate::gpu_rays::surfaces::SceneSurfaces;
 use crate::gpu_rays::{GpuRays, KeptHits, OnGpu, Query, Rays, ShadowMaker};
 use crate::prior::Measured;
 use crate::{EyeView, Gpu, RenderCache, RenderNodeError};
@@ -100,12 +99,13 @@ pub struct VlfBase {
 
 /// The GPU that traces a node's rays: its engine, the maker of the direct light's shadow
 /// rays from a wall's first hits kept there (`None` for a scene whose lights it does not
-/// make), and the composer of the light field's lookups from the same hits.
+/// make), and the composer of the light field's lookups from the same hits (`None` where
+/// the adapter cannot bind what it reads).
 struct OnGpuRays {
     gpu: Gpu,
     engine: Mutex<GpuRays>,
     maker: Option<Mutex<ShadowMaker>>,
-    composer: Mutex<LookupComposer>,
+    composer: Option<Mutex<LookupComposer>>,
 }
 
 /// What one view's pixels see: the points the direct light is computed at, and with rays
@@ -396,13 +396,13 @@ impl VlfBase {
         self.gpu_rays = if rays.on_gpu(gpu) {
             let engine = GpuRays::for_scene(gpu, self.visibility.scene())?;
             let maker = ShadowMaker::new(gpu, &engine, self.visibility.scene()).map(Mutex::new);
-            let surfaces = SceneSurfaces::new(gpu, self.visibility.scene());
-            let composer = LookupComposer::new(gpu, self.visibility.elements(), surfaces);
+            let composer =
+                LookupComposer::new(gpu, self.visibility.elements(), self.visibility.scene());
             Some(OnGpuRays {
                 gpu: gpu.clone(),
                 engine: Mutex::new(engine),
                 maker,
-                composer: Mutex::new(composer),
+                composer: composer.map(Mutex::new),
             })
         } else {
             None
@@ -553,12 +553,13 @@ impl VlfBase {
     pub fn draw_lookups(&self, eye: usize, view: &EyeView, cache: &mut RenderCache) {
         self.lookups_with(eye, view, |lookups, pixels| {
             if let Some(g) = &self.gpu_rays
+                && let Some(composer) = &g.composer
                 && let (Some(hits), Some(kept)) = (&pixels.hits, &pixels.kept)
                 && cache.gpu().same_device(&g.gpu)
                 && let Some(target) = cache.lookups_buffer(eye)
             {
                 let elements = self.visibility.elements();
-                let mut composer = g.composer.lock().unwrap_or_else(|e| e.into_inner());
+                let mut composer = composer.lock().unwrap_or_else(|e| e.into_inner());
                 let surfaces = &composer.surfaces;
                 let (shades, sent) = split(elements, surfaces, &lookups, &pixels.points, hits);
                 composer.compose(&g.gpu, kept, &shades, &sent, target);

@@ -521,7 +521,7 @@ fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
     let room_view =
         WallView::through_camera(room.cameras.first().expect("a camera"), Size::new(64, 48));
     let textured = textured_cornell();
-    let surfaces = SceneSurfaces::new(&gpu, &textured);
+    let surfaces = SceneSurfaces::new(&gpu, &textured).expect("the box's surfaces fit");
     let on_gpu = (0..textured.triangle_count() as u32)
         .filter(|&i| {
             surfaces.shades(&Hit {

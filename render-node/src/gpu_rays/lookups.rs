@@ -14,7 +14,7 @@
 //! objects' shade) ([`split`]).
 
 use bytemuck::{Pod, Zeroable};
-use holocave_scene::Hit;
+use holocave_scene::{Hit, Scene};
 use holocave_vlf::{DirectPoint, Elements, Lookup};
 use rayon::prelude::*;
 
@@ -123,7 +123,24 @@ pub struct LookupComposer {
 }
 
 impl LookupComposer {
-    pub fn new(gpu: &Gpu, elements: &Elements, surfaces: SceneSurfaces) -> LookupComposer {
+    /// The composer of `scene`'s lookups over `elements`; `None`, with a warning that says
+    /// why, where the adapter cannot bind what the pass reads.
+    pub fn new(gpu: &Gpu, elements: &Elements, scene: &Scene) -> Option<LookupComposer> {
+        use Binding::{Storage, Uniform};
+        let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
+        let bindings = [Uniform, ro, ro, ro, ro, rw, ro, ro, ro, ro, ro, ro, ro];
+        let storage = (bindings.iter())
+            .filter(|b| matches!(b, Storage { .. }))
+            .count() as u32;
+        let most = gpu.device.limits().max_storage_buffers_per_shader_stage;
+        if storage > most {
+            tracing::warn!(
+                "the light field's lookups sent whole: composing them on the GPU binds \
+                 {storage} storage buffers, the adapter at most {most}"
+            );
+            return None;
+        }
+        let surfaces = SceneSurfaces::new(gpu, scene)?;
         let cells: Vec<[u32; 2]> = (elements.triangles.iter())
             .map(|c| [c.offset, c.res])
             .collect();
@@ -131,9 +148,7 @@ impl LookupComposer {
             "gpu lookups: elements per triangle",
             bytemuck::cast_slice(if cells.is_empty() { &[[0; 2]] } else { &cells }),
         );
-        use Binding::{Storage, Uniform};
-        let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
-        LookupComposer {
+        Some(LookupComposer {
             pass: ComputePass::new(
                 gpu,
                 "gpu lookups",
@@ -142,7 +157,7 @@ impl LookupComposer {
                     include_str!("surfaces.wgsl"),
                     include_str!("lookups.wgsl")
                 ),
-                &[Uniform, ro, ro, ro, ro, rw, ro, ro, ro, ro, ro, ro, ro],
+                &bindings,
                 ["compose"],
             ),
             params: gpu.uniform(
@@ -153,7 +168,7 @@ impl LookupComposer {
             surfaces,
             shades: gpu.storage("gpu lookups: shades", 16),
             sent: gpu.storage("gpu lookups: sent whole", 64),
-        }
+        })
     }
 
     /// Writes each pixel's lookup into `target` (the render cache's lookups of the eye,

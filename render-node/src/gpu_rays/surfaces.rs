@@ -61,7 +61,18 @@ pub struct SceneSurfaces {
 }
 
 impl SceneSurfaces {
-    pub fn new(gpu: &Gpu, scene: &Scene) -> SceneSurfaces {
+    /// `scene`'s surfaces uploaded to `gpu`; `None`, with a warning that says why, where
+    /// its triangles' data exceed one of the adapter's storage bindings.
+    pub fn new(gpu: &Gpu, scene: &Scene) -> Option<SceneSurfaces> {
+        let limit = gpu.device.limits().max_storage_buffer_binding_size;
+        let bytes = (scene.triangle_count() * std::mem::size_of::<TriangleSurface>()) as u64;
+        if bytes > limit {
+            tracing::warn!(
+                "material data not on the GPU: the scene's triangles take {bytes} bytes there, \
+                 the adapter binds at most {limit}; the light field's lookups are sent whole"
+            );
+            return None;
+        }
         let triangles: Vec<TriangleSurface> = (0..scene.triangle_count() as u32)
             .map(|i| {
                 let s = scene.triangle_shading(i);
@@ -80,7 +91,7 @@ impl SceneSurfaces {
             })
             .collect();
         // The base colour textures that fit one binding, in the materials' order.
-        let limit = gpu.device.limits().max_storage_buffer_binding_size as usize / 4;
+        let limit = limit as usize / 4;
         let mut texels: Vec<u32> = Vec::new();
         let mut textures: Vec<[u32; 4]> = Vec::new();
         let mut placed = vec![None; scene.textures.len()];
@@ -139,7 +150,7 @@ impl SceneSurfaces {
             // A binding is never empty.
             gpu.storage_init(label, if bytes.is_empty() { &[0; 16] } else { bytes })
         };
-        SceneSurfaces {
+        Some(SceneSurfaces {
             buffers: [
                 upload("gpu surfaces: triangles", bytemuck::cast_slice(&triangles)),
                 upload("gpu surfaces: materials", bytemuck::cast_slice(&materials)),
@@ -155,7 +166,7 @@ impl SceneSurfaces {
             materials: (0..scene.triangle_count() as u32)
                 .map(|i| scene.triangle_shading(i).material)
                 .collect(),
-        }
+        })
     }
 
     /// Whether the GPU shades what `hit` sees of its surface (its material's table there).
