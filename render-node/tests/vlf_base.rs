@@ -3,6 +3,7 @@
 //! converged image; and a still viewer still converges to the path-traced image.
 
 mod common;
+mod ray_sets;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -543,61 +544,80 @@ fn lookups_composed_from_the_gpus_hits_are_the_cpus() {
         ("glossy cornell", glossy_cornell(), wall(48)),
         ("textured cornell", textured, wall(48)),
     ] {
-        let bound = weight_bound(&scene, largest_table_step(&scene));
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("cornell.vlf");
-        drop(baked(&scene, &coarse(), dir.path()));
-        let open = || {
-            (VlfBase::open(&path, scene.clone()).unwrap())
-                .with_rays(&gpu, Rays::Gpu)
-                .unwrap()
-        };
-        let (on_cpu, on_gpu) = (open(), open());
-        let view = EyeView::looking_at(wall, 0.05).unwrap();
-        let n = wall.size.width * wall.size.height;
-        let mut cache = RenderCache::new(gpu.clone(), &[wall.size], n, n);
-        cache.set_vlf(on_gpu.values(), 64.0).unwrap();
-        for frame in 0..2 {
-            let cpu = on_cpu.lookups(0, &view);
-            on_gpu.draw_lookups(0, &view, &mut cache);
-            let buffer = cache.lookups_buffer(0).expect("a light field is set");
-            let bytes = gpu.read(buffer, buffer.size());
-            let composed: &[Lookup] = bytemuck::cast_slice(&bytes[..cpu.len() * 64]);
-            let but_weight = |l: &Lookup| Lookup {
-                weight: [0.0; 3],
-                ..*l
-            };
-            let differ = (cpu.iter().zip(composed))
-                .filter(|(a, b)| {
-                    bytemuck::bytes_of(&but_weight(a)) != bytemuck::bytes_of(&but_weight(b))
-                })
-                .count();
-            let apart = (cpu.iter().zip(composed))
-                .map(|(a, b)| {
-                    (Vec3::from(a.weight) - Vec3::from(b.weight))
-                        .abs()
-                        .max_element()
-                })
-                .fold(0.0f32, f32::max);
-            let elements = (cpu.iter())
-                .filter(|l| l.base != u32::MAX && l.tile == u32::MAX)
-                .count();
-            eprintln!(
-                "{name}, frame {frame}: {differ} of {} lookups differ but for the weight \
-                 ({elements} on elements); weights at most {apart:e} apart (bound {bound:e})",
-                cpu.len()
-            );
-            assert!(
-                elements > cpu.len() / 4,
-                "{name}: {elements} element lookups"
-            );
-            assert_eq!(differ, 0, "{name}, frame {frame}");
-            assert!(
-                apart <= bound,
-                "{name}, frame {frame}: weights {apart:e} apart"
-            );
-        }
+        composed_as_the_cpus(&gpu, name, &scene, wall);
     }
+}
+/// Draws two frames of `wall` in `scene` (a coarse bake of its own) with the lookups made
+/// on the CPU and composed on the GPU, and asserts that they are the same but for the
+/// weights, which are within [`weight_bound`].
+fn composed_as_the_cpus(gpu: &Gpu, name: &str, scene: &Arc<Scene>, wall: WallView) {
+    let bound = weight_bound(scene, largest_table_step(scene));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cornell.vlf");
+    drop(baked(scene, &coarse(), dir.path()));
+    let open = || {
+        (VlfBase::open(&path, scene.clone()).unwrap())
+            .with_rays(gpu, Rays::Gpu)
+            .unwrap()
+    };
+    let (on_cpu, on_gpu) = (open(), open());
+    let view = EyeView::looking_at(wall, 0.05).unwrap();
+    let n = wall.size.width * wall.size.height;
+    let mut cache = RenderCache::new(gpu.clone(), &[wall.size], n, n);
+    cache.set_vlf(on_gpu.values(), 64.0).unwrap();
+    for frame in 0..2 {
+        let cpu = on_cpu.lookups(0, &view);
+        on_gpu.draw_lookups(0, &view, &mut cache);
+        let buffer = cache.lookups_buffer(0).expect("a light field is set");
+        let bytes = gpu.read(buffer, buffer.size());
+        let composed: &[Lookup] = bytemuck::cast_slice(&bytes[..cpu.len() * 64]);
+        let but_weight = |l: &Lookup| Lookup {
+            weight: [0.0; 3],
+            ..*l
+        };
+        let differ = (cpu.iter().zip(composed))
+            .filter(|(a, b)| {
+                bytemuck::bytes_of(&but_weight(a)) != bytemuck::bytes_of(&but_weight(b))
+            })
+            .count();
+        let apart = (cpu.iter().zip(composed))
+            .map(|(a, b)| {
+                (Vec3::from(a.weight) - Vec3::from(b.weight))
+                    .abs()
+                    .max_element()
+            })
+            .fold(0.0f32, f32::max);
+        let elements = (cpu.iter())
+            .filter(|l| l.base != u32::MAX && l.tile == u32::MAX)
+            .count();
+        eprintln!(
+            "{name}, frame {frame}: {differ} of {} lookups differ but for the weight \
+             ({elements} on elements); weights at most {apart:e} apart (bound {bound:e})",
+            cpu.len()
+        );
+        assert!(
+            elements > cpu.len() / 4,
+            "{name}: {elements} element lookups"
+        );
+        assert_eq!(differ, 0, "{name}, frame {frame}");
+        assert!(
+            apart <= bound,
+            "{name}, frame {frame}: weights {apart:e} apart"
+        );
+    }
+}
+
+/// Sponza's own textures (21 base colour textures, 1024 and 2048 texels a side, sRGB) read
+/// on the GPU for the composed lookups' weights, as in
+/// [`lookups_composed_from_the_gpus_hits_are_the_cpus`], through its camera.
+#[test]
+fn lookups_composed_on_sponza_weigh_its_textures_as_the_cpu() {
+    let Some(sponza) = ray_sets::sponza() else {
+        return;
+    };
+    let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
+    let view = ray_sets::camera_view(&sponza, 64, 48);
+    composed_as_the_cpus(&gpu, "sponza", &Arc::new(sponza), view);
 }
 
 /// A light field whose rays are on one device draws into a render cache on another (a
