@@ -3,7 +3,6 @@
 //! converged image; and a still viewer still converges to the path-traced image.
 
 mod common;
-mod ray_sets;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -14,7 +13,9 @@ use holocave_cave::{Size, WallView};
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::gpu_rays::surfaces::SceneSurfaces;
 use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, VlfBase, WallDisplay};
-use holocave_scene::{Encoding, Hit, Ray, Scene, SceneParts, Texture, TextureRef, TriangleShading};
+use holocave_scene::{
+    Encoding, Hit, LoadOptions, Ray, Scene, SceneParts, Texture, TextureRef, TriangleShading,
+};
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_vlf::surface::towards_table;
 use holocave_vlf::{Lookup, Settings, view::shade};
@@ -612,11 +613,13 @@ fn composed_as_the_cpus(gpu: &Gpu, name: &str, scene: &Arc<Scene>, wall: WallVie
 /// [`lookups_composed_from_the_gpus_hits_are_the_cpus`], through its camera.
 #[test]
 fn lookups_composed_on_sponza_weigh_its_textures_as_the_cpu() {
-    let Some(sponza) = ray_sets::sponza() else {
+    let Some(path) = common::require::shared("scenes/sponza/Sponza.gltf") else {
         return;
     };
+    let sponza = Scene::load(&path, &LoadOptions::default()).expect("load Sponza");
     let gpu = Gpu::new().expect("a wgpu adapter (install mesa-vulkan-drivers without a GPU)");
-    let view = ray_sets::camera_view(&sponza, 64, 48);
+    let camera = sponza.cameras.first().expect("Sponza's camera");
+    let view = WallView::through_camera(camera, Size::new(64, 48));
     composed_as_the_cpus(&gpu, "sponza", &Arc::new(sponza), view);
 }
 
