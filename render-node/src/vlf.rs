@@ -22,9 +22,11 @@
 //! disc and the punctual lights from which samples alone, towards the area lamps' points
 //! and the sky's directions the CPU drew from their aims: `gpu_rays::ShadowMaker`; a bit a
 //! ray back), those of points beyond mirrors and glass made on the CPU and sent (the
-//! moving objects are tested on the CPU). The lookups a wall draws are composed there from the kept hits where they
-//! are an element's ([`VlfBase::draw_lookups`]: 32 bytes a pixel sent instead of 64), and
-//! gather samples trace their three batches of rays there ([`VlfBase::gather`]).
+//! moving objects are tested on the CPU). The lookups a wall draws are composed there from
+//! the kept hits where they are an element's ([`VlfBase::draw_lookups`]: 16 bytes a pixel
+//! sent instead of 64, the weight from the material data on the GPU; 32 where the CPU
+//! sends the weight), and gather samples trace their three batches of rays there
+//! ([`VlfBase::gather`]).
 
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -549,8 +551,14 @@ impl VlfBase {
     /// [`Self::lookups`] written into the render cache's lookups of eye `eye`: with the
     /// rays on the GPU (of the cache's device), each common pixel's composed there from
     /// its first hit kept there, the rest sent whole ([`crate::gpu_rays::lookups`]); else
-    /// all sent.
-    pub fn draw_lookups(&self, eye: usize, view: &EyeView, cache: &mut RenderCache) {
+    /// all sent. How many pixels took their weight from the material data on the GPU;
+    /// `None` where all were sent.
+    pub fn draw_lookups(
+        &self,
+        eye: usize,
+        view: &EyeView,
+        cache: &mut RenderCache,
+    ) -> Option<usize> {
         self.lookups_with(eye, view, |lookups, pixels| {
             if let Some(g) = &self.gpu_rays
                 && let Some(composer) = &g.composer
@@ -561,10 +569,12 @@ impl VlfBase {
                 let elements = self.visibility.elements();
                 let mut composer = composer.lock().unwrap_or_else(|e| e.into_inner());
                 let surfaces = &composer.surfaces;
-                let (shades, sent) = split(elements, surfaces, &lookups, &pixels.points, hits);
-                composer.compose(&g.gpu, kept, &shades, &sent, target);
+                let split = split(elements, surfaces, &lookups, &pixels.points, hits);
+                composer.compose(&g.gpu, kept, &split, target);
+                Some(split.weighed_here())
             } else {
                 cache.set_lookups(eye, &lookups);
+                None
             }
         })
     }

@@ -27,10 +27,17 @@ use crate::gpu::{Binding, ComputePass, Gpu};
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct Shade {
     pub emitted: [f32; 3],
-    /// The side of the triangle seen (0 front, 1 back) where the lookup is composed on
-    /// the GPU; `2 + k` where it is the `k`-th of those sent whole.
+    /// How the GPU writes the pixel's lookup: composed from its hit with the weight from
+    /// the material data, `side` (the side of the triangle seen: 0 front, 1 back);
+    /// composed with the `k`-th weight the CPU sent, `WEIGHT_SENT | k << 1 | side`; or
+    /// the `k`-th lookup sent whole, `WHOLE | k`.
     pub tag: u32,
 }
+
+/// `WEIGHT_SENT` in the shader.
+const WEIGHT_SENT: u32 = 1 << 30;
+/// `WHOLE` in the shader.
+const WHOLE: u32 = 1 << 31;
 
 /// `LookupParams` in the shader.
 #[repr(C)]
@@ -41,22 +48,33 @@ struct LookupParams {
     pad: [u32; 2],
 }
 
-/// What each pixel sends, given its CPU lookup `l`, its point and its first hit: its
-/// shade, and its whole lookup where the GPU cannot compose it from the hit.
-fn shade_of(
+/// How the GPU can write one pixel's lookup.
+enum Written {
+    /// Composed from its hit, the weight from the material data: the side seen.
+    WeighedHere(u32),
+    /// Composed from its hit with the CPU's weight: the side seen.
+    WeightSent(u32),
+    /// Copied from the lookup sent whole.
+    Whole,
+}
+
+/// How the GPU writes the lookup `l` of a pixel whose point and first hit are `point` and
+/// `hit`: composed where `l` is exactly what the kernel writes from that hit but for the
+/// weight, and with its own weight where that is the surface's albedo over π (not scaled
+/// by an edge's share or moving objects' shade) and the material's table is on the GPU.
+fn written(
     elements: &Elements,
     surfaces: &SceneSurfaces,
     l: &Lookup,
     point: Option<&DirectPoint>,
     hit: Option<&Hit>,
-) -> Result<Shade, Lookup> {
+) -> Written {
     let (Some(p), Some(h)) = (point, hit) else {
-        return Err(*l);
+        return Written::Whole;
     };
     let Some(cells) = elements.triangles.get(h.triangle as usize) else {
-        return Err(*l);
+        return Written::Whole;
     };
-    let side = (0..2).find(|&s| cells.base(s) == l.base);
     let composed = Lookup {
         base: l.base,
         res: cells.res,
@@ -66,50 +84,74 @@ fn shade_of(
         emitted: l.emitted,
         ..Lookup::NONE
     };
-    let own_weight = l.weight == (p.albedo * std::f32::consts::FRAC_1_PI).to_array();
+    let side = (0..2).find(|&s| cells.base(s) == l.base);
     match side {
-        Some(side)
-            if p.triangle == h.triangle
-                && composed == *l
-                && l.base != u32::MAX
-                && own_weight
-                && surfaces.shades(h) =>
-        {
-            Ok(Shade {
-                emitted: l.emitted,
-                tag: side,
-            })
+        Some(side) if p.triangle == h.triangle && composed == *l && l.base != u32::MAX => {
+            let own = l.weight == (p.albedo * std::f32::consts::FRAC_1_PI).to_array();
+            if own && surfaces.shades(h) {
+                Written::WeighedHere(side)
+            } else {
+                Written::WeightSent(side)
+            }
         }
-        _ => Err(*l),
+        _ => Written::Whole,
     }
 }
 
-/// Each pixel's shade, and the lookups sent whole (the shades index them), from the CPU's
-/// `lookups`, the pixels' `points` and their first `hits`.
+/// What the CPU sends of a wall's lookups for [`LookupComposer::compose`].
+pub struct Split {
+    /// One a pixel.
+    pub shades: Vec<Shade>,
+    /// The weights of the pixels composed with the CPU's weight (`w` unused).
+    pub weights: Vec<[f32; 4]>,
+    /// The lookups sent whole.
+    pub whole: Vec<Lookup>,
+}
+
+impl Split {
+    /// How many pixels take their weight from the material data on the GPU.
+    pub fn weighed_here(&self) -> usize {
+        self.shades.len() - self.weights.len() - self.whole.len()
+    }
+}
+
+/// What the CPU sends of each pixel, from its `lookups`, the pixels' `points` and their
+/// first `hits`.
 pub fn split(
     elements: &Elements,
     surfaces: &SceneSurfaces,
     lookups: &[Lookup],
     points: &[Option<DirectPoint>],
     hits: &[Option<Hit>],
-) -> (Vec<Shade>, Vec<Lookup>) {
-    let each: Vec<Result<Shade, Lookup>> = (lookups.par_iter().zip(points).zip(hits))
-        .map(|((l, p), h)| shade_of(elements, surfaces, l, p.as_ref(), h.as_ref()))
+) -> Split {
+    let each: Vec<Written> = (lookups.par_iter().zip(points).zip(hits))
+        .map(|((l, p), h)| written(elements, surfaces, l, p.as_ref(), h.as_ref()))
         .collect();
-    let mut sent = Vec::new();
-    let shades = each
-        .into_iter()
-        .map(|s| {
-            s.unwrap_or_else(|l| {
-                sent.push(l);
-                Shade {
-                    emitted: [0.0; 3],
-                    tag: 2 + sent.len() as u32 - 1,
+    let (mut weights, mut whole) = (Vec::new(), Vec::new());
+    let shades = (each.into_iter().zip(lookups))
+        .map(|(w, l)| {
+            let tag = match w {
+                Written::WeighedHere(side) => side,
+                Written::WeightSent(side) => {
+                    weights.push([l.weight[0], l.weight[1], l.weight[2], 0.0]);
+                    WEIGHT_SENT | (weights.len() as u32 - 1) << 1 | side
                 }
-            })
+                Written::Whole => {
+                    whole.push(*l);
+                    WHOLE | (whole.len() as u32 - 1)
+                }
+            };
+            Shade {
+                emitted: l.emitted,
+                tag,
+            }
         })
         .collect();
-    (shades, sent)
+    Split {
+        shades,
+        weights,
+        whole,
+    }
 }
 
 /// The composer of one scene's lookups (its element table and surfaces on the GPU).
@@ -119,7 +161,8 @@ pub struct LookupComposer {
     cells: wgpu::Buffer,
     pub surfaces: SceneSurfaces,
     shades: wgpu::Buffer,
-    sent: wgpu::Buffer,
+    weights: wgpu::Buffer,
+    whole: wgpu::Buffer,
 }
 
 impl LookupComposer {
@@ -128,7 +171,7 @@ impl LookupComposer {
     pub fn new(gpu: &Gpu, elements: &Elements, scene: &Scene) -> Option<LookupComposer> {
         use Binding::{Storage, Uniform};
         let (ro, rw) = (Storage { read_only: true }, Storage { read_only: false });
-        let bindings = [Uniform, ro, ro, ro, ro, rw, ro, ro, ro, ro, ro, ro, ro];
+        let bindings = [Uniform, ro, ro, ro, ro, rw, ro, ro, ro, ro, ro, ro, ro, ro];
         let storage = (bindings.iter())
             .filter(|b| matches!(b, Storage { .. }))
             .count() as u32;
@@ -167,43 +210,34 @@ impl LookupComposer {
             cells,
             surfaces,
             shades: gpu.storage("gpu lookups: shades", 16),
-            sent: gpu.storage("gpu lookups: sent whole", 64),
+            weights: gpu.storage("gpu lookups: weights sent", 16),
+            whole: gpu.storage("gpu lookups: sent whole", 64),
         })
     }
 
     /// Writes each pixel's lookup into `target` (the render cache's lookups of the eye,
-    /// sixteen words a pixel): composed from its first hit in `hits`, or copied from
-    /// `sent` ([`split`]).
-    pub fn compose(
-        &mut self,
-        gpu: &Gpu,
-        hits: &KeptHits,
-        shades: &[Shade],
-        sent: &[Lookup],
-        target: &wgpu::Buffer,
-    ) {
-        let n = shades.len() as u32;
+    /// sixteen words a pixel) as `split` says: composed from its first hit in `hits`, or
+    /// copied from the lookups sent whole ([`split`]).
+    pub fn compose(&mut self, gpu: &Gpu, hits: &KeptHits, split: &Split, target: &wgpu::Buffer) {
+        let n = split.shades.len() as u32;
         assert_eq!(n, hits.pixels, "one shade per pixel of the wall");
         if n == 0 {
             return;
         }
-        let fit = |buffer: &mut wgpu::Buffer, bytes: u64, label| {
-            if buffer.size() < bytes {
-                *buffer = gpu.storage(label, bytes);
+        let fill = |buffer: &mut wgpu::Buffer, bytes: &[u8], label| {
+            if buffer.size() < bytes.len() as u64 {
+                *buffer = gpu.storage(label, bytes.len() as u64);
+            }
+            if !bytes.is_empty() {
+                gpu.queue.write_buffer(buffer, 0, bytes);
             }
         };
-        fit(&mut self.shades, 16 * u64::from(n), "gpu lookups: shades");
-        fit(
-            &mut self.sent,
-            64 * sent.len() as u64,
-            "gpu lookups: sent whole",
-        );
-        gpu.queue
-            .write_buffer(&self.shades, 0, bytemuck::cast_slice(shades));
-        if !sent.is_empty() {
-            gpu.queue
-                .write_buffer(&self.sent, 0, bytemuck::cast_slice(sent));
-        }
+        let shades = bytemuck::cast_slice(&split.shades);
+        fill(&mut self.shades, shades, "gpu lookups: shades");
+        let weights = bytemuck::cast_slice(&split.weights);
+        fill(&mut self.weights, weights, "gpu lookups: weights sent");
+        let whole = bytemuck::cast_slice(&split.whole);
+        fill(&mut self.whole, whole, "gpu lookups: sent whole");
         let (_, _, row) = grid(n);
         let params = LookupParams {
             count: n,
@@ -220,7 +254,7 @@ impl LookupComposer {
                 &self.cells,
                 &hits.buffer,
                 &self.shades,
-                &self.sent,
+                &self.whole,
                 target,
                 s0,
                 s1,
@@ -229,6 +263,7 @@ impl LookupComposer {
                 s4,
                 s5,
                 &hits.rays,
+                &self.weights,
             ],
         );
         let mut enc = gpu.device.create_command_encoder(&Default::default());

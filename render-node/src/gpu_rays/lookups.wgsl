@@ -13,8 +13,9 @@ struct LookupParams {
 }
 
 // What the CPU sends of a pixel: the lookup's emitted light, and a tag: the side of the
-// triangle seen (0 front, 1 back) where the lookup is composed here, 2 + k where it is the
-// k-th of the lookups sent whole.
+// triangle seen (0 front, 1 back) where the lookup is composed here with the weight from
+// the material data; WEIGHT_SENT | k << 1 | side where it is composed with the k-th of
+// the weights sent; WHOLE | k where it is the k-th of the lookups sent whole.
 struct Shade {
     emitted: vec3<f32>,
     tag: u32,
@@ -31,10 +32,14 @@ struct Shade {
 @group(0) @binding(5) var<storage, read_write> lookups: array<u32>;
 // The wall's pixel rays (GpuRay: origin and tmax, direction and a pad).
 @group(0) @binding(12) var<storage, read> pixel_rays: array<vec4<f32>>;
+// The weights the CPU sent (w unused).
+@group(0) @binding(13) var<storage, read> weights: array<vec4<f32>>;
 
 const NONE: u32 = 0xffffffffu;
 const WORDS: u32 = 16u;
 const FRAC_1_PI: f32 = 0.31830988618379067;
+const WEIGHT_SENT: u32 = 0x40000000u;
+const WHOLE: u32 = 0x80000000u;
 
 @compute @workgroup_size(64)
 fn compose(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -44,8 +49,8 @@ fn compose(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let s = shades[i];
     let o = WORDS * i;
-    if (s.tag >= 2u) {
-        let whole = WORDS * (s.tag - 2u);
+    if ((s.tag & WHOLE) != 0u) {
+        let whole = WORDS * (s.tag & ~WHOLE);
         for (var k = 0u; k < WORDS; k += 1u) {
             lookups[o + k] = sent[whole + k];
         }
@@ -54,11 +59,16 @@ fn compose(@builtin(global_invocation_id) gid: vec3<u32>) {
     let h = hits[i];
     let c = cells[h.y];
     let res = c.y;
-    let at = surface_at(h.y, bitcast<f32>(h.z), bitcast<f32>(h.w));
-    let m = material_surfaces[at.material];
-    let albedo = albedo_towards(m, base_color_at(m, at.uv), dot(at.shading_normal, pixel_rays[2u * i + 1u].xyz));
-    let weight = albedo * FRAC_1_PI;
-    lookups[o] = c.x + s.tag * (res * (res + 1u) / 2u);
+    var weight: vec3<f32>;
+    if ((s.tag & WEIGHT_SENT) != 0u) {
+        weight = weights[(s.tag & ~WEIGHT_SENT) >> 1u].xyz;
+    } else {
+        let at = surface_at(h.y, bitcast<f32>(h.z), bitcast<f32>(h.w));
+        let m = material_surfaces[at.material];
+        let cos_o = dot(at.shading_normal, pixel_rays[2u * i + 1u].xyz);
+        weight = albedo_towards(m, base_color_at(m, at.uv), cos_o) * FRAC_1_PI;
+    }
+    lookups[o] = c.x + (s.tag & 1u) * (res * (res + 1u) / 2u);
     lookups[o + 1u] = res;
     lookups[o + 2u] = h.z;
     lookups[o + 3u] = h.w;

@@ -3,7 +3,7 @@
 //! coordinates and material (80 bytes); per material its base colour factor and texture
 //! and the table of its directional albedo towards a viewer
 //! ([`holocave_vlf::surface::albedo_towards`]: 32 steps of `a + b · base`); the base colour
-//! textures' texels as the CPU holds them (RGBA8) with the CPU's sRGB table. From a hit
+//! textures' texels as the CPU holds them (RGBA8) with the CPU's values of each code. From a hit
 //! the shader reads the shading normal, the base colour and the albedo towards the eye in
 //! the CPU's operations ([`holocave_scene::Scene::surface`], `Material::params`,
 //! `Texture::sample`): the same numbers up to the float bound `tests/vlf_base.rs` derives.
@@ -64,7 +64,10 @@ impl SceneSurfaces {
     /// `scene`'s surfaces uploaded to `gpu`; `None`, with a warning that says why, where
     /// its triangles' data exceed one of the adapter's storage bindings.
     pub fn new(gpu: &Gpu, scene: &Scene) -> Option<SceneSurfaces> {
-        let limit = gpu.device.limits().max_storage_buffer_binding_size;
+        let limits = gpu.device.limits();
+        let limit = (limits.max_storage_buffer_binding_size)
+            .min(limits.max_buffer_size)
+            .min(u64::from(u32::MAX));
         let bytes = (scene.triangle_count() * std::mem::size_of::<TriangleSurface>()) as u64;
         if bytes > limit {
             tracing::warn!(
@@ -146,6 +149,10 @@ impl SceneSurfaces {
             textures.len(),
             texels.len() as f64 * 4e-6,
         );
+        // Each 8-bit code's linear value read as sRGB, then as linear: the CPU's values.
+        let codes: Vec<f32> = (srgb_table().iter().copied())
+            .chain((0..=255u8).map(|c| c as f32 / 255.0))
+            .collect();
         let upload = |label, bytes: &[u8]| {
             // A binding is never empty.
             gpu.storage_init(label, if bytes.is_empty() { &[0; 16] } else { bytes })
@@ -160,7 +167,7 @@ impl SceneSurfaces {
                 ),
                 upload("gpu surfaces: textures", bytemuck::cast_slice(&textures)),
                 upload("gpu surfaces: texels", bytemuck::cast_slice(&texels)),
-                upload("gpu surfaces: sRGB", bytemuck::cast_slice(srgb_table())),
+                upload("gpu surfaces: texel codes", bytemuck::cast_slice(&codes)),
             ],
             on_gpu,
             materials: (0..scene.triangle_count() as u32)

@@ -37,8 +37,9 @@ struct MaterialSurface {
 @group(0) @binding(9) var<storage, read> textures: array<vec4<u32>>;
 // RGBA8 texels, r in the low byte.
 @group(0) @binding(10) var<storage, read> texels: array<u32>;
-// Each sRGB code's linear value, the CPU's table.
-@group(0) @binding(11) var<storage, read> srgb: array<f32, 256>;
+// Each 8-bit code's value as the CPU reads it: sRGB-encoded at 0 to 255, linear at 256 to
+// 511.
+@group(0) @binding(11) var<storage, read> codes: array<f32, 512>;
 
 const NO_SURFACE: u32 = 0xffffffffu;
 const HAS_NORMALS: u32 = 0x80000000u;
@@ -56,10 +57,11 @@ fn texel(t: vec4<u32>, x: i32, y: i32) -> vec4<f32> {
     let yi = ((y % h) + h) % h;
     let p = texels[t.x + u32(yi * w + xi)];
     let c = vec4<u32>(p & 0xffu, (p >> 8u) & 0xffu, (p >> 16u) & 0xffu, p >> 24u);
-    if (t.w == 1u) {
-        return vec4<f32>(srgb[c.x], srgb[c.y], srgb[c.z], f32(c.w) / 255.0);
+    var rgb = c.xyz;
+    if (t.w != 1u) {
+        rgb += vec3<u32>(256u);
     }
-    return vec4<f32>(c) / 255.0;
+    return vec4<f32>(codes[rgb.x], codes[rgb.y], codes[rgb.z], codes[256u + c.w]);
 }
 
 // glam's lerp: a (1 − s) + b s.
@@ -101,10 +103,12 @@ fn surface_at(tri: u32, u: f32, v: f32) -> SurfaceAt {
     var ns = ng;
     if ((s.material & HAS_NORMALS) != 0u) {
         let n = s.n0.xyz * w.x + s.n1.xyz * w.y + s.n2.xyz * w.z;
-        // glam's normalize_or_zero; the face normal where that is zero, turned to its side.
-        let rcp = 1.0 / sqrt(dot(n, n));
-        if (finite_surface(rcp) && rcp > 0.0) {
-            ns = n * rcp;
+        // glam's normalize_or_zero (zero unless 1/|n| is finite and positive: for an f32
+        // square length, unless it is positive and finite); the face normal where that is
+        // zero, turned to its side.
+        let d = dot(n, n);
+        if (d > 0.0 && finite_surface(d)) {
+            ns = n * (1.0 / sqrt(d));
             if (dot(ns, ng) < 0.0) {
                 ns = -ns;
             }
