@@ -1,17 +1,17 @@
 //! The light field's lookups read from the wall's first hits on the GPU
 //! (`lookups.wgsl` beside this file): where a pixel's point is its first hit on an element
-//! (the common pixel: no mirror, glass, glossy tile or moving object on the way) and its
-//! material is shaded there ([`SceneSurfaces`]), the lookup's element and barycentrics come
-//! from the hit kept there and its weight from the surface's albedo towards the pixel's
-//! ray, and the CPU sends only the emitted light it computed (the per-pixel direct light's
-//! running mean among it): 16 bytes instead of the lookup's 64. Other pixels' lookups are
-//! sent whole.
+//! (the common pixel: no mirror, glass, glossy tile or moving object on the way), the
+//! lookup's element and barycentrics come from the hit kept there, and the CPU sends only
+//! the emitted light it computed (the per-pixel direct light's running mean among it):
+//! 16 bytes instead of the lookup's 64. The weight comes from the surface's albedo towards
+//! the pixel's ray where its material is shaded there ([`SceneSurfaces`]) and the weight
+//! is the surface's own (not scaled by an edge's share or by moving objects' shade);
+//! elsewhere the CPU sends it too (16 bytes more). Other pixels' lookups are sent whole.
 //!
-//! The composed lookups are the CPU's bit for bit but for the weight, which is the CPU's
-//! within the float bound of the material data's operations (`surfaces.rs`): a pixel is
-//! composed only where the CPU's lookup is what the kernel writes from that hit, its
-//! weight the surface's own albedo over π (not scaled by an edge's share or by moving
-//! objects' shade) ([`split`]).
+//! The composed lookups are the CPU's bit for bit but for the weights made on the GPU,
+//! which are the CPU's within the float bound of the material data's operations
+//! (`surfaces.rs`): a pixel is composed only where the CPU's lookup is what the kernel
+//! writes from that hit ([`split`]).
 
 use bytemuck::{Pod, Zeroable};
 use holocave_scene::{Hit, Scene};
