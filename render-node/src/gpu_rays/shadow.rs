@@ -289,16 +289,17 @@ mod tests {
 
     use super::*;
     use crate::gpu::layout::{assert_same_layout, every_field};
+    use crate::gpu::with_common;
 
     #[test]
     fn the_wgsl_structs_are_laid_out_as_in_rust() {
-        let src = source_with(
+        let src = with_common(&source_with(
             8,
             &format!(
                 "const MAX_LIGHTS: u32 = {MAX_MADE_LIGHTS}u;\n{}",
                 include_str!("shadow.wgsl")
             ),
-        );
+        ));
         every_field!(MadeLight {
             position_kind,
             direction

@@ -54,10 +54,8 @@ struct MaterialSurface {
 /// binding order, and which materials it shades.
 pub struct SceneSurfaces {
     pub(super) buffers: [wgpu::Buffer; 6],
-    /// Per material: whether the GPU has its table (and its texture, if any).
-    on_gpu: Vec<bool>,
-    /// Per static triangle, its material.
-    materials: Vec<u32>,
+    /// Per static triangle: whether the GPU has its material's table (and texture).
+    shaded: Vec<bool>,
 }
 
 impl SceneSurfaces {
@@ -95,7 +93,7 @@ impl SceneSurfaces {
             .collect();
         // The base colour textures that fit one binding, in the materials' order.
         let limit = limit as usize / 4;
-        let mut texels: Vec<u32> = Vec::new();
+        let mut texels: Vec<[u8; 4]> = Vec::new();
         let mut textures: Vec<[u32; 4]> = Vec::new();
         let mut placed = vec![None; scene.textures.len()];
         let mut towards: Vec<[f32; 4]> = Vec::new();
@@ -115,7 +113,7 @@ impl SceneSurfaces {
                             t.height(),
                             u32::from(t.encoding() == Encoding::Srgb),
                         ]);
-                        texels.extend(t.texels().iter().map(|&c| u32::from_le_bytes(c)));
+                        texels.extend_from_slice(t.texels());
                         textures.len() as u32 - 1
                     })
                 });
@@ -169,18 +167,15 @@ impl SceneSurfaces {
                 upload("gpu surfaces: texels", bytemuck::cast_slice(&texels)),
                 upload("gpu surfaces: texel codes", bytemuck::cast_slice(&codes)),
             ],
-            on_gpu,
-            materials: (0..scene.triangle_count() as u32)
-                .map(|i| scene.triangle_shading(i).material)
+            shaded: (0..scene.triangle_count() as u32)
+                .map(|i| on_gpu.get(scene.triangle_shading(i).material as usize) == Some(&true))
                 .collect(),
         })
     }
 
     /// Whether the GPU shades what `hit` sees of its surface (its material's table there).
     pub fn shades(&self, hit: &Hit) -> bool {
-        (self.materials.get(hit.triangle as usize))
-            .and_then(|&m| self.on_gpu.get(m as usize))
-            .is_some_and(|&on| on)
+        (self.shaded.get(hit.triangle as usize)).is_some_and(|&on| on)
     }
 }
 

@@ -45,10 +45,6 @@ const NO_SURFACE: u32 = 0xffffffffu;
 const HAS_NORMALS: u32 = 0x80000000u;
 const TOWARDS_STEPS: u32 = 32u;
 
-fn finite_surface(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
-}
-
 // Texel (x, y) of texture t, wrapped, as linear values.
 fn texel(t: vec4<u32>, x: i32, y: i32) -> vec4<f32> {
     let w = i32(t.y);
@@ -72,7 +68,7 @@ fn lerp4(a: vec4<f32>, b: vec4<f32>, s: f32) -> vec4<f32> {
 // Bilinear lookup with repeat wrapping; non-finite coordinates read at (0, 0).
 fn sample_texture(t: vec4<u32>, at: vec2<f32>) -> vec4<f32> {
     var uv = at;
-    if (!(finite_surface(uv.x) && finite_surface(uv.y))) {
+    if (!(finite(uv.x) && finite(uv.y))) {
         uv = vec2<f32>(0.0);
     }
     uv = uv - floor(uv);
@@ -107,7 +103,7 @@ fn surface_at(tri: u32, u: f32, v: f32) -> SurfaceAt {
         // square length, unless it is positive and finite); the face normal where that is
         // zero, turned to its side.
         let d = dot(n, n);
-        if (d > 0.0 && finite_surface(d)) {
+        if (d > 0.0 && finite(d)) {
             ns = n * (1.0 / sqrt(d));
             if (dot(ns, ng) < 0.0) {
                 ns = -ns;

@@ -43,10 +43,6 @@ const EDGE_TOL: f32 = 1.0e-5;
 const FAR_GROW: f32 = 1.0000019073486328;
 const WORKGROUP: u32 = 64u;
 
-fn finite(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
-}
-
 // A ray that can hit something: finite origin and direction, non-zero direction, tmax not
 // NaN (as `usable` in holocave_scene::bvh).
 fn usable(r: GpuRay) -> bool {

@@ -5,6 +5,12 @@ fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
 }
 
+// Whether x is neither infinite nor NaN (by its exponent bits: WGSL lets a compiler assume
+// no infinities or NaNs, so comparisons cannot tell).
+fn finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+
 // One cached point: world position and age, mean radiance and sample count, the origin
 // of the ray(s) that made it and the id of the surface it lies on, and the mean of its
 // samples' squared luminance (their spread, for the light field's prior per pixel:
