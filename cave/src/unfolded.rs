@@ -12,15 +12,13 @@ pub struct Place {
     pub wall: String,
     pub x: u32,
     pub y: u32,
-    pub width: u32,
-    pub height: u32,
+    pub size: Size,
 }
 
 /// The walls' places and the size of the whole.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Unfolded {
-    pub width: u32,
-    pub height: u32,
+    pub size: Size,
     pub places: Vec<Place>,
 }
 
@@ -67,14 +65,15 @@ pub fn unfold(walls: &[(String, Size)]) -> Unfolded {
                 wall: name.clone(),
                 x,
                 y,
-                width: size.width,
-                height: h,
+                size: *size,
             }
         })
         .collect();
     Unfolded {
-        width: (left.width + middle + right.width).max(others_width),
-        height: top + floor.height + others_height,
+        size: Size::new(
+            (left.width + middle + right.width).max(others_width),
+            top + floor.height + others_height,
+        ),
         places,
     }
 }
@@ -84,8 +83,8 @@ impl Unfolded {
     /// pixel).
     pub fn fit(&self, screen: Size) -> Vec<Place> {
         let Size { width, height } = screen;
-        let zoom = (f64::from(width) / f64::from(self.width.max(1)))
-            .min(f64::from(height) / f64::from(self.height.max(1)));
+        let zoom = (f64::from(width) / f64::from(self.size.width.max(1)))
+            .min(f64::from(height) / f64::from(self.size.height.max(1)));
         let z = |v: u32| (f64::from(v) * zoom).floor() as u32;
         self.places
             .iter()
@@ -93,8 +92,7 @@ impl Unfolded {
                 wall: p.wall.clone(),
                 x: z(p.x),
                 y: z(p.y),
-                width: z(p.width).max(1),
-                height: z(p.height).max(1),
+                size: Size::new(z(p.size.width).max(1), z(p.size.height).max(1)),
             })
             .collect()
     }
@@ -121,7 +119,7 @@ mod tests {
             ("right", Size::new(4, 3)),
             ("floor", Size::new(4, 4)),
         ]));
-        assert_eq!((u.width, u.height), (12, 7));
+        assert_eq!(u.size, Size::new(12, 7));
         let at = |n: &str| {
             let p = u.place(n).unwrap();
             (p.x, p.y)
@@ -141,7 +139,7 @@ mod tests {
             ("back", Size::new(8, 6)),
         ]));
         // No right wall, no floor: the row below starts under the top row.
-        assert_eq!((u.width, u.height), (16, 14));
+        assert_eq!(u.size, Size::new(16, 14));
         let p = u.place("left").unwrap();
         assert_eq!((p.x, p.y), (0, 2), "its bottom on the front wall's");
         let p = u.place("ceiling").unwrap();
@@ -162,13 +160,13 @@ mod tests {
         let placed = u.fit(Size::new(1280, 1024));
         let at = |n: &str| placed.iter().find(|p| p.wall == n).unwrap().clone();
         let p = at("left");
-        assert_eq!((p.x, p.y, p.width, p.height), (0, 0, 426, 320));
+        assert_eq!((p.x, p.y, p.size), (0, 0, Size::new(426, 320)));
         assert_eq!((at("front").x, at("front").y), (426, 0));
         assert_eq!((at("right").x, at("right").y), (853, 0));
         let p = at("floor");
-        assert_eq!((p.x, p.y, p.width, p.height), (426, 320, 426, 426));
+        assert_eq!((p.x, p.y, p.size), (426, 320, Size::new(426, 426)));
         for p in &placed {
-            assert!(p.x + p.width <= 1280 && p.y + p.height <= 1024);
+            assert!(p.x + p.size.width <= 1280 && p.y + p.size.height <= 1024);
         }
     }
 }

@@ -10,13 +10,14 @@ const EMPTY: Rgb<u8> = Rgb([48, 48, 48]);
 /// The walls' `images` at their places in `layout`; a wall without an image leaves its
 /// place grey, and an image larger than its place is cut to it.
 pub fn cave_mosaic(layout: &Unfolded, images: &[(&str, &RgbImage)]) -> RgbImage {
-    let mut out = RgbImage::from_pixel(layout.width.max(1), layout.height.max(1), EMPTY);
+    let size = layout.size;
+    let mut out = RgbImage::from_pixel(size.width.max(1), size.height.max(1), EMPTY);
     for (wall, img) in images {
         let Some(p) = layout.place(wall) else {
             continue;
         };
         for (x, y, px) in img.enumerate_pixels() {
-            if x < p.width && y < p.height {
+            if x < p.size.width && y < p.size.height {
                 out.put_pixel(p.x + x, p.y + y, *px);
             }
         }

@@ -165,6 +165,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     let nodes = Nodes {
         exe: &exe,
         master: &addr,
+        unfolded: &unfolded,
         placed: &placed,
         vlf: vlf.as_deref(),
         secret: &secret,
@@ -300,6 +301,9 @@ struct Nodes<'a> {
     exe: &'a Path,
     /// The master's address.
     master: &'a str,
+    /// The walls' eye images, laid out.
+    unfolded: &'a Unfolded,
+    /// Their windows, placed on the desktop.
     placed: &'a [Place],
     vlf: Option<&'a Path>,
     secret: &'a str,
@@ -308,6 +312,9 @@ struct Nodes<'a> {
 impl Nodes<'_> {
     /// Starts `wall`'s node, its output in `OUT/<wall>/` (a fresh presented log).
     fn spawn(&self, args: &SimArgs, wall: &Wall) -> Result<Watched> {
+        let eye = (self.unfolded.place(&wall.name))
+            .with_context(|| format!("wall {:?} is not in the unfolded CAVE", wall.name))?
+            .size;
         let dir = args.out.join(&wall.name);
         std::fs::create_dir_all(&dir)?;
         // A fresh presented.log (and present-times.log) per run.
@@ -332,7 +339,7 @@ impl Nodes<'_> {
             .args(["--tone", args.tone.name()])
             .args([
                 "--size",
-                &wall.pixels.scaled(args.scale, 8).to_string(),
+                &eye.to_string(),
                 "--every",
                 &args.every.to_string(),
             ])

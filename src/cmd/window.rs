@@ -153,7 +153,7 @@ impl SimWindowArgs {
                 "--window-pos".to_owned(),
                 format!("{},{}", p.x, p.y),
                 "--window-size".to_owned(),
-                Size::new(p.width, p.height).to_string(),
+                p.size.to_string(),
             ]);
         }
         a
