@@ -1,7 +1,7 @@
 //! Drawing a fisheye's radiance, in the scene's units: as the walls draw it (the light
-//! field's remainder plus the exact direct light per pixel, `vlf`'s
-//! [`Visibility::lookup_and_point`], [`shade_one`] and [`PixelDirect::mean`], the same
-//! calls `holocave vlf view` makes through a wall) or by path tracing (the tracer's
+//! field's remainder plus the exact direct light per pixel, the caustics, the tiles'
+//! albedo: `vlf`'s [`WallPass::radiance`], the one composition of a wall's radiance that
+//! the walls, `holocave vlf view` and `compare` draw through) or by path tracing (the tracer's
 //! [`Tracer::trace_one`], the reference). Both take their rays by direction, so no
 //! planar view is needed.
 //!
@@ -32,8 +32,8 @@ use holocave_tracer::Tracer;
 use holocave_tracer::film::Image;
 use holocave_tracer::frame::Frame;
 use holocave_tracer::sampling::uniform_cone;
-use holocave_vlf::view::shade_one;
-use holocave_vlf::{PixelDirect, Visibility};
+use holocave_vlf::view::ReflectionFrames;
+use holocave_vlf::{FrameContext, Visibility, WallPass};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -42,22 +42,24 @@ use crate::fisheye::Fisheye;
 /// How a fisheye's radiance is drawn.
 pub enum Drawing {
     /// As the walls draw: the light field's lookups, with the direct light computed per
-    /// pixel when `direct` is given (then `values` are the light field's indirect values,
-    /// [`holocave_vlf::State::indirect_values`], else all of them,
-    /// [`holocave_vlf::State::values`]).
+    /// pixel where the pass takes it ([`WallPass::radiance`]).
     LightField {
-        /// Boxed: the variant would otherwise be far larger than the other.
-        visibility: Box<Visibility>,
-        values: Vec<[f32; 3]>,
-        direct: Option<PixelDirect>,
+        pass: Box<WallPass>,
         /// Direct-light estimates averaged per lookup (what a still wall has after
         /// `estimates − first_estimates + 1` frames).
         estimates: u32,
+        /// The frames of a still view whose glossy directions the lookups take.
+        reflections: ReflectionFrames,
         /// Lookups per pixel along each axis.
         k: u32,
     },
     /// Path traced with `spp` paths per pixel.
-    PathTraced { tracer: Tracer, spp: u32, seed: u64 },
+    PathTraced {
+        /// Boxed: the variant would otherwise be far larger than the other.
+        tracer: Box<Tracer>,
+        spp: u32,
+        seed: u64,
+    },
 }
 
 /// Rays spread over the sun's disc.
@@ -96,9 +98,9 @@ fn to_f32(d: DVec3) -> Vec3 {
 }
 
 impl Drawing {
-    /// The light field drawn as the walls draw it, from a light field opened for `scene`:
-    /// with the direct light per pixel unless `no_direct` or the scene has no light that
-    /// pass computes.
+    /// The light field drawn as the walls draw it after `frames` frames of a still view,
+    /// from a light field opened for `scene`: with the direct light per pixel unless
+    /// `no_direct` or the scene has no light that pass computes.
     pub fn light_field(
         scene: Arc<Scene>,
         opened: holocave_vlf::baked::Opened,
@@ -106,34 +108,36 @@ impl Drawing {
         frames: u32,
         k: u32,
     ) -> Self {
+        let file = opened.file;
         let visibility = Visibility::new(scene, opened.elements, opened.tiles);
-        Drawing::from_state(visibility, &opened.file.state, no_direct, frames, k)
+        Drawing::of_state(
+            visibility,
+            (&file.settings, &file.state),
+            no_direct,
+            frames,
+            k,
+        )
     }
 
-    /// As [`Drawing::light_field`], from a bake's state and its visibility (its element
-    /// layout and tiles for the scene).
-    pub fn from_state(
+    /// As [`Drawing::light_field`], from a bake's settings and state and its visibility
+    /// (its element layout and tiles for the scene).
+    pub fn of_state(
         visibility: Visibility,
-        state: &holocave_vlf::State,
+        (settings, state): (&holocave_vlf::Settings, &holocave_vlf::State),
         no_direct: bool,
         frames: u32,
         k: u32,
     ) -> Self {
-        let total = std::sync::Arc::new(state.values());
-        visibility.light_objects(total.clone());
-        let direct = PixelDirect::new(visibility.scene().clone());
-        let use_direct = !no_direct && !direct.is_empty();
-        let values = if use_direct {
-            state.indirect_values()
-        } else {
-            std::sync::Arc::unwrap_or_clone(total)
+        // The sky is drawn from the field, as on the walls by default; only the sky per
+        // pixel can make a wall pass fail (a state without its sky part).
+        let pass = match WallPass::new(visibility, settings, state, false) {
+            Ok(pass) => pass.with_direct(!no_direct),
+            Err(e) => unreachable!("a wall pass without the sky per pixel: {e}"),
         };
-        let estimates = direct.first_estimates() + frames.max(1) - 1;
         Drawing::LightField {
-            visibility: Box::new(visibility),
-            values,
-            direct: use_direct.then_some(direct),
-            estimates,
+            estimates: pass.estimates_after(frames),
+            pass: Box::new(pass),
+            reflections: ReflectionFrames::after(frames),
             k: k.max(1),
         }
     }
@@ -141,7 +145,7 @@ impl Drawing {
     /// The scene drawn.
     fn scene(&self) -> &Scene {
         match self {
-            Drawing::LightField { visibility, .. } => visibility.scene(),
+            Drawing::LightField { pass, .. } => pass.scene(),
             Drawing::PathTraced { tracer, .. } => tracer.scene(),
         }
     }
@@ -155,32 +159,22 @@ impl Drawing {
             .then(|| (d, f64::from(s.one_minus_cos_radius())))
     }
 
-    /// The radiance along `ray`, the `index`-th ray of pixel or set `seed`.
-    fn radiance(&self, ray: &Ray, seed: u64, index: u64) -> Vec3 {
+    /// The radiance along `ray`, the `index`-th ray of pixel or set `seed` (drawn from the
+    /// light field: with sample sequence `seed · 2¹⁶ + index`).
+    pub fn radiance(&self, ray: &Ray, seed: u64, index: u64) -> Vec3 {
         match self {
             Drawing::LightField {
-                visibility,
-                values,
-                direct,
+                pass,
                 estimates,
+                reflections,
                 ..
             } => {
-                let (l, p) = visibility.lookup_and_point(*ray);
-                let mut c = shade_one(&l, values);
-                if let (Some(direct), Some(p)) = (direct, p) {
-                    c += visibility.with_placed(|placed| {
-                        direct
-                            .mean(
-                                placed,
-                                &p,
-                                seed.wrapping_mul(0x1_0000).wrapping_add(index),
-                                0,
-                                *estimates,
-                            )
-                            .radiance
-                    });
-                }
-                c
+                let ctx = FrameContext {
+                    values: pass.values(),
+                    reflections,
+                    estimates: *estimates,
+                };
+                pass.radiance(ctx, *ray, seed.wrapping_mul(0x1_0000).wrapping_add(index))
             }
             Drawing::PathTraced {
                 tracer, seed: base, ..

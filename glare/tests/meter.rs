@@ -62,7 +62,7 @@ fn meter_measures_each_pose() {
     let scene = sky_scene();
     let tracer = Tracer::new(scene, TraceSettings::default());
     let drawing = Drawing::PathTraced {
-        tracer,
+        tracer: Box::new(tracer),
         spp: 1,
         seed: 7,
     };
@@ -172,7 +172,7 @@ fn the_sun_is_counted_once_at_any_size() {
     for (n, spp) in [(16, 1), (37, 4), (64, 16), (256, 64)] {
         let tracer = Tracer::new(scene.clone(), TraceSettings::default());
         let drawing = Drawing::PathTraced {
-            tracer,
+            tracer: Box::new(tracer),
             spp,
             seed: 3,
         };
@@ -215,7 +215,7 @@ fn light_field_drawing_of_sky_and_sun() {
     let (state, _) =
         holocave_vlf::bake(&scene, &settings, None, &|_| {}, &mut |_| Ok::<(), ()>(())).unwrap();
     let visibility = holocave_vlf::Visibility::of(scene.clone(), &settings);
-    let drawing = Drawing::from_state(visibility, &state, false, 1, 2);
+    let drawing = Drawing::of_state(visibility, (&settings, &state), false, 1, 2);
     let n = 64;
     let meter = GlareMeter::new(
         drawing,
@@ -243,7 +243,7 @@ fn a_session_is_measured_frame_by_frame_in_order() {
     use holocave_glare::session::{FrameView, measure_session};
     let scene = sky_scene();
     let drawing = Drawing::PathTraced {
-        tracer: Tracer::new(scene, TraceSettings::default()),
+        tracer: Box::new(Tracer::new(scene, TraceSettings::default())),
         spp: 1,
         seed: 7,
     };
@@ -299,7 +299,7 @@ fn live_glare_measures_the_newest_frames_in_order() {
     use holocave_glare::session::FrameView;
     let meter = || {
         let drawing = Drawing::PathTraced {
-            tracer: Tracer::new(sky_scene(), TraceSettings::default()),
+            tracer: Box::new(Tracer::new(sky_scene(), TraceSettings::default())),
             spp: 1,
             seed: 7,
         };

@@ -34,17 +34,15 @@ use std::sync::{Arc, Mutex};
 use glam::{Mat4, Vec3};
 use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
-use holocave_vlf::baked::{self, Opened};
+use holocave_vlf::baked;
 use holocave_vlf::footprint::Screen;
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::kept_gathers::KeptGathers;
-use holocave_vlf::split::Split;
-use holocave_vlf::view::{ReflectionFrames, SKY_PRIOR_SAMPLES, SkyPrior, shade_one};
+use holocave_vlf::view::ReflectionFrames;
 use holocave_vlf::{
-    Accumulator, Aim, CpuRays, DirectPoint, Lookup, Made, MadeRays, PixelDirect, StaticRays,
-    Visibility,
+    Accumulator, Aim, CpuRays, DirectPoint, FrameContext, Lookup, Made, MadeRays, StaticRays,
+    WallPass,
 };
-use holocave_vlf::{glow_edges, surface_edges};
 use rayon::prelude::*;
 
 use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
@@ -67,20 +65,11 @@ pub const DEFAULT_PRIOR_SAMPLES: f32 = 256.0;
 /// two eyes); a view not drawn for longer is dropped first.
 const HISTORIES: usize = 8;
 
-/// A baked light field and the scene it was baked for.
+/// A baked light field and the scene it was baked for, drawn on a wall: the per-pixel
+/// pass's stages ([`WallPass`]) run over a frame's pixels at once, with their running
+/// means kept from frame to frame.
 pub struct VlfBase {
-    visibility: Visibility,
-    /// The elements' irradiance, then the tiles' radiance: all of it, and without the
-    /// next-event part (what the lookups read when the direct light is drawn per pixel).
-    total: Arc<Vec<[f32; 3]>>,
-    indirect: Arc<Vec<[f32; 3]>>,
-    /// With the sky per pixel, the field's sky (its first arrival), a prior for it.
-    sky: Option<Vec<[f32; 3]>>,
-    /// The next-event estimates: the walls' direct light per pixel and gather samples'.
-    nee: PixelDirect,
-    /// Whether the walls draw the direct light per pixel (never for a scene without a
-    /// light next-event estimation takes).
-    direct: bool,
+    pass: WallPass,
     /// The running means of the direct light, per eye and view drawn, with the frame each
     /// was last drawn (a moved eye takes over its own nearest one of the same screen).
     history: Mutex<Vec<History>>,
@@ -117,6 +106,13 @@ struct Pixels {
     points: Vec<Option<DirectPoint>>,
     hits: Option<Vec<Option<Hit>>>,
     kept: Option<KeptHits>,
+}
+
+/// The first hits of a frame's pixels found on the GPU: read back, and kept there.
+#[derive(Clone, Copy)]
+struct GpuHits<'a> {
+    hits: Option<&'a [Option<Hit>]>,
+    kept: Option<&'a KeptHits>,
 }
 
 /// One eye's running means of the direct light in one view.
@@ -279,64 +275,42 @@ impl VlfBase {
         scene: Arc<Scene>,
         sky_per_pixel: bool,
     ) -> Result<VlfBase, RenderNodeError> {
-        let Opened {
-            file: f,
-            elements,
-            tiles,
-        } = baked::open(path, &scene).map_err(|e| RenderNodeError::Vlf(e.to_string()))?;
-        if !f.state.converged {
+        let opened = baked::open(path, &scene).map_err(|e| RenderNodeError::Vlf(e.to_string()))?;
+        if !opened.file.state.converged {
             tracing::warn!(
                 "{}: bake not finished ({} bounces); drawing what it has",
                 path.display(),
-                f.state.bounces
+                opened.file.state.bounces
             );
         }
-        let Split {
-            direct: nee,
-            remainder: indirect,
-            sky,
-            caustics,
-        } = Split::new(
-            scene.clone(),
-            &f.settings,
-            &f.state,
-            (&elements, &tiles),
-            sky_per_pixel,
-        )
-        .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
         let shadow_lights = shadow_lights(&scene);
-        let total = Arc::new(f.state.values());
-        let indirect = Arc::new(indirect);
-        let visibility = Visibility::new(scene, elements, tiles);
-        visibility.light_objects(total.clone());
-        if let Some(c) = caustics {
-            visibility.draw_caustics(c);
-        }
+        let pass = WallPass::of_opened(scene, opened, sky_per_pixel)
+            .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
         let base = VlfBase {
-            total,
-            indirect,
-            sky,
-            direct: false,
-            nee,
+            pass,
             history: Mutex::new(Vec::new()),
             pixels: Mutex::new(Vec::new()),
             gpu_rays: None,
             shadow_lights,
-            visibility,
             kept: Mutex::new(None),
             measured: Mutex::new(None),
         };
-        Ok(base.with_direct(true))
+        Ok(base)
     }
 
     /// The scene drawn.
     pub fn scene(&self) -> &Arc<Scene> {
-        self.visibility.scene()
+        self.pass.scene()
+    }
+
+    /// The per-pixel pass this wall runs.
+    pub fn pass(&self) -> &WallPass {
+        &self.pass
     }
 
     /// Where the scene's moving objects stand now.
     pub fn placements(&self) -> Vec<Placement> {
-        self.visibility.placements()
+        self.pass.visibility().placements()
     }
 
     /// Puts the scene's moving objects at `placements` (one per object, in the scene's
@@ -345,8 +319,8 @@ impl VlfBase {
     /// view's direct light starts averaging again (its shadows moved under points that
     /// stayed put).
     pub fn place_objects(&self, placements: &[Placement]) -> Vec<ObjectMove> {
-        let before = self.visibility.placements();
-        if !self.visibility.place_objects(placements) {
+        let before = self.pass.visibility().placements();
+        if !self.pass.visibility().place_objects(placements) {
             return Vec::new();
         }
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
@@ -354,7 +328,7 @@ impl VlfBase {
             x.means.restart();
         }
         let objects = self.scene().objects();
-        let after = self.visibility.placements();
+        let after = self.pass.visibility().placements();
         let matrix = |p: &Placement| Mat4::from_rotation_translation(p.rotation, p.translation);
         (before.iter().zip(&after).enumerate())
             .filter(|(k, (a, b))| a != b && *k < MAX_OBJECTS)
@@ -377,29 +351,23 @@ impl VlfBase {
     /// shadow rays); with `on` true (as opened), the direct light per pixel and the light
     /// field's remainder. Choose before handing the values to the GPU.
     pub fn with_direct(mut self, on: bool) -> Self {
-        self.direct = on && !self.nee.is_empty();
-        let values = if self.direct {
-            &self.indirect
-        } else {
-            &self.total
-        };
-        self.visibility.draw_with(values.clone(), self.direct);
+        self.pass = self.pass.with_direct(on);
         self
     }
 
     /// Whether the direct light is computed per pixel.
     pub fn direct_per_pixel(&self) -> bool {
-        self.direct
+        self.pass.direct_per_pixel()
     }
 
     /// Finds the pixels' first hits where `rays` says: on `gpu` (the scene's BVH uploaded
     /// to it once, here) or on the CPU; `auto` takes the GPU on a hardware adapter.
     pub fn with_rays(mut self, gpu: &Gpu, rays: Rays) -> Result<Self, RenderNodeError> {
         self.gpu_rays = if rays.on_gpu(gpu) {
-            let engine = GpuRays::for_scene(gpu, self.visibility.scene())?;
-            let maker = ShadowMaker::new(gpu, &engine, self.visibility.scene()).map(Mutex::new);
-            let composer =
-                LookupComposer::new(gpu, self.visibility.elements(), self.visibility.scene());
+            let (scene, vis) = (self.pass.scene(), self.pass.visibility());
+            let engine = GpuRays::for_scene(gpu, scene)?;
+            let maker = ShadowMaker::new(gpu, &engine, scene).map(Mutex::new);
+            let composer = LookupComposer::new(gpu, vis.elements(), scene);
             Some(OnGpuRays {
                 gpu: gpu.clone(),
                 engine: Mutex::new(engine),
@@ -427,11 +395,10 @@ impl VlfBase {
         self.gpu_rays.is_some()
     }
 
-    /// Each pixel's lookup, and what it sees written into `pixels`, the first hits found
-    /// where chosen (on the GPU: read back, and kept there for the shadow rays made and
-    /// the lookups composed from them; the rays on through mirrors and glass traced
-    /// there too, a batch a surface).
-    fn pixels_into(&self, wall: &WallView, pixels: &mut Pixels) -> Vec<Lookup> {
+    /// With the rays on the GPU, the pixels' first hits of `wall` found there, read back
+    /// into `pixels` and kept there (for the shadow rays made and the lookups composed
+    /// from them); nothing where the rays are on the CPU.
+    fn trace_first_hits(&self, wall: &WallView, pixels: &mut Pixels) {
         pixels.hits = self.gpu_rays.as_ref().map(|g| {
             let mut engine = g.engine.lock().unwrap_or_else(|e| e.into_inner());
             let n = engine.trace_wall(&g.gpu, wall, f32::INFINITY, Query::ClosestHit);
@@ -439,9 +406,6 @@ impl VlfBase {
             engine.keep_hits(&g.gpu, n, &mut pixels.kept);
             hits
         });
-        let on_gpu = self.on_gpu();
-        let hits = (pixels.hits.as_deref()).zip(on_gpu.as_ref().map(|g| g as &dyn StaticRays));
-        (self.visibility).pixels_into(wall, hits, &mut pixels.points)
     }
 
     /// One gather sample along each ray ([`holocave_vlf::gather`]): the direct light
@@ -450,7 +414,8 @@ impl VlfBase {
     /// Where the gathers are kept ([`Self::keep_gathers`]), each one's estimate is
     /// added to its element.
     pub fn gather(&self, rays: &[Ray], seed: u64) -> Vec<Gathered> {
-        let (vis, nee, indirect) = (&self.visibility, &self.nee, &self.indirect);
+        let (vis, nee) = (self.pass.visibility(), self.pass.direct());
+        let indirect = self.pass.remainder().as_slice();
         let gathered = match self.on_gpu() {
             Some(traced) => gather_all(vis, nee, indirect, rays, seed, &traced),
             None => gather_all(vis, nee, indirect, rays, seed, &CpuRays(self.scene())),
@@ -468,13 +433,14 @@ impl VlfBase {
     /// bounce brings the sky) and no moving objects (the bounce does not see them): false
     /// elsewhere.
     pub fn keep_gathers(&self, prior: f32) -> bool {
-        if !self.direct || self.sky.is_some() || !self.scene().objects().is_empty() {
+        let sky_per_pixel = self.pass.sky_prior().is_some();
+        if !self.direct_per_pixel() || sky_per_pixel || !self.scene().objects().is_empty() {
             return false;
         }
         let mut kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
         match kept.as_mut() {
             Some(k) => k.set_prior(prior),
-            None => *kept = Some(KeptGathers::new(self.indirect.clone(), prior)),
+            None => *kept = Some(KeptGathers::new(self.pass.remainder().clone(), prior)),
         }
         true
     }
@@ -494,7 +460,7 @@ impl VlfBase {
         if let Some(k) = kept.as_mut() {
             let changed = k.take_changed();
             if !changed.is_empty() {
-                self.visibility.update_drawn(k.values(), &changed);
+                self.pass.visibility().update_drawn(k.values(), &changed);
                 f(k.values(), &changed);
             }
         }
@@ -509,35 +475,24 @@ impl VlfBase {
         })
     }
 
-    /// What a still wall shows of the light field along each ray (no samples): the lookup
-    /// shaded as the GPU shades it, with the mean of `estimates` per-pixel direct
-    /// estimates when the walls draw that.
+    /// What a still wall shows of the light field along each ray (no samples, a view's
+    /// first frame), ray `i` taking sample sequence `i`: [`WallPass::radiance`], with
+    /// the mean of `estimates` per-pixel direct estimates when the walls draw that.
     pub fn field_radiance(&self, rays: &[Ray], estimates: u32) -> Vec<glam::Vec3> {
-        rays.par_iter()
-            .enumerate()
-            .map(|(i, &ray)| {
-                let (l, p) = self.visibility.lookup_and_point(ray);
-                let mut c = shade_one(&l, self.values());
-                if self.direct {
-                    c += self.nee.tile_albedo(&l, self.values());
-                }
-                if let (true, Some(p)) = (self.direct, p) {
-                    c += (self.visibility).with_placed(|placed| {
-                        self.nee.mean(placed, &p, i as u64, 0, estimates).radiance
-                    });
-                }
-                c
-            })
+        let first_frame = ReflectionFrames::still(0);
+        let ctx = FrameContext {
+            values: self.values(),
+            reflections: &first_frame,
+            estimates,
+        };
+        (rays.par_iter().enumerate())
+            .map(|(i, &ray)| self.pass.radiance(ctx, ray, i as u64))
             .collect()
     }
 
-    /// What the lookups read: the elements' irradiance, then the glossy tiles' radiance.
+    /// What the lookups read: the elements' irradiance, then the tiles' radiance.
     pub fn values(&self) -> &[[f32; 3]] {
-        if self.direct {
-            &self.indirect
-        } else {
-            &self.total
-        }
+        self.pass.values()
     }
 
     /// What each pixel of `view`, drawn for the display's eye `eye`, sees (the node's own
@@ -566,7 +521,7 @@ impl VlfBase {
                 && cache.gpu().same_device(&g.gpu)
                 && let Some(target) = cache.lookups_buffer(eye)
             {
-                let elements = self.visibility.elements();
+                let elements = self.pass.visibility().elements();
                 let mut composer = composer.lock().unwrap_or_else(|e| e.into_inner());
                 let surfaces = &composer.surfaces;
                 let split = split(elements, surfaces, &lookups, &pixels.points, hits);
@@ -596,21 +551,21 @@ impl VlfBase {
             let h = self.history.lock().unwrap_or_else(|e| e.into_inner());
             (h.iter().find(|x| x.eye == eye && x.view == view.wall)).map_or(0, |x| x.still)
         };
-        (self.visibility).draw_reflections(ReflectionFrames::still(still));
-        let mut lookups = self.pixels_into(&view.wall, &mut pixels);
-        let edges = glow_edges::find(&view.wall, &lookups, &pixels.points);
-        if self.direct {
-            self.add_direct(eye, view, &mut lookups, &pixels);
-        }
-        let vis = &self.visibility;
-        surface_edges::resolve(
-            vis,
-            &view.wall,
-            &mut lookups,
-            &pixels.points,
-            &edges.pixels(),
-        );
-        edges.resolve(vis, &view.wall, &mut lookups);
+        let reflections = ReflectionFrames::still(still);
+        self.trace_first_hits(&view.wall, &mut pixels);
+        let Pixels { points, hits, kept } = &mut pixels;
+        let on_gpu = self.on_gpu();
+        // The rays on through mirrors and glass traced where the first hits were found.
+        let first = (hits.as_deref()).zip(on_gpu.as_ref().map(|g| g as &dyn StaticRays));
+        let gpu = GpuHits {
+            hits: hits.as_deref(),
+            kept: kept.as_ref(),
+        };
+        let lookups = self
+            .pass
+            .frame(&view.wall, first, points, &reflections, |l, p| {
+                self.add_direct(eye, view, l, p, gpu)
+            });
         let out = f(lookups, &pixels);
         let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
         pool.push(pixels);
@@ -637,15 +592,20 @@ impl VlfBase {
     /// Runs `f` with the shadow rays the GPU makes from the wall's first hits kept there
     /// (which pixels see their first hit, and the GPU's answers to their made rays); with
     /// `None` where the rays are not on the GPU or it makes none of this scene's.
-    fn with_made<T>(&self, pixels: &Pixels, f: impl FnOnce(Option<&Made>) -> T) -> T {
+    fn with_made<T>(
+        &self,
+        points: &[Option<DirectPoint>],
+        gpu: GpuHits,
+        f: impl FnOnce(Option<&Made>) -> T,
+    ) -> T {
         let on_gpu = self.gpu_rays.as_ref();
-        let (Some(g), Some(hits), Some(kept)) = (on_gpu, &pixels.hits, &pixels.kept) else {
+        let (Some(g), Some(hits), Some(kept)) = (on_gpu, gpu.hits, gpu.kept) else {
             return f(None);
         };
         let Some(maker) = &g.maker else {
             return f(None);
         };
-        let at_first_hit: Vec<bool> = (pixels.points.par_iter().zip(hits))
+        let at_first_hit: Vec<bool> = (points.par_iter().zip(hits))
             .map(|(p, h)| matches!((p, h), (Some(p), Some(h)) if p.triangle == h.triangle))
             .collect();
         let trace = |rays: &[MadeRays], aims: &[Aim]| {
@@ -659,12 +619,20 @@ impl VlfBase {
         }))
     }
 
-    /// Adds each pixel's running mean of the direct light at its point (in `pixels`), its
-    /// caustics and the mean of its glossy reflections, to
-    /// its lookup's `emitted` light, this frame's estimate included.
-    fn add_direct(&self, eye: usize, view: &EyeView, lookups: &mut [Lookup], pixels: &Pixels) {
-        let points = &pixels.points;
-        let direct = &self.nee;
+    /// Stages 4–6 of the wall's frame ([`WallPass::frame`]): adds each pixel's running
+    /// mean of the direct light at its point (`points`), its caustics and the mean of its
+    /// glossy reflections, to its lookup's `emitted` light, this frame's estimate
+    /// included; the shadow rays made on the GPU from the first hits kept there (`gpu`)
+    /// where they are.
+    fn add_direct(
+        &self,
+        eye: usize,
+        view: &EyeView,
+        lookups: &mut [Lookup],
+        points: &[Option<DirectPoint>],
+        gpu: GpuHits,
+    ) {
+        let direct = self.pass.direct();
         // This eye's history of this view (taken out while it is used: other views may be
         // drawn on other threads meanwhile); else, when the eye moved, its history of the
         // same screen from where it was nearest, carried over to this view; else a new one
@@ -704,15 +672,18 @@ impl VlfBase {
         if let Some(from) = moved_from {
             acc.reproject(&from, &view.wall, points);
         }
-        let estimates = self.visibility.with_placed(|placed| match self.on_gpu() {
-            Some(traced) => self.with_made(pixels, |made| {
-                acc.add_blocked(direct, placed, points, &traced, made)
-            }),
-            None => acc.add(direct, placed, points),
-        });
+        let estimates = self
+            .pass
+            .visibility()
+            .with_placed(|placed| match self.on_gpu() {
+                Some(traced) => self.with_made(points, gpu, |made| {
+                    acc.add_blocked(direct, placed, points, &traced, made)
+                }),
+                None => acc.add(direct, placed, points),
+            });
         let screen = Screen::of(&view.wall, 1);
         let at_points = at_points(points, &kept, |i, p| {
-            (self.visibility).caustic_light(&lookups[i], p, Some(&screen))
+            self.pass.caustics(&lookups[i], p, Some(&screen))
         });
         let measured = *self.measured.lock().unwrap_or_else(|e| e.into_inner());
         let each = (lookups.par_iter_mut().zip(estimates).enumerate()).zip(acc.counts());
@@ -725,17 +696,8 @@ impl VlfBase {
                 Some(p) => kept.reflected - p.reflected.unwrap_or(Vec3::ZERO),
                 None => Vec3::ZERO,
             };
-            let added = match &self.sky {
-                Some(values) => SkyPrior {
-                    values,
-                    samples: SKY_PRIOR_SAMPLES,
-                }
-                .direct(l, &d, n),
-                None => d.radiance,
-            };
-            let tile_albedo = direct.tile_albedo(l, &self.indirect);
-            l.emitted = (glam::Vec3::from(l.emitted) + added + tile_albedo + caustic + reflected)
-                .to_array();
+            let added = self.pass.added(self.values(), l, (&d, n), caustic);
+            l.emitted = (glam::Vec3::from(l.emitted) + added + reflected).to_array();
             if d.object_shadow {
                 l.samples = 0.0;
             } else if let Some(m) = &measured {

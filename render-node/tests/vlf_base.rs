@@ -741,3 +741,74 @@ fn gathers_kept_in_the_field_show_from_another_eye() {
         );
     }
 }
+
+/// One composition of a wall's radiance (`holocave_vlf::wall_pass`): along the same ray
+/// with the same sample sequence, glare's fisheye, `compare`'s measure of the field
+/// (`VlfBase::field_radiance`) and `vlf view`'s pass give the same radiance, bit for bit;
+/// and `vlf view` at one ray a pixel (`WallPass::render`) is the wall's first frame with
+/// its rays on the CPU, bit for bit. The Cornell box takes every stage: the lamp's direct
+/// light per pixel, caustics through the glass and over the mirror, the surfaces seen in
+/// the mirror, edges. Seen to fail against glare drawing the lookup and the direct light
+/// alone (without the tile albedo and caustics), and against a wall that leaves the
+/// caustics out.
+#[test]
+fn glare_compare_vlf_view_and_the_wall_draw_one_radiance() {
+    use holocave_vlf::view::ReflectionFrames;
+    use holocave_vlf::{FrameContext, WallPass};
+    let scene = cornell();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cornell.vlf");
+    common::write_field(&scene, coarse(), &path);
+    let opened = || holocave_vlf::baked::open(&path, &scene).expect("open the light field");
+    let base = VlfBase::open(&path, scene.clone()).expect("open the light field");
+    let fisheye = holocave_glare::draw::Drawing::light_field(scene.clone(), opened(), false, 1, 1);
+    let pass = WallPass::of_opened(scene.clone(), opened(), false).unwrap();
+    assert!(pass.direct_per_pixel() && base.direct_per_pixel());
+    assert!(
+        pass.visibility().caustics_per_pixel(),
+        "the box has caustics"
+    );
+
+    let view = EyeView::looking_at(wall(40), 0.05).unwrap();
+    let w = view.wall.size.width;
+    let rays: Vec<Ray> = (0..view.wall.size.area() as u32)
+        .map(|i| {
+            view.wall
+                .ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5))
+        })
+        .collect();
+    let estimates = pass.estimates_after(1);
+    let first_frame = ReflectionFrames::still(0);
+    let ctx = FrameContext {
+        values: pass.values(),
+        reflections: &first_frame,
+        estimates,
+    };
+    let compared = base.field_radiance(&rays, estimates);
+    let mut beyond_the_lookup = 0;
+    for (i, ray) in rays.iter().enumerate() {
+        let glare = fisheye.radiance(ray, 0, i as u64);
+        let viewed = pass.radiance(ctx, *ray, i as u64);
+        assert_eq!(glare, compared[i], "glare against compare, ray {i}");
+        assert_eq!(
+            viewed, compared[i],
+            "vlf view's pass against compare, ray {i}"
+        );
+        let (l, _) = pass.visibility().lookup_and_point(*ray);
+        if (compared[i] - holocave_vlf::view::shade_one(&l, pass.values())).max_element() > 1e-3 {
+            beyond_the_lookup += 1;
+        }
+    }
+    assert!(
+        beyond_the_lookup > rays.len() / 2,
+        "the direct light is in {beyond_the_lookup} of {} rays",
+        rays.len()
+    );
+
+    let walls = shade(&base.lookups(0, &view), base.values());
+    let viewed = pass.render(&view.wall, pass.values(), 1, 1);
+    let apart = (walls.iter().zip(&viewed.pixels))
+        .filter(|(a, b)| a != b)
+        .count();
+    assert_eq!(apart, 0, "{apart} of {} pixels apart", walls.len());
+}

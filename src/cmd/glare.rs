@@ -114,7 +114,7 @@ pub fn run(a: GlareArgs) -> Result<()> {
         }
         None => (
             Drawing::PathTraced {
-                tracer: Tracer::new(scene.clone(), TraceSettings::default()),
+                tracer: Box::new(Tracer::new(scene.clone(), TraceSettings::default())),
                 spp: a.spp,
                 seed: a.seed,
             },

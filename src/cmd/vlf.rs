@@ -10,8 +10,7 @@ use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::VlfFile;
 use holocave_vlf::remote::Workers;
-use holocave_vlf::split::Split;
-use holocave_vlf::{Casting, Threads, Visibility};
+use holocave_vlf::{Casting, Threads, Visibility, WallPass};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::render::load_scene;
@@ -401,61 +400,41 @@ fn view(a: ViewArgs) -> Result<()> {
     let efficacy = scene.daylight.photometry.efficacy;
     let start = std::time::Instant::now();
     let scene = std::sync::Arc::new(scene);
-    let split = Split::new(
-        scene.clone(),
-        &f.settings,
-        &f.state,
-        (&elements, &tiles),
-        a.sky_per_pixel,
-    )
-    .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     let vis = Visibility::new(scene.clone(), elements, tiles);
     let vis = if a.no_darkening {
         vis.without_darkening()
     } else {
         vis
     };
-    let values = std::sync::Arc::new(f.state.values());
-    vis.light_objects(values.clone());
     vis.place_objects(&a.objects.placements(&scene)?);
-    if let Some(c) = &split.caustics {
-        vis.draw_caustics(c.clone());
-    }
-    let direct = &split.direct;
-    let image = if a.no_direct || direct.is_empty() {
-        vis.render(&view, &values, a.aa)
-    } else {
+    let pass = WallPass::new(vis, &f.settings, &f.state, a.sky_per_pixel)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?
+        .with_direct(!a.no_direct)
+        .with_sky_prior(a.sky_prior.max(0.0));
+    let image = if pass.direct_per_pixel() {
         println!(
             "direct light per pixel: {} shadow rays per lookup and frame, {} frame(s), {} lookups per pixel",
-            direct.shadow_rays(),
+            pass.direct().shadow_rays(),
             a.frames.max(1),
             a.aa.max(1).pow(2)
         );
-        let prior = split
-            .sky
-            .as_deref()
-            .map(|values| holocave_vlf::view::SkyPrior {
-                values,
-                samples: a.sky_prior.max(0.0),
-            });
         if a.gathers > 0 {
-            let remainder = std::sync::Arc::new(split.remainder.clone());
-            // The gathers see the surfaces as the walls draw them.
-            vis.draw_with(remainder.clone(), true);
             let kept = holocave_vlf::kept_gathers::of_still_view(
-                &vis,
-                direct,
-                &remainder,
+                pass.visibility(),
+                pass.direct(),
+                pass.remainder(),
                 &view,
                 (a.gathers, a.gather_prior),
                 &holocave_vlf::CpuRays(&scene),
             );
             let frames = a.frames.max(a.gathers);
             println!("{} frames of gathers kept in the field", a.gathers);
-            vis.render_with_direct(&view, kept.values(), a.aa, direct, frames, prior)
+            pass.render(&view, kept.values(), a.aa, frames)
         } else {
-            vis.render_with_direct(&view, &split.remainder, a.aa, direct, a.frames, prior)
+            pass.render(&view, pass.values(), a.aa, a.frames)
         }
+    } else {
+        pass.render(&view, pass.values(), a.aa, a.frames)
     };
     let secs = start.elapsed().as_secs_f64();
     image.write_exr(&a.out)?;
@@ -475,7 +454,7 @@ fn view(a: ViewArgs) -> Result<()> {
             holocave_vlf::accuracy::figures(&image, &reference, 16)
         );
         if !scene.objects().is_empty() {
-            let mask = vis.object_pixels(&view);
+            let mask = pass.visibility().object_pixels(&view);
             let (mse, bias, n) = holocave_vlf::accuracy::masked(&image, &reference, &mask);
             println!(
                 "on the moving objects ({n} pixels): relative MSE {mse:.5}, mean bias {:+.2} %",

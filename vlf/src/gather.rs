@@ -40,8 +40,8 @@ use rayon::prelude::*;
 use crate::elements::bilinear_cells;
 use crate::pixel_direct::{Estimate, PixelDirect, Sampled, ShadowQuery};
 use crate::static_rays::{StaticRays, per_group};
-use crate::view::Lookup;
 use crate::view::Visibility;
+use crate::view::{Lookup, ReflectionFrames};
 
 /// One sample along an eye ray.
 #[derive(Clone, Copy, Debug)]
@@ -166,7 +166,9 @@ fn at_eye(
     hit: Option<Hit>,
     rng: SmallRng,
 ) -> Pending {
-    let (lookup, point, first) = vis.lookup_point_and_hit(ray, hit);
+    // A gather's eye ray takes a view's first frame's glossy directions.
+    let first_frame = ReflectionFrames::still(0);
+    let (lookup, point, first) = vis.lookup_point_and_hit(ray, hit, &first_frame);
     let element = diffuse_element(&lookup);
     let base = element
         .is_none()

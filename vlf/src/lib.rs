@@ -89,6 +89,7 @@ pub mod surface_edges;
 pub mod tile_albedo;
 pub mod tiles;
 pub mod view;
+pub mod wall_pass;
 
 pub use bake::{
     Caster, Casting, Settings, Stage, State, Stats, Threads, bake, bake_with, layout, tiles,
@@ -103,3 +104,4 @@ pub use pixel_direct::{
 pub use static_rays::{CpuRays, StaticRays};
 pub use tiles::Tiles;
 pub use view::{Lookup, Visibility};
+pub use wall_pass::{FrameContext, WallPass};

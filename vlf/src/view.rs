@@ -35,7 +35,7 @@ use crate::elements::{Elements, bilinear_cells, interpolate};
 use crate::footprint::{Screen, pixel_span};
 use crate::objects::ObjectLight;
 use crate::octahedral;
-use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
+use crate::pixel_direct::{DirectPoint, Estimate};
 use crate::sequence::{R2, r_sequence};
 use crate::surface::{
     Chain, Seen, albedo_towards, follow, follow_all, follow_first, follow_from, highlights,
@@ -166,9 +166,6 @@ pub struct Visibility {
     darkening: bool,
     /// The caustics, taken per pixel with the direct light ([`Visibility::draw_caustics`]).
     caustics: OnceLock<Arc<Caustics>>,
-    /// The frames whose directions of each lobe's sequence the blurred and sharpened
-    /// reflections take ([`Visibility::draw_reflections`]).
-    reflection_frames: RwLock<ReflectionFrames>,
 }
 
 /// The frames of a still view whose directions of each glossy lobe the lookups take: a
@@ -235,24 +232,7 @@ impl Visibility {
             light: OnceLock::new(),
             drawn: RwLock::new(None),
             caustics: OnceLock::new(),
-            reflection_frames: RwLock::new(ReflectionFrames::still(0)),
         }
-    }
-
-    /// The lookups made from now on take the glossy lobes' directions of `frames`
-    /// ([`ReflectionFrames::still`] of frame 0 until this is called).
-    pub fn draw_reflections(&self, frames: ReflectionFrames) {
-        *self
-            .reflection_frames
-            .write()
-            .unwrap_or_else(|e| e.into_inner()) = frames;
-    }
-
-    /// Which frames' directions the lookups take ([`Self::draw_reflections`]).
-    pub fn reflection_frames(&self) -> ReflectionFrames {
-        (self.reflection_frames.read())
-            .unwrap_or_else(|e| e.into_inner())
-            .clone()
     }
 
     /// Takes the caustics per pixel from `caustics` wherever the direct light is (the
@@ -412,8 +392,9 @@ impl Visibility {
         // Straight out of the scene: the sky only (the sun comes by next-event
         // estimation); onto a surface: not its emission (the emitters come so too).
         let escaped = chain.end.is_none();
-        let (mut l, point) =
-            self.lookup_chain(chain, &ObjectLight::default(), None, Some(values), false);
+        let first_frame = ReflectionFrames::still(0);
+        let drawn = (Some(values), false, &first_frame);
+        let (mut l, point) = self.lookup_chain(chain, &ObjectLight::default(), None, drawn);
         if !behind_delta {
             l.emitted = if escaped {
                 sky(&self.lights, dir)
@@ -458,30 +439,31 @@ impl Visibility {
         self.lookup_and_point(ray).0
     }
 
-    /// What `ray` sees, and the non-delta point it ends on for the per-pixel direct light
-    /// ([`crate::pixel_direct`]).
+    /// What `ray` sees in a view's first frame, and the non-delta point it ends on for the
+    /// per-pixel direct light ([`crate::pixel_direct`]).
     pub fn lookup_and_point(&self, ray: Ray) -> (Lookup, Option<DirectPoint>) {
         let static_hit = self.scene.closest_hit(&ray, f32::INFINITY);
-        let (l, p, _) = self.lookup_point_and_hit(ray, static_hit);
+        let (l, p, _) = self.lookup_point_and_hit(ray, static_hit, &ReflectionFrames::still(0));
         (l, p)
     }
 
     /// [`Self::lookup_and_point`], and the ray's first hit (mirrors and glass included):
     /// the surface a sample along this ray belongs to; `static_hit` is the ray's first hit
     /// in the static scene, found elsewhere (a batch of rays on the GPU), and the moving
-    /// objects are tried here.
+    /// objects are tried here; the glossy lobes take the directions of `frames`.
     pub fn lookup_point_and_hit(
         &self,
         ray: Ray,
         static_hit: Option<Hit>,
+        frames: &ReflectionFrames,
     ) -> (Lookup, Option<DirectPoint>, Option<Hit>) {
         let env = environment(&self.lights);
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
         let first = placed.objects_closest_hit(&ray, f32::INFINITY, static_hit);
         let chain = follow_from(&placed, ray, first, &env);
-        let (l, p) =
-            self.with_drawn(|v, d| self.lookup_chain(chain, &objects, Some(&placed), v, d));
+        let (l, p) = self
+            .with_drawn(|v, d| self.lookup_chain(chain, &objects, Some(&placed), (v, d, frames)));
         (l, p, first)
     }
 
@@ -642,7 +624,9 @@ impl Visibility {
                 deltas: chain.deltas + 1,
                 ..chain
             };
-            let (l, _) = self.lookup_chain(chain, objects, Some(scene), Some(total), false);
+            // Beyond the first surface no lobe is sampled: any frame's directions do.
+            let drawn = (Some(total), false, &ReflectionFrames::still(0));
+            let (l, _) = self.lookup_chain(chain, objects, Some(scene), drawn);
             sum += weight * (shade_one(&l, total) - emission);
         }
         sum / count as f32
@@ -677,15 +661,18 @@ impl Visibility {
 
     /// The lookup of what a chain of surfaces ends on; `placed` tells a moving object's
     /// surface apart (then it is lit from `objects`' probes, and the caches' samples do not
-    /// count), and darkens the light field's part near the objects.
+    /// count), and darkens the light field's part near the objects. `drawn`: the values
+    /// the lookups are shaded with (where the CPU shades a part itself), whether the
+    /// per-pixel pass adds the direct light at the point, and the frames whose directions
+    /// the glossy lobes take.
     fn lookup_chain(
         &self,
         mut chain: Chain,
         objects: &ObjectLight,
         placed: Option<&PlacedScene>,
-        values: Option<&[[f32; 3]]>,
-        direct_at_point: bool,
+        drawn: LookupDrawn,
     ) -> (Lookup, Option<DirectPoint>) {
+        let (values, direct_at_point, frames) = drawn;
         let beside = self.beside_light(&chain.beside, placed);
         chain.emitted += beside;
         let Some((s, r)) = chain.end else {
@@ -740,7 +727,7 @@ impl Visibility {
                     (&s, r.dir),
                     total,
                     direct_at_point,
-                    (&bsdf, &sky, self.reflection_frames().blurred_rays()),
+                    (&bsdf, &sky, frames.blurred_rays()),
                 );
                 let mut shown = base + blurred;
                 if !direct_at_point {
@@ -761,7 +748,7 @@ impl Visibility {
             );
             let reflectance = bsdf.specular_reflectance(cos_o);
             if let Some(c) = mirrored(scene, so_far, &s, r.dir, reflectance, &sky) {
-                return self.lookup_chain(c, objects, placed, values, direct_at_point);
+                return self.lookup_chain(c, objects, placed, drawn);
             }
         }
         if let Some(k) = object {
@@ -798,7 +785,6 @@ impl Visibility {
             let glossy = &self.tiles.tiles[g as usize];
             let tile = self.tiles.elements + g * k * k;
             let mut emitted = emitted;
-            let frames = self.reflection_frames();
             if glossy.widened
                 && direct_at_point
                 && chain.deltas == 0
@@ -874,10 +860,11 @@ impl Visibility {
         self.pixels_and_points(view).0
     }
 
-    /// As [`Visibility::pixels`], with each pixel's point for the per-pixel direct light.
+    /// As [`Visibility::pixels`], with each pixel's point for the per-pixel direct light;
+    /// a view's first frame.
     pub fn pixels_and_points(&self, view: &WallView) -> (Vec<Lookup>, Vec<Option<DirectPoint>>) {
         let mut points = Vec::new();
-        let lookups = self.pixels_into(view, None, &mut points);
+        let lookups = self.pixels_into(view, None, &mut points, &ReflectionFrames::still(0));
         (lookups, points)
     }
 
@@ -888,12 +875,13 @@ impl Visibility {
     /// hit of pixel `i`'s ray (rows from the top, through the pixel's centre, as
     /// [`WallView::ray`] makes it) in the static scene, and the rays that go on through
     /// mirrors and glass are traced there too, in batches, by `hits.1` ([`follow_all`]);
-    /// the moving objects are tried here.
+    /// the moving objects are tried here. The glossy lobes take the directions of `frames`.
     pub fn pixels_into(
         &self,
         view: &WallView,
         hits: Option<(&[Option<Hit>], &dyn StaticRays)>,
         points: &mut Vec<Option<DirectPoint>>,
+        frames: &ReflectionFrames,
     ) -> Vec<Lookup> {
         match hits {
             Some((hits, further)) => {
@@ -905,13 +893,14 @@ impl Visibility {
                         .map(|(r, h)| placed.objects_closest_hit(r, f32::INFINITY, *h))
                         .collect()
                 };
-                self.pixels_with(view, points, &first_hits, Some(further))
+                self.pixels_with(view, points, &first_hits, Some(further), frames)
             }
             None => self.pixels_with(
                 view,
                 points,
                 &|placed, rays, _| placed.closest_hits(rays, f32::INFINITY),
                 None,
+                frames,
             ),
         }
     }
@@ -926,6 +915,7 @@ impl Visibility {
         points: &mut Vec<Option<DirectPoint>>,
         first_hits: &FirstHits,
         further: Option<&dyn StaticRays>,
+        frames: &ReflectionFrames,
     ) -> Vec<Lookup> {
         let w = view.size.width as usize;
         let n = w * view.size.height as usize;
@@ -937,7 +927,8 @@ impl Visibility {
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
         self.with_drawn(|values, remainder| {
-            let draw = |chain| self.lookup_chain(chain, &objects, Some(&placed), values, remainder);
+            let drawn = (values, remainder, frames);
+            let draw = |chain| self.lookup_chain(chain, &objects, Some(&placed), drawn);
             // Each pixel whose chain ends at its first hit, or is followed here; the others
             // (index, ray, first hit) left to `further`.
             let beyond: Vec<(usize, Ray, Option<Hit>)> = lookups
@@ -981,87 +972,78 @@ impl Visibility {
         lookups
     }
 
-    /// `view` drawn from the light field with `k × k` lookups per pixel (an antialiased
-    /// image for comparison with a path-traced one; the render node uses one).
-    /// `values`: the elements' irradiance, then the tiles' radiance ([`crate::State::values`]).
+    /// `view` drawn from the light field alone (its direct light included, nothing per
+    /// pixel) with `k × k` lookups per pixel, a view's first frame: an antialiased image
+    /// for comparison with a path-traced one. `values`: the elements' irradiance, then the
+    /// tiles' radiance ([`crate::State::values`]). As the walls draw it, with the direct
+    /// light per pixel: [`crate::WallPass::render`].
     pub fn render(&self, view: &WallView, values: &[[f32; 3]], k: u32) -> Image {
-        self.render_lookups(view, values, k, None, 1, None)
-    }
-
-    /// `view` drawn as the walls draw it: the light field's remainder (`values`:
-    /// [`crate::State::indirect_values`]) plus the direct light computed per pixel
-    /// (`direct`), each of the `k × k` lookups per pixel with the mean of the estimates a
-    /// still wall has after `frames` frames ([`PixelDirect::first_estimates`] on the
-    /// first, one on each later one). With `sky`, the sky's light is taken per pixel too
-    /// (`direct` [`PixelDirect::with_sky`], `values`
-    /// [`crate::State::indirect_values_without_sky`]), under the light field's sky part as
-    /// a prior. The glossy lobes' reflections take the directions of those frames, up to
-    /// [`AVERAGED_FRAMES`] ([`ReflectionFrames::after`]).
-    pub fn render_with_direct(
-        &self,
-        view: &WallView,
-        values: &[[f32; 3]],
-        k: u32,
-        direct: &PixelDirect,
-        frames: u32,
-        sky: Option<SkyPrior>,
-    ) -> Image {
-        let before = self.reflection_frames();
-        self.draw_reflections(ReflectionFrames::after(frames));
-        let image = self.render_lookups(view, values, k, Some(direct), frames, sky);
-        self.draw_reflections(before);
-        image
-    }
-
-    /// `k × k` lookups per pixel, each with the direct light per pixel when given.
-    fn render_lookups(
-        &self,
-        view: &WallView,
-        values: &[[f32; 3]],
-        k: u32,
-        direct: Option<&PixelDirect>,
-        frames: u32,
-        sky: Option<SkyPrior>,
-    ) -> Image {
         let k = k.max(1);
-        let estimates = direct.map_or(0, |d| d.first_estimates() + frames.max(1) - 1);
+        let first_frame = ReflectionFrames::still(0);
+        self.render_cells(view, k, |placed, objects, ray| {
+            let chain = follow(placed, ray, &environment(&self.lights));
+            let drawn = (Some(values), false, &first_frame);
+            let (l, _) = self.lookup_chain(chain, objects, Some(placed), drawn);
+            shade_one(&l, values)
+        })
+    }
+
+    /// Each pixel of `view` the mean of `radiance(placed, objects, ray)` over the rays of
+    /// its `k × k` cells ([`grid_point`]).
+    fn render_cells(
+        &self,
+        view: &WallView,
+        k: u32,
+        radiance: impl Fn(&PlacedScene, &ObjectLight, Ray) -> Vec3 + Sync,
+    ) -> Image {
         let mut image = Image::new(view.size.width, view.size.height);
         let w = view.size.width as usize;
-        let env = environment(&self.lights);
         let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
         let placed = self.scene.placed(&objects.placements);
-        let screen = Screen::of(view, k);
         image.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
             let (x, y) = ((i % w) as f32, (i / w) as f32);
-            let mut sum = Vec3::ZERO;
-            for s in 0..k * k {
-                let ray = view.ray(Vec2::new(x, y) + grid_point(s, k));
-                let chain = follow(&placed, ray, &env);
-                let straight = chain.deltas == 0;
-                let (l, mut p) = self.lookup_chain(
-                    chain,
-                    &objects,
-                    Some(&placed),
-                    Some(values),
-                    direct.is_some(),
-                );
-                spread_over_pixel(&mut p, straight, view, k, &placed);
-                sum += shade_one(&l, values);
-                if let Some(direct) = direct {
-                    sum += direct.tile_albedo(&l, values);
-                }
-                if let (Some(direct), Some(p)) = (direct, p) {
-                    let seed = (i as u64) * u64::from(k * k) + u64::from(s);
-                    let e = direct.mean(&placed, &p, seed, 0, estimates);
-                    sum += match &sky {
-                        Some(prior) => prior.direct(&l, &e, estimates),
-                        None => e.radiance,
-                    } + self.caustic_light(&l, &p, Some(&screen));
-                }
-            }
+            let sum: Vec3 = (0..k * k)
+                .map(|s| {
+                    radiance(
+                        &placed,
+                        &objects,
+                        view.ray(Vec2::new(x, y) + grid_point(s, k)),
+                    )
+                })
+                .sum();
             *px = sum / (k * k) as f32;
         });
         image
+    }
+
+    /// What cell `s` of pixel `i` of `view`, one of `k × k`, sees: its lookup and point
+    /// (the point's estimates spread over the cell's patch where seen straight), the
+    /// surfaces drawn as mirrors taking their base from `values`, the direct light at
+    /// the point where `direct_at_point`, the glossy lobes the directions of `frames`
+    /// ([`crate::WallPass::render`]).
+    pub fn cell(
+        &self,
+        view: &WallView,
+        (i, s, k): (usize, u32, u32),
+        (values, direct_at_point, frames): (&[[f32; 3]], bool, &ReflectionFrames),
+    ) -> (Lookup, Option<DirectPoint>) {
+        let w = view.size.width as usize;
+        let pixel = Vec2::new((i % w) as f32, (i / w) as f32);
+        let ray = view.ray(pixel + grid_point(s, k));
+        self.with_placed_objects(|placed, objects| {
+            let chain = follow(placed, ray, &environment(&self.lights));
+            let straight = chain.deltas == 0;
+            let drawn = (Some(values), direct_at_point, frames);
+            let (l, mut p) = self.lookup_chain(chain, objects, Some(placed), drawn);
+            spread_over_pixel(&mut p, straight, view, k, placed);
+            (l, p)
+        })
+    }
+
+    /// Runs `f` with the scene as this frame places its moving objects, and their light.
+    fn with_placed_objects<T>(&self, f: impl FnOnce(&PlacedScene, &ObjectLight) -> T) -> T {
+        let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
+        f(&self.scene.placed(&objects.placements), &objects)
     }
 }
 
@@ -1132,6 +1114,11 @@ impl SkyPrior<'_> {
 /// How [`Visibility`] is given the closest hits of a run of pixel rays (the scene as
 /// placed this frame, the rays, and the first one's pixel index).
 type FirstHits<'a> = dyn Fn(&PlacedScene, &[Ray], usize) -> Vec<Option<Hit>> + Sync + 'a;
+
+/// What a lookup is drawn with: the values it is shaded with where the CPU shades a part
+/// itself, whether the per-pixel pass adds the direct light at its point, and the frames
+/// whose directions the glossy lobes take.
+type LookupDrawn<'a> = (Option<&'a [[f32; 3]]>, bool, &'a ReflectionFrames);
 
 /// The radiance of one lookup; `values`: the elements' irradiance, then the tiles'
 /// radiance.

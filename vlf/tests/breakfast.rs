@@ -126,8 +126,8 @@ fn walls_and_floor(material: impl Fn(&mut holocave_scene::Material)) -> [(f64, f
         holocave_vlf::bake(&scene, &settings, None, &|_| {}, &mut |_| Ok::<(), ()>(()))
             .expect("bake");
     let vis = holocave_vlf::Visibility::of(scene.clone(), &settings);
-    let direct = holocave_vlf::PixelDirect::new(scene.clone());
-    let drawn = vis.render_with_direct(&view, &state.indirect_values(), 2, &direct, 1, None);
+    let pass = holocave_vlf::WallPass::new(vis, &settings, &state, false).expect("split");
+    let drawn = pass.render(&view, pass.values(), 2, 1);
     let tracer = holocave_tracer::Tracer::new(scene.clone(), Default::default());
     let refs: Vec<_> = (1..=2)
         .map(|seed| holocave_tracer::render::render(&tracer, &view, 256, seed, &|| {}))

@@ -49,7 +49,13 @@ fn rays_through_mirrors_and_glass_traced_in_batches_are_the_rays_followed_one_by
         batches: Mutex::new(Vec::new()),
     };
     let mut batched_points = Vec::new();
-    let batched = vis.pixels_into(&view, Some((&firsts, &counting)), &mut batched_points);
+    let first_frame = holocave_vlf::view::ReflectionFrames::still(0);
+    let batched = vis.pixels_into(
+        &view,
+        Some((&firsts, &counting)),
+        &mut batched_points,
+        &first_frame,
+    );
 
     let differ = (batched.iter().zip(&one_by_one))
         .filter(|(a, b)| a != b)

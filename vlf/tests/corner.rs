@@ -10,8 +10,7 @@ use std::sync::Arc;
 use glam::Vec3;
 use holocave_cave::{Size, WallView};
 use holocave_scene::{Material, PunctualKind, PunctualLight};
-use holocave_vlf::split::Split;
-use holocave_vlf::{Settings, Visibility};
+use holocave_vlf::{Settings, Visibility, WallPass};
 
 /// A sunlit floor and a wall standing on it, both white matt paint (the breakfast room's:
 /// base 0.9, GGX α 0.94 under a specular layer); the sun falls on the floor from behind
@@ -61,10 +60,7 @@ fn a_corner_of_glossy_paint_is_as_bright_as_the_path_tracers() {
     };
     let (state, _) = common::bake_quiet(&scene, &settings);
     let vis = Visibility::of(scene.clone(), &settings);
-    let layout = (vis.elements(), vis.tiles());
-    let split = Split::new(scene.clone(), &settings, &state, layout, false).unwrap();
-    vis.light_objects(Arc::new(state.values()));
-    vis.draw_with(Arc::new(split.remainder.clone()), true);
+    let pass = WallPass::new(vis, &settings, &state, false).unwrap();
     // From 1 m in front of the wall, half a metre up: the screen at z = −0.5 frames the
     // wall between 2 and 40 cm above the floor, 1 m across.
     let view = WallView {
@@ -74,7 +70,7 @@ fn a_corner_of_glossy_paint_is_as_bright_as_the_path_tracers() {
         pc: Vec3::new(-0.375, 0.425, -0.5),
         size: Size::new(32, 16),
     };
-    let drawn = vis.render_with_direct(&view, &split.remainder, 2, &split.direct, 1, None);
+    let drawn = pass.render(&view, pass.values(), 2, 1);
     let (reference, noise, _) = common::two_seed_reference(&scene, &view, 256);
     let luminance = |c: &Vec3| f64::from(c.element_sum()) / 3.0;
     let mean = |image: &holocave_tracer::film::Image| {

@@ -9,10 +9,9 @@ use std::sync::Arc;
 use glam::Vec3;
 use holocave_cave::{Size, WallView};
 use holocave_scene::{Material, Scene};
-use holocave_vlf::split::Split;
 use holocave_vlf::tiles::alpha_floor;
 use holocave_vlf::view::{ReflectionFrames, SHARPENED_RAYS};
-use holocave_vlf::{Settings, Visibility};
+use holocave_vlf::{Settings, Visibility, WallPass};
 
 /// A varnished floor (black under its varnish; GGX α 0.0625, a quarter of what its tiles
 /// resolve here) before a small white square standing on it, lit by a point light beside
@@ -28,9 +27,8 @@ use holocave_vlf::{Settings, Visibility};
 /// 0.058).
 #[test]
 fn a_small_square_reflected_in_varnish_is_as_bright_as_the_path_tracers() {
-    let (scene, vis, split, view) = square_before_varnish();
-    let remainder = split.remainder.clone();
-    let drawn = vis.render_with_direct(&view, &remainder, 2, &split.direct, 16, None);
+    let (scene, pass, view) = square_before_varnish();
+    let drawn = pass.render(&view, pass.values(), 2, 16);
     let (reference, _, _) = common::two_seed_reference(&scene, &view, 512);
     let luminance = |c: &Vec3| f64::from(c.element_sum()) / 3.0;
     let mut floor_level: Vec<f64> = reference.pixels.iter().map(luminance).collect();
@@ -65,7 +63,7 @@ fn a_small_square_reflected_in_varnish_is_as_bright_as_the_path_tracers() {
 /// The scene of these tests: a varnished floor, a small white square standing on it, a
 /// point light beside; laid out, baked, split and drawn as the walls draw it; and a view
 /// looking down at the square's reflection.
-fn square_before_varnish() -> (Arc<Scene>, Visibility, Split, WallView) {
+fn square_before_varnish() -> (Arc<Scene>, WallPass, WallView) {
     let floor = common::floor(4.0);
     let square = common::quad(Vec3::new(-0.15, 0.05, -1.0), Vec3::X * 0.3, Vec3::Y * 0.3);
     let triangles: Vec<([Vec3; 3], u32)> = (floor.iter().map(|t| (*t, 0)))
@@ -89,7 +87,6 @@ fn square_before_varnish() -> (Arc<Scene>, Visibility, Split, WallView) {
     };
     let (state, _) = common::bake_quiet(&scene, &settings);
     let vis = Visibility::of(scene.clone(), &settings);
-    let layout = (vis.elements(), vis.tiles());
     assert!(
         vis.tiles().tiles.iter().any(|g| g.widened),
         "the floor's tiles widen its lobe (to {})",
@@ -98,9 +95,7 @@ fn square_before_varnish() -> (Arc<Scene>, Visibility, Split, WallView) {
             Settings::rounded_directions(settings.directions)
         )
     );
-    let split = Split::new(scene.clone(), &settings, &state, layout, false).unwrap();
-    vis.light_objects(Arc::new(state.values()));
-    vis.draw_with(Arc::new(split.remainder.clone()), true);
+    let pass = WallPass::new(vis, &settings, &state, false).unwrap();
     // The square's mirror image is at y < 0 behind z = −1: the eye sees it on the floor
     // around z = −0.45.
     let view = WallView {
@@ -110,11 +105,11 @@ fn square_before_varnish() -> (Arc<Scene>, Visibility, Split, WallView) {
         pc: Vec3::new(-0.3, 0.0, -0.8),
         size: Size::new(32, 32),
     };
-    (scene, vis, split, view)
+    (scene, pass, view)
 }
 
 /// A still view's frames take each lobe's directions on from the last frame's
-/// (`Visibility::draw_reflections`), so that a pixel's mean over its frames is the
+/// (`ReflectionFrames`), so that a pixel's mean over its frames is the
 /// reflection from all their directions: the mean of 32 frames' is the reflection from
 /// all 32 frames' directions at once (to the float rounding of the sums, where no
 /// frame's is held at what the tile shows), and against one from 1,024 frames'
@@ -122,13 +117,14 @@ fn square_before_varnish() -> (Arc<Scene>, Visibility, Split, WallView) {
 /// one over the root of its directions: 32 frames, √32 ≈ 5.7 times).
 #[test]
 fn a_still_views_reflections_take_more_directions_frame_after_frame() {
-    let (_, vis, _, view) = square_before_varnish();
+    let (_, pass, view) = square_before_varnish();
     let reflected = |first: u64, count: u64| -> Vec<f64> {
-        vis.draw_reflections(ReflectionFrames {
+        let frames = ReflectionFrames {
             blurred: first..first + count,
             sharpened: first..first + count,
-        });
-        let (_, points) = vis.pixels_and_points(&view);
+        };
+        let mut points = Vec::new();
+        (pass.visibility()).pixels_into(&view, None, &mut points, &frames);
         (points.iter())
             .map(|p| {
                 p.as_ref()
