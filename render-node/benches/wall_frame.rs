@@ -1,4 +1,6 @@
-//! A wall's per-pixel work per frame, both eyes, still and with the head moving, with each
+//! A wall's per-pixel work per frame, both eyes, still (after its first frames: its
+//! surfaces drawn again, its settled means taking no estimates), with the head moving and
+//! on views never seen before (a first frame's cost), with each
 //! pixel's first hit traced on the CPU and on the GPU (`--rays cpu|gpu`): the light field's
 //! lookups with the direct light per pixel (`VlfBase::lookups`: first hits, mirrors and
 //! glass, 1 + P + 1 shadow rays, the running means), at 128×96 and 1024×768 per eye (and
@@ -88,6 +90,19 @@ fn bench(c: &mut Criterion) {
                     let f = frame.get();
                     frame.set(f + 1);
                     let dx = 0.005 * (f % 200) as f32;
+                    for (eye, v) in moved(&views, dx).iter().enumerate() {
+                        std::hint::black_box(base.lookups(eye, v));
+                    }
+                })
+            });
+            // Every frame a view not seen before (the eye jumps 30 cm): the pixels'
+            // surfaces traced and every mean started again, as on a view's first frame.
+            let jump = std::cell::Cell::new(0u32);
+            g.bench_function(format!("rays {rays}, first frames"), |b| {
+                b.iter(|| {
+                    let f = jump.get();
+                    jump.set(f + 1);
+                    let dx = 0.3 * (f % 5) as f32 - 0.6;
                     for (eye, v) in moved(&views, dx).iter().enumerate() {
                         std::hint::black_box(base.lookups(eye, v));
                     }

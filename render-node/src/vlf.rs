@@ -38,10 +38,12 @@ use holocave_vlf::baked;
 use holocave_vlf::footprint::Screen;
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::kept_gathers::KeptGathers;
+use holocave_vlf::pixel_direct::same_point;
+use holocave_vlf::settling::Settling;
 use holocave_vlf::view::ReflectionFrames;
 use holocave_vlf::{
-    Accumulator, Aim, CpuRays, DirectPoint, FrameContext, Lookup, Made, MadeRays, StaticRays,
-    WallPass,
+    Accumulator, Aim, CpuRays, DirectPoint, FrameContext, FrameSurfaces, Lookup, Made, MadeRays,
+    StaticRays, WallPass,
 };
 use rayon::prelude::*;
 
@@ -70,6 +72,10 @@ const HISTORIES: usize = 8;
 /// means kept from frame to frame.
 pub struct VlfBase {
     pass: WallPass,
+    /// When a pixel's running mean takes no more estimates (`None`: one every frame).
+    settling: Option<Settling>,
+    /// What the frames cost since last asked ([`VlfBase::take_work`]).
+    work: Mutex<FrameWork>,
     /// The running means of the direct light, per eye and view drawn, with the frame each
     /// was last drawn (a moved eye takes over its own nearest one of the same screen).
     history: Mutex<Vec<History>>,
@@ -127,8 +133,29 @@ struct History {
     /// the same points frame after frame.
     at_points: Vec<AtPoint>,
     /// How many frames in a row this eye has drawn this view: the next one's reflections
-    /// take the directions that follow theirs ([`Visibility::draw_reflections`]).
+    /// take the directions that follow theirs ([`ReflectionFrames::still`]).
     still: u64,
+    /// What the pixels saw in the last frame, where it can be drawn again.
+    surfaces: Option<KeptSurfaces>,
+}
+
+/// What a view's pixels saw in a frame (stages 1–3), and their points.
+struct KeptSurfaces {
+    surfaces: FrameSurfaces,
+    points: Vec<Option<DirectPoint>>,
+}
+
+/// What a wall's frames cost, counted in pixels (both eyes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameWork {
+    /// Frames (eyes) drawn.
+    pub frames: usize,
+    /// Pixels whose first hits, chains and lookups were found anew.
+    pub traced: usize,
+    /// Pixels drawn again from what they saw in the last frame (a still view).
+    pub reused: usize,
+    /// Pixels that took direct-light estimates.
+    pub estimated: usize,
 }
 
 /// What a pixel keeps of the point it sees, from frame to frame while it sees it.
@@ -167,7 +194,10 @@ fn at_points(
             let Some(p) = p else {
                 return AtPoint::NONE;
             };
-            match (kept.get(i).filter(|k| k.at == p.position), p.reflected) {
+            match (
+                kept.get(i).filter(|k| same_point(k.at, p.position)),
+                p.reflected,
+            ) {
                 (Some(&k), Some(r)) => {
                     let frames = k.frames.saturating_add(1);
                     AtPoint {
@@ -288,6 +318,8 @@ impl VlfBase {
             .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
         let base = VlfBase {
             pass,
+            settling: Some(Settling::WALLS),
+            work: Mutex::new(FrameWork::default()),
             history: Mutex::new(Vec::new()),
             pixels: Mutex::new(Vec::new()),
             gpu_rays: None,
@@ -326,6 +358,7 @@ impl VlfBase {
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
         for x in h.iter_mut() {
             x.means.restart();
+            x.surfaces = None;
         }
         let objects = self.scene().objects();
         let after = self.pass.visibility().placements();
@@ -352,6 +385,14 @@ impl VlfBase {
     /// field's remainder. Choose before handing the values to the GPU.
     pub fn with_direct(mut self, on: bool) -> Self {
         self.pass = self.pass.with_direct(on);
+        self
+    }
+
+    /// The rule by which a pixel's running mean of the direct light is settled and takes
+    /// no more estimates ([`Settling::WALLS`] as opened); `None`: every pixel that sees a
+    /// point takes one every frame.
+    pub fn with_settling(mut self, settling: Option<Settling>) -> Self {
+        self.settling = settling;
         self
     }
 
@@ -461,6 +502,7 @@ impl VlfBase {
             let changed = k.take_changed();
             if !changed.is_empty() {
                 self.pass.visibility().update_drawn(k.values(), &changed);
+                self.forget_surfaces();
                 f(k.values(), &changed);
             }
         }
@@ -552,24 +594,97 @@ impl VlfBase {
             (h.iter().find(|x| x.eye == eye && x.view == view.wall)).map_or(0, |x| x.still)
         };
         let reflections = ReflectionFrames::still(still);
-        self.trace_first_hits(&view.wall, &mut pixels);
-        let Pixels { points, hits, kept } = &mut pixels;
-        let on_gpu = self.on_gpu();
-        // The rays on through mirrors and glass traced where the first hits were found.
-        let first = (hits.as_deref()).zip(on_gpu.as_ref().map(|g| g as &dyn StaticRays));
+        let reused = self.take_surfaces(eye, &view.wall);
+        let traced = reused.is_none();
+        let surfaces = match reused {
+            Some(k) => {
+                pixels.points = k.points;
+                let mut surfaces = k.surfaces;
+                let lookups = &mut surfaces.lookups;
+                (self.pass).redraw_reflections(
+                    &view.wall,
+                    lookups,
+                    &mut pixels.points,
+                    &reflections,
+                );
+                surfaces
+            }
+            None => {
+                self.trace_first_hits(&view.wall, &mut pixels);
+                let on_gpu = self.on_gpu();
+                // The rays on through mirrors and glass traced where the first hits were.
+                let first =
+                    (pixels.hits.as_deref()).zip(on_gpu.as_ref().map(|g| g as &dyn StaticRays));
+                (self.pass).surfaces(&view.wall, first, &mut pixels.points, &reflections)
+            }
+        };
+        // Kept from a view's second frame on: a moving eye's are never drawn again.
+        let keep = (still > 0 && self.may_keep()).then(|| KeptSurfaces {
+            surfaces: surfaces.clone(),
+            points: pixels.points.clone(),
+        });
+        let Pixels { points, hits, kept } = &pixels;
         let gpu = GpuHits {
             hits: hits.as_deref(),
             kept: kept.as_ref(),
         };
-        let lookups = self
-            .pass
-            .frame(&view.wall, first, points, &reflections, |l, p| {
-                self.add_direct(eye, view, l, p, gpu)
-            });
+        let lookups = (self.pass).light(&view.wall, surfaces, points, |l, p| {
+            self.add_direct(eye, view, l, p, gpu)
+        });
+        self.keep_surfaces(eye, &view.wall, keep);
+        self.count_work(points.len(), traced);
         let out = f(lookups, &pixels);
         let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
         pool.push(pixels);
         out
+    }
+
+    /// What eye `eye`'s last frame of `view` saw (stages 1–3), taken to be drawn again:
+    /// a still view's pixels see the same surfaces frame after frame. `None` where that
+    /// eye last drew another view, or it was not kept.
+    fn take_surfaces(&self, eye: usize, view: &WallView) -> Option<KeptSurfaces> {
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        let x = h.iter_mut().find(|x| x.eye == eye && x.view == *view)?;
+        x.surfaces.take()
+    }
+
+    /// Whether a frame can be drawn again from what its pixels saw: with the rays on the
+    /// CPU (on the GPU the shadow rays are made from the first hits it keeps, in buffers
+    /// the views share).
+    fn may_keep(&self) -> bool {
+        self.gpu_rays.is_none()
+    }
+
+    /// Keeps what eye `eye`'s frame of `view` saw for its next frame.
+    fn keep_surfaces(&self, eye: usize, view: &WallView, kept: Option<KeptSurfaces>) {
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(x) = h.iter_mut().find(|x| x.eye == eye && x.view == *view) {
+            x.surfaces = kept;
+        }
+    }
+
+    /// Forgets what every view saw: the surfaces' light changed under them.
+    fn forget_surfaces(&self) {
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        h.iter_mut().for_each(|x| x.surfaces = None);
+    }
+
+    /// Counts a frame of `pixels` pixels, their surfaces traced anew or drawn again, and
+    /// the pixels that took direct-light estimates.
+    fn count_work(&self, pixels: usize, traced: bool) {
+        let mut w = self.work.lock().unwrap_or_else(|e| e.into_inner());
+        w.frames += 1;
+        if traced {
+            w.traced += pixels;
+        } else {
+            w.reused += pixels;
+        }
+    }
+
+    /// What the frames drawn since last asked cost: pixels whose surfaces were traced,
+    /// pixels drawn again from the last frame's, pixels that took direct-light estimates.
+    pub fn take_work(&self) -> FrameWork {
+        std::mem::take(&mut *self.work.lock().unwrap_or_else(|e| e.into_inner()))
     }
 
     /// How many direct-light estimates each pixel's running mean holds for eye `eye` in
@@ -664,7 +779,10 @@ impl VlfBase {
                         {
                             h.swap_remove(oldest);
                         }
-                        (Accumulator::new(), None, Vec::new(), 1)
+                        let acc = self
+                            .settling
+                            .map_or_else(Accumulator::new, Accumulator::settling);
+                        (acc, None, Vec::new(), 1)
                     }
                 },
             }
@@ -706,6 +824,10 @@ impl VlfBase {
         });
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
         let drawn = h.iter().map(|x| x.drawn).max().unwrap_or(0) + 1;
+        self.work
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .estimated += acc.taken();
         h.push(History {
             drawn,
             eye,
@@ -713,6 +835,7 @@ impl VlfBase {
             means: acc,
             at_points,
             still,
+            surfaces: None,
         });
     }
 }

@@ -43,10 +43,12 @@ pub const CONTRAST: f32 = 0.25;
 /// The pixels of one view at a glowing edge, with what they need once the direct light is
 /// added to the lookups: their glow as their lookups held it before, and the neighbour
 /// whose lookup shades their surface part.
+#[derive(Clone)]
 pub struct GlowEdges {
     pixels: Vec<Edge>,
 }
 
+#[derive(Clone)]
 struct Edge {
     pixel: usize,
     /// What this pixel's lookup held of glow before the direct light was added.

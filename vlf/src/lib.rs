@@ -81,6 +81,7 @@ pub mod propagate;
 pub mod reflection;
 pub mod remote;
 mod sequence;
+pub mod settling;
 pub mod split;
 pub mod static_rays;
 pub mod subfield;
@@ -104,4 +105,4 @@ pub use pixel_direct::{
 pub use static_rays::{CpuRays, StaticRays};
 pub use tiles::Tiles;
 pub use view::{Lookup, Visibility};
-pub use wall_pass::{FrameContext, WallPass};
+pub use wall_pass::{FrameContext, FrameSurfaces, WallPass};

@@ -53,6 +53,7 @@ use std::sync::Arc;
 
 use crate::footprint::Screen;
 use crate::sequence::{R2, R3, R4, r_sequence};
+use crate::settling::{Settling, Spread, luminance};
 use crate::static_rays::{StaticRays, per_group};
 use crate::tile_albedo::TileAlbedo;
 use crate::view::{Lookup, OverMirror};
@@ -814,6 +815,14 @@ pub struct Accumulator {
     seen: Vec<Option<Seen>>,
     sum: Vec<Estimate>,
     count: Vec<u32>,
+    /// The spread of each pixel's frames, and the rule by which a mean needs no more
+    /// estimates (`None`: every pixel takes one every frame).
+    spread: Vec<Spread>,
+    settling: Option<Settling>,
+    /// Frames added so far (the settled pixels' turns to look again).
+    frame: u64,
+    /// How many pixels took estimates in the last frame added.
+    taken: usize,
     /// This frame's means were carried over from another view ([`Self::reproject`]): its
     /// estimates are taken at the pixels' points, not spread over the pixels
     /// ([`DirectPoint::span`]). A carried mean already holds estimates from points a
@@ -827,7 +836,7 @@ pub struct Accumulator {
 /// Whether two points of one triangle are the same point: equal up to the rounding of
 /// the eye rays that found them (a still view finds them bit for bit; 1e-5 of their size
 /// allows for a few roundings of an f32 position).
-fn same_point(a: Vec3, b: Vec3) -> bool {
+pub fn same_point(a: Vec3, b: Vec3) -> bool {
     (a - b).length() <= 1e-5 * (1.0 + a.abs().max_element())
 }
 
@@ -842,9 +851,9 @@ struct Seen {
     anchor: Vec3,
 }
 
-/// What a pixel keeps between frames: where its mean was made, the sum of its estimates
-/// and their count.
-type PixelMean = (Option<Seen>, Estimate, u32);
+/// What a pixel keeps between frames: where its mean was made, the sum of its estimates,
+/// their count and their frames' spread.
+type PixelMean = (Option<Seen>, Estimate, u32, Spread);
 
 /// Estimates a pixel whose point is `p` takes this frame: one more at the point it saw
 /// last, else (its mean started again) [`PixelDirect::first_estimates`]; none where it sees
@@ -853,12 +862,11 @@ fn start(
     direct: &PixelDirect,
     p: Option<&DirectPoint>,
     seen: &mut Option<Seen>,
-    sum: &mut Estimate,
-    count: &mut u32,
+    (sum, count, spread): (&mut Estimate, &mut u32, &mut Spread),
 ) -> u32 {
     let Some(p) = p else {
         *seen = None;
-        (*sum, *count) = (Estimate::default(), 0);
+        (*sum, *count, *spread) = Default::default();
         return 0;
     };
     if seen.is_some_and(|s| s.triangle == p.triangle && same_point(s.last, p.position)) {
@@ -869,7 +877,7 @@ fn start(
         last: p.position,
         anchor: p.position,
     });
-    (*sum, *count) = (Estimate::default(), 0);
+    (*sum, *count, *spread) = Default::default();
     direct.first_estimates()
 }
 
@@ -888,6 +896,20 @@ fn mean(sum: &Estimate, count: u32) -> Estimate {
 impl Accumulator {
     pub fn new() -> Self {
         Accumulator::default()
+    }
+
+    /// The same, a pixel whose mean is settled by `settling` taking no estimate but in
+    /// its turn to look again ([`crate::settling`]).
+    pub fn settling(settling: Settling) -> Self {
+        Accumulator {
+            settling: Some(settling),
+            ..Accumulator::default()
+        }
+    }
+
+    /// How many pixels took estimates in the last frame added.
+    pub fn taken(&self) -> usize {
+        self.taken
     }
 
     /// How many estimates each pixel's mean holds (after [`Self::add`]: this frame's
@@ -911,45 +933,72 @@ impl Accumulator {
         placed: &PlacedScene,
         points: &[Option<DirectPoint>],
     ) -> Vec<Estimate> {
-        self.each_pixel(direct, points, |i, p, first, take, sum| {
+        let (means, takes) = self.each_pixel(direct, points, |i, p, first, take, sum| {
             if let Some(p) = p {
                 for n in first..first + u64::from(take) {
                     *sum += direct.estimate(placed, p, i as u64, n);
                 }
             }
             mean(sum, first as u32 + take)
-        })
+        });
+        self.spread_by(&takes);
+        means
+    }
+
+    /// Adds this frame's batch of each pixel to its spread: `takes` its estimates and
+    /// the luminance of its sum before them.
+    fn spread_by(&mut self, takes: &[(u32, f32)]) {
+        (self.spread.par_iter_mut().zip(&self.sum))
+            .zip(takes)
+            .for_each(|((spread, sum), &(take, before))| {
+                spread.add(luminance(sum) - before, take);
+            });
     }
 
     /// For every pixel (sized for `points`): its mean started again where it sees another
     /// point, then `f(pixel, point, first, take, sum)` for the estimates `first ..
-    /// first + take` it takes this frame, after which its count includes them.
+    /// first + take` it takes this frame (none where its mean is settled and it is not its
+    /// turn), after which its count includes them. Each pixel's result, and its take with
+    /// the luminance of its sum before it (for [`Self::spread_by`]).
     fn each_pixel<T: Send>(
         &mut self,
         direct: &PixelDirect,
         points: &[Option<DirectPoint>],
         f: impl Fn(usize, Option<&DirectPoint>, u64, u32, &mut Estimate) -> T + Sync,
-    ) -> Vec<T> {
+    ) -> (Vec<T>, Vec<(u32, f32)>) {
         self.fit(points.len());
         let carried = std::mem::take(&mut self.carried);
-        points
+        let (settling, frame) = (self.settling, self.frame);
+        self.frame += 1;
+        let out: (Vec<T>, Vec<(u32, f32)>) = points
             .par_iter()
             .zip(self.seen.par_iter_mut())
             .zip(self.sum.par_iter_mut())
             .zip(self.count.par_iter_mut())
+            .zip(self.spread.par_iter_mut())
             .enumerate()
-            .map(|(i, (((p, seen), sum), count))| {
+            .map(|(i, ((((p, seen), sum), count), spread))| {
                 let at_point = p.filter(|_| carried).map(|p| DirectPoint {
                     span: [Vec3::ZERO; 2],
                     ..p
                 });
                 let p = at_point.as_ref().or(p.as_ref());
-                let take = start(direct, p, seen, sum, count);
+                let mut take = start(direct, p, seen, (sum, count, spread));
+                if take == 1
+                    && let Some(rule) = settling
+                    && rule.settled(sum, *count, spread)
+                    && !rule.refreshes(i, frame)
+                {
+                    take = 0;
+                }
+                let before = luminance(sum);
                 let out = f(i, p, u64::from(*count), take, sum);
                 *count += take;
-                out
+                (out, (take, before))
             })
-            .collect()
+            .unzip();
+        self.taken = out.1.iter().filter(|(take, _)| *take > 0).count();
+        out
     }
 
     /// Carries every pixel's mean over from the view `from` these means were made in to
@@ -970,11 +1019,11 @@ impl Accumulator {
             return;
         }
         let screen = Screen::of(from, 1);
-        let (seen, sum, count) = (&self.seen, &self.sum, &self.count);
+        let (seen, sum, count, spread) = (&self.seen, &self.sum, &self.count, &self.spread);
         let carried: Vec<PixelMean> = points
             .par_iter()
             .map(|p| {
-                let none = (None, Estimate::default(), 0);
+                let none = (None, Estimate::default(), 0, Spread::default());
                 let Some(p) = p else { return none };
                 let v = p.position - from.eye;
                 let Some((x, y)) = from.project(v.as_dvec3()) else {
@@ -993,16 +1042,17 @@ impl Accumulator {
                             last: p.position,
                             ..s
                         };
-                        (Some(carried), sum[j], count[j])
+                        (Some(carried), sum[j], count[j], spread[j])
                     }
                     _ => none,
                 }
             })
             .collect();
-        (self.seen, self.sum, self.count) = (
+        (self.seen, self.sum, self.count, self.spread) = (
             carried.iter().map(|c| c.0).collect(),
             carried.iter().map(|c| c.1).collect(),
             carried.iter().map(|c| c.2).collect(),
+            carried.iter().map(|c| c.3).collect(),
         );
         self.carried = true;
     }
@@ -1013,6 +1063,7 @@ impl Accumulator {
             self.seen = vec![None; n];
             self.sum = vec![Estimate::default(); n];
             self.count = vec![0; n];
+            self.spread = vec![Spread::default(); n];
         }
     }
 
@@ -1030,23 +1081,21 @@ impl Accumulator {
     ) -> Vec<Estimate> {
         // The estimates each pixel takes this frame, as shadow rays, and where they leave
         // from for a walk that makes them from the pixel's first hit's triangle.
-        let (per_pixel, from): (Vec<Vec<ShadowQuery>>, Vec<MadeFrom>) = self
-            .each_pixel(direct, points, |i, p, first, take, _| {
-                let mut queries = Vec::new();
-                let mut from = MadeFrom::FirstHit;
-                if let Some(p) = p {
-                    for n in first..first + u64::from(take) {
-                        from = match (direct.queries(p, i as u64, n, &mut queries), take) {
-                            (None, _) if from == MadeFrom::FirstHit => from,
-                            (Some(at), 1) => MadeFrom::Moved(at),
-                            _ => MadeFrom::Sent,
-                        };
-                    }
+        let (planned, takes) = self.each_pixel(direct, points, |i, p, first, take, _| {
+            let mut queries = Vec::new();
+            let mut from = MadeFrom::FirstHit;
+            if let Some(p) = p {
+                for n in first..first + u64::from(take) {
+                    from = match (direct.queries(p, i as u64, n, &mut queries), take) {
+                        (None, _) if from == MadeFrom::FirstHit => from,
+                        (Some(at), 1) => MadeFrom::Moved(at),
+                        _ => MadeFrom::Sent,
+                    };
                 }
-                (queries, from)
-            })
-            .into_iter()
-            .unzip();
+            }
+            (queries, from)
+        });
+        let (per_pixel, from): (Vec<Vec<ShadowQuery>>, Vec<MadeFrom>) = planned.into_iter().unzip();
         let lights = direct.lights.punctual.len() as u32;
         let n = points.len();
         // What the walk makes of each pixel's queries (each query's bit in the pixel's
@@ -1081,7 +1130,7 @@ impl Accumulator {
         let sent = sent.as_ref().unwrap_or(&per_pixel);
         let answers = traced.blocked(sent);
         let answers = per_group(sent, &answers);
-        (per_pixel.par_iter().zip(&bits).zip(masks))
+        let means = (per_pixel.par_iter().zip(&bits).zip(masks))
             .zip(answers)
             .zip(self.sum.par_iter_mut())
             .zip(self.count.par_iter())
@@ -1096,7 +1145,9 @@ impl Accumulator {
                 }
                 mean(sum, count)
             })
-            .collect()
+            .collect();
+        self.spread_by(&takes);
+        means
     }
 
     /// Frames averaged at pixel `i` so far.

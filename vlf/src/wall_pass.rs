@@ -35,7 +35,8 @@ use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
 use crate::split::Split;
 use crate::static_rays::StaticRays;
 use crate::view::{
-    Lookup, ReflectionFrames, SKY_PRIOR_SAMPLES, SkyPrior, Visibility, shade, shade_one,
+    AVERAGED_FRAMES, Lookup, ReflectionFrames, SKY_PRIOR_SAMPLES, SkyPrior, Visibility, shade,
+    shade_one,
 };
 use crate::{glow_edges, surface_edges};
 
@@ -56,6 +57,15 @@ pub struct WallPass {
     /// Whether the direct light is computed per pixel (never for a scene without a light
     /// next-event estimation takes).
     per_pixel: bool,
+}
+
+/// What a frame's pixels see before their light per pixel (stages 1–3): their lookups,
+/// and the pixels at the outlines of what glows ([`glow_edges`]). A still view's are the
+/// same frame after frame, but where the glossy lobes take new directions.
+#[derive(Clone)]
+pub struct FrameSurfaces {
+    pub lookups: Vec<Lookup>,
+    pub edges: glow_edges::GlowEdges,
 }
 
 /// One frame's parameters, for every stage.
@@ -264,13 +274,9 @@ impl WallPass {
         self.radiance_of(ctx, (&l, p.as_ref()), seed, None)
     }
 
-    /// The per-pixel stages of one frame of `view`, over all its pixels at once: 1–3
-    /// (the first hits found here in packets, or with `hits` found elsewhere, each pixel's
-    /// closest static hit and the walk that traces the rays past mirrors and glass), the
-    /// glossy lobes taking the directions of `reflections`; then `direct`, stages 4–6
-    /// where the direct light is per pixel (it adds each pixel's direct light, running
-    /// mean and extras to its lookup's `emitted` light); then 7, the edges. The lookups,
-    /// for stage 8; the pixels' points in `points`.
+    /// The per-pixel stages of one frame of `view`, over all its pixels at once:
+    /// [`Self::surfaces`], then [`Self::light`]. The lookups, for stage 8; the pixels'
+    /// points in `points`.
     pub fn frame(
         &self,
         view: &WallView,
@@ -279,12 +285,78 @@ impl WallPass {
         reflections: &ReflectionFrames,
         direct: impl FnOnce(&mut [Lookup], &[Option<DirectPoint>]),
     ) -> Vec<Lookup> {
-        let vis = &self.visibility;
-        let mut lookups = vis.pixels_into(view, hits, points, reflections);
+        let surfaces = self.surfaces(view, hits, points, reflections);
+        self.light(view, surfaces, points, direct)
+    }
+
+    /// Stages 1–3 of a frame of `view`: what its pixels see, before the light per pixel
+    /// (the first hits found here in packets, or with `hits` found elsewhere, each pixel's
+    /// closest static hit and the walk that traces the rays past mirrors and glass), the
+    /// glossy lobes taking the directions of `reflections`; the pixels' points written
+    /// into `points`.
+    pub fn surfaces(
+        &self,
+        view: &WallView,
+        hits: Option<(&[Option<Hit>], &dyn StaticRays)>,
+        points: &mut Vec<Option<DirectPoint>>,
+        reflections: &ReflectionFrames,
+    ) -> FrameSurfaces {
+        let lookups = self.visibility.pixels_into(view, hits, points, reflections);
         let edges = glow_edges::find(view, &lookups, points);
+        FrameSurfaces { lookups, edges }
+    }
+
+    /// Stages 1–3 again, for the pixels of a still view's kept surfaces (`lookups`, at
+    /// `points`) whose lookups take their glossy lobes' reflections anew each frame
+    /// ([`DirectPoint::reflected`]), each along its centre's ray, the lobes taking the
+    /// directions of `reflections`; the others drawn as they were. Past
+    /// [`AVERAGED_FRAMES`] a still view's reflections are averaged over enough directions:
+    /// each such pixel's reflection is taken out of its lookup instead, and it shows the
+    /// mean its wall keeps.
+    pub fn redraw_reflections(
+        &self,
+        view: &WallView,
+        lookups: &mut [Lookup],
+        points: &mut [Option<DirectPoint>],
+        reflections: &ReflectionFrames,
+    ) {
+        let vis = &self.visibility;
+        let averaged = reflections.sharpened.is_empty()
+            && reflections.blurred.start > u64::from(AVERAGED_FRAMES);
+        vis.with_drawn(|drawn, direct_at_point| {
+            let values = drawn.unwrap_or(self.values());
+            let drawn = (values, direct_at_point, reflections);
+            (lookups
+                .par_iter_mut()
+                .zip(points.par_iter_mut())
+                .enumerate())
+            .filter(|(_, (_, p))| p.as_ref().is_some_and(|p| p.reflected.is_some()))
+            .for_each(|(i, (l, p))| match p.as_mut() {
+                Some(point) if averaged => {
+                    let r = point.reflected.take().unwrap_or(Vec3::ZERO);
+                    l.emitted = (Vec3::from(l.emitted) - r).to_array();
+                }
+                _ => (*l, *p) = vis.cell(view, (i, 0, 1), drawn),
+            });
+        });
+    }
+
+    /// Stages 4–7 of a frame of `view` whose pixels see `surfaces` at `points`: `direct`
+    /// where the direct light is per pixel (it adds each pixel's direct light, running
+    /// mean and extras to its lookup's `emitted` light), then the edges. The lookups, for
+    /// stage 8.
+    pub fn light(
+        &self,
+        view: &WallView,
+        surfaces: FrameSurfaces,
+        points: &[Option<DirectPoint>],
+        direct: impl FnOnce(&mut [Lookup], &[Option<DirectPoint>]),
+    ) -> Vec<Lookup> {
+        let FrameSurfaces { mut lookups, edges } = surfaces;
         if self.per_pixel {
             direct(&mut lookups, points);
         }
+        let vis = &self.visibility;
         surface_edges::resolve(vis, view, &mut lookups, points, &edges.pixels());
         edges.resolve(vis, view, &mut lookups);
         lookups
