@@ -96,6 +96,12 @@ pub struct NodeStats {
     pub presented: u64,
     /// Frames it skipped because a newer one had arrived (it was late).
     pub skipped: u64,
+    /// This frame's per-pixel light-field pass, over every eye: pixels whose surfaces
+    /// were traced anew, pixels drawn again from the last frame's (a still view), and
+    /// pixels that took direct-light estimates.
+    pub traced: u32,
+    pub reused: u32,
+    pub estimated: u32,
 }
 
 /// Master → node. (Its frame variant is the large one and the common one: a message a

@@ -318,6 +318,10 @@ pub fn follow(
         stats.samples = report.inserted.min(u32::MAX as usize) as u32;
         stats.presented = counters.presented;
         stats.skipped = counters.skipped;
+        let pixels = |n: usize| n.min(u32::MAX as usize) as u32;
+        stats.traced = pixels(report.vlf_work.traced);
+        stats.reused = pixels(report.vlf_work.reused);
+        stats.estimated = pixels(report.vlf_work.estimated);
         if let Err(e) = send_desk(link, present) {
             return Ended::Lost(e);
         }

@@ -13,6 +13,7 @@ use crate::cache::{RenderCache, StepTimes};
 use crate::holodeck::HolodeckSource;
 use crate::prior;
 use crate::source::{PixelTracer, TracerThread};
+use crate::vlf::FrameWork;
 use crate::{EyeView, RenderNodeError, VlfBase};
 
 /// What one frame did.
@@ -32,6 +33,8 @@ pub struct FrameReport {
     pub steps: StepTimes,
     /// The light field's visibility: one ray cast per pixel of every eye (zero without one).
     pub vlf: Duration,
+    /// What the light field's per-pixel pass did, over every eye.
+    pub vlf_work: FrameWork,
 }
 
 /// Where a wall display gets its samples (its live feed).
@@ -231,6 +234,7 @@ impl WallDisplay {
                 base.draw_lookups(eye, view, &mut self.cache);
             }
             report.vlf = t.elapsed();
+            report.vlf_work = base.take_work();
         }
         let t = Instant::now();
         let targets = vec![self.samples_per_eye; views.len()];

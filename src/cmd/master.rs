@@ -327,6 +327,10 @@ pub fn print_summary(s: &Summary) {
             ms(quantile(&s.motion_to_photon, 0.99))
         );
     }
+    let shares = s.pixels.shares();
+    if !shares.is_empty() {
+        println!("  the light field's per-pixel pass, over every wall's frames: {shares}");
+    }
     println!(
         "  connections refused: {}, dropped for bad messages: {}",
         s.refused, s.dropped

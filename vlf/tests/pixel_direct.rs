@@ -339,11 +339,7 @@ fn exact_irradiance() -> impl Fn(f32) -> f64 {
 /// floor against the rays' (their two means' difference, computed per pixel).
 #[test]
 fn a_still_pixel_across_a_shadows_edge_shows_its_patchs_mean() {
-    let scene = Arc::new(slit());
-    let vis = Visibility::of(scene.clone(), &Settings::default());
-    let direct = PixelDirect::new(scene.clone());
-    let view = under_the_plates(Vec3::new(-0.6, 0.8, 0.0));
-    let points = vis.pixels_and_points(&view).1;
+    let (scene, vis, direct, view, points) = still_under_the_plates();
     let mut acc = Accumulator::new();
     let frames = 1024;
     let mut means = Vec::new();
@@ -364,11 +360,7 @@ fn a_still_pixel_across_a_shadows_edge_shows_its_patchs_mean() {
 /// never looked at again): pixels across the edge then show all or none of the sun.
 #[test]
 fn a_settled_still_view_estimates_only_where_the_light_varies() {
-    let scene = Arc::new(slit());
-    let vis = Visibility::of(scene.clone(), &Settings::default());
-    let direct = PixelDirect::new(scene.clone());
-    let view = under_the_plates(Vec3::new(-0.6, 0.8, 0.0));
-    let points = vis.pixels_and_points(&view).1;
+    let (scene, vis, direct, view, points) = still_under_the_plates();
     let rule = Settling::WALLS;
     let mut acc = Accumulator::settling(rule);
     let (frames, last) = (256, 16);
@@ -416,6 +408,23 @@ fn a_settled_still_view_estimates_only_where_the_light_varies() {
         even > points.len() / 2 && varying >= 20,
         "{even} even, {varying} varying"
     );
+}
+
+/// The slit's scene, its visibility and direct light, the still view under the plates
+/// from (−0.6, 0.8, 0) and what its pixels see.
+fn still_under_the_plates() -> (
+    Arc<Scene>,
+    Visibility,
+    PixelDirect,
+    WallView,
+    Vec<Option<DirectPoint>>,
+) {
+    let scene = Arc::new(slit());
+    let vis = Visibility::of(scene.clone(), &Settings::default());
+    let direct = PixelDirect::new(scene.clone());
+    let view = under_the_plates(Vec3::new(-0.6, 0.8, 0.0));
+    let points = vis.pixels_and_points(&view).1;
+    (scene, vis, direct, view, points)
 }
 
 /// Checks every pixel of `view` (its `points`) whose patch lies on one triangle of the
