@@ -74,8 +74,11 @@ pub struct VlfBase {
     pass: WallPass,
     /// When a pixel's running mean takes no more estimates (`None`: one every frame).
     settling: Option<Settling>,
+    /// What each eye's pixels saw in its last frame, where it may be drawn again.
+    surfaces: Mutex<Vec<KeptSurfaces>>,
     /// What the frames cost since last asked ([`VlfBase::take_work`]).
     work: Mutex<FrameWork>,
+
     /// The running means of the direct light, per eye and view drawn, with the frame each
     /// was last drawn (a moved eye takes over its own nearest one of the same screen).
     history: Mutex<Vec<History>>,
@@ -135,12 +138,12 @@ struct History {
     /// How many frames in a row this eye has drawn this view: the next one's reflections
     /// take the directions that follow theirs ([`ReflectionFrames::still`]).
     still: u64,
-    /// What the pixels saw in the last frame, where it can be drawn again.
-    surfaces: Option<KeptSurfaces>,
 }
 
-/// What a view's pixels saw in a frame (stages 1–3), and their points.
+/// What one eye's pixels saw in its last frame of a view (stages 1–3), and their points.
 struct KeptSurfaces {
+    eye: usize,
+    view: WallView,
     surfaces: FrameSurfaces,
     points: Vec<Option<DirectPoint>>,
 }
@@ -152,7 +155,8 @@ pub struct FrameWork {
     pub frames: usize,
     /// Pixels whose first hits, chains and lookups were found anew.
     pub traced: usize,
-    /// Pixels drawn again from what they saw in the last frame (a still view).
+    /// Pixels drawn again from what they saw in the last frame (a still view), or carried
+    /// from it to the view the eye moved to.
     pub reused: usize,
     /// Pixels that took direct-light estimates.
     pub estimated: usize,
@@ -319,7 +323,9 @@ impl VlfBase {
         let base = VlfBase {
             pass,
             settling: Some(Settling::WALLS),
+            surfaces: Mutex::new(Vec::new()),
             work: Mutex::new(FrameWork::default()),
+
             history: Mutex::new(Vec::new()),
             pixels: Mutex::new(Vec::new()),
             gpu_rays: None,
@@ -358,8 +364,9 @@ impl VlfBase {
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
         for x in h.iter_mut() {
             x.means.restart();
-            x.surfaces = None;
         }
+        drop(h);
+        self.forget_surfaces();
         let objects = self.scene().objects();
         let after = self.pass.visibility().placements();
         let matrix = |p: &Placement| Mat4::from_rotation_translation(p.rotation, p.translation);
@@ -594,32 +601,32 @@ impl VlfBase {
             (h.iter().find(|x| x.eye == eye && x.view == view.wall)).map_or(0, |x| x.still)
         };
         let reflections = ReflectionFrames::still(still);
-        let reused = self.take_surfaces(eye, &view.wall);
-        let traced = reused.is_none();
-        let surfaces = match reused {
-            Some(k) => {
+        let past = self.take_surfaces(eye, &view.wall);
+        let (surfaces, traced) = match past {
+            // A still view: what its pixels saw, its glossy reflections drawn anew.
+            Some(k) if k.view == view.wall => {
                 pixels.points = k.points;
                 let mut surfaces = k.surfaces;
                 let lookups = &mut surfaces.lookups;
-                (self.pass).redraw_reflections(
-                    &view.wall,
-                    lookups,
-                    &mut pixels.points,
-                    &reflections,
-                );
-                surfaces
+                let points = &mut pixels.points;
+                (self.pass).redraw_reflections(&view.wall, lookups, points, &reflections);
+                (surfaces, 0)
             }
-            None => {
+            _ => {
                 self.trace_first_hits(&view.wall, &mut pixels);
                 let on_gpu = self.on_gpu();
                 // The rays on through mirrors and glass traced where the first hits were.
                 let first =
                     (pixels.hits.as_deref()).zip(on_gpu.as_ref().map(|g| g as &dyn StaticRays));
-                (self.pass).surfaces(&view.wall, first, &mut pixels.points, &reflections)
+                let surfaces =
+                    (self.pass).surfaces(&view.wall, first, &mut pixels.points, &reflections);
+                (surfaces, pixels.points.len())
             }
         };
         // Kept from a view's second frame on: a moving eye's are never drawn again.
         let keep = (still > 0 && self.may_keep()).then(|| KeptSurfaces {
+            eye,
+            view: view.wall,
             surfaces: surfaces.clone(),
             points: pixels.points.clone(),
         });
@@ -631,7 +638,9 @@ impl VlfBase {
         let lookups = (self.pass).light(&view.wall, surfaces, points, |l, p| {
             self.add_direct(eye, view, l, p, gpu)
         });
-        self.keep_surfaces(eye, &view.wall, keep);
+        if let Some(k) = keep {
+            self.keep_surfaces(k);
+        }
         self.count_work(points.len(), traced);
         let out = f(lookups, &pixels);
         let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
@@ -639,13 +648,13 @@ impl VlfBase {
         out
     }
 
-    /// What eye `eye`'s last frame of `view` saw (stages 1–3), taken to be drawn again:
-    /// a still view's pixels see the same surfaces frame after frame. `None` where that
-    /// eye last drew another view, or it was not kept.
+    /// What eye `eye` saw in its last frame of `view`'s screen (stages 1–3), taken to be
+    /// drawn again where that frame's view was `view`: a still view's pixels see the same
+    /// surfaces frame after frame. `None` where none was kept.
     fn take_surfaces(&self, eye: usize, view: &WallView) -> Option<KeptSurfaces> {
-        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        let x = h.iter_mut().find(|x| x.eye == eye && x.view == *view)?;
-        x.surfaces.take()
+        let mut kept = self.surfaces.lock().unwrap_or_else(|e| e.into_inner());
+        let i = (0..kept.len()).find(|&i| kept[i].eye == eye && kept[i].view.same_screen(view))?;
+        Some(kept.swap_remove(i))
     }
 
     /// Whether a frame can be drawn again from what its pixels saw: with the rays on the
@@ -655,30 +664,31 @@ impl VlfBase {
         self.gpu_rays.is_none()
     }
 
-    /// Keeps what eye `eye`'s frame of `view` saw for its next frame.
-    fn keep_surfaces(&self, eye: usize, view: &WallView, kept: Option<KeptSurfaces>) {
-        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(x) = h.iter_mut().find(|x| x.eye == eye && x.view == *view) {
-            x.surfaces = kept;
+    /// Keeps what an eye's frame saw for its next frame, the oldest forgotten beyond
+    /// [`HISTORIES`].
+    fn keep_surfaces(&self, kept: KeptSurfaces) {
+        let mut all = self.surfaces.lock().unwrap_or_else(|e| e.into_inner());
+        if all.len() >= HISTORIES {
+            all.remove(0);
         }
+        all.push(kept);
     }
 
     /// Forgets what every view saw: the surfaces' light changed under them.
     fn forget_surfaces(&self) {
-        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        h.iter_mut().for_each(|x| x.surfaces = None);
+        self.surfaces
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clear();
     }
 
-    /// Counts a frame of `pixels` pixels, their surfaces traced anew or drawn again, and
-    /// the pixels that took direct-light estimates.
-    fn count_work(&self, pixels: usize, traced: bool) {
+    /// Counts a frame of `pixels` pixels, `traced` of them traced anew and the others
+    /// drawn again or carried from the last frame.
+    fn count_work(&self, pixels: usize, traced: usize) {
         let mut w = self.work.lock().unwrap_or_else(|e| e.into_inner());
         w.frames += 1;
-        if traced {
-            w.traced += pixels;
-        } else {
-            w.reused += pixels;
-        }
+        w.traced += traced;
+        w.reused += pixels - traced.min(pixels);
     }
 
     /// What the frames drawn since last asked cost: pixels whose surfaces were traced,
@@ -835,7 +845,6 @@ impl VlfBase {
             means: acc,
             at_points,
             still,
-            surfaces: None,
         });
     }
 }

@@ -813,3 +813,32 @@ fn glare_compare_vlf_view_and_the_wall_draw_one_radiance() {
         .count();
     assert_eq!(apart, 0, "{apart} of {} pixels apart", walls.len());
 }
+
+/// A still eye's pixels draw again what they saw (stages 1–3 kept per eye and view): on
+/// the Cornell box, its first two frames trace every pixel, the later ones none (but the
+/// pixels whose glossy reflections are drawn anew, not counted here); a moved eye traces
+/// every pixel again. What a reused frame shows is a traced frame's: the still viewer's
+/// tests above (`a_cold_start_shows_the_light_field_and_a_still_viewer_converges`,
+/// `a_still_viewer_sees_the_glossy_walls_sharpened_and_keeps_their_mean`) run on it.
+/// Seen to fail against surfaces kept across a moved eye (the second view drawn from the
+/// first's: 0 traced).
+#[test]
+fn a_still_eye_draws_again_what_its_pixels_saw() {
+    let scene = cornell();
+    let dir = tempfile::tempdir().unwrap();
+    let base = baked(&scene, &coarse(), dir.path());
+    let at = |dx: f32| {
+        let mut w = wall(32);
+        w.eye.x += dx;
+        EyeView::looking_at(w, 0.05).unwrap()
+    };
+    let pixels = 32 * 32;
+    let traced = |view: &EyeView| {
+        base.lookups(0, view);
+        base.take_work().traced
+    };
+    let still: Vec<usize> = (0..5).map(|_| traced(&at(0.0))).collect();
+    assert_eq!(still, vec![pixels, pixels, 0, 0, 0]);
+    let moved: Vec<usize> = (1..4).map(|k| traced(&at(0.002 * k as f32))).collect();
+    assert_eq!(moved, vec![pixels; 3], "a moving eye traces every pixel");
+}
