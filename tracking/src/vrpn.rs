@@ -257,6 +257,15 @@ fn session(
         ))
     })?;
     let mut stream = TcpStream::connect_timeout(&sock, options.connect_timeout).map_err(io)?;
+    // With no server on a local port, the kernel may give the client that very port and
+    // connect it to itself (a simultaneous open): it would read its own greeting back,
+    // and hold the port a restarted server needs. Taken for a refusal.
+    if stream.local_addr().ok() == stream.peer_addr().ok() {
+        return Err(io(io::Error::new(
+            io::ErrorKind::ConnectionRefused,
+            "no server listening (the connection reached itself)",
+        )));
+    }
     stream.set_nodelay(true).map_err(io)?;
     stream.set_read_timeout(Some(options.poll)).map_err(io)?;
     let types: &[&str] = match follow {
