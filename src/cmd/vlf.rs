@@ -158,7 +158,26 @@ pub fn run(c: VlfCommand) -> Result<()> {
 
 /// Bakes (or finishes baking) `job`'s file with a progress bar (none when `quiet`), and
 /// prints what the bake did.
+/// Bakes `job`, Ctrl-C ending it at once: its finished bounces are in the file, each
+/// written whole, and the next run resumes from them.
 fn run_bake(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<VlfFile> {
+    let kept = format!(
+        "{} keeps the bounces it finished; run again to resume",
+        job.out.display()
+    );
+    super::interrupt::ending_at_once(kept, || {
+        if !quiet {
+            println!(
+                "baking {} (Ctrl-C keeps the finished bounces)",
+                job.out.display()
+            );
+        }
+        bake_steps(job, quiet, casting)
+    })
+}
+
+/// [`run_bake`]'s steps.
+fn bake_steps(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<VlfFile> {
     if let Start::Resumed { bounces, residual } = job.start()? {
         eprintln!(
             "resuming {} after bounce {bounces} (residual {residual:.2e})",
