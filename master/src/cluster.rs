@@ -133,18 +133,18 @@ impl PixelWork {
     /// `traced / reused / estimated` as shares of the pixels drawn, e.g. `traced 40 %,
     /// reused 60 %, estimated 12 %`; empty where none were drawn.
     pub fn shares(&self) -> String {
-        let drawn = self.traced + self.reused;
-        if drawn == 0 {
-            return String::new();
-        }
-        let pc = |n: u64| 100.0 * n as f64 / drawn as f64;
-        format!(
-            "pixels traced {:.0} %, reused {:.0} %, estimated {:.0} %",
-            pc(self.traced),
-            pc(self.reused),
-            pc(self.estimated)
-        )
+        percent_of_drawn([self.traced, self.reused, self.estimated])
+            .map_or_else(String::new, |[t, r, e]| {
+                format!("pixels traced {t:.0} %, reused {r:.0} %, estimated {e:.0} %")
+            })
     }
+}
+
+/// Pixel counts `[traced, reused, estimated]` as percentages of the pixels drawn (traced
+/// and reused); `None` where none were drawn.
+fn percent_of_drawn(counts: [u64; 3]) -> Option<[f64; 3]> {
+    let drawn = counts[0] + counts[1];
+    (drawn > 0).then(|| counts.map(|n| 100.0 * n as f64 / drawn as f64))
 }
 
 enum Event {
@@ -601,16 +601,10 @@ impl Master<'_> {
 /// A wall's last frame's per-pixel work, as shares of its pixels: ` (traced 100 %, est
 /// 35 %)`; empty without a light field.
 fn pixel_shares(s: &NodeStats) -> String {
-    let drawn = u64::from(s.traced) + u64::from(s.reused);
-    if drawn == 0 {
-        return String::new();
-    }
-    let pc = |n: u32| 100.0 * f64::from(n) / drawn as f64;
-    format!(
-        " (traced {:.0} %, est {:.0} %)",
-        pc(s.traced),
-        pc(s.estimated)
-    )
+    let counts = [s.traced, s.reused, s.estimated].map(u64::from);
+    percent_of_drawn(counts).map_or_else(String::new, |[t, _, e]| {
+        format!(" (traced {t:.0} %, est {e:.0} %)")
+    })
 }
 
 /// The wall whose Ready came last most often between two snapshots of the pace counts:

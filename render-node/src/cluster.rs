@@ -14,6 +14,7 @@ use holocave_protocol::cluster::{
 use holocave_protocol::handshake::{self, Role, Welcome};
 use holocave_protocol::session::Sealer;
 
+use crate::display::FrameReport;
 use crate::{EyeView, WallDisplay};
 
 /// How long the handshake may take.
@@ -227,6 +228,21 @@ pub struct NodeCounters {
     pub last_presented: Option<u64>,
 }
 
+/// A frame's Ready figures: its drawing took `drawn`, did what `report` says, and the
+/// node's `counters` so far.
+fn ready_stats(drawn: Duration, report: &FrameReport, counters: &NodeCounters) -> NodeStats {
+    let clamp = |n: usize| n.min(u32::MAX as usize) as u32;
+    NodeStats {
+        draw_us: drawn.as_micros().min(u128::from(u32::MAX)) as u32,
+        samples: clamp(report.inserted),
+        presented: counters.presented,
+        skipped: counters.skipped,
+        traced: clamp(report.vlf_work.traced),
+        reused: clamp(report.vlf_work.reused),
+        estimated: clamp(report.vlf_work.estimated),
+    }
+}
+
 /// How following the master ended.
 #[derive(Debug)]
 pub enum Ended {
@@ -255,7 +271,6 @@ pub fn follow(
     present: &mut dyn Presentation,
 ) -> Ended {
     let mut next: Option<FrameState> = None;
-    let mut stats = NodeStats::default();
     loop {
         if let Some(reason) = present.closed() {
             let _ = link.leaving(&reason);
@@ -314,14 +329,7 @@ pub fn follow(
         {
             return Ended::Lost(e);
         }
-        stats.draw_us = t.elapsed().as_micros().min(u32::MAX as u128) as u32;
-        stats.samples = report.inserted.min(u32::MAX as usize) as u32;
-        stats.presented = counters.presented;
-        stats.skipped = counters.skipped;
-        let pixels = |n: usize| n.min(u32::MAX as usize) as u32;
-        stats.traced = pixels(report.vlf_work.traced);
-        stats.reused = pixels(report.vlf_work.reused);
-        stats.estimated = pixels(report.vlf_work.estimated);
+        let stats = ready_stats(t.elapsed(), &report, counters);
         if let Err(e) = send_desk(link, present) {
             return Ended::Lost(e);
         }

@@ -151,8 +151,6 @@ struct KeptSurfaces {
 /// What a wall's frames cost, counted in pixels (both eyes).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FrameWork {
-    /// Frames (eyes) drawn.
-    pub frames: usize,
     /// Pixels whose first hits, chains and lookups were found anew.
     pub traced: usize,
     /// Pixels drawn again from what they saw in the last frame (a still view), or carried
@@ -686,7 +684,6 @@ impl VlfBase {
     /// drawn again or carried from the last frame.
     fn count_work(&self, pixels: usize, traced: usize) {
         let mut w = self.work.lock().unwrap_or_else(|e| e.into_inner());
-        w.frames += 1;
         w.traced += traced;
         w.reused += pixels - traced.min(pixels);
     }

@@ -233,6 +233,26 @@ fn run(
 
 /// One connection, until it fails or the client is dropped. The flag says whether the
 /// handshake had completed.
+/// A connection to the server at `addr`, without Nagle's delay and reading with the
+/// client's poll timeout.
+fn connect(addr: &str, options: &ClientOptions) -> io::Result<TcpStream> {
+    let sock = (addr.to_socket_addrs()?.next())
+        .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, "host has no address"))?;
+    let stream = TcpStream::connect_timeout(&sock, options.connect_timeout)?;
+    // With no server on a local port, the kernel may give the client that very port and
+    // connect it to itself (a simultaneous open): it would read its own greeting back,
+    // and hold the port a restarted server needs. Taken for a refusal.
+    if stream.local_addr().ok() == stream.peer_addr().ok() {
+        return Err(io::Error::new(
+            io::ErrorKind::ConnectionRefused,
+            "no server listening (the connection reached itself)",
+        ));
+    }
+    stream.set_nodelay(true)?;
+    stream.set_read_timeout(Some(options.poll))?;
+    Ok(stream)
+}
+
 fn session(
     target: &VrpnTarget,
     follow: Follow,
@@ -250,24 +270,7 @@ fn session(
             false,
         )
     };
-    let sock = addr.to_socket_addrs().map_err(io)?.next().ok_or_else(|| {
-        io(io::Error::new(
-            io::ErrorKind::NotFound,
-            "host has no address",
-        ))
-    })?;
-    let mut stream = TcpStream::connect_timeout(&sock, options.connect_timeout).map_err(io)?;
-    // With no server on a local port, the kernel may give the client that very port and
-    // connect it to itself (a simultaneous open): it would read its own greeting back,
-    // and hold the port a restarted server needs. Taken for a refusal.
-    if stream.local_addr().ok() == stream.peer_addr().ok() {
-        return Err(io(io::Error::new(
-            io::ErrorKind::ConnectionRefused,
-            "no server listening (the connection reached itself)",
-        )));
-    }
-    stream.set_nodelay(true).map_err(io)?;
-    stream.set_read_timeout(Some(options.poll)).map_err(io)?;
+    let mut stream = connect(&addr, options).map_err(io)?;
     let types: &[&str] = match follow {
         Follow::Tracker => &[POS_QUAT],
         Follow::Input(kind) => kind.types(),

@@ -174,11 +174,6 @@ impl WallPass {
     /// What the lookups read: the field's remainder beside the direct light per pixel,
     /// else all of it.
     pub fn values(&self) -> &[[f32; 3]] {
-        self.values_shared()
-    }
-
-    /// [`Self::values`], shared.
-    pub fn values_shared(&self) -> &Arc<Vec<[f32; 3]>> {
         if self.per_pixel {
             &self.remainder
         } else {
