@@ -336,40 +336,53 @@ pub fn follow(
         if let Err(e) = link.ready(state.frame, stats) {
             return Ended::Lost(e);
         }
-        // Wait for this frame's Swap; a newer frame instead means the master went on
-        // without this node (it was late): draw that one next.
-        loop {
-            match link.recv(Duration::from_secs(1)) {
-                Ok(Some(MasterMsg::Swap { frame })) if frame == state.frame => {
-                    if let Err(e) = present.show(&state, display) {
-                        tracing::error!("frame {}: {e}", state.frame);
-                    }
-                    counters.presented += 1;
-                    counters.last_presented = Some(frame);
-                    break;
+        match await_swap(link, display, present, &state, counters) {
+            Ok(newer) => next = newer,
+            Err(ended) => return ended,
+        }
+    }
+}
+
+/// Waits for frame `state`'s Swap and shows it; a newer frame instead means the master went
+/// on without this node (it was late): that one is returned, to be drawn next. `Err`: how
+/// following ended meanwhile.
+fn await_swap(
+    link: &mut MasterLink,
+    display: &mut WallDisplay,
+    present: &mut dyn Presentation,
+    state: &FrameState,
+    counters: &mut NodeCounters,
+) -> Result<Option<FrameState>, Ended> {
+    loop {
+        match link.recv(Duration::from_secs(1)) {
+            Ok(Some(MasterMsg::Swap { frame })) if frame == state.frame => {
+                if let Err(e) = present.show(state, display) {
+                    tracing::error!("frame {}: {e}", state.frame);
                 }
-                Ok(Some(MasterMsg::Veil { wall, sources })) => present.import_veil(&wall, &sources),
-                Ok(Some(MasterMsg::Swap { .. })) | Ok(None) => {
-                    if let Some(reason) = present.closed() {
-                        present.abandon(&state);
-                        let _ = link.leaving(&reason);
-                        return Ended::Closed(reason);
-                    }
+                counters.presented += 1;
+                counters.last_presented = Some(frame);
+                return Ok(None);
+            }
+            Ok(Some(MasterMsg::Veil { wall, sources })) => present.import_veil(&wall, &sources),
+            Ok(Some(MasterMsg::Swap { .. })) | Ok(None) => {
+                if let Some(reason) = present.closed() {
+                    present.abandon(state);
+                    let _ = link.leaving(&reason);
+                    return Err(Ended::Closed(reason));
                 }
-                Ok(Some(MasterMsg::Frame(s))) => {
-                    counters.skipped += 1;
-                    present.abandon(&state);
-                    next = Some(s);
-                    break;
-                }
-                Ok(Some(MasterMsg::Shutdown { reason })) => {
-                    present.abandon(&state);
-                    return Ended::Shutdown(reason);
-                }
-                Err(e) => {
-                    present.abandon(&state);
-                    return Ended::Lost(e);
-                }
+            }
+            Ok(Some(MasterMsg::Frame(s))) => {
+                counters.skipped += 1;
+                present.abandon(state);
+                return Ok(Some(s));
+            }
+            Ok(Some(MasterMsg::Shutdown { reason })) => {
+                present.abandon(state);
+                return Err(Ended::Shutdown(reason));
+            }
+            Err(e) => {
+                present.abandon(state);
+                return Err(Ended::Lost(e));
             }
         }
     }
