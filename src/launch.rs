@@ -102,14 +102,14 @@ impl Group {
 /// a config's).
 pub const SECRET_VAR: &str = "HOLOCAVE_SECRET";
 
-/// `holocave worker` filling the holodeck server at `server` by tracing `scene` under
-/// `daylight` (else the file beside it), proving `credentials` (the secret handed over in
+/// `holocave worker` filling the holodeck server at `server` by tracing `scene` under the
+/// `daylight` flags (`--daylight`, `--when`, `--weather`; none: the file beside it), proving `credentials` (the secret handed over in
 /// [`SECRET_VAR`]).
 pub fn worker_command(
     exe: &Path,
     server: &str,
     scene: &Path,
-    daylight: Option<&Path>,
+    daylight: &[std::ffi::OsString],
     credentials: &Credentials,
 ) -> Command {
     let mut c = Command::new(exe);
@@ -122,11 +122,7 @@ pub fn worker_command(
     ])
     .arg("--scene")
     .arg(scene)
-    .args(
-        daylight
-            .iter()
-            .flat_map(|d| [std::ffi::OsStr::new("--daylight"), d.as_os_str()]),
-    )
+    .args(daylight)
     .env(
         SECRET_VAR,
         String::from_utf8_lossy(&credentials.secret).as_ref(),

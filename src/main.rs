@@ -53,6 +53,9 @@ enum Command {
     /// Glare figures of one view (Ev, DGP, UGR, the glare sources, as evalglare) from its
     /// 180° fisheye, drawn from the light field or path-traced (EXR + PNG, or --json).
     Glare(cmd::glare::GlareArgs),
+    /// The sun and sky of a site at a time (SPA; with an EPW weather file, the hour's DNI,
+    /// DHI and Perez sky), or the sky's luminance towards given directions.
+    Daylight(cmd::daylight::DaylightArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -78,6 +81,7 @@ fn main() -> anyhow::Result<()> {
         Command::Node(a) => cmd::node::run(a),
         Command::Compare(a) => cmd::compare::run(a),
         Command::Vlf(c) => cmd::vlf::run(c),
+        Command::Daylight(a) => cmd::daylight::run(a),
         Command::Glare(a) => cmd::glare::run(a),
     }
 }

@@ -103,34 +103,41 @@ fn worker_processes_bake_the_same_light_field_as_threads() {
     assert!(a == b, "the light fields differ");
 }
 
-/// Ctrl-C ends a bake at once, keeping what it finished: SIGINT as the room's default
-/// bake (half a minute on two cores) starts casting ends the process with status 130 (a
-/// bake that ran to its end exits 0) and says what the file keeps; the file is either not
+/// Ctrl-C ends a bake at once, keeping what it finished, and so does SIGTERM (a session's
+/// supervisor, `kill`, systemd stopping a unit): either signal as the room's default bake
+/// (half a minute on two cores) starts casting ends the process with status 130 (a bake
+/// that ran to its end exits 0) and says what the file keeps; the file is either not
 /// written yet or a light field that reads whole (its finished bounces: every save is
-/// written aside and renamed). Before, the bake ran to its end and exited 0.
+/// written aside and renamed). Before, SIGINT let the bake run to its end and exit 0, and
+/// SIGTERM killed it without a word.
 #[test]
 fn ctrl_c_ends_a_bake_at_once_keeping_what_it_finished() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("room.vlf");
-    let mut child = holocave()
-        .args(["vlf", "bake", "--scene", "scenes/room.gltf", "--out"])
-        .arg(&out)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start a bake");
-    let mut stdout = BufReader::new(child.stdout.take().unwrap());
-    let mut line = String::new();
-    stdout.read_line(&mut line).unwrap();
-    assert!(line.starts_with("baking "), "{line:?}");
-    let pid = child.id().to_string();
-    let sent = Command::new("kill").args(["-INT", &pid]).status().unwrap();
-    assert!(sent.success(), "kill -INT {pid}");
-    let output = child.wait_with_output().unwrap();
-    let said = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(130), "{said}");
-    assert!(said.contains("keeps the bounces it finished"), "{said}");
-    if out.exists() {
-        holocave_vlf::VlfFile::read(&out).expect("the kept light field reads whole");
+    for signal in ["-INT", "-TERM"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("room.vlf");
+        let mut child = holocave()
+            .args(["vlf", "bake", "--scene", "scenes/room.gltf", "--out"])
+            .arg(&out)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start a bake");
+        let mut stdout = BufReader::new(child.stdout.take().unwrap());
+        let mut line = String::new();
+        stdout.read_line(&mut line).unwrap();
+        assert!(line.starts_with("baking "), "{line:?}");
+        let pid = child.id().to_string();
+        let sent = Command::new("kill").args([signal, &pid]).status().unwrap();
+        assert!(sent.success(), "kill {signal} {pid}");
+        let output = child.wait_with_output().unwrap();
+        let said = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(130), "{signal}: {said}");
+        assert!(
+            said.contains("keeps the bounces it finished"),
+            "{signal}: {said}"
+        );
+        if out.exists() {
+            holocave_vlf::VlfFile::read(&out).expect("the kept light field reads whole");
+        }
     }
 }

@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 
 use holocave_protocol::cluster::{
     DeskInput, FrameState, MAX_CLUSTER_FRAME, MAX_VEIL_SOURCES, MasterMsg, NodeMsg, NodeStats,
-    VeilSource,
+    VeilSource, WireObject,
 };
 use holocave_protocol::frame::{FrameError, encode};
 use holocave_protocol::handshake::{self, Role, Welcome};
@@ -298,6 +298,93 @@ struct Master<'a> {
 }
 
 impl Master<'_> {
+    fn new(
+        cave: &Cave,
+        events: UnboundedReceiver<Event>,
+        tx: UnboundedSender<Event>,
+    ) -> Master<'_> {
+        Master {
+            cave,
+            events,
+            tx,
+            barrier: Barrier::default(),
+            links: BTreeMap::new(),
+            arrivals: Vec::new(),
+            desk: Vec::new(),
+            veils: BTreeMap::new(),
+            summary: Summary::default(),
+        }
+    }
+
+    /// Where the room is in the scene this frame: the navigation's placement (the desks'
+    /// input handed to it first), else the config's.
+    fn navigate(
+        &mut self,
+        navigation: Option<&mut NavigationRun>,
+        master_ns: u64,
+        pose: &holocave_tracking::Pose,
+        recentring: glam::Vec3,
+    ) -> Placement {
+        let Some(nav) = navigation else {
+            return Placement::from_mat4(&self.cave.room_to_scene);
+        };
+        for (id, input) in self.desk.drain(..) {
+            nav.desk_message(id, input);
+        }
+        nav.frame(master_ns, pose, recentring)
+    }
+
+    /// When every wall swapped frame `frame`, sent at `sent`. Every wall starts on the same
+    /// frame: on frame 0 every joined node is held (its first draw may take long:
+    /// pipelines, caches) up to the wait for walls, later ones up to the dead-node time.
+    async fn swapped(
+        &mut self,
+        frame: u64,
+        sent: Instant,
+        wait_for_walls: Duration,
+        dead_node: Duration,
+    ) -> std::io::Result<Instant> {
+        if frame == 0 {
+            let hold = wait_for_walls.max(dead_node);
+            self.swap_barrier(frame, sent, hold, true).await
+        } else {
+            self.swap_barrier(frame, sent, dead_node, false).await
+        }
+    }
+
+    /// The run's summary after `frames` frames, its nodes forgotten.
+    fn finish(mut self, frames: u64, paced_period: Duration, elapsed: Duration) -> Summary {
+        self.summary.frames = frames;
+        self.summary.paced_period = paced_period;
+        self.summary.elapsed = elapsed;
+        let ids: Vec<NodeId> = self.barrier.members().keys().copied().collect();
+        for id in ids {
+            self.forget(id);
+        }
+        self.summary
+    }
+
+    /// Waits for the tick `until`, handling joins and stale messages meanwhile, then
+    /// whatever else has arrived.
+    async fn handle_all_until(&mut self, until: Instant) {
+        self.handle_until(until).await;
+        while let Ok(e) = self.events.try_recv() {
+            self.handle(e);
+        }
+    }
+
+    /// Tells every node the master is stopping and closes their links.
+    async fn shut_down(&mut self) -> std::io::Result<()> {
+        let bye = MasterMsg::Shutdown {
+            reason: "the master is stopping".into(),
+        };
+        self.send(&bye, None).await?;
+        for l in self.links.values_mut() {
+            let _ = l.writer.shutdown().await;
+        }
+        Ok(())
+    }
+
     fn handle(&mut self, e: Event) {
         match e {
             Event::Joined {
@@ -646,15 +733,15 @@ async fn next_event(events: &mut UnboundedReceiver<Event>, until: Instant) -> Op
         .flatten()
 }
 
-async fn run_frames(
+/// The thread that accepts the nodes' connections for `cave`'s cluster, handing them to
+/// the frame loop through `tx`; stopped by setting its `stop` and connecting once.
+fn start_accepting(
     cave: &Cave,
-    mut head: Head,
     listener: TcpListener,
     secret: Vec<u8>,
-    mut opts: MasterOptions,
-) -> std::io::Result<Summary> {
-    let addr = listener.local_addr()?;
-    let (tx, events) = unbounded_channel();
+    opts: &MasterOptions,
+    tx: UnboundedSender<Event>,
+) -> std::io::Result<(Arc<Accepting>, std::thread::JoinHandle<()>)> {
     let accepting = Arc::new(Accepting {
         cluster: cave.cluster.id.clone(),
         secret,
@@ -669,90 +756,106 @@ async fn run_frames(
         handshakes: AtomicUsize::new(0),
         stop: AtomicBool::new(false),
     });
-    let acceptor = {
-        let (a, tx) = (accepting.clone(), tx.clone());
-        std::thread::Builder::new()
-            .name("master accept".into())
-            .spawn(move || accept_loop(listener, a, tx))?
+    let a = accepting.clone();
+    let acceptor = std::thread::Builder::new()
+        .name("master accept".into())
+        .spawn(move || accept_loop(listener, a, tx))?;
+    Ok((accepting, acceptor))
+}
+
+/// Whether the run ends before frame `frame`: Ctrl-C, the frames or seconds asked, or
+/// the end of a replayed log.
+fn stopping(opts: &MasterOptions, frame: u64, start: Instant, head: &Head) -> bool {
+    opts.stop.load(Ordering::Relaxed)
+        || opts.frames.is_some_and(|n| frame >= n)
+        || opts
+            .seconds
+            .is_some_and(|s| start.elapsed().as_secs_f64() >= s)
+        || (opts.stop_at_end_of_log && head.ended())
+}
+
+/// The moving objects' placements for the frame shown at `display_ns`, the wand (placed in
+/// the scene by `place`) carrying one where its button is held.
+fn objects_at(opts: &mut MasterOptions, display_ns: u64, place: &Placement) -> Vec<WireObject> {
+    match &mut opts.objects {
+        Some(o) => {
+            let (wand, button) = opts
+                .navigation
+                .as_ref()
+                .map_or((None, false), |n| n.object_hand(place));
+            o.frame(display_ns, wand, button)
+        }
+        None => Vec::new(),
+    }
+}
+
+/// The frame's state: the frusta of the eyes at `pose` on the CAVE `placed` in the scene.
+/// With navigation (`in_room`: the CAVE in room coordinates) the frusta are made in the
+/// room and placed in the scene after, so a wall that holds its last good views holds them
+/// where the room is now.
+fn frame_state_of(
+    frusta: &mut CaveFrusta,
+    (placed, in_room): (&Cave, Option<&Cave>),
+    (frame, times, pose): (u64, FrameTimes, &holocave_tracking::Pose),
+    objects: Vec<WireObject>,
+) -> FrameState {
+    let Some(in_room) = in_room else {
+        frusta.update(placed, pose);
+        return frame_state(placed, frusta, frame, times, pose, objects);
     };
-    let mut states = match &opts.states_log {
-        Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p)?)),
-        None => None,
-    };
-    let mut nav_log = match &opts.navigation_log {
-        Some(p) => Some(NavigationLog::create(p)?),
-        None => None,
-    };
+    frusta.update(in_room, pose);
+    let to_room = placed.room_to_scene.inverse();
+    let mut placed_frusta = frusta.clone();
+    for views in &mut placed_frusta.walls {
+        for (_, f) in &mut views.eyes {
+            f.view *= to_room;
+        }
+    }
+    frame_state(placed, &placed_frusta, frame, times, pose, objects)
+}
+
+async fn run_frames(
+    cave: &Cave,
+    mut head: Head,
+    listener: TcpListener,
+    secret: Vec<u8>,
+    mut opts: MasterOptions,
+) -> std::io::Result<Summary> {
+    let addr = listener.local_addr()?;
+    let (tx, events) = unbounded_channel();
+    let (accepting, acceptor) = start_accepting(cave, listener, secret, &opts, tx.clone())?;
+    let (mut states, mut nav_log) = open_logs(&opts)?;
     // The frame's CAVE: the config's, with the navigation's room → scene transform.
-    let mut placed = cave.clone();
-    // With navigation the frusta are kept in room coordinates (the room as the scene) and
-    // placed in the scene each frame, so a wall holding its last good views (an eye on or
-    // behind it) holds them where the room is now, not where it was.
-    let mut in_room = cave.clone();
-    in_room.room_to_scene = glam::DMat4::IDENTITY;
-    let mut m = Master {
-        cave,
-        events,
-        tx,
-        barrier: Barrier::default(),
-        links: BTreeMap::new(),
-        arrivals: Vec::new(),
-        desk: Vec::new(),
-        veils: BTreeMap::new(),
-        summary: Summary::default(),
-    };
+    let (mut placed, in_room) = (cave.clone(), in_room(cave));
+    let mut m = Master::new(cave, events, tx);
     m.wait_for_walls(opts.wait_for_walls).await;
-    let mut frusta = match opts.navigation {
-        Some(_) => CaveFrusta::new(&in_room),
-        None => CaveFrusta::new(cave),
-    };
+    let mut frusta = CaveFrusta::new(if opts.navigation.is_some() {
+        &in_room
+    } else {
+        cave
+    });
     let period = cave.frame_period();
     let dead_node = cave.dead_node_timeout();
     let mut pacer = Pacer::new(period);
     let start = Instant::now();
     let mut next_tick = start;
-    let mut status = StatusClock {
-        since: start,
-        frame: 0,
-        samples: 0,
-        pace: BTreeMap::new(),
-    };
+    let mut status = StatusClock::new(start);
     let mut frame = 0u64;
     loop {
-        let stop = opts.stop.load(Ordering::Relaxed)
-            || opts.frames.is_some_and(|n| frame >= n)
-            || opts
-                .seconds
-                .is_some_and(|s| start.elapsed().as_secs_f64() >= s)
-            || (opts.stop_at_end_of_log && head.ended());
-        if stop {
+        if stopping(&opts, frame, start, &head) {
             break;
         }
-        // Wait for the tick, handling joins and stale messages meanwhile.
-        m.handle_until(next_tick).await;
-        while let Ok(e) = m.events.try_recv() {
-            m.handle(e);
-        }
-        // The frame is shown about one period after it starts (drawn, then swapped): on a
-        // live clock the paced period, on a replay clock the configured one (a replay
-        // depends on nothing measured).
-        let (master_ns, ahead) = match opts.clock {
-            Clock::Live => (start.elapsed().as_nanos() as u64, pacer.period()),
-            Clock::Replay => (frame * period.as_nanos() as u64, period),
-        };
-        let display_ns = master_ns + ahead.as_nanos() as u64;
+        m.handle_all_until(next_tick).await;
+        let (master_ns, display_ns) = frame_clock(opts.clock, (start, frame, period), &pacer);
         head.advance(master_ns);
         let (pose, tracker_ns) = head.pose_at(display_ns);
         tracing::trace!("frame {frame}: head {:?}", pose.position);
-        let place = match &mut opts.navigation {
-            Some(nav) => {
-                for (id, input) in m.desk.drain(..) {
-                    nav.desk_message(id, input);
-                }
-                nav.frame(master_ns, &pose, head.recentring())
-            }
-            None => Placement::from_mat4(&cave.room_to_scene),
-        };
+        let place = m.navigate(
+            opts.navigation.as_mut(),
+            master_ns,
+            &pose,
+            head.recentring(),
+        );
         if opts.navigation.is_some() {
             placed.room_to_scene = place.to_mat4();
         }
@@ -764,55 +867,26 @@ async fn run_frames(
             display_ns,
             tracker_ns,
         };
-        let objects = match &mut opts.objects {
-            Some(o) => {
-                let (wand, button) = opts
-                    .navigation
-                    .as_ref()
-                    .map_or((None, false), |n| n.object_hand(&place));
-                o.frame(display_ns, wand, button)
-            }
-            None => Vec::new(),
-        };
-        let msg = if opts.navigation.is_some() {
-            frusta.update(&in_room, &pose);
-            let to_room = placed.room_to_scene.inverse();
-            let mut placed_frusta = frusta.clone();
-            for views in &mut placed_frusta.walls {
-                for (_, f) in &mut views.eyes {
-                    f.view *= to_room;
-                }
-            }
-            MasterMsg::Frame(frame_state(
-                &placed,
-                &placed_frusta,
-                frame,
-                times,
-                &pose,
-                objects,
-            ))
-        } else {
-            frusta.update(&placed, &pose);
-            MasterMsg::Frame(frame_state(&placed, &frusta, frame, times, &pose, objects))
-        };
+        let objects = objects_at(&mut opts, display_ns, &place);
+        let navigated = opts.navigation.is_some().then_some(&in_room);
+        let state = frame_state_of(
+            &mut frusta,
+            (&placed, navigated),
+            (frame, times, &pose),
+            objects,
+        );
+        let msg = MasterMsg::Frame(state);
         if let (Some(f), MasterMsg::Frame(state)) = (opts.on_frame.as_mut(), &msg) {
             f(state);
         }
         if let Some(w) = &mut states {
-            let bytes = encode(&msg, MAX_CLUSTER_FRAME)
-                .map_err(|e| std::io::Error::other(e.to_string()))?;
-            w.write_all(&bytes)?;
+            w.write_all(&encoded(&msg)?)?;
         }
         let sent = Instant::now();
         m.send(&msg, None).await?;
-        let swapped = if frame == 0 {
-            // Every wall starts on the same frame: hold every joined node (its first draw
-            // may take long: pipelines, caches) up to the wait for walls.
-            let hold = opts.wait_for_walls.max(dead_node);
-            m.swap_barrier(frame, sent, hold, true).await?
-        } else {
-            m.swap_barrier(frame, sent, dead_node, false).await?
-        };
+        let swapped = m
+            .swapped(frame, sent, opts.wait_for_walls, dead_node)
+            .await?;
         pacer.record(swapped - sent);
         m.relay_veils().await?;
         if let (Clock::Live, Some(t)) = (opts.clock, tracker_ns) {
@@ -822,19 +896,11 @@ async fn run_frames(
                 .push(swapped.saturating_duration_since(t));
         }
         if swapped - status.since >= opts.status_every {
-            let mut line = status.line(&m, frame, swapped, &head);
-            if let Some(extra) = opts.status_extra.as_mut() {
-                line += &format!(" | {}", extra());
-            }
-            tracing::info!("{line}");
+            let extra = opts.status_extra.as_mut();
+            tracing::info!("{}", status.line_with(&m, (frame, swapped), &head, extra));
         }
         frame += 1;
-        next_tick += period;
-        let now = Instant::now();
-        if now > next_tick + period {
-            // Far behind (a stall): start again from now rather than racing to catch up.
-            next_tick = now;
-        }
+        next_tick = next_tick_after(next_tick, period);
     }
     if let Some(log) = &mut nav_log {
         log.flush()?;
@@ -842,27 +908,75 @@ async fn run_frames(
     if let Some(nav) = &mut opts.navigation {
         nav.finish()?;
     }
-    m.send(
-        &MasterMsg::Shutdown {
-            reason: "the master is stopping".into(),
-        },
-        None,
-    )
-    .await?;
-    for l in m.links.values_mut() {
-        let _ = l.writer.shutdown().await;
-    }
+    m.shut_down().await?;
+    stop_accepting(&accepting, addr, acceptor);
+    Ok(m.finish(frame, pacer.period(), start.elapsed()))
+}
+
+/// `cave` in room coordinates (the room as the scene): with navigation the frusta are kept
+/// so and placed in the scene each frame, so a wall holding its last good views (an eye on
+/// or behind it) holds them where the room is now, not where it was.
+fn in_room(cave: &Cave) -> Cave {
+    let mut in_room = cave.clone();
+    in_room.room_to_scene = glam::DMat4::IDENTITY;
+    in_room
+}
+
+/// When frame `frame` starts and when it is shown, in nanoseconds from `start`: about one
+/// period after it starts (drawn, then swapped), on a live clock the paced period, on a
+/// replay clock the configured one (a replay depends on nothing measured).
+fn frame_clock(
+    clock: Clock,
+    (start, frame, period): (Instant, u64, Duration),
+    pacer: &Pacer,
+) -> (u64, u64) {
+    let (master_ns, ahead) = match clock {
+        Clock::Live => (start.elapsed().as_nanos() as u64, pacer.period()),
+        Clock::Replay => (frame * period.as_nanos() as u64, period),
+    };
+    (master_ns, master_ns + ahead.as_nanos() as u64)
+}
+
+/// `msg` as the frame states' log holds it.
+fn encoded(msg: &MasterMsg) -> std::io::Result<Vec<u8>> {
+    encode(msg, MAX_CLUSTER_FRAME).map_err(|e| std::io::Error::other(e.to_string()))
+}
+
+/// Stops the accepting thread: its flag set, then one connection to wake it.
+fn stop_accepting(
+    accepting: &Accepting,
+    addr: std::net::SocketAddr,
+    acceptor: std::thread::JoinHandle<()>,
+) {
     accepting.stop.store(true, Ordering::Relaxed);
     let _ = TcpStream::connect(addr);
     let _ = acceptor.join();
-    m.summary.frames = frame;
-    m.summary.paced_period = pacer.period();
-    m.summary.elapsed = start.elapsed();
-    let ids: Vec<NodeId> = m.barrier.members().keys().copied().collect();
-    for id in ids {
-        m.forget(id);
-    }
-    Ok(m.summary)
+}
+
+/// The frame states' log and the navigation's log, where asked for.
+type Logs = (
+    Option<std::io::BufWriter<std::fs::File>>,
+    Option<NavigationLog>,
+);
+
+fn open_logs(opts: &MasterOptions) -> std::io::Result<Logs> {
+    let states = match &opts.states_log {
+        Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p)?)),
+        None => None,
+    };
+    let nav_log = match &opts.navigation_log {
+        Some(p) => Some(NavigationLog::create(p)?),
+        None => None,
+    };
+    Ok((states, nav_log))
+}
+
+/// The tick after `tick`, one `period` on; from now where the loop fell more than a period
+/// behind (a stall), rather than racing to catch up.
+fn next_tick_after(tick: Instant, period: Duration) -> Instant {
+    let next = tick + period;
+    let now = Instant::now();
+    if now > next + period { now } else { next }
 }
 
 /// Where the last status line left off.
@@ -874,6 +988,30 @@ struct StatusClock {
 }
 
 impl StatusClock {
+    fn new(start: Instant) -> StatusClock {
+        StatusClock {
+            since: start,
+            frame: 0,
+            samples: 0,
+            pace: BTreeMap::new(),
+        }
+    }
+
+    /// [`Self::line`], with `extra`'s part after it.
+    fn line_with(
+        &mut self,
+        m: &Master<'_>,
+        (frame, now): (u64, Instant),
+        head: &Head,
+        extra: Option<&mut Box<dyn FnMut() -> String + Send>>,
+    ) -> String {
+        let line = self.line(m, frame, now, head);
+        match extra {
+            Some(extra) => format!("{line} | {}", extra()),
+            None => line,
+        }
+    }
+
     /// The status line for the frames and tracker samples since the last one.
     fn line(&mut self, m: &Master<'_>, frame: u64, now: Instant, head: &Head) -> String {
         let secs = (now - self.since).as_secs_f64();

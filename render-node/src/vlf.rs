@@ -797,15 +797,16 @@ impl VlfBase {
         if let Some(from) = moved_from {
             acc.reproject(&from, &view.wall, points);
         }
-        let estimates = self
-            .pass
-            .visibility()
-            .with_placed(|placed| match self.on_gpu() {
+        let estimates = self.pass.visibility().with_placed(|placed| {
+            let objects = self.pass.object_gather();
+            let gather = |p: &DirectPoint, seed, n| objects.estimate(placed, p, seed, n);
+            match self.on_gpu() {
                 Some(traced) => self.with_made(points, gpu, |made| {
-                    acc.add_blocked(direct, placed, points, &traced, made)
+                    acc.add_blocked(direct, placed, points, (&traced, made), &gather)
                 }),
-                None => acc.add(direct, placed, points),
-            });
+                None => acc.add(direct, placed, points, &gather),
+            }
+        });
         let screen = Screen::of(&view.wall, 1);
         let at_points = at_points(points, &kept, |i, p| {
             self.pass.caustics(&lookups[i], p, Some(&screen))
@@ -864,6 +865,7 @@ mod tests {
             surfaces: reflected.unwrap_or(Vec3::ZERO),
             reflected,
             span: [Vec3::ZERO; 2],
+            gathered: false,
         })
     }
 

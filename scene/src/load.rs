@@ -44,6 +44,10 @@ pub struct LoadOptions {
     /// Daylight file; when `None`, `<scene stem>.daylight.toml` beside the scene is used
     /// if it exists.
     pub daylight: Option<PathBuf>,
+    /// A time (and weather) for the daylight: the sun from the daylight file's `[site]` (or
+    /// the weather file's location) at that time; with weather, the hour's sun and Perez
+    /// sky. `None`: the daylight file as written.
+    pub moment: Option<crate::daylight::Moment>,
     /// Movable objects, besides the nodes the file marks movable (see [`ObjectSpec`]).
     pub objects: Vec<ObjectSpec>,
 }
@@ -127,11 +131,13 @@ fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
         .daylight
         .clone()
         .or_else(|| Some(default_daylight_path(path)).filter(|p| p.exists()));
-    let daylight = daylight_path
-        .as_deref()
-        .map(Daylight::load)
-        .transpose()?
-        .unwrap_or_default();
+    let moment = opts.moment.as_ref();
+    let daylight = match (daylight_path.as_deref(), moment) {
+        (Some(p), _) => Daylight::load_at(p, moment)?,
+        // A time without a daylight file: the weather file's site and sky.
+        (None, Some(_)) => Daylight::parse_at("", Path::new("(no daylight file)"), moment)?,
+        (None, None) => Daylight::default(),
+    };
     let mut specs = opts.objects.clone();
     specs.extend(daylight.objects.iter().cloned());
     let (objects, claims, first_nodes) = resolve_objects(path, &gltf.document, &specs)?;
@@ -770,6 +776,35 @@ impl Loader<'_> {
         Ok(())
     }
 
+    /// The index of `prim`'s material among the scene's (the default material, the last,
+    /// where it names none or one out of range).
+    fn material_of(&self, prim: &gltf::Primitive) -> u32 {
+        let last = self.parts.materials.len() - 1;
+        prim.material().index().unwrap_or(last).min(last) as u32
+    }
+
+    /// Whether `prim`'s position, normal, texture coordinate and index accessors have the
+    /// types glTF allows; the problem, said, where not.
+    fn check_attributes(&self, prim: &gltf::Primitive) -> Result<(), String> {
+        use Dimensions::{Scalar, Vec2 as V2, Vec3 as V3};
+        let Some(pos) = prim.get(&Semantic::Positions) else {
+            return Err("has no POSITION attribute".into());
+        };
+        self.check_accessor(&pos, "POSITION", &[(DataType::F32, V3)])?;
+        if let Some(a) = prim.get(&Semantic::Normals) {
+            self.check_accessor(&a, "NORMAL", &[(DataType::F32, V3)])?;
+        }
+        if let Some(a) = prim.get(&Semantic::TexCoords(0)) {
+            let types = [DataType::F32, DataType::U8, DataType::U16].map(|t| (t, V2));
+            self.check_accessor(&a, "TEXCOORD_0", &types)?;
+        }
+        if let Some(a) = prim.indices() {
+            let types = [DataType::U8, DataType::U16, DataType::U32].map(|t| (t, Scalar));
+            self.check_accessor(&a, "indices", &types)?;
+        }
+        Ok(())
+    }
+
     fn add_primitive(
         &mut self,
         mesh: &gltf::Mesh,
@@ -790,26 +825,7 @@ impl Loader<'_> {
             ));
             return Ok(());
         }
-        use Dimensions::{Scalar, Vec2 as V2, Vec3 as V3};
-        let Some(pos) = prim.get(&Semantic::Positions) else {
-            return Err(err(self, "has no POSITION attribute".into()));
-        };
-        self.check_accessor(&pos, "POSITION", &[(DataType::F32, V3)])
-            .map_err(|m| err(self, m))?;
-        if let Some(a) = prim.get(&Semantic::Normals) {
-            self.check_accessor(&a, "NORMAL", &[(DataType::F32, V3)])
-                .map_err(|m| err(self, m))?;
-        }
-        if let Some(a) = prim.get(&Semantic::TexCoords(0)) {
-            let types = [DataType::F32, DataType::U8, DataType::U16].map(|t| (t, V2));
-            self.check_accessor(&a, "TEXCOORD_0", &types)
-                .map_err(|m| err(self, m))?;
-        }
-        if let Some(a) = prim.indices() {
-            let types = [DataType::U8, DataType::U16, DataType::U32].map(|t| (t, Scalar));
-            self.check_accessor(&a, "indices", &types)
-                .map_err(|m| err(self, m))?;
-        }
+        self.check_attributes(prim).map_err(|m| err(self, m))?;
         let buffers = self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
         let positions: Vec<Vec3> = reader
@@ -829,23 +845,7 @@ impl Loader<'_> {
         let uvs: Option<Vec<Vec2>> = reader
             .read_tex_coords(0)
             .map(|t| t.into_f32().map(Vec2::from_array).collect());
-        // glTF requires every attribute of a primitive to have the same count.
-        for (name, len) in [
-            ("NORMAL", normals.as_ref().map(Vec::len)),
-            ("TEXCOORD_0", uvs.as_ref().map(Vec::len)),
-        ] {
-            if let Some(len) = len
-                && len != positions.len()
-            {
-                return Err(err(
-                    self,
-                    format!(
-                        "{name} has {len} elements but POSITION has {}",
-                        positions.len()
-                    ),
-                ));
-            }
-        }
+        same_counts(positions.len(), &normals, &uvs).map_err(|m| err(self, m))?;
         let indices: Vec<u32> = match reader.read_indices() {
             Some(i) => i.into_u32().collect(),
             None => (0..positions.len() as u32).collect(),
@@ -856,33 +856,12 @@ impl Loader<'_> {
                 format!("index {bad} is out of range ({} vertices)", positions.len()),
             ));
         }
-        let triangles: Vec<[u32; 3]> = match mode {
-            Mode::Triangles => indices
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect(),
-            Mode::TriangleStrip => (2..indices.len())
-                .map(|i| {
-                    if i % 2 == 0 {
-                        [indices[i - 2], indices[i - 1], indices[i]]
-                    } else {
-                        [indices[i - 1], indices[i - 2], indices[i]]
-                    }
-                })
-                .collect(),
-            _ => (2..indices.len())
-                .map(|i| [indices[0], indices[i - 1], indices[i]])
-                .collect(),
-        };
+        let triangles = triangles_of(mode, &indices);
         // A mirroring transform reverses the winding; swap two vertices to keep the
         // front face in front (glTF §3.7.4).
         let mirrored = world.determinant() < 0.0;
         let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
-        let material = prim
-            .material()
-            .index()
-            .unwrap_or(self.parts.materials.len() - 1) as u32;
-        let material = material.min(self.parts.materials.len() as u32 - 1);
+        let material = self.material_of(prim);
         let path = self.path;
         let (out_positions, out_shading) = match owner {
             Some(k) => {
@@ -926,4 +905,50 @@ impl Loader<'_> {
         let _ = self.doc;
         Ok(())
     }
+}
+
+/// The triangles of a primitive drawn in `mode` (triangles, a strip or a fan) from its
+/// vertex `indices`, each wound as glTF winds it.
+fn triangles_of(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => indices
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect(),
+        Mode::TriangleStrip => (2..indices.len())
+            .map(|i| {
+                if i % 2 == 0 {
+                    [indices[i - 2], indices[i - 1], indices[i]]
+                } else {
+                    [indices[i - 1], indices[i - 2], indices[i]]
+                }
+            })
+            .collect(),
+        _ => (2..indices.len())
+            .map(|i| [indices[0], indices[i - 1], indices[i]])
+            .collect(),
+    }
+}
+
+/// Whether the normals and texture coordinates, where a primitive has them, number as its
+/// `vertices` positions (glTF requires every attribute of a primitive to have the same
+/// count); the problem, said, where not.
+fn same_counts(
+    vertices: usize,
+    normals: &Option<Vec<Vec3>>,
+    uvs: &Option<Vec<Vec2>>,
+) -> Result<(), String> {
+    for (name, len) in [
+        ("NORMAL", normals.as_ref().map(Vec::len)),
+        ("TEXCOORD_0", uvs.as_ref().map(Vec::len)),
+    ] {
+        if let Some(len) = len
+            && len != vertices
+        {
+            return Err(format!(
+                "{name} has {len} elements but POSITION has {vertices}"
+            ));
+        }
+    }
+    Ok(())
 }

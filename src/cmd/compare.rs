@@ -23,9 +23,8 @@ pub struct CompareArgs {
     /// The scene (glTF).
     #[arg(long)]
     pub scene: PathBuf,
-    /// A daylight file for the scene.
-    #[arg(long)]
-    pub daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub daylight: super::daylight_flags::DaylightFlags,
     /// The CAVE config (TOML).
     #[arg(long)]
     pub config: PathBuf,

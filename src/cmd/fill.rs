@@ -52,9 +52,8 @@ pub struct FillArgs {
     /// The scene to trace.
     #[arg(long)]
     pub scene: PathBuf,
-    /// The scene's daylight file (default: <scene>.daylight.toml beside it, if present).
-    #[arg(long)]
-    pub daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub daylight: super::daylight_flags::DaylightFlags,
     /// The holodeck file (created if missing, continued if present).
     #[arg(long)]
     pub holodeck: PathBuf,
@@ -129,7 +128,7 @@ fn spawn_workers(
     n: usize,
     addr: &str,
     scene: &Path,
-    daylight: Option<&Path>,
+    daylight: &super::daylight_flags::DaylightFlags,
     credentials: &Credentials,
 ) -> anyhow::Result<Group> {
     let exe = std::env::current_exe().context("finding the holocave executable")?;
@@ -137,7 +136,7 @@ fn spawn_workers(
         .map(|i| {
             Watched::spawn(
                 format!("worker {i}"),
-                &mut worker_command(&exe, addr, scene, daylight, credentials),
+                &mut worker_command(&exe, addr, scene, &daylight.args(), credentials),
             )
         })
         .collect::<std::io::Result<_>>()?;
@@ -151,56 +150,8 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         false,
     )?);
     let identity = scene_identity(&args.scene, &scene);
-    let file = if args.holodeck.exists() {
-        let h = HoloFile::open_rw(&args.holodeck)?;
-        if !args.section.is_empty() || args.grid.is_some() {
-            tracing::warn!(
-                "{} exists: --section and --grid are ignored",
-                args.holodeck.display()
-            );
-        }
-        if let Some(recorded) = h.settings().get("scene")
-            && !same_scene(recorded, &identity)
-        {
-            bail!(
-                "{} holds samples of scene {recorded:?}, not of {identity:?} (another scene, \
-                 or the same under another daylight): filling it would mix the two",
-                args.holodeck.display()
-            );
-        }
-        let kind = h.distance_kind()?;
-        if let Some(d) = args.distance.map(Distance::kind).filter(|d| *d != kind) {
-            tracing::warn!(
-                "{} stores {} distances: --distance {} is ignored",
-                args.holodeck.display(),
-                kind.name(),
-                d.name(),
-            );
-        }
-        h
-    } else {
-        let distance = args.distance.map_or(DistanceKind::Virtual, Distance::kind);
-        let sections = make_sections(&args, &scene)?;
-        let settings = file_settings(&identity, distance, "fill");
-        HoloFile::create(&args.holodeck, sections, settings)?
-    };
-    for (i, s) in file.sections().iter().enumerate() {
-        let g = s.grid();
-        tracing::info!(
-            "section {i}: {:?}, grid {}x{}x{}, {} beams",
-            s.class(),
-            g[0],
-            g[1],
-            g[2],
-            s.beam_count()
-        );
-    }
-    tracing::info!(
-        "{}: {} samples, {} distances",
-        args.holodeck.display(),
-        file.total_samples(),
-        file.distance_kind()?.name()
-    );
+    let file = open_or_create(&args, &scene, &identity)?;
+    log_contents(&file, &args.holodeck)?;
     let file_scene = file.settings().get("scene").cloned().unwrap_or(identity);
     let config = ServerConfig {
         cache_bytes: args.cache_mb << 20,
@@ -233,13 +184,7 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
             .listener
             .local_addr()?
             .to_string();
-        children = spawn_workers(
-            processes,
-            &addr,
-            &args.scene,
-            args.daylight.as_deref(),
-            &credentials,
-        )?;
+        children = spawn_workers(processes, &addr, &args.scene, &args.daylight, &credentials)?;
         (0, None)
     } else {
         let src: Arc<dyn holocave_holodeck::worker::SampleSource> = Arc::new(HolodeckTracer(
@@ -248,19 +193,7 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         (args.threads, Some(src))
     };
     let limit = args.time.map(Duration::from_secs_f64);
-    let bar = match limit {
-        Some(l) => {
-            let b = ProgressBar::new(l.as_millis() as u64);
-            b.set_style(
-                ProgressStyle::with_template(
-                    "{spinner} [{elapsed_precise}] {wide_bar} ETA {eta} {msg}",
-                )
-                .expect("valid template"),
-            );
-            b
-        }
-        None => ProgressBar::new_spinner(),
-    };
+    let bar = progress_bar(limit);
     let opts = RunOptions {
         threads,
         source,
@@ -297,4 +230,77 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         start_samples
     );
     Ok(())
+}
+
+/// The holodeck at `args.holodeck`: opened where it exists (refused if it holds another
+/// scene's samples), else made with the sections and distances asked.
+fn open_or_create(args: &FillArgs, scene: &Scene, identity: &str) -> anyhow::Result<HoloFile> {
+    Ok(if args.holodeck.exists() {
+        let h = HoloFile::open_rw(&args.holodeck)?;
+        if !args.section.is_empty() || args.grid.is_some() {
+            tracing::warn!(
+                "{} exists: --section and --grid are ignored",
+                args.holodeck.display()
+            );
+        }
+        if let Some(recorded) = h.settings().get("scene")
+            && !same_scene(recorded, identity)
+        {
+            bail!(
+                "{} holds samples of scene {recorded:?}, not of {identity:?} (another scene, \
+                 or the same under another daylight): filling it would mix the two",
+                args.holodeck.display()
+            );
+        }
+        let kind = h.distance_kind()?;
+        if let Some(d) = args.distance.map(Distance::kind).filter(|d| *d != kind) {
+            tracing::warn!(
+                "{} stores {} distances: --distance {} is ignored",
+                args.holodeck.display(),
+                kind.name(),
+                d.name(),
+            );
+        }
+        h
+    } else {
+        let distance = args.distance.map_or(DistanceKind::Virtual, Distance::kind);
+        let sections = make_sections(args, scene)?;
+        let settings = file_settings(identity, distance, "fill");
+        HoloFile::create(&args.holodeck, sections, settings)?
+    })
+}
+
+/// Logs the holodeck's sections, samples and distances.
+fn log_contents(file: &HoloFile, path: &std::path::Path) -> anyhow::Result<()> {
+    for (i, s) in file.sections().iter().enumerate() {
+        let g = s.grid();
+        tracing::info!(
+            "section {i}: {:?}, grid {}x{}x{}, {} beams",
+            s.class(),
+            g[0],
+            g[1],
+            g[2],
+            s.beam_count()
+        );
+    }
+    tracing::info!(
+        "{}: {} samples, {} distances",
+        path.display(),
+        file.total_samples(),
+        file.distance_kind()?.name()
+    );
+    Ok(())
+}
+
+/// The fill's progress: a bar over `limit`, else a spinner.
+fn progress_bar(limit: Option<Duration>) -> ProgressBar {
+    let Some(l) = limit else {
+        return ProgressBar::new_spinner();
+    };
+    let b = ProgressBar::new(l.as_millis() as u64);
+    b.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} ETA {eta} {msg}")
+            .expect("valid template"),
+    );
+    b
 }

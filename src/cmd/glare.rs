@@ -23,9 +23,8 @@ pub struct GlareArgs {
     /// The scene (glTF 2.0: .gltf or .glb).
     #[arg(long)]
     pub scene: PathBuf,
-    /// Daylight file (default: <scene>.daylight.toml beside the scene, if present).
-    #[arg(long)]
-    pub daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub daylight: super::daylight_flags::DaylightFlags,
     /// Eye position X,Y,Z in scene metres.
     #[arg(long, value_parser = super::parse::vec3, allow_hyphen_values = true)]
     pub eye: Vec3,

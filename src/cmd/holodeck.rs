@@ -2,7 +2,7 @@
 //! compacting, serving and viewing a holodeck file, and proposing its sections.
 
 use std::net::TcpListener;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::Context;
@@ -103,7 +103,10 @@ pub struct ViewArgs {
 
 fn view_of(a: &ViewArgs) -> anyhow::Result<WallView> {
     let scene = match (&a.scene, &a.view.camera) {
-        (Some(path), Some(_)) => Some((super::render::load_scene(path, None, false)?, path)),
+        (Some(path), Some(_)) => Some((
+            super::render::load_scene(path, Default::default(), false)?,
+            path,
+        )),
         _ => None,
     };
     a.view
@@ -198,44 +201,7 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
             file,
             salvage: out,
             holds: old,
-        } => {
-            let r = check(&file)?;
-            println!(
-                "commit {}: {} beams, {} samples verified",
-                r.seq, r.beams_ok, r.samples_ok
-            );
-            for d in &r.damage {
-                println!("DAMAGED: {} at byte {}: {}", d.what, d.offset, d.detail);
-            }
-            if let Some(out) = out {
-                let s = salvage(&file, &out)?;
-                println!(
-                    "salvaged {} beams ({} samples) into {}; {} beams lost",
-                    s.beams,
-                    s.samples,
-                    out.display(),
-                    s.beams_lost
-                );
-            }
-            if !r.is_clean() {
-                anyhow::bail!("{}: {} damaged structures", file.display(), r.damage.len());
-            }
-            if let Some(old) = old {
-                let h = holds(&file, &old)?;
-                println!(
-                    "holds {}: {} beams, {} samples compared; {} beams short, {} samples changed",
-                    old.display(),
-                    h.beams,
-                    h.samples,
-                    h.beams_short,
-                    h.samples_changed
-                );
-                if !h.holds_all() {
-                    anyhow::bail!("{} lost samples of {}", file.display(), old.display());
-                }
-            }
-            println!("{}: ok", file.display());
-        }
+        } => check_file(&file, out.as_deref(), old.as_deref())?,
         HolodeckCommand::Optimize { file } => {
             let r = optimize(&file)?;
             println!(
@@ -249,48 +215,95 @@ pub fn run(c: HolodeckCommand) -> anyhow::Result<()> {
             );
         }
         HolodeckCommand::View(a) => run_view(a)?,
-        HolodeckCommand::Serve(a) => {
-            let credentials = super::credentials::from_env(&a.cluster)?;
-            let h = HoloFile::open_rw(&a.file)?;
-            let scene = h.settings().get("scene").cloned().unwrap_or_default();
-            let listener = TcpListener::bind(&a.listen)
-                .with_context(|| format!("listening on {}", a.listen))?;
-            // Scripts and tests read the address from this line.
-            println!(
-                "holodeck workers and displays may connect to {}",
-                listener.local_addr()?
-            );
-            std::io::Write::flush(&mut std::io::stdout())?;
-            let (mode, config) = if a.interactive {
-                (Mode::Interactive, ServerConfig::interactive())
-            } else {
-                (Mode::Batch, ServerConfig::default())
-            };
-            let config = ServerConfig {
-                cache_bytes: a.cache_mb << 20,
-                ..config
-            };
-            let server = Server::new(h, mode, config);
-            let opts = RunOptions {
-                threads: 0,
-                source: None,
-                listener: Some(Port {
-                    listener,
-                    credentials,
-                }),
-                scene,
-                commit_every: Duration::from_secs(5),
-                stop: super::interrupt::ctrl_c_flag(),
-            };
-            let limit = a.time.map(Duration::from_secs_f64);
-            let server = run_server(server, opts, |p| limit.is_some_and(|l| p.elapsed >= l))?;
-            let s = server.stats();
-            println!(
-                "added {} samples; the holodeck holds {}",
-                s.added, s.samples
-            );
+        HolodeckCommand::Serve(a) => serve(a)?,
+    }
+    Ok(())
+}
+
+/// `holodeck check`: the file's commit verified, salvaged into `out` where asked, and
+/// checked to hold every sample of `old` where given.
+fn check_file(file: &Path, out: Option<&Path>, old: Option<&Path>) -> anyhow::Result<()> {
+    let r = check(file)?;
+    println!(
+        "commit {}: {} beams, {} samples verified",
+        r.seq, r.beams_ok, r.samples_ok
+    );
+    for d in &r.damage {
+        println!("DAMAGED: {} at byte {}: {}", d.what, d.offset, d.detail);
+    }
+    if let Some(out) = out {
+        let s = salvage(file, out)?;
+        println!(
+            "salvaged {} beams ({} samples) into {}; {} beams lost",
+            s.beams,
+            s.samples,
+            out.display(),
+            s.beams_lost
+        );
+    }
+    if !r.is_clean() {
+        anyhow::bail!("{}: {} damaged structures", file.display(), r.damage.len());
+    }
+    if let Some(old) = old {
+        let h = holds(file, old)?;
+        println!(
+            "holds {}: {} beams, {} samples compared; {} beams short, {} samples changed",
+            old.display(),
+            h.beams,
+            h.samples,
+            h.beams_short,
+            h.samples_changed
+        );
+        if !h.holds_all() {
+            anyhow::bail!("{} lost samples of {}", file.display(), old.display());
         }
     }
+    println!("{}: ok", file.display());
+    Ok(())
+}
+
+/// `holodeck serve`: the file served to workers and displays until the time asked, or
+/// Ctrl-C.
+fn serve(a: ServeArgs) -> anyhow::Result<()> {
+    let credentials = super::credentials::from_env(&a.cluster)?;
+    let h = HoloFile::open_rw(&a.file)?;
+    let scene = h.settings().get("scene").cloned().unwrap_or_default();
+    let listener =
+        TcpListener::bind(&a.listen).with_context(|| format!("listening on {}", a.listen))?;
+    // Scripts and tests read the address from this line.
+    println!(
+        "holodeck workers and displays may connect to {}",
+        listener.local_addr()?
+    );
+    std::io::Write::flush(&mut std::io::stdout())?;
+    let (mode, config) = if a.interactive {
+        (Mode::Interactive, ServerConfig::interactive())
+    } else {
+        (Mode::Batch, ServerConfig::default())
+    };
+    let config = ServerConfig {
+        cache_bytes: a.cache_mb << 20,
+        ..config
+    };
+    let server = Server::new(h, mode, config);
+    let opts = RunOptions {
+        threads: 0,
+        source: None,
+        listener: Some(Port {
+            listener,
+            credentials,
+        }),
+        scene,
+        commit_every: Duration::from_secs(5),
+        stop: super::interrupt::ctrl_c_flag(),
+    };
+    let limit = a.time.map(Duration::from_secs_f64);
+    let server = run_server(server, opts, |p| limit.is_some_and(|l| p.elapsed >= l))?;
+    let s = server.stats();
+    println!(
+        "added {} samples; the holodeck holds {}",
+        s.added, s.samples
+    );
     Ok(())
 }
 

@@ -1,4 +1,5 @@
-//! Ctrl-C: the binary's one signal handler. Libraries never install handlers; they take a
+//! Ctrl-C: the binary's one signal handler, for SIGINT, SIGTERM and SIGHUP alike (a
+//! supervisor's or systemd's stop is a Ctrl-C). Libraries never install handlers; they take a
 //! stop flag (`holodeck::run::RunOptions::stop`, `master::cluster::MasterOptions::stop`)
 //! and this sets it, so a long run (a fill, a master, a hosted holodeck) ends its current
 //! step, commits what was traced and says goodbye to its peers instead of dying mid-write.

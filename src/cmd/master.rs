@@ -12,6 +12,7 @@ use clap::Args;
 use super::render::SharedScene;
 use glam::DVec3;
 use holocave_cave::{Cave, load_cave};
+use holocave_glare::live::LiveGlare;
 use holocave_glare::session::views_of;
 use holocave_holodeck::auth::Credentials;
 use holocave_master::cluster::{FrameHook, MasterOptions, Summary, pacer_since, run as run_master};
@@ -90,9 +91,8 @@ pub struct HolodeckArgs {
     /// cluster.holodeck).
     #[arg(long, requires = "holodeck")]
     pub holodeck_listen: Option<String>,
-    /// The scene's daylight file (default: <scene>.daylight.toml beside it, if present).
-    #[arg(long, requires = "scene")]
-    pub daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub daylight: super::daylight_flags::DaylightFlags,
     /// Tracer threads in the master for the hosted holodeck (workers on other hosts add
     /// more).
     #[arg(long, default_value_t = 0, requires = "holodeck")]
@@ -134,7 +134,8 @@ impl HolodeckArgs {
             threads: self.tracer_threads,
             listen,
             credentials,
-            daylight: self.daylight.as_deref(),
+            daylight: self.daylight.daylight.as_deref(),
+            moment: self.daylight.moment()?,
             made_by,
             sections: &self.section,
             stop: super::interrupt::ctrl_c_flag(),
@@ -338,21 +339,7 @@ pub fn print_summary(s: &Summary) {
 }
 
 pub fn run(args: MasterArgs) -> Result<()> {
-    let mut cave = load_cave(&args.config)?;
-    if let Some(r) = args.rate {
-        cave.set_rate(r)
-            .map_err(|e| anyhow::anyhow!("--rate {e}"))?;
-    }
-    if let Some(ms) = args.dead_node_ms {
-        cave.set_dead_node_ms(ms)
-            .map_err(|e| anyhow::anyhow!("--dead-node-ms {e}"))?;
-    }
-    if !(args.wait_for_walls >= 0.0 && args.wait_for_walls < 1e6) {
-        anyhow::bail!(
-            "--wait-for-walls {}: not a number of seconds",
-            args.wait_for_walls
-        );
-    }
+    let cave = cave_of(&args)?;
     let credentials = super::credentials::of_cave(&cave, &args.config)?;
     let addr = args.listen.clone().unwrap_or(cave.cluster.master.clone());
     let listener = TcpListener::bind(&addr).with_context(|| format!("listening on {addr}"))?;
@@ -387,21 +374,7 @@ pub fn run(args: MasterArgs) -> Result<()> {
         )),
         _ => None,
     };
-    let mut hosted_status = hosted.as_ref().map(Hosted::status);
-    let status_extra: Option<Box<dyn FnMut() -> String + Send>> = match live_glare.clone() {
-        None => hosted_status,
-        Some(g) => Some(Box::new(move || {
-            let glare = g
-                .latest()
-                .map_or("glare: none measured yet".to_owned(), |(f, d)| {
-                    format!("glare: DGP {d:.3} at frame {f}")
-                });
-            match hosted_status.as_mut() {
-                Some(s) => format!("{} | {glare}", s()),
-                None => glare,
-            }
-        })),
-    };
+    let status_extra = status_with_glare(hosted.as_ref().map(Hosted::status), live_glare.clone());
     let on_frame = live_glare
         .clone()
         .map(|g| Box::new(move |state: &FrameState| g.offer(views_of(state))) as FrameHook);
@@ -440,6 +413,48 @@ pub fn run(args: MasterArgs) -> Result<()> {
     }
     print_summary(&summary?);
     Ok(())
+}
+
+/// The CAVE of `args.config`, with the rate, the dead-node time and the wait for walls the
+/// flags set.
+fn cave_of(args: &MasterArgs) -> Result<holocave_cave::Cave> {
+    let mut cave = load_cave(&args.config)?;
+    if let Some(r) = args.rate {
+        cave.set_rate(r)
+            .map_err(|e| anyhow::anyhow!("--rate {e}"))?;
+    }
+    if let Some(ms) = args.dead_node_ms {
+        cave.set_dead_node_ms(ms)
+            .map_err(|e| anyhow::anyhow!("--dead-node-ms {e}"))?;
+    }
+    if !(args.wait_for_walls >= 0.0 && args.wait_for_walls < 1e6) {
+        anyhow::bail!(
+            "--wait-for-walls {}: not a number of seconds",
+            args.wait_for_walls
+        );
+    }
+    Ok(cave)
+}
+
+/// The status line's extra part: the hosted holodeck's, and the latest glare measured live.
+fn status_with_glare(
+    mut hosted_status: Option<Box<dyn FnMut() -> String + Send>>,
+    live_glare: Option<Arc<LiveGlare>>,
+) -> Option<Box<dyn FnMut() -> String + Send>> {
+    match live_glare {
+        None => hosted_status,
+        Some(g) => Some(Box::new(move || {
+            let glare = g
+                .latest()
+                .map_or("glare: none measured yet".to_owned(), |(f, d)| {
+                    format!("glare: DGP {d:.3} at frame {f}")
+                });
+            match hosted_status.as_mut() {
+                Some(s) => format!("{} | {glare}", s()),
+                None => glare,
+            }
+        })),
+    }
 }
 
 /// With `--desk`, the desk's input goes to DIR/desk.csv (a session log's button and axes

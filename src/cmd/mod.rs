@@ -3,6 +3,8 @@
 pub mod cave;
 pub mod compare;
 pub mod credentials;
+pub mod daylight;
+pub mod daylight_flags;
 pub mod fill;
 pub mod glare;
 pub mod holodeck;

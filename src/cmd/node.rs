@@ -101,9 +101,8 @@ pub struct NodeArgs {
     /// The scene (glTF).
     #[arg(long)]
     pub(crate) scene: PathBuf,
-    /// The scene's daylight file (default: <scene>.daylight.toml beside it, if present).
-    #[arg(long)]
-    pub(crate) daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) daylight: super::daylight_flags::DaylightFlags,
     /// Standalone: move the scene's moving objects along these paths (CSV
     /// `object,time_s,tx,ty,tz,qx,qy,qz,qw`, on the frames' clock). In a cluster the
     /// master's frame states place them.
@@ -306,7 +305,10 @@ fn vlf_drawing(args: &NodeArgs) -> VlfDrawing {
     }
 }
 
-fn load_tracer(path: &Path, daylight: Option<PathBuf>) -> Result<(Arc<Scene>, Arc<Tracer>)> {
+fn load_tracer(
+    path: &Path,
+    daylight: super::daylight_flags::DaylightFlags,
+) -> Result<(Arc<Scene>, Arc<Tracer>)> {
     let scene = Arc::new(super::render::load_scene(path, daylight, false)?);
     let tracer = Arc::new(Tracer::new(scene.clone(), TraceSettings::default()));
     Ok((scene, tracer))
@@ -323,45 +325,19 @@ fn standalone(
     check_standalone_flags(args)?;
     let eyes = Eye::for_mode(wall.stereo);
     let (scene, tracer) = load_tracer(&args.scene, args.daylight.clone())?;
-    let objects = args
-        .objects
-        .as_deref()
-        .map(|p| super::render::read_object_paths(p, &scene))
-        .transpose()?;
-    if !scene.objects().is_empty() && args.vlf.is_none() {
-        tracing::warn!(
-            "the scene's moving objects are drawn over a light field only: give --vlf to see them"
-        );
-    }
+    let objects = standalone_objects(args, &scene)?;
     let mut pose_at = replayed_head(args, cave)?;
-    let gpu = match &windows {
-        Some(w) => w.screens.gpu.clone(),
-        None => Gpu::new()?,
-    };
-    let mut builder = DisplayBuilder::new(size, eyes.len(), samples, tracer);
-    builder.gpu = Some(gpu.clone());
-    builder.gather = args.gather;
-    builder.light_field = light_field(args, &scene, &gpu)?;
-    let own = own_holodeck(args, cave)?;
     let StandaloneWall {
         mut display,
         holodeck,
-        holodeck_described,
-    } = StandaloneWall::assemble(&builder, cave, &scene, own, args.sync)?;
-    if let Some(d) = holodeck_described {
-        println!("{d}");
-    }
-    if let Some(a) = holodeck.as_ref().and_then(Running::local_addr) {
-        println!("holodeck workers and displays may connect to {a}");
-    }
-    println!(
-        "wall {:?}: {} eye(s) at {size}, {} points, {samples} samples per eye and frame, GPU {}",
-        wall.name,
-        eyes.len(),
-        display.cache.capacity(),
-        display.cache.gpu().adapter
-    );
-
+        ..
+    } = standalone_display(
+        args,
+        (cave, wall),
+        (size, samples, eyes.len()),
+        (&scene, tracer),
+        windows.as_ref(),
+    )?;
     let efficacy = scene.daylight.photometry.efficacy;
     let mut tone = args.tone.mapper(efficacy);
     let windows = windows.map(|mut w| {
@@ -373,12 +349,7 @@ fn standalone(
         .map(|w| WindowOutput::new(w.screens, wall, w.tone, args.window.present_log.as_deref()))
         .transpose()?;
     let dir = args.out.join(&wall.name);
-    let schedule = Schedule {
-        frames: args.frames,
-        seconds: args.seconds,
-        fps: args.fps,
-        every: args.every,
-    };
+    let schedule = schedule_of(args);
     let stopping = || {
         holodeck.as_ref().is_some_and(Running::stopping)
             || closed.as_ref().is_some_and(|c| c.load(Ordering::Acquire))
@@ -437,6 +408,69 @@ fn standalone(
     }
     print_standalone_times(args, &totals, &dir);
     Ok(())
+}
+
+/// The moving objects' paths of `--objects` for a standalone wall (a warning where the
+/// scene has objects but no light field draws them).
+fn standalone_objects(
+    args: &NodeArgs,
+    scene: &Arc<Scene>,
+) -> Result<Option<holocave_scene::ObjectPaths>> {
+    let objects = args
+        .objects
+        .as_deref()
+        .map(|p| super::render::read_object_paths(p, scene))
+        .transpose()?;
+    if !scene.objects().is_empty() && args.vlf.is_none() {
+        tracing::warn!(
+            "the scene's moving objects are drawn over a light field only: give --vlf to see them"
+        );
+    }
+    Ok(objects)
+}
+
+/// A standalone wall's display, fed by its own holodeck where asked, said on stdout.
+fn standalone_display(
+    args: &NodeArgs,
+    (cave, wall): (&Cave, &Wall),
+    (size, samples, eyes): (Size, u32, usize),
+    (scene, tracer): (&Arc<Scene>, Arc<Tracer>),
+    windows: Option<&Windows>,
+) -> Result<StandaloneWall> {
+    let gpu = match windows {
+        Some(w) => w.screens.gpu.clone(),
+        None => Gpu::new()?,
+    };
+    let mut builder = DisplayBuilder::new(size, eyes, samples, tracer);
+    builder.gpu = Some(gpu.clone());
+    builder.gather = args.gather;
+    builder.light_field = light_field(args, scene, &gpu)?;
+    let own = own_holodeck(args, cave)?;
+    let wall_display = StandaloneWall::assemble(&builder, cave, scene, own, args.sync)?;
+    if let Some(d) = &wall_display.holodeck_described {
+        println!("{d}");
+    }
+    if let Some(a) = wall_display.holodeck.as_ref().and_then(Running::local_addr) {
+        println!("holodeck workers and displays may connect to {a}");
+    }
+    println!(
+        "wall {:?}: {} eye(s) at {size}, {} points, {samples} samples per eye and frame, GPU {}",
+        wall.name,
+        eyes,
+        wall_display.display.cache.capacity(),
+        wall_display.display.cache.gpu().adapter
+    );
+    Ok(wall_display)
+}
+
+/// How many frames a standalone wall draws, and when.
+fn schedule_of(args: &NodeArgs) -> Schedule {
+    Schedule {
+        frames: args.frames,
+        seconds: args.seconds,
+        fps: args.fps,
+        every: args.every,
+    }
 }
 
 /// The windows' end: the last frame kept on screen for `--linger` seconds, then their

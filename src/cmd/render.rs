@@ -29,9 +29,8 @@ pub struct RenderArgs {
     /// Output OpenEXR file; a tone-mapped PNG preview is written beside it.
     #[arg(long)]
     pub out: PathBuf,
-    /// Daylight file (default: <scene>.daylight.toml beside the scene, if present).
-    #[arg(long)]
-    pub daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub daylight: super::daylight_flags::DaylightFlags,
     /// Refuse scenes that require glTF extensions holocave does not implement.
     #[arg(long)]
     pub strict: bool,
@@ -83,10 +82,15 @@ pub fn read_object_paths(path: &Path, scene: &Scene) -> Result<ObjectPaths> {
     Ok(paths)
 }
 
-pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Result<Scene> {
+pub fn load_scene(
+    path: &Path,
+    daylight: super::daylight_flags::DaylightFlags,
+    strict: bool,
+) -> Result<Scene> {
     let opts = LoadOptions {
         strict,
-        daylight,
+        moment: daylight.moment()?,
+        daylight: daylight.daylight,
         ..Default::default()
     };
     // The loader logs its own warnings.
@@ -97,12 +101,12 @@ pub fn load_scene(path: &Path, daylight: Option<PathBuf>, strict: bool) -> Resul
 /// BVH takes seconds to build).
 pub struct SharedScene {
     path: PathBuf,
-    daylight: Option<PathBuf>,
+    daylight: super::daylight_flags::DaylightFlags,
     loaded: std::cell::OnceCell<std::sync::Arc<Scene>>,
 }
 
 impl SharedScene {
-    pub fn new(path: &Path, daylight: Option<PathBuf>) -> Self {
+    pub fn new(path: &Path, daylight: super::daylight_flags::DaylightFlags) -> Self {
         SharedScene {
             path: path.to_owned(),
             daylight,

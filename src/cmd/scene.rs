@@ -14,8 +14,8 @@ pub enum SceneCommand {
     /// Triangles, materials by kind, emitters, lights, bounds, BVH build time.
     Info {
         scene: PathBuf,
-        #[arg(long)]
-        daylight: Option<PathBuf>,
+        #[command(flatten)]
+        daylight: super::daylight_flags::DaylightFlags,
         #[arg(long)]
         strict: bool,
     },
@@ -108,5 +108,6 @@ fn sky_name(model: &holocave_scene::daylight::SkyModel) -> &'static str {
         SkyModel::CieOvercast { .. } => "cie_overcast",
         SkyModel::CieClear { .. } => "cie_clear",
         SkyModel::Map(_) => "map",
+        SkyModel::Perez(_) => "perez",
     }
 }

@@ -41,10 +41,8 @@ pub struct SimArgs {
     /// The scene (glTF).
     #[arg(long, default_value = "scenes/room.gltf")]
     pub scene: PathBuf,
-    /// The scene's daylight file, for every node, worker and bake (default:
-    /// <scene>.daylight.toml beside it, if present).
-    #[arg(long)]
-    pub daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub daylight: super::daylight_flags::DaylightFlags,
     /// Move the scene's moving objects along these paths (CSV
     /// `object,time_s,tx,ty,tz,qx,qy,qz,qw`, time from the run's start); the master sends
     /// their placements with every frame.
@@ -135,13 +133,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         args.head.tracker.as_deref().unwrap_or("?"),
         args.out.display()
     );
-    let vlf = if args.no_vlf {
-        None
-    } else {
-        let path =
-            (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
-        Some(super::vlf::baked_default(&*scene.get()?, &path)?)
-    };
+    let vlf = light_field(&args, &scene)?;
     let hosted = host_holodeck(&args, &cave, &credentials)?;
     let mut children = Group::default();
     if let Some(h) = &hosted {
@@ -154,13 +146,7 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         )?;
     }
     // One layout of the unfolded CAVE for the windows and the mosaics.
-    let unfolded = unfold(
-        &cave
-            .walls
-            .iter()
-            .map(|w| (w.name.clone(), w.pixels.scaled(args.scale, 8)))
-            .collect::<Vec<_>>(),
-    );
+    let unfolded = unfolded_walls(&args, &cave);
     let placed = unfolded.fit(args.windows.desktop);
     let nodes = Nodes {
         exe: &exe,
@@ -220,6 +206,28 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     Ok(())
 }
 
+/// The light field the walls draw: none with `--no-vlf`, else `--vlf` or the one kept
+/// beside the output, baked first where it is not there.
+fn light_field(args: &SimArgs, scene: &super::render::SharedScene) -> Result<Option<PathBuf>> {
+    if args.no_vlf {
+        return Ok(None);
+    }
+    let path =
+        (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
+    Ok(Some(super::vlf::baked_default(&*scene.get()?, &path)?))
+}
+
+/// The CAVE's walls unfolded, at `--scale`.
+fn unfolded_walls(args: &SimArgs, cave: &Cave) -> Unfolded {
+    unfold(
+        &cave
+            .walls
+            .iter()
+            .map(|w| (w.name.clone(), w.pixels.scaled(args.scale, 8)))
+            .collect::<Vec<_>>(),
+    )
+}
+
 /// The CAVE with `sim`'s overrides, the flags checked, and the tracker defaulted (the
 /// shipped log if it is there, else a synthetic walk).
 fn checked_cave(args: &mut SimArgs) -> Result<Cave> {
@@ -258,7 +266,8 @@ fn host_holodeck(args: &SimArgs, cave: &Cave, credentials: &Credentials) -> Resu
             threads: 0,
             listen: "127.0.0.1:0",
             credentials: credentials.clone(),
-            daylight: args.daylight.as_deref(),
+            daylight: args.daylight.daylight.as_deref(),
+            moment: args.daylight.moment()?,
             made_by: "sim",
             sections: &args.section,
             stop: super::interrupt::ctrl_c_flag(),
@@ -278,13 +287,8 @@ fn spawn_workers(
 ) -> Result<()> {
     for i in 0..args.workers {
         let log = std::fs::File::create(args.out.join(format!("worker{i}.log")))?;
-        let mut command = worker_command(
-            exe,
-            addr,
-            &args.scene,
-            args.daylight.as_deref(),
-            credentials,
-        );
+        let mut command =
+            worker_command(exe, addr, &args.scene, &args.daylight.args(), credentials);
         command
             .stdout(log.try_clone()?)
             .stderr(log)
@@ -330,10 +334,7 @@ impl Nodes<'_> {
             .arg(&args.config)
             .arg("--scene")
             .arg(&args.scene)
-            .args(
-                (args.daylight.iter())
-                    .flat_map(|d| [std::ffi::OsStr::new("--daylight"), d.as_os_str()]),
-            )
+            .args(args.daylight.args())
             .arg("--out")
             .arg(&args.out)
             .args(["--tone", args.tone.name()])

@@ -28,8 +28,8 @@ pub enum VlfCommand {
         file: PathBuf,
         #[arg(long)]
         scene: Option<PathBuf>,
-        #[arg(long)]
-        daylight: Option<PathBuf>,
+        #[command(flatten)]
+        daylight: super::daylight_flags::DaylightFlags,
     },
     /// Draw one view from the light field alone (EXR + PNG), with `render`'s view flags.
     View(ViewArgs),
@@ -39,9 +39,8 @@ pub enum VlfCommand {
 pub struct BakeArgs {
     #[arg(long)]
     pub scene: PathBuf,
-    /// Daylight file (default: <scene>.daylight.toml beside the scene, if present).
-    #[arg(long)]
-    pub daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub daylight: super::daylight_flags::DaylightFlags,
     #[arg(long)]
     pub out: PathBuf,
     /// Directions over the sphere (rounded up to a geodesic sphere: 42, 92, 162, 252, 362,
@@ -86,8 +85,8 @@ pub struct ViewArgs {
     pub file: PathBuf,
     #[arg(long)]
     pub scene: PathBuf,
-    #[arg(long)]
-    pub daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub daylight: super::daylight_flags::DaylightFlags,
     #[command(flatten)]
     pub view: ViewFlags,
     /// Image size WxH in pixels.
@@ -379,7 +378,11 @@ fn info(file: &Path) -> Result<()> {
     Ok(())
 }
 
-fn check(file: &Path, scene: Option<&Path>, daylight: Option<PathBuf>) -> Result<()> {
+fn check(
+    file: &Path,
+    scene: Option<&Path>,
+    daylight: super::daylight_flags::DaylightFlags,
+) -> Result<()> {
     let f = VlfFile::read(file)?;
     if let Some(scene) = scene {
         let scene = load_scene(scene, daylight, false)?;
@@ -474,17 +477,11 @@ fn view(a: ViewArgs) -> Result<()> {
         );
         if !scene.objects().is_empty() {
             let mask = pass.visibility().object_pixels(&view);
-            let (mse, bias, n) = holocave_vlf::accuracy::masked(&image, &reference, &mask);
-            println!(
-                "on the moving objects ({n} pixels): relative MSE {mse:.5}, mean bias {:+.2} %",
-                100.0 * bias
-            );
+            let on = holocave_vlf::accuracy::masked(&image, &reference, &mask, 16);
+            println!("on the moving objects ({} pixels): {on}", on.pixels);
             let rest: Vec<bool> = mask.iter().map(|m| !m).collect();
-            let (mse, bias, n) = holocave_vlf::accuracy::masked(&image, &reference, &rest);
-            println!(
-                "elsewhere ({n} pixels): relative MSE {mse:.5}, mean bias {:+.2} %",
-                100.0 * bias
-            );
+            let off = holocave_vlf::accuracy::masked(&image, &reference, &rest, 16);
+            println!("elsewhere ({} pixels): {off}", off.pixels);
         }
     }
     Ok(())

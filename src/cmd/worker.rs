@@ -25,13 +25,15 @@ pub struct WorkerArgs {
     /// Work for a light-field bake (`holocave vlf bake --listen`) instead of a holodeck.
     #[arg(long)]
     pub vlf: bool,
-    /// Daylight file of the scene (default: <scene>.daylight.toml beside it, if present).
-    #[arg(long)]
-    pub daylight: Option<PathBuf>,
+    #[command(flatten)]
+    pub daylight: super::daylight_flags::DaylightFlags,
 }
 
 /// Loads a scene (with `daylight`, else the file beside it) and makes its sample generator.
-pub fn load_source(scene: &Path, daylight: Option<PathBuf>) -> anyhow::Result<HolodeckTracer> {
+pub fn load_source(
+    scene: &Path,
+    daylight: super::daylight_flags::DaylightFlags,
+) -> anyhow::Result<HolodeckTracer> {
     let s = super::render::load_scene(scene, daylight, false)?;
     Ok(HolodeckTracer(Tracer::new(
         Arc::new(s),

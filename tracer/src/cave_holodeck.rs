@@ -286,6 +286,8 @@ pub struct HostSpec<'a> {
     pub credentials: Credentials,
     /// The scene's daylight file (`None`: the one beside the scene, if any).
     pub daylight: Option<&'a Path>,
+    /// The time and weather the daylight is taken at (`None`: the daylight file as written).
+    pub moment: Option<holocave_scene::daylight::Moment>,
     /// The command that creates a new file (`master`, `sim`).
     pub made_by: &'a str,
     /// Interior sections a new file gets besides the CAVE's (boxes `lo, hi` in scene
@@ -308,6 +310,7 @@ impl HostSpec<'_> {
         let scene = if self.threads > 0 || !self.path.exists() || self.follows_scene {
             let options = LoadOptions {
                 daylight: self.daylight.map(Path::to_path_buf),
+                moment: self.moment.clone(),
                 ..LoadOptions::default()
             };
             let s =

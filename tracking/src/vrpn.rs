@@ -279,24 +279,11 @@ fn session(
         .write_all(&hello(&target.device, types))
         .map_err(io)?;
 
-    let selector = TrackerSelector {
-        device: target.device.clone(),
-        sensor: target.sensor,
-    };
-    let inputs = match follow {
-        Follow::Tracker => None,
-        Follow::Input(kind) => Some(InputSelector {
-            device: target.device.clone(),
-            kind,
-        }),
-    };
-    let mut decoder = StreamDecoder::new();
-    let mut names = RemoteNames::default();
-    let mut connected = false;
+    let mut following = Following::new(target, follow);
     let mut buf = vec![0u8; 16 * 1024];
     loop {
         let n = match stream.read(&mut buf) {
-            Ok(0) => return Err((VrpnError::Closed { addr }, connected)),
+            Ok(0) => return Err((VrpnError::Closed { addr }, following.connected)),
             Ok(n) => n,
             Err(e)
                 if matches!(
@@ -310,71 +297,123 @@ fn session(
                 continue;
             }
             Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-            Err(source) => return Err((VrpnError::Io { addr, source }, connected)),
+            Err(source) => return Err((VrpnError::Io { addr, source }, following.connected)),
         };
         // Every message in these bytes arrived now.
         let arrived = std::time::Instant::now();
-        decoder.feed(&buf[..n]);
+        if following.deliver(&buf[..n], arrived, &addr, tx)?.is_some() || stop_requested(stop) {
+            return Ok(Stop::Requested);
+        }
+    }
+}
+
+/// A session's reading of the server's messages: the device and sensor (or input kind) it
+/// follows, the stream's decoder, the names the server has given, and whether any message
+/// has come yet.
+struct Following {
+    selector: TrackerSelector,
+    inputs: Option<InputSelector>,
+    decoder: StreamDecoder,
+    names: RemoteNames,
+    connected: bool,
+}
+
+impl Following {
+    fn new(target: &VrpnTarget, follow: Follow) -> Following {
+        Following {
+            selector: TrackerSelector {
+                device: target.device.clone(),
+                sensor: target.sensor,
+            },
+            inputs: match follow {
+                Follow::Tracker => None,
+                Follow::Input(kind) => Some(InputSelector {
+                    device: target.device.clone(),
+                    kind,
+                }),
+            },
+            decoder: StreamDecoder::new(),
+            names: RemoteNames::default(),
+            connected: false,
+        }
+    }
+
+    /// Sends on `tx` what the messages in `bytes` (from `addr`, arrived at `arrived`) say:
+    /// the connection on the first, then each sample or input event. `Some(Stop)` where
+    /// the receiver has gone.
+    fn deliver(
+        &mut self,
+        bytes: &[u8],
+        arrived: std::time::Instant,
+        addr: &str,
+        tx: &Sender<VrpnEvent>,
+    ) -> Result<Option<Stop>, (VrpnError, bool)> {
+        self.decoder.feed(bytes);
+        let protocol = |source| {
+            let addr = addr.to_string();
+            (VrpnError::Protocol { addr, source }, true)
+        };
         loop {
-            let protocol = |source| {
-                (
-                    VrpnError::Protocol {
-                        addr: addr.clone(),
-                        source,
-                    },
-                    true,
-                )
+            let connected = self.connected;
+            let next = self.decoder.next_message().map_err(|source| {
+                let addr = addr.to_string();
+                (VrpnError::Protocol { addr, source }, connected)
+            })?;
+            let Some(msg) = next else {
+                return Ok(None);
             };
-            let Some(msg) = decoder.next_message().map_err(|source| {
-                (
-                    VrpnError::Protocol {
-                        addr: addr.clone(),
-                        source,
-                    },
-                    connected,
-                )
-            })?
-            else {
-                break;
-            };
-            if !connected {
-                connected = true;
-                if tx
-                    .send(VrpnEvent::Connected { addr: addr.clone() })
-                    .is_err()
-                {
-                    return Ok(Stop::Requested);
+            if !self.connected {
+                self.connected = true;
+                let addr = addr.to_string();
+                if tx.send(VrpnEvent::Connected { addr }).is_err() {
+                    return Ok(Some(Stop::Requested));
                 }
             }
-            if names.absorb(&msg).map_err(protocol)? {
+            if self.names.absorb(&msg).map_err(protocol)? {
                 continue;
             }
-            let event = match &inputs {
-                None => selector
-                    .sample(&names, &msg)
-                    .map_err(protocol)?
-                    .map(|s| VrpnEvent::Sample(s, arrived)),
-                Some(inputs) => inputs
-                    .event(&names, &msg)
-                    .map_err(|source| {
-                        (
-                            VrpnError::Input {
-                                addr: addr.clone(),
-                                source,
-                            },
-                            true,
-                        )
-                    })?
-                    .map(|e| VrpnEvent::Input(e, arrived)),
-            };
-            if let Some(event) = event
+            if let Some(event) = self.event(&msg, arrived, addr)?
                 && tx.send(event).is_err()
             {
-                return Ok(Stop::Requested);
+                return Ok(Some(Stop::Requested));
             }
         }
-        if stop_requested(stop) {
-            return Ok(Stop::Requested);
+    }
+
+    /// The sample or input event `msg` carries, if it is of what this session follows.
+    fn event(
+        &self,
+        msg: &Message,
+        arrived: std::time::Instant,
+        addr: &str,
+    ) -> Result<Option<VrpnEvent>, (VrpnError, bool)> {
+        let addr = || addr.to_string();
+        match &self.inputs {
+            None => Ok(self
+                .selector
+                .sample(&self.names, msg)
+                .map_err(|source| {
+                    (
+                        VrpnError::Protocol {
+                            addr: addr(),
+                            source,
+                        },
+                        true,
+                    )
+                })?
+                .map(|s| VrpnEvent::Sample(s, arrived))),
+            Some(inputs) => Ok(inputs
+                .event(&self.names, msg)
+                .map_err(|source| {
+                    (
+                        VrpnError::Input {
+                            addr: addr(),
+                            source,
+                        },
+                        true,
+                    )
+                })?
+                .map(|e| VrpnEvent::Input(e, arrived))),
         }
     }
 }

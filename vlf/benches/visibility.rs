@@ -147,5 +147,66 @@ fn objects_by_triangles(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, visibility, moving_objects, objects_by_triangles);
+/// What a moving object's gathers cost ([`holocave_vlf::object_gather`]): a wall's first
+/// frame of the room (128 × 96, as `sim`'s, on all cores; every pixel at a new point, so
+/// its objects' and their neighbours' pixels take their first estimates' 16 rays), with the
+/// block in the shade filling a fifth of it, against the same frame with the block away.
+/// The field a quick bake's (162 directions, 64² lines: the gathers' cost does not depend
+/// on it).
+fn object_gathers(c: &mut Criterion) {
+    use holocave_scene::Placement;
+    use holocave_vlf::WallPass;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room.gltf");
+    let opts = LoadOptions::with_objects(&["block"]);
+    let Ok(scene) = Scene::load(&path, &opts) else {
+        eprintln!("the room's block is not as this bench expects; skipped");
+        return;
+    };
+    let scene = Arc::new(scene);
+    let settings = Settings {
+        directions: 162,
+        resolution: 64,
+        ..Settings::default()
+    };
+    let (state, _) = holocave_vlf::bake::bake::<std::convert::Infallible>(
+        &scene,
+        &settings,
+        None,
+        &|_| {},
+        &mut |_| Ok(()),
+    )
+    .unwrap_or_else(|e| match e {});
+    let vis = Visibility::of(scene.clone(), &settings);
+    let pass = WallPass::new(vis, &settings, &state, false).expect("a pass");
+    let v = WallView {
+        eye: Vec3::new(0.9, 1.8, 0.1),
+        pa: Vec3::new(0.1622, 0.7174, 0.1612),
+        pb: Vec3::new(1.0734, 0.7174, -0.6197),
+        pc: Vec3::new(-0.31, 1.6732, -0.3897),
+        size: Size::new(128, 96),
+    };
+    let mut group = c.benchmark_group("vlf wall pass/room.gltf block");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(8));
+    for (label, at) in [
+        ("in the shade, in view", Vec3::new(-0.3, 0.4, -1.3)),
+        ("away", Vec3::splat(1000.0)),
+    ] {
+        pass.visibility()
+            .place_objects(&[Placement::new(at, Quat::IDENTITY)]);
+        group.bench_function(
+            format!("128x96 first frame, all cores, block {label}"),
+            |b| b.iter(|| pass.render(&v, pass.values(), 1, 1)),
+        );
+    }
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    visibility,
+    moving_objects,
+    objects_by_triangles,
+    object_gathers
+);
 criterion_main!(benches);

@@ -68,28 +68,67 @@ pub fn figures(image: &Image, reference: &Image, block: u32) -> Figures {
     }
 }
 
-/// The relative MSE (as [`Figures::relative_mse`]) and the relative error of the mean
-/// luminance over the pixels `mask` marks (a moving object's), and how many there are.
-pub fn masked(image: &Image, reference: &Image, mask: &[bool]) -> (f64, f64, usize) {
+/// An image's figures over the pixels a mask marks (a moving object's, or the rest).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Masked {
+    /// As [`Figures::relative_mse`], over the marked pixels.
+    pub relative_mse: f64,
+    /// The relative error of their mean luminance.
+    pub bias: f64,
+    /// The largest relative error of the mean luminance of a `block × block` block's
+    /// marked pixels, over the blocks at least half marked (0 where none is).
+    pub worst_block: f64,
+    pub pixels: usize,
+}
+
+/// `image`'s figures against `reference` over the pixels `mask` marks, blocks of `block`
+/// pixels.
+pub fn masked(image: &Image, reference: &Image, mask: &[bool], block: u32) -> Masked {
     assert_eq!(image.pixels.len(), mask.len());
+    let w = image.width as usize;
+    let block = block.max(1) as usize;
+    let (bw, bh) = (w / block, image.height as usize / block);
+    // Per block: luminance of the image and of the reference, marked pixels.
+    let mut blocks = vec![(0.0f64, 0.0f64, 0usize); bw * bh];
     let (mut se, mut lum, mut lum_ref, mut n) = (0.0, 0.0, 0.0, 0usize);
-    for ((x, r), _) in image
-        .pixels
-        .iter()
-        .zip(&reference.pixels)
-        .zip(mask)
-        .filter(|(_, m)| **m)
+    for (i, ((x, r), _)) in (image.pixels.iter().zip(&reference.pixels).zip(mask))
+        .enumerate()
+        .filter(|(_, (_, m))| **m)
     {
         for c in 0..3 {
             let (x, r) = (f64::from(x[c]), f64::from(r[c]));
             se += (x - r).powi(2) / (r * r + 0.01);
         }
-        lum += luminance(*x);
-        lum_ref += luminance(*r);
-        n += 1;
+        let (l, lr) = (luminance(*x), luminance(*r));
+        (lum, lum_ref, n) = (lum + l, lum_ref + lr, n + 1);
+        let (bx, by) = (i % w / block, i / w / block);
+        if bx < bw && by < bh {
+            let b = &mut blocks[by * bw + bx];
+            *b = (b.0 + l, b.1 + lr, b.2 + 1);
+        }
     }
-    let n3 = (3 * n).max(1) as f64;
-    (se / n3, (lum - lum_ref) / lum_ref.max(1e-12), n)
+    let worst_block = (blocks.iter())
+        .filter(|b| 2 * b.2 >= block * block)
+        .map(|b| ((b.0 - b.1) / b.1.max(1e-12)).abs())
+        .fold(0.0, f64::max);
+    Masked {
+        relative_mse: se / (3 * n).max(1) as f64,
+        bias: (lum - lum_ref) / lum_ref.max(1e-12),
+        worst_block,
+        pixels: n,
+    }
+}
+
+impl std::fmt::Display for Masked {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "relative MSE {:.5}, mean bias {:+.2} %, worst 16×16 block {:.1} %",
+            self.relative_mse,
+            100.0 * self.bias,
+            100.0 * self.worst_block
+        )
+    }
 }
 
 impl std::fmt::Display for Figures {
@@ -137,8 +176,18 @@ mod tests {
         assert!((f.relative_mse - 0.01 / 1.01 / 4.0).abs() < 1e-6, "{f}");
         // Over the bright block alone: every pixel off by 0.1, the mean 10 % high.
         let mask: Vec<bool> = (0..32 * 32).map(|i| i % 32 < 16 && i / 32 < 16).collect();
-        let (mse, bias, n) = masked(&image, &reference, &mask);
-        assert_eq!(n, 256);
-        assert!((mse - 0.01 / 1.01).abs() < 1e-6 && (bias - 0.1).abs() < 1e-6);
+        let m = masked(&image, &reference, &mask, 16);
+        assert_eq!(m.pixels, 256);
+        assert!((m.relative_mse - 0.01 / 1.01).abs() < 1e-6 && (m.bias - 0.1).abs() < 1e-6);
+        assert!((m.worst_block - 0.1).abs() < 1e-6, "{m}");
+        // Over the bright block's upper half and a pixel of the next block: that block
+        // is less than half marked and counts in the mean, not as a block.
+        let mask: Vec<bool> = (0..32 * 32)
+            .map(|i| (i % 32 < 16 && i / 32 < 8) || i == 16)
+            .collect();
+        let m = masked(&image, &reference, &mask, 16);
+        assert_eq!(m.pixels, 129);
+        assert!((m.worst_block - 0.1).abs() < 1e-6, "{m}");
+        assert!((m.bias - 0.1 * 128.0 / 129.0).abs() < 1e-6, "{m}");
     }
 }

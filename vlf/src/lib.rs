@@ -71,6 +71,7 @@ pub mod footprint;
 pub mod gather;
 pub mod glow_edges;
 pub mod kept_gathers;
+pub mod object_gather;
 pub mod objects;
 pub mod octahedral;
 pub mod pixel_direct;
@@ -99,8 +100,8 @@ pub use directions::Directions;
 pub use elements::Elements;
 pub use file::{VlfError, VlfFile};
 pub use pixel_direct::{
-    Accumulator, Aim, DirectPoint, Estimate, Made, MadeFrom, MadeRays, PixelDirect, Sampled,
-    ShadowQuery, SunSequence, made_rays, sun_sequence,
+    Accumulator, Aim, DirectPoint, Estimate, Gather, Made, MadeFrom, MadeRays, PixelDirect,
+    Sampled, ShadowQuery, SunSequence, made_rays, sun_sequence,
 };
 pub use static_rays::{CpuRays, StaticRays};
 pub use tiles::Tiles;

@@ -5,12 +5,16 @@
 //! - **drawn exactly**: the pixel rays meet it (the scene's two-level queries);
 //! - **direct light and shadows exact**: the per-pixel shadow rays see it
 //!   ([`crate::pixel_direct`]), on the room and on itself;
-//! - **its indirect light** from an irradiance probe at its centre ([`crate::probe`]),
-//!   gathered from the light field (the radiance the static surfaces send towards it, and
-//!   the sky), again when it has moved by a quarter of its radius;
+//! - **its indirect light** gathered per pixel from its surface points where the walls take
+//!   the direct light per pixel ([`crate::object_gather`]); else, and where a gather meets
+//!   an object, from an irradiance probe at its centre ([`crate::probe`]), gathered from the
+//!   light field (the radiance the static surfaces send towards it, and the sky), again
+//!   when it has moved by a quarter of its radius;
 //! - **its darkening of the room's indirect light**: the light field's part at a static
 //!   point is scaled by the share of the point's cosine-weighted hemisphere the object
-//!   leaves open, the object taken as a sphere with its mean shadow (below);
+//!   leaves open, the object taken as a sphere with its mean shadow (below); where that
+//!   share is large, the per-pixel pass gathers what the objects change there instead
+//!   ([`crate::view::GATHERED_OCCLUSION`]);
 //! - wherever any of these differ from what the static caches hold (the object, its
 //!   shadows, its surroundings), the render cache's samples do not count
 //!   ([`crate::Lookup::samples`]).

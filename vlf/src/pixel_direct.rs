@@ -71,9 +71,10 @@ pub struct DirectPoint {
     pub bsdf: Bsdf,
     /// What the delta surfaces between the eye and the point let through.
     pub weight: Vec3,
-    /// Where the lookup reads an element: the surface's directional albedo towards `wo`
-    /// ([`crate::surface::albedo_towards`]), by which (over π, and times `weight`) the
-    /// element's irradiance reaches the eye; zero elsewhere.
+    /// Where the lookup reads an element, or on a moving object: the surface's
+    /// directional albedo towards `wo` ([`crate::surface::albedo_towards`]), by which
+    /// (over π, and times `weight`) the element's irradiance, or what the object's pixel
+    /// gathers ([`crate::object_gather`]), reaches the eye; zero elsewhere.
     pub albedo: Vec3,
     /// The light of surfaces that the lookup's emitted light holds (not glow:
     /// [`crate::glow_edges`] leaves it to the surface part): those glass's weaker branches
@@ -94,6 +95,11 @@ pub struct DirectPoint {
     /// the point is seen through a mirror or glass, or is a moving object's: its
     /// estimates are all taken at `position`.
     pub span: [Vec3; 2],
+    /// Its indirect light is gathered per pixel ([`crate::object_gather`]): on a moving
+    /// object all of it; on the static scene where an object takes much of the point's
+    /// hemisphere (the field, baked without it, is wrong there) what the objects change
+    /// of the field's part the lookup shows.
+    pub gathered: bool,
 }
 
 /// The per-pixel direct light of one scene.
@@ -204,6 +210,11 @@ impl PixelDirect {
     pub fn with_sky(mut self, on: bool) -> Self {
         self.sky = on && self.lights.sky.is_some();
         self
+    }
+
+    /// Whether the sky is sampled too ([`Self::with_sky`]).
+    pub fn samples_sky(&self) -> bool {
+        self.sky
     }
 
     /// Also, on the triangles marked in `widened` (whose light-field tiles widen a glossy
@@ -786,6 +797,11 @@ pub enum Sampled {
     Other,
 }
 
+/// The light an estimate at a point adds beside its shadow rays' (a moving object's own
+/// indirect light: [`crate::object_gather`]): `gather(p, seed, n)` for pixel `seed`'s
+/// `n`-th estimate at `p`.
+pub type Gather<'a> = dyn Fn(&DirectPoint, u64, u64) -> Vec3 + Sync + 'a;
+
 /// One estimate of the direct light at a point.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate {
@@ -924,19 +940,21 @@ impl Accumulator {
     }
 
     /// Adds one frame's estimate at every pixel's point (`None`: nothing non-delta seen),
-    /// with the moving objects where `placed` puts them, and returns every pixel's
-    /// running mean (zero where there is no point), each marked if a moving object
-    /// blocked any of its estimates.
+    /// with the moving objects where `placed` puts them, each with what `gather` adds
+    /// there, and returns every pixel's running mean (zero where there is no point), each
+    /// marked if a moving object blocked any of its estimates.
     pub fn add(
         &mut self,
         direct: &PixelDirect,
         placed: &PlacedScene,
         points: &[Option<DirectPoint>],
+        gather: &Gather,
     ) -> Vec<Estimate> {
         let (means, takes) = self.each_pixel(direct, points, |i, p, first, take, sum| {
             if let Some(p) = p {
                 for n in first..first + u64::from(take) {
                     *sum += direct.estimate(placed, p, i as u64, n);
+                    sum.radiance += gather(p, i as u64, n);
                 }
             }
             mean(sum, first as u32 + take)
@@ -1070,20 +1088,23 @@ impl Accumulator {
     /// [`Self::add`], with the frame's shadow rays against the static scene traced all at
     /// once by `traced` (the CPU's walk, or the GPU's), each pixel's a group; with
     /// `made`, the punctual lights' and the sun's rays of the pixels that see their first
-    /// hit are made by the walk instead. The moving objects are tested on the CPU.
+    /// hit are made by the walk instead. The moving objects, and what `gather` adds, are
+    /// taken on the CPU.
     pub fn add_blocked(
         &mut self,
         direct: &PixelDirect,
         placed: &PlacedScene,
         points: &[Option<DirectPoint>],
-        traced: &dyn StaticRays,
-        made: Option<&Made>,
+        (traced, made): (&dyn StaticRays, Option<&Made>),
+        gather: &Gather,
     ) -> Vec<Estimate> {
         // The estimates each pixel takes this frame, as shadow rays, and where they leave
-        // from for a walk that makes them from the pixel's first hit's triangle.
+        // from for a walk that makes them from the pixel's first hit's triangle; and what
+        // they gather.
         let (planned, takes) = self.each_pixel(direct, points, |i, p, first, take, _| {
             let mut queries = Vec::new();
             let mut from = MadeFrom::FirstHit;
+            let mut gathered = Vec3::ZERO;
             if let Some(p) = p {
                 for n in first..first + u64::from(take) {
                     from = match (direct.queries(p, i as u64, n, &mut queries), take) {
@@ -1091,10 +1112,12 @@ impl Accumulator {
                         (Some(at), 1) => MadeFrom::Moved(at),
                         _ => MadeFrom::Sent,
                     };
+                    gathered += gather(p, i as u64, n);
                 }
             }
-            (queries, from)
+            ((queries, from), gathered)
         });
+        let (planned, gathered): (Vec<_>, Vec<Vec3>) = planned.into_iter().unzip();
         let (per_pixel, from): (Vec<Vec<ShadowQuery>>, Vec<MadeFrom>) = planned.into_iter().unzip();
         let lights = direct.lights.punctual.len() as u32;
         let n = points.len();
@@ -1132,19 +1155,22 @@ impl Accumulator {
         let answers = per_group(sent, &answers);
         let means = (per_pixel.par_iter().zip(&bits).zip(masks))
             .zip(answers)
-            .zip(self.sum.par_iter_mut())
+            .zip(self.sum.par_iter_mut().zip(gathered))
             .zip(self.count.par_iter())
-            .map(|(((((queries, bits), mask), answers), sum), &count)| {
-                let mut sent = answers.iter();
-                for (k, q) in queries.iter().enumerate() {
-                    let b = match bit(bits, k) {
-                        Some(bit) => mask & (1 << bit) != 0,
-                        None => *sent.next().unwrap_or(&true),
-                    };
-                    *sum += PixelDirect::resolve(placed, q, b);
-                }
-                mean(sum, count)
-            })
+            .map(
+                |(((((queries, bits), mask), answers), (sum, gathered)), &count)| {
+                    sum.radiance += gathered;
+                    let mut sent = answers.iter();
+                    for (k, q) in queries.iter().enumerate() {
+                        let b = match bit(bits, k) {
+                            Some(bit) => mask & (1 << bit) != 0,
+                            None => *sent.next().unwrap_or(&true),
+                        };
+                        *sum += PixelDirect::resolve(placed, q, b);
+                    }
+                    mean(sum, count)
+                },
+            )
             .collect();
         self.spread_by(&takes);
         means

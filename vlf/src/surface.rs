@@ -23,6 +23,7 @@ use holocave_tracer::microfacet::Ggx;
 use rayon::prelude::*;
 
 use crate::StaticRays;
+use crate::pixel_direct::DirectPoint;
 use crate::sequence::{R3, r_sequence};
 
 /// The most delta surfaces followed in a row before a line or eye ray gives up (black).
@@ -290,6 +291,29 @@ pub struct Seen {
     pub delta: bool,
     /// Emission towards the ray (zero from the back of a one-sided emitter).
     pub emitted: Vec3,
+}
+
+impl Seen {
+    /// The point as the direct light per pixel takes it, seen from direction `wo` (unit,
+    /// away from the surface) through delta surfaces that let `weight` through: its
+    /// estimates all taken at the point ([`DirectPoint::span`] zero), nothing else of
+    /// its lookup known yet.
+    pub fn direct_point(&self, wo: Vec3, weight: Vec3) -> DirectPoint {
+        DirectPoint {
+            triangle: self.hit.triangle,
+            position: self.position,
+            normal: self.normal,
+            shading_normal: self.shading_normal,
+            wo,
+            bsdf: Bsdf::new(&self.params),
+            weight,
+            albedo: Vec3::ZERO,
+            surfaces: Vec3::ZERO,
+            reflected: None,
+            span: [Vec3::ZERO; 2],
+            gathered: false,
+        }
+    }
 }
 
 /// The surface at barycentrics `(u, v)` of `triangle` (an element's centre), seen from

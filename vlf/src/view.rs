@@ -142,6 +142,14 @@ pub struct OverMirror {
     pub beyond: f32,
 }
 
+/// The share of a static element's cosine-weighted hemisphere the moving objects take
+/// (as [`ObjectLight::openness`] reckons it) beyond which the per-pixel pass gathers what
+/// they change of its indirect light instead of darkening the field's by that share: the
+/// darkening assumes the light arrives evenly, and beside an object that hides a window
+/// from the floor it left the floor 25 % too bright, in a corner the walls 35 % too dark
+/// (the room's block, against the path tracer; `docs/usage/objects.md`).
+pub const GATHERED_OCCLUSION: f32 = 0.04;
+
 /// The values a view's lookups are shaded with, and whether they are the remainder under
 /// the direct light per pixel ([`Visibility::draw_with`]).
 type Drawn = (Arc<Vec<[f32; 3]>>, bool);
@@ -317,6 +325,13 @@ impl Visibility {
         }
     }
 
+    /// The irradiance moving object `k`'s probe gives a surface of unit normal `n` on it
+    /// ([`ObjectLight::irradiance`]).
+    pub fn object_irradiance(&self, k: usize, n: Vec3) -> Vec3 {
+        let o = self.objects.read().unwrap_or_else(|e| e.into_inner());
+        o.irradiance(k, n)
+    }
+
     /// Where the moving objects stand now.
     pub fn placements(&self) -> Vec<Placement> {
         let o = self.objects.read().unwrap_or_else(|e| e.into_inner());
@@ -354,6 +369,25 @@ impl Visibility {
     /// [`Self::arriving`] along `ray`, whose first hit in the static scene, `first`, was
     /// found elsewhere (a batch of rays on the GPU).
     pub fn arriving_from(&self, ray: Ray, first: Option<Hit>, values: &[[f32; 3]]) -> Arriving {
+        self.arriving_among(ray, first, values, &ObjectLight::default())
+    }
+
+    /// [`Self::arriving_from`] with the field's part at the surface the ray ends on
+    /// darkened by the moving objects where they stand ([`ObjectLight::openness`]): what a
+    /// gather from beside an object sees of the floor the object shades
+    /// ([`crate::object_gather`]).
+    pub fn arriving_darkened(&self, ray: Ray, first: Option<Hit>, values: &[[f32; 3]]) -> Vec3 {
+        let objects = self.objects.read().unwrap_or_else(|e| e.into_inner());
+        self.arriving_among(ray, first, values, &objects).radiance
+    }
+
+    fn arriving_among(
+        &self,
+        ray: Ray,
+        first: Option<Hit>,
+        values: &[[f32; 3]],
+        objects: &ObjectLight,
+    ) -> Arriving {
         // Shadow rays stop at mirrors and glass: the emitters and the sun seen through
         // them come along this ray instead.
         let statics = self.scene.statics();
@@ -394,7 +428,7 @@ impl Visibility {
         let escaped = chain.end.is_none();
         let first_frame = ReflectionFrames::still(0);
         let drawn = (Some(values), false, &first_frame);
-        let (mut l, point) = self.lookup_chain(chain, &ObjectLight::default(), None, drawn);
+        let (mut l, point) = self.lookup_chain(chain, objects, None, drawn);
         if !behind_delta {
             l.emitted = if escaped {
                 sky(&self.lights, dir)
@@ -690,17 +724,8 @@ impl Visibility {
                 .element(s.hit.triangle, side, s.hit.u, s.hit.v)
         };
         let mut point = DirectPoint {
-            triangle: s.hit.triangle,
-            position: s.position,
-            normal: s.normal,
-            shading_normal: s.shading_normal,
-            wo: -r.dir,
-            bsdf: Bsdf::new(&s.params),
-            weight: chain.weight,
-            albedo: Vec3::ZERO,
             surfaces: beside,
-            reflected: None,
-            span: [Vec3::ZERO; 2],
+            ..s.direct_point(-r.dir, chain.weight)
         };
         // A glossy surface of the static scene without a tile: its Lambertian base's light,
         // its highlights (the per-pixel pass's where it adds the direct light here, else
@@ -752,9 +777,15 @@ impl Visibility {
             }
         }
         if let Some(k) = object {
-            let indirect = albedo_towards(&s.params, s.shading_normal.dot(r.dir))
-                * std::f32::consts::FRAC_1_PI
-                * objects.irradiance(k, s.shading_normal);
+            // Where the per-pixel pass takes the point's light, it gathers the object's
+            // indirect light there ([`crate::object_gather`]); else its probe gives it.
+            point.albedo = albedo_towards(&s.params, s.shading_normal.dot(r.dir));
+            point.gathered = direct_at_point;
+            let indirect = if direct_at_point {
+                Vec3::ZERO
+            } else {
+                point.albedo * std::f32::consts::FRAC_1_PI * objects.irradiance(k, s.shading_normal)
+            };
             let l = Lookup {
                 emitted: (chain.emitted + chain.weight * (s.emitted + indirect)).to_array(),
                 object: k as u32 + 1,
@@ -776,6 +807,16 @@ impl Visibility {
         let samples = if near { 0.0 } else { 1.0 };
         let cells = self.elements.triangles[s.hit.triangle as usize];
         let emitted = (chain.emitted + chain.weight * s.emitted).to_array();
+        // Where an object takes much of the hemisphere, the per-pixel pass gathers what
+        // it changes of the point's indirect light ([`crate::object_gather`]) in place of
+        // the sphere's darkening.
+        let (open, samples) = if direct_at_point && 1.0 - open > GATHERED_OCCLUSION {
+            point.albedo = albedo_towards(&s.params, s.shading_normal.dot(r.dir));
+            point.gathered = true;
+            (1.0, 0.0)
+        } else {
+            (open, samples)
+        };
         let element = element();
         if let Some(g) = self.tiles.of(element) {
             let (x, y) = self.tiles.view_coords(g, r.dir, s.shading_normal);
@@ -1089,23 +1130,18 @@ pub const SKY_PRIOR_SAMPLES: f32 = 32.0;
 
 impl SkyPrior<'_> {
     /// The direct light a pixel shows at lookup `l` from `e`, the mean of its `n`
-    /// estimates: the sky's share blended with the field's sky; a moving object's lookup
-    /// takes the sky from its probe already, so there the share is left out.
+    /// estimates: the sky's share blended with the field's sky; on a moving object, which
+    /// has no field, its own samples alone.
     pub fn direct(&self, l: &Lookup, e: &Estimate, n: u32) -> Vec3 {
-        let rest = e.radiance - e.sky;
         if l.object != 0 {
-            return rest;
+            return e.radiance;
         }
-        rest + self.blend(l, e.sky, n)
+        e.radiance - e.sky + self.blend(l, e.sky, n)
     }
 
     /// The sky's light at lookup `l` after `n` samples averaging `mean`.
     pub fn blend(&self, l: &Lookup, mean: Vec3, n: u32) -> Vec3 {
-        let field = Lookup {
-            emitted: [0.0; 3],
-            ..*l
-        };
-        let f = shade_one(&field, self.values);
+        let f = field_part(l, self.values);
         let n = n as f32;
         (self.samples * f + n * mean) / (self.samples + n).max(f32::MIN_POSITIVE)
     }
@@ -1119,6 +1155,15 @@ type FirstHits<'a> = dyn Fn(&PlacedScene, &[Ray], usize) -> Vec<Option<Hit>> + S
 /// itself, whether the per-pixel pass adds the direct light at its point, and the frames
 /// whose directions the glossy lobes take.
 type LookupDrawn<'a> = (Option<&'a [[f32; 3]]>, bool, &'a ReflectionFrames);
+
+/// The light field's part of lookup `l` (its emitted light left out), from `values`.
+fn field_part(l: &Lookup, values: &[[f32; 3]]) -> Vec3 {
+    let field = Lookup {
+        emitted: [0.0; 3],
+        ..*l
+    };
+    shade_one(&field, values)
+}
 
 /// The radiance of one lookup; `values`: the elements' irradiance, then the tiles'
 /// radiance.

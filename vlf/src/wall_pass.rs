@@ -11,7 +11,7 @@
 //! |---|---|
 //! | 1. first hit, and the chain through mirrors and glass | [`crate::surface`] (`follow`) |
 //! | 2. the surface a pixel sees, 3. the light field's lookup, with sharpened and blurred glossy reflections | [`Visibility`] ([`Lookup`], [`DirectPoint`]) |
-//! | 4. the direct light: light choice, BSDF, MIS, shadow rays | [`PixelDirect`] ([`WallPass::direct_mean`]) |
+//! | 4. the direct light: light choice, BSDF, MIS, shadow rays; a moving object's own indirect light, gathered | [`PixelDirect`] ([`WallPass::direct_mean`]), [`crate::object_gather`] |
 //! | 5. the running means across frames | the wall's [`crate::Accumulator`]; one ray: the mean of [`FrameContext::estimates`] |
 //! | 6. caustics, tile albedo, the sky prior | [`WallPass::added`] |
 //! | 7. edges | [`crate::glow_edges`], [`crate::surface_edges`] (a wall's batch, where a pixel's neighbours are known) |
@@ -31,6 +31,7 @@ use rayon::prelude::*;
 use crate::bake::{Settings, State};
 use crate::baked::Opened;
 use crate::footprint::Screen;
+use crate::object_gather::ObjectGather;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
 use crate::split::Split;
 use crate::static_rays::StaticRays;
@@ -205,16 +206,37 @@ impl WallPass {
         self.direct.first_estimates() + frames.max(1) - 1
     }
 
-    /// Stage 4 for one point: the mean of `estimates` direct-light estimates at `p`, of
-    /// sample sequence `seed`, with the moving objects where they stand.
+    /// Stage 4's gathers on the moving objects ([`crate::object_gather`]), from all of
+    /// the field's light.
+    pub fn object_gather(&self) -> ObjectGather<'_> {
+        ObjectGather {
+            visibility: &self.visibility,
+            direct: &self.direct,
+            values: &self.total,
+        }
+    }
+
+    /// Stage 4 for one point: the mean of `estimates` estimates at `p` of its direct
+    /// light and, on a moving object, its gathered indirect light, of sample sequence
+    /// `seed`, with the moving objects where they stand.
     pub fn direct_mean(&self, p: &DirectPoint, seed: u64, estimates: u32) -> Estimate {
-        (self.visibility).with_placed(|placed| self.direct.mean(placed, p, seed, 0, estimates))
+        let gather = self.object_gather();
+        (self.visibility).with_placed(|placed| {
+            let mut e = self.direct.mean(placed, p, seed, 0, estimates);
+            let gathered: Vec3 = (0..u64::from(estimates.max(1)))
+                .map(|n| gather.estimate(placed, p, seed, n))
+                .sum();
+            e.radiance += gathered / estimates.max(1) as f32;
+            e
+        })
     }
 
     /// Stage 6: what the per-pixel pass adds to lookup `l` (read from `values`) beyond
     /// what the lookup itself shows: the direct light `e`, the mean of `n` estimates, over
     /// the field's sky where the sky is per pixel; the tile's albedo put right at the
-    /// pixel's angle; and `caustic`, the caustics at its point ([`Self::caustics`]).
+    /// pixel's angle; and `caustic`, the caustics at its point ([`Self::caustics`]). Never
+    /// so negative that the pixel is: a mean of few gathers of what an object takes away
+    /// from the field's light ([`crate::object_gather`]) can take away more than it shows.
     pub fn added(
         &self,
         values: &[[f32; 3]],
@@ -226,7 +248,8 @@ impl WallPass {
             Some(prior) => prior.direct(l, e, n),
             None => e.radiance,
         };
-        direct + self.direct.tile_albedo(l, values) + caustic
+        let added = direct + self.direct.tile_albedo(l, values) + caustic;
+        added.max(-shade_one(l, values))
     }
 
     /// Stage 6's caustics at `p`, the point of lookup `l`, over the footprint of a pixel

@@ -27,6 +27,11 @@ fn scene_with(
 // The slit: an opaque plane at height H with a gap of width W along z, over a Lambertian
 // floor; the sun 30° from the zenith, tilted towards +x, with the real sun's angular
 // radius.
+/// These scenes have no moving objects: nothing is gathered beside the shadow rays.
+fn no_gathers(_: &DirectPoint, _: u64, _: u64) -> Vec3 {
+    Vec3::ZERO
+}
+
 const H: f32 = 1.0;
 const W: f32 = 1.0;
 const RHO: f32 = 0.5;
@@ -344,7 +349,7 @@ fn a_still_pixel_across_a_shadows_edge_shows_its_patchs_mean() {
     let frames = 1024;
     let mut means = Vec::new();
     for _ in 0..frames {
-        means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
+        means = vis.with_placed(|sc| acc.add(&direct, sc, &points, &no_gathers));
     }
     let (_, across) = assert_patch_means(&scene, &view, &points, &means, |_| frames);
     assert!(across >= 20, "only {across} pixels across an edge");
@@ -371,7 +376,7 @@ fn a_settled_still_view_estimates_only_where_the_light_varies() {
         if f == frames - last {
             held_before = (0..points.len()).map(|i| acc.frames(i)).collect();
         }
-        means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
+        means = vis.with_placed(|sc| acc.add(&direct, sc, &points, &no_gathers));
         if f >= frames - last {
             taken += acc.taken();
         }
@@ -504,10 +509,10 @@ fn a_moving_eye_carries_the_means_over_and_stays_exact() {
     let (pa, pb) = (points(&a), points(&b));
     let mut acc = Accumulator::new();
     for _ in 0..16 {
-        vis.with_placed(|sc| acc.add(&direct, sc, &pa));
+        vis.with_placed(|sc| acc.add(&direct, sc, &pa, &no_gathers));
     }
     acc.reproject(&a, &b, &pb);
-    let means = vis.with_placed(|sc| acc.add(&direct, sc, &pb));
+    let means = vis.with_placed(|sc| acc.add(&direct, sc, &pb, &no_gathers));
 
     let seen: Vec<usize> = (0..pb.len()).filter(|&i| pb[i].is_some()).collect();
     let carried = seen.iter().filter(|&&i| acc.frames(i) == 17).count();
@@ -577,12 +582,12 @@ fn a_sweeping_eye_leaves_no_trail_across_the_shadows_edge() {
     let mut acc = Accumulator::new();
     let mut from = screen(-0.84);
     let mut points = vis.pixels_and_points(&from).1;
-    let mut means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
+    let mut means = vis.with_placed(|sc| acc.add(&direct, sc, &points, &no_gathers));
     for step in 1..=96 {
         let to = screen(-0.84 + 0.005 * step as f32);
         points = vis.pixels_and_points(&to).1;
         acc.reproject(&from, &to, &points);
-        means = vis.with_placed(|sc| acc.add(&direct, sc, &points));
+        means = vis.with_placed(|sc| acc.add(&direct, sc, &points, &no_gathers));
         from = to;
     }
     // A pixel is 5 cm on a screen 0.4 m below the eye, parallel to the floor 0.8 m below

@@ -20,6 +20,12 @@ pub fn shared_scene(rel: &str) -> Option<PathBuf> {
     require::shared(&format!("scenes/{rel}"))
 }
 
+/// A file of the shared folder beside the checkout (`../shared/<rel>`), or `None` as
+/// [`shared_scene`].
+pub fn shared_file(rel: &str) -> Option<PathBuf> {
+    require::shared(rel)
+}
+
 /// Loads a scene leniently; a load error is a test failure that shows the error.
 pub fn load(path: &Path) -> Scene {
     match Scene::load(path, &LoadOptions::default()) {

@@ -17,6 +17,35 @@
 //!
 //! Radiance is linear RGB in the scene's emission units; an optional `[photometry]` table
 //! gives their luminous efficacy ([`crate::photometry`]).
+//!
+//! A place and a time may give the sun instead ([`site`], [`moment`]): an optional
+//! `[site]` table, and a time asked for (`--when`), put the sun where NREL's SPA sees it
+//! from the site; a weather file ([`epw`]) gives the hour's direct and diffuse irradiance
+//! and with them a Perez all-weather sky ([`perez`]) in place of the file's `[sun]` light
+//! and `[sky]`:
+//!
+//! ```toml
+//! [site]
+//! latitude = 41.98              # degrees, north positive
+//! longitude = -87.92            # degrees, east positive
+//! elevation = 201.0             # metres
+//! time_zone = -6.0              # hours from UTC of local standard time
+//! north = [0.0, 0.0, -1.0]      # the scene direction pointing north (default −Z)
+//! ```
+//!
+//! Without a time the `[sun]` and `[sky]` are as written, whatever `[site]` says.
+
+pub mod epw;
+pub mod moment;
+pub mod perez;
+pub mod site;
+pub mod when;
+
+pub use epw::{EpwError, Weather};
+pub use moment::{Instant, Moment, MomentError};
+pub use perez::PerezSky;
+pub use site::{Site, SunPosition};
+pub use when::When;
 
 use std::f32::consts::PI;
 use std::path::{Path, PathBuf};
@@ -95,6 +124,8 @@ pub enum SkyModel {
         sun: Vec3,
     },
     Map(SkyMap),
+    /// The Perez all-weather sky of an hour's weather.
+    Perez(PerezSky),
 }
 
 /// A sky: its model plus the ground seen below the horizon.
@@ -133,6 +164,7 @@ impl Sky {
                 *zenith * cie_clear_ratio(dir.y, gamma, sun_zenith)
             }
             SkyModel::Map(m) => m.radiance(dir),
+            SkyModel::Perez(p) => Vec3::splat(p.radiance(dir) as f32),
         }
     }
 
@@ -165,6 +197,8 @@ pub struct Daylight {
     /// glTF marks movable: the file is the scene's settings, read by every process that
     /// loads the scene, so all of them agree on what is static.
     pub objects: Vec<crate::load::ObjectSpec>,
+    /// Where the scene stands (`[site]`), for a time asked for.
+    pub site: Option<Site>,
 }
 
 #[derive(Deserialize)]
@@ -192,11 +226,41 @@ struct SkyToml {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct DaylightToml {
+    site: Option<SiteToml>,
     sun: Option<SunToml>,
     sky: Option<SkyToml>,
     photometry: Option<PhotometryToml>,
     #[serde(default)]
     object: Vec<ObjectToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SiteToml {
+    latitude: f64,
+    longitude: f64,
+    elevation: f64,
+    time_zone: f64,
+    north: Option<[f32; 3]>,
+    pressure_mbar: Option<f64>,
+    temperature_c: Option<f64>,
+}
+
+impl SiteToml {
+    fn site(&self) -> Result<Site, site::SiteError> {
+        let mut site = Site::new(
+            self.latitude,
+            self.longitude,
+            self.elevation,
+            self.time_zone,
+        )?;
+        if let Some(n) = self.north {
+            site = site.with_north(n)?;
+        }
+        let pressure = self.pressure_mbar.unwrap_or(site.pressure_mbar);
+        let temperature = self.temperature_c.unwrap_or(site.temperature_c);
+        site.with_air(pressure, temperature)
+    }
 }
 
 #[derive(Deserialize)]
@@ -223,53 +287,119 @@ fn rgb(field: &str, v: [f32; 3], path: &Path) -> Result<Vec3, SceneError> {
     Ok(c)
 }
 
+fn daylight_error(path: &Path) -> impl Fn(String) -> SceneError + '_ {
+    |message| SceneError::Daylight {
+        path: path.into(),
+        message,
+    }
+}
+
+/// The ground's radiance under `sky` and `sun`: their horizontal irradiance times
+/// `albedo / π` (a map sky carries its own ground).
+fn ground_under(sky: &Sky, sun: Option<&Sun>, albedo: f32) -> Vec3 {
+    if matches!(sky.model, SkyModel::Map(_)) {
+        return Vec3::ZERO;
+    }
+    let mut e = sky.horizontal_irradiance();
+    if let Some(sun) = sun {
+        e += sun.radiance * sun.solid_angle() * sun.direction.y.max(0.0);
+    }
+    e * albedo / PI
+}
+
 impl Daylight {
     /// Reads a daylight TOML file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
+        Self::load_at(path, None)
+    }
+
+    /// Reads a daylight TOML file, with the sun (and with weather, the sky) of `moment`.
+    pub fn load_at(path: &Path, moment: Option<&Moment>) -> Result<Self, SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
             path: path.into(),
             source,
         })?;
-        Self::parse(&text, path)
+        Self::parse_at(&text, path, moment)
     }
 
     /// Parses daylight TOML; `path` names the input in errors and anchors relative map
     /// paths.
     pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
-        let err = |message: String| SceneError::Daylight {
-            path: path.into(),
-            message,
-        };
+        Self::parse_at(text, path, None)
+    }
+
+    /// Parses daylight TOML for `moment`: its sun follows the site and time; with a weather
+    /// file the sun carries the hour's DNI and the sky is the hour's Perez sky.
+    pub fn parse_at(text: &str, path: &Path, moment: Option<&Moment>) -> Result<Self, SceneError> {
+        let err = daylight_error(path);
         let t: DaylightToml = toml::from_str(text).map_err(|e| err(e.to_string()))?;
-        let sun = t.sun.map(|s| Self::parse_sun(s, path)).transpose()?;
-        let sky = match t.sky {
-            None => None,
-            Some(s) => Some(Self::parse_sky(s, sun.as_ref(), path)?),
-        };
-        let photometry = match t.photometry {
-            None => Photometry::default(),
-            Some(p) if p.efficacy.is_finite() && p.efficacy > 0.0 => Photometry {
-                efficacy: p.efficacy,
-            },
-            Some(p) => {
-                return Err(err(format!(
-                    "photometry.efficacy must be finite and positive, got {}",
-                    p.efficacy
-                )));
+        let site = (t.site.as_ref())
+            .map(|s| s.site().map_err(|e| err(format!("[site]: {e}"))))
+            .transpose()?;
+        let instant = moment
+            .map(|m| m.resolve(site.as_ref()).map_err(|e| err(e.to_string())))
+            .transpose()?;
+        let (sun, sky) = match instant.as_ref().filter(|i| i.hour.is_some()) {
+            Some(i) => Self::weather_light(i, t.sun.as_ref(), t.sky.as_ref(), path)?,
+            None => {
+                let sun = (t.sun)
+                    .map(|s| Self::parse_sun(s, instant.as_ref(), path))
+                    .transpose()?
+                    .flatten();
+                let sky = (t.sky)
+                    .map(|s| Self::parse_sky(s, sun.as_ref(), instant.as_ref(), path))
+                    .transpose()?;
+                (sun, sky)
             }
         };
-        let mut objects = Vec::new();
-        for o in t.object {
+        Ok(Self {
+            sun,
+            sky,
+            photometry: Self::parse_photometry(t.photometry, path)?,
+            objects: Self::parse_objects(t.object, path)?,
+            site,
+        })
+    }
+
+    /// The sun and sky of an instant as a weather file gives them (a disc of 0.533°
+    /// carrying the DNI, the Perez sky, a ground of albedo 0.2), with no daylight file.
+    pub fn of_instant(i: &Instant) -> Result<Self, SceneError> {
+        let (sun, sky) = Self::weather_light(i, None, None, Path::new("(no daylight file)"))?;
+        Ok(Self {
+            sun,
+            sky: sky.filter(|_| i.hour.is_some()),
+            site: Some(i.site.clone()),
+            ..Self::default()
+        })
+    }
+
+    fn parse_photometry(p: Option<PhotometryToml>, path: &Path) -> Result<Photometry, SceneError> {
+        match p {
+            None => Ok(Photometry::default()),
+            Some(p) if p.efficacy.is_finite() && p.efficacy > 0.0 => Ok(Photometry {
+                efficacy: p.efficacy,
+            }),
+            Some(p) => Err(daylight_error(path)(format!(
+                "photometry.efficacy must be finite and positive, got {}",
+                p.efficacy
+            ))),
+        }
+    }
+
+    fn parse_objects(
+        list: Vec<ObjectToml>,
+        path: &Path,
+    ) -> Result<Vec<crate::load::ObjectSpec>, SceneError> {
+        let err = daylight_error(path);
+        let mut objects: Vec<crate::load::ObjectSpec> = Vec::new();
+        for o in list {
             if o.name.is_empty() || o.nodes.is_empty() {
                 return Err(err(format!(
                     "[[object]] {:?}: an object needs a name and at least one node",
                     o.name
                 )));
             }
-            if objects
-                .iter()
-                .any(|s: &crate::load::ObjectSpec| s.name == o.name)
-            {
+            if objects.iter().any(|s| s.name == o.name) {
                 return Err(err(format!("[[object]] {:?} is named twice", o.name)));
             }
             objects.push(crate::load::ObjectSpec {
@@ -277,26 +407,93 @@ impl Daylight {
                 nodes: o.nodes,
             });
         }
-        Ok(Self {
-            sun,
-            sky,
-            photometry,
-            objects,
-        })
+        Ok(objects)
     }
 
-    fn parse_sun(s: SunToml, path: &Path) -> Result<Sun, SceneError> {
-        let err = |message: String| SceneError::Daylight {
-            path: path.into(),
-            message,
+    /// The sun and sky of a weather hour: a disc carrying the DNI (the file's
+    /// `angular_diameter_deg`, else 0.533° as gendaylit's) and the Perez sky, over a ground
+    /// of the file's `ground_albedo` (else 0.2). Both are dark while the sun is down.
+    fn weather_light(
+        i: &Instant,
+        sun: Option<&SunToml>,
+        sky: Option<&SkyToml>,
+        path: &Path,
+    ) -> Result<(Option<Sun>, Option<Sky>), SceneError> {
+        let diameter = sun.and_then(|s| s.angular_diameter_deg).unwrap_or(0.533);
+        let angular_radius = Self::angular_radius(diameter, path)?;
+        let dni = i.hour.map_or(0.0, |h| h.dni);
+        let sun = (i.sun_up() && dni > 0.0).then(|| {
+            let mut sun = Sun {
+                direction: i.direction,
+                angular_radius,
+                radiance: Vec3::ZERO,
+            };
+            sun.radiance = Vec3::splat(dni as f32 / sun.solid_angle());
+            sun
+        });
+        let model = match &i.perez {
+            Some(p) => SkyModel::Perez(p.clone()),
+            None => SkyModel::Uniform(Vec3::ZERO),
         };
-        let direction = match (s.direction, s.elevation_deg, s.azimuth_deg) {
+        let albedo = Self::albedo(sky.and_then(|s| s.ground_albedo), path)?;
+        let mut sky = Sky {
+            model,
+            ground: Vec3::ZERO,
+        };
+        sky.ground = ground_under(&sky, sun.as_ref(), albedo);
+        Ok((sun, Some(sky)))
+    }
+
+    fn angular_radius(diameter: f32, path: &Path) -> Result<f32, SceneError> {
+        if !(diameter > 0.0 && diameter < 90.0) {
+            return Err(daylight_error(path)(format!(
+                "sun.angular_diameter_deg must be in (0, 90), got {diameter}"
+            )));
+        }
+        Ok((diameter / 2.0).to_radians())
+    }
+
+    fn albedo(albedo: Option<f32>, path: &Path) -> Result<f32, SceneError> {
+        let albedo = albedo.unwrap_or(0.2);
+        if !(0.0..=1.0).contains(&albedo) {
+            return Err(daylight_error(path)(format!(
+                "sky.ground_albedo must be in [0, 1], got {albedo}"
+            )));
+        }
+        Ok(albedo)
+    }
+
+    /// The `[sun]` as written, its direction from the file or, at an instant, from the
+    /// site; `None` when the instant's sun is below the horizon.
+    fn parse_sun(s: SunToml, at: Option<&Instant>, path: &Path) -> Result<Option<Sun>, SceneError> {
+        let err = daylight_error(path);
+        let direction = match at {
+            Some(i) if !i.sun_up() => return Ok(None),
+            Some(i) => i.direction,
+            None => Self::sun_direction(&s, path)?,
+        };
+        let mut sun = Sun {
+            direction,
+            angular_radius: Self::angular_radius(s.angular_diameter_deg.unwrap_or(0.53), path)?,
+            radiance: Vec3::ZERO,
+        };
+        sun.radiance = match (s.radiance, s.irradiance) {
+            (Some(l), None) => rgb("sun.radiance", l, path)?,
+            (None, Some(e)) => rgb("sun.irradiance", e, path)? / sun.solid_angle(),
+            _ => return Err(err("sun needs exactly one of radiance or irradiance".into())),
+        };
+        Ok(Some(sun))
+    }
+
+    fn sun_direction(s: &SunToml, path: &Path) -> Result<Vec3, SceneError> {
+        let err = daylight_error(path);
+        match (s.direction, s.elevation_deg, s.azimuth_deg) {
             (Some(d), None, None) => {
                 let d = Vec3::from_array(d);
                 if !d.is_finite() || d.length() < 1e-6 {
                     return Err(err(format!("sun.direction {d} is not a direction")));
                 }
-                d.normalize()
+                Ok(d.normalize())
             }
             (None, Some(el), Some(az)) => {
                 if !(-90.0..=90.0).contains(&el) {
@@ -308,38 +505,27 @@ impl Daylight {
                     return Err(err(format!("sun.azimuth_deg must be finite, got {az}")));
                 }
                 let (el, az) = (el.to_radians(), az.to_radians());
-                Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos())
+                Ok(Vec3::new(
+                    el.cos() * az.sin(),
+                    el.sin(),
+                    el.cos() * az.cos(),
+                ))
             }
-            _ => {
-                return Err(err(
-                    "sun needs either direction or both elevation_deg and azimuth_deg".into(),
-                ));
-            }
-        };
-        let diameter = s.angular_diameter_deg.unwrap_or(0.53);
-        if !(diameter > 0.0 && diameter < 90.0) {
-            return Err(err(format!(
-                "sun.angular_diameter_deg must be in (0, 90), got {diameter}"
-            )));
+            _ => Err(err(
+                "sun needs either direction or both elevation_deg and azimuth_deg \
+                 (or a [site] and a time)"
+                    .into(),
+            )),
         }
-        let mut sun = Sun {
-            direction,
-            angular_radius: (diameter / 2.0).to_radians(),
-            radiance: Vec3::ZERO,
-        };
-        sun.radiance = match (s.radiance, s.irradiance) {
-            (Some(l), None) => rgb("sun.radiance", l, path)?,
-            (None, Some(e)) => rgb("sun.irradiance", e, path)? / sun.solid_angle(),
-            _ => return Err(err("sun needs exactly one of radiance or irradiance".into())),
-        };
-        Ok(sun)
     }
 
-    fn parse_sky(s: SkyToml, sun: Option<&Sun>, path: &Path) -> Result<Sky, SceneError> {
-        let err = |message: String| SceneError::Daylight {
-            path: path.into(),
-            message,
-        };
+    fn parse_sky(
+        s: SkyToml,
+        sun: Option<&Sun>,
+        at: Option<&Instant>,
+        path: &Path,
+    ) -> Result<Sky, SceneError> {
+        let err = daylight_error(path);
         let need = |v: Option<[f32; 3]>, field: &str| {
             v.ok_or_else(|| err(format!("sky model {:?} needs {field}", s.model)))
                 .and_then(|v| rgb(&format!("sky.{field}"), v, path))
@@ -351,9 +537,13 @@ impl Daylight {
             },
             "cie_clear" => SkyModel::CieClear {
                 zenith: need(s.zenith_radiance, "zenith_radiance")?,
-                sun: sun
-                    .ok_or_else(|| err("sky model \"cie_clear\" needs a [sun]".into()))?
-                    .direction,
+                sun: match (sun, at) {
+                    (Some(sun), _) => sun.direction,
+                    (None, Some(i)) => i.direction,
+                    (None, None) => {
+                        return Err(err("sky model \"cie_clear\" needs a [sun]".into()));
+                    }
+                },
             },
             "map" => {
                 let rel = s
@@ -371,27 +561,17 @@ impl Daylight {
             }
             other => {
                 return Err(err(format!(
-                    "unknown sky.model {other:?} (uniform, cie_overcast, cie_clear, map)"
+                    "unknown sky.model {other:?} (uniform, cie_overcast, cie_clear, map; \
+                     a Perez sky comes from a weather file)"
                 )));
             }
         };
-        let albedo = s.ground_albedo.unwrap_or(0.2);
-        if !(0.0..=1.0).contains(&albedo) {
-            return Err(err(format!(
-                "sky.ground_albedo must be in [0, 1], got {albedo}"
-            )));
-        }
+        let albedo = Self::albedo(s.ground_albedo, path)?;
         let mut sky = Sky {
             model,
             ground: Vec3::ZERO,
         };
-        if !matches!(sky.model, SkyModel::Map(_)) {
-            let mut e = sky.horizontal_irradiance();
-            if let Some(sun) = sun {
-                e += sun.radiance * sun.solid_angle() * sun.direction.y.max(0.0);
-            }
-            sky.ground = e * albedo / PI;
-        }
+        sky.ground = ground_under(&sky, sun, albedo);
         Ok(sky)
     }
 }

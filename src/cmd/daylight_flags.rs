@@ -1,0 +1,55 @@
+//! The daylight flags of every command that loads a scene: the daylight file, a time and a
+//! weather file. A command that starts other `holocave` processes hands them on
+//! ([`DaylightFlags::args`]), so that every process of a cluster sees the same sun and sky.
+
+use std::ffi::OsString;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::Result;
+use clap::Args;
+use holocave_scene::daylight::{Moment, Weather, When};
+
+#[derive(Args, Clone, Debug, Default)]
+pub struct DaylightFlags {
+    /// The scene's daylight file (default: <scene>.daylight.toml beside it, if present).
+    #[arg(long)]
+    pub daylight: Option<PathBuf>,
+    /// The sun at this time, from the daylight file's [site] (or the weather file's
+    /// location): YYYY-MM-DDTHH:MM in the site's local standard time, or with an offset
+    /// (+01:00, Z).
+    #[arg(long, value_name = "TIME")]
+    pub when: Option<When>,
+    /// An EPW weather file: the site, and the hour's direct and diffuse irradiance for the
+    /// sun and a Perez sky (instead of the daylight file's sun light and sky).
+    #[arg(long, value_name = "FILE.epw", requires = "when")]
+    pub weather: Option<PathBuf>,
+}
+
+impl DaylightFlags {
+    /// The time and weather asked for, the weather file read; `None` without `--when`.
+    pub fn moment(&self) -> Result<Option<Moment>> {
+        let Some(when) = self.when else {
+            return Ok(None);
+        };
+        let weather = (self.weather.as_deref())
+            .map(|p| Weather::load(p).map(Arc::new))
+            .transpose()?;
+        Ok(Some(Moment { when, weather }))
+    }
+
+    /// The flags as another `holocave` process takes them.
+    pub fn args(&self) -> Vec<OsString> {
+        let mut a = Vec::new();
+        if let Some(d) = &self.daylight {
+            a.extend([OsString::from("--daylight"), d.into()]);
+        }
+        if let Some(w) = &self.when {
+            a.extend([OsString::from("--when"), w.to_string().into()]);
+        }
+        if let Some(w) = &self.weather {
+            a.extend([OsString::from("--weather"), w.into()]);
+        }
+        a
+    }
+}
