@@ -43,7 +43,7 @@ use dither::Dither;
 use filter::Filter;
 use insert::Insert;
 use objects::MovePoints;
-pub use objects::{ObjectMove, ShadowLight};
+pub use objects::{ObjectMove, SKY_SHARE, ShadowLight};
 use project::Project;
 use vlf::VlfPass;
 

@@ -40,14 +40,14 @@ use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::kept_gathers::KeptGathers;
 use holocave_vlf::pixel_direct::same_point;
 use holocave_vlf::settling::Settling;
-use holocave_vlf::view::ReflectionFrames;
+use holocave_vlf::view::{GATHERED_OCCLUSION, ReflectionFrames};
 use holocave_vlf::{
     Accumulator, Aim, CpuRays, DirectPoint, FrameContext, FrameSurfaces, Lookup, Made, MadeRays,
     StaticRays, WallPass,
 };
 use rayon::prelude::*;
 
-use crate::cache::{MAX_OBJECTS, ObjectMove, ShadowLight};
+use crate::cache::{MAX_OBJECTS, ObjectMove, SKY_SHARE, ShadowLight};
 use crate::gpu_rays::lookups::{LookupComposer, split};
 use crate::gpu_rays::{GpuRays, KeptHits, OnGpu, Query, Rays, ShadowMaker};
 use crate::prior::Measured;
@@ -220,6 +220,16 @@ fn at_points(
         .collect()
 }
 
+/// The directions a glossy reflection of GGX `alpha` takes at a point of unit normal
+/// `normal` seen along `view`, as a distant light for an object to stand in the way of:
+/// the mirror direction, widened to twice the half-vector's angle at `tan θ = 3 α`
+/// (within which lie 90 % of GGX's microfacet normals, `tan²θ / (α² + tan²θ)`).
+fn reflected_lobe(view: Vec3, normal: Vec3, alpha: f32) -> ShadowLight {
+    let d = view.normalize_or_zero();
+    let mirror = d - 2.0 * d.dot(normal) * normal;
+    ShadowLight::distant(mirror, 2.0 * (3.0 * alpha).atan())
+}
+
 /// Emissive triangles beyond this many are taken together, as one light the size of all.
 const AREA_SHADOW_LIGHTS: usize = 64;
 
@@ -351,25 +361,20 @@ impl VlfBase {
 
     /// Puts the scene's moving objects at `placements` (one per object, in the scene's
     /// order) for the frames drawn from now on, and returns how each that moved did, for
-    /// the render cache ([`crate::RenderCache::move_objects`]). When one moved, every
-    /// view's direct light starts averaging again (its shadows moved under points that
-    /// stayed put).
+    /// the render cache ([`crate::RenderCache::move_objects`]). Where a move changed the
+    /// light under points that stayed put (their shadows, beside the object), the running
+    /// means of the direct light start again ([`ObjectMove::changes_light_at`]); every
+    /// other pixel's goes on.
     pub fn place_objects(&self, placements: &[Placement]) -> Vec<ObjectMove> {
         let before = self.pass.visibility().placements();
         if !self.pass.visibility().place_objects(placements) {
             return Vec::new();
         }
-        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        for x in h.iter_mut() {
-            x.means.restart();
-        }
-        drop(h);
-        self.forget_surfaces();
         let objects = self.scene().objects();
         let after = self.pass.visibility().placements();
         let matrix = |p: &Placement| Mat4::from_rotation_translation(p.rotation, p.translation);
-        (before.iter().zip(&after).enumerate())
-            .filter(|(k, (a, b))| a != b && *k < MAX_OBJECTS)
+        let moves: Vec<ObjectMove> = (before.iter().zip(&after).enumerate())
+            .filter(|(_, (a, b))| a != b)
             .map(|(k, (a, b))| {
                 let sphere = |p: &Placement| {
                     let (centre, radius) = objects[k].bounding_sphere(p);
@@ -377,7 +382,46 @@ impl VlfBase {
                 };
                 ObjectMove::new(k, matrix(b) * matrix(a).inverse(), sphere(a), sphere(b))
             })
+            .collect();
+        self.restart_where_moved(&moves);
+        self.forget_surfaces();
+        moves
+            .into_iter()
+            .filter(|m| m.object() < MAX_OBJECTS)
             .collect()
+    }
+
+    /// Starts again the running means, in every view, of the points whose light `moves`
+    /// changed: on a moved object, in its shadows before and after, beside it (where its
+    /// sphere takes more than [`SKY_SHARE`] of a point's hemisphere with the sky per pixel,
+    /// else more than the share beyond which a point gathers what the objects change,
+    /// [`GATHERED_OCCLUSION`]), or in the way of a sharpened reflection of the sky.
+    fn restart_where_moved(&self, moves: &[ObjectMove]) {
+        let scene = self.scene();
+        let statics = scene.statics();
+        let direct = self.pass.direct();
+        let share = if direct.samples_sky() {
+            SKY_SHARE
+        } else {
+            GATHERED_OCCLUSION
+        };
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        for x in h.iter_mut() {
+            let eye = x.view.eye;
+            x.means.restart_where(|triangle, at| {
+                let on = statics.object_of(triangle);
+                if on.is_some_and(|k| moves.iter().any(|m| m.object() == k)) {
+                    return true;
+                }
+                let normal = on.is_none().then(|| scene.face_normal(triangle));
+                let lobe = (normal.zip(direct.sharpened_lobe(triangle)))
+                    .map(|(n, alpha)| reflected_lobe(at - eye, n, alpha));
+                moves.iter().any(|m| {
+                    m.changes_light_at(at, normal, (&self.shadow_lights, share))
+                        || lobe.is_some_and(|l| m.changes_light_at(at, None, (&[l], 1.0)))
+                })
+            });
+        }
     }
 
     /// The lights whose shadows a moving object changes (see [`shadow_lights`]).

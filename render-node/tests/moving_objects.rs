@@ -13,7 +13,7 @@ use holocave_protocol::cluster::WireObject;
 use holocave_render_node::{
     DisplayBuilder, EyeView, Feed, LightField, Prior, VlfBase, WallDisplay,
 };
-use holocave_scene::{LoadOptions, Scene};
+use holocave_scene::{LoadOptions, Placement, Ray, Scene};
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_vlf::Settings;
 
@@ -135,4 +135,98 @@ fn a_carried_objects_old_shadow_shows_lit_at_once() {
             shadowed[i]
         );
     }
+}
+
+/// The block a metre up in the sun at `x` along the room's width, the lamp away.
+fn block_up_at(scene: &Scene, x: f32) -> Vec<Placement> {
+    let (lo, hi) = scene.objects()[0].local_bounds();
+    let at = Vec3::new(x, 1.0, -0.5) - 0.5 * (lo + hi);
+    vec![
+        Placement::new(at, Quat::IDENTITY),
+        Placement::new(Vec3::splat(-1000.0), Quat::IDENTITY),
+    ]
+}
+
+/// Whether the block at `placements` hides the sun from the floor point `p`.
+fn sun_hidden(scene: &Scene, placements: &[Placement], p: Vec3) -> bool {
+    let sun = scene.daylight.sun.as_ref().expect("the room has a sun");
+    let ray = Ray::leaving(p, Vec3::Y, sun.direction);
+    scene
+        .placed(placements)
+        .objects_occluded(&ray, f32::INFINITY)
+}
+
+/// A moved object changes the direct light only at the points it shadowed, shadows or
+/// stands near: the running means there start again, and every other pixel's mean goes on
+/// (it keeps its estimates and takes one more). Against a wall that kept every mean, the
+/// floor where the block's shadow was or now is would show the old light for as many
+/// frames as it had averaged; against one that restarted every mean, each move would cost
+/// the whole wall's first estimates.
+#[test]
+fn a_moved_object_restarts_the_direct_light_only_where_it_changed_it() {
+    let scene = room_with_movable_block();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("room.vlf");
+    let settings = Settings {
+        directions: 92,
+        resolution: 32,
+        ..Settings::default()
+    };
+    common::write_field(&scene, settings, &path);
+    // Every pixel takes an estimate every frame: a mean's count tells whether it went on.
+    let base = VlfBase::open(&path, scene.clone())
+        .unwrap()
+        .with_settling(None);
+    let view = floor_view();
+    let (from, to) = (block_up_at(&scene, 1.0), block_up_at(&scene, 1.6));
+    base.place_objects(&from);
+    for _ in 0..3 {
+        base.lookups(0, &view);
+    }
+    let held = base.estimates_held(0, &view.wall).unwrap();
+    base.place_objects(&to);
+    base.lookups(0, &view);
+    let after = base.estimates_held(0, &view.wall).unwrap();
+    let (_, points) = base.pass().visibility().pixels_and_points(&view.wall);
+
+    // Must start again: where the block's sun shadow came or went. Must go on: far from
+    // the block where it was and is (3 m, about 3.5 of its bounding sphere's radii: the
+    // sphere takes under 0.85² / 3² · cos ≤ 0.03 of such a floor point's hemisphere,
+    // below the 0.04 beyond which a point gathers what an object changes) and out of its
+    // sun shadows (the sun's ray passes the sphere by 0.2 m or more).
+    let spheres = [&from, &to].map(|at| scene.objects()[0].bounding_sphere(&at[0]));
+    let sun = scene.daylight.sun.as_ref().unwrap().direction;
+    let apart = |p: Vec3| {
+        spheres.iter().all(|&(c, r)| {
+            let t = (c - p).dot(sun).max(0.0);
+            c.distance(p) > 3.0 && (c - p - t * sun).length() > r + 0.2
+        })
+    };
+    let (mut far, mut shifted) = (0, 0);
+    for (i, p) in points.iter().enumerate() {
+        let Some(p) = p.filter(|p| p.normal.y > 0.9 && p.position.y.abs() < 1e-3) else {
+            continue;
+        };
+        let went_on = after[i] == held[i] + 1;
+        if sun_hidden(&scene, &from, p.position) != sun_hidden(&scene, &to, p.position) {
+            shifted += 1;
+            assert!(
+                !went_on,
+                "pixel {i} at {}: the block's shadow moved over it, its mean of {} went on",
+                p.position, held[i]
+            );
+        }
+        if apart(p.position) {
+            far += 1;
+            assert!(
+                went_on,
+                "pixel {i} at {}, far from the block and its shadows: its mean of {} started again",
+                p.position, held[i]
+            );
+        }
+    }
+    assert!(
+        far >= 20 && shifted >= 8,
+        "{far} floor pixels far from the block, {shifted} under its moved shadow"
+    );
 }

@@ -255,6 +255,14 @@ impl PixelDirect {
                 .unwrap_or(false)
     }
 
+    /// Where the sky's reflection on triangle `triangle` is sharpened: the GGX `alpha` of
+    /// the widened lobe its estimates sample about the mirror direction; `None` where it
+    /// is not.
+    pub fn sharpened_lobe(&self, triangle: u32) -> Option<f32> {
+        let on = !self.sky && self.sharpened.get(triangle as usize) == Some(&true);
+        on.then_some(self.widened.alpha)
+    }
+
     /// Whether the scene has any light this pass computes (emissive triangles, punctual
     /// lights, the sun, and the sky when asked).
     pub fn is_empty(&self) -> bool {
@@ -825,7 +833,7 @@ impl std::ops::AddAssign for Estimate {
 /// frame; when a pixel sees another point (the view moved, another surface came in
 /// front), its mean is carried over ([`Accumulator::reproject`]) or starts again from
 /// that frame's [`PixelDirect::first_estimates`]. Moving an object changes the light at
-/// points that stay put: [`Accumulator::restart`] starts every mean again.
+/// points that stay put: [`Accumulator::restart_where`] starts their means again.
 #[derive(Default)]
 pub struct Accumulator {
     seen: Vec<Option<Seen>>,
@@ -934,9 +942,21 @@ impl Accumulator {
         &self.count
     }
 
-    /// Forgets every pixel's mean (the light changed: an object moved).
+    /// Forgets every pixel's mean (the light changed everywhere).
     pub fn restart(&mut self) {
         self.seen.iter_mut().for_each(|s| *s = None);
+    }
+
+    /// Forgets the means of the pixels whose light `changed(triangle, point)` says changed
+    /// where their estimates were taken (asked of the point a mean began at and of the
+    /// one seen last): a moved object changes the light in its shadows and beside it, and
+    /// every other pixel's mean goes on.
+    pub fn restart_where(&mut self, changed: impl Fn(u32, Vec3) -> bool + Sync) {
+        self.seen.par_iter_mut().for_each(|seen| {
+            if seen.is_some_and(|s| changed(s.triangle, s.anchor) || changed(s.triangle, s.last)) {
+                *seen = None;
+            }
+        });
     }
 
     /// Adds one frame's estimate at every pixel's point (`None`: nothing non-delta seen),

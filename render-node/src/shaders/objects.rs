@@ -1,5 +1,7 @@
 //! Moving objects in the cache (`objects.wgsl`): points on a moved object move with it and
-//! are marked for resampling; points in its old or new shadow are dropped.
+//! are marked for resampling; points in its old or new shadow are dropped. On the CPU, the
+//! same shadows tell the per-pixel pass which running means a move changed
+//! ([`ObjectMove::changes_light_at`]).
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
@@ -62,6 +64,66 @@ impl ShadowLight {
             at: towards.normalize_or_zero().extend(0.0).to_array(),
             spread: [angular_radius.clamp(0.0, 1.5).tan(), 0.0, 0.0, 0.0],
         }
+    }
+}
+
+/// A moved object whose bounding sphere takes less than this share of a point's
+/// cosine-weighted hemisphere, before and after the move, changes what the point's
+/// estimates of the sky bring by less than that share: the share below which the light
+/// field trusts its static samples beside an object (`vlf::objects`), and half the 2 % a
+/// settled pixel's running mean may be off (`vlf::Settling::WALLS`).
+pub const SKY_SHARE: f32 = 0.01;
+
+impl ShadowLight {
+    /// Whether the way from `p` to this light passes through the sphere `s` (xyz centre,
+    /// w radius), widened by the light's size as the penumbra widens towards it:
+    /// `shadowed` in `objects.wgsl`, on the CPU.
+    pub fn shadowed_by(&self, p: Vec3, s: Vec4) -> bool {
+        let (c, r) = (s.truncate() - p, s.w);
+        if c.length_squared() <= r * r {
+            return true;
+        }
+        let at = Vec4::from(self.at);
+        let spread = self.spread[0];
+        if at.w == 0.0 {
+            let towards = at.truncate();
+            let t = c.dot(towards);
+            return t > 0.0 && (c - t * towards).length() <= r + t * spread;
+        }
+        let to = at.truncate() - p;
+        let d = to.length();
+        if d <= 0.0 {
+            return false;
+        }
+        let u = to / d;
+        let t = c.dot(u).clamp(0.0, d);
+        (c - t * u).length() <= r + spread * t / d
+    }
+}
+
+impl ObjectMove {
+    /// The moved object's index in the scene.
+    pub fn object(&self) -> usize {
+        self.object as usize - 1
+    }
+
+    /// Whether this move changed the light at a point `p` that did not move with it
+    /// (unit normal `normal`; `None` where any side counts): `p` lies in the object's
+    /// shadow towards one of `lights`, where it was or where it is now, or the object's
+    /// bounding sphere took or takes more than `share` of `p`'s cosine-weighted
+    /// hemisphere (an upper bound of what the object itself takes).
+    pub fn changes_light_at(
+        &self,
+        p: Vec3,
+        normal: Option<Vec3>,
+        (lights, share): (&[ShadowLight], f32),
+    ) -> bool {
+        [self.before, self.after].map(Vec4::from).iter().any(|&s| {
+            let c = s.truncate() - p;
+            let d = c.length().max(s.w);
+            let cos = normal.map_or(1.0, |n| (n.dot(c) / d).abs().min(1.0));
+            cos * (s.w / d).powi(2) > share || lights.iter().any(|l| l.shadowed_by(p, s))
+        })
     }
 }
 
