@@ -1,0 +1,191 @@
+//! `holocave sim` under supervision: a node SIGKILLed during the frames is started again
+//! with the same command, its wall presents frames again, the status line counts the
+//! restart and the summary lists the death and the restart.
+//!
+//! The run is live (frames on the wall clock) and stopped by Ctrl-C once everything was
+//! seen; every wait is on something observable (a presented log, a process in `/proc`, a
+//! status line) with a deadline, never a fixed sleep.
+
+use std::fs::File;
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+mod common;
+
+use common::{Watched, holocave, scratch};
+
+const WALLS: [&str; 4] = ["front", "left", "right", "floor"];
+
+/// Starts `sim` on the Cornell box's CAVE (tiny walls, no holodeck or light field, more
+/// frames than the test needs: it is stopped by Ctrl-C) with `extra` flags, its output in
+/// `dir/out`, its stdout and stderr in `dir/stdout.txt` and `dir/stderr.txt`.
+fn start_sim(dir: &Path, extra: &[&str]) -> Watched {
+    let child = holocave()
+        .args(["sim", "--config", "configs/cave4-cornell.toml"])
+        .args([
+            "--scene",
+            "scenes/cornell.gltf",
+            "--tracker",
+            "synthetic:walk",
+        ])
+        .args(["--frames", "1000000", "--rate", "20", "--scale", "0.05"])
+        .args(["--every", "1000000", "--no-holodeck", "--no-vlf"])
+        .args(extra)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .env("RUST_LOG", "info")
+        .stdout(File::create(dir.join("stdout.txt")).unwrap())
+        .stderr(File::create(dir.join("stderr.txt")).unwrap())
+        .spawn()
+        .expect("start holocave sim");
+    Watched::adopt("sim", child)
+}
+
+/// The frames `wall` presented so far (none before its log exists).
+fn presented(dir: &Path, wall: &str) -> Vec<u64> {
+    holocave_render_node::output::read_presented(&dir.join("out").join(wall)).unwrap_or_default()
+}
+
+/// What `sim` wrote to `name` (`stdout.txt`, `stderr.txt`) so far.
+fn output(dir: &Path, name: &str) -> String {
+    std::fs::read_to_string(dir.join(name)).unwrap_or_default()
+}
+
+/// Waits until `cond` holds, polling; fails (with what sim logged) at `limit` or when sim
+/// exits first.
+fn wait_until(
+    sim: &mut Watched,
+    dir: &Path,
+    limit: Duration,
+    what: &str,
+    mut cond: impl FnMut() -> bool,
+) {
+    let end = Instant::now() + limit;
+    while !cond() {
+        let exited = sim.child.try_wait().unwrap();
+        let why = match exited {
+            Some(status) => format!("sim exited ({status})"),
+            None if Instant::now() >= end => format!("timed out after {limit:?}"),
+            None => {
+                std::thread::sleep(Duration::from_millis(20));
+                continue;
+            }
+        };
+        let log = output(dir, "stderr.txt");
+        let tail: Vec<&str> = log.lines().rev().take(30).collect();
+        panic!(
+            "{why} waiting for {what}; sim's stderr ends:\n{}",
+            tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+        );
+    }
+}
+
+/// The process `parent` started for `wall`'s node (`holocave node … --wall WALL`), found
+/// in `/proc`.
+fn node_pid(parent: u32, wall: &str) -> Option<u32> {
+    let pids = std::fs::read_dir("/proc").ok()?.filter_map(|e| {
+        let name = e.ok()?.file_name();
+        name.to_str()?.parse::<u32>().ok()
+    });
+    pids.into_iter()
+        .find(|&pid| parent_of(pid) == Some(parent) && runs_node_for(pid, wall))
+}
+
+/// `pid`'s parent, from `/proc/PID/stat` (`pid (name) state ppid …`).
+fn parent_of(pid: u32) -> Option<u32> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let after_name = &stat[stat.rfind(')')? + 1..];
+    after_name.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// Whether `pid`'s command line is `holocave node … --wall WALL …`.
+fn runs_node_for(pid: u32, wall: &str) -> bool {
+    let Ok(cmdline) = std::fs::read(format!("/proc/{pid}/cmdline")) else {
+        return false;
+    };
+    let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
+    args.get(1) == Some(&&b"node"[..])
+        && args
+            .windows(2)
+            .any(|w| w[0] == b"--wall" && w[1] == wall.as_bytes())
+}
+
+/// Sends `signal` (`-KILL`, `-INT`) to `pid`.
+fn signal(signal: &str, pid: u32) {
+    let ok = Command::new("kill")
+        .args([signal, &pid.to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success(), "kill {signal} {pid}");
+}
+
+#[test]
+fn a_killed_node_is_started_again_and_its_wall_presents_again() {
+    let dir = scratch("sim-restart");
+    let mut sim = start_sim(&dir, &[]);
+    let sim_pid = sim.child.id();
+    wait_until(
+        &mut sim,
+        &dir,
+        Duration::from_secs(300),
+        "every wall presenting 10 frames",
+        || WALLS.iter().all(|w| presented(&dir, w).len() >= 10),
+    );
+    let node = node_pid(sim_pid, "front").expect("sim's node for the front wall in /proc");
+    signal("-KILL", node);
+    let killed = Instant::now();
+    // The dead node is reaped by sim; from then on the front wall's log grows only if a
+    // new node presents.
+    wait_until(
+        &mut sim,
+        &dir,
+        Duration::from_secs(30),
+        "sim reaping the killed node",
+        || node_pid(sim_pid, "front") != Some(node),
+    );
+    let before = presented(&dir, "front").len();
+    wait_until(
+        &mut sim,
+        &dir,
+        Duration::from_secs(60),
+        "the front wall presenting again after its node was killed",
+        || presented(&dir, "front").len() > before,
+    );
+    println!(
+        "front: node {node} killed; the wall presented again {:.2} s later",
+        killed.elapsed().as_secs_f64()
+    );
+    let again = node_pid(sim_pid, "front").expect("a new node for the front wall");
+    assert_ne!(again, node);
+    wait_until(
+        &mut sim,
+        &dir,
+        Duration::from_secs(30),
+        "a status line counting the restart",
+        || output(&dir, "stderr.txt").contains("1 restart (node front 1)"),
+    );
+    signal("-INT", sim_pid);
+    let (status, _, _) = sim.finish(Duration::from_secs(60));
+    let stdout = output(&dir, "stdout.txt");
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "sim: {status:?}\n{stdout}"
+    );
+    println!("{stdout}");
+    assert!(
+        stdout.contains("processes that died: 1, started again: 1\n"),
+        "{stdout}"
+    );
+    let death = (stdout.lines())
+        .find(|l| l.trim_start().starts_with("node front died at"))
+        .unwrap_or_else(|| panic!("no line on the front node's death:\n{stdout}"));
+    for part in [
+        "(signal: 9 (SIGKILL)",
+        "; started again at ",
+        "; wall front presenting again from frame ",
+    ] {
+        assert!(death.contains(part), "{part:?} not in {death:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
