@@ -8,7 +8,7 @@
 
 use std::fs::File;
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, ExitStatus};
 use std::time::{Duration, Instant};
 
 mod common;
@@ -17,10 +17,42 @@ use common::{Watched, holocave, scratch};
 
 const WALLS: [&str; 4] = ["front", "left", "right", "floor"];
 
+/// A running `sim`, stopped by Ctrl-C (SIGINT) when dropped, a failing test's included:
+/// so stopped it tells its nodes to shut down, where killed it would leave them retrying.
+struct Sim(Option<Watched>);
+
+impl Sim {
+    fn pid(&self) -> u32 {
+        self.0.as_ref().map_or(0, |w| w.child.id())
+    }
+
+    /// Whether it has exited (and how).
+    fn exited(&mut self) -> Option<ExitStatus> {
+        self.0
+            .as_mut()
+            .and_then(|w| w.child.try_wait().ok().flatten())
+    }
+
+    /// Ctrl-C, then its exit status (`None`: it had to be killed after `limit`).
+    fn stop(&mut self, limit: Duration) -> Option<ExitStatus> {
+        let w = self.0.take()?;
+        let _ = Command::new("kill")
+            .args(["-INT", &w.child.id().to_string()])
+            .status();
+        w.finish(limit).0
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        self.stop(Duration::from_secs(30));
+    }
+}
+
 /// Starts `sim` on the Cornell box's CAVE (tiny walls, no holodeck or light field, more
 /// frames than the test needs: it is stopped by Ctrl-C) with `extra` flags, its output in
 /// `dir/out`, its stdout and stderr in `dir/stdout.txt` and `dir/stderr.txt`.
-fn start_sim(dir: &Path, extra: &[&str]) -> Watched {
+fn start_sim(dir: &Path, extra: &[&str]) -> Sim {
     let child = holocave()
         .args(["sim", "--config", "configs/cave4-cornell.toml"])
         .args([
@@ -39,7 +71,7 @@ fn start_sim(dir: &Path, extra: &[&str]) -> Watched {
         .stderr(File::create(dir.join("stderr.txt")).unwrap())
         .spawn()
         .expect("start holocave sim");
-    Watched::adopt("sim", child)
+    Sim(Some(Watched::adopt("sim", child)))
 }
 
 /// The frames `wall` presented so far (none before its log exists).
@@ -55,7 +87,7 @@ fn output(dir: &Path, name: &str) -> String {
 /// Waits until `cond` holds, polling; fails (with what sim logged) at `limit` or when sim
 /// exits first.
 fn wait_until(
-    sim: &mut Watched,
+    sim: &mut Sim,
     dir: &Path,
     limit: Duration,
     what: &str,
@@ -63,8 +95,7 @@ fn wait_until(
 ) {
     let end = Instant::now() + limit;
     while !cond() {
-        let exited = sim.child.try_wait().unwrap();
-        let why = match exited {
+        let why = match sim.exited() {
             Some(status) => format!("sim exited ({status})"),
             None if Instant::now() >= end => format!("timed out after {limit:?}"),
             None => {
@@ -73,7 +104,7 @@ fn wait_until(
             }
         };
         let log = output(dir, "stderr.txt");
-        let tail: Vec<&str> = log.lines().rev().take(30).collect();
+        let tail: Vec<&str> = log.lines().rev().take(12).collect();
         panic!(
             "{why} waiting for {what}; sim's stderr ends:\n{}",
             tail.into_iter().rev().collect::<Vec<_>>().join("\n")
@@ -111,20 +142,20 @@ fn runs_node_for(pid: u32, wall: &str) -> bool {
             .any(|w| w[0] == b"--wall" && w[1] == wall.as_bytes())
 }
 
-/// Sends `signal` (`-KILL`, `-INT`) to `pid`.
-fn signal(signal: &str, pid: u32) {
+/// Kills `pid` with SIGKILL: no goodbye, its sockets just die.
+fn sigkill(pid: u32) {
     let ok = Command::new("kill")
-        .args([signal, &pid.to_string()])
+        .args(["-KILL", &pid.to_string()])
         .status()
         .unwrap();
-    assert!(ok.success(), "kill {signal} {pid}");
+    assert!(ok.success(), "kill -KILL {pid}");
 }
 
 #[test]
 fn a_killed_node_is_started_again_and_its_wall_presents_again() {
     let dir = scratch("sim-restart");
     let mut sim = start_sim(&dir, &[]);
-    let sim_pid = sim.child.id();
+    let sim_pid = sim.pid();
     wait_until(
         &mut sim,
         &dir,
@@ -133,7 +164,7 @@ fn a_killed_node_is_started_again_and_its_wall_presents_again() {
         || WALLS.iter().all(|w| presented(&dir, w).len() >= 10),
     );
     let node = node_pid(sim_pid, "front").expect("sim's node for the front wall in /proc");
-    signal("-KILL", node);
+    sigkill(node);
     let killed = Instant::now();
     // The dead node is reaped by sim; from then on the front wall's log grows only if a
     // new node presents.
@@ -165,8 +196,7 @@ fn a_killed_node_is_started_again_and_its_wall_presents_again() {
         "a status line counting the restart",
         || output(&dir, "stderr.txt").contains("1 restart (node front 1)"),
     );
-    signal("-INT", sim_pid);
-    let (status, _, _) = sim.finish(Duration::from_secs(60));
+    let status = sim.stop(Duration::from_secs(60));
     let stdout = output(&dir, "stdout.txt");
     assert!(
         status.is_some_and(|s| s.success()),
