@@ -166,13 +166,13 @@ fn a_killed_node_is_started_again_and_its_wall_presents_again() {
     let node = node_pid(sim_pid, "front").expect("sim's node for the front wall in /proc");
     sigkill(node);
     let killed = Instant::now();
-    // The dead node is reaped by sim; from then on the front wall's log grows only if a
-    // new node presents.
+    // Once the killed node is gone from sim's children (dead, it has no command line any
+    // more), the front wall's log grows only if a new node presents.
     wait_until(
         &mut sim,
         &dir,
         Duration::from_secs(30),
-        "sim reaping the killed node",
+        "the killed node gone",
         || node_pid(sim_pid, "front") != Some(node),
     );
     let before = presented(&dir, "front").len();
