@@ -1,6 +1,7 @@
-//! `holocave sim` under supervision: a node SIGKILLed during the frames is started again
-//! with the same command, its wall presents frames again, the status line counts the
-//! restart and the summary lists the death and the restart.
+//! `holocave sim` under supervision: a node or a worker SIGKILLed during the frames is
+//! started again with the same command; the node's wall presents frames again, the worker
+//! joins the holodeck again; the status line counts the restart and the summary lists the
+//! death and the restart.
 //!
 //! The run is live (frames on the wall clock) and stopped by Ctrl-C once everything was
 //! seen; every wait is on something observable (a presented log, a process in `/proc`, a
@@ -49,8 +50,8 @@ impl Drop for Sim {
     }
 }
 
-/// Starts `sim` on the Cornell box's CAVE (tiny walls, no holodeck or light field, more
-/// frames than the test needs: it is stopped by Ctrl-C) with `extra` flags, its output in
+/// Starts `sim` on the Cornell box's CAVE (tiny walls, no light field, more frames than the
+/// test needs: it is stopped by Ctrl-C) with `extra` flags, its output in
 /// `dir/out`, its stdout and stderr in `dir/stdout.txt` and `dir/stderr.txt`.
 fn start_sim(dir: &Path, extra: &[&str]) -> Sim {
     let child = holocave()
@@ -62,7 +63,7 @@ fn start_sim(dir: &Path, extra: &[&str]) -> Sim {
             "synthetic:walk",
         ])
         .args(["--frames", "1000000", "--rate", "20", "--scale", "0.05"])
-        .args(["--every", "1000000", "--no-holodeck", "--no-vlf"])
+        .args(["--every", "1000000", "--no-vlf"])
         .args(extra)
         .arg("--out")
         .arg(dir.join("out"))
@@ -112,15 +113,22 @@ fn wait_until(
     }
 }
 
-/// The process `parent` started for `wall`'s node (`holocave node … --wall WALL`), found
-/// in `/proc`.
-fn node_pid(parent: u32, wall: &str) -> Option<u32> {
-    let pids = std::fs::read_dir("/proc").ok()?.filter_map(|e| {
-        let name = e.ok()?.file_name();
-        name.to_str()?.parse::<u32>().ok()
-    });
-    pids.into_iter()
-        .find(|&pid| parent_of(pid) == Some(parent) && runs_node_for(pid, wall))
+/// The running processes `parent` started (a dead one has no command line), each with its
+/// arguments after the program's, found in `/proc`.
+fn children_of(parent: u32) -> Vec<(u32, Vec<String>)> {
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    let pids = entries.filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok());
+    pids.filter(|&pid| parent_of(pid) == Some(parent))
+        .filter_map(|pid| {
+            let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).ok()?;
+            let args = (cmdline.split(|&b| b == 0).skip(1))
+                .map(|a| String::from_utf8_lossy(a).into_owned())
+                .collect::<Vec<_>>();
+            (!args.is_empty()).then_some((pid, args))
+        })
+        .collect()
 }
 
 /// `pid`'s parent, from `/proc/PID/stat` (`pid (name) state ppid …`).
@@ -130,16 +138,20 @@ fn parent_of(pid: u32) -> Option<u32> {
     after_name.split_whitespace().nth(1)?.parse().ok()
 }
 
-/// Whether `pid`'s command line is `holocave node … --wall WALL …`.
-fn runs_node_for(pid: u32, wall: &str) -> bool {
-    let Ok(cmdline) = std::fs::read(format!("/proc/{pid}/cmdline")) else {
-        return false;
-    };
-    let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
-    args.get(1) == Some(&&b"node"[..])
-        && args
-            .windows(2)
-            .any(|w| w[0] == b"--wall" && w[1] == wall.as_bytes())
+/// The process `parent` started for `wall`'s node (`holocave node … --wall WALL …`).
+fn node_pid(parent: u32, wall: &str) -> Option<u32> {
+    children_of(parent).into_iter().find_map(|(pid, args)| {
+        let for_wall = args.windows(2).any(|w| w[0] == "--wall" && w[1] == wall);
+        (args[0] == "node" && for_wall).then_some(pid)
+    })
+}
+
+/// The `holocave worker` processes `parent` started.
+fn worker_pids(parent: u32) -> Vec<u32> {
+    (children_of(parent).into_iter())
+        .filter(|(_, args)| args[0] == "worker")
+        .map(|(pid, _)| pid)
+        .collect()
 }
 
 /// Kills `pid` with SIGKILL: no goodbye, its sockets just die.
@@ -154,7 +166,7 @@ fn sigkill(pid: u32) {
 #[test]
 fn a_killed_node_is_started_again_and_its_wall_presents_again() {
     let dir = scratch("sim-restart");
-    let mut sim = start_sim(&dir, &[]);
+    let mut sim = start_sim(&dir, &["--no-holodeck"]);
     let sim_pid = sim.pid();
     wait_until(
         &mut sim,
@@ -215,6 +227,64 @@ fn a_killed_node_is_started_again_and_its_wall_presents_again() {
         "; started again at ",
         "; wall front presenting again from frame ",
     ] {
+        assert!(death.contains(part), "{part:?} not in {death:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_killed_worker_is_started_again_and_rejoins_the_holodeck() {
+    let dir = scratch("sim-restart-worker");
+    let mut sim = start_sim(&dir, &["--workers", "2"]);
+    let sim_pid = sim.pid();
+    wait_until(
+        &mut sim,
+        &dir,
+        Duration::from_secs(300),
+        "two workers in the holodeck and every wall presenting",
+        || {
+            output(&dir, "stderr.txt").contains("2 workers")
+                && WALLS.iter().all(|w| !presented(&dir, w).is_empty())
+        },
+    );
+    let workers = worker_pids(sim_pid);
+    assert_eq!(workers.len(), 2, "sim's workers: {workers:?}");
+    sigkill(workers[0]);
+    // A new worker process, and the holodeck's word that it joined.
+    let mut again = None;
+    wait_until(
+        &mut sim,
+        &dir,
+        Duration::from_secs(60),
+        "a new worker joining the holodeck",
+        || {
+            again = worker_pids(sim_pid)
+                .into_iter()
+                .find(|p| !workers.contains(p));
+            again.is_some_and(|p| output(&dir, "stderr.txt").contains(&format!("(pid {p}) joined")))
+        },
+    );
+    wait_until(
+        &mut sim,
+        &dir,
+        Duration::from_secs(30),
+        "a status line counting the restart",
+        || output(&dir, "stderr.txt").contains("1 restart (worker "),
+    );
+    let status = sim.stop(Duration::from_secs(60));
+    let stdout = output(&dir, "stdout.txt");
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "sim: {status:?}\n{stdout}"
+    );
+    assert!(
+        stdout.contains("processes that died: 1, started again: 1\n"),
+        "{stdout}"
+    );
+    let death = (stdout.lines())
+        .find(|l| l.trim_start().starts_with("worker "))
+        .unwrap_or_else(|| panic!("no line on the worker's death:\n{stdout}"));
+    for part in ["(signal: 9 (SIGKILL)", "; started again at "] {
         assert!(death.contains(part), "{part:?} not in {death:?}");
     }
     let _ = std::fs::remove_dir_all(&dir);
