@@ -2,22 +2,27 @@
 //! server in this process, one render-node process per wall and holodeck worker processes,
 //! on loopback with real sockets — headless. Each node writes its frames; at the end the
 //! walls of every written frame are laid out as the unfolded CAVE (left | front | right,
-//! the floor under the front wall).
+//! the floor under the front wall). The nodes and workers run under a [`Supervisor`]: one
+//! that dies during the frames is started again (unless `--no-restart`), its wall presents
+//! again, and the status line and the summary say who died, when, and when it was back.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::Duration;
+use std::process::Command;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::DVec3;
-use holocave::launch::{Group, Watched, worker_command};
+use holocave::launch::worker_command;
+use holocave::supervise::{Backoff, Death, Relaunch, Supervisor};
 use holocave_cave::{Cave, Eye, Place, Unfolded, Wall, load_cave, unfold};
 use holocave_glare::session::{FrameView, measure_session, views_of};
 use holocave_holodeck::auth::Credentials;
-use holocave_master::cluster::{MasterOptions, run as run_master};
+use holocave_master::cluster::{FrameHook, MasterOptions, run as run_master};
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg};
 use holocave_protocol::frame::{FrameError, read_frame};
 use holocave_render_node::gpu_rays::Rays;
@@ -111,6 +116,12 @@ pub struct SimArgs {
     pub tone: super::node::Tone,
     #[command(flatten)]
     pub windows: super::window::SimWindowArgs,
+    /// Leave a node or worker that dies during the frames down. By default it is started
+    /// again with the same command after 0.1 s (doubling to 2 s while it keeps dying soon
+    /// after its start, back to 0.1 s once it has run 10 s): a node's wall presents again,
+    /// a worker joins the holodeck again.
+    #[arg(long)]
+    pub no_restart: bool,
 }
 
 pub fn run(mut args: SimArgs) -> Result<()> {
@@ -135,16 +146,6 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     );
     let vlf = light_field(&args, &scene)?;
     let hosted = host_holodeck(&args, &cave, &credentials)?;
-    let mut children = Group::default();
-    if let Some(h) = &hosted {
-        spawn_workers(
-            &args,
-            &exe,
-            &h.addr.to_string(),
-            &credentials,
-            &mut children,
-        )?;
-    }
     // One layout of the unfolded CAVE for the windows and the mosaics.
     let unfolded = unfolded_walls(&args, &cave);
     let placed = unfolded.fit(args.windows.desktop);
@@ -156,38 +157,27 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         vlf: vlf.as_deref(),
         secret: &secret,
     };
+    let mut children = worker_children(&args, &exe, hosted.as_ref(), &credentials)?;
     for wall in &cave.walls {
-        children.0.push(nodes.spawn(&args, wall)?);
+        children.push(nodes.child(&args, wall)?);
     }
-    let head = args.head.open(&cave)?;
-    let mut navigation = args.head.navigation(&cave, Some(&scene))?;
-    if let Some(nav) = &mut navigation {
-        super::master::log_desk(nav, &args.out)?;
-    }
-    let objects = super::master::object_motion(&scene.get()?, args.objects.as_deref())?;
+    let backoff = (!args.no_restart).then(Backoff::default);
+    let supervisor = Supervisor::start(children, backoff, super::interrupt::ctrl_c_flag())?;
+    let sent = SentTimes::default();
+    let opts = master_options(&args, &scene, &cave, hosted.as_ref(), vlf.as_deref())?;
     let summary = run_master(
         &cave,
-        head,
+        args.head.open(&cave)?,
         listener,
         secret.into_bytes(),
         MasterOptions {
-            clock: args.head.clock(),
-            frames: Some(args.frames),
-            seconds: None,
-            stop_at_end_of_log: false,
-            holodeck: hosted.as_ref().map(|h| h.addr.to_string()),
-            vlf: vlf.as_ref().map(|p| p.display().to_string()),
-            states_log: Some(args.out.join("states.bin")),
-            status_every: Duration::from_secs(1),
-            stop: super::interrupt::ctrl_c_flag(),
-            wait_for_walls: Duration::from_secs(60),
-            status_extra: hosted.as_ref().map(Hosted::status),
-            navigation,
-            navigation_log: Some(args.out.join(holocave_master::navigation::log::FILE_NAME)),
-            objects,
-            on_frame: None,
+            status_extra: Some(status_parts(hosted.as_ref(), &supervisor)),
+            on_frame: Some(frame_hook(sent.clone(), supervisor.ending(), args.frames)),
+            ..opts
         },
     );
+    let origin = supervisor.started;
+    let (mut children, deaths) = supervisor.stop();
     // Stopping the holodeck commits its samples and tells the workers goodbye, also when
     // the master failed: what the workers traced is kept.
     if let Some(h) = hosted {
@@ -198,12 +188,154 @@ pub fn run(mut args: SimArgs) -> Result<()> {
         tracing::warn!("{problem}");
     }
     print_summary(&summary);
-    report_frames(&args, &cave, &unfolded)?;
+    let presented = presented_logs(&args.out, &cave)?;
+    let sent = sent.lock().unwrap_or_else(|e| e.into_inner());
+    report_deaths(&args, &deaths, (origin, &sent), &presented);
+    report_frames(&args, &cave, &unfolded, &presented)?;
     // A session's glare, windows or not: every frame's view from the frame states.
     if let (Some(size), Some(vlf)) = (args.glare, &vlf) {
         measure_glare(&args, &scene.get()?, vlf, size)?;
     }
     Ok(())
+}
+
+/// The master's options for the run (less the status line's extra part and the frame
+/// hook, which need the supervisor): the head's clock, the frames asked, the holodeck and
+/// light field told to the nodes, the logs, navigation and moving objects.
+fn master_options(
+    args: &SimArgs,
+    scene: &super::render::SharedScene,
+    cave: &Cave,
+    hosted: Option<&Hosted>,
+    vlf: Option<&Path>,
+) -> Result<MasterOptions> {
+    let mut navigation = args.head.navigation(cave, Some(scene))?;
+    if let Some(nav) = &mut navigation {
+        super::master::log_desk(nav, &args.out)?;
+    }
+    Ok(MasterOptions {
+        clock: args.head.clock(),
+        frames: Some(args.frames),
+        seconds: None,
+        stop_at_end_of_log: false,
+        holodeck: hosted.map(|h| h.addr.to_string()),
+        vlf: vlf.map(|p| p.display().to_string()),
+        states_log: Some(args.out.join("states.bin")),
+        status_every: Duration::from_secs(1),
+        stop: super::interrupt::ctrl_c_flag(),
+        wait_for_walls: Duration::from_secs(60),
+        status_extra: None,
+        navigation,
+        navigation_log: Some(args.out.join(holocave_master::navigation::log::FILE_NAME)),
+        objects: super::master::object_motion(&scene.get()?, args.objects.as_deref())?,
+        on_frame: None,
+    })
+}
+
+/// When each frame's state was made, by frame number (a run's frames are numbered from 0,
+/// one after another): the summary's clock for when a wall presented again.
+type SentTimes = Arc<Mutex<Vec<Instant>>>;
+
+/// The master's hook for every frame state: notes when it was made in `sent`, and with the
+/// last of `frames` sets `ending` (the supervisor then starts no child again: the nodes
+/// are about to be told to shut down).
+fn frame_hook(sent: SentTimes, ending: Arc<AtomicBool>, frames: u64) -> FrameHook {
+    Box::new(move |state| {
+        sent.lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(Instant::now());
+        if state.frame + 1 >= frames {
+            ending.store(true, Ordering::Relaxed);
+        }
+    })
+}
+
+/// The status line's part after the master's: the holodeck's (when hosted), then the
+/// supervisor's (processes up and down, restarts).
+fn status_parts(
+    hosted: Option<&Hosted>,
+    supervisor: &Supervisor,
+) -> Box<dyn FnMut() -> String + Send> {
+    let mut parts: Vec<Box<dyn FnMut() -> String + Send>> = (hosted.map(Hosted::status))
+        .into_iter()
+        .chain([supervisor.status()])
+        .collect();
+    Box::new(move || {
+        parts
+            .iter_mut()
+            .map(|p| p())
+            .collect::<Vec<_>>()
+            .join(" | ")
+    })
+}
+
+/// The summary's lines on the nodes and workers that died: how many, then each death
+/// (which process, when, how, when it was started again; for a node, when its wall
+/// presented again and how many frames it missed). Times are seconds from the processes'
+/// start (`origin`); `sent` holds when each frame's state was made.
+fn report_deaths(
+    args: &SimArgs,
+    deaths: &[Death],
+    (origin, sent): (Instant, &[Instant]),
+    presented: &BTreeMap<String, BTreeSet<u64>>,
+) {
+    let restarted = deaths.iter().filter(|d| d.restarted.is_some()).count();
+    println!(
+        "  processes that died: {}, started again: {restarted}{}",
+        deaths.len(),
+        if args.no_restart {
+            " (--no-restart)"
+        } else {
+            ""
+        }
+    );
+    let all: BTreeSet<u64> = presented.values().flatten().copied().collect();
+    for d in deaths {
+        let secs = |t: Instant| t.saturating_duration_since(origin).as_secs_f64();
+        // The first frame whose state was made after the death.
+        let next = sent.partition_point(|&t| t <= d.at) as u64;
+        let back = match d.restarted {
+            Some(t) => format!("started again at {:.2} s", secs(t)),
+            None => "not started again".to_owned(),
+        };
+        let wall = (presented.iter()).find(|(wall, _)| node_name(wall) == d.name);
+        let shown = wall.map_or(String::new(), |(name, shown)| {
+            let again = wall_again(shown, &all, next, (sent, d.at));
+            format!("; wall {name} {again}")
+        });
+        println!(
+            "    {} died at {:.2} s before frame {next} ({}, after running {:.2} s); {back}{shown}",
+            d.name,
+            secs(d.at),
+            d.how,
+            d.ran.as_secs_f64()
+        );
+    }
+}
+
+/// Whether a wall (its presented frames `shown`) presented again after its node died at
+/// `died` before frame `next`, from which frame and how long after the death (to when that
+/// frame's state was made, by `sent`); and how many of the frames some wall presented
+/// (`all`) it missed from its last frame before the death to its first after.
+fn wall_again(
+    shown: &BTreeSet<u64>,
+    all: &BTreeSet<u64>,
+    next: u64,
+    (sent, died): (&[Instant], Instant),
+) -> String {
+    let from = shown.range(..next).next_back().map_or(0, |f| f + 1);
+    let again = shown.range(next..).next().copied();
+    let missed = (all.range(from..again.unwrap_or(u64::MAX)))
+        .filter(|f| !shown.contains(f))
+        .count();
+    let Some(again) = again else {
+        return format!("presented no frame after it: {missed} frames missed");
+    };
+    let after = sent.get(again as usize).map_or(String::new(), |t| {
+        let s = t.saturating_duration_since(died).as_secs_f64();
+        format!(", {s:.2} s after the death")
+    });
+    format!("presenting again from frame {again}{after}: {missed} frames missed")
 }
 
 /// The light field the walls draw: none with `--no-vlf`, else `--vlf` or the one kept
@@ -276,28 +408,32 @@ fn host_holodeck(args: &SimArgs, cave: &Cave, credentials: &Credentials) -> Resu
     })
 }
 
-/// `--workers` worker processes tracing for the holodeck at `addr`, each logging to
-/// `workerN.log`.
-fn spawn_workers(
+/// `--workers` worker processes tracing for the holodeck `hosted` (none without one),
+/// each logging to `workerN.log` (fresh each run; a restart appends).
+fn worker_children(
     args: &SimArgs,
     exe: &Path,
-    addr: &str,
+    hosted: Option<&Hosted>,
     credentials: &Credentials,
-    children: &mut Group,
-) -> Result<()> {
-    for i in 0..args.workers {
-        let log = std::fs::File::create(args.out.join(format!("worker{i}.log")))?;
-        let mut command =
-            worker_command(exe, addr, &args.scene, &args.daylight.args(), credentials);
-        command
-            .stdout(log.try_clone()?)
-            .stderr(log)
-            .stdin(Stdio::null());
-        children
-            .0
-            .push(Watched::spawn(format!("worker {i}"), &mut command)?);
-    }
-    Ok(())
+) -> Result<Vec<(String, Relaunch)>> {
+    let Some(h) = hosted else {
+        return Ok(Vec::new());
+    };
+    let addr = h.addr.to_string();
+    (0..args.workers)
+        .map(|i| {
+            let log = args.out.join(format!("worker{i}.log"));
+            std::fs::File::create(&log).with_context(|| format!("{}", log.display()))?;
+            let command =
+                worker_command(exe, &addr, &args.scene, &args.daylight.args(), credentials);
+            Ok((format!("worker {i}"), Relaunch::new(&command, &log)))
+        })
+        .collect()
+}
+
+/// The supervisor's name for `wall`'s node.
+fn node_name(wall: &str) -> String {
+    format!("node {wall}")
 }
 
 /// What every wall's node process is started with.
@@ -314,8 +450,9 @@ struct Nodes<'a> {
 }
 
 impl Nodes<'_> {
-    /// Starts `wall`'s node, its output in `OUT/<wall>/` (a fresh presented log).
-    fn spawn(&self, args: &SimArgs, wall: &Wall) -> Result<Watched> {
+    /// `wall`'s node, its output in `OUT/<wall>/` (a fresh presented log and `node.log`;
+    /// a restart appends to both), to be started by the supervisor.
+    fn child(&self, args: &SimArgs, wall: &Wall) -> Result<(String, Relaunch)> {
         let eye = (self.unfolded.place(&wall.name))
             .with_context(|| format!("wall {:?} is not in the unfolded CAVE", wall.name))?
             .size;
@@ -324,7 +461,8 @@ impl Nodes<'_> {
         // A fresh presented.log (and present-times.log) per run.
         let _ = std::fs::remove_file(dir.join(PRESENTED_LOG));
         let _ = std::fs::remove_file(dir.join("present-times.log"));
-        let log = std::fs::File::create(dir.join("node.log"))?;
+        let log = dir.join("node.log");
+        std::fs::File::create(&log).with_context(|| format!("{}", log.display()))?;
         let mut command = Command::new(self.exe);
         command
             .arg("node")
@@ -355,18 +493,19 @@ impl Nodes<'_> {
             .args(args.sky_per_pixel.then_some("--sky-per-pixel"))
             .env(credentials::SECRET_VAR, self.secret)
             // Four nodes share this machine's cores: one tracing thread each.
-            .env("RAYON_NUM_THREADS", "1")
-            .stdout(log.try_clone()?)
-            .stderr(log)
-            .stdin(Stdio::null());
-        Ok(Watched::spawn(format!("node {}", wall.name), &mut command)?)
+            .env("RAYON_NUM_THREADS", "1");
+        Ok((node_name(&wall.name), Relaunch::new(&command, &log)))
     }
 }
 
 /// Whether every wall presented the same frames; with windows, how far apart the walls
 /// presented them; without, the unfolded CAVE's mosaics of the written frames.
-fn report_frames(args: &SimArgs, cave: &Cave, unfolded: &Unfolded) -> Result<()> {
-    let presented = presented_logs(&args.out, cave)?;
+fn report_frames(
+    args: &SimArgs,
+    cave: &Cave,
+    unfolded: &Unfolded,
+    presented: &BTreeMap<String, BTreeSet<u64>>,
+) -> Result<()> {
     let all: BTreeSet<u64> = presented.values().flatten().copied().collect();
     match presented.values().all(|p| p.len() == all.len()) {
         true => println!(
@@ -375,7 +514,7 @@ fn report_frames(args: &SimArgs, cave: &Cave, unfolded: &Unfolded) -> Result<()>
             all.len()
         ),
         false => {
-            for (wall, p) in &presented {
+            for (wall, p) in presented {
                 println!(
                     "presented logs: wall {wall} lacks {} of the {} frames some wall showed",
                     all.len() - p.len(),
