@@ -29,6 +29,19 @@ fn room_with_movable_block() -> Arc<Scene> {
     Arc::new(Scene::load(&path, &opts).expect("the room loads"))
 }
 
+/// The room with its block movable, and a coarse light field of it written in `dir`.
+fn room_and_field(dir: &Path) -> (Arc<Scene>, std::path::PathBuf) {
+    let scene = room_with_movable_block();
+    let path = dir.join("room.vlf");
+    let settings = Settings {
+        directions: 92,
+        resolution: 32,
+        ..Settings::default()
+    };
+    common::write_field(&scene, settings, &path);
+    (scene, path)
+}
+
 /// The floor below the block's place in the sun, seen from above.
 fn floor_view() -> EyeView {
     let wall = WallView {
@@ -76,15 +89,8 @@ fn frames(d: &mut WallDisplay, n: usize) -> Vec<f32> {
 
 #[test]
 fn a_carried_objects_old_shadow_shows_lit_at_once() {
-    let scene = room_with_movable_block();
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("room.vlf");
-    let settings = Settings {
-        directions: 92,
-        resolution: 32,
-        ..Settings::default()
-    };
-    common::write_field(&scene, settings, &path);
+    let (scene, path) = room_and_field(dir.path());
     let base = Arc::new(VlfBase::open(&path, scene.clone()).unwrap());
 
     // The block a metre up in the sun, its shadow on the floor; then far away.
@@ -164,15 +170,8 @@ fn sun_hidden(scene: &Scene, placements: &[Placement], p: Vec3) -> bool {
 /// the whole wall's first estimates.
 #[test]
 fn a_moved_object_restarts_the_direct_light_only_where_it_changed_it() {
-    let scene = room_with_movable_block();
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("room.vlf");
-    let settings = Settings {
-        directions: 92,
-        resolution: 32,
-        ..Settings::default()
-    };
-    common::write_field(&scene, settings, &path);
+    let (scene, path) = room_and_field(dir.path());
     // Every pixel takes an estimate every frame: a mean's count tells whether it went on.
     let base = VlfBase::open(&path, scene.clone())
         .unwrap()
