@@ -117,7 +117,7 @@ pub struct SimArgs {
     #[command(flatten)]
     pub windows: super::window::SimWindowArgs,
     /// Leave a node or worker that dies during the frames down. By default it is started
-    /// again with the same command after 0.1 s (doubling to 2 s while it keeps dying soon
+    /// again with the same command after 0.1 s (doubling to 1 s while it keeps dying soon
     /// after its start, back to 0.1 s once it has run 10 s): a node's wall presents again,
     /// a worker joins the holodeck again.
     #[arg(long)]
