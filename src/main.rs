@@ -41,6 +41,9 @@ enum Command {
     Fill(cmd::fill::FillArgs),
     /// Run a holodeck worker process for a server.
     Worker(cmd::worker::WorkerArgs),
+    /// Keep one process of a cluster running on its host (a master, a node, a worker):
+    /// started again when it dies, as `sim` keeps its children.
+    Supervise(cmd::supervise::SuperviseArgs),
     /// Run a render node: one wall's display process (GPU render cache), in stereo, in a
     /// cluster (--master) or by itself (--standalone).
     Node(cmd::node::NodeArgs),
@@ -78,6 +81,7 @@ fn main() -> anyhow::Result<()> {
         Command::Holodeck(c) => cmd::holodeck::run(c),
         Command::Fill(a) => cmd::fill::run(a),
         Command::Worker(a) => cmd::worker::run(a),
+        Command::Supervise(a) => cmd::supervise::run(a),
         Command::Node(a) => cmd::node::run(a),
         Command::Compare(a) => cmd::compare::run(a),
         Command::Vlf(c) => cmd::vlf::run(c),

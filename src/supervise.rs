@@ -344,6 +344,31 @@ impl Supervisor {
         self.ending.clone()
     }
 
+    /// Whether every child is down for good: each exited with success (it finished), or
+    /// died with no restart to come (supervision off, or the run ending).
+    pub fn finished(&self) -> bool {
+        let board = lock(&self.board);
+        (board.slots.iter()).all(|s| !s.up && s.restart_at.is_none())
+    }
+
+    /// Asks every running child to stop, as Ctrl-C asks this process: SIGTERM (where the
+    /// signal reached this process alone, a supervisor's `kill` or systemd's with
+    /// `KillMode=mixed`).
+    pub fn terminate(&self) {
+        let board = lock(&self.board);
+        for w in board
+            .slots
+            .iter()
+            .filter(|s| s.up)
+            .filter_map(|s| s.child.as_ref())
+        {
+            let pid = nix::unistd::Pid::from_raw(w.child.id() as i32);
+            if let Err(e) = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM) {
+                tracing::warn!("{}: SIGTERM not sent: {e}", w.name);
+            }
+        }
+    }
+
     /// A status-line part: how many children are up, which are down, how many restarts.
     pub fn status(&self) -> Box<dyn FnMut() -> String + Send> {
         let board = self.board.clone();

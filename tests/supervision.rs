@@ -430,3 +430,84 @@ fn killed_nodes_and_workers_come_back_and_lose_nothing() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `holocave supervise` on a cluster's host, as `docs/usage/supervise.md` runs it: a master
+/// on loopback, the front wall's node under supervision and the other walls' nodes plain.
+/// The supervised node, SIGKILLed, is started again and its wall presents again; Ctrl-C to
+/// the supervisor stops the node (SIGTERM) and exits 130, leaving no node behind.
+#[test]
+fn holocave_supervise_keeps_a_clusters_node_running() {
+    const CONFIG: &str = "configs/cave4-cornell.toml";
+    let dir = scratch("supervise-node");
+    let out = dir.join("out");
+    let mut master = holocave();
+    master
+        .args(["master", "--config", CONFIG, "--listen", "127.0.0.1:0"])
+        .args(["--rate", "20", "--seconds", "300", "--wait-for-walls", "60"])
+        .env("HOLOCAVE_SECRET", "supervise-test");
+    let (_master, addr, _stdout) = common::start_master(master);
+    let node = |wall: &str| {
+        let mut c = holocave();
+        c.args(["node", "--master", &addr, "--wall", wall, "--headless"])
+            .args(["--config", CONFIG, "--scene", "scenes/cornell.gltf"])
+            .args(["--size", "32x24", "--samples", "48", "--every", "1000000"])
+            .arg("--out")
+            .arg(&out)
+            .env("HOLOCAVE_SECRET", "supervise-test")
+            .env("RAYON_NUM_THREADS", "1");
+        c
+    };
+    let mut supervised = holocave();
+    supervised
+        .args(["supervise", "--log"])
+        .arg(dir.join("front.log"))
+        .arg("--")
+        .arg(env!("CARGO_BIN_EXE_holocave"))
+        .args(node("front").get_args())
+        .envs(node("front").get_envs().filter_map(|(k, v)| Some((k, v?))))
+        .stderr(File::create(dir.join("stderr.txt")).unwrap());
+    let mut sim = Sim(Some(Watched::spawn("supervise", &mut supervised).unwrap()));
+    let _others: Vec<Watched> = (WALLS[1..].iter())
+        .map(|w| Watched::spawn(*w, node(w).stderr(std::process::Stdio::null())).unwrap())
+        .collect();
+    let front = |dir: &Path| {
+        holocave_render_node::output::read_presented(&dir.join("out").join("front"))
+            .unwrap_or_default()
+    };
+    let limit = Duration::from_secs(120);
+    wait_until(
+        &mut sim,
+        &dir,
+        limit,
+        "the front wall presenting 10 frames",
+        || front(&dir).len() >= 10,
+    );
+    let pid = sim.pid();
+    let first = node_pid(pid, "front").expect("the supervised node in /proc");
+    sigkill(first);
+    wait_until(&mut sim, &dir, limit, "the killed node gone", || {
+        node_pid(pid, "front") != Some(first)
+    });
+    let before = front(&dir).len();
+    wait_until(
+        &mut sim,
+        &dir,
+        limit,
+        "the front wall presenting again",
+        || front(&dir).len() > before,
+    );
+    let again = node_pid(pid, "front").expect("the node started again");
+    let status = sim.stop(Duration::from_secs(30));
+    assert_eq!(
+        status.and_then(|s| s.code()),
+        Some(130),
+        "supervise: {status:?}"
+    );
+    assert!(
+        !Path::new(&format!("/proc/{again}")).exists(),
+        "the supervised node {again} outlived its supervisor"
+    );
+    let said = output(&dir, "stderr.txt");
+    assert!(said.contains("deaths: 1, started again: 1"), "{said}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -15,6 +15,7 @@ pub mod parse;
 pub mod render;
 pub mod scene;
 pub mod sim;
+pub mod supervise;
 pub mod tracking;
 pub mod view;
 pub mod vlf;
