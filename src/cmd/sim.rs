@@ -234,6 +234,16 @@ impl Running {
         }
         Ok(stopped)
     }
+
+    /// Kills the children (they wait for a master that is gone), then stops the holodeck,
+    /// which commits what it received (it waits for its connections to close).
+    fn kill(self) -> Result<()> {
+        drop(self.supervisor.stop());
+        if let Some(h) = self.hosted {
+            stop_hosted(h)?;
+        }
+        Ok(())
+    }
 }
 
 /// The watchdog beside the master: once Ctrl-C was pressed and the master has not
@@ -255,11 +265,8 @@ fn end_if_the_master_hangs(running: &Mutex<Option<Running>>, kept: &str) {
             continue;
         }
         tracing::warn!("the master did not stop: stopping the nodes, workers and holodeck");
-        if let Some(r) = r.take() {
-            // Dropping the children kills them: they wait for a master that is gone.
-            if let Err(e) = r.stop() {
-                tracing::error!("{e:#}");
-            }
+        if let Some(Err(e)) = r.take().map(Running::kill) {
+            tracing::error!("{e:#}");
         }
         super::interrupt::exit_interrupted(&format!("{kept}; run again to go on"));
     }
@@ -490,7 +497,9 @@ fn host_holodeck(args: &SimArgs, cave: &Cave, credentials: &Credentials) -> Resu
             moment: args.daylight.moment()?,
             made_by: "sim",
             sections: &args.section,
-            stop: super::interrupt::ctrl_c_flag(),
+            // Not Ctrl-C's flag: the nodes draw from it until the master tells them to
+            // shut down, and `sim` stops it after that.
+            stop: Arc::default(),
             follows_scene: args.holodeck.is_none(),
         })?)
     })
