@@ -70,6 +70,8 @@ fn main() -> anyhow::Result<()> {
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
+    // Before any command runs: every command and phase ends on Ctrl-C or SIGTERM.
+    cmd::interrupt::install();
     let cli = Cli::parse();
     match cli.command {
         Command::Sim(a) => cmd::sim::run(a),

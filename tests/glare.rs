@@ -197,3 +197,26 @@ fn a_standalone_node_measures_its_heads_glare_live() {
         }
     }
 }
+
+/// Ctrl-C while the fisheye is path traced (the Cornell box at many paths per pixel) ends
+/// `glare` at once with status 130, saying it wrote nothing, and writes nothing.
+#[test]
+fn ctrl_c_ends_glare_at_once() {
+    let dir = common::scratch("ctrl-c-glare");
+    let out = dir.join("glare.exr");
+    let mut glare = common::Logged::start(
+        holocave()
+            .args(["glare", "--scene", "scenes/cornell.gltf"])
+            .args(["--eye", "0,1,3.4", "--look", "0,0,-1"])
+            .args(["--size", "256", "--spp", "100000", "--out"])
+            .arg(&out)
+            .env("RUST_LOG", "info"),
+        &dir,
+    );
+    glare.wait_for_line("Ctrl-C ends it");
+    let (status, took) = glare.interrupt("INT", false);
+    let said = glare.stderr();
+    assert_eq!(status.code(), Some(130), "{status} after {took:?}: {said}");
+    assert!(said.contains("interrupted: nothing written"), "{said}");
+    assert!(!out.exists(), "a half-written {}", out.display());
+}

@@ -8,6 +8,7 @@
 //! status line) with a deadline, never a fixed sleep.
 
 use std::fs::File;
+use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Command, ExitStatus};
 use std::time::{Duration, Instant};
@@ -42,6 +43,21 @@ impl Sim {
             .status();
         w.finish(limit).0
     }
+
+    /// Sends `signal` to sim, or with `group` to sim and every process it started (as a
+    /// terminal's Ctrl-C), and waits for it to end within `common::INTERRUPT_LIMIT`: its exit
+    /// status, and how long it took. Fails with what sim logged when it does not end.
+    fn interrupt(&mut self, dir: &Path, signal: &str, group: bool) -> (ExitStatus, Duration) {
+        let mut w = self.0.take().expect("sim running");
+        let (status, took) = common::interrupt(&mut w, signal, group);
+        let Some(status) = status else {
+            panic!(
+                "sim still running {took:?} after SIG{signal}; its stderr:\n{}",
+                output(dir, "stderr.txt")
+            );
+        };
+        (status, took)
+    }
 }
 
 impl Drop for Sim {
@@ -68,6 +84,8 @@ fn start_sim(dir: &Path, extra: &[&str]) -> Sim {
         .arg("--out")
         .arg(dir.join("out"))
         .env("RUST_LOG", "info")
+        // Its own process group, which a test's Ctrl-C reaches whole, as a terminal's.
+        .process_group(0)
         .stdout(File::create(dir.join("stdout.txt")).unwrap())
         .stderr(File::create(dir.join("stderr.txt")).unwrap())
         .spawn()
@@ -211,7 +229,7 @@ fn a_killed_node_is_started_again_and_its_wall_presents_again() {
     let status = sim.stop(Duration::from_secs(60));
     let stdout = output(&dir, "stdout.txt");
     assert!(
-        status.is_some_and(|s| s.success()),
+        status.is_some_and(|s| s.code() == Some(130)),
         "sim: {status:?}\n{stdout}"
     );
     println!("{stdout}");
@@ -274,7 +292,7 @@ fn a_killed_worker_is_started_again_and_rejoins_the_holodeck() {
     let status = sim.stop(Duration::from_secs(60));
     let stdout = output(&dir, "stdout.txt");
     assert!(
-        status.is_some_and(|s| s.success()),
+        status.is_some_and(|s| s.code() == Some(130)),
         "sim: {status:?}\n{stdout}"
     );
     assert!(
@@ -287,6 +305,94 @@ fn a_killed_worker_is_started_again_and_rejoins_the_holodeck() {
     for part in ["(signal: 9 (SIGKILL)", "; started again at "] {
         assert!(death.contains(part), "{part:?} not in {death:?}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Whether process `pid` is gone (or a zombie: no command line any more).
+fn gone(pid: u32) -> bool {
+    std::fs::read(format!("/proc/{pid}/cmdline")).map_or(true, |c| c.is_empty())
+}
+
+/// What a `sim` that Ctrl-C ended must leave: none of its `children` running, its
+/// holodeck (`dir/out/cornell.hdk`) checking clean, and a line saying it keeps it.
+fn check_kept(dir: &Path, children: &[u32]) {
+    let said = output(dir, "stderr.txt");
+    assert!(
+        said.contains("interrupted: the holodeck") && said.contains("keeps its samples"),
+        "{said}"
+    );
+    let left: Vec<u32> = children.iter().copied().filter(|&p| !gone(p)).collect();
+    assert!(left.is_empty(), "sim's processes {left:?} outlived it");
+    let check = holocave()
+        .args(["holodeck", "check"])
+        .arg(dir.join("out").join("cornell.hdk"))
+        .output()
+        .unwrap();
+    assert!(
+        check.status.success(),
+        "the kept holodeck does not check clean: {}{}",
+        String::from_utf8_lossy(&check.stdout),
+        String::from_utf8_lossy(&check.stderr)
+    );
+}
+
+/// Ctrl-C from the terminal while the nodes start (they run, no wall presented yet)
+/// reaches sim and every process it started: the nodes end before they join, so the
+/// master, which waits for the walls, is stopped by sim itself. Sim ends within the limit
+/// with 130 and leaves no process behind; the holodeck checks clean.
+#[test]
+fn ctrl_c_while_the_nodes_start_ends_sim_and_every_child() {
+    let dir = scratch("sim-ctrl-c-start");
+    let mut sim = start_sim(&dir, &[]);
+    let sim_pid = sim.pid();
+    wait_until(
+        &mut sim,
+        &dir,
+        Duration::from_secs(120),
+        "four nodes and two workers started",
+        || {
+            let running = children_of(sim_pid);
+            running.iter().filter(|(_, a)| a[0] == "node").count() == 4 && running.len() == 6
+        },
+    );
+    let children: Vec<u32> = children_of(sim_pid).into_iter().map(|(p, _)| p).collect();
+    let shown = WALLS.iter().any(|w| !presented(&dir, w).is_empty());
+    let (status, took) = sim.interrupt(&dir, "INT", true);
+    println!("sim ended {took:?} after Ctrl-C during its start-up (a wall presented: {shown})");
+    assert_eq!(status.code(), Some(130), "{status}");
+    check_kept(&dir, &children);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// SIGTERM to sim alone during the frames (a supervisor's or systemd's stop): the master
+/// ends its frame and tells the nodes to shut down, the holodeck commits. Sim ends within
+/// the limit with 130, its summary says what the walls presented, no process is left, and
+/// the holodeck checks clean.
+#[test]
+fn sigterm_during_the_frames_ends_sim_keeping_the_holodeck() {
+    let dir = scratch("sim-sigterm-frames");
+    let mut sim = start_sim(&dir, &[]);
+    let sim_pid = sim.pid();
+    wait_until(
+        &mut sim,
+        &dir,
+        Duration::from_secs(300),
+        "every wall presenting 3 frames",
+        || WALLS.iter().all(|w| presented(&dir, w).len() >= 3),
+    );
+    let children: Vec<u32> = children_of(sim_pid).into_iter().map(|(p, _)| p).collect();
+    let (status, took) = sim.interrupt(&dir, "TERM", false);
+    println!("sim ended {took:?} after SIGTERM during the frames");
+    assert_eq!(status.code(), Some(130), "{status}");
+    let stdout = output(&dir, "stdout.txt");
+    for part in [
+        "samples added by this run",
+        "(committed)",
+        "presented logs: ",
+    ] {
+        assert!(stdout.contains(part), "{part:?} not in:\n{stdout}");
+    }
+    check_kept(&dir, &children);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -386,7 +492,7 @@ fn killed_nodes_and_workers_come_back_and_lose_nothing() {
     let status = sim.stop(Duration::from_secs(60));
     let stdout = output(&dir, "stdout.txt");
     assert!(
-        status.is_some_and(|s| s.success()),
+        status.is_some_and(|s| s.code() == Some(130)),
         "sim: {status:?}\n{stdout}"
     );
     let deaths = format!(

@@ -141,3 +141,33 @@ fn ctrl_c_ends_a_bake_at_once_keeping_what_it_finished() {
         }
     }
 }
+
+/// Ctrl-C during `sim`'s first-run bake of the room's light field ends sim at once with
+/// 130, keeping the bounces the bake finished (the light field reads whole, or is not
+/// written yet), before any node is started.
+#[test]
+fn ctrl_c_ends_sims_first_bake_at_once_keeping_what_it_finished() {
+    let dir = common::scratch("sim-ctrl-c-bake");
+    let out = dir.join("out");
+    let mut sim = common::Logged::start(
+        holocave()
+            .args(["sim", "--config", "configs/cave4-room.toml"])
+            .args(["--scene", "scenes/room.gltf", "--no-holodeck"])
+            .args(["--tracker", "synthetic:walk", "--scale", "0.05", "--out"])
+            .arg(&out),
+        &dir,
+    );
+    sim.wait_for_line("baking the light field");
+    let (status, took) = sim.interrupt("INT", false);
+    let said = sim.stderr();
+    assert_eq!(status.code(), Some(130), "{status} after {took:?}: {said}");
+    assert!(said.contains("keeps the bounces it finished"), "{said}");
+    assert!(
+        !out.join("front").join("node.log").exists(),
+        "sim started its nodes"
+    );
+    let vlf = out.join("room.vlf");
+    if vlf.exists() {
+        holocave_vlf::VlfFile::read(&vlf).expect("the kept light field reads whole");
+    }
+}

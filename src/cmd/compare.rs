@@ -154,16 +154,24 @@ pub fn run(args: CompareArgs) -> Result<()> {
         } else {
             args.out.clone()
         };
-        compare_wall(
-            &args,
-            &cave,
-            wall,
-            scene.clone(),
-            methods,
-            &poses,
-            vlf.clone(),
-            out,
-        )?;
+        // Ctrl-C ends the comparison at once: each reference is written as it is rendered
+        // (one cut short is rendered again), so a next run starts from those.
+        let kept = format!(
+            "{} keeps the converged references rendered so far (refs/); run again to reuse them",
+            out.display()
+        );
+        super::interrupt::ending_at_once(kept, || {
+            compare_wall(
+                &args,
+                &cave,
+                wall,
+                scene.clone(),
+                methods,
+                &poses,
+                vlf.clone(),
+                out,
+            )
+        })?;
     }
     Ok(())
 }

@@ -1,7 +1,8 @@
 //! `holocave fill`: batch-fills a holodeck (paper §2.2, batch mode) with worker threads or
 //! worker processes, showing progress and an ETA. Stopping (time limit, Ctrl-C or a kill)
 //! and running again continues where it left off: the file holds every committed sample,
-//! and the batch order is recomputed from the counts.
+//! and the batch order is recomputed from the counts. Ctrl-C commits what was traced and
+//! ends with status 130.
 
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
@@ -229,6 +230,13 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         s.samples,
         start_samples
     );
+    if super::interrupt::interrupted() {
+        super::interrupt::exit_interrupted(&format!(
+            "{} keeps its {} samples (committed); run again to go on",
+            args.holodeck.display(),
+            s.samples
+        ));
+    }
     Ok(())
 }
 

@@ -121,7 +121,17 @@ pub fn run(a: GlareArgs) -> Result<()> {
         ),
     };
     let start = std::time::Instant::now();
-    let image = drawing.draw(&fisheye);
+    let nothing = format!(
+        "nothing written ({} is written once the fisheye is drawn)",
+        a.out.display()
+    );
+    let image = super::interrupt::ending_at_once(nothing, || {
+        tracing::info!(
+            "drawing the {0}x{0} fisheye {how} (Ctrl-C ends it, writing nothing)",
+            a.size
+        );
+        drawing.draw(&fisheye)
+    });
     let secs = start.elapsed().as_secs_f64();
     let map = LuminanceMap::from_radiance(fisheye.clone(), &image, &photometry)
         .context("the drawn fisheye")?;

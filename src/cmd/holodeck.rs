@@ -304,6 +304,13 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
         "added {} samples; the holodeck holds {}",
         s.added, s.samples
     );
+    if super::interrupt::interrupted() {
+        super::interrupt::exit_interrupted(&format!(
+            "{} keeps its {} samples (committed)",
+            a.file.display(),
+            s.samples
+        ));
+    }
     Ok(())
 }
 

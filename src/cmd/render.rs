@@ -162,7 +162,17 @@ pub fn run(args: RenderArgs) -> Result<()> {
     );
     bar.set_message(format!("{}x{} at {} spp", width, height, args.spp));
     let start = std::time::Instant::now();
-    let image = render(&tracer, &view, args.spp, args.seed, &|| bar.inc(1));
+    let nothing = format!(
+        "nothing written ({} is written once the render ends)",
+        args.out.display()
+    );
+    let image = super::interrupt::ending_at_once(nothing, || {
+        tracing::info!(
+            "rendering {width}x{height} at {} spp (Ctrl-C ends it, writing nothing)",
+            args.spp
+        );
+        render(&tracer, &view, args.spp, args.seed, &|| bar.inc(1))
+    });
     bar.finish();
     let secs = start.elapsed().as_secs_f64();
     let paths = f64::from(width) * f64::from(height) * f64::from(args.spp);

@@ -165,38 +165,133 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     let supervisor = Supervisor::start(children, backoff, super::interrupt::ctrl_c_flag())?;
     let sent = SentTimes::default();
     let opts = master_options(&args, &scene, &cave, hosted.as_ref(), vlf.as_deref())?;
-    let summary = run_master(
-        &cave,
-        args.head.open(&cave)?,
-        listener,
-        secret.into_bytes(),
-        MasterOptions {
-            status_extra: Some(status_parts(hosted.as_ref(), &supervisor)),
-            on_frame: Some(frame_hook(sent.clone(), supervisor.ending(), args.frames)),
-            ..opts
-        },
-    );
+    let opts = MasterOptions {
+        status_extra: Some(status_parts(hosted.as_ref(), &supervisor)),
+        on_frame: Some(frame_hook(sent.clone(), supervisor.ending(), args.frames)),
+        ..opts
+    };
     let origin = supervisor.started;
-    let (mut children, deaths) = supervisor.stop();
-    // Stopping the holodeck commits its samples and tells the workers goodbye, also when
-    // the master failed: what the workers traced is kept.
-    if let Some(h) = hosted {
-        stop_hosted(h)?;
-    }
+    let head = args.head.open(&cave)?;
+    let running = Mutex::new(Some(Running { supervisor, hosted }));
+    let kept = kept_on_ctrl_c(&args, vlf.as_deref());
+    let (summary, running) = std::thread::scope(|s| {
+        s.spawn(|| end_if_the_master_hangs(&running, &kept));
+        let summary = run_master(&cave, head, listener, secret.into_bytes(), opts);
+        let running = running.lock().unwrap_or_else(|e| e.into_inner()).take();
+        (summary, running)
+    });
+    let running = running.expect("only the watchdog takes it, and it ends the process");
+    let interrupted = super::interrupt::interrupted();
+    let (mut children, deaths) = running.stop()?;
     let summary = summary?;
-    for problem in children.wait(Duration::from_secs(20)) {
+    // Told to shut down, the nodes end at once; one that does not is killed.
+    let limit = Duration::from_secs(if interrupted { 1 } else { 20 });
+    for problem in children.wait(limit) {
         tracing::warn!("{problem}");
     }
     print_summary(&summary);
     let presented = presented_logs(&args.out, &cave)?;
     let sent = sent.lock().unwrap_or_else(|e| e.into_inner());
     report_deaths(&args, &deaths, (origin, &sent), &presented);
-    report_frames(&args, &cave, &unfolded, &presented)?;
-    // A session's glare, windows or not: every frame's view from the frame states.
-    if let (Some(size), Some(vlf)) = (args.glare, &vlf) {
-        measure_glare(&args, &scene.get()?, vlf, size)?;
+    if interrupted {
+        report_presented(&presented);
+        super::interrupt::exit_interrupted(&format!(
+            "{kept} (no mosaics or glare made); run again to go on"
+        ));
     }
-    Ok(())
+    // The mosaics and the glare read what is written and write their own: Ctrl-C ends
+    // them at once.
+    super::interrupt::ending_at_once(format!("{kept}; run again to go on"), || {
+        report_frames(&args, &cave, &unfolded, &presented)?;
+        // A session's glare, windows or not: every frame's view from the frame states.
+        if let (Some(size), Some(vlf)) = (args.glare, &vlf) {
+            measure_glare(&args, &scene.get()?, vlf, size)?;
+        }
+        Ok(())
+    })
+}
+
+/// How long the master has, after Ctrl-C, to end its frames and tell the nodes to shut
+/// down: it looks at Ctrl-C only between frames, and not while it waits for the walls to
+/// join or draw their first frame, so past this `sim` stops the processes itself.
+const MASTER_GRACE: Duration = Duration::from_millis(500);
+
+/// What `sim` stops once the master returned (or its watchdog, where the master does not
+/// stop): the supervised nodes and workers and the hosted holodeck.
+struct Running {
+    supervisor: Supervisor,
+    hosted: Option<Hosted>,
+}
+
+impl Running {
+    /// Stops supervising (the children, to wait for, and every death seen), then the
+    /// holodeck: that commits its samples and tells the workers goodbye, also when the
+    /// master failed, so what the workers traced is kept.
+    fn stop(self) -> Result<(holocave::launch::Group, Vec<Death>)> {
+        let stopped = self.supervisor.stop();
+        if let Some(h) = self.hosted {
+            stop_hosted(h)?;
+        }
+        Ok(stopped)
+    }
+
+    /// Kills the children (they wait for a master that is gone), then stops the holodeck,
+    /// which commits what it received (it waits for its connections to close).
+    fn kill(self) -> Result<()> {
+        drop(self.supervisor.stop());
+        if let Some(h) = self.hosted {
+            stop_hosted(h)?;
+        }
+        Ok(())
+    }
+}
+
+/// The watchdog beside the master: once Ctrl-C was pressed and the master has not
+/// returned within [`MASTER_GRACE`], stops the children and the holodeck and ends the
+/// process, saying `kept`. Returns when the master returned first (it took `running`).
+fn end_if_the_master_hangs(running: &Mutex<Option<Running>>, kept: &str) {
+    let mut since = None;
+    loop {
+        std::thread::sleep(Duration::from_millis(20));
+        let mut r = running.lock().unwrap_or_else(|e| e.into_inner());
+        if r.is_none() {
+            return;
+        }
+        if !super::interrupt::interrupted() {
+            continue;
+        }
+        let since = *since.get_or_insert_with(Instant::now);
+        if since.elapsed() < MASTER_GRACE {
+            continue;
+        }
+        tracing::warn!("the master did not stop: stopping the nodes, workers and holodeck");
+        if let Some(Err(e)) = r.take().map(Running::kill) {
+            tracing::error!("{e:#}");
+        }
+        super::interrupt::exit_interrupted(&format!("{kept}; run again to go on"));
+    }
+}
+
+/// What a run that Ctrl-C ends keeps: the holodeck's samples (committed), the light field,
+/// the walls' frames and the frame states written so far.
+fn kept_on_ctrl_c(args: &SimArgs, vlf: Option<&Path>) -> String {
+    let mut kept = Vec::new();
+    if !args.no_holodeck {
+        let hdk = (args.holodeck.clone())
+            .unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "hdk"));
+        kept.push(format!(
+            "the holodeck {} keeps its samples (committed)",
+            hdk.display()
+        ));
+    }
+    if let Some(vlf) = vlf {
+        kept.push(format!("the light field {} is whole", vlf.display()));
+    }
+    kept.push(format!(
+        "the walls' frames and the frame states so far are in {}",
+        args.out.display()
+    ));
+    kept.join("; ")
 }
 
 /// The master's options for the run (less the status line's extra part and the frame
@@ -402,7 +497,9 @@ fn host_holodeck(args: &SimArgs, cave: &Cave, credentials: &Credentials) -> Resu
             moment: args.daylight.moment()?,
             made_by: "sim",
             sections: &args.section,
-            stop: super::interrupt::ctrl_c_flag(),
+            // Not Ctrl-C's flag: the nodes draw from it until the master tells them to
+            // shut down, and `sim` stops it after that.
+            stop: Arc::default(),
             follows_scene: args.holodeck.is_none(),
         })?)
     })
@@ -506,23 +603,7 @@ fn report_frames(
     unfolded: &Unfolded,
     presented: &BTreeMap<String, BTreeSet<u64>>,
 ) -> Result<()> {
-    let all: BTreeSet<u64> = presented.values().flatten().copied().collect();
-    match presented.values().all(|p| p.len() == all.len()) {
-        true => println!(
-            "presented logs: identical on all {} walls ({} frames)",
-            presented.len(),
-            all.len()
-        ),
-        false => {
-            for (wall, p) in presented {
-                println!(
-                    "presented logs: wall {wall} lacks {} of the {} frames some wall showed",
-                    all.len() - p.len(),
-                    all.len()
-                );
-            }
-        }
-    }
+    let all = report_presented(presented);
     if args.windows.window {
         let logs: Vec<(String, PathBuf)> = cave
             .walls
@@ -557,6 +638,29 @@ fn report_frames(
         );
     }
     Ok(())
+}
+
+/// Whether every wall presented the same frames (`presented`); the frames some wall
+/// presented.
+fn report_presented(presented: &BTreeMap<String, BTreeSet<u64>>) -> BTreeSet<u64> {
+    let all: BTreeSet<u64> = presented.values().flatten().copied().collect();
+    match presented.values().all(|p| p.len() == all.len()) {
+        true => println!(
+            "presented logs: identical on all {} walls ({} frames)",
+            presented.len(),
+            all.len()
+        ),
+        false => {
+            for (wall, p) in presented {
+                println!(
+                    "presented logs: wall {wall} lacks {} of the {} frames some wall showed",
+                    all.len() - p.len(),
+                    all.len()
+                );
+            }
+        }
+    }
+    all
 }
 
 /// The glare of every frame's view, from the frame states the master wrote.

@@ -156,15 +156,10 @@ pub fn run(c: VlfCommand) -> Result<()> {
 }
 
 /// Bakes (or finishes baking) `job`'s file with a progress bar (none when `quiet`), and
-/// prints what the bake did.
-/// Bakes `job`, Ctrl-C ending it at once: its finished bounces are in the file, each
-/// written whole, and the next run resumes from them.
+/// prints what the bake did. Ctrl-C ends it at once: its finished bounces are in the file,
+/// each written whole, and the next run resumes from them.
 fn run_bake(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<VlfFile> {
-    let kept = format!(
-        "{} keeps the bounces it finished; run again to resume",
-        job.out.display()
-    );
-    super::interrupt::ending_at_once(kept, || {
+    super::interrupt::ending_at_once(bounces_kept(job.out), || {
         if !quiet {
             println!(
                 "baking {} (Ctrl-C keeps the finished bounces)",
@@ -173,6 +168,14 @@ fn run_bake(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<VlfFile
         }
         bake_steps(job, quiet, casting)
     })
+}
+
+/// What a bake into `out` that Ctrl-C ends keeps.
+fn bounces_kept(out: &Path) -> String {
+    format!(
+        "{} keeps the bounces it finished; run again to resume",
+        out.display()
+    )
 }
 
 /// [`run_bake`]'s steps.
@@ -259,19 +262,22 @@ pub fn baked_default(scene: &Scene, path: &Path) -> Result<PathBuf> {
     let start = job
         .start()
         .with_context(|| format!("the light field {}", path.display()))?;
-    match start {
-        Start::Fresh => println!(
-            "baking the light field {} (once; kept for later runs)",
-            path.display()
-        ),
-        _ => println!(
-            "light field {} (kept from an earlier run; a bake it left unfinished is finished)",
-            path.display()
-        ),
-    }
     let t = std::time::Instant::now();
-    run_bake(&job, true, &Threads)
-        .with_context(|| format!("the light field {}", path.display()))?;
+    // Ctrl-C ends the bake at once from the line that says it bakes.
+    super::interrupt::ending_at_once(bounces_kept(path), || {
+        match start {
+            Start::Fresh => println!(
+                "baking the light field {} (once; kept for later runs)",
+                path.display()
+            ),
+            _ => println!(
+                "light field {} (kept from an earlier run; a bake it left unfinished is finished)",
+                path.display()
+            ),
+        }
+        run_bake(&job, true, &Threads)
+    })
+    .with_context(|| format!("the light field {}", path.display()))?;
     if matches!(start, Start::Fresh) {
         println!("baked in {:.1} s", t.elapsed().as_secs_f64());
     }

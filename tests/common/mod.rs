@@ -65,3 +65,124 @@ pub fn start_master(mut master: Command) -> (Watched, String, BufReader<ChildStd
         .to_owned();
     (Watched::adopt("master", child), addr, out)
 }
+
+/// How long a command may take to end after Ctrl-C or SIGTERM. The goal is a second; this
+/// leaves room for a loaded CI machine (two cores shared by the test's processes).
+pub const INTERRUPT_LIMIT: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// A command started with its stdout and stderr in files (`stdout.txt`, `stderr.txt` in
+/// its folder), to be interrupted mid-phase; killed if the test fails first.
+pub struct Logged {
+    pub child: Watched,
+    dir: PathBuf,
+}
+
+impl Logged {
+    /// Starts `command` with its output in `dir`.
+    pub fn start(command: &mut Command, dir: &Path) -> Logged {
+        let file = |name: &str| std::fs::File::create(dir.join(name)).unwrap();
+        command
+            .stdout(file("stdout.txt"))
+            .stderr(file("stderr.txt"));
+        let name = format!("{:?}", command.get_args().next().unwrap_or_default());
+        Logged {
+            child: Watched::spawn(name, command).expect("start holocave"),
+            dir: dir.to_owned(),
+        }
+    }
+
+    /// What it wrote to stdout so far.
+    pub fn stdout(&self) -> String {
+        std::fs::read_to_string(self.dir.join("stdout.txt")).unwrap_or_default()
+    }
+
+    /// What it wrote to stderr so far.
+    pub fn stderr(&self) -> String {
+        std::fs::read_to_string(self.dir.join("stderr.txt")).unwrap_or_default()
+    }
+
+    /// Waits up to `limit` until `cond` holds (polling); fails, with its output, when it
+    /// exits first or the time is up.
+    pub fn wait_until(
+        &mut self,
+        limit: std::time::Duration,
+        what: &str,
+        mut cond: impl FnMut(&Logged) -> bool,
+    ) {
+        let end = std::time::Instant::now() + limit;
+        while !cond(self) {
+            let why = match self.child.child.try_wait().unwrap() {
+                Some(status) => format!("it exited ({status})"),
+                None if std::time::Instant::now() >= end => format!("timed out after {limit:?}"),
+                None => {
+                    std::thread::sleep(std::time::Duration::from_millis(10));
+                    continue;
+                }
+            };
+            panic!(
+                "{why} waiting for {what}\nstdout:\n{}\nstderr:\n{}",
+                self.stdout(),
+                self.stderr()
+            );
+        }
+    }
+
+    /// Waits until a line of its stdout or stderr contains `sign`.
+    pub fn wait_for_line(&mut self, sign: &str) {
+        let what = format!("a line with {sign:?}");
+        self.wait_until(std::time::Duration::from_secs(300), &what, |l| {
+            l.stdout().contains(sign) || l.stderr().contains(sign)
+        });
+    }
+
+    /// Sends `signal` (`INT`, `TERM`) to it, or with `group` to its process group (as a
+    /// terminal's Ctrl-C reaches every process of a job: start it with
+    /// `process_group(0)`), and waits up to [`INTERRUPT_LIMIT`] for it to end; its exit
+    /// status and how long it took to end. Fails when it has not ended by then.
+    pub fn interrupt(
+        &mut self,
+        signal: &str,
+        group: bool,
+    ) -> (std::process::ExitStatus, std::time::Duration) {
+        let (status, took) = interrupt(&mut self.child, signal, group);
+        let Some(status) = status else {
+            panic!(
+                "still running {took:?} after SIG{signal}\nstdout:\n{}\nstderr:\n{}",
+                self.stdout(),
+                self.stderr()
+            );
+        };
+        (status, took)
+    }
+}
+
+/// Sends `signal` (`INT`, `TERM`) to `child`, or with `group` to its process group (see
+/// [`Logged::interrupt`]), and waits up to [`INTERRUPT_LIMIT`] for it to end: its exit
+/// status (`None`: still running) and how long it took to end, which is logged.
+pub fn interrupt(
+    child: &mut Watched,
+    signal: &str,
+    group: bool,
+) -> (Option<std::process::ExitStatus>, std::time::Duration) {
+    let pid = child.child.id();
+    let target = if group {
+        format!("-{pid}")
+    } else {
+        pid.to_string()
+    };
+    let sent = std::time::Instant::now();
+    let ok = Command::new("kill")
+        .args([&format!("-{signal}"), "--", &target])
+        .status()
+        .unwrap();
+    assert!(ok.success(), "kill -{signal} -- {target}");
+    let status = child.wait_for(INTERRUPT_LIMIT);
+    let took = sent.elapsed();
+    let ended = status.map_or("still running".to_owned(), |s| format!("ended ({s})"));
+    eprintln!(
+        "{}: {ended} {:.3} s after SIG{signal}",
+        child.name,
+        took.as_secs_f64()
+    );
+    (status, took)
+}
