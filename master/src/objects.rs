@@ -13,6 +13,7 @@ use holocave_scene::objects::PathError;
 use holocave_scene::{MovableObject, ObjectPaths, Placement, Ray, Scene};
 
 use crate::navigation::input::WandPose;
+use crate::session::SavedObject;
 
 /// How far the wand picks an object (m).
 const REACH: f32 = 20.0;
@@ -121,6 +122,50 @@ impl ObjectMotion {
                 orientation: p.rotation.to_array(),
             })
             .collect()
+    }
+
+    /// Where every object stands and whether the wand took it off its path, for the
+    /// session's state.
+    pub fn saved(&self) -> Vec<SavedObject> {
+        (self
+            .scene
+            .objects()
+            .iter()
+            .zip(&self.now)
+            .zip(&self.off_path))
+        .map(|((o, p), &off_path)| SavedObject {
+            name: o.name.clone(),
+            position: p.translation.to_array(),
+            orientation: p.rotation.to_array(),
+            off_path,
+        })
+        .collect()
+    }
+
+    /// Places the objects as a resumed session left them; an object this scene does not
+    /// have is an error naming it.
+    pub fn resume(&mut self, saved: &[SavedObject]) -> Result<(), String> {
+        for s in saved {
+            let Some(k) = self.scene.objects().iter().position(|o| o.name == s.name) else {
+                return Err(format!(
+                    "the resumed session moved an object {:?} that this scene does not have",
+                    s.name
+                ));
+            };
+            let (at, turn) = (
+                Vec3::from_array(s.position),
+                glam::Quat::from_array(s.orientation),
+            );
+            if !at.is_finite() || !turn.is_finite() || (turn.length() - 1.0).abs() > 1e-3 {
+                return Err(format!(
+                    "object {:?}: not a finite position and unit rotation",
+                    s.name
+                ));
+            }
+            self.now[k] = Placement::new(at, turn.normalize());
+            self.off_path[k] = s.off_path;
+        }
+        Ok(())
     }
 
     /// Whether object `k` may move from `from` to `to`: none of its probe vertices'

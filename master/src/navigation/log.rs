@@ -29,6 +29,30 @@ impl NavigationLog {
         })
     }
 
+    /// Opens `path` to go on with it (a resumed session): a last row that a killed master
+    /// left half-written is cut off first, and a missing or empty file gets its header.
+    pub fn append(path: &Path) -> std::io::Result<NavigationLog> {
+        let text = match std::fs::read(path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+            Err(e) => return Err(e),
+        };
+        let whole = text.iter().rposition(|&b| b == b'\n').map_or(0, |k| k + 1);
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)?;
+        file.set_len(whole as u64)?;
+        let mut out = BufWriter::new(file);
+        if whole == 0 {
+            writeln!(out, "{HEADER}")?;
+        }
+        Ok(NavigationLog {
+            out,
+            path: path.to_owned(),
+        })
+    }
+
     pub fn path(&self) -> &Path {
         &self.path
     }
