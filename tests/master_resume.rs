@@ -93,6 +93,17 @@ fn wait_until(master: &mut Watched, limit: Duration, what: &str, mut cond: impl 
     }
 }
 
+/// Fails unless `wall`'s presented frame numbers only go up (none backwards, none twice).
+fn assert_in_order(wall: &str, log: &[u64]) {
+    if let Some(k) = log.windows(2).position(|p| p[0] >= p[1]) {
+        panic!(
+            "{wall} presented frame {} after frame {}: {log:?}",
+            log[k + 1],
+            log[k]
+        );
+    }
+}
+
 /// Every frame state in a `--states` log, by frame number.
 fn states(path: &Path) -> BTreeMap<u64, FrameState> {
     let mut r = BufReader::new(File::open(path).unwrap());
@@ -172,9 +183,11 @@ fn a_killed_master_is_resumed_and_its_walls_present_the_frames_after_the_last_ke
         Duration::from_secs(60),
         "every wall presenting a frame after the resume",
         || {
-            WALLS
-                .iter()
-                .all(|w| presented(&walls, w).last() > Some(&kept.frame))
+            WALLS.iter().all(|w| {
+                let log = presented(&walls, w);
+                assert_in_order(w, &log);
+                log.last() > Some(&kept.frame)
+            })
         },
     );
     println!(
@@ -185,21 +198,19 @@ fn a_killed_master_is_resumed_and_its_walls_present_the_frames_after_the_last_ke
     );
     let (status, _, err) = resumed.finish(Duration::from_secs(120));
     assert!(status.is_some_and(|s| s.success()), "resumed master: {err}");
-    for n in nodes {
+    for (w, n) in WALLS.iter().zip(nodes) {
         let (status, _, _) = n.finish(Duration::from_secs(30));
+        let log = std::fs::read_to_string(walls.join(format!("{w}.log"))).unwrap_or_default();
         assert!(
             status.is_some_and(|s| s.success()),
-            "a node did not shut down cleanly"
+            "{w}'s node: {status:?}\n{log}"
         );
     }
 
     let logs: Vec<Vec<u64>> = WALLS.iter().map(|w| presented(&walls, w)).collect();
     let after: Vec<u64> = (kept.frame + 1..total).collect();
     for (w, log) in WALLS.iter().zip(&logs) {
-        assert!(
-            log.windows(2).all(|p| p[0] < p[1]),
-            "{w}'s frame numbers went backwards or repeated: {log:?}"
-        );
+        assert_in_order(w, log);
         let resumed_frames: Vec<u64> = log.iter().copied().filter(|&f| f > kept.frame).collect();
         assert_eq!(resumed_frames, after, "{w}: the frames after the resume");
     }
