@@ -236,7 +236,7 @@ mod tests {
             objects: vec![SavedObject {
                 name: "block".into(),
                 position: [0.5, 0.0, 0.25],
-                orientation: [0.0, 0.7071068, 0.0, 0.7071068],
+                orientation: [0.0, 0.6, 0.0, 0.8],
                 off_path: true,
             }],
             when: Some("2026-06-21T12:00".into()),
