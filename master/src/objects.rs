@@ -297,6 +297,35 @@ mod tests {
         assert!((at(&w) - carried.translation).length() < 1e-6);
     }
 
+    /// An object the wand carried, saved and resumed into a new motion that has a path for
+    /// it, stands where it was left and does not follow the path; one the scene does not have
+    /// is refused by name.
+    #[test]
+    fn saved_objects_resume_where_they_were_left() {
+        let scene = room();
+        let text = "object,time_s,tx,ty,tz,qx,qy,qz,qw\n\
+                    block,0,0,0,0,0,0,0,1\n\
+                    block,2,2,0,-4,0,0,0,1\n";
+        let paths = ObjectPaths::parse(text, Path::new("path.csv")).unwrap();
+        let (mut motion, _, _, _, from) = block_in_front(&scene);
+        let wand = |p: Vec3| WandPose {
+            position: p.as_dvec3(),
+            orientation: DQuat::IDENTITY,
+        };
+        motion.frame(0, Some(wand(from)), true);
+        let left = motion.frame(1, Some(wand(from + Vec3::Y * 0.3)), true);
+        let saved = motion.saved();
+        assert!(saved[0].off_path && !saved[1].off_path);
+        let mut again = ObjectMotion::new(scene.clone(), paths).unwrap();
+        again.resume(&saved).unwrap();
+        let later = again.frame(1_000_000_000, None, false);
+        assert_eq!(later[0], left[0], "the carried block stays off its path");
+        let mut other = saved.clone();
+        other[0].name = "sofa".into();
+        let e = again.resume(&other).unwrap_err();
+        assert!(e.contains("sofa"), "{e}");
+    }
+
     /// Carried 10 m towards a wall in 5 cm steps, the block stops inside the room (no
     /// vertex of it ever beyond the wall's plane), and carried back it follows again.
     #[test]

@@ -109,3 +109,40 @@ pub fn read(text: &str) -> Result<Vec<Row>, String> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DMat4, DVec3};
+
+    /// A resumed session's log goes on after the rows a killed master wrote whole; the
+    /// row it left half-written is cut off, and the file reads back row by row.
+    #[test]
+    fn a_resumed_log_cuts_the_half_written_row_and_goes_on() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(FILE_NAME);
+        let place = Placement::from_mat4(&DMat4::from_translation(DVec3::new(1.0, 0.0, -2.0)));
+        let mut log = NavigationLog::create(&path).unwrap();
+        for frame in 0..3 {
+            log.row(frame, frame * 50, &place).unwrap();
+        }
+        log.flush().unwrap();
+        drop(log);
+        let mut text = std::fs::read_to_string(&path).unwrap();
+        text.push_str("3,150,1,0,-");
+        std::fs::write(&path, text).unwrap();
+        let mut log = NavigationLog::append(&path).unwrap();
+        log.row(4, 200, &place).unwrap();
+        log.flush().unwrap();
+        let rows = read(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        let frames: Vec<u64> = rows.iter().map(|r| r.frame).collect();
+        assert_eq!(frames, [0, 1, 2, 4]);
+        assert_eq!(rows[3].translation, [1.0, 0.0, -2.0]);
+        let fresh = dir.path().join("missing.csv");
+        NavigationLog::append(&fresh).unwrap().flush().unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&fresh).unwrap(),
+            format!("{HEADER}\n")
+        );
+    }
+}
