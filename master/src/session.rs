@@ -28,6 +28,15 @@ pub enum SessionClock {
     Replay,
 }
 
+impl std::fmt::Display for SessionClock {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SessionClock::Live => "live",
+            SessionClock::Replay => "replay",
+        })
+    }
+}
+
 /// A moving object as the last frame placed it.
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
 pub struct SavedObject {
@@ -51,7 +60,8 @@ pub struct SessionState {
     /// The frame period the session ran at (ns).
     pub period_ns: u64,
     pub clock: SessionClock,
-    /// Tracker samples read so far.
+    /// Tracker samples the master that wrote it had read (a replay's: every sample up to
+    /// its position).
     pub tracker_samples: u64,
     /// The tracker's first position, which `--recenter` moved to the room's inside point.
     pub recentred_from: Option<[f32; 3]>,
@@ -66,15 +76,15 @@ pub struct SessionState {
 /// Why a state file could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {error}", path.display())]
     Io {
         path: PathBuf,
-        source: std::io::Error,
+        error: std::io::Error,
     },
-    #[error("{}: not a session state file (truncated or damaged?): {source}", path.display())]
+    #[error("{}: not a session state file (truncated or damaged?): {error}", path.display())]
     Parse {
         path: PathBuf,
-        source: serde_json::Error,
+        error: serde_json::Error,
     },
     #[error("{}: a session state of version {found}; this master reads version {VERSION}", path.display())]
     Version { path: PathBuf, found: u32 },
@@ -84,13 +94,13 @@ impl SessionState {
     /// Reads `path`; a missing, truncated, damaged or other-version file is an error that
     /// names it and says what is wrong.
     pub fn read(path: &Path) -> Result<SessionState, SessionError> {
-        let bytes = std::fs::read(path).map_err(|source| SessionError::Io {
+        let bytes = std::fs::read(path).map_err(|error| SessionError::Io {
             path: path.to_owned(),
-            source,
+            error,
         })?;
-        let parse = |source| SessionError::Parse {
+        let parse = |error| SessionError::Parse {
             path: path.to_owned(),
-            source,
+            error,
         };
         #[derive(Deserialize)]
         struct Versioned {
@@ -109,9 +119,9 @@ impl SessionState {
     /// Replaces `path` with this state, crash-safe: written to `path.tmp`, synced, renamed
     /// over `path`, and the folder synced, so `path` is always one whole state.
     pub fn write(&self, path: &Path) -> Result<(), SessionError> {
-        let io = |source| SessionError::Io {
+        let io = |error| SessionError::Io {
             path: path.to_owned(),
-            source,
+            error,
         };
         let tmp = path.with_extension("json.tmp");
         let bytes = serde_json::to_vec_pretty(self).map_err(|e| io(std::io::Error::other(e)))?;

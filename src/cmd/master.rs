@@ -461,12 +461,23 @@ fn resume_of(args: &mut MasterArgs) -> Result<Option<SessionState>> {
     };
     if clock != state.clock {
         bail!(
-            "{}: the session ran on a {:?} clock, this master on a {clock:?} one (--replay)",
+            "{}: the session ran on a {} clock, this master on a {clock} one (--replay)",
             path.display(),
             state.clock
         );
     }
-    let daylight = &mut args.holodeck.daylight;
+    same_time_of_day(&mut args.holodeck.daylight, &state, &path)?;
+    args.out = Some(dir);
+    Ok(Some(state))
+}
+
+/// The resumed session's time of day: the state's (kept in `path`) when `--when` is not
+/// given; a `--when` that differs from it, or one for a session without one, is refused.
+fn same_time_of_day(
+    daylight: &mut super::daylight_flags::DaylightFlags,
+    state: &SessionState,
+    path: &std::path::Path,
+) -> Result<()> {
     match (&daylight.when, &state.when) {
         (None, Some(w)) => {
             daylight.when = Some(
@@ -480,10 +491,15 @@ fn resume_of(args: &mut MasterArgs) -> Result<Option<SessionState>> {
                 path.display()
             );
         }
+        (Some(given), None) => {
+            bail!(
+                "{}: the session had no time of day; --when {given} would change its light",
+                path.display()
+            );
+        }
         _ => {}
     }
-    args.out = Some(dir);
-    Ok(Some(state))
+    Ok(())
 }
 
 /// A replayed session resumes only at its own rate: its frames' times are frame × period.
