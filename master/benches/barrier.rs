@@ -103,6 +103,9 @@ fn cluster(frames: u64) -> Summary {
             navigation_log: None,
             objects: None,
             on_frame: None,
+            session_state: None,
+            resume: None,
+            when: None,
         },
     )
     .unwrap();

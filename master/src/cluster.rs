@@ -36,6 +36,7 @@ use crate::navigation::log::NavigationLog;
 use crate::navigation::placement::Placement;
 use crate::navigation::run::NavigationRun;
 use crate::pacing::Pacer;
+use crate::session::{SessionClock, SessionState, StateKeeper};
 use holocave_cave::Cave;
 use holocave_cave::CaveFrusta;
 
@@ -84,6 +85,14 @@ pub struct MasterOptions {
     pub objects: Option<crate::objects::ObjectMotion>,
     /// Called with every frame state as it is sent (live glare); must not block.
     pub on_frame: Option<FrameHook>,
+    /// Keep the session's state in this file (`session.json`), every frame on disk
+    /// before its Swap.
+    pub session_state: Option<PathBuf>,
+    /// Go on with this session: frames numbered from its frame + 1, the clock, the room's
+    /// place and the objects as it left them.
+    pub resume: Option<SessionState>,
+    /// The scene's time of day (`--when`), kept in the session's state.
+    pub when: Option<String>,
 }
 
 /// What a run measured.
@@ -294,6 +303,8 @@ struct Master<'a> {
     desk: Vec<(NodeId, Option<DeskInput>)>,
     /// Each wall's newest veiling sources not yet relayed to the other walls.
     veils: BTreeMap<String, Vec<VeilSource>>,
+    /// Where each frame's session state goes before its Swap.
+    keeper: Option<StateKeeper>,
     summary: Summary,
 }
 
@@ -312,6 +323,7 @@ impl Master<'_> {
             arrivals: Vec::new(),
             desk: Vec::new(),
             veils: BTreeMap::new(),
+            keeper: None,
             summary: Summary::default(),
         }
     }
@@ -335,16 +347,17 @@ impl Master<'_> {
     }
 
     /// When every wall swapped frame `frame`, sent at `sent`. Every wall starts on the same
-    /// frame: on frame 0 every joined node is held (its first draw may take long:
-    /// pipelines, caches) up to the wait for walls, later ones up to the dead-node time.
+    /// frame: on the run's first frame every joined node is held (its first draw may take
+    /// long: pipelines, caches) up to the wait for walls, later ones up to the dead-node
+    /// time.
     async fn swapped(
         &mut self,
-        frame: u64,
+        (frame, first): (u64, bool),
         sent: Instant,
         wait_for_walls: Duration,
         dead_node: Duration,
     ) -> std::io::Result<Instant> {
-        if frame == 0 {
+        if first {
             let hold = wait_for_walls.max(dead_node);
             self.swap_barrier(frame, sent, hold, true).await
         } else {
@@ -538,6 +551,10 @@ impl Master<'_> {
             self.barrier.hold_all();
         }
         self.collect_until(sent + timeout).await;
+        // No wall shows a frame the session's state does not reach yet.
+        if let Some(k) = &mut self.keeper {
+            k.written();
+        }
         let closed = self.barrier.close();
         self.send(&MasterMsg::Swap { frame }, Some(&closed.swap))
             .await?;
@@ -825,56 +842,31 @@ async fn run_frames(
     let (tx, events) = unbounded_channel();
     let (accepting, acceptor) = start_accepting(cave, listener, secret, &opts, tx.clone())?;
     let (mut states, mut nav_log) = open_logs(&opts)?;
-    // The frame's CAVE: the config's, with the navigation's room → scene transform.
-    let (mut placed, in_room) = (cave.clone(), in_room(cave));
+    let mut caves = Caves::new(cave, opts.navigation.is_some());
     let mut m = Master::new(cave, events, tx);
+    m.keeper = (opts.session_state.clone())
+        .map(StateKeeper::start)
+        .transpose()?;
+    let first = start_of(&mut opts, &mut head)?;
     m.wait_for_walls(opts.wait_for_walls).await;
-    let mut frusta = CaveFrusta::new(if opts.navigation.is_some() {
-        &in_room
-    } else {
-        cave
-    });
     let period = cave.frame_period();
     let dead_node = cave.dead_node_timeout();
     let mut pacer = Pacer::new(period);
     let start = Instant::now();
     let mut next_tick = start;
-    let mut status = StatusClock::new(start);
-    let mut frame = 0u64;
+    let mut status = StatusClock::new(start, first.frame);
+    let mut frame = first.frame;
     loop {
         if stopping(&opts, frame, start, &head) {
             break;
         }
         m.handle_all_until(next_tick).await;
-        let (master_ns, display_ns) = frame_clock(opts.clock, (start, frame, period), &pacer);
-        head.advance(master_ns);
-        let (pose, tracker_ns) = head.pose_at(display_ns);
-        tracing::trace!("frame {frame}: head {:?}", pose.position);
-        let place = m.navigate(
-            opts.navigation.as_mut(),
-            master_ns,
-            &pose,
-            head.recentring(),
-        );
-        if opts.navigation.is_some() {
-            placed.room_to_scene = place.to_mat4();
+        let times = frame_clock(opts.clock, (start, frame, period), &pacer, first.clock_ns);
+        let state = caves.state(&mut m, &mut opts, &mut head, &mut nav_log, (frame, times))?;
+        let tracker_ns = state.tracker_time_ns;
+        if let Some(k) = &mut m.keeper {
+            k.offer(session_state(&opts, &state, period, &head));
         }
-        if let Some(log) = &mut nav_log {
-            log.row(frame, master_ns, &place)?;
-        }
-        let times = FrameTimes {
-            master_ns,
-            display_ns,
-            tracker_ns,
-        };
-        let objects = objects_at(&mut opts, display_ns, &place);
-        let navigated = opts.navigation.is_some().then_some(&in_room);
-        let state = frame_state_of(
-            &mut frusta,
-            (&placed, navigated),
-            (frame, times, &pose),
-            objects,
-        );
         let msg = MasterMsg::Frame(state);
         if let (Some(f), MasterMsg::Frame(state)) = (opts.on_frame.as_mut(), &msg) {
             f(state);
@@ -885,12 +877,17 @@ async fn run_frames(
         let sent = Instant::now();
         m.send(&msg, None).await?;
         let swapped = m
-            .swapped(frame, sent, opts.wait_for_walls, dead_node)
+            .swapped(
+                (frame, frame == first.frame),
+                sent,
+                opts.wait_for_walls,
+                dead_node,
+            )
             .await?;
         pacer.record(swapped - sent);
         m.relay_veils().await?;
         if let (Clock::Live, Some(t)) = (opts.clock, tracker_ns) {
-            let t = start + Duration::from_nanos(t);
+            let t = start + Duration::from_nanos(t.saturating_sub(first.clock_ns));
             m.summary
                 .motion_to_photon
                 .push(swapped.saturating_duration_since(t));
@@ -910,7 +907,129 @@ async fn run_frames(
     }
     m.shut_down().await?;
     stop_accepting(&accepting, addr, acceptor);
-    Ok(m.finish(frame, pacer.period(), start.elapsed()))
+    Ok(m.finish(frame - first.frame, pacer.period(), start.elapsed()))
+}
+
+/// Where a run starts: its first frame, and its clock's time at its start (ns).
+struct RunStart {
+    frame: u64,
+    clock_ns: u64,
+}
+
+/// Where this run starts: at frame 0, or, resuming a session, after its last frame with
+/// the room's place and the moving objects as that frame had them.
+fn start_of(opts: &mut MasterOptions, head: &mut Head) -> std::io::Result<RunStart> {
+    let Some(s) = &opts.resume else {
+        return Ok(RunStart {
+            frame: 0,
+            clock_ns: 0,
+        });
+    };
+    if let Some(nav) = &mut opts.navigation {
+        let place = Placement::from_mat4(&glam::DMat4::from_cols_array(&s.navigation));
+        nav.navigator.resume_at(place);
+    }
+    if let Some(origin) = s.recentred_from {
+        head.resume_recentring(glam::Vec3::from_array(origin));
+    }
+    if let Some(o) = &mut opts.objects {
+        o.resume(&s.objects).map_err(std::io::Error::other)?;
+    }
+    tracing::info!(
+        "resuming the session after frame {} (its clock at {:.3} s, {} tracker samples read)",
+        s.frame,
+        s.master_ns as f64 * 1e-9,
+        s.tracker_samples
+    );
+    Ok(RunStart {
+        frame: s.frame + 1,
+        clock_ns: s.master_ns + s.period_ns,
+    })
+}
+
+/// The session's state once `state` is sent: what a new master needs to go on after it.
+fn session_state(
+    opts: &MasterOptions,
+    state: &FrameState,
+    period: Duration,
+    head: &Head,
+) -> SessionState {
+    SessionState {
+        version: crate::session::VERSION,
+        frame: state.frame,
+        master_ns: state.master_time_ns,
+        display_ns: state.display_time_ns,
+        period_ns: period.as_nanos() as u64,
+        clock: match opts.clock {
+            Clock::Live => SessionClock::Live,
+            Clock::Replay => SessionClock::Replay,
+        },
+        tracker_samples: head.samples,
+        recentred_from: head.recentred_from().map(|o| o.to_array()),
+        navigation: state.navigation,
+        objects: opts.objects.as_ref().map_or_else(Vec::new, |o| o.saved()),
+        when: opts.when.clone(),
+    }
+}
+
+/// The frame loop's CAVEs: the config's placed in the scene by the navigation, the same in
+/// room coordinates, and the eyes' frusta (in the room with navigation).
+struct Caves {
+    placed: Cave,
+    in_room: Cave,
+    frusta: CaveFrusta,
+}
+
+impl Caves {
+    fn new(cave: &Cave, navigated: bool) -> Caves {
+        let in_room = in_room(cave);
+        let frusta = CaveFrusta::new(if navigated { &in_room } else { cave });
+        Caves {
+            placed: cave.clone(),
+            in_room,
+            frusta,
+        }
+    }
+
+    /// Frame `frame`'s state at `(master_ns, display_ns)`: the head read and predicted to
+    /// its display, the room placed by the navigation (and logged), the objects moved.
+    fn state(
+        &mut self,
+        m: &mut Master<'_>,
+        opts: &mut MasterOptions,
+        head: &mut Head,
+        nav_log: &mut Option<NavigationLog>,
+        (frame, (master_ns, display_ns)): (u64, (u64, u64)),
+    ) -> std::io::Result<FrameState> {
+        head.advance(master_ns);
+        let (pose, tracker_ns) = head.pose_at(display_ns);
+        tracing::trace!("frame {frame}: head {:?}", pose.position);
+        let place = m.navigate(
+            opts.navigation.as_mut(),
+            master_ns,
+            &pose,
+            head.recentring(),
+        );
+        if opts.navigation.is_some() {
+            self.placed.room_to_scene = place.to_mat4();
+        }
+        if let Some(log) = nav_log {
+            log.row(frame, master_ns, &place)?;
+        }
+        let times = FrameTimes {
+            master_ns,
+            display_ns,
+            tracker_ns,
+        };
+        let objects = objects_at(opts, display_ns, &place);
+        let navigated = opts.navigation.is_some().then_some(&self.in_room);
+        Ok(frame_state_of(
+            &mut self.frusta,
+            (&self.placed, navigated),
+            (frame, times, &pose),
+            objects,
+        ))
+    }
 }
 
 /// `cave` in room coordinates (the room as the scene): with navigation the frusta are kept
@@ -922,16 +1041,18 @@ fn in_room(cave: &Cave) -> Cave {
     in_room
 }
 
-/// When frame `frame` starts and when it is shown, in nanoseconds from `start`: about one
+/// When frame `frame` starts and when it is shown on the master's clock (ns): about one
 /// period after it starts (drawn, then swapped), on a live clock the paced period, on a
-/// replay clock the configured one (a replay depends on nothing measured).
+/// replay clock the configured one (a replay depends on nothing measured). A live clock
+/// reads `clock_ns` at `start`; a replay's is `frame` periods.
 fn frame_clock(
     clock: Clock,
     (start, frame, period): (Instant, u64, Duration),
     pacer: &Pacer,
+    clock_ns: u64,
 ) -> (u64, u64) {
     let (master_ns, ahead) = match clock {
-        Clock::Live => (start.elapsed().as_nanos() as u64, pacer.period()),
+        Clock::Live => (clock_ns + start.elapsed().as_nanos() as u64, pacer.period()),
         Clock::Replay => (frame * period.as_nanos() as u64, period),
     };
     (master_ns, master_ns + ahead.as_nanos() as u64)
@@ -965,6 +1086,7 @@ fn open_logs(opts: &MasterOptions) -> std::io::Result<Logs> {
         None => None,
     };
     let nav_log = match &opts.navigation_log {
+        Some(p) if opts.resume.is_some() => Some(NavigationLog::append(p)?),
         Some(p) => Some(NavigationLog::create(p)?),
         None => None,
     };
@@ -988,10 +1110,10 @@ struct StatusClock {
 }
 
 impl StatusClock {
-    fn new(start: Instant) -> StatusClock {
+    fn new(start: Instant, frame: u64) -> StatusClock {
         StatusClock {
             since: start,
-            frame: 0,
+            frame,
             samples: 0,
             pace: BTreeMap::new(),
         }

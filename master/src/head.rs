@@ -202,6 +202,17 @@ impl Head {
         }
     }
 
+    /// The first position that `--recenter` moved to the room's inside point (room
+    /// metres), once read: what a resumed session recentres by.
+    pub fn recentred_from(&self) -> Option<Vec3> {
+        self.origin
+    }
+
+    /// Recentres by a resumed session's first position, as the session did.
+    pub fn resume_recentring(&mut self, origin: Vec3) {
+        self.origin = Some(origin);
+    }
+
     /// True once a recorded source has no more samples.
     pub fn ended(&self) -> bool {
         self.ended && self.pending.is_none()

@@ -9,3 +9,4 @@ pub mod head;
 pub mod navigation;
 pub mod objects;
 pub mod pacing;
+pub mod session;

@@ -13,6 +13,7 @@ use holocave_scene::objects::PathError;
 use holocave_scene::{MovableObject, ObjectPaths, Placement, Ray, Scene};
 
 use crate::navigation::input::WandPose;
+use crate::session::SavedObject;
 
 /// How far the wand picks an object (m).
 const REACH: f32 = 20.0;
@@ -121,6 +122,50 @@ impl ObjectMotion {
                 orientation: p.rotation.to_array(),
             })
             .collect()
+    }
+
+    /// Where every object stands and whether the wand took it off its path, for the
+    /// session's state.
+    pub fn saved(&self) -> Vec<SavedObject> {
+        (self
+            .scene
+            .objects()
+            .iter()
+            .zip(&self.now)
+            .zip(&self.off_path))
+        .map(|((o, p), &off_path)| SavedObject {
+            name: o.name.clone(),
+            position: p.translation.to_array(),
+            orientation: p.rotation.to_array(),
+            off_path,
+        })
+        .collect()
+    }
+
+    /// Places the objects as a resumed session left them; an object this scene does not
+    /// have is an error naming it.
+    pub fn resume(&mut self, saved: &[SavedObject]) -> Result<(), String> {
+        for s in saved {
+            let Some(k) = self.scene.objects().iter().position(|o| o.name == s.name) else {
+                return Err(format!(
+                    "the resumed session moved an object {:?} that this scene does not have",
+                    s.name
+                ));
+            };
+            let (at, turn) = (
+                Vec3::from_array(s.position),
+                glam::Quat::from_array(s.orientation),
+            );
+            if !at.is_finite() || !turn.is_finite() || (turn.length() - 1.0).abs() > 1e-3 {
+                return Err(format!(
+                    "object {:?}: not a finite position and unit rotation",
+                    s.name
+                ));
+            }
+            self.now[k] = Placement::new(at, turn.normalize());
+            self.off_path[k] = s.off_path;
+        }
+        Ok(())
     }
 
     /// Whether object `k` may move from `from` to `to`: none of its probe vertices'
@@ -250,6 +295,35 @@ mod tests {
         motion.frame(4, Some(wand(moved_to, turn)), false);
         let w = motion.frame(5, Some(wand(from - Vec3::X * 3.0, level)), false);
         assert!((at(&w) - carried.translation).length() < 1e-6);
+    }
+
+    /// An object the wand carried, saved and resumed into a new motion that has a path for
+    /// it, stands where it was left and does not follow the path; one the scene does not have
+    /// is refused by name.
+    #[test]
+    fn saved_objects_resume_where_they_were_left() {
+        let scene = room();
+        let text = "object,time_s,tx,ty,tz,qx,qy,qz,qw\n\
+                    block,0,0,0,0,0,0,0,1\n\
+                    block,2,2,0,-4,0,0,0,1\n";
+        let paths = ObjectPaths::parse(text, Path::new("path.csv")).unwrap();
+        let (mut motion, _, _, _, from) = block_in_front(&scene);
+        let wand = |p: Vec3| WandPose {
+            position: p.as_dvec3(),
+            orientation: DQuat::IDENTITY,
+        };
+        motion.frame(0, Some(wand(from)), true);
+        let left = motion.frame(1, Some(wand(from + Vec3::Y * 0.3)), true);
+        let saved = motion.saved();
+        assert!(saved[0].off_path && !saved[1].off_path);
+        let mut again = ObjectMotion::new(scene.clone(), paths).unwrap();
+        again.resume(&saved).unwrap();
+        let later = again.frame(1_000_000_000, None, false);
+        assert_eq!(later[0], left[0], "the carried block stays off its path");
+        let mut other = saved.clone();
+        other[0].name = "sofa".into();
+        let e = again.resume(&other).unwrap_err();
+        assert!(e.contains("sofa"), "{e}");
     }
 
     /// Carried 10 m towards a wall in 5 cm steps, the block stops inside the room (no

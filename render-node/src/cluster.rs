@@ -37,6 +37,25 @@ pub enum LinkError {
     Lost(String),
 }
 
+impl LinkError {
+    /// Whether the master (or what answers at its address) said no: a refusal, a failed
+    /// authentication, another cluster or protocol version, not a holocave peer. Trying
+    /// again changes nothing. A connection that ended or failed during the handshake (a
+    /// master dying, or one not yet serving its port) is not a refusal.
+    pub fn is_refusal(&self) -> bool {
+        use holocave_protocol::frame::FrameError;
+        match self {
+            LinkError::Handshake { source, .. } => !matches!(
+                source,
+                handshake::HandshakeError::Frame(
+                    FrameError::Io(_) | FrameError::Closed | FrameError::Truncated { .. }
+                )
+            ),
+            _ => false,
+        }
+    }
+}
+
 /// An authenticated connection to the master. A reader thread turns its messages into a
 /// channel, so waiting for the next one has a timeout and never blocks a frame.
 pub struct MasterLink {

@@ -265,7 +265,7 @@ pub fn run(
             &member.secret,
         ) {
             Ok(l) => l,
-            Err(e @ LinkError::Handshake { .. }) => return Err(NodeError::Refused(e)),
+            Err(e) if e.is_refusal() => return Err(NodeError::Refused(e)),
             Err(e) => {
                 if !warned {
                     tracing::warn!("{e}; retrying");

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Context, Result, anyhow, bail};
 use clap::Args;
 
 use super::render::SharedScene;
@@ -20,6 +20,7 @@ use holocave_master::head::{Clock, Head};
 use holocave_master::navigation::log::FILE_NAME as NAVIGATION_CSV;
 use holocave_master::navigation::run::{Devices, NavigationRun};
 use holocave_master::objects::ObjectMotion;
+use holocave_master::session::{FILE_NAME as SESSION_STATE, SessionClock, SessionState};
 use holocave_protocol::cluster::FrameState;
 use holocave_protocol::stats::quantile_duration;
 use holocave_tracking::source::SourceSpec;
@@ -45,9 +46,16 @@ pub struct MasterArgs {
     /// Append every frame state, as sent, to this file.
     #[arg(long)]
     pub states: Option<PathBuf>,
-    /// Output folder: DIR/navigation.csv, the room → scene transform of every frame.
+    /// Output folder: DIR/navigation.csv, the room → scene transform of every frame, and
+    /// DIR/session.json, the session's state, from which `--resume DIR` goes on.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Go on with the session whose output folder is DIR (its master died): frames are
+    /// numbered on from the last one DIR/session.json holds, the clock, a replay's
+    /// position, the navigation and the moving objects go on from there. The other flags
+    /// are the session's own; DIR stays the output folder.
+    #[arg(long, value_name = "DIR")]
+    pub resume: Option<PathBuf>,
     /// A baked light field (`holocave vlf bake`) the walls draw under their samples: its
     /// path is told to every node, which reads it there.
     #[arg(long)]
@@ -338,13 +346,24 @@ pub fn print_summary(s: &Summary) {
     );
 }
 
-pub fn run(args: MasterArgs) -> Result<()> {
+pub fn run(mut args: MasterArgs) -> Result<()> {
+    let resume = resume_of(&mut args)?;
     let cave = cave_of(&args)?;
+    if let Some(state) = &resume {
+        same_replay_rate(&cave, state)?;
+    }
     let credentials = super::credentials::of_cave(&cave, &args.config)?;
     let addr = args.listen.clone().unwrap_or(cave.cluster.master.clone());
     let listener = TcpListener::bind(&addr).with_context(|| format!("listening on {addr}"))?;
     println!("master listening on {}", listener.local_addr()?);
     // Tests and scripts read the address from the first line.
+    if let (Some(state), Some(dir)) = (&resume, &args.out) {
+        println!(
+            "resuming the session in {} after frame {}",
+            dir.display(),
+            state.frame
+        );
+    }
     std::io::Write::flush(&mut std::io::stdout())?;
     let head = args.head.open(&cave)?;
     let scene = args
@@ -399,6 +418,9 @@ pub fn run(args: MasterArgs) -> Result<()> {
             navigation_log: navigation_log.clone(),
             objects,
             on_frame,
+            session_state: args.out.as_ref().map(|d| d.join(SESSION_STATE)),
+            resume,
+            when: args.holodeck.daylight.when.map(|w| w.to_string()),
         },
     );
     if let (Some(g), Some(dir)) = (live_glare.and_then(Arc::into_inner), &args.out) {
@@ -412,6 +434,85 @@ pub fn run(args: MasterArgs) -> Result<()> {
         stop_hosted(h)?;
     }
     print_summary(&summary?);
+    Ok(())
+}
+
+/// With `--resume DIR`: the state DIR/session.json holds, checked against the flags (the
+/// same clock, the same time of day, taken from the state when
+/// no `--when` is given), and DIR as the output folder.
+fn resume_of(args: &mut MasterArgs) -> Result<Option<SessionState>> {
+    let Some(dir) = args.resume.clone() else {
+        return Ok(None);
+    };
+    if args.out.as_ref().is_some_and(|o| o != &dir) {
+        bail!(
+            "--resume {} --out {}: a resumed session writes to its own folder; give one of them",
+            dir.display(),
+            args.out
+                .as_ref()
+                .map_or(String::new(), |o| o.display().to_string())
+        );
+    }
+    let path = dir.join(SESSION_STATE);
+    let state = SessionState::read(&path).context("--resume: the session cannot be resumed")?;
+    let clock = match args.head.clock() {
+        holocave_master::head::Clock::Live => SessionClock::Live,
+        holocave_master::head::Clock::Replay => SessionClock::Replay,
+    };
+    if clock != state.clock {
+        bail!(
+            "{}: the session ran on a {} clock, this master on a {clock} one (--replay)",
+            path.display(),
+            state.clock
+        );
+    }
+    same_time_of_day(&mut args.holodeck.daylight, &state, &path)?;
+    args.out = Some(dir);
+    Ok(Some(state))
+}
+
+/// The resumed session's time of day: the state's (kept in `path`) when `--when` is not
+/// given; a `--when` that differs from it, or one for a session without one, is refused.
+fn same_time_of_day(
+    daylight: &mut super::daylight_flags::DaylightFlags,
+    state: &SessionState,
+    path: &std::path::Path,
+) -> Result<()> {
+    match (&daylight.when, &state.when) {
+        (None, Some(w)) => {
+            daylight.when = Some(
+                w.parse()
+                    .map_err(|e| anyhow!("{}: time of day {w:?}: {e}", path.display()))?,
+            );
+        }
+        (Some(given), Some(w)) if given.to_string() != *w => {
+            bail!(
+                "{}: the session's time of day is {w}, not --when {given}",
+                path.display()
+            );
+        }
+        (Some(given), None) => {
+            bail!(
+                "{}: the session had no time of day; --when {given} would change its light",
+                path.display()
+            );
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
+/// A replayed session resumes only at its own rate: its frames' times are frame × period.
+fn same_replay_rate(cave: &Cave, state: &SessionState) -> Result<()> {
+    let period_ns = cave.frame_period().as_nanos() as u64;
+    if state.clock == SessionClock::Replay && period_ns.abs_diff(state.period_ns) > 1 {
+        bail!(
+            "the session was replayed at {:.3} Hz, this master runs at {:.3} Hz (--rate): its \
+             frames' times would not go on",
+            1e9 / state.period_ns as f64,
+            1e9 / period_ns as f64
+        );
+    }
     Ok(())
 }
 

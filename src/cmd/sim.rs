@@ -324,6 +324,9 @@ fn master_options(
         navigation_log: Some(args.out.join(holocave_master::navigation::log::FILE_NAME)),
         objects: super::master::object_motion(&scene.get()?, args.objects.as_deref())?,
         on_frame: None,
+        session_state: None,
+        resume: None,
+        when: None,
     })
 }
 

@@ -29,6 +29,30 @@ impl NavigationLog {
         })
     }
 
+    /// Opens `path` to go on with it (a resumed session): a last row that a killed master
+    /// left half-written is cut off first, and a missing or empty file gets its header.
+    pub fn append(path: &Path) -> std::io::Result<NavigationLog> {
+        let text = match std::fs::read(path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+            Err(e) => return Err(e),
+        };
+        let whole = text.iter().rposition(|&b| b == b'\n').map_or(0, |k| k + 1);
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)?;
+        file.set_len(whole as u64)?;
+        let mut out = BufWriter::new(file);
+        if whole == 0 {
+            writeln!(out, "{HEADER}")?;
+        }
+        Ok(NavigationLog {
+            out,
+            path: path.to_owned(),
+        })
+    }
+
     pub fn path(&self) -> &Path {
         &self.path
     }
@@ -84,4 +108,41 @@ pub fn read(text: &str) -> Result<Vec<Row>, String> {
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DMat4, DVec3};
+
+    /// A resumed session's log goes on after the rows a killed master wrote whole; the
+    /// row it left half-written is cut off, and the file reads back row by row.
+    #[test]
+    fn a_resumed_log_cuts_the_half_written_row_and_goes_on() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(FILE_NAME);
+        let place = Placement::from_mat4(&DMat4::from_translation(DVec3::new(1.0, 0.0, -2.0)));
+        let mut log = NavigationLog::create(&path).unwrap();
+        for frame in 0..3 {
+            log.row(frame, frame * 50, &place).unwrap();
+        }
+        log.flush().unwrap();
+        drop(log);
+        let mut text = std::fs::read_to_string(&path).unwrap();
+        text.push_str("3,150,1,0,-");
+        std::fs::write(&path, text).unwrap();
+        let mut log = NavigationLog::append(&path).unwrap();
+        log.row(4, 200, &place).unwrap();
+        log.flush().unwrap();
+        let rows = read(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        let frames: Vec<u64> = rows.iter().map(|r| r.frame).collect();
+        assert_eq!(frames, [0, 1, 2, 4]);
+        assert_eq!(rows[3].translation, [1.0, 0.0, -2.0]);
+        let fresh = dir.path().join("missing.csv");
+        NavigationLog::append(&fresh).unwrap().flush().unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&fresh).unwrap(),
+            format!("{HEADER}\n")
+        );
+    }
 }

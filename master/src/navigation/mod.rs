@@ -62,6 +62,11 @@ impl Navigator {
         self.place
     }
 
+    /// Puts the room where a resumed session had it.
+    pub fn resume_at(&mut self, place: Placement) {
+        self.place = place;
+    }
+
     pub fn settings(&self) -> &Navigation {
         &self.settings
     }
