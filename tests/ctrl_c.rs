@@ -99,3 +99,25 @@ fn sigterm_ends_a_comparison_at_once() {
         "{said}"
     );
 }
+
+/// A master waiting for its walls' nodes (none comes) stopped by SIGINT: it ends within
+/// the limit with 130 instead of waiting out `--wait-for-walls`.
+#[test]
+fn ctrl_c_ends_a_master_waiting_for_its_walls() {
+    let dir = scratch("ctrl-c-master");
+    let mut master = Logged::start(
+        holocave()
+            .args(["master", "--config", "configs/cave4-cornell.toml"])
+            .args(["--listen", "127.0.0.1:0", "--wait-for-walls", "600"])
+            .env("HOLOCAVE_SECRET", "ctrl-c-test"),
+        &dir,
+    );
+    let limit = std::time::Duration::from_secs(60);
+    master.wait_until(limit, "the master listening", |m| {
+        m.stdout().contains("master listening on")
+    });
+    let (status, took) = master.interrupt("INT", false);
+    let said = master.stderr();
+    assert_eq!(status.code(), Some(130), "{status} after {took:?}: {said}");
+    assert!(said.contains("interrupted: "), "{said}");
+}

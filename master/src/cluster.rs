@@ -42,6 +42,10 @@ use holocave_cave::CaveFrusta;
 
 /// How long a peer has for the whole handshake.
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// How often the master, waiting for the walls' nodes before its first frame, looks whether
+/// Ctrl-C was pressed.
+const STOP_LOOK: Duration = Duration::from_millis(100);
 /// Most handshakes in progress at once; more connections are closed at once.
 const MAX_HANDSHAKES: usize = 64;
 /// A node whose socket does not take a frame state within this long is dropped (it
@@ -507,7 +511,7 @@ impl Master<'_> {
     }
 
     /// Before the first frame: waits up to `limit` for a node of every wall.
-    async fn wait_for_walls(&mut self, limit: Duration) {
+    async fn wait_for_walls(&mut self, limit: Duration, stop: &AtomicBool) {
         let until = Instant::now() + limit;
         let absent = |m: &Self| -> Vec<String> {
             m.cave
@@ -517,7 +521,7 @@ impl Master<'_> {
                 .map(|w| w.name.clone())
                 .collect()
         };
-        while !absent(self).is_empty() {
+        while !absent(self).is_empty() && !stop.load(Ordering::Relaxed) {
             if Instant::now() >= until {
                 if !limit.is_zero() {
                     tracing::warn!(
@@ -527,9 +531,12 @@ impl Master<'_> {
                 }
                 return;
             }
-            match next_event(&mut self.events, until).await {
-                Some(e) => self.handle(e),
-                None => return,
+            // Woken at least every STOP_LOOK to see Ctrl-C while no node comes.
+            let look = until.min(Instant::now() + STOP_LOOK);
+            match timeout_at(tokio::time::Instant::from_std(look), self.events.recv()).await {
+                Ok(Some(e)) => self.handle(e),
+                Ok(None) => return,
+                Err(_) => {}
             }
         }
     }
@@ -848,7 +855,7 @@ async fn run_frames(
         .map(StateKeeper::start)
         .transpose()?;
     let first = start_of(&mut opts, &mut head)?;
-    m.wait_for_walls(opts.wait_for_walls).await;
+    m.wait_for_walls(opts.wait_for_walls, &opts.stop).await;
     let period = cave.frame_period();
     let dead_node = cave.dead_node_timeout();
     let mut pacer = Pacer::new(period);

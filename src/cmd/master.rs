@@ -434,6 +434,14 @@ pub fn run(mut args: MasterArgs) -> Result<()> {
         stop_hosted(h)?;
     }
     print_summary(&summary?);
+    if super::interrupt::interrupted() {
+        let state = (args.out.as_ref()).map(|d| d.join(SESSION_STATE));
+        let kept = match state.filter(|s| s.exists()) {
+            Some(s) => format!("the session's state in {} (--resume it)", s.display()),
+            None => "what the holodeck committed".to_owned(),
+        };
+        super::interrupt::exit_interrupted(&kept);
+    }
     Ok(())
 }
 
