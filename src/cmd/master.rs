@@ -423,6 +423,8 @@ pub fn run(mut args: MasterArgs) -> Result<()> {
             when: args.holodeck.daylight.when.map(|w| w.to_string()),
         },
     );
+    // Asked now: stopping the hosted holodeck sets the same flag.
+    let interrupted = super::interrupt::interrupted();
     if let (Some(g), Some(dir)) = (live_glare.and_then(Arc::into_inner), &args.out) {
         super::glare::finish_live(g, dir)?;
     }
@@ -434,7 +436,7 @@ pub fn run(mut args: MasterArgs) -> Result<()> {
         stop_hosted(h)?;
     }
     print_summary(&summary?);
-    if super::interrupt::interrupted() {
+    if interrupted {
         let state = (args.out.as_ref()).map(|d| d.join(SESSION_STATE));
         let kept = match state.filter(|s| s.exists()) {
             Some(s) => format!("the session's state in {} (--resume it)", s.display()),
