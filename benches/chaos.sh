@@ -9,14 +9,16 @@
 # workers. The test checks what must hold after every kill (the process back, the walls in
 # frame lock at the end, the holodeck's samples never backwards, its file clean); this
 # script prints how long each kind of process took to come back: p50 and worst, from the
-# kill to the wall presenting again (a node) or the new worker joined to the holodeck.
+# kill to the wall presenting again (a node) or the new worker joined to the holodeck, and
+# the share of the campaign's frames each wall presented (a run without kills presents
+# every frame on every wall: `sim`'s summary, "N with every wall").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kills=${1:-100}
 log=$(mktemp)
 HOLOCAVE_CHAOS_KILLS=$kills cargo test --release --test supervision \
     killed_nodes_and_workers_come_back_and_lose_nothing -- --nocapture 2>&1 | tee "$log" |
-    grep -E "killed; back after|test result"
+    grep -E "killed; back after|presented .* of the campaign|test result"
 python3 - "$log" <<'PY'
 import re, sys
 times = {}

@@ -474,6 +474,10 @@ fn killed_nodes_and_workers_come_back_and_lose_nothing() {
     );
     let kills = std::env::var("HOLOCAVE_CHAOS_KILLS").map_or(Ok(10), |n| n.parse());
     let targets = chaos_targets(kills.expect("HOLOCAVE_CHAOS_KILLS: a number of kills"));
+    let first = (WALLS.iter())
+        .filter_map(|w| presented(&dir, w).last().copied())
+        .max()
+        .unwrap_or(0);
     for &target in &targets {
         let back = kill_and_await(&mut sim, &dir, target);
         let name = WALLS
@@ -512,6 +516,12 @@ fn killed_nodes_and_workers_come_back_and_lose_nothing() {
         let upto: Vec<u64> = log.iter().copied().filter(|&f| f <= end).collect();
         let tail = &upto[upto.len().saturating_sub(lock.len())..];
         assert_eq!(tail, &lock[..], "the {wall} wall's last frames");
+        let shown = log.iter().filter(|&&f| f > first && f <= end).count();
+        let frames = end.saturating_sub(first).max(1);
+        println!(
+            "{wall}: presented {shown} of the campaign's {frames} frames ({:.1} %)",
+            100.0 * shown as f64 / frames as f64
+        );
     }
     let counts = sample_counts(&output(&dir, "stderr.txt"));
     assert!(
