@@ -136,21 +136,8 @@ fn a_killed_master_is_resumed_and_its_walls_present_the_frames_after_the_last_ke
         "every wall presenting 10 frames",
         || WALLS.iter().all(|w| presented(&walls, w).len() >= 10),
     );
-    // SIGKILL: no goodbye to the nodes, no summary, no flush.
-    first.child.kill().unwrap();
-    first.child.wait().unwrap();
     let killed = Instant::now();
-    let kept = SessionState::read(&session.join(FILE_NAME))
-        .unwrap_or_else(|e| panic!("the killed master's state: {e}"));
-    // Whatever a wall presented, now or from a Swap still on its way, the state reached.
-    for w in WALLS {
-        let last = presented(&walls, w).last().copied().unwrap();
-        assert!(
-            last <= kept.frame,
-            "{w} presented {last}, the state kept {}",
-            kept.frame
-        );
-    }
+    let kept = kill_keeping_state(first, &session, &walls);
 
     let total = kept.frame + 1 + AFTER_RESUME;
     // The same replay without a kill, alongside (it needs no nodes): the frames' reference.
@@ -217,13 +204,38 @@ fn a_killed_master_is_resumed_and_its_walls_present_the_frames_after_the_last_ke
     let end = SessionState::read(&session.join(FILE_NAME)).unwrap();
     assert_eq!(end.frame, total - 1, "the state after the resumed run");
 
-    // The resumed frames are the uninterrupted replay's, bit for bit.
+    assert_replayed_alike(alone, &dir.join("states-2.bin"), &reference, &after);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// SIGKILLs `master` (no goodbye to the nodes, no summary, no flush) and reads the state it
+/// kept in `session`: whatever a wall (presenting into `walls`) showed, now or from a Swap
+/// still on its way, the state reached.
+fn kill_keeping_state(mut master: Watched, session: &Path, walls: &Path) -> SessionState {
+    master.child.kill().unwrap();
+    master.child.wait().unwrap();
+    let kept = SessionState::read(&session.join(FILE_NAME))
+        .unwrap_or_else(|e| panic!("the killed master's state: {e}"));
+    for w in WALLS {
+        let last = presented(walls, w).last().copied().unwrap();
+        assert!(
+            last <= kept.frame,
+            "{w} presented {last}, the state kept {}",
+            kept.frame
+        );
+    }
+    kept
+}
+
+/// The resumed master's frame states (`resumed`, frames `after`) are those of the
+/// uninterrupted replay `alone` wrote to `reference`, bit for bit.
+fn assert_replayed_alike(alone: Watched, resumed: &Path, reference: &Path, after: &[u64]) {
     let (status, _, err) = alone.finish(Duration::from_secs(120));
     assert!(
         status.is_some_and(|s| s.success()),
         "the reference run: {err}"
     );
-    let (got, want) = (states(&dir.join("states-2.bin")), states(&reference));
+    let (got, want) = (states(resumed), states(reference));
     assert_eq!(got.keys().copied().collect::<Vec<_>>(), after);
     for (frame, state) in &got {
         assert!(
@@ -231,7 +243,6 @@ fn a_killed_master_is_resumed_and_its_walls_present_the_frames_after_the_last_ke
             "frame {frame}: the resumed state differs"
         );
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A state file cut short (a disk that filled, a file copied in half) is refused with its
