@@ -36,17 +36,7 @@ fn ctrl_c_ends_a_fill_committing_its_samples() {
             said.contains("keeps its") && said.contains("samples (committed)"),
             "SIG{signal}: {said}"
         );
-        let check = holocave()
-            .args(["holodeck", "check"])
-            .arg(&hdk)
-            .output()
-            .unwrap();
-        assert!(
-            check.status.success(),
-            "the kept holodeck does not check clean: {}{}",
-            String::from_utf8_lossy(&check.stdout),
-            String::from_utf8_lossy(&check.stderr)
-        );
+        common::assert_holodeck_clean(&hdk);
     }
 }
 

@@ -323,17 +323,7 @@ fn check_kept(dir: &Path, children: &[u32]) {
     );
     let left: Vec<u32> = children.iter().copied().filter(|&p| !gone(p)).collect();
     assert!(left.is_empty(), "sim's processes {left:?} outlived it");
-    let check = holocave()
-        .args(["holodeck", "check"])
-        .arg(dir.join("out").join("cornell.hdk"))
-        .output()
-        .unwrap();
-    assert!(
-        check.status.success(),
-        "the kept holodeck does not check clean: {}{}",
-        String::from_utf8_lossy(&check.stdout),
-        String::from_utf8_lossy(&check.stderr)
-    );
+    common::assert_holodeck_clean(&dir.join("out").join("cornell.hdk"));
 }
 
 /// Ctrl-C from the terminal while the nodes start (they run, no wall presented yet)
@@ -532,18 +522,7 @@ fn killed_nodes_and_workers_come_back_and_lose_nothing() {
         counts.windows(2).all(|w| w[1] >= w[0]),
         "the holodeck's samples went backwards: {counts:?}"
     );
-    let hdk = dir.join("out").join("cornell.hdk");
-    let check = holocave()
-        .args(["holodeck", "check"])
-        .arg(&hdk)
-        .output()
-        .unwrap();
-    assert!(
-        check.status.success(),
-        "holodeck check {}: {}",
-        hdk.display(),
-        String::from_utf8_lossy(&check.stderr)
-    );
+    common::assert_holodeck_clean(&dir.join("out").join("cornell.hdk"));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

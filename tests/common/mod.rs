@@ -186,3 +186,19 @@ pub fn interrupt(
     );
     (status, took)
 }
+
+/// Asserts that `holocave holodeck check` finds the holodeck `hdk` clean.
+pub fn assert_holodeck_clean(hdk: &Path) {
+    let check = holocave()
+        .args(["holodeck", "check"])
+        .arg(hdk)
+        .output()
+        .unwrap();
+    assert!(
+        check.status.success(),
+        "the holodeck {} does not check clean: {}{}",
+        hdk.display(),
+        String::from_utf8_lossy(&check.stdout),
+        String::from_utf8_lossy(&check.stderr)
+    );
+}
