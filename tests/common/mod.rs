@@ -202,3 +202,37 @@ pub fn assert_holodeck_clean(hdk: &Path) {
         String::from_utf8_lossy(&check.stderr)
     );
 }
+
+/// The running processes `parent` started (a dead one has no command line), each with its
+/// arguments after the program's, found in `/proc`.
+pub fn children_of(parent: u32) -> Vec<(u32, Vec<String>)> {
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    let pids = entries.filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok());
+    pids.filter(|&pid| parent_of(pid) == Some(parent))
+        .filter_map(|pid| {
+            let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).ok()?;
+            let args = (cmdline.split(|&b| b == 0).skip(1))
+                .map(|a| String::from_utf8_lossy(a).into_owned())
+                .collect::<Vec<_>>();
+            (!args.is_empty()).then_some((pid, args))
+        })
+        .collect()
+}
+
+/// `pid`'s parent, from `/proc/PID/stat` (`pid (name) state ppid …`).
+pub fn parent_of(pid: u32) -> Option<u32> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let after_name = &stat[stat.rfind(')')? + 1..];
+    after_name.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// Kills `pid` with SIGKILL: no goodbye, its sockets just die.
+pub fn sigkill(pid: u32) {
+    let ok = Command::new("kill")
+        .args(["-KILL", &pid.to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success(), "kill -KILL {pid}");
+}
