@@ -244,6 +244,109 @@ struct Passes {
     objects: MovePoints,
 }
 
+/// The buffers every eye's bind groups share: the points, what the age pass reads of them,
+/// the new samples and where they matched, the insert pass's parameters.
+#[derive(Clone, Copy)]
+struct SharedBuffers<'a> {
+    points: &'a wgpu::Buffer,
+    visible: &'a wgpu::Buffer,
+    samples: &'a wgpu::Buffer,
+    matched: &'a wgpu::Buffer,
+    insert_params: &'a wgpu::Buffer,
+}
+
+impl Passes {
+    fn new(gpu: &Gpu) -> Passes {
+        Passes {
+            project: Project::new(gpu),
+            filter: Filter::new(gpu),
+            dither: Dither::new(gpu),
+            insert: Insert::new(gpu),
+            age: Age::new(gpu),
+            vlf: VlfPass::new(gpu),
+            objects: MovePoints::new(gpu),
+        }
+    }
+}
+
+impl EyeBuffers {
+    /// One eye's buffers and bind groups for an image of `size`, at most `max_chosen`
+    /// pixels chosen a frame.
+    fn new(
+        gpu: &Gpu,
+        passes: &Passes,
+        shared: SharedBuffers,
+        Size { width, height }: Size,
+        max_chosen: u32,
+    ) -> EyeBuffers {
+        let n = u64::from(width) * u64::from(height);
+        let params = gpu.uniform("eye params", std::mem::size_of::<EyeParams>() as u64);
+        let depth = gpu.storage("depth", 4 * n);
+        let key = gpu.storage("key", 4 * n);
+        let culled = gpu.storage("culled", 16 * n);
+        let color = gpu.storage("color", 16 * n);
+        let priority = gpu.storage("priority", 4 * n);
+        let counters = gpu.storage("counters", 16);
+        let chosen = gpu.storage("chosen", 4 * u64::from(max_chosen));
+        let staging = gpu.read_back_buffer("chosen read-back", 16 + 4 * u64::from(max_chosen));
+        let project_bg = passes.project.bind_group(
+            gpu,
+            [
+                &params,
+                shared.points,
+                &depth,
+                &key,
+                shared.visible,
+                &counters,
+            ],
+        );
+        let filter_bg = passes.filter.bind_group(
+            gpu,
+            [
+                &params,
+                shared.points,
+                &depth,
+                &key,
+                &culled,
+                &color,
+                &priority,
+                &counters,
+            ],
+        );
+        let dither_bg = passes
+            .dither
+            .bind_group(gpu, [&params, &priority, &counters, &chosen]);
+        let aging = gpu.storage("aging", 4 * n);
+        let insert_bg = passes.insert.bind_group(
+            gpu,
+            [
+                shared.insert_params,
+                shared.points,
+                shared.samples,
+                &key,
+                shared.matched,
+                &aging,
+            ],
+        );
+        EyeBuffers {
+            width,
+            height,
+            params,
+            key,
+            color,
+            priority,
+            last_chosen: Vec::new(),
+            counters,
+            chosen,
+            staging,
+            project_bg,
+            filter_bg,
+            dither_bg,
+            insert_bg,
+        }
+    }
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 struct VlfParams {
@@ -393,64 +496,16 @@ impl RenderCache {
         let matched = gpu.storage("matched", 4 * u64::from(batch));
         let insert_params = gpu.uniform("insert params", 32);
 
-        let passes = Passes {
-            project: Project::new(&gpu),
-            filter: Filter::new(&gpu),
-            dither: Dither::new(&gpu),
-            insert: Insert::new(&gpu),
-            age: Age::new(&gpu),
-            vlf: VlfPass::new(&gpu),
-            objects: MovePoints::new(&gpu),
+        let passes = Passes::new(&gpu);
+        let shared = SharedBuffers {
+            points: &points,
+            visible: &visible,
+            samples: &samples,
+            matched: &matched,
+            insert_params: &insert_params,
         };
-
-        let eyes: Vec<EyeBuffers> = eyes
-            .iter()
-            .map(|&Size { width, height }| {
-                let n = u64::from(width) * u64::from(height);
-                let params = gpu.uniform("eye params", std::mem::size_of::<EyeParams>() as u64);
-                let depth = gpu.storage("depth", 4 * n);
-                let key = gpu.storage("key", 4 * n);
-                let culled = gpu.storage("culled", 16 * n);
-                let color = gpu.storage("color", 16 * n);
-                let priority = gpu.storage("priority", 4 * n);
-                let counters = gpu.storage("counters", 16);
-                let chosen = gpu.storage("chosen", 4 * u64::from(max_chosen));
-                let staging =
-                    gpu.read_back_buffer("chosen read-back", 16 + 4 * u64::from(max_chosen));
-                let project_bg = passes
-                    .project
-                    .bind_group(&gpu, [&params, &points, &depth, &key, &visible, &counters]);
-                let filter_bg = passes.filter.bind_group(
-                    &gpu,
-                    [
-                        &params, &points, &depth, &key, &culled, &color, &priority, &counters,
-                    ],
-                );
-                let dither_bg = passes
-                    .dither
-                    .bind_group(&gpu, [&params, &priority, &counters, &chosen]);
-                let aging = gpu.storage("aging", 4 * n);
-                let insert_bg = passes.insert.bind_group(
-                    &gpu,
-                    [&insert_params, &points, &samples, &key, &matched, &aging],
-                );
-                EyeBuffers {
-                    width,
-                    height,
-                    params,
-                    key,
-                    color,
-                    priority,
-                    last_chosen: Vec::new(),
-                    counters,
-                    chosen,
-                    staging,
-                    project_bg,
-                    filter_bg,
-                    dither_bg,
-                    insert_bg,
-                }
-            })
+        let eyes: Vec<EyeBuffers> = (eyes.iter())
+            .map(|&size| EyeBuffers::new(&gpu, &passes, shared, size, max_chosen))
             .collect();
         let age_bg = passes
             .age

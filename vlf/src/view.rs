@@ -706,10 +706,10 @@ impl Visibility {
         placed: Option<&PlacedScene>,
         drawn: LookupDrawn,
     ) -> (Lookup, Option<DirectPoint>) {
-        let (values, direct_at_point, frames) = drawn;
+        let (values, direct_at_point, _) = drawn;
         let beside = self.beside_light(&chain.beside, placed);
         chain.emitted += beside;
-        let Some((s, r)) = chain.end else {
+        let Some((s, r)) = chain.end.take() else {
             let none = Lookup {
                 emitted: chain.emitted.to_array(),
                 ..Lookup::NONE
@@ -718,95 +718,22 @@ impl Visibility {
         };
         // Moving objects' triangles have no elements: only the static scene's are looked up.
         let object = placed.and_then(|p| p.object_of(s.hit.triangle));
-        let side = side_facing(s.normal, r.dir);
-        let element = || {
-            self.elements
-                .element(s.hit.triangle, side, s.hit.u, s.hit.v)
-        };
         let mut point = DirectPoint {
             surfaces: beside,
             ..s.direct_point(-r.dir, chain.weight)
         };
-        // A glossy surface of the static scene without a tile: its Lambertian base's light,
-        // its highlights (the per-pixel pass's where it adds the direct light here, else
-        // the sun's and punctual lights' taken here), and what its lobe reflects: seen
-        // directly, blurred as the lobe blurs it; beyond a mirror or glass, the lookup
-        // along the mirrored ray (the sun's disc taken by the highlights, not along it).
-        if object.is_none() && self.drawn_as_mirror(&s, r.dir, values) {
-            let statics = self.scene.statics();
-            let scene = placed.unwrap_or(&statics);
-            let sky = |d: Vec3| sky(&self.lights, d);
-            let bsdf = point.bsdf;
-            let cos_o = s.shading_normal.dot(r.dir).abs();
-            let base = values.map_or(Vec3::ZERO, |v| {
-                let cells = self.elements.triangles[s.hit.triangle as usize];
-                let irradiance = interpolate(v, cells.base(side), cells.res, s.hit.u, s.hit.v);
-                bsdf.diffuse_reflectance(cos_o) * std::f32::consts::FRAC_1_PI * irradiance
-            });
-            if chain.deltas == 0
-                && let Some(total) = self.light.get()
-            {
-                let blurred = self.blurred_reflection(
-                    scene,
-                    objects,
-                    (&s, r.dir),
-                    total,
-                    direct_at_point,
-                    (&bsdf, &sky, frames.blurred_rays()),
-                );
-                let mut shown = base + blurred;
-                if !direct_at_point {
-                    shown += highlights(scene, &self.lights, &s, &bsdf, r.dir);
-                }
-                let l = Lookup {
-                    emitted: (chain.emitted + chain.weight * shown).to_array(),
-                    ..Lookup::NONE
-                };
-                point.reflected = Some(chain.weight * blurred);
-                return (l, direct_at_point.then_some(point));
-            }
-            let shown = highlights(scene, &self.lights, &s, &bsdf, r.dir) + base;
-            let so_far = (
-                chain.weight,
-                chain.emitted + chain.weight * shown,
-                chain.deltas,
-            );
-            let reflectance = bsdf.specular_reflectance(cos_o);
-            if let Some(c) = mirrored(scene, so_far, &s, r.dir, reflectance, &sky) {
-                return self.lookup_chain(c, objects, placed, drawn);
-            }
+        if object.is_none()
+            && self.drawn_as_mirror(&s, r.dir, values)
+            && let Some(shown) =
+                self.untiled_glossy(&chain, (&s, r.dir), &mut point, (objects, placed), drawn)
+        {
+            return shown;
         }
         if let Some(k) = object {
-            // Where the per-pixel pass takes the point's light, it gathers the object's
-            // indirect light there ([`crate::object_gather`]); else its probe gives it.
-            point.albedo = albedo_towards(&s.params, s.shading_normal.dot(r.dir));
-            point.gathered = direct_at_point;
-            let indirect = if direct_at_point {
-                Vec3::ZERO
-            } else {
-                point.albedo * std::f32::consts::FRAC_1_PI * objects.irradiance(k, s.shading_normal)
-            };
-            let l = Lookup {
-                emitted: (chain.emitted + chain.weight * (s.emitted + indirect)).to_array(),
-                object: k as u32 + 1,
-                ..Lookup::NONE
-            };
-            return (l, Some(point));
+            return object_lookup(&chain, (&s, r.dir), point, (k, objects), direct_at_point);
         }
-        let (open, near) = if objects.is_empty() || !self.darkening {
-            (1.0, false)
-        } else {
-            let n = s.normal * -s.normal.dot(r.dir).signum();
-            let in_sight = |c: Vec3| {
-                let to = c - s.position;
-                let ray = Ray::leaving(s.position, s.normal, to.normalize());
-                !self.scene.occluded(&ray, to.length())
-            };
-            objects.openness(s.position, n, &in_sight)
-        };
+        let (open, near) = self.openness_at(&s, r.dir, objects);
         let samples = if near { 0.0 } else { 1.0 };
-        let cells = self.elements.triangles[s.hit.triangle as usize];
-        let emitted = (chain.emitted + chain.weight * s.emitted).to_array();
         // Where an object takes much of the hemisphere, the per-pixel pass gathers what
         // it changes of the point's indirect light ([`crate::object_gather`]) in place of
         // the sphere's darkening.
@@ -817,64 +744,170 @@ impl Visibility {
         } else {
             (open, samples)
         };
-        let element = element();
+        let side = side_facing(s.normal, r.dir);
+        let element = self
+            .elements
+            .element(s.hit.triangle, side, s.hit.u, s.hit.v);
         if let Some(g) = self.tiles.of(element) {
-            let (x, y) = self.tiles.view_coords(g, r.dir, s.shading_normal);
-            let k = self.tiles.bins;
-            // Seen directly by a pixel that takes its direct light here, a widened tile's
-            // surface shows the room its own lobe reflects.
-            let glossy = &self.tiles.tiles[g as usize];
-            let tile = self.tiles.elements + g * k * k;
-            let mut emitted = emitted;
-            if glossy.widened
-                && direct_at_point
-                && chain.deltas == 0
-                && !frames.sharpened.is_empty()
-                && let (Some(values), Some(total)) = (values, self.light.get())
-            {
-                let statics = self.scene.statics();
-                let scene = placed.unwrap_or(&statics);
-                let lobes = (&point.bsdf, glossy.bsdf.ggx().alpha);
-                let reflected = self.sharpened_reflection(
-                    scene,
-                    objects,
-                    (&s, r.dir),
-                    total,
-                    lobes,
-                    frames.sharpened_rays(),
-                );
-                // Never below what the tile shows: a difference of two few-ray estimates
-                // can be.
-                let shown = octahedral::interpolate(values, tile, k, x, y) * chain.weight * open;
-                let sharpened = (chain.weight * reflected).max(-shown);
-                emitted = (Vec3::from(emitted) + sharpened).to_array();
-                point.surfaces += sharpened;
-                point.reflected = Some(sharpened);
-            }
-            let l = Lookup {
-                weight: (chain.weight * open).to_array(),
-                emitted,
-                tile,
-                bins: k,
-                x,
-                y,
-                samples,
-                ..Lookup::NONE
-            };
+            let seen = (&s, r.dir);
+            let l = self.tile_lookup(
+                &chain,
+                seen,
+                g,
+                &mut point,
+                (open, samples),
+                (objects, placed),
+                drawn,
+            );
             return (l, Some(point));
         }
         point.albedo = albedo_towards(&s.params, s.shading_normal.dot(r.dir));
+        let cells = self.elements.triangles[s.hit.triangle as usize];
         let l = Lookup {
             base: cells.base(side),
             res: cells.res,
             u: s.hit.u,
             v: s.hit.v,
             weight: (chain.weight * open * point.albedo * std::f32::consts::FRAC_1_PI).to_array(),
-            emitted,
+            emitted: (chain.emitted + chain.weight * s.emitted).to_array(),
             samples,
             ..Lookup::NONE
         };
         (l, Some(point))
+    }
+
+    /// A glossy surface of the static scene without a tile, where the chain ends (`s` seen
+    /// along `dir`, its point `point`): its Lambertian base's light, its highlights (the
+    /// per-pixel pass's where it adds the direct light here, else the sun's and punctual
+    /// lights' taken here), and what its lobe reflects: seen directly, blurred as the lobe
+    /// blurs it; beyond a mirror or glass, the lookup along the mirrored ray (the sun's
+    /// disc taken by the highlights, not along it). `None` where the mirrored ray leads
+    /// nowhere: the surface is then looked up as any other.
+    fn untiled_glossy(
+        &self,
+        chain: &Chain,
+        (s, dir): (&Seen, Vec3),
+        point: &mut DirectPoint,
+        (objects, placed): (&ObjectLight, Option<&PlacedScene>),
+        drawn: LookupDrawn,
+    ) -> Option<(Lookup, Option<DirectPoint>)> {
+        let (values, direct_at_point, frames) = drawn;
+        let statics = self.scene.statics();
+        let scene = placed.unwrap_or(&statics);
+        let sky = |d: Vec3| sky(&self.lights, d);
+        let bsdf = point.bsdf;
+        let cos_o = s.shading_normal.dot(dir).abs();
+        let base = values.map_or(Vec3::ZERO, |v| {
+            let cells = self.elements.triangles[s.hit.triangle as usize];
+            let side = side_facing(s.normal, dir);
+            let irradiance = interpolate(v, cells.base(side), cells.res, s.hit.u, s.hit.v);
+            bsdf.diffuse_reflectance(cos_o) * std::f32::consts::FRAC_1_PI * irradiance
+        });
+        if chain.deltas == 0
+            && let Some(total) = self.light.get()
+        {
+            let blurred = self.blurred_reflection(
+                scene,
+                objects,
+                (s, dir),
+                total,
+                direct_at_point,
+                (&bsdf, &sky, frames.blurred_rays()),
+            );
+            let mut shown = base + blurred;
+            if !direct_at_point {
+                shown += highlights(scene, &self.lights, s, &bsdf, dir);
+            }
+            let l = Lookup {
+                emitted: (chain.emitted + chain.weight * shown).to_array(),
+                ..Lookup::NONE
+            };
+            point.reflected = Some(chain.weight * blurred);
+            return Some((l, direct_at_point.then_some(*point)));
+        }
+        let shown = highlights(scene, &self.lights, s, &bsdf, dir) + base;
+        let so_far = (
+            chain.weight,
+            chain.emitted + chain.weight * shown,
+            chain.deltas,
+        );
+        let reflectance = bsdf.specular_reflectance(cos_o);
+        let c = mirrored(scene, so_far, s, dir, reflectance, &sky)?;
+        Some(self.lookup_chain(c, objects, placed, drawn))
+    }
+
+    /// The share of the hemisphere of `s` (seen along `dir`) the moving objects leave open,
+    /// and whether they take so much that the caches' samples there are wrong
+    /// ([`ObjectLight::openness`]); all open where there are none or no darkening.
+    fn openness_at(&self, s: &Seen, dir: Vec3, objects: &ObjectLight) -> (f32, bool) {
+        if objects.is_empty() || !self.darkening {
+            return (1.0, false);
+        }
+        let n = s.normal * -s.normal.dot(dir).signum();
+        let in_sight = |c: Vec3| {
+            let to = c - s.position;
+            let ray = Ray::leaving(s.position, s.normal, to.normalize());
+            !self.scene.occluded(&ray, to.length())
+        };
+        objects.openness(s.position, n, &in_sight)
+    }
+
+    /// The lookup of glossy tile `g` where the chain ends (`s` seen along `dir`), its
+    /// field's part scaled by `open` and worth `samples`. Seen directly by a pixel that
+    /// takes its direct light here, a widened tile's surface also shows the room its own
+    /// lobe reflects beyond the widened lobe ([`Self::sharpened_reflection`]), kept in
+    /// `point`.
+    #[allow(clippy::too_many_arguments)]
+    fn tile_lookup(
+        &self,
+        chain: &Chain,
+        (s, dir): (&Seen, Vec3),
+        g: u32,
+        point: &mut DirectPoint,
+        (open, samples): (f32, f32),
+        (objects, placed): (&ObjectLight, Option<&PlacedScene>),
+        (values, direct_at_point, frames): LookupDrawn,
+    ) -> Lookup {
+        let (x, y) = self.tiles.view_coords(g, dir, s.shading_normal);
+        let k = self.tiles.bins;
+        let glossy = &self.tiles.tiles[g as usize];
+        let tile = self.tiles.elements + g * k * k;
+        let mut emitted = chain.emitted + chain.weight * s.emitted;
+        if glossy.widened
+            && direct_at_point
+            && chain.deltas == 0
+            && !frames.sharpened.is_empty()
+            && let (Some(values), Some(total)) = (values, self.light.get())
+        {
+            let statics = self.scene.statics();
+            let scene = placed.unwrap_or(&statics);
+            let lobes = (&point.bsdf, glossy.bsdf.ggx().alpha);
+            let reflected = self.sharpened_reflection(
+                scene,
+                objects,
+                (s, dir),
+                total,
+                lobes,
+                frames.sharpened_rays(),
+            );
+            // Never below what the tile shows: a difference of two few-ray estimates
+            // can be.
+            let shown = octahedral::interpolate(values, tile, k, x, y) * chain.weight * open;
+            let sharpened = (chain.weight * reflected).max(-shown);
+            emitted += sharpened;
+            point.surfaces += sharpened;
+            point.reflected = Some(sharpened);
+        }
+        Lookup {
+            weight: (chain.weight * open).to_array(),
+            emitted: emitted.to_array(),
+            tile,
+            bins: k,
+            x,
+            y,
+            samples,
+            ..Lookup::NONE
+        }
     }
 
     /// Which pixels of `view` see a moving object through their centre.
@@ -1154,6 +1187,31 @@ type FirstHits<'a> = dyn Fn(&PlacedScene, &[Ray], usize) -> Vec<Option<Hit>> + S
 /// What a lookup is drawn with: the values it is shaded with where the CPU shades a part
 /// itself, whether the per-pixel pass adds the direct light at its point, and the frames
 /// whose directions the glossy lobes take.
+/// The lookup of a moving object's point where the chain ends (`s` seen along `dir`, its
+/// point `point`, object `k`): where the per-pixel pass takes the point's light, it gathers
+/// the object's indirect light there ([`crate::object_gather`]); else its probe gives it.
+fn object_lookup(
+    chain: &Chain,
+    (s, dir): (&Seen, Vec3),
+    mut point: DirectPoint,
+    (k, objects): (usize, &ObjectLight),
+    direct_at_point: bool,
+) -> (Lookup, Option<DirectPoint>) {
+    point.albedo = albedo_towards(&s.params, s.shading_normal.dot(dir));
+    point.gathered = direct_at_point;
+    let indirect = if direct_at_point {
+        Vec3::ZERO
+    } else {
+        point.albedo * std::f32::consts::FRAC_1_PI * objects.irradiance(k, s.shading_normal)
+    };
+    let l = Lookup {
+        emitted: (chain.emitted + chain.weight * (s.emitted + indirect)).to_array(),
+        object: k as u32 + 1,
+        ..Lookup::NONE
+    };
+    (l, Some(point))
+}
+
 type LookupDrawn<'a> = (Option<&'a [[f32; 3]]>, bool, &'a ReflectionFrames);
 
 /// The light field's part of lookup `l` (its emitted light left out), from `values`.

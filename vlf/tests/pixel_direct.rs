@@ -159,32 +159,7 @@ fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
     let edges = [centre - W / 2.0, centre + W / 2.0];
     let half = H * ((TILT + SUN_R).tan() - TILT.tan());
     eprintln!("lit E {lit:.4}, edges {edges:?}, penumbra half width {half:.4} m");
-
-    // The first frame (estimate 0 of each pixel's sequence): exact in the lit patch and
-    // in the umbra, wherever the point is more than the penumbra's half width (with a
-    // margin of 1 mm for the slant of the plates' edges seen from the point) from an edge.
-    let mut lit_n = 0;
-    let mut umbra_n = 0;
-    for k in 0..400 {
-        let x = -2.5 + 4.0 * (k as f32 + 0.5) / 400.0;
-        let from_edge = edges.iter().map(|e| (x - e).abs()).fold(f32::MAX, f32::min);
-        if from_edge < half + 1e-3 {
-            continue;
-        }
-        let e = estimated(&vis, &direct, x, 0, 1);
-        if x > edges[0] && x < edges[1] {
-            lit_n += 1;
-            assert!(
-                (e - lit).abs() <= one * lit,
-                "x = {x}: first frame {e}, lit {lit} ± {:.2} %",
-                100.0 * one
-            );
-        } else {
-            umbra_n += 1;
-            assert_eq!(e, 0.0, "x = {x}: first frame in the umbra");
-        }
-    }
-    assert!(lit_n > 50 && umbra_n > 50, "{lit_n} lit, {umbra_n} umbra");
+    assert_first_frame_exact(&vis, &direct, (lit, one), edges, half);
 
     // The penumbrae after N frames: each estimate is the disc's radiance times a
     // visibility of 0 or 1 (times the cosine), of variance at most E_lit²/4 (1 + 0.27 %)²;
@@ -199,49 +174,8 @@ fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
     let mut worst = 0f64;
     let mut crossings = Vec::new();
     for edge in edges {
-        let steps = 48;
-        let xs: Vec<f32> = (0..=steps)
-            .map(|k| edge - 1.2 * half + 2.4 * half * k as f32 / steps as f32)
-            .collect();
-        let profile: Vec<(f64, f64)> = xs
-            .iter()
-            .map(|&x| {
-                (
-                    estimated(&vis, &direct, x, 0, frames),
-                    quadrature(f64::from(x), 400),
-                )
-            })
-            .collect();
-        // A new point's first estimate takes FIRST_SUN_SAMPLES of the disc: where a
-        // fraction p of the disc is seen, one sample's squared error averages
-        // E_lit² p(1 − p), and the mean of four independent ones a quarter of that. Over
-        // the scan (49 points an edge) the average is held to 1.5 times a quarter (the
-        // low-discrepancy samples are at 0.8 of it; one sample a point, 1.9).
-        let first_mse = xs
-            .iter()
-            .zip(&profile)
-            .map(|(&x, (_, q))| (estimated(&vis, &direct, x, 0, 1) - q).powi(2))
-            .sum::<f64>()
-            / xs.len() as f64;
-        let one_sample = profile
-            .iter()
-            .map(|(_, q)| {
-                let p = (q / lit).clamp(0.0, 1.0);
-                p * (1.0 - p) * lit * lit
-            })
-            .sum::<f64>()
-            / xs.len() as f64;
-        eprintln!(
-            "first estimate: mean squared error {:.4} E², one sample's {:.4} E²",
-            first_mse / (lit * lit),
-            one_sample / (lit * lit)
-        );
-        assert!(
-            first_mse <= 1.5 * one_sample / 4.0,
-            "the first frame's penumbra: mean squared error {:.4} E², one sample's {:.4} E²",
-            first_mse / (lit * lit),
-            one_sample / (lit * lit)
-        );
+        let (xs, profile) = penumbra_profile(&vis, &direct, (edge, half), frames);
+        assert_first_estimates_within_a_quarter(&vis, &direct, (&xs, &profile), lit);
         for (x, (e, q)) in xs.iter().zip(&profile) {
             worst = worst.max((e - q).abs() / lit);
             assert!(
@@ -249,21 +183,8 @@ fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
                 "x = {x}: {frames} frames give {e:.4}, exact {q:.4} ± {tolerance:.4}"
             );
         }
-        // Where the irradiance crosses half the lit value (linear between the scan's
-        // points), estimated and exact.
-        let cross = |f: &dyn Fn(usize) -> f64| -> f64 {
-            let target = lit / 2.0;
-            (0..steps)
-                .find_map(|k| {
-                    let (a, b) = (f(k) - target, f(k + 1) - target);
-                    (a * b <= 0.0 && a != b).then(|| {
-                        f64::from(xs[k]) + (f64::from(xs[k + 1]) - f64::from(xs[k])) * a / (a - b)
-                    })
-                })
-                .expect("a crossing")
-        };
-        let got = cross(&|k| profile[k].0);
-        let want = cross(&|k| profile[k].1);
+        let got = half_crossing(&xs, lit, &|k| profile[k].0);
+        let want = half_crossing(&xs, lit, &|k| profile[k].1);
         crossings.push((got, want));
     }
     // The edge's position: near the middle of a penumbra the irradiance rises with slope
@@ -283,6 +204,116 @@ fn sun_through_a_slit_gives_the_exact_patch_and_edges() {
         worst,
         tolerance / lit
     );
+}
+
+/// The first frame (estimate 0 of each pixel's sequence) is exact (within `one` of `lit`)
+/// in the lit patch and zero in the umbra, wherever the point is more than the penumbra's
+/// half width `half` (with a margin of 1 mm for the slant of the plates' edges seen from
+/// the point) from an edge.
+fn assert_first_frame_exact(
+    vis: &Visibility,
+    direct: &PixelDirect,
+    (lit, one): (f64, f64),
+    edges: [f32; 2],
+    half: f32,
+) {
+    let mut lit_n = 0;
+    let mut umbra_n = 0;
+    for k in 0..400 {
+        let x = -2.5 + 4.0 * (k as f32 + 0.5) / 400.0;
+        let from_edge = edges.iter().map(|e| (x - e).abs()).fold(f32::MAX, f32::min);
+        if from_edge < half + 1e-3 {
+            continue;
+        }
+        let e = estimated(vis, direct, x, 0, 1);
+        if x > edges[0] && x < edges[1] {
+            lit_n += 1;
+            assert!(
+                (e - lit).abs() <= one * lit,
+                "x = {x}: first frame {e}, lit {lit} ± {:.2} %",
+                100.0 * one
+            );
+        } else {
+            umbra_n += 1;
+            assert_eq!(e, 0.0, "x = {x}: first frame in the umbra");
+        }
+    }
+    assert!(lit_n > 50 && umbra_n > 50, "{lit_n} lit, {umbra_n} umbra");
+}
+
+/// A scan across the penumbra about `edge` (of half width `half`), 49 points: where, and
+/// at each the mean of `frames` estimates and the exact irradiance.
+fn penumbra_profile(
+    vis: &Visibility,
+    direct: &PixelDirect,
+    (edge, half): (f32, f32),
+    frames: u32,
+) -> (Vec<f32>, Vec<(f64, f64)>) {
+    let steps = 48;
+    let xs: Vec<f32> = (0..=steps)
+        .map(|k| edge - 1.2 * half + 2.4 * half * k as f32 / steps as f32)
+        .collect();
+    let profile = xs
+        .iter()
+        .map(|&x| {
+            (
+                estimated(vis, direct, x, 0, frames),
+                quadrature(f64::from(x), 400),
+            )
+        })
+        .collect();
+    (xs, profile)
+}
+
+/// A new point's first estimate takes FIRST_SUN_SAMPLES of the disc: where a fraction p
+/// of the disc is seen, one sample's squared error averages E_lit² p(1 − p), and the mean
+/// of four independent ones a quarter of that. Over the scan (`xs`, its exact values in
+/// `profile`) the average is held to 1.5 times a quarter (the low-discrepancy samples are
+/// at 0.8 of it; one sample a point, 1.9).
+fn assert_first_estimates_within_a_quarter(
+    vis: &Visibility,
+    direct: &PixelDirect,
+    (xs, profile): (&[f32], &[(f64, f64)]),
+    lit: f64,
+) {
+    let first_mse = xs
+        .iter()
+        .zip(profile)
+        .map(|(&x, (_, q))| (estimated(vis, direct, x, 0, 1) - q).powi(2))
+        .sum::<f64>()
+        / xs.len() as f64;
+    let one_sample = profile
+        .iter()
+        .map(|(_, q)| {
+            let p = (q / lit).clamp(0.0, 1.0);
+            p * (1.0 - p) * lit * lit
+        })
+        .sum::<f64>()
+        / xs.len() as f64;
+    eprintln!(
+        "first estimate: mean squared error {:.4} E², one sample's {:.4} E²",
+        first_mse / (lit * lit),
+        one_sample / (lit * lit)
+    );
+    assert!(
+        first_mse <= 1.5 * one_sample / 4.0,
+        "the first frame's penumbra: mean squared error {:.4} E², one sample's {:.4} E²",
+        first_mse / (lit * lit),
+        one_sample / (lit * lit)
+    );
+}
+
+/// Where a scan's irradiance `f(k)` at the points `xs` crosses half the lit value `lit`
+/// (linear between the points).
+fn half_crossing(xs: &[f32], lit: f64, f: &dyn Fn(usize) -> f64) -> f64 {
+    let target = lit / 2.0;
+    (0..xs.len() - 1)
+        .find_map(|k| {
+            let (a, b) = (f(k) - target, f(k + 1) - target);
+            (a * b <= 0.0 && a != b)
+                .then(|| f64::from(xs[k]) + (f64::from(xs[k + 1]) - f64::from(xs[k])) * a / (a - b))
+        })
+        .expect("a crossing")
 }
 
 /// A screen under the slit's plates, looking down at the floor across both edges of the
