@@ -61,11 +61,7 @@ fn master(addr: &str, states: &Path, extra: &[&str]) -> (Watched, BufReader<Chil
 /// `out/WALL.log`.
 fn node(addr: &str, wall: &str, out: &Path) -> Watched {
     let child = holocave()
-        .args(["node", "--master", addr, "--wall", wall, "--headless"])
-        .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
-        .args(["--samples", "48", "--every", "1000000"])
-        .arg("--out")
-        .arg(out)
+        .args(node_args(addr, wall, out))
         .env("HOLOCAVE_SECRET", SECRET)
         .env("RAYON_NUM_THREADS", "1")
         .env("RUST_LOG", "info")
@@ -74,6 +70,18 @@ fn node(addr: &str, wall: &str, out: &Path) -> Watched {
         .spawn()
         .expect("start holocave node");
     Watched::adopt("node", child)
+}
+
+/// The arguments of `holocave node` for `wall` on the master at `addr`, small walls,
+/// presenting into `out/WALL`.
+fn node_args(addr: &str, wall: &str, out: &Path) -> Vec<std::ffi::OsString> {
+    let args = ["node", "--master", addr, "--wall", wall, "--headless"]
+        .into_iter()
+        .chain(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
+        .chain(["--samples", "48", "--every", "1000000", "--out"]);
+    (args.map(Into::into))
+        .chain([out.as_os_str().to_owned()])
+        .collect()
 }
 
 /// The frames `wall` presented so far (none before its log exists).
@@ -284,11 +292,7 @@ fn supervised_node(addr: &str, wall: &str, out: &Path) -> Watched {
         .arg(out.join(format!("{wall}.log")))
         .arg("--")
         .arg(env!("CARGO_BIN_EXE_holocave"))
-        .args(["node", "--master", addr, "--wall", wall, "--headless"])
-        .args(["--config", CONFIG, "--scene", SCENE, "--size", "32x24"])
-        .args(["--samples", "48", "--every", "1000000"])
-        .arg("--out")
-        .arg(out)
+        .args(node_args(addr, wall, out))
         .env("HOLOCAVE_SECRET", SECRET)
         .env("RAYON_NUM_THREADS", "1")
         .stdout(Stdio::null())

@@ -363,7 +363,8 @@ impl VlfBase {
     /// order) for the frames drawn from now on, and returns how each that moved did, for
     /// the render cache ([`crate::RenderCache::move_objects`]). Where a move changed the
     /// light under points that stayed put (their shadows, beside the object), the running
-    /// means of the direct light start again ([`ObjectMove::changes_light_at`]); every
+    /// means of the direct light start again ([`ObjectMove::shadows`],
+    /// [`ObjectMove::takes_more_than`]); every
     /// other pixel's goes on.
     pub fn place_objects(&self, placements: &[Placement]) -> Vec<ObjectMove> {
         let before = self.pass.visibility().placements();
@@ -417,8 +418,9 @@ impl VlfBase {
                 let lobe = (normal.zip(direct.sharpened_lobe(triangle)))
                     .map(|(n, alpha)| reflected_lobe(at - eye, n, alpha));
                 moves.iter().any(|m| {
-                    m.changes_light_at(at, normal, (&self.shadow_lights, share))
-                        || lobe.is_some_and(|l| m.changes_light_at(at, None, (&[l], 1.0)))
+                    m.shadows(at, &self.shadow_lights)
+                        || m.takes_more_than(share, at, normal)
+                        || lobe.is_some_and(|l| m.shadows(at, &[l]))
                 })
             });
         }

@@ -942,7 +942,7 @@ impl Accumulator {
         &self.count
     }
 
-    /// Forgets every pixel's mean (the light changed everywhere).
+    /// Forgets every pixel's mean (a view it cannot be carried to).
     pub fn restart(&mut self) {
         self.seen.iter_mut().for_each(|s| *s = None);
     }

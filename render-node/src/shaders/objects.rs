@@ -1,7 +1,7 @@
 //! Moving objects in the cache (`objects.wgsl`): points on a moved object move with it and
 //! are marked for resampling; points in its old or new shadow are dropped. On the CPU, the
 //! same shadows tell the per-pixel pass which running means a move changed
-//! ([`ObjectMove::changes_light_at`]).
+//! ([`ObjectMove::shadows`], [`ObjectMove::takes_more_than`]).
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
@@ -107,22 +107,26 @@ impl ObjectMove {
         self.object as usize - 1
     }
 
-    /// Whether this move changed the light at a point `p` that did not move with it
-    /// (unit normal `normal`; `None` where any side counts): `p` lies in the object's
-    /// shadow towards one of `lights`, where it was or where it is now, or the object's
-    /// bounding sphere took or takes more than `share` of `p`'s cosine-weighted
-    /// hemisphere (an upper bound of what the object itself takes).
-    pub fn changes_light_at(
-        &self,
-        p: Vec3,
-        normal: Option<Vec3>,
-        (lights, share): (&[ShadowLight], f32),
-    ) -> bool {
-        [self.before, self.after].map(Vec4::from).iter().any(|&s| {
+    /// Its bounding sphere before and after the move (xyz centre, w radius).
+    fn spheres(&self) -> [Vec4; 2] {
+        [self.before, self.after].map(Vec4::from)
+    }
+
+    /// Whether a point `p` lies in the object's shadow towards one of `lights`, where it
+    /// was or where it is now.
+    pub fn shadows(&self, p: Vec3, lights: &[ShadowLight]) -> bool {
+        (self.spheres().iter()).any(|&s| lights.iter().any(|l| l.shadowed_by(p, s)))
+    }
+
+    /// Whether the object's bounding sphere took or takes more than `share` of the
+    /// cosine-weighted hemisphere of a point `p` (unit normal `normal`; `None` where any
+    /// side counts): an upper bound of what the object itself takes.
+    pub fn takes_more_than(&self, share: f32, p: Vec3, normal: Option<Vec3>) -> bool {
+        self.spheres().iter().any(|&s| {
             let c = s.truncate() - p;
             let d = c.length().max(s.w);
             let cos = normal.map_or(1.0, |n| (n.dot(c) / d).abs().min(1.0));
-            cos * (s.w / d).powi(2) > share || lights.iter().any(|l| l.shadowed_by(p, s))
+            cos * (s.w / d).powi(2) > share
         })
     }
 }
