@@ -5,8 +5,8 @@
 //! ones a run without the kill sends for the same frames (a replay: the same log, the same
 //! states).
 //!
-//! The same on a cluster of separate processes under `holocave supervise`, with nodes
-//! SIGKILLed before and after the master's death and resume.
+//! `tests/cluster_chaos.rs` kills the master, with its nodes and workers, at random under
+//! `holocave supervise`.
 //!
 //! Every wait is on something observable (a presented log, a process's exit) with a
 //! deadline, never a fixed sleep; every process is killed when the test ends or fails.
@@ -280,101 +280,5 @@ fn a_truncated_state_file_is_refused_by_name() {
             && !err.contains("panicked"),
         "{err}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// `wall`'s node on the master at `addr` kept running by `holocave supervise` (as
-/// `docs/usage/supervise.md` runs it on a wall's host), presenting into `out/WALL`; the
-/// supervisor's and the node's output in `out/WALL.log`.
-fn supervised_node(addr: &str, wall: &str, out: &Path) -> Watched {
-    let mut c = holocave();
-    c.args(["supervise", "--name", wall, "--log"])
-        .arg(out.join(format!("{wall}.log")))
-        .arg("--")
-        .arg(env!("CARGO_BIN_EXE_holocave"))
-        .args(node_args(addr, wall, out))
-        .env("HOLOCAVE_SECRET", SECRET)
-        .env("RAYON_NUM_THREADS", "1")
-        .stdout(Stdio::null())
-        .stderr(File::create(out.join(format!("{wall}.supervise.log"))).unwrap());
-    Watched::spawn(format!("supervise {wall}"), &mut c).expect("start holocave supervise")
-}
-
-/// The node `supervisor` runs now (`holocave node …` among its children).
-fn node_under(supervisor: &Watched) -> Option<u32> {
-    let children = common::children_of(supervisor.child.id());
-    children
-        .into_iter()
-        .find(|(_, a)| a[0] == "node")
-        .map(|(p, _)| p)
-}
-
-/// A chaos campaign on a cluster of separate processes, as on a real cluster's hosts: a
-/// master replaying the walk and each wall's node under `holocave supervise`. Nodes are
-/// SIGKILLed in turn, the master is SIGKILLed and resumed with `--resume` between them,
-/// and more nodes are killed under the resumed master. After each kill every wall presents
-/// again; no wall's frame numbers ever go back or come twice; Ctrl-C ends the resumed
-/// master with 130, and each supervisor then lets its node go (it exits with success).
-#[test]
-fn a_supervised_cluster_comes_back_from_killed_nodes_and_a_killed_master() {
-    let dir = scratch("cluster-chaos");
-    let (session, walls) = (dir.join("session"), dir.join("walls"));
-    std::fs::create_dir_all(&walls).unwrap();
-    let addr = free_address();
-    let session_flag = session.to_str().unwrap();
-    let flags = ["--out", session_flag, "--wait-for-walls", "60"];
-    let (mut m, _out) = master(&addr, &dir.join("states-1.bin"), &flags);
-    let supervisors: Vec<Watched> = (WALLS.iter())
-        .map(|w| supervised_node(&addr, w, &walls))
-        .collect();
-    let all_present = |n: usize| WALLS.iter().all(|w| presented(&walls, w).len() >= n);
-    wait_until(
-        &mut m,
-        Duration::from_secs(120),
-        "every wall presenting",
-        || all_present(10),
-    );
-    let kill_node = |m: &mut Watched, k: usize| {
-        let pid = node_under(&supervisors[k]).expect("a supervised node");
-        let before = presented(&walls, WALLS[k]).len();
-        common::sigkill(pid);
-        let what = format!("the {} wall presenting again", WALLS[k]);
-        wait_until(m, Duration::from_secs(60), &what, || {
-            presented(&walls, WALLS[k]).len() > before && node_under(&supervisors[k]) != Some(pid)
-        });
-    };
-    for k in [0, 3, 1] {
-        kill_node(&mut m, k);
-    }
-    // The master: killed, and resumed from the state it kept.
-    m.child.kill().unwrap();
-    m.child.wait().unwrap();
-    let kept = SessionState::read(&session.join(FILE_NAME)).unwrap();
-    let resume = ["--resume", session_flag, "--wait-for-walls", "60"];
-    let (mut m, _out) = master(&addr, &dir.join("states-2.bin"), &resume);
-    wait_until(
-        &mut m,
-        Duration::from_secs(60),
-        "every wall after the resume",
-        || (WALLS.iter()).all(|w| presented(&walls, w).last() > Some(&kept.frame)),
-    );
-    for k in [2, 0] {
-        kill_node(&mut m, k);
-    }
-    let (status, _) = common::interrupt(&mut m, "INT", false);
-    assert_eq!(
-        status.and_then(|s| s.code()),
-        Some(130),
-        "the resumed master"
-    );
-    for (w, s) in WALLS.iter().zip(supervisors) {
-        let (status, _, _) = s.finish(Duration::from_secs(30));
-        let log = std::fs::read_to_string(walls.join(format!("{w}.log"))).unwrap_or_default();
-        assert!(
-            status.is_some_and(|s| s.success()),
-            "{w}'s supervisor: {status:?}\n{log}"
-        );
-        assert_in_order(w, &presented(&walls, w));
-    }
     let _ = std::fs::remove_dir_all(&dir);
 }

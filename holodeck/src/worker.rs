@@ -13,10 +13,11 @@ use glam::Vec3;
 
 use crate::auth::{self, Credentials};
 use holocave_protocol::frame::{FrameError, MAX_FRAME_BYTES};
-use holocave_protocol::handshake::Role;
+use holocave_protocol::handshake::{HandshakeError, Role};
 use holocave_protocol::holodeck::{
     PROTOCOL_VERSION, RayPacket, RecordError, SamplePacket, ServerMsg, WorkerHello, WorkerMsg,
 };
+use holocave_protocol::session::Opener;
 
 /// A ray a worker traces (scene coordinates, single precision as packets carry it).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -129,6 +130,23 @@ pub enum WorkerError {
     Records { addr: String, source: RecordError },
 }
 
+impl WorkerError {
+    /// Whether the server could not be reached or went away at once: none listens at its
+    /// address (yet), or its connection broke during the handshake or the hello (a dying
+    /// server's last accepted connections). Worth trying again, unlike a refusal.
+    pub fn is_unreachable(&self) -> bool {
+        match self {
+            WorkerError::Connect { .. } => true,
+            WorkerError::Frame { source, .. } => server_gone(source),
+            WorkerError::Handshake {
+                source: HandshakeError::Frame(f),
+                ..
+            } => server_gone(f),
+            _ => false,
+        }
+    }
+}
+
 /// Whether a frame error means the server closed the connection.
 fn server_gone(e: &FrameError) -> bool {
     use std::io::ErrorKind::{BrokenPipe, ConnectionAborted, ConnectionReset};
@@ -136,6 +154,18 @@ fn server_gone(e: &FrameError) -> bool {
         FrameError::Closed => true,
         FrameError::Io(io) => matches!(io.kind(), BrokenPipe | ConnectionReset | ConnectionAborted),
         _ => false,
+    }
+}
+
+/// Whether the server's last messages, still to be read after it went away, end with its
+/// goodbye (packets before it are dropped: nobody takes their results).
+fn goodbye_waiting(opener: &mut Opener, rd: &mut impl std::io::Read) -> bool {
+    loop {
+        match opener.read(rd, MAX_FRAME_BYTES) {
+            Ok(ServerMsg::Rays(_)) => continue,
+            Ok(ServerMsg::Bye) => return true,
+            _ => return false,
+        }
     }
 }
 
@@ -148,11 +178,14 @@ pub struct WorkerReport {
     pub distance: DistanceKind,
     pub packets: u64,
     pub rays: u64,
+    /// The server said goodbye (its session ended); `false`: it went away without one
+    /// (it died, or its connection broke).
+    pub said_goodbye: bool,
 }
 
 /// A worker process's loop: connects to `addr`, proves `credentials`, says hello, then
 /// traces every ray packet it receives and sends the results back, until the server says
-/// goodbye or closes.
+/// goodbye or closes ([`WorkerReport::said_goodbye`] tells which).
 pub fn run_remote(
     addr: &str,
     credentials: &Credentials,
@@ -206,7 +239,10 @@ pub fn run_remote(
                 expected: "welcome",
             });
         }
-        ServerMsg::Bye => return Ok(report),
+        ServerMsg::Bye => {
+            report.said_goodbye = true;
+            return Ok(report);
+        }
     }
     loop {
         match opener.read(&mut rd, MAX_FRAME_BYTES) {
@@ -225,12 +261,20 @@ pub fn run_remote(
                 match sent {
                     Ok(()) => {}
                     // The server stopped (or died) while this packet was traced: the packet
-                    // is lost, as any in-flight packet of a stopping server is.
-                    Err(e) if server_gone(&e) => return Ok(report),
+                    // is lost, as any in-flight packet of a stopping server is; a goodbye
+                    // may wait behind the packets it sent last.
+                    Err(e) if server_gone(&e) => {
+                        report.said_goodbye = goodbye_waiting(&mut opener, &mut rd);
+                        return Ok(report);
+                    }
                     Err(e) => return Err(frame_err(e)),
                 }
             }
-            Ok(ServerMsg::Bye) | Err(FrameError::Closed) => return Ok(report),
+            Ok(ServerMsg::Bye) => {
+                report.said_goodbye = true;
+                return Ok(report);
+            }
+            Err(FrameError::Closed) => return Ok(report),
             Err(e) if server_gone(&e) => return Ok(report),
             Ok(ServerMsg::Welcome(_) | ServerMsg::DisplayWelcome(_) | ServerMsg::Beams(_)) => {
                 return Err(WorkerError::Unexpected {

@@ -1088,7 +1088,16 @@ type Logs = (
 );
 
 fn open_logs(opts: &MasterOptions) -> std::io::Result<Logs> {
+    // A resumed session's log goes on after the killed master's (whose unwritten tail is
+    // lost: the buffer only ever writes whole states, so the file holds whole ones).
     let states = match &opts.states_log {
+        Some(p) if opts.resume.is_some() => {
+            let f = std::fs::OpenOptions::new()
+                .append(true)
+                .create(true)
+                .open(p)?;
+            Some(std::io::BufWriter::new(f))
+        }
         Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p)?)),
         None => None,
     };

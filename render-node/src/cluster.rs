@@ -290,6 +290,7 @@ pub fn follow(
     present: &mut dyn Presentation,
 ) -> Ended {
     let mut next: Option<FrameState> = None;
+    let mut warmed = false;
     loop {
         if let Some(reason) = present.closed() {
             let _ = link.leaving(&reason);
@@ -339,6 +340,7 @@ pub fn follow(
         let t = Instant::now();
         display.place_objects(&state.objects);
         let report = display.frame(&views, false);
+        warmed = warmed || told_warmed(display, wall, state.frame);
         if !slow_by.is_zero() {
             std::thread::sleep(slow_by);
         }
@@ -360,6 +362,21 @@ pub fn follow(
             Err(ended) => return ended,
         }
     }
+}
+
+/// Logs, and says, whether the display has drawn samples from its holodeck by `frame`:
+/// a node (re)joining a filled holodeck gets its stored samples at once, so its wall is
+/// warm in its first frames rather than empty.
+fn told_warmed(display: &WallDisplay, wall: &Wall, frame: u64) -> bool {
+    let Some(counts) = display.holodeck_counts().filter(|c| c.used > 0) else {
+        return false;
+    };
+    tracing::info!(
+        "wall {:?}: drawing {} samples from the holodeck by frame {frame}",
+        wall.name,
+        counts.used
+    );
+    true
 }
 
 /// Waits for frame `state`'s Swap and shows it; a newer frame instead means the master went

@@ -10,7 +10,7 @@ use holocave_scene::{ObjectPaths, Placement, Scene};
 use holocave_tracer::film::Image;
 
 use crate::cache::{RenderCache, StepTimes};
-use crate::holodeck::HolodeckSource;
+use crate::holodeck::{HolodeckCounts, HolodeckSource};
 use crate::prior;
 use crate::source::{PixelTracer, TracerThread};
 use crate::vlf::FrameWork;
@@ -71,6 +71,14 @@ impl WallDisplay {
     /// (the cache still draws; no new samples arrive).
     pub fn source_lost(&self) -> bool {
         matches!(&self.feed, SampleFeed::Holodeck(h) if !h.is_connected())
+    }
+
+    /// What a holodeck feed has received and used so far (`None`: another feed).
+    pub fn holodeck_counts(&self) -> Option<HolodeckCounts> {
+        match &self.feed {
+            SampleFeed::Holodeck(h) => Some(h.counts()),
+            _ => None,
+        }
     }
 
     /// Traces between frames (synchronous, deterministic).

@@ -43,7 +43,7 @@ pub struct MasterArgs {
     /// Stop after this many seconds.
     #[arg(long)]
     pub seconds: Option<f64>,
-    /// Append every frame state, as sent, to this file.
+    /// Write every frame state, as sent, to this file (a resumed session appends to it).
     #[arg(long)]
     pub states: Option<PathBuf>,
     /// Output folder: DIR/navigation.csv, the room → scene transform of every frame, and
@@ -56,6 +56,11 @@ pub struct MasterArgs {
     /// are the session's own; DIR stays the output folder.
     #[arg(long, value_name = "DIR")]
     pub resume: Option<PathBuf>,
+    /// The session's output folder, for a master that a supervisor starts again with the
+    /// same command: `--resume DIR` when DIR holds a session's state (a master died
+    /// there, or was stopped), else `--out DIR`. Give each new session a new folder.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["out", "resume"])]
+    pub session: Option<PathBuf>,
     /// A baked light field (`holocave vlf bake`) the walls draw under their samples: its
     /// path is told to every node, which reads it there.
     #[arg(long)]
@@ -447,10 +452,16 @@ pub fn run(mut args: MasterArgs) -> Result<()> {
     Ok(())
 }
 
-/// With `--resume DIR`: the state DIR/session.json holds, checked against the flags (the
+/// With `--resume DIR` (or `--session DIR` holding a state): the state DIR/session.json holds, checked against the flags (the
 /// same clock, the same time of day, taken from the state when
 /// no `--when` is given), and DIR as the output folder.
 fn resume_of(args: &mut MasterArgs) -> Result<Option<SessionState>> {
+    if let Some(dir) = args.session.take() {
+        match dir.join(SESSION_STATE).exists() {
+            true => args.resume = Some(dir),
+            false => args.out = Some(dir),
+        }
+    }
     let Some(dir) = args.resume.clone() else {
         return Ok(None);
     };

@@ -30,8 +30,8 @@ use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWa
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
 use holocave_render_node::{
-    DisplayBuilder, EyeView, Gpu, LightField, RenderCache, SampleFeed, ToneMapper, ToneMode,
-    VlfBase, VlfDrawing, WallDisplay,
+    DisplayBuilder, EyeView, Gpu, LightField, RenderCache, ToneMapper, ToneMode, VlfBase,
+    VlfDrawing, WallDisplay,
 };
 use holocave_scene::Scene;
 use holocave_tracer::{TraceSettings, Tracer};
@@ -398,10 +398,7 @@ fn standalone(
         finish_windows(args, o, &display, totals.frames);
     }
     drop(output);
-    let holo_counts = match &display.feed {
-        SampleFeed::Holodeck(h) => Some(h.counts()),
-        _ => None,
-    };
+    let holo_counts = display.holodeck_counts();
     drop(display);
     if let (Some(running), Some(path)) = (holodeck, &args.holodeck) {
         stop_own_holodeck(running, path, holo_counts.unwrap_or_default())?;

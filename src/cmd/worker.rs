@@ -1,13 +1,15 @@
 //! `holocave worker --server HOST:PORT --scene S`: a holodeck worker process. It loads the
 //! scene, connects to the holodeck server (proving the cluster's secret, from
-//! `HOLOCAVE_SECRET`) and traces the ray packets it is sent until the server says goodbye.
+//! `HOLOCAVE_SECRET`) and traces the ray packets it is sent until the server says goodbye;
+//! a server that goes away without one (its master died) is connected to again.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
-use holocave_holodeck::worker::run_remote;
+use holocave_holodeck::worker::{WorkerError, WorkerReport, run_remote};
 use holocave_tracer::holodeck::{HolodeckTracer, scene_identity};
 use holocave_tracer::{TraceSettings, Tracer};
 
@@ -27,7 +29,15 @@ pub struct WorkerArgs {
     pub vlf: bool,
     #[command(flatten)]
     pub daylight: super::daylight_flags::DaylightFlags,
+    /// When the holodeck server goes away without a goodbye (its master died), connect to
+    /// it again every 0.2 s for up to this many seconds (a resumed master is back within
+    /// them), then fail.
+    #[arg(long, default_value_t = 30.0, value_name = "SECONDS")]
+    pub reconnect_for: f64,
 }
+
+/// How long a worker that lost its server waits between tries to connect again.
+const RECONNECT_EVERY: Duration = Duration::from_millis(200);
 
 /// Loads a scene (with `daylight`, else the file beside it) and makes its sample generator.
 pub fn load_source(
@@ -57,13 +67,18 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
     }
     let source = load_source(&args.scene, args.daylight.clone())?;
     let name = format!("pid {}", std::process::id());
-    let report = run_remote(
-        &args.server,
-        &credentials,
-        &name,
-        &scene_identity(&args.scene, source.0.scene()),
-        &source,
-    )?;
+    let scene = scene_identity(&args.scene, source.0.scene());
+    let mut report = run_remote(&args.server, &credentials, &name, &scene, &source)?;
+    while !report.said_goodbye {
+        tracing::warn!(
+            "worker {}: the holodeck server at {} went away; connecting again",
+            report.worker_id,
+            args.server
+        );
+        report = reconnect(&args, || {
+            run_remote(&args.server, &credentials, &name, &scene, &source)
+        })?;
+    }
     tracing::info!(
         "worker {} done: {} packets, {} rays ({} distance)",
         report.worker_id,
@@ -72,4 +87,30 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
         report.distance.name()
     );
     Ok(())
+}
+
+/// Runs `session` again until the server takes this worker, for up to `--reconnect-for`
+/// seconds: a server that cannot be reached yet ([`WorkerError::is_unreachable`]) is tried
+/// again; any other failure (a refused secret, a wrong scene) ends the worker.
+fn reconnect(
+    args: &WorkerArgs,
+    mut session: impl FnMut() -> Result<WorkerReport, WorkerError>,
+) -> anyhow::Result<WorkerReport> {
+    let since = Instant::now();
+    loop {
+        match session() {
+            Err(e) if e.is_unreachable() && since.elapsed().as_secs_f64() < args.reconnect_for => {
+                std::thread::sleep(RECONNECT_EVERY)
+            }
+            Err(e) => {
+                return Err(e).with_context(|| {
+                    format!(
+                        "the holodeck server went away {:.1} s ago",
+                        since.elapsed().as_secs_f64()
+                    )
+                });
+            }
+            Ok(report) => return Ok(report),
+        }
+    }
 }
