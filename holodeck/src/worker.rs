@@ -183,6 +183,20 @@ pub struct WorkerReport {
     pub said_goodbye: bool,
 }
 
+/// A TCP connection to the server at `addr`, without Nagle's delay.
+fn connect(addr: &str) -> Result<TcpStream, WorkerError> {
+    let conn = addr
+        .to_socket_addrs()
+        .and_then(|mut it| it.next().ok_or_else(|| std::io::Error::other("no address")))
+        .and_then(TcpStream::connect)
+        .map_err(|source| WorkerError::Connect {
+            addr: addr.to_string(),
+            source,
+        })?;
+    conn.set_nodelay(true).ok();
+    Ok(conn)
+}
+
 /// A worker process's loop: connects to `addr`, proves `credentials`, says hello, then
 /// traces every ray packet it receives and sends the results back, until the server says
 /// goodbye or closes ([`WorkerReport::said_goodbye`] tells which).
@@ -194,15 +208,7 @@ pub fn run_remote(
     source: &dyn SampleSource,
 ) -> Result<WorkerReport, WorkerError> {
     let a = addr.to_string();
-    let mut conn = addr
-        .to_socket_addrs()
-        .and_then(|mut it| it.next().ok_or_else(|| std::io::Error::other("no address")))
-        .and_then(TcpStream::connect)
-        .map_err(|source| WorkerError::Connect {
-            addr: a.clone(),
-            source,
-        })?;
-    conn.set_nodelay(true).ok();
+    let mut conn = connect(addr)?;
     let (mut sealer, mut opener) =
         auth::connect(&mut conn, credentials, Role::Worker).map_err(|source| {
             WorkerError::Handshake {

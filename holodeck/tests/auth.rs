@@ -5,7 +5,7 @@
 //! their samples reaches the file (checked against a copy taken before, as
 //! `holodeck check --holds` does).
 
-mod common;
+use crate::common;
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 use std::net::TcpListener;
 use std::time::{Duration, Instant};
 
-mod common;
+use crate::common;
 
 use common::{credentials, options};
 use glam::DVec3;

@@ -3,7 +3,7 @@
 //! which another worker computes. Every worker is asked for the distance the file records.
 //! Threads held to a ray allowance trace exactly the rays granted.
 
-mod common;
+use crate::common;
 
 use std::net::TcpListener;
 use std::sync::Arc;

@@ -10,9 +10,8 @@
 //! the hit must be a graze: within rounding of the widened test's edge, of `t = 0` or of
 //! `tmax`. Grazes are counted and must be rare (at most one ray in a thousand, plus one).
 
-mod ray_sets;
-#[path = "common/room.rs"]
-mod room;
+use crate::common::room;
+use crate::ray_sets;
 
 use glam::{Vec2, Vec3};
 use holocave_cave::WallView;

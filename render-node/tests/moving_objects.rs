@@ -19,7 +19,7 @@ use holocave_vlf::Settings;
 
 // Only the light field's writer is used here.
 #[allow(dead_code)]
-mod common;
+use crate::common;
 
 const SIZE: u32 = 32;
 

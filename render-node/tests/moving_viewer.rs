@@ -7,7 +7,7 @@
 //! the error of a few frames against path-traced references stays near that of a
 //! path-traced frame with as many rays.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::sync::Arc;

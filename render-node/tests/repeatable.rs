@@ -10,7 +10,7 @@
 //! 128×128 and four runs compared; it compares four runs so that a race shows); on a
 //! one-thread adapter it cannot tell.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

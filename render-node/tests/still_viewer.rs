@@ -5,7 +5,7 @@
 //! samples a frame takes are the same on any machine, the time they take is not (the
 //! time is printed).
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -2,7 +2,7 @@
 //! purpose (no Russian roulette: every path runs to 64 bounces), frames keep coming while
 //! batches are traced, and the picture still fills in as they arrive.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};

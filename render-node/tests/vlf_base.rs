@@ -2,7 +2,7 @@
 //! CPU's; a cold start shows the lit scene from its first frame (not black), close to the
 //! converged image; and a still viewer still converges to the path-traced image.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::sync::Arc;

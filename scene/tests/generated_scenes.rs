@@ -1,7 +1,7 @@
 //! The project's own scenes in `scenes/` are exactly what the generator makes (so the
 //! code that made them is kept and they can be re-made), and they load as designed.
 
-mod common;
+use crate::common;
 
 use common::{load, project_path};
 use glam::Vec3;

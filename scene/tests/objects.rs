@@ -1,7 +1,7 @@
 //! Movable objects in a real scene: a chair of the breakfast room (in
 //! `../shared/scenes`; skipped where absent unless `HOLOCAVE_REQUIRE_SHARED=1`).
 
-mod common;
+use crate::common;
 
 use common::{load, shared_scene};
 use glam::Vec3;

@@ -2,7 +2,7 @@
 //! for, and what was loaded agrees with the files (triangle counts from the README,
 //! materials and cameras from the JSON).
 
-mod common;
+use crate::common;
 
 use common::{dropped_degenerate, json, load, shared_scene};
 use glam::Vec3;

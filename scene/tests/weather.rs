@@ -2,7 +2,7 @@
 //! checkout; skipped where absent, unless `HOLOCAVE_REQUIRE_SHARED=1`): its site, and an
 //! hour found from local, UTC and leap-day times.
 
-mod common;
+use crate::common;
 
 use chrono::DateTime;
 use holocave_scene::daylight::Weather;

@@ -16,6 +16,7 @@ pub mod render;
 pub mod scene;
 pub mod sim;
 pub mod supervise;
+pub mod tone;
 pub mod tracking;
 pub mod view;
 pub mod vlf;

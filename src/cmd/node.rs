@@ -13,7 +13,7 @@ use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow, bail};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use glam::{DMat4, Quat, Vec3};
 use holocave_cave::{Cave, Eye, Size, Wall, load_cave};
 use holocave_glare::session::{FrameView, gaze};
@@ -30,52 +30,15 @@ use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWa
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
 use holocave_render_node::{
-    DisplayBuilder, EyeView, Gpu, LightField, RenderCache, ToneMapper, ToneMode, VlfBase,
-    VlfDrawing, WallDisplay,
+    DisplayBuilder, EyeView, Gpu, LightField, RenderCache, ToneMapper, VlfBase, VlfDrawing,
+    WallDisplay,
 };
 use holocave_scene::Scene;
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
 
 use super::master::open_head;
-
-/// How a node's images are tone-mapped.
-#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Tone {
-    /// Ward Larson's histogram adjustment, as a camera would.
-    Camera,
-    /// What a person would see: Ward Larson's histogram adjustment with human contrast
-    /// sensitivity, veiling glare, acuity and colour loss.
-    Human,
-    /// Luminance in cd/m² in false colour (0.001 to 100 000, logarithmic) with a legend.
-    Falsecolor,
-    /// The tracer's Reinhard preview (PNG previews only).
-    Reinhard,
-}
-
-impl Tone {
-    /// The flag's value naming this mode.
-    pub(crate) fn name(self) -> &'static str {
-        match self {
-            Tone::Camera => "camera",
-            Tone::Human => "human",
-            Tone::Falsecolor => "falsecolor",
-            Tone::Reinhard => "reinhard",
-        }
-    }
-
-    /// The tone mapper of a scene whose radiance is `efficacy` lm/W (`None`: the tracer's
-    /// Reinhard preview).
-    pub(crate) fn mapper(self, efficacy: f32) -> Option<ToneMapper> {
-        let mode = match self {
-            Tone::Camera => ToneMode::Camera,
-            Tone::Human => ToneMode::Human,
-            Tone::Falsecolor => ToneMode::FalseColor,
-            Tone::Reinhard => return None,
-        };
-        Some(ToneMapper::with_efficacy(mode, efficacy))
-    }
-}
+use super::tone::Tone;
 
 /// A node's windows and the tone mapping they show (a histogram adjustment: the tone
 /// curve is applied on the GPU; Reinhard's operator exists only for the PNG previews).

@@ -38,7 +38,7 @@ pub struct RenderArgs {
     pub seed: u64,
     /// Tone mapping of the PNG preview (default: the tracer's auto-exposed Reinhard).
     #[arg(long, value_enum)]
-    pub tone: Option<super::node::Tone>,
+    pub tone: Option<super::tone::Tone>,
     #[command(flatten)]
     pub objects: ObjectsAt,
 }

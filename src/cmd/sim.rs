@@ -112,8 +112,8 @@ pub struct SimArgs {
     pub rays: Rays,
     /// Every wall's tone mapping (windows and PNG frames): `camera`, `human` (what a person
     /// would see), `falsecolor` (cd/m² with a legend), or `reinhard` (PNG frames only).
-    #[arg(long, value_enum, default_value_t = super::node::Tone::Camera)]
-    pub tone: super::node::Tone,
+    #[arg(long, value_enum, default_value_t = super::tone::Tone::Camera)]
+    pub tone: super::tone::Tone,
     #[command(flatten)]
     pub windows: super::window::SimWindowArgs,
     /// Leave a node or worker that dies during the frames down. By default it is started

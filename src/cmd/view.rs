@@ -12,7 +12,7 @@ use holocave_render_node::vision::VeilSources;
 use holocave_scene::Scene;
 use holocave_tracer::film::Image;
 
-use super::node::Tone;
+use super::tone::Tone;
 
 /// Writes the PNG preview of `image` (drawn through `view`) to `png`: tone-mapped by
 /// `tone` (in human mode, seen from the view's eye) at the scene's `efficacy`, or the

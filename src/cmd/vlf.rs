@@ -99,7 +99,7 @@ pub struct ViewArgs {
     pub out: PathBuf,
     /// Tone mapping of the PNG preview (default: the tracer's auto-exposed Reinhard).
     #[arg(long, value_enum)]
-    pub tone: Option<super::node::Tone>,
+    pub tone: Option<super::tone::Tone>,
     /// A converged render of the same view (EXR): print the relative MSE against it.
     #[arg(long)]
     pub reference: Option<PathBuf>,

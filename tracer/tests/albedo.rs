@@ -15,7 +15,7 @@
 //! "albedo" from inside exceeds 1 — correctly. Energy is what must be conserved, so for
 //! glass the bound is on `R + T`, the weight with the `1/η'²` factor undone.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 

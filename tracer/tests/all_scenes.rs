@@ -21,7 +21,7 @@
 //! back faces); and from a sphere around the scene, twice its size, at uniform points
 //! of its bounds.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 use std::time::Instant;

@@ -24,7 +24,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
-mod common;
+use crate::common;
 use common::{integrate_cell, params};
 
 const THETA_RES: usize = 10;

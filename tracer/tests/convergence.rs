@@ -28,7 +28,7 @@
 //!
 //! Cost: 16 × (64 + 256) + 4096 spp at 32 × 32, about 9.4 M paths (~10 s on 2 cores).
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use holocave_cave::{Size, WallView};

@@ -2,7 +2,7 @@
 //! equals `trace_serial` bit for bit, whatever the number of threads, and so does a
 //! rendered image.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::Vec3;

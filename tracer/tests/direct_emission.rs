@@ -2,7 +2,7 @@
 //! hits an emitter first takes its emission with MIS weight 1), on its front side;
 //! its back side emits nothing unless the material is double-sided.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::Vec3;

@@ -2,7 +2,7 @@
 //! and flat glass to the first surface that is not a delta reflector, and stops at
 //! curved or rough ones.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::Vec3;

@@ -12,7 +12,7 @@
 //! `z` chosen for a family-wise false-failure probability of 1e-4 over all comparisons in
 //! a test (Bonferroni). Seeds are fixed, so a run is reproducible.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::Vec3;

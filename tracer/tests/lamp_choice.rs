@@ -7,7 +7,7 @@
 //! one-sided: from any point, half their faces or more turn away) and a small double-sided
 //! panel above them.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{Vec2, Vec3};

@@ -3,7 +3,7 @@
 //! the Cornell box lit by its mirror box's reflection of the ceiling light, the light a
 //! white Lambertian surface reflects by way of one mirror, estimated both ways.
 
-mod common;
+use crate::common;
 
 use glam::{Vec2, Vec3};
 use holocave_scene::Ray;

@@ -3,7 +3,7 @@
 //! degenerate input (zero, NaN, infinite). Every sample must have finite, non-negative
 //! radiance and a distance that is ≥ 0 or +∞, and nothing may panic.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::Vec3;

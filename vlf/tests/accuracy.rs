@@ -23,7 +23,7 @@
 //! `n̂`; it adds to every setting's measured error alike, so the VLF's own error is the
 //! measured one less `n̂`.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::Arc;

@@ -12,7 +12,7 @@ use holocave_tracer::lights::Lights;
 use holocave_vlf::Settings;
 use holocave_vlf::caustics::{Caustics, PHOTONS};
 
-mod common;
+use crate::common;
 
 fn cornell() -> Arc<Scene> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell.gltf");

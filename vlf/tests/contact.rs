@@ -4,7 +4,7 @@
 //! the same light along the foot as anywhere on the open floor, but for the little sky the
 //! box hides.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -3,7 +3,7 @@
 //! base dimmed by the Fresnel transmission out, `holocave_vlf::exitance`): the light one
 //! sends the other near the corner, as the walls draw it, against the path tracer.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -1,7 +1,7 @@
 //! A bake's result depends only on the scene and the settings: not on the number of
 //! threads, and not on whether it was killed and resumed on the way.
 
-mod common;
+use crate::common;
 
 use std::cell::Cell;
 use std::path::Path;

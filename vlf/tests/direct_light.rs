@@ -3,7 +3,7 @@
 //! at a floor point a distance `d` from the light is `I cos θ / d² = I h / d³`; the floor
 //! is flat, so it never lights itself and the baked irradiance is the direct light alone.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

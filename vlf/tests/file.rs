@@ -2,7 +2,7 @@
 //! file is an error of the matching kind that names the file (and the chunk and offset
 //! where there is one), never a panic and never invented data.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -5,7 +5,7 @@
 //! estimation, the lines' discretisation (directions and line spacing) and the stopping
 //! rule.
 
-mod common;
+use crate::common;
 
 use std::collections::HashSet;
 use std::sync::Arc;

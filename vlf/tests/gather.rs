@@ -4,7 +4,7 @@
 //! seen by the gathers' mean only after a bounce, and one gather has far less variance
 //! than one path.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::Arc;

@@ -4,7 +4,7 @@
 //! from the field (`Chain::beside`): without them a window or a glass sphere showed only
 //! what it lets through, dark where the path tracer shows the room reflected.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

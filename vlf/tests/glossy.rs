@@ -5,7 +5,7 @@
 //! viewer the sky's light times its BSDF's directional albedo. (A glossy bake is bit-identical on any number of
 //! threads and when resumed: `determinism.rs`; its file: `file.rs`.)
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::Arc;

@@ -2,7 +2,7 @@
 //! each pixel shows the share of it that glows (`holocave_vlf::glow_edges`), not the
 //! lamp or the wall whole.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -4,7 +4,7 @@
 //! diffuse drawing of its irradiance, and its punctual lights' highlights come from its
 //! own BSDF.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -1,7 +1,7 @@
 //! A moving object's own indirect light, gathered per pixel ([`holocave_vlf::object_gather`]),
 //! against what it must be.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

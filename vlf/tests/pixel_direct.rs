@@ -4,7 +4,7 @@
 //! the sun's disc), and a lamp's highlight on a glossy plane against the path tracer
 //! (where the light field alone, its tiles' lobes widened, blurs it).
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -2,7 +2,7 @@
 //! streaks are flattened across its triangles, its mean kept; a step by a factor (a
 //! wall's foot in shadow) stays; a parallel surface a centimetre away is not mixed in.
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use holocave_scene::{Hit, Scene};

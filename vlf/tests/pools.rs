@@ -3,7 +3,7 @@
 //! uniform sky that only the lines bring, receives on average what a floor receives, where
 //! alone each tiny element kept only `A / least` of it (`pools`).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

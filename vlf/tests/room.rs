@@ -8,7 +8,7 @@
 //! a quarter of the two renders' relative MSE against each other — is estimated and
 //! subtracted: every measured error is the VLF's own plus `n̂`.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::Arc;

@@ -2,7 +2,7 @@
 //! lobe reflects (`Visibility::sharpened_reflection`): a small lit square reflected in a
 //! varnished floor, as the walls draw it, against the path tracer.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

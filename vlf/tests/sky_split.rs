@@ -5,7 +5,7 @@
 //! inter-reflected, the pixel's own sky samples average `ρ L`, and the two splits draw the
 //! same floor but for the quadrature's `1 − Q`.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -2,7 +2,7 @@
 //! pixel: along its outline each pixel shows the share of it each side covers
 //! (`holocave_vlf::surface_edges`), not one of them whole.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 
