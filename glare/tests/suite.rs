@@ -4,19 +4,5 @@
 mod figures;
 mod meter;
 
-/// Every test file of this folder is a module above (the binary is declared by hand, so a
-/// file left out would never run).
-#[test]
-fn every_test_file_is_a_module_of_the_suite() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
-    let suite = std::fs::read_to_string(dir.join("suite.rs")).unwrap();
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let name = entry.unwrap().file_name().into_string().unwrap();
-        if let Some(module) = name.strip_suffix(".rs").filter(|m| *m != "suite") {
-            assert!(
-                suite.contains(&format!("\nmod {module};\n")),
-                "tests/{name} is not a module of tests/suite.rs: its tests would not run"
-            );
-        }
-    }
-}
+#[path = "../../tests/common/suite_files.rs"]
+mod suite_files;
