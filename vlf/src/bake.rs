@@ -16,7 +16,7 @@ use crate::directions::Directions;
 use crate::elements::{Elements, cell_index};
 use crate::exitance::Exitance;
 use crate::pools::Pools;
-use crate::propagate::{Lines, Sending, bounce, flux};
+use crate::propagate::{Lines, Received, Sending, bounce, flux};
 use crate::reflection::Reflection;
 use crate::subfield::{Grid, Sphere, Subfield, cast};
 use crate::surface::{diffuse_albedo, seen_at};
@@ -541,6 +541,12 @@ pub fn bake<E>(
 
 /// Bakes `scene` with the subfields cast by `casting`, from `resume` if given. `save` is
 /// called after each bounce. The result does not depend on who cast what.
+///
+/// The stages: the lines of every subfield ([`cast_lines`]); the elements that receive
+/// light ([`Receivers`]); the direct light ([`direct_light`]); the light that arrives
+/// first, along the lines ([`first_arrival`]); the state to go on from (a resumed one, or
+/// the first bounce's, [`FirstArrival::state`]); the bounces until the light left is below
+/// the tolerance ([`propagate`]).
 pub fn bake_with<E>(
     scene: &Scene,
     settings: &Settings,
@@ -551,28 +557,101 @@ pub fn bake_with<E>(
 ) -> Result<(State, Stats), E> {
     let lights = Lights::new(scene);
     let caster = Caster::new(scene, settings);
+    let elements = &caster.elements;
     let mut stats = Stats {
         directions: caster.directions.len(),
         subfields: caster.count(),
-        elements: caster.elements.count,
+        elements: elements.count,
         ..Stats::default()
     };
+    let cast = cast_lines(&caster, &lights, casting, progress, &mut stats);
+    let receivers = Receivers::new(scene, settings, elements, &mut stats);
+    // How each diffuse element takes and sends light over directions.
+    let exitance = Exitance::new(
+        scene,
+        &receivers.centre,
+        &receivers.tiles,
+        &receivers.needed,
+    );
+    let (direct, open, direct_tiles) = direct_light(
+        (scene, settings, &lights),
+        elements,
+        (&receivers, &exitance),
+        progress,
+        &mut stats,
+    );
+    // The light that arrives first: direct light, the sky along the lines, what delta
+    // surfaces show (caustics). Computed again on resume (deterministic).
+    let start = Instant::now();
+    let tiles = &receivers.tiles;
+    let reflection = Reflection::new(tiles);
+    let pools = Pools::new(
+        scene,
+        elements,
+        tiles,
+        &receivers.area,
+        &receivers.needed,
+        receivers.least,
+    );
+    let drawing = Drawing::new(elements, &receivers, &pools, &open);
+    let lines = Lines {
+        pools: Some(&pools),
+        subfields: &cast.subfields,
+        dirs: &caster.directions.lines,
+        weight: &cast.weight,
+        ends: &cast.ends,
+        area: &receivers.receiving,
+        tiles,
+        exitance: &exitance,
+        reflection: &reflection,
+    };
+    let first = first_arrival(&lines, elements.count);
+    stats.propagation += start.elapsed();
+    let mut state = match resume {
+        Some(s) => first.resumed(s, direct, direct_tiles),
+        None => {
+            let s = first.state(direct, direct_tiles, &receivers);
+            save(&s)?;
+            s
+        }
+    };
+    let start = Instant::now();
+    propagate(
+        &mut state, &lines, &receivers, &drawing, &first, settings, progress, save,
+    )?;
+    stats.propagation += start.elapsed();
+    Ok((state, stats))
+}
 
-    // Visibility: every line of every subfield.
+/// What the visibility pass gives the bounces: every subfield's lines, each subfield's
+/// weight (its direction's solid angle times a line's cross-section) and the sky at both
+/// ends of its lines.
+struct Cast {
+    subfields: Vec<Subfield>,
+    weight: Vec<f32>,
+    ends: Vec<(Vec3, Vec3)>,
+}
+
+/// The visibility pass: every line of every subfield, cast by `casting`, with the counts
+/// and the time in `stats`.
+fn cast_lines(
+    caster: &Caster,
+    lights: &Lights,
+    casting: &dyn Casting,
+    progress: &(dyn Fn(Stage) + Sync),
+    stats: &mut Stats,
+) -> Cast {
     let start = Instant::now();
     let total = caster.count();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let subfields = casting.cast_all(&caster, &|| {
+    let subfields = casting.cast_all(caster, &|| {
         let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         progress(Stage::Visibility { done: n, total });
     });
     stats.visibility = start.elapsed();
-    let (directions, elements) = (&caster.directions, &caster.elements);
-    let cross: Vec<f32> = (0..caster.count())
+    let directions = &caster.directions;
+    let weight: Vec<f32> = (0..caster.count())
         .map(|k| caster.grid(k).cross_section())
-        .collect();
-    let weight: Vec<f32> = cross
-        .iter()
         .zip(&directions.pair)
         .map(|(c, [a, _])| directions.solid_angle[*a as usize] * c)
         .collect();
@@ -582,7 +661,7 @@ pub fn bake_with<E>(
         .zip(&directions.pair)
         .map(|(d, [a, _])| {
             let omega = directions.solid_angle[*a as usize];
-            (sky_over(&lights, -*d, omega), sky_over(&lights, *d, omega))
+            (sky_over(lights, -*d, omega), sky_over(lights, *d, omega))
         })
         .collect();
     for s in &subfields {
@@ -591,76 +670,116 @@ pub fn bake_with<E>(
         stats.crossings += s.crossings.len() as u64;
         stats.links += s.links.len() as u64;
     }
+    Cast {
+        subfields,
+        weight,
+        ends,
+    }
+}
 
-    // The elements' albedo, and which of them need light at all; the glossy tiles.
-    let (area, centre) = elements.areas_and_centres(scene);
-    let tiles = Tiles::new(scene, elements, settings);
-    let albedo: Vec<Vec3> = centre
-        .par_iter()
-        .enumerate()
-        .map(|(e, &(t, u, v))| {
-            let s = seen_at(scene, t, u, v);
-            if s.delta {
-                Vec3::ZERO
-            } else if tiles.of(e as u32).is_some() {
-                // Reflects through its tile; marked as needing light.
-                Vec3::ONE
+/// The elements as receivers of light: their areas and centres, the glossy tiles, their
+/// albedo and which of them need light at all, and the area a line's light is spread over.
+struct Receivers {
+    area: Vec<f32>,
+    centre: Vec<(u32, f32, f32)>,
+    tiles: Tiles,
+    albedo: Vec<Vec3>,
+    needed: Vec<bool>,
+    /// The least area a line's light is spread over ([`least_area`]).
+    least: f32,
+    /// An element's area, but never less than `least`. An element much smaller than a
+    /// line (a chain link, a leaf) is hit by a line in few directions, each bringing
+    /// `h²/A` times its radiance; two such elements facing each other along one line pass
+    /// light back and forth with a gain of `(ρ Δω h² / π A)²` per round trip, above 1 for
+    /// small enough `A`, and the series diverges (Sponza did). Clamped, such elements get
+    /// less light than they should (the render cache's samples correct them), and the
+    /// series converges.
+    receiving: Vec<f32>,
+}
+
+impl Receivers {
+    /// The receivers of `elements`, with the tiles' counts and the bake's memory in
+    /// `stats` (whose line and link counts are known).
+    fn new(scene: &Scene, settings: &Settings, elements: &Elements, stats: &mut Stats) -> Self {
+        let (area, centre) = elements.areas_and_centres(scene);
+        let tiles = Tiles::new(scene, elements, settings);
+        let albedo: Vec<Vec3> = centre
+            .par_iter()
+            .enumerate()
+            .map(|(e, &(t, u, v))| {
+                let s = seen_at(scene, t, u, v);
+                if s.delta {
+                    Vec3::ZERO
+                } else if tiles.of(e as u32).is_some() {
+                    // Reflects through its tile; marked as needing light.
+                    Vec3::ONE
+                } else {
+                    diffuse_albedo(&s.params)
+                }
+            })
+            .collect();
+        let needed: Vec<bool> = albedo.iter().map(|a| a.max_element() > 0.0).collect();
+        let least = least_area(scene, settings);
+        let receiving: Vec<f32> = area.iter().map(|a| a.max(least)).collect();
+        stats.tiles = tiles.tiles.len();
+        stats.tile_memory = tiles.len() as u64 * 12;
+        stats.memory = stats.crossings * 8
+            + stats.links * 40
+            + (stats.lines_stored + stats.subfields as u64) * 4
+            + elements.count as u64 * (4 + 12 * 4)
+            + if tiles.is_empty() {
+                0
             } else {
-                diffuse_albedo(&s.params)
-            }
-        })
-        .collect();
-    let needed: Vec<bool> = albedo.iter().map(|a| a.max_element() > 0.0).collect();
-    // The area a line's light is spread over: an element's, but never less than a
-    // quarter of a line's cross-section. An element much smaller than a line (a chain
-    // link, a leaf) is hit by a line in few directions, each bringing `h²/A` times its
-    // radiance; two such elements facing each other along one line pass light back and
-    // forth with a gain of `(ρ Δω h² / π A)²` per round trip, above 1 for small enough
-    // `A`, and the series diverges (Sponza did). Clamped, such elements get less light
-    // than they should (the render cache's samples correct them), and the series
-    // converges.
-    let least = least_area(scene, settings);
-    let receiving: Vec<f32> = area.iter().map(|a| a.max(least)).collect();
-    stats.tiles = tiles.tiles.len();
-    stats.tile_memory = tiles.len() as u64 * 12;
-    stats.memory = stats.crossings * 8
-        + stats.links * 40
-        + (stats.lines_stored + stats.subfields as u64) * 4
-        + elements.count as u64 * (4 + 12 * 4)
-        + if tiles.is_empty() {
-            0
-        } else {
-            elements.count as u64 * 4 + stats.tiles as u64 * 120 + stats.tile_memory * 4
-        };
+                elements.count as u64 * 4 + stats.tiles as u64 * 120 + stats.tile_memory * 4
+            };
+        Receivers {
+            area,
+            centre,
+            tiles,
+            albedo,
+            needed,
+            least,
+            receiving,
+        }
+    }
 
-    // What a bounce's irradiance sends out: `ρ/π E` from diffuse elements, and from an
-    // element with a tile the radiosity of its tile's bins (only for the stopping rule:
-    // lines read the tile itself).
-    let reflect = |e: &[[f32; 3]], bins: &[[f32; 3]]| -> Vec<[f32; 3]> {
+    /// What a bounce's irradiance `e` (and its tiles' `bins`) sends out: `ρ/π E` from
+    /// diffuse elements, and from an element with a tile the radiosity of its tile's bins
+    /// (only for the stopping rule: lines read the tile itself).
+    fn reflect(&self, e: &[[f32; 3]], bins: &[[f32; 3]]) -> Vec<[f32; 3]> {
         let mut out: Vec<[f32; 3]> = e
             .iter()
-            .zip(&albedo)
+            .zip(&self.albedo)
             .map(|(e, a)| (Vec3::from(*e) * *a * std::f32::consts::FRAC_1_PI).to_array())
             .collect();
-        for (g, t) in tiles.tiles.iter().enumerate() {
-            let k = tiles.per_tile();
-            out[t.element as usize] = tiles.radiosity(&bins[g * k..(g + 1) * k]).to_array();
+        let k = self.tiles.per_tile();
+        for (g, t) in self.tiles.tiles.iter().enumerate() {
+            out[t.element as usize] = self.tiles.radiosity(&bins[g * k..(g + 1) * k]).to_array();
         }
         out
-    };
-    // How each diffuse element takes and sends light over directions.
-    let exitance = Exitance::new(scene, &centre, &tiles, &needed);
-    // Direct light (computed again on resume: see below).
+    }
+}
+
+/// The direct light on every element that needs light, and on the tiles, with each
+/// element's open share (the part not inside a closed object resting on it); its time
+/// in `stats`.
+fn direct_light(
+    (scene, settings, lights): (&Scene, &Settings, &Lights),
+    elements: &Elements,
+    (receivers, exitance): (&Receivers, &Exitance),
+    progress: &(dyn Fn(Stage) + Sync),
+    stats: &mut Stats,
+) -> (Vec<[f32; 3]>, Vec<f32>, Vec<[f32; 3]>) {
     let start = Instant::now();
     let tris = elements.triangles.len();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let (direct, open, direct_tiles) = direct_irradiance(
+    let direct = direct_irradiance(
         scene,
-        &lights,
+        lights,
         elements,
-        &needed,
+        &receivers.needed,
         settings.direct_samples,
-        (&tiles, &exitance),
+        (&receivers.tiles, exitance),
         &|| {
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             if n.is_multiple_of(64) || n == tris {
@@ -672,149 +791,206 @@ pub fn bake_with<E>(
         },
     );
     stats.direct = start.elapsed();
-    // Each element's open area (its part inside a closed object resting on it left
-    // out): the smoothing weighs it by that, and the light its lines bring is put over
-    // it ([`over_open_part`]).
-    let open_area: Vec<f32> = area.iter().zip(&open).map(|(a, o)| a * o).collect();
-    let tile_open: Vec<f32> = (tiles.tiles.iter())
-        .flat_map(|t| std::iter::repeat_n(open[t.element as usize], tiles.per_tile()))
-        .collect();
-    // The light that arrives first: direct light, the sky along the lines, what delta
-    // surfaces show (caustics). Computed again on resume (deterministic).
-    let start = Instant::now();
-    let line_dirs = &directions.lines;
-    let reflection = Reflection::new(&tiles);
-    let pools = Pools::new(scene, elements, &tiles, &area, &needed, least);
-    // The open shares `over_open_part` divides by: an element's own, or a pooled
-    // element's pool's (a pool receives the light of its members over their summed area).
-    let pool_open: Vec<f32> = (pools.members.iter().zip(&pools.area))
-        .map(|(m, a)| m.iter().map(|&e| open_area[e as usize]).sum::<f32>() / a)
-        .collect();
-    let value_open: Vec<f32> = (open.iter().zip(&pools.of))
-        .map(|(&o, &p)| {
-            if p == u32::MAX {
-                o
-            } else {
-                pool_open[p as usize]
-            }
-        })
-        .collect();
-    let lines = Lines {
-        pools: Some(&pools),
-        subfields: &subfields,
-        dirs: line_dirs,
-        weight: &weight,
-        ends: &ends,
-        area: &receiving,
-        tiles: &tiles,
-        exitance: &exitance,
-        reflection: &reflection,
-    };
-    let zero = vec![[0f32; 3]; elements.count];
-    let zero_tiles = vec![[0f32; 3]; tiles.len()];
-    let got = bounce(
-        &lines,
-        Sending {
-            radiance: &zero,
-            tiles: &zero_tiles,
-            first_bounce: true,
-        },
-    );
-    let add = |a: &[[f32; 3]], b: &[[f32; 3]]| -> Vec<[f32; 3]> {
-        a.iter()
-            .zip(b)
-            .map(|(a, b)| (Vec3::from(*a) + Vec3::from(*b)).to_array())
-            .collect()
-    };
-    let first = add(&direct, &got.irradiance);
-    let first_tiles = add(&direct_tiles, &got.tiles);
-    // Of that, what is drawn sharp: the direct light and what delta surfaces show of the
-    // emitters (caustics: the first bounce without the sky at the lines' ends). The sky
-    // along the lines is as noisy as the inter-reflected light (which lines of a
-    // direction hit a small element varies from element to element) and is smoothed
-    // with it.
-    let caustics = subfields.iter().any(|s| !s.links.is_empty()).then(|| {
-        let no_ends = vec![(Vec3::ZERO, Vec3::ZERO); ends.len()];
-        bounce(
-            &Lines {
-                ends: &no_ends,
-                ..lines
-            },
-            Sending {
-                radiance: &zero,
-                tiles: &zero_tiles,
-                first_bounce: true,
-            },
+    direct
+}
+
+/// A converged part of the light as it is drawn: over the elements' open parts (their part
+/// inside a closed object resting on them left out, [`over_open_part`]), all but its sharp
+/// part smoothed (elements, pools, tiles).
+struct Drawing<'a> {
+    elements: &'a Elements,
+    tiles: &'a Tiles,
+    pools: &'a Pools,
+    /// Each element's open area: the smoothing weighs it by that.
+    open_area: Vec<f32>,
+    /// The open share an element's value is divided by: its own, or its pool's (a pool
+    /// receives the light of its members over their summed area).
+    value_open: Vec<f32>,
+    /// Each tile bin's element's open share.
+    tile_open: Vec<f32>,
+}
+
+impl<'a> Drawing<'a> {
+    fn new(
+        elements: &'a Elements,
+        receivers: &'a Receivers,
+        pools: &'a Pools,
+        open: &[f32],
+    ) -> Self {
+        let tiles = &receivers.tiles;
+        let open_area: Vec<f32> = receivers
+            .area
+            .iter()
+            .zip(open)
+            .map(|(a, o)| a * o)
+            .collect();
+        let tile_open: Vec<f32> = (tiles.tiles.iter())
+            .flat_map(|t| std::iter::repeat_n(open[t.element as usize], tiles.per_tile()))
+            .collect();
+        let pool_open: Vec<f32> = (pools.members.iter().zip(&pools.area))
+            .map(|(m, a)| m.iter().map(|&e| open_area[e as usize]).sum::<f32>() / a)
+            .collect();
+        let value_open: Vec<f32> = (open.iter().zip(&pools.of))
+            .map(|(&o, &p)| {
+                if p == u32::MAX {
+                    o
+                } else {
+                    pool_open[p as usize]
+                }
+            })
+            .collect();
+        Drawing {
+            elements,
+            tiles,
+            pools,
+            open_area,
+            value_open,
+            tile_open,
+        }
+    }
+
+    /// The elements' light `total` as drawn, `sharp` of it kept sharp.
+    fn elements(&self, sharp: &[[f32; 3]], total: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        let open_part = over_open_part(&self.value_open, sharp, total);
+        let smoothed = smooth_indirect(self.elements, &self.open_area, sharp, &open_part);
+        self.pools.smooth(&self.open_area, sharp, &smoothed)
+    }
+
+    /// The tiles' light `total` as drawn, `sharp` of it kept sharp.
+    fn tiles(&self, sharp: &[[f32; 3]], total: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        let open_part = over_open_part(&self.tile_open, sharp, total);
+        smooth_tiles(
+            self.elements,
+            self.tiles,
+            &self.open_area,
+            sharp,
+            &open_part,
         )
-    });
-    stats.propagation += start.elapsed();
-    // The sky's first arrival: the first bounce less its caustics.
-    let (sky_first, sky_first_tiles) = match &caustics {
+    }
+}
+
+/// The light that arrives first along the lines (from nothing sent: the sky at the lines'
+/// ends and what delta surfaces show of the emitters), split into its caustics and the
+/// sky's first arrival.
+struct FirstArrival {
+    got: Received,
+    /// What delta surfaces show of the emitters: the first bounce without the sky at the
+    /// lines' ends (`None`: no mirror or glass).
+    caustics: Option<Received>,
+    /// The first bounce less its caustics: as noisy as the inter-reflected light (which
+    /// lines of a direction hit a small element varies from element to element), so it
+    /// is smoothed with it.
+    sky: Vec<[f32; 3]>,
+    sky_tiles: Vec<[f32; 3]>,
+}
+
+/// The first arrival along `lines` onto `count` elements.
+fn first_arrival(lines: &Lines, count: usize) -> FirstArrival {
+    let zero = vec![[0f32; 3]; count];
+    let zero_tiles = vec![[0f32; 3]; lines.tiles.len()];
+    let nothing_sent = || Sending {
+        radiance: &zero,
+        tiles: &zero_tiles,
+        first_bounce: true,
+    };
+    let got = bounce(lines, nothing_sent());
+    let caustics = lines
+        .subfields
+        .iter()
+        .any(|s| !s.links.is_empty())
+        .then(|| {
+            let no_ends = vec![(Vec3::ZERO, Vec3::ZERO); lines.ends.len()];
+            let lines = Lines {
+                ends: &no_ends,
+                ..*lines
+            };
+            bounce(&lines, nothing_sent())
+        });
+    let (sky, sky_tiles) = match &caustics {
         Some(c) => (
             less(&got.irradiance, &c.irradiance),
             less(&got.tiles, &c.tiles),
         ),
         None => (got.irradiance.clone(), got.tiles.clone()),
     };
-    // A converged part of the light as it is drawn: over the elements' open parts, all
-    // but its `sharp` part smoothed (elements, pools, tiles).
-    let drawn = |sharp: &[[f32; 3]], total: &[[f32; 3]]| {
-        let open_part = over_open_part(&value_open, sharp, total);
-        let smoothed = smooth_indirect(elements, &open_area, sharp, &open_part);
-        pools.smooth(&open_area, sharp, &smoothed)
-    };
-    let drawn_tiles = |sharp: &[[f32; 3]], total: &[[f32; 3]]| {
-        let open_part = over_open_part(&tile_open, sharp, total);
-        smooth_tiles(elements, &tiles, &open_area, sharp, &open_part)
-    };
-    // The sky's part drawn as the irradiance is when it converges (linear, so the split
-    // still sums to the total).
-    let smooth_sky = |state: &mut State| {
-        state.sky = drawn(&zero, &sky_first);
-        state.tiles_sky = drawn_tiles(&zero_tiles, &sky_first_tiles);
-    };
-    let mut state = match resume {
-        Some(mut s) => {
-            // Deterministic: the same as the saved one.
-            s.direct = direct;
-            s.tiles_direct = direct_tiles;
-            // The file's sky part, as saved with its irradiance (raw until converged,
-            // smoothed with it after).
-            if s.sky_values().is_none() {
-                s.sky = sky_first.clone();
-                s.tiles_sky = sky_first_tiles.clone();
-            }
-            s.caustics = caustics
-                .as_ref()
-                .map_or_else(Vec::new, |c| c.irradiance.clone());
-            s
+    FirstArrival {
+        got,
+        caustics,
+        sky,
+        sky_tiles,
+    }
+}
+
+impl FirstArrival {
+    /// The caustics' irradiance as a state keeps it (empty: none).
+    fn caustics_kept(&self) -> Vec<[f32; 3]> {
+        (self.caustics.as_ref()).map_or_else(Vec::new, |c| c.irradiance.clone())
+    }
+
+    /// A resumed state `s` with the light computed again (deterministic: the same as the
+    /// saved one): the direct light, the caustics, and the sky part where the file has
+    /// none (raw until converged, smoothed with the irradiance after).
+    fn resumed(&self, mut s: State, direct: Vec<[f32; 3]>, direct_tiles: Vec<[f32; 3]>) -> State {
+        s.direct = direct;
+        s.tiles_direct = direct_tiles;
+        if s.sky_values().is_none() {
+            s.sky = self.sky.clone();
+            s.tiles_sky = self.sky_tiles.clone();
         }
-        None => {
-            let arrived = flux(&first, &area) / std::f64::consts::PI;
-            let last = reflect(&first, &first_tiles);
-            let residual = flux(&last, &area) / arrived.max(f64::MIN_POSITIVE);
-            let s = State {
-                bounces: 0,
-                irradiance: first.clone(),
-                last,
-                tiles: first_tiles.clone(),
-                tiles_last: first_tiles,
-                direct,
-                tiles_direct: direct_tiles,
-                sky: sky_first.clone(),
-                tiles_sky: sky_first_tiles.clone(),
-                caustics: caustics
-                    .as_ref()
-                    .map_or_else(Vec::new, |c| c.irradiance.clone()),
-                arrived,
-                residuals: vec![residual],
-                converged: false,
-            };
-            save(&s)?;
-            s
+        s.caustics = self.caustics_kept();
+        s
+    }
+
+    /// The state after the first arrival: the direct light and the first bounce, with
+    /// what the first bounce sends out and its residual.
+    fn state(&self, direct: Vec<[f32; 3]>, direct_tiles: Vec<[f32; 3]>, r: &Receivers) -> State {
+        let first = add(&direct, &self.got.irradiance);
+        let first_tiles = add(&direct_tiles, &self.got.tiles);
+        let arrived = flux(&first, &r.area) / std::f64::consts::PI;
+        let last = r.reflect(&first, &first_tiles);
+        let residual = flux(&last, &r.area) / arrived.max(f64::MIN_POSITIVE);
+        State {
+            bounces: 0,
+            irradiance: first,
+            last,
+            tiles: first_tiles.clone(),
+            tiles_last: first_tiles,
+            direct,
+            tiles_direct: direct_tiles,
+            sky: self.sky.clone(),
+            tiles_sky: self.sky_tiles.clone(),
+            caustics: self.caustics_kept(),
+            arrived,
+            residuals: vec![residual],
+            converged: false,
         }
-    };
-    let caustics = caustics.map(|c| {
+    }
+}
+
+/// `a + b`, element by element.
+fn add(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (Vec3::from(*a) + Vec3::from(*b)).to_array())
+        .collect()
+}
+
+/// Bounces `state` along `lines` until the light left is below the tolerance (or the
+/// bounces reach their limit, or a bounce sends out more than the one before: the
+/// estimate has come apart), saving it after each; the converged light is then drawn
+/// ([`Drawing`]), all but the sharp part (the direct light and the caustics) smoothed.
+#[allow(clippy::too_many_arguments)]
+fn propagate<E>(
+    state: &mut State,
+    lines: &Lines,
+    receivers: &Receivers,
+    drawing: &Drawing,
+    first: &FirstArrival,
+    settings: &Settings,
+    progress: &(dyn Fn(Stage) + Sync),
+    save: &mut dyn FnMut(&State) -> Result<(), E>,
+) -> Result<(), E> {
+    let caustics = (first.caustics.as_ref()).map(|c| {
         (
             add(&state.direct, &c.irradiance),
             add(&state.tiles_direct, &c.tiles),
@@ -826,18 +1002,20 @@ pub fn bake_with<E>(
         Some((e, t)) => (e, t),
         None => (&state.direct, &state.tiles_direct),
     };
-    let start = Instant::now();
     while !state.converged {
         if tail(&state.residuals) < settings.tolerance || state.bounces >= settings.max_bounces {
             state.converged = true;
-            state.irradiance = drawn(sharp, &state.irradiance);
-            state.tiles = drawn_tiles(sharp_tiles, &state.tiles);
-            smooth_sky(&mut state);
-            save(&state)?;
-            break;
+            state.irradiance = drawing.elements(sharp, &state.irradiance);
+            state.tiles = drawing.tiles(sharp_tiles, &state.tiles);
+            // The sky's part drawn as the irradiance is (linear, so the split still sums
+            // to the total).
+            state.sky = drawing.elements(&vec![[0f32; 3]; first.sky.len()], &first.sky);
+            state.tiles_sky =
+                drawing.tiles(&vec![[0f32; 3]; first.sky_tiles.len()], &first.sky_tiles);
+            return save(state);
         }
         let got = bounce(
-            &lines,
+            lines,
             Sending {
                 radiance: &state.last,
                 tiles: &state.tiles_last,
@@ -846,10 +1024,10 @@ pub fn bake_with<E>(
         );
         state.irradiance = add(&state.irradiance, &got.irradiance);
         state.tiles = add(&state.tiles, &got.tiles);
-        state.last = reflect(&got.irradiance, &got.tiles);
+        state.last = receivers.reflect(&got.irradiance, &got.tiles);
         state.tiles_last = got.tiles;
         state.bounces += 1;
-        let r = flux(&state.last, &area) / state.arrived.max(f64::MIN_POSITIVE);
+        let r = flux(&state.last, &receivers.area) / state.arrived.max(f64::MIN_POSITIVE);
         state.residuals.push(r);
         // With albedos at most 1 a bounce cannot send out more light than the bounce
         // before it: if one does, the estimate has come apart (say so, keep what there is).
@@ -862,17 +1040,15 @@ pub fn bake_with<E>(
                 &state.residuals[state.residuals.len().saturating_sub(3)..]
             );
             state.converged = true;
-            save(&state)?;
-            break;
+            return save(state);
         }
         progress(Stage::Bounce {
             bounce: state.bounces,
             residual: r,
         });
-        save(&state)?;
+        save(state)?;
     }
-    stats.propagation += start.elapsed();
-    Ok((state, stats))
+    Ok(())
 }
 
 #[cfg(test)]
