@@ -160,6 +160,38 @@ impl Default for Navigation {
 
 /// Checks the section; each problem names its key (`navigation.KEY`).
 pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
+    check_amounts(s, problems);
+    let [grab_button, teleport_button, object_button, mode_button] = check_buttons(s, problems);
+    check_axes(s, problems);
+    let sections = check_sections(s, problems);
+    Navigation {
+        mode: s.mode,
+        wand: s.wand.clone(),
+        buttons: s.buttons.clone(),
+        axes: s.axes.clone(),
+        walk_speed: s.walk_speed,
+        fly_speed: s.fly_speed,
+        turn_rate: s.turn_rate.to_radians(),
+        forward_axis: s.forward_axis,
+        turn_axis: s.turn_axis,
+        forward_sign: s.forward_sign,
+        turn_sign: s.turn_sign,
+        dead_zone: s.dead_zone,
+        grab_button,
+        teleport_button,
+        object_button,
+        mode_button,
+        grab_yaw_only: s.grab_yaw_only,
+        radius: s.radius,
+        step_height: s.step_height,
+        max_drop: s.max_drop,
+        teleport_range: s.teleport_range,
+        sections,
+    }
+}
+
+/// The speeds, distances, dead zone and signs.
+fn check_amounts(s: &NavigationSection, problems: &mut Vec<String>) {
     let mut positive = |key: &str, v: f64, max: f64| {
         if !(v > 0.0 && v <= max) {
             problems.push(format!(
@@ -185,6 +217,11 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
             problems.push(format!("navigation.{key}: {v} must be 1 or -1"));
         }
     }
+}
+
+/// The grab, teleport, object and mode buttons (`None`: none), each a button and no two
+/// the same.
+fn check_buttons(s: &NavigationSection, problems: &mut Vec<String>) -> [Option<usize>; 4] {
     let mut button = |key: &str, b: i64| match b {
         -1 => None,
         0..=255 => Some(b as usize),
@@ -219,6 +256,11 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
             s.teleport_button
         ));
     }
+    [grab_button, teleport_button, object_button, mode_button]
+}
+
+/// The forward and turn axes: channels, and not the same one.
+fn check_axes(s: &NavigationSection, problems: &mut Vec<String>) {
     for (key, a) in [("forward_axis", s.forward_axis), ("turn_axis", s.turn_axis)] {
         if a > 127 {
             problems.push(format!(
@@ -226,6 +268,16 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
             ));
         }
     }
+    if s.forward_axis == s.turn_axis {
+        problems.push(format!(
+            "navigation.turn_axis: {} is also the forward axis",
+            s.turn_axis
+        ));
+    }
+}
+
+/// The holodeck sections besides the CAVE's, each a finite box.
+fn check_sections(s: &NavigationSection, problems: &mut Vec<String>) -> Vec<[DVec3; 2]> {
     let mut sections = Vec::new();
     for (i, b) in s.sections.iter().enumerate() {
         let (lo, hi) = (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]));
@@ -237,36 +289,7 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
             ));
         }
     }
-    if s.forward_axis == s.turn_axis {
-        problems.push(format!(
-            "navigation.turn_axis: {} is also the forward axis",
-            s.turn_axis
-        ));
-    }
-    Navigation {
-        mode: s.mode,
-        wand: s.wand.clone(),
-        buttons: s.buttons.clone(),
-        axes: s.axes.clone(),
-        walk_speed: s.walk_speed,
-        fly_speed: s.fly_speed,
-        turn_rate: s.turn_rate.to_radians(),
-        forward_axis: s.forward_axis,
-        turn_axis: s.turn_axis,
-        forward_sign: s.forward_sign,
-        turn_sign: s.turn_sign,
-        dead_zone: s.dead_zone,
-        grab_button,
-        teleport_button,
-        object_button,
-        mode_button,
-        grab_yaw_only: s.grab_yaw_only,
-        radius: s.radius,
-        step_height: s.step_height,
-        max_drop: s.max_drop,
-        teleport_range: s.teleport_range,
-        sections,
-    }
+    sections
 }
 
 #[cfg(test)]

@@ -240,6 +240,46 @@ fn transform(t: &RigidTransform, field: &str, problems: &mut Vec<String>) -> DMa
 pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
     let mut problems = Vec::new();
     let inside = vec(file.room.inside);
+    check_room_and_user(file, inside, &mut problems);
+    if file.walls.is_empty() {
+        problems.push("wall: no walls given".to_owned());
+    }
+    let walls: Vec<Wall> = (0..file.walls.len())
+        .filter_map(|i| check_wall(file, i, inside, &mut problems))
+        .collect();
+    let source = tracking_source(file, &mut problems);
+    let tracker_to_room = transform(
+        &file.tracking.tracker_to_room,
+        "tracking.tracker_to_room",
+        &mut problems,
+    );
+    let room_to_scene = transform(&file.navigation.start(), "navigation", &mut problems);
+    let navigation = crate::navigation::check(&file.navigation, &mut problems);
+    check_cluster(&file.cluster, &mut problems);
+    if !problems.is_empty() {
+        return Err(problems);
+    }
+    Ok(Cave {
+        walls,
+        inside,
+        near: file.room.near,
+        ipd: file.user.ipd,
+        head_to_eyes: vec(file.user.head_to_eyes),
+        source,
+        tracker_to_room,
+        room_to_scene,
+        navigation,
+        tracking: TrackingParams {
+            guard: file.tracking.guard,
+            filter: file.tracking.filter,
+            prediction: file.tracking.prediction,
+        },
+        cluster: file.cluster.clone(),
+    })
+}
+
+/// The room's inside point and near plane, and the user's eyes.
+fn check_room_and_user(file: &CaveFile, inside: DVec3, problems: &mut Vec<String>) {
     if !inside.is_finite() {
         problems.push("room.inside: not finite".to_owned());
     }
@@ -258,70 +298,81 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
     if !vec(file.user.head_to_eyes).is_finite() {
         problems.push("user.head_to_eyes: not finite".to_owned());
     }
-    if file.walls.is_empty() {
-        problems.push("wall: no walls given".to_owned());
+}
+
+/// Wall `i` of `file`, checked: a unique name, finite corners of a rectangle of some size,
+/// positive pixel counts, its windows, and facing the room's `inside` point from far
+/// enough. `None` where its corners make no wall (the problems say why).
+fn check_wall(
+    file: &CaveFile,
+    i: usize,
+    inside: DVec3,
+    problems: &mut Vec<String>,
+) -> Option<Wall> {
+    let w = &file.walls[i];
+    let at = format!("wall[{i}] ({:?})", w.name);
+    if file.walls[..i].iter().any(|o| o.name == w.name) {
+        problems.push(format!("{at}.name: duplicate wall name {:?}", w.name));
     }
-    let mut walls = Vec::new();
-    for (i, w) in file.walls.iter().enumerate() {
-        let at = format!("wall[{i}] ({:?})", w.name);
-        if file.walls[..i].iter().any(|o| o.name == w.name) {
-            problems.push(format!("{at}.name: duplicate wall name {:?}", w.name));
-        }
-        let (pa, pb, pc) = (vec(w.pa), vec(w.pb), vec(w.pc));
-        if !(pa.is_finite() && pb.is_finite() && pc.is_finite()) {
-            problems.push(format!("{at}: corners must be finite"));
-            continue;
-        }
-        let (width, height) = ((pb - pa).length(), (pc - pa).length());
-        if width < 1e-6 {
-            problems.push(format!("{at}.pb: wall has zero width (pb equals pa)"));
-        }
-        if height < 1e-6 {
-            problems.push(format!("{at}.pc: wall has zero height (pc equals pa)"));
-        }
-        for (k, (px, what)) in w.pixels.iter().zip(["width", "height"]).enumerate() {
-            if *px <= 0 || *px > u32::MAX as i64 {
-                problems.push(format!(
-                    "{at}.pixels[{k}]: pixel {what} {px} must be positive"
-                ));
-            }
-        }
-        if width < 1e-6 || height < 1e-6 {
-            continue;
-        }
-        let right = (pb - pa) / width;
-        let off_square = (pc - pa).dot(right);
-        if off_square.abs() > RECTANGLE_TOLERANCE {
-            problems.push(format!(
-                "{at}.pc: corners are not a rectangle: pc is {:.1} mm off the perpendicular to pa→pb at pa (tolerance {:.1} mm)",
-                off_square * 1e3,
-                RECTANGLE_TOLERANCE * 1e3
-            ));
-            continue;
-        }
-        let mut wall = Wall::new(
-            &w.name,
-            [pa, pb, pc],
-            Size::new(w.pixels[0].max(0) as u32, w.pixels[1].max(0) as u32),
-            w.stereo,
-            &w.node,
-        );
-        wall.windows = crate::window::check_windows(&at, w.stereo, &w.windows, &mut problems);
-        let d = wall.distance(inside);
-        if d <= 0.0 {
-            problems.push(format!(
-                "{at}: its normal (pb−pa)×(pc−pa) = ({:.3}, {:.3}, {:.3}) points away from the room's inside point room.inside; are pa, pb, pc (lower-left, lower-right, upper-left as seen from inside) in the right order?",
-                wall.normal.x, wall.normal.y, wall.normal.z
-            ));
-        } else if d < MIN_EYE_DISTANCE * 10.0 {
-            problems.push(format!(
-                "room.inside: only {:.1} mm in front of wall {:?}",
-                d * 1e3,
-                w.name
-            ));
-        }
-        walls.push(wall);
+    let (pa, pb, pc) = (vec(w.pa), vec(w.pb), vec(w.pc));
+    if !(pa.is_finite() && pb.is_finite() && pc.is_finite()) {
+        problems.push(format!("{at}: corners must be finite"));
+        return None;
     }
+    let (width, height) = ((pb - pa).length(), (pc - pa).length());
+    if width < 1e-6 {
+        problems.push(format!("{at}.pb: wall has zero width (pb equals pa)"));
+    }
+    if height < 1e-6 {
+        problems.push(format!("{at}.pc: wall has zero height (pc equals pa)"));
+    }
+    for (k, (px, what)) in w.pixels.iter().zip(["width", "height"]).enumerate() {
+        if *px <= 0 || *px > u32::MAX as i64 {
+            problems.push(format!(
+                "{at}.pixels[{k}]: pixel {what} {px} must be positive"
+            ));
+        }
+    }
+    if width < 1e-6 || height < 1e-6 {
+        return None;
+    }
+    let right = (pb - pa) / width;
+    let off_square = (pc - pa).dot(right);
+    if off_square.abs() > RECTANGLE_TOLERANCE {
+        problems.push(format!(
+            "{at}.pc: corners are not a rectangle: pc is {:.1} mm off the perpendicular to pa→pb at pa (tolerance {:.1} mm)",
+            off_square * 1e3,
+            RECTANGLE_TOLERANCE * 1e3
+        ));
+        return None;
+    }
+    let mut wall = Wall::new(
+        &w.name,
+        [pa, pb, pc],
+        Size::new(w.pixels[0].max(0) as u32, w.pixels[1].max(0) as u32),
+        w.stereo,
+        &w.node,
+    );
+    wall.windows = crate::window::check_windows(&at, w.stereo, &w.windows, problems);
+    let d = wall.distance(inside);
+    if d <= 0.0 {
+        problems.push(format!(
+            "{at}: its normal (pb−pa)×(pc−pa) = ({:.3}, {:.3}, {:.3}) points away from the room's inside point room.inside; are pa, pb, pc (lower-left, lower-right, upper-left as seen from inside) in the right order?",
+            wall.normal.x, wall.normal.y, wall.normal.z
+        ));
+    } else if d < MIN_EYE_DISTANCE * 10.0 {
+        problems.push(format!(
+            "room.inside: only {:.1} mm in front of wall {:?}",
+            d * 1e3,
+            w.name
+        ));
+    }
+    Some(wall)
+}
+
+/// The tracker's source, with `tracking.sensor` as a VRPN source's sensor (a sensor the
+/// source names itself must agree with it).
+fn tracking_source(file: &CaveFile, problems: &mut Vec<String>) -> SourceSpec {
     let source = file
         .tracking
         .source
@@ -330,23 +381,23 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
             problems.push(format!("tracking.source: {e}"));
             SourceSpec::Synthetic(holocave_tracking::synthetic::Motion::Still)
         });
-    if let SourceSpec::Vrpn(t) = &source
-        && file.tracking.source.contains('#')
-        && t.sensor != file.tracking.sensor
-    {
-        problems.push(format!(
-            "tracking.sensor: {} disagrees with sensor #{} in tracking.source",
-            file.tracking.sensor, t.sensor
-        ));
+    match source {
+        SourceSpec::Vrpn(mut t) => {
+            if file.tracking.source.contains('#') && t.sensor != file.tracking.sensor {
+                problems.push(format!(
+                    "tracking.sensor: {} disagrees with sensor #{} in tracking.source",
+                    file.tracking.sensor, t.sensor
+                ));
+            }
+            t.sensor = file.tracking.sensor;
+            SourceSpec::Vrpn(t)
+        }
+        other => other,
     }
-    let tracker_to_room = transform(
-        &file.tracking.tracker_to_room,
-        "tracking.tracker_to_room",
-        &mut problems,
-    );
-    let room_to_scene = transform(&file.navigation.start(), "navigation", &mut problems);
-    let navigation = crate::navigation::check(&file.navigation, &mut problems);
-    let c = &file.cluster;
+}
+
+/// The cluster's rate, dead-node timeout and master address.
+fn check_cluster(c: &ClusterConfig, problems: &mut Vec<String>) {
     if let Err(e) = check_rate(c.rate_hz) {
         problems.push(format!("cluster.rate_hz: {e}"));
     }
@@ -356,33 +407,6 @@ pub fn validate(file: &CaveFile) -> Result<Cave, Vec<String>> {
     if c.master.parse::<std::net::SocketAddr>().is_err() && !c.master.contains(':') {
         problems.push(format!("cluster.master: {:?} is not HOST:PORT", c.master));
     }
-    if !problems.is_empty() {
-        return Err(problems);
-    }
-    let source = match source {
-        SourceSpec::Vrpn(mut t) => {
-            t.sensor = file.tracking.sensor;
-            SourceSpec::Vrpn(t)
-        }
-        other => other,
-    };
-    Ok(Cave {
-        walls,
-        inside,
-        near: file.room.near,
-        ipd: file.user.ipd,
-        head_to_eyes: vec(file.user.head_to_eyes),
-        source,
-        tracker_to_room,
-        room_to_scene,
-        navigation,
-        tracking: TrackingParams {
-            guard: file.tracking.guard,
-            filter: file.tracking.filter,
-            prediction: file.tracking.prediction,
-        },
-        cluster: file.cluster.clone(),
-    })
 }
 
 #[cfg(test)]

@@ -107,128 +107,24 @@ impl HoloFile {
         tolerant: bool,
         damage: &mut Vec<Damage>,
     ) -> Result<Self, FileError> {
-        let pathbuf = path.to_path_buf();
+        let root = read_root(path, file, len, sb, tolerant)?;
+        let dirs = read_directory(
+            path,
+            file,
+            (len, sb.file_end.min(len)),
+            &root,
+            tolerant,
+            damage,
+        )?;
+        let mut free = FreeList::from_extents(&root.free);
+        free.truncate(sb.file_end);
+        let sections = root.sections;
         let io = |source| FileError::Io {
             path: path.to_path_buf(),
             source,
         };
-        let corrupt = |what: String, offset: u64, detail: String| FileError::Corrupt {
-            path: pathbuf.clone(),
-            what,
-            offset,
-            detail,
-        };
-        let root_what = format!("root block of commit {}", sb.seq);
-        if sb.root.offset < DATA_START || sb.root.end() > sb.file_end {
-            return Err(corrupt(
-                root_what,
-                sb.root.offset,
-                "lies outside the data area".into(),
-            ));
-        }
-        if sb.file_end > len && !tolerant {
-            return Err(FileError::Truncated {
-                path: pathbuf.clone(),
-                what: format!("commit {} (its data ends at byte {})", sb.seq, sb.file_end),
-                start: DATA_START,
-                end: sb.file_end,
-                len,
-            });
-        }
-        if sb.root.end() > len {
-            return Err(FileError::Truncated {
-                path: pathbuf.clone(),
-                what: root_what,
-                start: sb.root.offset,
-                end: sb.root.end(),
-                len,
-            });
-        }
-        let mut buf = vec![0u8; sb.root.len as usize];
-        file.read_exact_at(&mut buf, sb.root.offset).map_err(io)?;
-        let computed = crc32fast::hash(&buf);
-        if computed != sb.root_crc {
-            let detail = LayoutError::Checksum {
-                stored: sb.root_crc,
-                computed,
-            }
-            .to_string();
-            return Err(corrupt(root_what, sb.root.offset, detail));
-        }
-        let root = Root::parse(&buf)
-            .map_err(|e| corrupt(root_what.clone(), sb.root.offset, e.to_string()))?;
-        let data_end = sb.file_end.min(len);
-        let mut dirs = Vec::with_capacity(root.sections.len());
-        for (si, (section, locs)) in root.sections.iter().zip(&root.chunks).enumerate() {
-            let beams = section.beam_count();
-            let mut dir = vec![DirEntry::default(); beams as usize];
-            for (ci, loc) in locs.iter().enumerate() {
-                let first = ci as u32 * CHUNK_BEAMS;
-                let n = (beams - first).min(CHUNK_BEAMS) as usize;
-                let what = format!(
-                    "directory chunk {ci} of section {si} (beams {first}..{})",
-                    first as usize + n
-                );
-                match read_chunk(file, loc, n, data_end, len) {
-                    Ok(Some(entries)) => {
-                        for (k, e) in entries.into_iter().enumerate() {
-                            let b = first as usize + k;
-                            let ext = e.extent();
-                            let bad =
-                                e.count > 0 && (e.offset < DATA_START || ext.end() > data_end);
-                            if bad {
-                                let err = if ext.end() > len {
-                                    FileError::Truncated {
-                                        path: pathbuf.clone(),
-                                        what: format!("beam {b} of section {si}"),
-                                        start: ext.offset,
-                                        end: ext.end(),
-                                        len,
-                                    }
-                                } else {
-                                    corrupt(
-                                        format!("directory entry of beam {b} of section {si}"),
-                                        loc.extent.offset + (k * DIR_ENTRY_BYTES) as u64,
-                                        format!(
-                                            "points at bytes {}..{} outside the data area",
-                                            ext.offset,
-                                            ext.end()
-                                        ),
-                                    )
-                                };
-                                if !tolerant {
-                                    return Err(err);
-                                }
-                                damage.push(Damage {
-                                    what: format!("beam {b} of section {si}"),
-                                    offset: ext.offset,
-                                    detail: err.to_string(),
-                                });
-                            } else {
-                                dir[b] = e;
-                            }
-                        }
-                    }
-                    Ok(None) => {}
-                    Err(detail) => {
-                        if !tolerant {
-                            return Err(corrupt(what, loc.extent.offset, detail));
-                        }
-                        damage.push(Damage {
-                            what,
-                            offset: loc.extent.offset,
-                            detail,
-                        });
-                    }
-                }
-            }
-            dirs.push(dir);
-        }
-        let mut free = FreeList::from_extents(&root.free);
-        free.truncate(sb.file_end);
-        let sections = root.sections;
         Ok(HoloFile {
-            path: pathbuf,
+            path: path.to_path_buf(),
             file: Disk::new(file.try_clone().map_err(io)?),
             writable,
             settings: root.settings,
@@ -306,6 +202,163 @@ impl HoloFile {
         debug_assert_eq!(buf.len() % SAMPLE_BYTES, 0);
         Ok(())
     }
+}
+
+/// `FileError::Corrupt` for `what` at `offset` of the file at `path`.
+fn corrupt(path: &Path, what: String, offset: u64, detail: String) -> FileError {
+    FileError::Corrupt {
+        path: path.to_path_buf(),
+        what,
+        offset,
+        detail,
+    }
+}
+
+/// The root block of commit `sb` in `file` (`len` bytes long), checked: inside the data
+/// area and the file, its crc32 as the superblock says, and parsed. A commit whose data
+/// runs past the file's end is refused unless `tolerant`.
+fn read_root(
+    path: &Path,
+    file: &File,
+    len: u64,
+    sb: &Superblock,
+    tolerant: bool,
+) -> Result<Root, FileError> {
+    let root_what = format!("root block of commit {}", sb.seq);
+    if sb.root.offset < DATA_START || sb.root.end() > sb.file_end {
+        let detail = "lies outside the data area".into();
+        return Err(corrupt(path, root_what, sb.root.offset, detail));
+    }
+    if sb.file_end > len && !tolerant {
+        return Err(FileError::Truncated {
+            path: path.to_path_buf(),
+            what: format!("commit {} (its data ends at byte {})", sb.seq, sb.file_end),
+            start: DATA_START,
+            end: sb.file_end,
+            len,
+        });
+    }
+    if sb.root.end() > len {
+        return Err(FileError::Truncated {
+            path: path.to_path_buf(),
+            what: root_what,
+            start: sb.root.offset,
+            end: sb.root.end(),
+            len,
+        });
+    }
+    let mut buf = vec![0u8; sb.root.len as usize];
+    file.read_exact_at(&mut buf, sb.root.offset)
+        .map_err(|source| FileError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let computed = crc32fast::hash(&buf);
+    if computed != sb.root_crc {
+        let detail = LayoutError::Checksum {
+            stored: sb.root_crc,
+            computed,
+        }
+        .to_string();
+        return Err(corrupt(path, root_what, sb.root.offset, detail));
+    }
+    Root::parse(&buf).map_err(|e| corrupt(path, root_what, sb.root.offset, e.to_string()))
+}
+
+/// Every section's beam directory from `root`'s chunks in `file` (`len` bytes long, the
+/// commit's data ending at `data_end`). A chunk that does not read back, or an entry
+/// pointing outside the data, fails the open, or with `tolerant` is recorded in `damage`
+/// and left empty.
+fn read_directory(
+    path: &Path,
+    file: &File,
+    (len, data_end): (u64, u64),
+    root: &Root,
+    tolerant: bool,
+    damage: &mut Vec<Damage>,
+) -> Result<Vec<Vec<DirEntry>>, FileError> {
+    let mut dirs = Vec::with_capacity(root.sections.len());
+    for (si, (section, locs)) in root.sections.iter().zip(&root.chunks).enumerate() {
+        let beams = section.beam_count();
+        let mut dir = vec![DirEntry::default(); beams as usize];
+        for (ci, loc) in locs.iter().enumerate() {
+            let first = ci as u32 * CHUNK_BEAMS;
+            let n = (beams - first).min(CHUNK_BEAMS) as usize;
+            let entries = match read_chunk(file, loc, n, data_end, len) {
+                Ok(Some(entries)) => entries,
+                Ok(None) => continue,
+                Err(detail) => {
+                    let what = format!(
+                        "directory chunk {ci} of section {si} (beams {first}..{})",
+                        first as usize + n
+                    );
+                    let err = corrupt(path, what.clone(), loc.extent.offset, detail.clone());
+                    let offset = loc.extent.offset;
+                    record(
+                        tolerant,
+                        err,
+                        damage,
+                        Damage {
+                            what,
+                            offset,
+                            detail,
+                        },
+                    )?;
+                    continue;
+                }
+            };
+            for (k, e) in entries.into_iter().enumerate() {
+                let b = first as usize + k;
+                let ext = e.extent();
+                if e.count == 0 || (e.offset >= DATA_START && ext.end() <= data_end) {
+                    dir[b] = e;
+                    continue;
+                }
+                let err = if ext.end() > len {
+                    FileError::Truncated {
+                        path: path.to_path_buf(),
+                        what: format!("beam {b} of section {si}"),
+                        start: ext.offset,
+                        end: ext.end(),
+                        len,
+                    }
+                } else {
+                    corrupt(
+                        path,
+                        format!("directory entry of beam {b} of section {si}"),
+                        loc.extent.offset + (k * DIR_ENTRY_BYTES) as u64,
+                        format!(
+                            "points at bytes {}..{} outside the data area",
+                            ext.offset,
+                            ext.end()
+                        ),
+                    )
+                };
+                let found = Damage {
+                    what: format!("beam {b} of section {si}"),
+                    offset: ext.offset,
+                    detail: err.to_string(),
+                };
+                record(tolerant, err, damage, found)?;
+            }
+        }
+        dirs.push(dir);
+    }
+    Ok(dirs)
+}
+
+/// A strict open fails with `err`; a tolerant one records `found` and goes on.
+fn record(
+    tolerant: bool,
+    err: FileError,
+    damage: &mut Vec<Damage>,
+    found: Damage,
+) -> Result<(), FileError> {
+    if !tolerant {
+        return Err(err);
+    }
+    damage.push(found);
+    Ok(())
 }
 
 /// Reads one directory chunk: `Ok(None)` for a never-written (all empty) chunk.
