@@ -3,6 +3,7 @@
 //! background work runs during another's frames) → every `every`-th frame and the last,
 //! each eye's image against its reference → the rows, files and plot.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -18,7 +19,7 @@ use holocave_render_node::{
 };
 use holocave_scene::Scene;
 use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
-use holocave_tracer::film::FilmError;
+use holocave_tracer::film::{FilmError, Image};
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
 
@@ -306,12 +307,41 @@ impl Compare<'_> {
         let views = self.views(poses, s.size)?;
         let frames = views.len() as u64;
         let measured = |f: u64| f.is_multiple_of(s.every.max(1)) || f + 1 == frames;
-        let speed: Vec<f64> = (0..poses.len())
-            .map(|f| {
-                let prev = poses[f.saturating_sub(1)].position;
-                f64::from(poses[f].position.distance(prev)) * s.fps
-            })
-            .collect();
+        let (references, reference_noise) = self.references(s, &views, &measured)?;
+        let run = Run {
+            views: &views,
+            references: &references,
+            speed: head_speeds(poses, s.fps),
+            measured: &measured,
+        };
+        let mut rows = Vec::new();
+        let mut frame_times = Vec::new();
+        let mut frame_rays = Vec::new();
+        for &method in &s.methods {
+            let (r, times, spent) = self.run_method(method, s, &run, progress)?;
+            rows.extend(r);
+            frame_times.push((method.name(), times));
+            frame_rays.push((method.name(), spent));
+        }
+        let summaries = report::summarize(&rows, &frame_times);
+        self.write_reports(s, &run, (&rows, &summaries, &frame_rays), reference_noise)?;
+        Ok(Outcome {
+            rows,
+            frame_rays,
+            summaries,
+            reference_noise,
+            frames,
+        })
+    }
+
+    /// Every measured view's reference (read or rendered once for all methods), by frame,
+    /// and the references' own noise.
+    fn references(
+        &self,
+        s: &Settings,
+        views: &[Vec<EyeView>],
+        measured: &dyn Fn(u64) -> bool,
+    ) -> Result<(BTreeMap<u64, Vec<Image>>, f64), CompareError> {
         let scene_key = References::scene_key(self.scene_path).map_err(io(self.scene_path))?;
         let reference_tracer = Tracer::new(self.scene.clone(), TraceSettings::default());
         let refs = References {
@@ -320,9 +350,8 @@ impl Compare<'_> {
             dir: s.out.join("refs"),
             scene_key,
         };
-        let reference_noise = refs.noise(&views[0][0].wall)?;
-        // Every measured view's reference, read or rendered once for all methods.
-        let mut references = std::collections::BTreeMap::new();
+        let noise = refs.noise(&views[0][0].wall)?;
+        let mut references = BTreeMap::new();
         for (f, eyes) in views.iter().enumerate() {
             if measured(f as u64) {
                 let r = eyes
@@ -332,74 +361,92 @@ impl Compare<'_> {
                 references.insert(f as u64, r);
             }
         }
+        Ok((references, noise))
+    }
+
+    /// Draws every frame of `run` with `method`: the measured frames' rows (their images
+    /// written under `s.out/frames/METHOD`), every frame's time, and its rays traced and
+    /// left unspent.
+    fn run_method(
+        &self,
+        method: Method,
+        s: &Settings,
+        run: &Run,
+        progress: &mut dyn FnMut(Method, u64, u64),
+    ) -> Result<MethodFrames, CompareError> {
+        let views = run.views;
+        let frames = views.len() as u64;
+        let mut drawer = self.drawer(method, s, views[0].len())?;
+        let dir = s.out.join("frames").join(method.name());
+        std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+        let (mut seconds, mut rays) = (0.0, 0u64);
         let mut rows = Vec::new();
-        let mut frame_times = Vec::new();
-        let mut frame_rays = Vec::new();
-        for &method in &s.methods {
-            let mut drawer = self.drawer(method, s, views[0].len())?;
-            let dir = s.out.join("frames").join(method.name());
-            std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-            let (mut seconds, mut rays) = (0.0, 0u64);
-            let mut times = Vec::with_capacity(views.len());
-            let mut spent = Vec::with_capacity(views.len());
-            for (f, eyes) in views.iter().enumerate() {
-                let f = f as u64;
-                let t = Instant::now();
-                let drawn = drawer.draw(eyes, f);
-                let dt = t.elapsed();
-                seconds += dt.as_secs_f64();
-                rays += drawn.rays;
-                times.push(dt);
-                spent.push((drawn.rays, drawn.unspent));
-                progress(method, f + 1, frames);
-                if !measured(f) {
-                    continue;
-                }
-                let (mut rel, mut sq) = (0.0, 0.0);
-                for (e, (img, reference)) in drawn.images.iter().zip(&references[&f]).enumerate() {
-                    rel += img.relative_mse(reference);
-                    sq += img.mean_squared_error(reference);
-                    img.write_exr(&dir.join(format!("{f:05}-{e}.exr")))?;
-                }
-                let n = drawn.images.len().max(1) as f64;
-                rows.push(Row {
-                    method: method.name(),
-                    frame: f,
-                    seconds,
-                    rays,
-                    rel_mse: rel / n,
-                    rmse: (sq / n).sqrt(),
-                    frame_time: dt,
-                    head_speed: speed[f as usize],
-                });
+        let mut times = Vec::with_capacity(views.len());
+        let mut spent = Vec::with_capacity(views.len());
+        for (f, eyes) in views.iter().enumerate() {
+            let f = f as u64;
+            let t = Instant::now();
+            let drawn = drawer.draw(eyes, f);
+            let dt = t.elapsed();
+            seconds += dt.as_secs_f64();
+            rays += drawn.rays;
+            times.push(dt);
+            spent.push((drawn.rays, drawn.unspent));
+            progress(method, f + 1, frames);
+            if !(run.measured)(f) {
+                continue;
             }
-            if let Drawer::Holodeck {
-                display, server, ..
-            } = drawer
-            {
-                drop(display);
-                server
-                    .stop()
-                    .map_err(|e| CompareError::Holodeck(e.to_string()))?;
+            let (mut rel, mut sq) = (0.0, 0.0);
+            for (e, (img, reference)) in drawn.images.iter().zip(&run.references[&f]).enumerate() {
+                rel += img.relative_mse(reference);
+                sq += img.mean_squared_error(reference);
+                img.write_exr(&dir.join(format!("{f:05}-{e}.exr")))?;
             }
-            frame_times.push((method.name(), times));
-            frame_rays.push((method.name(), spent));
+            let n = drawn.images.len().max(1) as f64;
+            rows.push(Row {
+                method: method.name(),
+                frame: f,
+                seconds,
+                rays,
+                rel_mse: rel / n,
+                rmse: (sq / n).sqrt(),
+                frame_time: dt,
+                head_speed: run.speed[f as usize],
+            });
         }
-        let measured_views: Vec<(u64, usize, WallView)> = views
-            .iter()
-            .enumerate()
-            .filter(|(f, _)| measured(*f as u64))
+        if let Drawer::Holodeck {
+            display, server, ..
+        } = drawer
+        {
+            drop(display);
+            server
+                .stop()
+                .map_err(|e| CompareError::Holodeck(e.to_string()))?;
+        }
+        Ok((rows, times, spent))
+    }
+
+    /// `error_time.csv`, `views.csv`, `summary.md` and `error_time.svg` in `s.out`.
+    fn write_reports(
+        &self,
+        s: &Settings,
+        run: &Run,
+        (rows, summaries, frame_rays): (&[Row], &[Summary], &[MethodRays]),
+        reference_noise: f64,
+    ) -> Result<(), CompareError> {
+        let frames = run.views.len() as u64;
+        let measured_views: Vec<(u64, usize, WallView)> = (run.views.iter().enumerate())
+            .filter(|(f, _)| (run.measured)(*f as u64))
             .flat_map(|(f, eyes)| {
                 eyes.iter()
                     .enumerate()
                     .map(move |(e, v)| (f as u64, e, v.wall))
             })
             .collect();
-        let summaries = report::summarize(&rows, &frame_times);
         let write = |name: &str, r: std::io::Result<()>| r.map_err(io(&s.out.join(name)));
         write(
             "error_time.csv",
-            report::write_csv(&s.out.join("error_time.csv"), &rows),
+            report::write_csv(&s.out.join("error_time.csv"), rows),
         )?;
         write(
             "views.csv",
@@ -409,17 +456,35 @@ impl Compare<'_> {
             "Run time against error: wall {:?}, {frames} frames at {} Hz, {} rays per eye and frame",
             self.wall.name, s.fps, s.budget
         );
-        let mut md = report::summary_markdown(&summaries, reference_noise, &heading);
-        md.push_str(&report::unspent_markdown(&frame_rays));
+        let mut md = report::summary_markdown(summaries, reference_noise, &heading);
+        md.push_str(&report::unspent_markdown(frame_rays));
         write("summary.md", std::fs::write(s.out.join("summary.md"), md))?;
         let names: Vec<&'static str> = s.methods.iter().map(|m| m.name()).collect();
-        report::plot(&s.out.join("error_time.svg"), &rows, &names).map_err(CompareError::Plot)?;
-        Ok(Outcome {
-            rows,
-            frame_rays,
-            summaries,
-            reference_noise,
-            frames,
-        })
+        report::plot(&s.out.join("error_time.svg"), rows, &names).map_err(CompareError::Plot)
     }
+}
+
+/// A comparison's frames: every frame's eye views, the measured frames' references, the
+/// head's speed at each frame (m/s) and which frames are measured.
+struct Run<'a> {
+    views: &'a [Vec<EyeView>],
+    references: &'a BTreeMap<u64, Vec<Image>>,
+    speed: Vec<f64>,
+    measured: &'a dyn Fn(u64) -> bool,
+}
+
+/// A method's measured rows, every frame's time, and its rays traced and left unspent.
+type MethodFrames = (Vec<Row>, Vec<Duration>, Vec<(u64, u64)>);
+
+/// A method's name and every frame's rays traced and left unspent.
+type MethodRays = (&'static str, Vec<(u64, u64)>);
+
+/// The head's speed at each frame (m/s): its move since the frame before, `fps` a second.
+fn head_speeds(poses: &[Pose], fps: f64) -> Vec<f64> {
+    (0..poses.len())
+        .map(|f| {
+            let prev = poses[f.saturating_sub(1)].position;
+            f64::from(poses[f].position.distance(prev)) * fps
+        })
+        .collect()
 }
