@@ -167,19 +167,36 @@ fn rooms_on_floor(
     top: f64,
     o: &FreeSpaceOptions,
 ) -> Vec<Room> {
-    let cell = plan.cell;
     let eye = floor + o.eye_height;
     let ceilings: Vec<Option<f64>> = (0..plan.nx * plan.nz)
         .into_par_iter()
         .map(|c| standing(scene, plan, c, floor, o).then(|| ceiling(scene, plan, c, eye, top)))
         .collect();
     let free: Vec<bool> = ceilings.iter().map(Option::is_some).collect();
-
     // Erode by half a doorway, label what is left, and let every free cell join the
     // nearest label through free space.
     let depth = distance_to_blocked(plan, &free);
-    let core_cells = (0.5 * o.doorway / cell).ceil() as u32;
+    let core_cells = (0.5 * o.doorway / plan.cell).ceil() as u32;
     let core: Vec<bool> = depth.iter().map(|&d| d > core_cells).collect();
+    let (label, rooms) = label_rooms(plan, &free, &core);
+    let level = Level {
+        scene,
+        plan,
+        floor,
+        eye,
+        ceilings: &ceilings,
+        core: &core,
+        depth: &depth,
+        o,
+    };
+    (0..rooms)
+        .filter_map(|r| level.room((0..free.len()).filter(|&c| label[c] == r).collect()))
+        .collect()
+}
+
+/// Each free cell's room (`u32::MAX`: none) and how many rooms: the connected parts of
+/// `core`, each grown through free space to the free cells nearest it.
+fn label_rooms(plan: &Plan, free: &[bool], core: &[bool]) -> (Vec<u32>, u32) {
     let mut label = vec![u32::MAX; free.len()];
     let mut rooms = 0u32;
     let mut queue = VecDeque::new();
@@ -208,15 +225,32 @@ fn rooms_on_floor(
             }
         }
     }
+    (label, rooms)
+}
 
-    let gap = (0.01 * o.eye_height).max(1e-3);
-    let mut out = Vec::new();
-    for r in 0..rooms {
-        let cells: Vec<usize> = (0..free.len()).filter(|&c| label[c] == r).collect();
+/// One floor level's plan: each cell's ceiling where a person stands there, the eroded
+/// core, and each cell's distance to a blocked one.
+struct Level<'a> {
+    scene: &'a Scene,
+    plan: &'a Plan,
+    floor: f64,
+    eye: f64,
+    ceilings: &'a [Option<f64>],
+    core: &'a [bool],
+    depth: &'a [u32],
+    o: &'a FreeSpaceOptions,
+}
+
+impl Level<'_> {
+    /// The room of `cells`, if it is one: at least the least area, its ceiling above eye
+    /// height, and empty boxes covering it.
+    fn room(&self, cells: Vec<usize>) -> Option<Room> {
+        let (plan, cell) = (self.plan, self.plan.cell);
         let area = cells.len() as f64 * cell * cell;
-        if area < o.min_area {
-            continue;
+        if area < self.o.min_area {
+            return None;
         }
+        let gap = (0.01 * self.o.eye_height).max(1e-3);
         let (mut blo, mut bhi) = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
         for &c in &cells {
             let p = plan.centre(c % plan.nx, c / plan.nx, 0.0);
@@ -224,40 +258,50 @@ fn rooms_on_floor(
             bhi = bhi.max(p + 0.5 * cell);
         }
         // The ceiling over the room's core: a lintel over its doorway does not lower it.
-        let lowest_ceiling = cells
-            .iter()
-            .filter(|&&c| core[c])
-            .filter_map(|&c| ceilings[c])
+        let lowest_ceiling = (cells.iter())
+            .filter(|&&c| self.core[c])
+            .filter_map(|&c| self.ceilings[c])
             .fold(f64::INFINITY, f64::min);
-        blo.y = floor + gap;
+        blo.y = self.floor + gap;
         bhi.y = lowest_ceiling - gap;
-        if bhi.y <= eye {
-            continue;
+        if bhi.y <= self.eye {
+            return None;
         }
-        // Boxes cut from the room's bounds around its most open cell not yet covered,
-        // until what is left is smaller than a room (columns or furniture standing in a
-        // room leave parts no single empty box reaches).
-        let mut uncovered = cells.clone();
+        let sections = self.sections(&cells, Aabb { lo: blo, hi: bhi }, gap);
+        if sections.is_empty() {
+            return None;
+        }
+        let covered = (cells.iter())
+            .filter(|&&c| sections.iter().any(|b| self.inside(c, b)))
+            .count();
+        Some(Room {
+            sections,
+            area,
+            covered: covered as f64 / cells.len() as f64,
+        })
+    }
+
+    /// Boxes cut from the room's `bounds` around its most open cell not yet covered,
+    /// until what is left is smaller than a room (columns or furniture standing in a room
+    /// leave parts no single empty box reaches).
+    fn sections(&self, cells: &[usize], bounds: Aabb, gap: f64) -> Vec<Aabb> {
+        let (plan, cell, min_area) = (self.plan, self.plan.cell, self.o.min_area);
+        let mut uncovered = cells.to_vec();
         let mut sections = Vec::new();
-        while uncovered.len() as f64 * cell * cell >= o.min_area
+        while uncovered.len() as f64 * cell * cell >= min_area
             && sections.len() < MAX_SECTIONS_PER_ROOM
         {
             let most_open = *uncovered
                 .iter()
-                .max_by_key(|&&c| depth[c])
+                .max_by_key(|&&c| self.depth[c])
                 .expect("cells are left");
-            let keep = plan.centre(most_open % plan.nx, most_open / plan.nx, eye);
-            let found = empty_box(scene, Aabb { lo: blo, hi: bhi }, keep, gap);
-            let inside = |c: usize, b: &Aabb| {
-                let p = plan.centre(c % plan.nx, c / plan.nx, eye);
-                p.x >= b.lo.x && p.x <= b.hi.x && p.z >= b.lo.z && p.z <= b.hi.z
-            };
-            match found {
-                Some(b) if (b.hi.x - b.lo.x) * (b.hi.z - b.lo.z) >= o.min_area => {
+            let keep = plan.centre(most_open % plan.nx, most_open / plan.nx, self.eye);
+            match empty_box(self.scene, bounds, keep, gap) {
+                Some(b) if (b.hi.x - b.lo.x) * (b.hi.z - b.lo.z) >= min_area => {
                     let before = uncovered.len();
-                    uncovered.retain(|&c| !inside(c, &b));
+                    uncovered.retain(|&c| !self.inside(c, &b));
                     // A box over floor the others already cover adds no room to stand in.
-                    if (before - uncovered.len()) as f64 * cell * cell >= o.min_area {
+                    if (before - uncovered.len()) as f64 * cell * cell >= min_area {
                         sections.push(b);
                     }
                 }
@@ -265,25 +309,16 @@ fn rooms_on_floor(
                 _ => uncovered.retain(|&c| c != most_open),
             }
         }
-        if sections.is_empty() {
-            continue;
-        }
-        let covered = cells
-            .iter()
-            .filter(|&&c| {
-                let p = plan.centre(c % plan.nx, c / plan.nx, eye);
-                sections
-                    .iter()
-                    .any(|b| p.x >= b.lo.x && p.x <= b.hi.x && p.z >= b.lo.z && p.z <= b.hi.z)
-            })
-            .count();
-        out.push(Room {
-            sections,
-            area,
-            covered: covered as f64 / cells.len() as f64,
-        });
+        sections
     }
-    out
+
+    /// Whether cell `c`'s centre lies within `b` across the floor.
+    fn inside(&self, c: usize, b: &Aabb) -> bool {
+        let p = self
+            .plan
+            .centre(c % self.plan.nx, c / self.plan.nx, self.eye);
+        p.x >= b.lo.x && p.x <= b.hi.x && p.z >= b.lo.z && p.z <= b.hi.z
+    }
 }
 
 /// The heights people stand at: upward-facing triangle area binned by `bin` metres, the
