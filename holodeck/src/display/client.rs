@@ -17,6 +17,7 @@ use holocave_protocol::handshake::{HandshakeError, Role};
 use holocave_protocol::holodeck::{
     DisplayHello, DisplayWelcome, PROTOCOL_VERSION, ServerMsg, WorkerMsg,
 };
+use holocave_protocol::session::{Opener, Sealer};
 
 use super::wire::{self, sections_from_wire, unpack};
 use super::{Arrival, EyeRequest};
@@ -147,33 +148,7 @@ impl DisplayClient {
             std::thread::Builder::new()
                 .name("holodeck display reader".into())
                 .spawn(move || {
-                    loop {
-                        match opener.read::<_, ServerMsg>(&mut r, MAX_FRAME_BYTES) {
-                            Ok(ServerMsg::Beams(b)) => match unpack(&b) {
-                                Ok(v) => {
-                                    if atx.send(Arc::new(v)).is_err() {
-                                        break;
-                                    }
-                                }
-                                Err(e) => {
-                                    tracing::warn!("holodeck server {addr}: {e}");
-                                    break;
-                                }
-                            },
-                            Ok(ServerMsg::Bye) | Err(FrameError::Closed) => break,
-                            Ok(other) => {
-                                tracing::warn!(
-                                    "holodeck server {addr} sent {}: closing",
-                                    msg_name(&other)
-                                );
-                                break;
-                            }
-                            Err(e) => {
-                                tracing::warn!("holodeck server {addr}: {e}");
-                                break;
-                            }
-                        }
-                    }
+                    read_beams(addr, (&mut opener, &mut r), &atx);
                     connected.store(false, Ordering::SeqCst);
                 })
                 .expect("spawn the display reader")
@@ -183,16 +158,7 @@ impl DisplayClient {
             std::thread::Builder::new()
                 .name("holodeck display writer".into())
                 .spawn(move || {
-                    while let Ok(req) = rx.recv() {
-                        let m = wire::request_message(req);
-                        let sent = sealer
-                            .write(&mut w, &WorkerMsg::Request(m), MAX_FRAME_BYTES)
-                            .and_then(|()| w.flush().map_err(FrameError::from));
-                        if let Err(e) = sent {
-                            tracing::warn!("holodeck server {addr}: {e}");
-                            break;
-                        }
-                    }
+                    write_requests(addr, (&mut sealer, &mut w), &rx);
                     connected.store(false, Ordering::SeqCst);
                     let _ = w.get_ref().shutdown(Shutdown::Both);
                 })
@@ -250,5 +216,49 @@ fn msg_name(m: &ServerMsg) -> &'static str {
         ServerMsg::Bye => "bye",
         ServerMsg::DisplayWelcome(_) => "a display welcome",
         ServerMsg::Beams(_) => "samples",
+    }
+}
+
+/// The display's reader: every batch of beams the server at `addr` sends, unpacked, to
+/// `arrivals`, until it says goodbye, closes, sends something else or the display is gone.
+fn read_beams(
+    addr: SocketAddr,
+    (opener, r): (&mut Opener, &mut BufReader<TcpStream>),
+    arrivals: &Sender<Arrival>,
+) {
+    loop {
+        match opener.read::<_, ServerMsg>(r, MAX_FRAME_BYTES) {
+            Ok(ServerMsg::Beams(b)) => match unpack(&b) {
+                Ok(v) => {
+                    if arrivals.send(Arc::new(v)).is_err() {
+                        return;
+                    }
+                }
+                Err(e) => return tracing::warn!("holodeck server {addr}: {e}"),
+            },
+            Ok(ServerMsg::Bye) | Err(FrameError::Closed) => return,
+            Ok(other) => {
+                return tracing::warn!("holodeck server {addr} sent {}: closing", msg_name(&other));
+            }
+            Err(e) => return tracing::warn!("holodeck server {addr}: {e}"),
+        }
+    }
+}
+
+/// The display's writer: every eye request from `requests` to the server at `addr`, until
+/// the display drops its side or a write fails.
+fn write_requests(
+    addr: SocketAddr,
+    (sealer, w): (&mut Sealer, &mut BufWriter<TcpStream>),
+    requests: &Receiver<EyeRequest>,
+) {
+    while let Ok(req) = requests.recv() {
+        let m = wire::request_message(req);
+        let sent = sealer
+            .write(w, &WorkerMsg::Request(m), MAX_FRAME_BYTES)
+            .and_then(|()| w.flush().map_err(FrameError::from));
+        if let Err(e) = sent {
+            return tracing::warn!("holodeck server {addr}: {e}");
+        }
     }
 }
