@@ -148,31 +148,7 @@ impl Drawer {
                 }
             }
             Drawer::Accumulate { tracer, spp, sums } => {
-                sums.resize_with(views.len(), || None);
-                let mut images = Vec::with_capacity(views.len());
-                for (e, (v, slot)) in views.iter().zip(sums.iter_mut()).enumerate() {
-                    let fresh = render(tracer, &v.wall, *spp, seed(frame, e), &|| {});
-                    let (sum, n) = match slot.take() {
-                        Some((w, mut sum, n)) if w == v.wall => {
-                            sum.pixels
-                                .iter_mut()
-                                .zip(&fresh.pixels)
-                                .for_each(|(s, f)| *s += *f);
-                            (sum, n + 1)
-                        }
-                        _ => (fresh, 1),
-                    };
-                    let mut mean = sum.clone();
-                    mean.pixels.iter_mut().for_each(|p| *p /= n as f32);
-                    images.push(mean);
-                    *slot = Some((v.wall, sum, n));
-                }
-                let rays = traced(&images, *spp);
-                Drawn {
-                    images,
-                    rays,
-                    unspent: 0,
-                }
+                accumulate(tracer, *spp, sums, views, frame)
             }
             Drawer::Vlf { cache, base } => {
                 let images = views
@@ -204,48 +180,94 @@ impl Drawer {
                 allowance,
                 grant,
                 requests,
-            } => {
-                // Draws from the samples that have arrived and hands this frame's pixels to
-                // the display's holodeck thread, which asks the server for their beams.
-                let report = display.frame(views, false);
-                // That request reaches the server before the rays are granted, so they are
-                // traced for it, and a holodeck with nothing to trace is told apart from
-                // one whose request is on its way (one request per eye, unless no pixel
-                // was chosen).
-                if report.chosen.iter().any(|&n| n > 0) {
-                    let want = *requests + views.len() as u64;
-                    let t = Instant::now();
-                    while server.display_tally(0).requests < want {
-                        if t.elapsed() > REQUEST_WAIT {
-                            tracing::warn!(
-                                "frame {frame}: the display's request has not reached the \
-                                 holodeck after {REQUEST_WAIT:?}; granting its rays anyway"
-                            );
-                            break;
-                        }
-                        std::thread::sleep(Duration::from_micros(100));
-                    }
-                }
-                *requests = server.display_tally(0).requests;
-                allowance.grant(*grant);
-                let settled = allowance.settle();
-                // And the display has taken in every sample the server handed it (so the
-                // next frame's request counts them as there), however fast its thread.
-                if let SampleFeed::Holodeck(h) = &display.feed {
-                    let handed = server.display_tally(0).samples;
-                    let t = Instant::now();
-                    while h.counts().received < handed && t.elapsed() < REQUEST_WAIT {
-                        std::thread::sleep(Duration::from_micros(100));
-                    }
-                }
-                let images = (0..views.len()).map(|e| display.cache.image(e)).collect();
-                Drawn {
-                    images,
-                    rays: settled.traced,
-                    unspent: settled.withdrawn,
-                }
-            }
+            } => draw_from_holodeck(display, (server, allowance, *grant), requests, views, frame),
         }
+    }
+}
+
+/// Frame `frame` of `views` accumulated: each eye's fresh `spp`-sample render added to its
+/// sum while its view stays the same (`sums`, per eye), the mean drawn.
+fn accumulate(
+    tracer: &Tracer,
+    spp: u32,
+    sums: &mut Vec<Option<(WallView, Image, u32)>>,
+    views: &[EyeView],
+    frame: u64,
+) -> Drawn {
+    sums.resize_with(views.len(), || None);
+    let mut images = Vec::with_capacity(views.len());
+    for (e, (v, slot)) in views.iter().zip(sums.iter_mut()).enumerate() {
+        let fresh = render(tracer, &v.wall, spp, seed(frame, e), &|| {});
+        let (sum, n) = match slot.take() {
+            Some((w, mut sum, n)) if w == v.wall => {
+                sum.pixels
+                    .iter_mut()
+                    .zip(&fresh.pixels)
+                    .for_each(|(s, f)| *s += *f);
+                (sum, n + 1)
+            }
+            _ => (fresh, 1),
+        };
+        let mut mean = sum.clone();
+        mean.pixels.iter_mut().for_each(|p| *p /= n as f32);
+        images.push(mean);
+        *slot = Some((v.wall, sum, n));
+    }
+    let rays = traced(&images, spp);
+    Drawn {
+        images,
+        rays,
+        unspent: 0,
+    }
+}
+
+/// Frame `frame` of `views` drawn by a display fed by the holodeck `server`, whose
+/// threads trace `grant` rays a frame under `allowance`; `requests` counts the display's
+/// requests the server has served.
+fn draw_from_holodeck(
+    display: &mut WallDisplay,
+    (server, allowance, grant): (&Running, &RayAllowance, u64),
+    requests: &mut u64,
+    views: &[EyeView],
+    frame: u64,
+) -> Drawn {
+    // Draws from the samples that have arrived and hands this frame's pixels to the
+    // display's holodeck thread, which asks the server for their beams.
+    let report = display.frame(views, false);
+    // That request reaches the server before the rays are granted, so they are traced
+    // for it, and a holodeck with nothing to trace is told apart from one whose request
+    // is on its way (one request per eye, unless no pixel was chosen).
+    if report.chosen.iter().any(|&n| n > 0) {
+        let want = *requests + views.len() as u64;
+        let t = Instant::now();
+        while server.display_tally(0).requests < want {
+            if t.elapsed() > REQUEST_WAIT {
+                tracing::warn!(
+                    "frame {frame}: the display's request has not reached the holodeck \
+                     after {REQUEST_WAIT:?}; granting its rays anyway"
+                );
+                break;
+            }
+            std::thread::sleep(Duration::from_micros(100));
+        }
+    }
+    *requests = server.display_tally(0).requests;
+    allowance.grant(grant);
+    let settled = allowance.settle();
+    // And the display has taken in every sample the server handed it (so the next
+    // frame's request counts them as there), however fast its thread.
+    if let SampleFeed::Holodeck(h) = &display.feed {
+        let handed = server.display_tally(0).samples;
+        let t = Instant::now();
+        while h.counts().received < handed && t.elapsed() < REQUEST_WAIT {
+            std::thread::sleep(Duration::from_micros(100));
+        }
+    }
+    let images = (0..views.len()).map(|e| display.cache.image(e)).collect();
+    Drawn {
+        images,
+        rays: settled.traced,
+        unspent: settled.withdrawn,
     }
 }
 
