@@ -367,7 +367,8 @@ impl Reader<'_> {
             .collect())
     }
 
-    fn file(&self) -> Result<VlfFile, VlfError> {
+    /// Checks the header: the magic number, this version, and its number of chunks.
+    fn header(&self) -> Result<(), VlfError> {
         let path = self.path;
         if self.bytes.len() < HEADER || &self.bytes[..8] != MAGIC {
             // Cut inside the magic number or inside the version and chunk count after it.
@@ -397,6 +398,12 @@ impl Reader<'_> {
                 what: format!("{chunks} chunks, version {VERSION} has {CHUNKS}"),
             });
         }
+        Ok(())
+    }
+
+    fn file(&self) -> Result<VlfFile, VlfError> {
+        let path = self.path;
+        self.header()?;
         let mut at = HEADER;
         let (meta, base) = self.chunk(&mut at, "META")?;
         let mut m = Fields {

@@ -59,125 +59,166 @@ pub fn smooth_over_planes(
     tiles: &Tiles,
     values: &[[f32; 3]],
 ) -> Vec<[f32; 3]> {
-    let radius = RADIUS * elements.element_size;
     let mut out = values.to_vec();
     if elements.count == 0 {
         return out;
     }
-    let (area, centres) = elements.areas_and_centres(scene);
-    let large_area = LARGE * std::f32::consts::PI * radius * radius;
-    let least_element = LEAST_ELEMENT * elements.element_size * elements.element_size;
-    let taking: Vec<bool> = (0..elements.count)
-        .map(|e| scene.triangle_area(centres[e].0) >= large_area && area[e] >= least_element)
-        .collect();
-    // Each taking part element's centre and side's normal (the rest are not looked at).
-    let place: Vec<(Vec3, Vec3)> = (0..elements.count)
-        .into_par_iter()
-        .map(|e| {
-            if !taking[e] {
-                return (Vec3::ZERO, Vec3::ZERO);
-            }
-            let (t, u, v) = centres[e];
-            let c = elements.triangles[t as usize];
-            let back = e as u32 >= c.base(1);
-            let n = scene.face_normal(t) * if back { -1.0 } else { 1.0 };
-            let hit = Hit {
-                triangle: t,
-                t: 0.0,
-                u,
-                v,
-            };
-            (scene.surface(&hit).position, n)
-        })
-        .collect();
-    let cell = |p: Vec3| (p / radius).floor().as_ivec3();
-    let mut grid: HashMap<IVec3, Vec<u32>> = HashMap::new();
-    for (e, (p, _)) in place.iter().enumerate() {
-        if taking[e] {
-            grid.entry(cell(*p)).or_default().push(e as u32);
-        }
-    }
-    let tolerance = PLANE_TOLERANCE * elements.element_size;
-    // An element's values: its irradiance, or its tile's bins (a plane's tiles share one
-    // frame, so their bins are the same directions).
-    let k = tiles.per_tile();
-    let range_of = |e: usize| match tiles.of(e as u32) {
-        Some(g) => {
-            let at = tiles.elements as usize + g as usize * k;
-            at..at + k
-        }
-        None => e..e + 1,
-    };
-    // Each taking part element's log luminance (a tile's: its bins' mean), for the range
-    // weight.
-    let log_lum: Vec<f32> = (0..elements.count)
-        .into_par_iter()
-        .map(|e| {
-            if !taking[e] {
-                return 0.0;
-            }
-            let r = range_of(e);
-            let n = r.len() as f32;
-            let mean = values[r]
-                .iter()
-                .map(|v| luminance(Vec3::from(*v)))
-                .sum::<f32>()
-                / n;
-            mean.max(f32::MIN_POSITIVE).ln()
-        })
-        .collect();
+    let planes = Planes::new(scene, elements, tiles, values);
     let smoothed: Vec<(usize, Vec<Vec3>)> = (0..elements.count)
         .into_par_iter()
-        .filter(|&e| taking[e])
-        .map(|e| {
-            let (p, n) = place[e];
-            let at = cell(p);
-            let tiled = tiles.of(e as u32).is_some();
-            let own = log_lum[e];
-            let mut sum = vec![Vec3::ZERO; range_of(e).len()];
-            let mut w = 0.0f32;
-            for dz in -1..=1 {
-                for dy in -1..=1 {
-                    for dx in -1..=1 {
-                        let Some(list) = grid.get(&(at + IVec3::new(dx, dy, dz))) else {
-                            continue;
-                        };
-                        for &j in list {
-                            let j = j as usize;
-                            let (q, m) = place[j];
-                            let d = q - p;
-                            let dist = d.length();
-                            if dist >= radius
-                                || n.dot(m) < SAME_NORMAL
-                                || n.dot(d).abs() > tolerance
-                                || tiles.of(j as u32).is_some() != tiled
-                            {
-                                continue;
-                            }
-                            let range = (log_lum[j] - own).powi(2);
-                            let weight = area[j]
-                                * (1.0 - dist / radius)
-                                * (-range / (2.0 * RANGE_SIGMA * RANGE_SIGMA)).exp();
-                            for (s, v) in sum.iter_mut().zip(&values[range_of(j)]) {
-                                *s += Vec3::from(*v) * weight;
-                            }
-                            w += weight;
-                        }
-                    }
-                }
-            }
-            (
-                e,
-                sum.into_iter()
-                    .map(|s| s / w.max(f32::MIN_POSITIVE))
-                    .collect(),
-            )
-        })
+        .filter(|&e| planes.taking[e])
+        .map(|e| (e, planes.mean_around(e, values)))
         .collect();
     for (e, v) in smoothed {
-        for (o, x) in out[range_of(e)].iter_mut().zip(v) {
+        for (o, x) in out[planes.range_of(e)].iter_mut().zip(v) {
             *o = x.to_array();
         }
     }
     out
+}
+
+/// The elements that take part, where they lie, a grid of them by place, and their log
+/// luminance: what each element's mean looks at.
+struct Planes<'a> {
+    tiles: &'a Tiles,
+    radius: f32,
+    /// How far an element may lie off another's plane.
+    tolerance: f32,
+    area: Vec<f32>,
+    taking: Vec<bool>,
+    /// Each taking part element's centre and side's normal (the rest are not looked at).
+    place: Vec<(Vec3, Vec3)>,
+    /// The taking part elements by cell of `radius`.
+    grid: HashMap<IVec3, Vec<u32>>,
+    /// Each taking part element's log luminance (a tile's: its bins' mean), for the range
+    /// weight.
+    log_lum: Vec<f32>,
+}
+
+impl<'a> Planes<'a> {
+    fn new(scene: &Scene, elements: &Elements, tiles: &'a Tiles, values: &[[f32; 3]]) -> Self {
+        let radius = RADIUS * elements.element_size;
+        let (area, centres) = elements.areas_and_centres(scene);
+        let large_area = LARGE * std::f32::consts::PI * radius * radius;
+        let least_element = LEAST_ELEMENT * elements.element_size * elements.element_size;
+        let taking: Vec<bool> = (0..elements.count)
+            .map(|e| scene.triangle_area(centres[e].0) >= large_area && area[e] >= least_element)
+            .collect();
+        let place: Vec<(Vec3, Vec3)> = (0..elements.count)
+            .into_par_iter()
+            .map(|e| {
+                if !taking[e] {
+                    return (Vec3::ZERO, Vec3::ZERO);
+                }
+                let (t, u, v) = centres[e];
+                let c = elements.triangles[t as usize];
+                let back = e as u32 >= c.base(1);
+                let n = scene.face_normal(t) * if back { -1.0 } else { 1.0 };
+                let hit = Hit {
+                    triangle: t,
+                    t: 0.0,
+                    u,
+                    v,
+                };
+                (scene.surface(&hit).position, n)
+            })
+            .collect();
+        let mut planes = Planes {
+            tiles,
+            radius,
+            tolerance: PLANE_TOLERANCE * elements.element_size,
+            area,
+            taking,
+            place,
+            grid: HashMap::new(),
+            log_lum: Vec::new(),
+        };
+        for (e, (p, _)) in planes.place.iter().enumerate() {
+            if planes.taking[e] {
+                planes
+                    .grid
+                    .entry(planes.cell(*p))
+                    .or_default()
+                    .push(e as u32);
+            }
+        }
+        planes.log_lum = (0..elements.count)
+            .into_par_iter()
+            .map(|e| {
+                if !planes.taking[e] {
+                    return 0.0;
+                }
+                let r = planes.range_of(e);
+                let n = r.len() as f32;
+                let mean = values[r]
+                    .iter()
+                    .map(|v| luminance(Vec3::from(*v)))
+                    .sum::<f32>()
+                    / n;
+                mean.max(f32::MIN_POSITIVE).ln()
+            })
+            .collect();
+        planes
+    }
+
+    fn cell(&self, p: Vec3) -> IVec3 {
+        (p / self.radius).floor().as_ivec3()
+    }
+
+    /// An element's values: its irradiance, or its tile's bins (a plane's tiles share one
+    /// frame, so their bins are the same directions).
+    fn range_of(&self, e: usize) -> std::ops::Range<usize> {
+        match self.tiles.of(e as u32) {
+            Some(g) => {
+                let k = self.tiles.per_tile();
+                let at = self.tiles.elements as usize + g as usize * k;
+                at..at + k
+            }
+            None => e..e + 1,
+        }
+    }
+
+    /// Element `e`'s mean of `values` over the elements of its plane and side within the
+    /// radius that are alike in value, diffuse with diffuse, a tile with tiles.
+    fn mean_around(&self, e: usize, values: &[[f32; 3]]) -> Vec<Vec3> {
+        let (p, n) = self.place[e];
+        let at = self.cell(p);
+        let tiled = self.tiles.of(e as u32).is_some();
+        let own = self.log_lum[e];
+        let mut sum = vec![Vec3::ZERO; self.range_of(e).len()];
+        let mut w = 0.0f32;
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let Some(list) = self.grid.get(&(at + IVec3::new(dx, dy, dz))) else {
+                        continue;
+                    };
+                    for &j in list {
+                        let j = j as usize;
+                        let (q, m) = self.place[j];
+                        let d = q - p;
+                        let dist = d.length();
+                        if dist >= self.radius
+                            || n.dot(m) < SAME_NORMAL
+                            || n.dot(d).abs() > self.tolerance
+                            || self.tiles.of(j as u32).is_some() != tiled
+                        {
+                            continue;
+                        }
+                        let range = (self.log_lum[j] - own).powi(2);
+                        let weight = self.area[j]
+                            * (1.0 - dist / self.radius)
+                            * (-range / (2.0 * RANGE_SIGMA * RANGE_SIGMA)).exp();
+                        for (s, v) in sum.iter_mut().zip(&values[self.range_of(j)]) {
+                            *s += Vec3::from(*v) * weight;
+                        }
+                        w += weight;
+                    }
+                }
+            }
+        }
+        sum.into_iter()
+            .map(|s| s / w.max(f32::MIN_POSITIVE))
+            .collect()
+    }
 }
