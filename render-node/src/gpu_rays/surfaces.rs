@@ -74,23 +74,7 @@ impl SceneSurfaces {
             );
             return None;
         }
-        let triangles: Vec<TriangleSurface> = (0..scene.triangle_count() as u32)
-            .map(|i| {
-                let s = scene.triangle_shading(i);
-                let ng = scene.face_normal(i);
-                let n = s.normals.unwrap_or([ng; 3]);
-                let (uv, has) = (s.uvs, if s.normals.is_some() { HAS_NORMALS } else { 0 });
-                TriangleSurface {
-                    n0: n[0].extend(uv[0].x).to_array(),
-                    n1: n[1].extend(uv[0].y).to_array(),
-                    n2: n[2].extend(uv[1].x).to_array(),
-                    ng: ng.extend(uv[1].y).to_array(),
-                    uv2: uv[2].to_array(),
-                    material: s.material | has,
-                    pad: 0,
-                }
-            })
-            .collect();
+        let triangles = triangle_surfaces(scene);
         // The base colour textures that fit one binding, in the materials' order.
         let limit = limit as usize / 4;
         let mut texels: Vec<[u8; 4]> = Vec::new();
@@ -177,6 +161,28 @@ impl SceneSurfaces {
     pub fn shades(&self, hit: &Hit) -> bool {
         (self.shaded.get(hit.triangle as usize)).is_some_and(|&on| on)
     }
+}
+
+/// Every triangle's shading normals, texture coordinates and material, as the GPU reads
+/// them.
+fn triangle_surfaces(scene: &Scene) -> Vec<TriangleSurface> {
+    (0..scene.triangle_count() as u32)
+        .map(|i| {
+            let s = scene.triangle_shading(i);
+            let ng = scene.face_normal(i);
+            let n = s.normals.unwrap_or([ng; 3]);
+            let (uv, has) = (s.uvs, if s.normals.is_some() { HAS_NORMALS } else { 0 });
+            TriangleSurface {
+                n0: n[0].extend(uv[0].x).to_array(),
+                n1: n[1].extend(uv[0].y).to_array(),
+                n2: n[2].extend(uv[1].x).to_array(),
+                ng: ng.extend(uv[1].y).to_array(),
+                uv2: uv[2].to_array(),
+                material: s.material | has,
+                pad: 0,
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]

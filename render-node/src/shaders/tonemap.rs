@@ -162,69 +162,16 @@ impl ScreenPass {
         eye_size: Size,
         curve: Option<&ToneCurve>,
     ) {
-        let mut flags = 0;
-        if settings.flip_x {
-            flags |= FLIP_X;
-        }
-        if settings.flip_y {
-            flags |= FLIP_Y;
-        }
-        if !self.srgb_target {
-            flags |= ENCODE_SRGB;
-        }
-        let mut screen = Screen {
-            window: [window.width, window.height],
-            eye_size: [eye_size.width, eye_size.height],
-            arrangement: match settings.layout {
-                Layout::Mono | Layout::Left | Layout::Right => 0,
-                Layout::SideBySide => 1,
-                Layout::TopBottom => 2,
-                Layout::Anaglyph => 3,
-            },
-            first: 0,
-            second: 1,
-            flags,
-            linear: 0,
-            log_min: 0.0,
-            log_max: 1.0,
-            log_scale: 0.0,
-            cdf: [[0.0; 4]; 26],
-            efficacy: 179.0,
-            fc_log_min: 0.0,
-            fc_decades: 1.0,
-            legend_w: 0,
-            legend_h: 0,
-            pad: [0; 3],
-        };
+        let mut screen = Screen::laid_out(window, settings, eye_size, self.srgb_target);
         if let Some(fc) = curve.and_then(|c| c.false_color) {
             screen.flags |= FALSE_COLOR;
             screen.fc_log_min = fc.log_min;
             screen.fc_decades = fc.decades;
-            if self.legend_for != Some((eye_size, fc)) {
-                let legend = Legend::new(&fc, eye_size.width, eye_size.height);
-                self.legend_size = legend
-                    .as_ref()
-                    .map_or(Size::new(0, 0), |l| Size::new(l.width, l.height));
-                if let Some(l) = legend {
-                    self.legend = gpu.storage_init(
-                        "false-colour legend",
-                        bytemuck::cast_slice(&legend_words(&l)),
-                    );
-                }
-                self.legend_for = Some((eye_size, fc));
-            }
+            self.update_legend(gpu, eye_size, fc);
             (screen.legend_w, screen.legend_h) = (self.legend_size.width, self.legend_size.height);
         }
         if let Some(c) = curve {
-            screen.efficacy = c.efficacy;
-            screen.flags |= HAS_MAPPING;
-            screen.linear = u32::from(c.linear);
-            screen.log_min = c.log_min;
-            screen.log_max = c.log_max;
-            screen.log_scale = c.log_scale;
-            for (i, v) in c.cdf.iter().enumerate().take(TONE_BINS + 1) {
-                screen.cdf[i / 4][i % 4] = *v;
-            }
+            screen.map_with(c);
         }
         gpu.queue
             .write_buffer(&self.uniform, 0, bytemuck::bytes_of(&screen));
@@ -269,6 +216,83 @@ impl ScreenPass {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &bind, &[]);
         pass.draw(0..3, 0..1);
+    }
+
+    /// The false-colour legend for `eye_size` and `fc`, made again only when either changed.
+    fn update_legend(&mut self, gpu: &Gpu, eye_size: Size, fc: FalseColor) {
+        if self.legend_for == Some((eye_size, fc)) {
+            return;
+        }
+        let legend = Legend::new(&fc, eye_size.width, eye_size.height);
+        self.legend_size = legend
+            .as_ref()
+            .map_or(Size::new(0, 0), |l| Size::new(l.width, l.height));
+        if let Some(l) = legend {
+            self.legend = gpu.storage_init(
+                "false-colour legend",
+                bytemuck::cast_slice(&legend_words(&l)),
+            );
+        }
+        self.legend_for = Some((eye_size, fc));
+    }
+}
+
+impl Screen {
+    /// The uniform for drawing eyes of `eye_size` into a `window` as `settings` lay them
+    /// out (into an sRGB target or not), with no tone curve yet: black.
+    fn laid_out(
+        window: Size,
+        settings: &WindowSettings,
+        eye_size: Size,
+        srgb_target: bool,
+    ) -> Screen {
+        let mut flags = 0;
+        if settings.flip_x {
+            flags |= FLIP_X;
+        }
+        if settings.flip_y {
+            flags |= FLIP_Y;
+        }
+        if !srgb_target {
+            flags |= ENCODE_SRGB;
+        }
+        Screen {
+            window: [window.width, window.height],
+            eye_size: [eye_size.width, eye_size.height],
+            arrangement: match settings.layout {
+                Layout::Mono | Layout::Left | Layout::Right => 0,
+                Layout::SideBySide => 1,
+                Layout::TopBottom => 2,
+                Layout::Anaglyph => 3,
+            },
+            first: 0,
+            second: 1,
+            flags,
+            linear: 0,
+            log_min: 0.0,
+            log_max: 1.0,
+            log_scale: 0.0,
+            cdf: [[0.0; 4]; 26],
+            efficacy: 179.0,
+            fc_log_min: 0.0,
+            fc_decades: 1.0,
+            legend_w: 0,
+            legend_h: 0,
+            pad: [0; 3],
+        }
+    }
+
+    /// The tone curve `c` in the uniform.
+    fn map_with(&mut self, c: &ToneCurve) {
+        self.efficacy = c.efficacy;
+        self.flags |= HAS_MAPPING;
+        self.linear = u32::from(c.linear);
+        self.log_min = c.log_min;
+        self.log_max = c.log_max;
+        self.log_scale = c.log_scale;
+        for (i, v) in c.cdf.iter().enumerate().take(TONE_BINS + 1) {
+            self.cdf[i / 4][i % 4] = *v;
+        }
     }
 }
 

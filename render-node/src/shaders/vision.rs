@@ -100,34 +100,7 @@ impl VisionPass {
     ) {
         let (w, h) = (fovea.width, fovea.height);
         let n = fovea.len() as u64;
-        let grow = |size: &mut u64, buf: &mut wgpu::Buffer, want: u64, label: &str| {
-            if want > *size {
-                *buf = gpu.storage(label, want);
-                *size = want;
-            }
-        };
-        let (mut s0, mut s1, mut s2, mut s3, mut s4) = self.sizes;
-        grow(&mut s0, &mut self.cells, 32 * n, "vision cells");
-        grow(
-            &mut s1,
-            &mut self.sources,
-            32 * (imported.0.len() as u64).max(1),
-            "vision sources",
-        );
-        grow(&mut s2, &mut self.foveal, FOVEAL_BYTES * n, "vision foveal");
-        grow(
-            &mut s3,
-            &mut self.pyramid,
-            16 * pyramid_texels(w, h).max(1),
-            "vision pyramid",
-        );
-        grow(
-            &mut s4,
-            &mut self.seen,
-            16 * u64::from(w * h),
-            "vision seen",
-        );
-        self.sizes = (s0, s1, s2, s3, s4);
+        self.grow_buffers(gpu, fovea, imported);
         let cells: Vec<Cell> = (0..fovea.len())
             .map(|i| {
                 let d = fovea.dirs[i];
@@ -191,6 +164,40 @@ impl VisionPass {
             }
         }
         gpu.queue.submit([enc.finish()]);
+    }
+
+    /// The buffers grown where `fovea` and `imported` need more than they hold.
+    fn grow_buffers(&mut self, gpu: &Gpu, fovea: &Fovea, imported: &VeilSources) {
+        let (w, h) = (fovea.width, fovea.height);
+        let n = fovea.len() as u64;
+        let grow = |size: &mut u64, buf: &mut wgpu::Buffer, want: u64, label: &str| {
+            if want > *size {
+                *buf = gpu.storage(label, want);
+                *size = want;
+            }
+        };
+        let (mut s0, mut s1, mut s2, mut s3, mut s4) = self.sizes;
+        grow(&mut s0, &mut self.cells, 32 * n, "vision cells");
+        grow(
+            &mut s1,
+            &mut self.sources,
+            32 * (imported.0.len() as u64).max(1),
+            "vision sources",
+        );
+        grow(&mut s2, &mut self.foveal, FOVEAL_BYTES * n, "vision foveal");
+        grow(
+            &mut s3,
+            &mut self.pyramid,
+            16 * pyramid_texels(w, h).max(1),
+            "vision pyramid",
+        );
+        grow(
+            &mut s4,
+            &mut self.seen,
+            16 * u64::from(w * h),
+            "vision seen",
+        );
+        self.sizes = (s0, s1, s2, s3, s4);
     }
 
     /// The bright foveal samples of the image last [`VisionPass::run`] on `fovea`, for the
