@@ -126,7 +126,7 @@ impl WallDisplay {
     }
 
     /// Draws the light field `base` under the samples from now on, worth `prior` samples
-    /// per pixel (see `shaders/vlf.wgsl`).
+    /// per pixel (see `cache/light_field.wgsl`).
     pub fn with_vlf(mut self, base: Arc<VlfBase>, prior: f32) -> Result<Self, RenderNodeError> {
         self.cache.set_vlf(base.values(), prior)?;
         self.prior = prior;

@@ -5,7 +5,7 @@
 //! a projector cannot show glare, but it can show how bright a surface is.
 //!
 //! The legend is made here once per picture size and scale; the GPU draws the same pixels
-//! (`shaders/tonemap.wgsl` takes them as a buffer), so a window shows what a PNG does.
+//! (`present/screen.wgsl` takes them as a buffer), so a window shows what a PNG does.
 
 use glam::Vec3;
 use holocave_tracer::film::srgb8;

@@ -4,7 +4,7 @@
 //! - [`gpu`]: the wgpu device (any adapter, Mesa's software ones included) and helpers;
 //! - [`gpu_rays`]: rays on the GPU: closest and any hit over the scene's BVH, and a wall's
 //!   pixel rays, in WGSL compute (the CPU's BVH walk is their reference);
-//! - [`cache`]: the point cache and the per-eye compute passes (WGSL in `shaders/`);
+//! - [`cache`]: the point cache and the per-eye compute passes (WGSL beside each pass in `cache/`);
 //! - [`view`]: an eye's projection and its pixel rays;
 //! - [`source`]: chosen pixels → eye rays → the path tracer (full paths, or gathers over
 //!   the light field) → new samples;
@@ -24,7 +24,7 @@
 //! - [`prior`]: how many samples the light field is worth in a pixel, measured from the
 //!   feed's own samples;
 //! - [`vlf`]: the Virtual Light Field under the cache (visibility per pixel; shading and
-//!   blending on the GPU in `shaders/vlf.wgsl`);
+//!   blending on the GPU in `cache/light_field.wgsl`);
 //! - [`window`]: the node's windows (winit) and their GPU device;
 //! - [`present`]: drawing a wall into a window (layout, tone mapping on the GPU) and
 //!   presenting it, split into prepare / show / abandon for swap lock;

@@ -259,7 +259,7 @@ impl Mapping {
     }
 }
 
-/// A mapping as a shader applies it (`shaders/tonemap.wgsl`): the same curve as
+/// A mapping as a shader applies it (`present/screen.wgsl`): the same curve as
 /// [`Mapping::display_luminance`], in numbers, or the false-colour scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToneCurve {

@@ -2,7 +2,7 @@
 //! the baked irradiance of a `.vlf` file, and its glossy tiles' radiance, go to the GPU once; every frame the node casts
 //! one ray per pixel of each eye (visibility, continued through mirrors and glass:
 //! `holocave_vlf::view`) and the GPU shades each pixel's lookup and blends it under the
-//! render cache's exact samples (`shaders/vlf.wgsl`, through [`crate::RenderCache`]).
+//! render cache's exact samples (`cache/light_field.wgsl`, through [`crate::RenderCache`]).
 //!
 //! The direct light of the sun, punctual lights and emissive triangles is computed per
 //! pixel on the same threads, for the point each pixel's ray found

@@ -1,6 +1,6 @@
 //! Colour: the scene's radiance is linear RGB with Rec. 709 primaries (DESIGN.md,
 //! Conventions), and its luminance is the one weighting of those primaries that every
-//! crate uses (the GPU's twin is `luminance()` in `render-node/src/shaders/common.wgsl`).
+//! crate uses (the GPU's twin is `luminance()` in `render-node/src/gpu/common.wgsl`).
 
 use glam::Vec3;
 

@@ -11,12 +11,11 @@
 //!
 //! All three work on the [`fovea`] grid of one-degree samples, made from a function that
 //! gives each pixel's direction from the eye, so the model knows no projection. The same
-//! steps run on the GPU for windows (`shaders/vision.wgsl`, driven by
+//! steps run on the GPU for windows (`vision/vision.wgsl`, driven by
 //! [`gpu::VisionPass`]); their results are tested equal.
 
 pub mod acuity;
 pub mod fovea;
-#[path = "../shaders/vision.rs"]
 pub mod gpu;
 pub mod scotopic;
 pub mod veil;

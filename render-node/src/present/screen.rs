@@ -1,4 +1,4 @@
-//! The pipeline of `tonemap.wgsl`: the eyes' images laid out, tone-mapped and drawn into
+//! The pipeline of `screen.wgsl`: the eyes' images laid out, tone-mapped and drawn into
 //! a window's surface texture.
 
 use bytemuck::{Pod, Zeroable};
@@ -9,12 +9,12 @@ use crate::gpu::{Gpu, with_common};
 use crate::tonemap::{TONE_BINS, ToneCurve};
 
 /// The shader (compiled after `common.wgsl`, as the compute passes are).
-pub(crate) const SOURCE: &str = include_str!("tonemap.wgsl");
+pub(crate) const SOURCE: &str = include_str!("screen.wgsl");
 
-/// `Screen` in `tonemap.wgsl`.
+/// `ScreenParams` in `screen.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct Screen {
+struct ScreenParams {
     window: [u32; 2],
     eye_size: [u32; 2],
     arrangement: u32,
@@ -135,7 +135,7 @@ impl ScreenPass {
                 multiview_mask: None,
                 cache: None,
             });
-        let uniform = gpu.uniform("screen", std::mem::size_of::<Screen>() as u64);
+        let uniform = gpu.uniform("screen", std::mem::size_of::<ScreenParams>() as u64);
         ScreenPass {
             pipeline,
             layout,
@@ -162,7 +162,7 @@ impl ScreenPass {
         eye_size: Size,
         curve: Option<&ToneCurve>,
     ) {
-        let mut screen = Screen::laid_out(window, settings, eye_size, self.srgb_target);
+        let mut screen = ScreenParams::laid_out(window, settings, eye_size, self.srgb_target);
         if let Some(fc) = curve.and_then(|c| c.false_color) {
             screen.flags |= FALSE_COLOR;
             screen.fc_log_min = fc.log_min;
@@ -237,7 +237,7 @@ impl ScreenPass {
     }
 }
 
-impl Screen {
+impl ScreenParams {
     /// The uniform for drawing eyes of `eye_size` into a `window` as `settings` lay them
     /// out (into an sRGB target or not), with no tone curve yet: black.
     fn laid_out(
@@ -245,7 +245,7 @@ impl Screen {
         settings: &WindowSettings,
         eye_size: Size,
         srgb_target: bool,
-    ) -> Screen {
+    ) -> ScreenParams {
         let mut flags = 0;
         if settings.flip_x {
             flags |= FLIP_X;
@@ -256,7 +256,7 @@ impl Screen {
         if !srgb_target {
             flags |= ENCODE_SRGB;
         }
-        Screen {
+        ScreenParams {
             window: [window.width, window.height],
             eye_size: [eye_size.width, eye_size.height],
             arrangement: match settings.layout {
@@ -304,9 +304,9 @@ mod tests {
     use holocave_tracer::film::Image;
 
     #[test]
-    fn tonemap_wgsl_screen_is_laid_out_as_in_rust() {
+    fn screen_wgsl_params_are_laid_out_as_in_rust() {
         use std::mem::{offset_of, size_of};
-        crate::gpu::layout::every_field!(Screen {
+        crate::gpu::layout::every_field!(ScreenParams {
             window,
             eye_size,
             arrangement,
@@ -327,28 +327,28 @@ mod tests {
         });
         crate::gpu::layout::assert_same_layout(
             &with_common(SOURCE),
-            "Screen",
-            size_of::<Screen>(),
+            "ScreenParams",
+            size_of::<ScreenParams>(),
             &[
-                ("window", offset_of!(Screen, window)),
-                ("eye_size", offset_of!(Screen, eye_size)),
-                ("arrangement", offset_of!(Screen, arrangement)),
-                ("first", offset_of!(Screen, first)),
-                ("second", offset_of!(Screen, second)),
-                ("flags", offset_of!(Screen, flags)),
-                ("linear", offset_of!(Screen, linear)),
-                ("log_min", offset_of!(Screen, log_min)),
-                ("log_max", offset_of!(Screen, log_max)),
-                ("log_scale", offset_of!(Screen, log_scale)),
-                ("cdf", offset_of!(Screen, cdf)),
-                ("efficacy", offset_of!(Screen, efficacy)),
-                ("fc_log_min", offset_of!(Screen, fc_log_min)),
-                ("fc_decades", offset_of!(Screen, fc_decades)),
-                ("legend_w", offset_of!(Screen, legend_w)),
-                ("legend_h", offset_of!(Screen, legend_h)),
-                ("_pad0", offset_of!(Screen, pad)),
-                ("_pad1", offset_of!(Screen, pad) + 4),
-                ("_pad2", offset_of!(Screen, pad) + 8),
+                ("window", offset_of!(ScreenParams, window)),
+                ("eye_size", offset_of!(ScreenParams, eye_size)),
+                ("arrangement", offset_of!(ScreenParams, arrangement)),
+                ("first", offset_of!(ScreenParams, first)),
+                ("second", offset_of!(ScreenParams, second)),
+                ("flags", offset_of!(ScreenParams, flags)),
+                ("linear", offset_of!(ScreenParams, linear)),
+                ("log_min", offset_of!(ScreenParams, log_min)),
+                ("log_max", offset_of!(ScreenParams, log_max)),
+                ("log_scale", offset_of!(ScreenParams, log_scale)),
+                ("cdf", offset_of!(ScreenParams, cdf)),
+                ("efficacy", offset_of!(ScreenParams, efficacy)),
+                ("fc_log_min", offset_of!(ScreenParams, fc_log_min)),
+                ("fc_decades", offset_of!(ScreenParams, fc_decades)),
+                ("legend_w", offset_of!(ScreenParams, legend_w)),
+                ("legend_h", offset_of!(ScreenParams, legend_h)),
+                ("_pad0", offset_of!(ScreenParams, pad)),
+                ("_pad1", offset_of!(ScreenParams, pad) + 4),
+                ("_pad2", offset_of!(ScreenParams, pad) + 8),
             ],
         );
     }

@@ -6,7 +6,7 @@ use crate::gpu::{Binding, ComputePass, Gpu};
 use super::Recorder;
 
 /// The shader (compiled after `common.wgsl`: `gpu::with_common`).
-pub(super) const SOURCE: &str = include_str!("vlf.wgsl");
+pub(super) const SOURCE: &str = include_str!("light_field.wgsl");
 
 /// `@workgroup_size` of the shader's entry points.
 const WORKGROUP: u32 = 256;

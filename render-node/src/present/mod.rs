@@ -1,6 +1,6 @@
 //! Presenting a wall in a window, split for swap lock: [`Presenter::prepare`] acquires the
 //! surface texture, draws the eyes into it (layout and tone mapping on the GPU,
-//! `shaders/tonemap.wgsl`), submits and waits for the GPU — all before the node says
+//! `present/screen.wgsl`), submits and waits for the GPU — all before the node says
 //! Ready; [`Presenter::show`] presents it when the master's Swap comes;
 //! [`Presenter::abandon`] drops it when a newer frame state comes first.
 //!
@@ -17,9 +17,7 @@ use holocave_cave::{Eye, PresentMode, Size, WindowSettings};
 use crate::gpu::Gpu;
 use crate::tonemap::ToneCurve;
 
-#[path = "shaders/luminance.rs"]
 mod luminance;
-#[path = "shaders/tonemap.rs"]
 mod screen;
 
 pub use luminance::Histogrammer;

@@ -3,12 +3,12 @@
 //! eye's image by compute shaders, which also choose the pixels to sample next.
 //!
 //! Per frame ([`RenderCache::draw`]), for each eye: clear, z-buffered projection
-//! (`shaders/project.wgsl`), 3×3 depth cull and 3×3 interpolation with the priority image
-//! (`shaders/filter.wgsl`), error-diffusion choice of pixels (`shaders/dither.wgsl`); then
-//! aging of all points (`shaders/age.wgsl`). Samples come back through
-//! [`RenderCache::insert`] (`shaders/insert.wgsl`). Every pass is linear in pixels or points.
+//! (`cache/project.wgsl`), 3×3 depth cull and 3×3 interpolation with the priority image
+//! (`cache/filter.wgsl`), error-diffusion choice of pixels (`cache/dither.wgsl`); then
+//! aging of all points (`cache/age.wgsl`). Samples come back through
+//! [`RenderCache::insert`] (`cache/insert.wgsl`). Every pass is linear in pixels or points.
 //!
-//! Each shader file has a small module beside it in `shaders/` that owns its pipelines and
+//! Each shader file has a small module beside it in `cache/` that owns its pipelines and
 //! bind group layout, makes its bind groups and records its passes; [`RenderCache::new`]
 //! assembles them.
 
@@ -23,29 +23,22 @@ use crate::gpu::Gpu;
 use crate::{EyeView, RenderNodeError};
 use holocave_vlf::Lookup;
 
-#[path = "shaders/age.rs"]
 mod age;
-#[path = "shaders/dither.rs"]
 mod dither;
-#[path = "shaders/filter.rs"]
 mod filter;
-#[path = "shaders/insert.rs"]
 mod insert;
-#[path = "shaders/objects.rs"]
+mod light_field;
 mod objects;
-#[path = "shaders/project.rs"]
 mod project;
-#[path = "shaders/vlf.rs"]
-mod vlf;
 
 use age::Age;
 use dither::Dither;
 use filter::Filter;
 use insert::Insert;
+use light_field::VlfPass;
 use objects::MovePoints;
 pub use objects::{ObjectMove, SKY_SHARE, ShadowLight};
 use project::Project;
-use vlf::VlfPass;
 
 /// Points per replacement group (the oldest of a group is replaced, groups round robin).
 pub const GROUP_SIZE: u32 = 8;
@@ -71,7 +64,7 @@ pub enum Seen {
 }
 
 /// The surface id of a point: its material, and what it saw (see `OBJECT_SHIFT` in
-/// `shaders/common.wgsl`), so that points on an object move with it and only ever stand
+/// `gpu/common.wgsl`), so that points on an object move with it and only ever stand
 /// for it.
 pub fn surface_id(material: u32, seen: Seen) -> u32 {
     let object = match seen {
@@ -110,7 +103,7 @@ struct InsertParams {
     height: u32,
 }
 
-/// A point of the cache as the GPU stores it (`Point` in `shaders/common.wgsl`).
+/// A point of the cache as the GPU stores it (`Point` in `gpu/common.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuPoint {
@@ -120,7 +113,7 @@ pub struct GpuPoint {
     pub square: [f32; 4],
 }
 
-/// A traced sample on its way into the cache (`NewSample` in `shaders/insert.wgsl`).
+/// A traced sample on its way into the cache (`NewSample` in `cache/insert.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct NewSample {
@@ -533,7 +526,7 @@ impl RenderCache {
     /// Draws a Virtual Light Field under the cache's samples from now on: `values`, the
     /// irradiance of every element then the radiance of every glossy tile's bins (from a
     /// `.vlf` file: `holocave_vlf::State::values`), worth `prior` samples in each pixel (see
-    /// `shaders/vlf.wgsl`). Each frame needs every eye's lookups ([`Self::set_lookups`]).
+    /// `cache/light_field.wgsl`). Each frame needs every eye's lookups ([`Self::set_lookups`]).
     pub fn set_vlf(&mut self, values: &[[f32; 3]], prior: f32) -> Result<(), RenderNodeError> {
         let limit = self.gpu.device.limits().max_storage_buffer_binding_size;
         // Floats per buffer: what one binding holds, in whole 256-byte blocks.
@@ -643,7 +636,7 @@ impl RenderCache {
     /// What the light field is worth from now on, in samples per pixel (see
     /// [`Self::set_vlf`]): `prior` where a pixel's samples spread as the display's do,
     /// `spread` their variance over `μ² + 0.01` ([`crate::prior::Measured::spread`]),
-    /// scaled in each pixel by how its own samples spread (`shaders/vlf.wgsl`); with
+    /// scaled in each pixel by how its own samples spread (`cache/light_field.wgsl`); with
     /// `spread` 0, `prior` in every pixel. Nothing without a light field.
     pub fn set_vlf_prior(&mut self, prior: f32, spread: f32) {
         if let Some(v) = &self.vlf {
@@ -1073,7 +1066,7 @@ mod layout_tests {
     use super::objects::MoveParams;
     use super::{
         EyeParams, GpuPoint, InsertParams, Lookup, NewSample, ObjectMove, ShadowLight, VlfParams,
-        insert, objects, vlf,
+        insert, light_field, objects,
     };
     use crate::gpu::layout::{assert_same_layout, every_field};
     use crate::gpu::with_common;
@@ -1178,7 +1171,7 @@ mod layout_tests {
 
     #[test]
     fn vlf_wgsl_lookup_and_params_are_laid_out_as_in_rust() {
-        let src = with_common(vlf::SOURCE);
+        let src = with_common(light_field::SOURCE);
         // `holocave_vlf::Lookup`'s colour arrays are three scalars each in the WGSL.
         let (w, e) = (offset_of!(Lookup, weight), offset_of!(Lookup, emitted));
         assert_same_layout(

@@ -9,14 +9,13 @@ use wgpu::util::DeviceExt;
 use crate::RenderNodeError;
 
 #[cfg(test)]
-#[path = "shaders/layout.rs"]
 pub(crate) mod layout;
 
-/// The WGSL a pipeline of the node is made from: `shaders/common.wgsl` (the cache's
+/// The WGSL a pipeline of the node is made from: `gpu/common.wgsl` (the cache's
 /// structs and helpers, the one `luminance()`), then the shader's own `source`. The
-/// layout tests parse this same text (`shaders/layout.rs`).
+/// layout tests parse this same text (`gpu/layout.rs`).
 pub(crate) fn with_common(source: &str) -> String {
-    format!("{}\n{}", include_str!("shaders/common.wgsl"), source)
+    format!("{}\n{}", include_str!("common.wgsl"), source)
 }
 
 /// A device and its queue, on whichever adapter exists (a real GPU, or Mesa's lavapipe

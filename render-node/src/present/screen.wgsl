@@ -4,7 +4,7 @@
 // `ToneMapper::apply`) or shown in false colour with the CPU's legend over it, and written
 // straight into the surface. One full-screen triangle.
 
-struct Screen {
+struct ScreenParams {
     window: vec2<u32>,
     eye_size: vec2<u32>,
     // 0: one eye (`first`), 1: side by side, 2: top-bottom, 3: anaglyph.
@@ -33,7 +33,7 @@ struct Screen {
     _pad2: u32,
 };
 
-@group(0) @binding(0) var<uniform> s: Screen;
+@group(0) @binding(0) var<uniform> s: ScreenParams;
 @group(0) @binding(1) var<storage, read> eye0: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> eye1: array<vec4<f32>>;
 // The legend's sRGB codes, 0x00BBGGRR per pixel, row by row (`falsecolor::Legend`).
