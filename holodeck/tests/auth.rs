@@ -69,26 +69,7 @@ fn closed_by_server(c: &mut TcpStream) -> bool {
 #[test]
 fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unchanged() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("a.hdk");
-    let section =
-        Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [3, 3, 3], ViewClass::Interior).unwrap();
-    let settings = [(DISTANCE_SETTING.to_string(), "virtual".to_string())].into();
-    HoloFile::create(&path, vec![section], settings).unwrap();
-    // Some samples first, by worker threads, committed.
-    let server = Server::new(
-        HoloFile::open_rw(&path).unwrap(),
-        Mode::Batch,
-        ServerConfig::default(),
-    );
-    run(server, options(1, None, COMMIT), |p| {
-        p.stats.samples >= 2000
-    })
-    .unwrap();
-    let before = dir.path().join("before.hdk");
-    std::fs::copy(&path, &before).unwrap();
-    let stored = HoloFile::open(&before).unwrap().total_samples();
-    assert!(stored >= 2000);
-
+    let (path, before, stored) = filled_with_a_copy(dir.path());
     // The port, with no tracer threads: only TCP workers could add samples.
     let server = Server::new(
         HoloFile::open_rw(&path).unwrap(),
@@ -101,11 +82,51 @@ fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unch
     )
     .unwrap();
     let addr = running.local_addr().unwrap();
-    let a = addr.to_string();
+    wrong_secrets_are_refused(addr);
+    traffic_without_a_handshake_is_refused(addr);
+    an_injected_packet_is_refused(addr);
+    let honest = a_replayed_packet_is_refused(addr);
 
-    // A worker and a display with the wrong secret.
+    let server = running.stop().unwrap();
+    drop(server);
+    let report = holds(&path, &before).unwrap();
+    assert!(report.holds_all(), "{report:?}");
+    let now = HoloFile::open(&path).unwrap().total_samples();
+    assert_eq!(
+        now,
+        stored + honest,
+        "only the honest packet was added ({stored} before, {honest} honest)"
+    );
+}
+
+/// A holodeck in `dir` with some samples, by worker threads, committed; a copy of it; how
+/// many samples it holds.
+fn filled_with_a_copy(dir: &std::path::Path) -> (std::path::PathBuf, std::path::PathBuf, u64) {
+    let path = dir.join("a.hdk");
+    let section =
+        Section::axis_aligned(DVec3::ZERO, DVec3::ONE, [3, 3, 3], ViewClass::Interior).unwrap();
+    let settings = [(DISTANCE_SETTING.to_string(), "virtual".to_string())].into();
+    HoloFile::create(&path, vec![section], settings).unwrap();
+    let server = Server::new(
+        HoloFile::open_rw(&path).unwrap(),
+        Mode::Batch,
+        ServerConfig::default(),
+    );
+    run(server, options(1, None, COMMIT), |p| {
+        p.stats.samples >= 2000
+    })
+    .unwrap();
+    let before = dir.join("before.hdk");
+    std::fs::copy(&path, &before).unwrap();
+    let stored = HoloFile::open(&before).unwrap().total_samples();
+    assert!(stored >= 2000);
+    (path, before, stored)
+}
+
+/// A worker and a display with the wrong secret are refused.
+fn wrong_secrets_are_refused(addr: std::net::SocketAddr) {
     let wrong = credentials_with(b"a guess");
-    let w = run_remote(&a, &wrong, "intruder", "analytic", &Analytic);
+    let w = run_remote(&addr.to_string(), &wrong, "intruder", "analytic", &Analytic);
     assert!(
         matches!(
             w,
@@ -118,9 +139,11 @@ fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unch
     );
     let d = DisplayClient::connect(addr, 7, &wrong);
     assert!(d.is_err(), "a display with the wrong secret was let in");
+}
 
-    // No handshake at all: a worker's hello as the first bytes; then random bytes, an
-    // oversized length and a truncated frame.
+/// No handshake at all: a worker's hello as the first bytes; then random bytes, an
+/// oversized length and a truncated frame. Each connection is closed by the server.
+fn traffic_without_a_handshake_is_refused(addr: std::net::SocketAddr) {
     let hello = WorkerMsg::Hello(WorkerHello {
         protocol: PROTOCOL_VERSION,
         name: "no handshake".into(),
@@ -144,10 +167,12 @@ fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unch
         let _ = c.write_all(&bad);
         assert!(closed_by_server(&mut c));
     }
+}
 
-    // An authenticated link that sends an unsealed (injected) sample packet for the rays
-    // it was given: refused, the link dropped.
-    let (mut c, _, mut opener) = honest_worker(&a);
+/// An authenticated link that sends an unsealed (injected) sample packet for the rays it
+/// was given: refused, the link dropped.
+fn an_injected_packet_is_refused(addr: std::net::SocketAddr) {
+    let (mut c, _, mut opener) = honest_worker(&addr.to_string());
     let ServerMsg::Rays(p) = opener.read(&mut c, MAX_FRAME_BYTES).unwrap() else {
         panic!("expected rays");
     };
@@ -155,10 +180,12 @@ fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unch
     c.write_all(&encode(&WorkerMsg::Samples(samples), MAX_FRAME_BYTES).unwrap())
         .unwrap();
     assert!(closed_by_server(&mut c));
+}
 
-    // A sealed sample packet sent twice: the first is an honest worker's and is kept, the
-    // replay is refused.
-    let (mut c, mut sealer, mut opener) = honest_worker(&a);
+/// A sealed sample packet sent twice: the first is an honest worker's and is kept, the
+/// replay is refused. How many samples the honest packet holds.
+fn a_replayed_packet_is_refused(addr: std::net::SocketAddr) -> u64 {
+    let (mut c, mut sealer, mut opener) = honest_worker(&addr.to_string());
     let ServerMsg::Rays(p) = opener.read(&mut c, MAX_FRAME_BYTES).unwrap() else {
         panic!("expected rays");
     };
@@ -170,15 +197,5 @@ fn unauthenticated_injected_and_replayed_traffic_is_refused_and_the_file_is_unch
     c.write_all(&sealed).unwrap();
     c.write_all(&sealed).unwrap();
     assert!(closed_by_server(&mut c));
-
-    let server = running.stop().unwrap();
-    drop(server);
-    let report = holds(&path, &before).unwrap();
-    assert!(report.holds_all(), "{report:?}");
-    let now = HoloFile::open(&path).unwrap().total_samples();
-    assert_eq!(
-        now,
-        stored + honest,
-        "only the honest packet was added ({stored} before, {honest} honest)"
-    );
+    honest
 }

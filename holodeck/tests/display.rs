@@ -112,6 +112,14 @@ fn interactive_on_loopback(
     .unwrap()
 }
 
+type Got = HashMap<BeamKey, Vec<PackedSample>>;
+
+/// Whether `g` holds at least the wanted number of samples of every beam of `want`.
+fn holds_wanted(want: &[(BeamKey, f64)], g: &Got) -> bool {
+    want.iter()
+        .all(|(k, n)| g.get(k).is_some_and(|v| v.len() as f64 >= *n))
+}
+
 #[test]
 fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
     let dir = tempfile::tempdir().unwrap();
@@ -128,28 +136,47 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
     let s = &tcp.sections()[0];
     let eye = DVec3::new(0.7, 1.1, 1.3);
     let want = wanted(s, eye);
-    tcp.request(EyeRequest {
+    let near_eye = |wanted: Vec<(BeamKey, f64)>| EyeRequest {
         slot: 0,
         eye: Some(EyeSphere {
             pos: eye,
             radius: 0.05,
         }),
-        wanted: want.clone(),
-    });
-    let mut got = HashMap::new();
-    let all_there = |g: &HashMap<BeamKey, Vec<PackedSample>>| {
-        want.iter()
-            .all(|(k, n)| g.get(k).is_some_and(|v| v.len() as f64 >= *n))
+        wanted,
     };
+    tcp.request(near_eye(want.clone()));
+    let mut got = HashMap::new();
     assert!(
-        receive(&tcp, &mut got, all_there),
+        receive(&tcp, &mut got, |g| holds_wanted(&want, g)),
         "the TCP display received traced samples: {:?}",
         got.iter().map(|(k, v)| (*k, v.len())).collect::<Vec<_>>()
     );
-    // The new rays pass near the eye (Appendix A; a few may fall back to uniform ones).
+    assert_new_rays_pass_near(s, &got, eye);
+    let local = running.display(9);
+    let mut got_local = stored_reach_a_local_display_once(&running, &local, &want, &got);
+    // The TCP display asks for more: the new samples reach both displays (the local one
+    // is up to date on these beams), and each sample arrives once.
+    let more: Vec<(BeamKey, f64)> = want.iter().map(|(k, _)| (*k, 120.0)).collect();
+    tcp.request(near_eye(more.clone()));
+    assert!(receive(&tcp, &mut got, |g| holds_wanted(&more, g)));
+    assert!(receive(&local, &mut got_local, |g| holds_wanted(&more, g)));
+    // Every sample traced (nothing more is wanted) has reached both displays, once.
+    assert_each_sample_once(&running, &tcp, 3, &mut got);
+    assert_each_sample_once(&running, &local, 9, &mut got_local);
+    assert_same_samples(&got, &got_local);
+    drop(local);
+    drop(tcp);
+    let server = running.stop().unwrap();
+    let total: u64 = server.stats().samples;
+    drop(server);
+    reopened_serves_what_it_stored(&path, total, &more);
+}
+
+/// The new rays pass near the eye (Appendix A; a few may fall back to uniform ones).
+fn assert_new_rays_pass_near(s: &Section, got: &Got, eye: DVec3) {
     let code = DistanceCode::new(s.size());
     let (mut near, mut total) = (0, 0);
-    for (k, v) in &got {
+    for (k, v) in got {
         for smp in v {
             let ws = WorldSample::decode(s, &code, k.beam, smp).unwrap();
             assert!((ws.point(0.0) - ws.exit).length() > 0.0);
@@ -161,29 +188,33 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
         near * 10 >= total * 9,
         "{near} of {total} rays pass near the eye"
     );
+}
 
-    // A display in the server's process asking for the same beams gets what is stored at
-    // once, with no worker involved (its requests ask for no more than is there).
-    let local = running.display(9);
+/// A display in the server's process asking for the beams of `want` gets what is stored
+/// (`got`) at once, with no worker involved (its requests ask for no more than is there);
+/// repeating the request sends nothing twice. What it received.
+fn stored_reach_a_local_display_once(
+    running: &holocave_holodeck::run::Running,
+    local: &DisplayClient,
+    want: &[(BeamKey, f64)],
+    got: &Got,
+) -> Got {
     let stored: HashMap<BeamKey, usize> = want.iter().map(|(k, _)| (*k, got[k].len())).collect();
-    local.request(EyeRequest {
+    let request = || EyeRequest {
         slot: 1,
         eye: None,
         wanted: want.iter().map(|(k, _)| (*k, 1.0)).collect(),
-    });
+    };
+    local.request(request());
     let mut got_local = HashMap::new();
-    assert!(receive(&local, &mut got_local, |g| {
+    assert!(receive(local, &mut got_local, |g| {
         stored
             .iter()
             .all(|(k, n)| g.get(k).is_some_and(|v| v.len() >= *n))
     }));
-    // Repeating the request sends nothing twice: once the server has served it, the
-    // display has been given each sample the holodeck holds exactly once.
-    local.request(EyeRequest {
-        slot: 1,
-        eye: None,
-        wanted: want.iter().map(|(k, _)| (*k, 1.0)).collect(),
-    });
+    // Once the server has served the repeat, the display has been given each sample the
+    // holodeck holds exactly once.
+    local.request(request());
     let t = Instant::now();
     while running.display_tally(9).requests < 2 {
         assert!(
@@ -192,28 +223,13 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
         );
         std::thread::sleep(Duration::from_millis(5));
     }
-    assert_each_sample_once(&running, &local, 9, &mut got_local);
-    // The TCP display asks for more: the new samples reach both displays (the local one
-    // is up to date on these beams), and each sample arrives once.
-    let more: Vec<(BeamKey, f64)> = want.iter().map(|(k, _)| (*k, 120.0)).collect();
-    tcp.request(EyeRequest {
-        slot: 0,
-        eye: Some(EyeSphere {
-            pos: eye,
-            radius: 0.05,
-        }),
-        wanted: more.clone(),
-    });
-    let enough = |g: &HashMap<BeamKey, Vec<PackedSample>>| {
-        more.iter()
-            .all(|(k, n)| g.get(k).is_some_and(|v| v.len() as f64 >= *n))
-    };
-    assert!(receive(&tcp, &mut got, enough));
-    assert!(receive(&local, &mut got_local, enough));
-    // Every sample traced (nothing more is wanted) has reached both displays, once.
-    assert_each_sample_once(&running, &tcp, 3, &mut got);
-    assert_each_sample_once(&running, &local, 9, &mut got_local);
-    for (k, v) in &got {
+    assert_each_sample_once(running, local, 9, &mut got_local);
+    got_local
+}
+
+/// Both displays hold every sample of every beam, once.
+fn assert_same_samples(got: &Got, got_local: &Got) {
+    for (k, v) in got {
         assert_eq!(
             got_local.get(k).map(Vec::len),
             Some(v.len()),
@@ -225,15 +241,13 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
         b.sort_by_key(|s| s.to_bytes());
         assert_eq!(a, b);
     }
-    drop(local);
-    drop(tcp);
-    let server = running.stop().unwrap();
-    let total: u64 = server.stats().samples;
-    drop(server);
+}
 
-    // Reopened, without workers: a new TCP display gets the stored samples.
+/// The holodeck at `path` reopened without workers holds its `total` samples, and a new
+/// TCP display gets the stored samples of `more`.
+fn reopened_serves_what_it_stored(path: &std::path::Path, total: u64, more: &[(BeamKey, f64)]) {
     let server = Server::new(
-        HoloFile::open_rw(&path).unwrap(),
+        HoloFile::open_rw(path).unwrap(),
         Mode::Interactive,
         ServerConfig::default(),
     );
@@ -248,10 +262,10 @@ fn displays_over_tcp_and_in_process_receive_stored_and_new_samples() {
     tcp.request(EyeRequest {
         slot: 0,
         eye: None,
-        wanted: more.clone(),
+        wanted: more.to_vec(),
     });
     let mut again = HashMap::new();
-    assert!(receive(&tcp, &mut again, enough));
+    assert!(receive(&tcp, &mut again, |g| holds_wanted(more, g)));
     drop(tcp);
     running.stop().unwrap();
 }

@@ -59,26 +59,7 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
             })
         })
         .collect();
-    // A worker that takes a packet and dies.
-    let a = addr.clone();
-    let dying = std::thread::spawn(move || {
-        let mut c = std::net::TcpStream::connect(&a).unwrap();
-        let (mut sealer, mut opener) = auth::connect(&mut c, &credentials(), Role::Worker).unwrap();
-        let hello = WorkerMsg::Hello(WorkerHello {
-            protocol: PROTOCOL_VERSION,
-            name: "dying".into(),
-            scene: "analytic".into(),
-        });
-        sealer.write(&mut c, &hello, MAX_FRAME_BYTES).unwrap();
-        assert!(matches!(
-            opener.read(&mut c, MAX_FRAME_BYTES).unwrap(),
-            ServerMsg::Welcome(_)
-        ));
-        assert!(matches!(
-            opener.read(&mut c, MAX_FRAME_BYTES).unwrap(),
-            ServerMsg::Rays(_)
-        ));
-    });
+    let dying = dying_worker(addr);
     let opts = options(2, Some(listener), Duration::from_millis(300));
     // The analytic source returns millions of samples a second on one core: even at a
     // hundredth of that (with a commit on top), the fill is done by this deadline.
@@ -117,17 +98,41 @@ fn threads_and_tcp_workers_fill_together_and_survive_a_dying_worker() {
     assert_eq!(stats.workers, 0, "all workers have left");
     let h = server.into_file().unwrap();
     drop(h);
-    let h = HoloFile::open(&path).unwrap();
+    assert_stored_as_traced(&path, stats.samples);
+}
+
+/// A worker at `addr` that takes a packet and dies.
+fn dying_worker(addr: String) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        let mut c = std::net::TcpStream::connect(&addr).unwrap();
+        let (mut sealer, mut opener) = auth::connect(&mut c, &credentials(), Role::Worker).unwrap();
+        let hello = WorkerMsg::Hello(WorkerHello {
+            protocol: PROTOCOL_VERSION,
+            name: "dying".into(),
+            scene: "analytic".into(),
+        });
+        sealer.write(&mut c, &hello, MAX_FRAME_BYTES).unwrap();
+        assert!(matches!(
+            opener.read(&mut c, MAX_FRAME_BYTES).unwrap(),
+            ServerMsg::Welcome(_)
+        ));
+        assert!(matches!(
+            opener.read(&mut c, MAX_FRAME_BYTES).unwrap(),
+            ServerMsg::Rays(_)
+        ));
+    })
+}
+
+/// The file at `path` stores every one of the `samples` that came back, with the virtual
+/// distances (3) measured from the entry point: interior rays are traced from the exit
+/// point, one chord further on.
+fn assert_stored_as_traced(path: &std::path::Path, samples: u64) {
+    let h = HoloFile::open(path).unwrap();
     let stored: u64 = h.directory(0).iter().map(|e| u64::from(e.count)).sum();
-    assert_eq!(
-        stored, stats.samples,
-        "every sample that came back was stored"
-    );
+    assert_eq!(stored, samples, "every sample that came back was stored");
     let mut v = Vec::new();
     h.read_beam(0, 0, &mut v).unwrap();
     assert!(!v.is_empty());
-    // Stored distances are the virtual ones (3), measured from the entry point: interior
-    // rays are traced from the exit point, one chord further on.
     let section = &h.sections()[0];
     let code = DistanceCode::new(section.size());
     for beam in [0, 17, section.beam_count() - 1] {
