@@ -170,38 +170,7 @@ fn a_damaged_byte_names_the_chunk() {
         read_bytes(dir.path(), &format!("flip{at}.vlf"), &b)
     };
 
-    // The magic number and the version.
-    for at in [0, 7] {
-        let (p, r) = flip(at);
-        let e = r.unwrap_err();
-        assert!(matches!(e, VlfError::NotVlf { .. }), "byte {at}: {e:?}");
-        names_file(&e, &p);
-    }
-    let (p, r) = flip(8);
-    let e = r.unwrap_err();
-    let damaged = u32::from(bytes[8] ^ 0x10);
-    assert!(
-        matches!(e, VlfError::Version { found, .. } if found == damaged),
-        "{e:?}"
-    );
-    names_file(&e, &p);
-    // A file of every earlier version (before the glossy tiles, before the direct part
-    // was kept apart, another tile layout, ... : `vlf/src/file.rs` says what each would
-    // draw wrong) is refused, saying to bake it again.
-    let current = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
-    assert!(current > 1, "version {current}");
-    for version in 1..current {
-        let mut old = bytes.clone();
-        old[8..12].copy_from_slice(&version.to_le_bytes());
-        let (p, r) = read_bytes(dir.path(), "old.vlf", &old);
-        let e = r.unwrap_err();
-        assert!(
-            matches!(e, VlfError::Version { found, .. } if found == version),
-            "{e:?}"
-        );
-        assert!(e.to_string().contains("bake it again"), "{e}");
-        names_file(&e, &p);
-    }
+    header_damage_is_named(dir.path(), &bytes, &flip);
 
     // The chunk count.
     let (p, r) = flip(12);
@@ -223,55 +192,101 @@ fn a_damaged_byte_names_the_chunk() {
     );
 
     for (tag, at, len) in chunks(&bytes) {
-        // Anywhere in the payload, or in the checksum itself: a checksum mismatch at the
-        // chunk's start.
-        let payload = if len > 0 {
-            vec![at + 16, at + 16 + len / 2, at + 16 + len - 1]
-        } else {
-            vec![]
-        };
-        for b in std::iter::once(at + 12).chain(payload) {
-            let (p, r) = flip(b);
-            let e = r.unwrap_err();
-            names_file(&e, &p);
-            match &e {
-                VlfError::Checksum { chunk, offset, .. } => {
-                    assert_eq!(
-                        (chunk.as_str(), *offset),
-                        (tag.as_str(), at as u64),
-                        "byte {b}"
-                    );
-                    assert!(e.to_string().contains(&format!("chunk {tag} at byte {at}")));
-                }
-                _ => panic!("byte {b} of {tag}: {e:?}"),
-            }
-        }
-        // The tag: not the chunk expected there.
+        chunk_damage_is_named(&tag, at, len, &flip);
+    }
+}
+
+/// A file with byte `at` flipped, written and read back.
+type Flip<'a> = dyn Fn(usize) -> (std::path::PathBuf, Result<VlfFile, VlfError>) + 'a;
+
+/// The magic number and the version of `bytes` damaged (`flip`), and every earlier
+/// version (written in `dir`): each refused, naming the file.
+fn header_damage_is_named(dir: &Path, bytes: &[u8], flip: &Flip) {
+    // The magic number and the version.
+    for at in [0, 7] {
         let (p, r) = flip(at);
         let e = r.unwrap_err();
+        assert!(matches!(e, VlfError::NotVlf { .. }), "byte {at}: {e:?}");
         names_file(&e, &p);
-        assert!(
-            matches!(&e, VlfError::Malformed { chunk, offset, .. } if *chunk == tag && *offset == at as u64),
-            "tag of {tag}: {e:?}"
-        );
-        // The length's high byte: the payload would run past the end of the file.
-        let (p, r) = flip(at + 11);
-        let e = r.unwrap_err();
-        names_file(&e, &p);
-        assert!(
-            matches!(&e, VlfError::Truncated { chunk, .. } if *chunk == tag),
-            "length of {tag}: {e:?}"
-        );
-        // The length's low byte, shorter: the chunk's checksum (or, for the last chunk,
-        // the checksum too: the payload read is not the one summed).
-        let (p, r) = flip(at + 4);
-        let e = r.unwrap_err();
-        names_file(&e, &p);
-        assert!(
-            matches!(&e, VlfError::Checksum { chunk, .. } | VlfError::Truncated { chunk, .. } if *chunk == tag),
-            "length of {tag}: {e:?}"
-        );
     }
+    let (p, r) = flip(8);
+    let e = r.unwrap_err();
+    let damaged = u32::from(bytes[8] ^ 0x10);
+    assert!(
+        matches!(e, VlfError::Version { found, .. } if found == damaged),
+        "{e:?}"
+    );
+    names_file(&e, &p);
+    // A file of every earlier version (before the glossy tiles, before the direct part
+    // was kept apart, another tile layout, ... : `vlf/src/file.rs` says what each would
+    // draw wrong) is refused, saying to bake it again.
+    let current = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
+    assert!(current > 1, "version {current}");
+    for version in 1..current {
+        let mut old = bytes.to_vec();
+        old[8..12].copy_from_slice(&version.to_le_bytes());
+        let (p, r) = read_bytes(dir, "old.vlf", &old);
+        let e = r.unwrap_err();
+        assert!(
+            matches!(e, VlfError::Version { found, .. } if found == version),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("bake it again"), "{e}");
+        names_file(&e, &p);
+    }
+}
+
+/// Chunk `tag` (at byte `at`, `len` bytes of payload) damaged by `flip`: in its payload or
+/// checksum, its tag, and its length's high and low bytes, each named.
+fn chunk_damage_is_named(tag: &str, at: usize, len: usize, flip: &Flip) {
+    // Anywhere in the payload, or in the checksum itself: a checksum mismatch at the
+    // chunk's start.
+    let payload = if len > 0 {
+        vec![at + 16, at + 16 + len / 2, at + 16 + len - 1]
+    } else {
+        vec![]
+    };
+    for b in std::iter::once(at + 12).chain(payload) {
+        let (p, r) = flip(b);
+        let e = r.unwrap_err();
+        names_file(&e, &p);
+        match &e {
+            VlfError::Checksum { chunk, offset, .. } => {
+                assert_eq!(
+                    (chunk.as_str(), *offset),
+                    (tag, at as u64),
+                    "byte {b}"
+                );
+                assert!(e.to_string().contains(&format!("chunk {tag} at byte {at}")));
+            }
+            _ => panic!("byte {b} of {tag}: {e:?}"),
+        }
+    }
+    // The tag: not the chunk expected there.
+    let (p, r) = flip(at);
+    let e = r.unwrap_err();
+    names_file(&e, &p);
+    assert!(
+        matches!(&e, VlfError::Malformed { chunk, offset, .. } if *chunk == tag && *offset == at as u64),
+        "tag of {tag}: {e:?}"
+    );
+    // The length's high byte: the payload would run past the end of the file.
+    let (p, r) = flip(at + 11);
+    let e = r.unwrap_err();
+    names_file(&e, &p);
+    assert!(
+        matches!(&e, VlfError::Truncated { chunk, .. } if *chunk == tag),
+        "length of {tag}: {e:?}"
+    );
+    // The length's low byte, shorter: the chunk's checksum (or, for the last chunk,
+    // the checksum too: the payload read is not the one summed).
+    let (p, r) = flip(at + 4);
+    let e = r.unwrap_err();
+    names_file(&e, &p);
+    assert!(
+        matches!(&e, VlfError::Checksum { chunk, .. } | VlfError::Truncated { chunk, .. } if *chunk == tag),
+        "length of {tag}: {e:?}"
+    );
 }
 
 #[test]
