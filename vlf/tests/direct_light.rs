@@ -8,9 +8,10 @@ use crate::common;
 use std::sync::Arc;
 
 use glam::Vec3;
-use holocave_scene::{Hit, Ray};
+use holocave_scene::{Hit, Ray, Scene};
+use holocave_vlf::elements::Elements;
 use holocave_vlf::view::shade_one;
-use holocave_vlf::{Settings, Visibility, layout};
+use holocave_vlf::{Settings, State, Visibility, layout};
 
 const I: f32 = 10.0;
 const H: f32 = 1.0;
@@ -77,7 +78,27 @@ fn a_point_light_gives_i_cos_over_d_squared() {
         I / (H * H)
     );
 
-    let (_, centre) = elements.areas_and_centres(&scene);
+    assert_elements_exact(&scene, &elements, &state, light, (square, half));
+
+    // What a viewer sees: ρ/π times the irradiance interpolated bilinearly between cell
+    // centres. Between centres of full cells (points at least 1.5 s from the triangle's
+    // edges, the quad's diagonal x + z = 0 included) interpolation adds at most
+    // (s²/8)(|f_xx| + |f_yy|) ≤ H2 s²/4 = 0.037 to the elements' own error.
+    let interp = square + h2 * s * s / 4.0;
+    assert_drawn_exact(&scene, &settings, &state, light, (interp, s));
+}
+
+/// Every element's irradiance against the exact one at its centre, within `square` (or
+/// `half`, for the half cells on a triangle's diagonal); the underside dark.
+fn assert_elements_exact(
+    scene: &Scene,
+    elements: &Elements,
+    state: &State,
+    light: Vec3,
+    (square, half): (f32, f32),
+) {
+    let r = elements.triangles[0].res;
+    let (_, centre) = elements.areas_and_centres(scene);
     let mut worst = 0f32;
     for (t, cells) in elements.triangles.iter().enumerate() {
         let count = holocave_vlf::elements::cells(cells.res);
@@ -109,14 +130,19 @@ fn a_point_light_gives_i_cos_over_d_squared() {
         }
     }
     eprintln!("worst element error {worst:.3} of its tolerance");
+}
 
-    // What a viewer sees: ρ/π times the irradiance interpolated bilinearly between cell
-    // centres. Between centres of full cells (points at least 1.5 s from the triangle's
-    // edges, the quad's diagonal x + z = 0 included) interpolation adds at most
-    // (s²/8)(|f_xx| + |f_yy|) ≤ H2 s²/4 = 0.037 to the elements' own error.
-    let interp = square + h2 * s * s / 4.0;
+/// What a viewer sees at points of full cells (at least 1.5 `s` from the triangles'
+/// edges) against ρ/π times the exact irradiance, within ρ/π `interp`.
+fn assert_drawn_exact(
+    scene: &Arc<Scene>,
+    settings: &Settings,
+    state: &State,
+    light: Vec3,
+    (interp, s): (f32, f32),
+) {
     let eye = Vec3::new(0.3, 2.5, -0.2);
-    let vis = Visibility::of(scene.clone(), &settings);
+    let vis = Visibility::of(scene.clone(), settings);
     let values = state.values();
     for (x, z) in [
         (0.1, 0.1),

@@ -252,11 +252,7 @@ fn chunk_damage_is_named(tag: &str, at: usize, len: usize, flip: &Flip) {
         names_file(&e, &p);
         match &e {
             VlfError::Checksum { chunk, offset, .. } => {
-                assert_eq!(
-                    (chunk.as_str(), *offset),
-                    (tag, at as u64),
-                    "byte {b}"
-                );
+                assert_eq!((chunk.as_str(), *offset), (tag, at as u64), "byte {b}");
                 assert!(e.to_string().contains(&format!("chunk {tag} at byte {at}")));
             }
             _ => panic!("byte {b} of {tag}: {e:?}"),
