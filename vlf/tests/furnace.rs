@@ -12,9 +12,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec3;
-use holocave_scene::Ray;
+use holocave_scene::{Ray, Scene};
 use holocave_vlf::view::shade_one;
-use holocave_vlf::{Directions, PixelDirect, Settings, Visibility, layout};
+use holocave_vlf::{Directions, PixelDirect, Settings, State, Visibility, layout};
 
 const LE: f32 = 1.0;
 const RHO: f32 = 0.5;
@@ -92,26 +92,7 @@ fn closed_furnace_draws_le_over_one_minus_rho() {
         state.tail()
     );
 
-    // The quadrature factor c: the box's normals are the axes, which the geodesic sphere
-    // treats alike, so one factor serves every face.
-    let directions = Directions::at_least(settings.directions);
-    let c = cosine_quadrature(&directions, Vec3::X);
-    for n in [Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z] {
-        assert!((cosine_quadrature(&directions, n) - c).abs() < 1e-4);
-    }
-    // The residuals: bounce 0 sends out exactly ρ of the light that arrived (one albedo
-    // everywhere), and each later bounce ρ c of the one before. A line lost at the box's
-    // edges or corners would make the ratio smaller; 1 % is several times the scatter of
-    // the per-element line counts averaged over the 1 440 lit elements (≈ 6 % / √1440).
-    let r = &state.residuals;
-    assert!((r[0] - f64::from(RHO)).abs() < 1e-6, "r0 {}", r[0]);
-    for k in 2..r.len() {
-        let q = r[k] / r[k - 1] / f64::from(RHO);
-        assert!(
-            (q - c).abs() < 0.01,
-            "bounce {k}: ratio/ρ {q:.4}, quadrature {c:.4}"
-        );
-    }
+    let c = assert_bounces_fall_by_rho_c(&state, settings.directions);
 
     // What the drawn radiance should be, relative to the exact Le/(1 − ρ):
     //  - bias: the direct light ρ Le is right on average; the propagated bounces each carry
@@ -137,9 +118,72 @@ fn closed_furnace_draws_le_over_one_minus_rho() {
     let truncation = f64::from(RHO * RHO) * settings.tolerance;
 
     let exact = LE / (1.0 - RHO);
-    let elements = layout(&scene, &settings);
+    let (interior, seen, all) = drawn_errors(&scene, &settings, &state, exact);
+    let n = interior.len() as f64;
+    let mean = interior.iter().sum::<f64>() / n;
+    let rms = (interior.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let worst = interior.iter().fold(0f64, |m, e| m.max((e - bias).abs()));
+    eprintln!(
+        "furnace: {all} rays, {} away from edges over {} elements: mean error {mean:.4} \
+         (bias expected {bias:.4}), spread {rms:.4}, worst {worst:.4}",
+        interior.len(),
+        seen
+    );
+    assert!(interior.len() > all / 3, "{} of {all}", interior.len());
+    // The mean over rays that see K different elements: bias, truncation, and four
+    // standard errors σ/√K.
+    let k = seen as f64;
+    assert!(
+        (mean - bias).abs() < truncation + 4.0 * sigma / k.sqrt(),
+        "mean error {mean:.5}, expected {bias:.5} ± {:.5}",
+        truncation + 4.0 * sigma / k.sqrt()
+    );
+    assert!(rms < sigma, "spread {rms:.4} above the σ = {sigma} derived");
+    // No ray further than 4σ (+ the truncation) from the expected value: with ≈ 2 000 rays
+    // of Gaussian errors the largest would be ≈ 3.5σ.
+    assert!(
+        worst < 4.0 * sigma + truncation,
+        "worst ray {worst:.4} above 4σ = {}",
+        4.0 * sigma
+    );
+}
+
+/// The quadrature factor `c` of `directions` directions (the box's normals are the axes,
+/// which the geodesic sphere treats alike, so one factor serves every face), checked
+/// against the residuals: bounce 0 sends out exactly ρ of the light that arrived (one
+/// albedo everywhere), and each later bounce ρ c of the one before. A line lost at the
+/// box's edges or corners would make the ratio smaller; 1 % is several times the scatter
+/// of the per-element line counts averaged over the 1 440 lit elements (≈ 6 % / √1440).
+fn assert_bounces_fall_by_rho_c(state: &State, directions: usize) -> f64 {
+    let directions = Directions::at_least(directions);
+    let c = cosine_quadrature(&directions, Vec3::X);
+    for n in [Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z] {
+        assert!((cosine_quadrature(&directions, n) - c).abs() < 1e-4);
+    }
+    let r = &state.residuals;
+    assert!((r[0] - f64::from(RHO)).abs() < 1e-6, "r0 {}", r[0]);
+    for k in 2..r.len() {
+        let q = r[k] / r[k - 1] / f64::from(RHO);
+        assert!(
+            (q - c).abs() < 0.01,
+            "bounce {k}: ratio/ρ {q:.4}, quadrature {c:.4}"
+        );
+    }
+    c
+}
+
+/// The relative errors against `exact` of the radiance drawn for 4 000 rays from four
+/// points inside the box, of those landing more than two elements from an edge (every
+/// ray's radiance finite and positive); how many elements those saw; how many rays.
+fn drawn_errors(
+    scene: &Arc<Scene>,
+    settings: &Settings,
+    state: &State,
+    exact: f32,
+) -> (Vec<f64>, usize, usize) {
+    let elements = layout(scene, settings);
     let element_size = elements.element_size;
-    let vis = Visibility::of(scene.clone(), &settings);
+    let vis = Visibility::of(scene.clone(), settings);
     let values = state.values();
     let mut interior = Vec::new();
     let mut seen = HashSet::new();
@@ -172,33 +216,7 @@ fn closed_furnace_draws_le_over_one_minus_rho() {
             }
         }
     }
-    let n = interior.len() as f64;
-    let mean = interior.iter().sum::<f64>() / n;
-    let rms = (interior.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / n).sqrt();
-    let worst = interior.iter().fold(0f64, |m, e| m.max((e - bias).abs()));
-    eprintln!(
-        "furnace: {all} rays, {} away from edges over {} elements: mean error {mean:.4} \
-         (bias expected {bias:.4}), spread {rms:.4}, worst {worst:.4}",
-        interior.len(),
-        seen.len()
-    );
-    assert!(interior.len() > all / 3, "{} of {all}", interior.len());
-    // The mean over rays that see K different elements: bias, truncation, and four
-    // standard errors σ/√K.
-    let k = seen.len() as f64;
-    assert!(
-        (mean - bias).abs() < truncation + 4.0 * sigma / k.sqrt(),
-        "mean error {mean:.5}, expected {bias:.5} ± {:.5}",
-        truncation + 4.0 * sigma / k.sqrt()
-    );
-    assert!(rms < sigma, "spread {rms:.4} above the σ = {sigma} derived");
-    // No ray further than 4σ (+ the truncation) from the expected value: with ≈ 2 000 rays
-    // of Gaussian errors the largest would be ≈ 3.5σ.
-    assert!(
-        worst < 4.0 * sigma + truncation,
-        "worst ray {worst:.4} above 4σ = {}",
-        4.0 * sigma
-    );
+    (interior, seen.len(), all)
 }
 
 /// The split: the light field's remainder (`State::indirect_values`) plus the direct light
