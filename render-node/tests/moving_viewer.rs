@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use holocave_cave::Size;
-use holocave_render_node::{EyeView, Gpu, PixelTracer, RenderCache, WallDisplay};
+use holocave_render_node::{EyeView, FrameReport, Gpu, PixelTracer, RenderCache, WallDisplay};
 use holocave_tracer::film::Image;
 use holocave_tracer::{TraceSettings, Tracer, render::render};
 use holocave_tracking::csv_log::read_csv;
@@ -171,74 +171,14 @@ fn follow_a_recorded_trace(run: u64) -> Option<Vec<(f64, f64)>> {
         let start = Instant::now();
         let report = display.frame(&views, false);
         worst = worst.max(start.elapsed());
-        // A fixed budget each frame: every eye chooses exactly its budget of pixels (the
-        // dither's choice, capped at the budget and topped up where it fell short), and
-        // exactly the chosen pixels are traced and inserted.
-        for (eye, &c) in report.chosen.iter().enumerate() {
-            assert_eq!(
-                c as u32, budget,
-                "frame {frame} eye {eye}: {c} pixels chosen for a budget of {budget}"
-            );
-        }
-        assert_eq!(report.chosen.len(), 2, "frame {frame}: both eyes drawn");
-        assert_eq!(
-            report.inserted,
-            report.chosen.iter().sum::<usize>(),
-            "frame {frame}: one sample per chosen pixel, traced and inserted this frame"
-        );
-        // After 16 frames every eye has been sent about one sample per pixel.
+        assert_fixed_budget(&report, frame, budget);
         if frame >= 16 {
-            for eye in 0..2 {
-                let cov = display.cache.coverage(eye);
-                let filled = cov.iter().filter(|&&c| c > 0.0).count() as f64 / cov.len() as f64;
-                assert!(
-                    filled > 0.95,
-                    "frame {frame} eye {eye}: only {:.1}% of the pixels drawn",
-                    filled * 100.0
-                );
-            }
+            assert_covered(&display, frame);
         }
         if frame % 30 == 29 {
-            // The image shown this frame was drawn before this frame's samples came in:
-            // compare it with the reference of this frame's left view.
-            let img = display.cache.image(0);
-            let reference = render(&tracer, &views[0].wall, 256, frame + (run << 32), &|| {});
-            let err = img.relative_mse(&reference);
-            // Path-traced fireflies dominate the relative MSE of images of a few samples
-            // per pixel (a black image scores about 1); radiance clamped at 1 compares what
-            // the eye sees.
-            let clamped = clamp(&img).relative_mse(&clamp(&reference));
-            // The same number of rays spent on a whole path-traced frame of this view
-            // (what the cache has had per pixel so far, had nothing moved).
-            let spp = ((frame + 1) * u64::from(budget)).div_ceil(u64::from(n)) as u32;
-            let same_rays = render(
-                &tracer,
-                &views[0].wall,
-                spp,
-                frame + 99 + (run << 32),
-                &|| {},
-            );
-            let baseline = clamp(&same_rays).relative_mse(&clamp(&reference));
-            eprintln!(
-                "frame {frame}: head moved {travelled:.3} m so far; relative MSE {err:.3}, \
-                 clamped at 1: {clamped:.4} (a {spp} spp path-traced frame: {baseline:.4})"
-            );
-            errors.push((clamped, baseline));
-            let e = reference.auto_exposure();
-            sheet.push(vec![
-                img.to_preview(e),
-                display.cache.image(1).to_preview(e),
-                reference.to_preview(e),
-                same_rays.to_preview(e),
-            ]);
-            let pts = display.cache.points();
-            let valid: Vec<_> = pts.iter().filter(|p| p.pos[3] < 1e6).collect();
-            let mean_count =
-                valid.iter().map(|p| f64::from(p.rad[3])).sum::<f64>() / valid.len().max(1) as f64;
-            eprintln!(
-                "  {} points, mean samples per point {mean_count:.2}",
-                valid.len()
-            );
+            let (error, row) = measure(&display, &tracer, &views[0], (frame, run), travelled);
+            errors.push(error);
+            sheet.push(row);
         }
     }
     if let Ok(dir) = std::env::var("HOLOCAVE_TEST_OUT") {
@@ -252,6 +192,86 @@ fn follow_a_recorded_trace(run: u64) -> Option<Vec<(f64, f64)>> {
     // For information only: speed is measured by the `display` benchmark.
     eprintln!("worst frame time {:.1} ms", worst.as_secs_f64() * 1e3);
     Some(errors)
+}
+
+/// A fixed budget each frame: every eye chooses exactly its budget of pixels (the dither's
+/// choice, capped at the budget and topped up where it fell short), and exactly the chosen
+/// pixels are traced and inserted.
+fn assert_fixed_budget(report: &FrameReport, frame: u64, budget: u32) {
+    for (eye, &c) in report.chosen.iter().enumerate() {
+        assert_eq!(
+            c as u32, budget,
+            "frame {frame} eye {eye}: {c} pixels chosen for a budget of {budget}"
+        );
+    }
+    assert_eq!(report.chosen.len(), 2, "frame {frame}: both eyes drawn");
+    assert_eq!(
+        report.inserted,
+        report.chosen.iter().sum::<usize>(),
+        "frame {frame}: one sample per chosen pixel, traced and inserted this frame"
+    );
+}
+
+/// After 16 frames every eye has been sent about one sample per pixel.
+fn assert_covered(display: &WallDisplay, frame: u64) {
+    for eye in 0..2 {
+        let cov = display.cache.coverage(eye);
+        let filled = cov.iter().filter(|&&c| c > 0.0).count() as f64 / cov.len() as f64;
+        assert!(
+            filled > 0.95,
+            "frame {frame} eye {eye}: only {:.1}% of the pixels drawn",
+            filled * 100.0
+        );
+    }
+}
+
+/// Frame `frame` of run `run` measured on the left eye's `view`: the cache's clamped error
+/// and a path-traced frame's with as many rays, both against a 256-spp reference; and the
+/// contact sheet's row (both eyes, the reference, the path-traced frame).
+fn measure(
+    display: &WallDisplay,
+    tracer: &Tracer,
+    view: &EyeView,
+    (frame, run): (u64, u64),
+    travelled: f32,
+) -> ((f64, f64), Vec<image::RgbImage>) {
+    let n = SIZE * SIZE;
+    let budget = n / 16;
+    // The image shown this frame was drawn before this frame's samples came in:
+    // compare it with the reference of this frame's left view.
+    let img = display.cache.image(0);
+    let reference = render(tracer, &view.wall, 256, frame + (run << 32), &|| {});
+    let err = img.relative_mse(&reference);
+    // Path-traced fireflies dominate the relative MSE of images of a few samples
+    // per pixel (a black image scores about 1); radiance clamped at 1 compares what
+    // the eye sees.
+    let clamped = clamp(&img).relative_mse(&clamp(&reference));
+    // The same number of rays spent on a whole path-traced frame of this view
+    // (what the cache has had per pixel so far, had nothing moved).
+    let spp = ((frame + 1) * u64::from(budget)).div_ceil(u64::from(n)) as u32;
+    let same_rays = render(tracer, &view.wall, spp, frame + 99 + (run << 32), &|| {});
+    let baseline = clamp(&same_rays).relative_mse(&clamp(&reference));
+    eprintln!(
+        "frame {frame}: head moved {travelled:.3} m so far; relative MSE {err:.3}, \
+             clamped at 1: {clamped:.4} (a {spp} spp path-traced frame: {baseline:.4})"
+    );
+    let e = reference.auto_exposure();
+    let row = vec![
+        img.to_preview(e),
+        display.cache.image(1).to_preview(e),
+        reference.to_preview(e),
+        same_rays.to_preview(e),
+    ];
+    let pts = display.cache.points();
+    let valid: Vec<_> = pts.iter().filter(|p| p.pos[3] < 1e6).collect();
+    let mean_count =
+        valid.iter().map(|p| f64::from(p.rad[3])).sum::<f64>() / valid.len().max(1) as f64;
+    eprintln!(
+        "  {} points, mean samples per point {mean_count:.2}",
+        valid.len()
+    );
+
+    ((clamped, baseline), row)
 }
 
 fn clamp(img: &Image) -> Image {
