@@ -30,7 +30,6 @@
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufRead, BufReader};
-use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -90,11 +89,6 @@ fn chaos_targets(kills: usize) -> Vec<Target> {
         targets[middle] = Target::Master;
     }
     targets
-}
-
-fn free_address() -> String {
-    let l = TcpListener::bind("127.0.0.1:0").unwrap();
-    l.local_addr().unwrap().to_string()
 }
 
 /// The cluster's processes, each under its own `holocave supervise`, and where they write.
@@ -218,7 +212,7 @@ fn master_args<'a>(addr: &'a str, extra: &[&'a std::ffi::OsStr]) -> Vec<&'a std:
 /// appended to `dir/states.bin`, the holodeck `dir/cornell.hdk` hosted at its own port),
 /// the workers and the nodes (presenting into `dir/walls`), each supervised.
 fn start(dir: &Path) -> Cluster {
-    let (addr, holodeck_addr) = (free_address(), free_address());
+    let (addr, holodeck_addr) = (common::free_address(), common::free_address());
     std::fs::create_dir_all(dir.join("walls")).unwrap();
     let (session, states, hdk) = (
         dir.join("session"),
@@ -411,7 +405,7 @@ fn assert_replayed_alike(dir: &Path) {
     let reference = dir.join("reference.bin");
     let frames = (last + 1).to_string();
     let os = std::ffi::OsStr::new;
-    let addr = free_address();
+    let addr = common::free_address();
     let extra = [
         os("--frames"),
         os(&frames),

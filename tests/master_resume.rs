@@ -14,7 +14,6 @@
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufRead, BufReader};
-use std::net::TcpListener;
 use std::path::Path;
 use std::process::{ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -32,13 +31,6 @@ const WALLS: [&str; 4] = ["front", "left", "right", "floor"];
 const SECRET: &str = "resume-test-secret";
 /// Frames the resumed master sends before it ends the session.
 const AFTER_RESUME: u64 = 30;
-
-/// A loopback address no one listens on now: the killed master's and the resumed one's,
-/// where the nodes keep reconnecting.
-fn free_address() -> String {
-    let l = TcpListener::bind("127.0.0.1:0").unwrap();
-    l.local_addr().unwrap().to_string()
-}
 
 /// `holocave master` on `addr` replaying the synthetic walk at 20 Hz (a second's dead-node
 /// timeout: a CI machine's two cores are shared by four nodes), every frame state
@@ -133,7 +125,7 @@ fn a_killed_master_is_resumed_and_its_walls_present_the_frames_after_the_last_ke
     let dir = scratch("master-resume");
     let (session, walls) = (dir.join("session"), dir.join("walls"));
     std::fs::create_dir_all(&walls).unwrap();
-    let addr = free_address();
+    let addr = common::free_address();
     let session_flag = session.to_str().unwrap();
     let (mut first, _first_out) = master(
         &addr,
@@ -154,7 +146,11 @@ fn a_killed_master_is_resumed_and_its_walls_present_the_frames_after_the_last_ke
     // The same replay without a kill, alongside (it needs no nodes): the frames' reference.
     let reference = dir.join("reference.bin");
     let total_flag = total.to_string();
-    let (alone, _alone_out) = master(&free_address(), &reference, &["--frames", &total_flag]);
+    let (alone, _alone_out) = master(
+        &common::free_address(),
+        &reference,
+        &["--frames", &total_flag],
+    );
     let (mut resumed, mut out) = master(
         &addr,
         &dir.join("states-2.bin"),

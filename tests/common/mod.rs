@@ -236,3 +236,10 @@ pub fn sigkill(pid: u32) {
         .unwrap();
     assert!(ok.success(), "kill -KILL {pid}");
 }
+
+/// A loopback address no one listens on now (a master's or a holodeck's to be, where
+/// nodes and workers keep reconnecting across a restart).
+pub fn free_address() -> String {
+    let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    l.local_addr().unwrap().to_string()
+}
