@@ -34,7 +34,6 @@ use std::sync::{Arc, Mutex};
 use glam::{Mat4, Vec3};
 use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
-use holocave_vlf::baked;
 use holocave_vlf::footprint::Screen;
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::kept_gathers::KeptGathers;
@@ -45,6 +44,7 @@ use holocave_vlf::{
     Accumulator, Aim, CpuRays, DirectPoint, FrameContext, FrameSurfaces, Lookup, Made, MadeRays,
     StaticRays, WallPass,
 };
+use holocave_vlf::{baked, carry};
 use rayon::prelude::*;
 
 use crate::cache::{MAX_OBJECTS, ObjectMove, SKY_SHARE, ShadowLight};
@@ -140,12 +140,31 @@ struct History {
     still: u64,
 }
 
-/// What one eye's pixels saw in its last frame of a view (stages 1–3), and their points.
+/// What one eye's pixels saw in its last frame of a view (stages 1–3), their points, and
+/// the light each showed before the edges (stages 4–6), for the eye's next frame: drawn
+/// again where the eye stays still, carried where it moves ([`carry`]).
 struct KeptSurfaces {
     eye: usize,
     view: WallView,
     surfaces: FrameSurfaces,
     points: Vec<Option<DirectPoint>>,
+    lit: Vec<Lookup>,
+    /// Frames since each pixel was drawn anew.
+    ages: Vec<u8>,
+    /// How many frames of its view had been drawn in a row before it: from 1 on, its
+    /// glossy lobes' reflections were drawn ([`ReflectionFrames::still`]) and a still eye
+    /// draws them anew where they are.
+    still: u64,
+}
+
+/// A frame's pixels found (stages 1–3): what they see, and where they carry their light
+/// from the last frame (stages 4–6, `None` where it is found anew).
+struct Found {
+    surfaces: FrameSurfaces,
+    ages: Vec<u8>,
+    held: Option<Vec<Option<Lookup>>>,
+    /// How many pixels were drawn anew.
+    traced: usize,
 }
 
 /// What a wall's frames cost, counted in pixels (both eyes).
@@ -185,15 +204,17 @@ impl AtPoint {
 /// What each pixel keeps of its point (`points`, this frame's), with this frame's
 /// reflections in the mean: where the pixel saw the same point last frame (`kept`) its
 /// caustics are taken again and its mean goes on (kept as it is in a frame that drew none
-/// there), else `caustic` gives the point's caustics and the mean starts again.
+/// there), else `caustic` gives the point's caustics and the mean starts again. A pixel
+/// `held` shows the light it carried and keeps nothing.
 fn at_points(
     points: &[Option<DirectPoint>],
     kept: &[AtPoint],
+    held: impl Fn(usize) -> bool + Sync,
     caustic: impl Fn(usize, &DirectPoint) -> Vec3 + Sync,
 ) -> Vec<AtPoint> {
     (points.par_iter().enumerate())
         .map(|(i, p)| {
-            let Some(p) = p else {
+            let Some(p) = p.as_ref().filter(|_| !held(i)) else {
                 return AtPoint::NONE;
             };
             match (
@@ -645,51 +666,115 @@ impl VlfBase {
             (h.iter().find(|x| x.eye == eye && x.view == view.wall)).map_or(0, |x| x.still)
         };
         let reflections = ReflectionFrames::still(still);
-        let past = self.take_surfaces(eye, &view.wall);
-        let (surfaces, traced) = match past {
-            // A still view: what its pixels saw, its glossy reflections drawn anew.
-            Some(k) if k.view == view.wall => {
-                pixels.points = k.points;
-                let mut surfaces = k.surfaces;
-                let lookups = &mut surfaces.lookups;
-                let points = &mut pixels.points;
-                (self.pass).redraw_reflections(&view.wall, lookups, points, &reflections);
-                (surfaces, 0)
+        let found = match self.take_surfaces(eye, &view.wall) {
+            Some(k) if k.view == view.wall && k.still > 0 => {
+                self.drawn_again(view, k, &mut pixels, &reflections)
             }
-            _ => {
-                self.trace_first_hits(&view.wall, &mut pixels);
-                let on_gpu = self.on_gpu();
-                // The rays on through mirrors and glass traced where the first hits were.
-                let first =
-                    (pixels.hits.as_deref()).zip(on_gpu.as_ref().map(|g| g as &dyn StaticRays));
-                let surfaces =
-                    (self.pass).surfaces(&view.wall, first, &mut pixels.points, &reflections);
-                (surfaces, pixels.points.len())
+            Some(k) if k.view != view.wall && self.may_keep() => {
+                self.carried(view, k, &mut pixels, &reflections)
             }
+            _ => self.traced(view, &mut pixels, &reflections),
         };
-        // Kept from a view's second frame on: a moving eye's are never drawn again.
-        let keep = (still > 0 && self.may_keep()).then(|| KeptSurfaces {
-            eye,
-            view: view.wall,
-            surfaces: surfaces.clone(),
-            points: pixels.points.clone(),
-        });
+        let Found {
+            surfaces,
+            ages,
+            held,
+            traced,
+        } = found;
+        let kept_surfaces = self.may_keep().then(|| surfaces.clone());
         let Pixels { points, hits, kept } = &pixels;
         let gpu = GpuHits {
             hits: hits.as_deref(),
             kept: kept.as_ref(),
         };
+        let mut lit = None;
         let lookups = (self.pass).light(&view.wall, surfaces, points, |l, p| {
-            self.add_direct(eye, view, l, p, gpu)
+            self.add_direct(eye, view, (l, p), gpu, held.as_deref());
+            lit = Some(l.to_vec());
         });
-        if let Some(k) = keep {
-            self.keep_surfaces(k);
-        }
         self.count_work(points.len(), traced);
         let out = f(lookups, &pixels);
+        if let Some(surfaces) = kept_surfaces {
+            self.keep_surfaces(KeptSurfaces {
+                eye,
+                view: view.wall,
+                lit: lit.unwrap_or_else(|| surfaces.lookups.clone()),
+                surfaces,
+                points: std::mem::take(&mut pixels.points),
+                ages,
+                still,
+            });
+        }
         let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
         pool.push(pixels);
         out
+    }
+
+    /// Stages 1–3 of a frame of `view` on a view not drawn last: every pixel traced.
+    fn traced(&self, view: &EyeView, pixels: &mut Pixels, reflections: &ReflectionFrames) -> Found {
+        self.trace_first_hits(&view.wall, pixels);
+        let on_gpu = self.on_gpu();
+        // The rays on through mirrors and glass traced where the first hits were.
+        let first = (pixels.hits.as_deref()).zip(on_gpu.as_ref().map(|g| g as &dyn StaticRays));
+        let surfaces = (self.pass).surfaces(&view.wall, first, &mut pixels.points, reflections);
+        let n = pixels.points.len();
+        Found {
+            surfaces,
+            ages: (0..n).map(|i| carry::stagger(&view.wall, i)).collect(),
+            held: None,
+            traced: n,
+        }
+    }
+
+    /// Stages 1–3 of a still view's frame: what its pixels saw (`k`), its glossy
+    /// reflections drawn anew.
+    fn drawn_again(
+        &self,
+        view: &EyeView,
+        k: KeptSurfaces,
+        pixels: &mut Pixels,
+        reflections: &ReflectionFrames,
+    ) -> Found {
+        pixels.points = k.points;
+        let mut surfaces = k.surfaces;
+        let (lookups, points) = (&mut surfaces.lookups, &mut pixels.points);
+        (self.pass).redraw_reflections(&view.wall, lookups, points, reflections);
+        Found {
+            surfaces,
+            ages: k.ages,
+            held: None,
+            traced: 0,
+        }
+    }
+
+    /// Stages 1–3 of a frame of `view` after the eye moved from `k`'s view: each pixel
+    /// that carries one of the last frame's ([`carry`]) shows what that showed, its
+    /// surface and its light; the others are drawn anew.
+    fn carried(
+        &self,
+        view: &EyeView,
+        k: KeptSurfaces,
+        pixels: &mut Pixels,
+        reflections: &ReflectionFrames,
+    ) -> Found {
+        let view_dependent = |i: usize| {
+            k.surfaces.lookups[i].tile != u32::MAX
+                || k.points[i].is_some_and(|p| p.reflected.is_some())
+        };
+        let c = carry::carry(&k.view, &view.wall, (&k.points, &k.ages), view_dependent);
+        let from = |j: usize| c.from[j].map(|i| i as usize);
+        let n = c.from.len();
+        let lookups = (0..n).map(|j| from(j).map_or(Lookup::NONE, |i| k.surfaces.lookups[i]));
+        pixels.points = (0..n).map(|j| from(j).and_then(|i| k.points[i])).collect();
+        let anew: Vec<bool> = c.from.iter().map(Option::is_none).collect();
+        let carried = (lookups.collect(), &mut pixels.points[..]);
+        let surfaces = (self.pass).surfaces_carried(&view.wall, carried, &anew, reflections);
+        Found {
+            surfaces,
+            held: Some((0..n).map(|j| from(j).map(|i| k.lit[i])).collect()),
+            traced: c.drawn(),
+            ages: c.ages,
+        }
     }
 
     /// What eye `eye` saw in its last frame of `view`'s screen (stages 1–3), taken to be
@@ -796,9 +881,9 @@ impl VlfBase {
         &self,
         eye: usize,
         view: &EyeView,
-        lookups: &mut [Lookup],
-        points: &[Option<DirectPoint>],
+        (lookups, points): (&mut [Lookup], &[Option<DirectPoint>]),
         gpu: GpuHits,
+        held: Option<&[Option<Lookup>]>,
     ) {
         let direct = self.pass.direct();
         // This eye's history of this view (taken out while it is used: other views may be
@@ -843,6 +928,10 @@ impl VlfBase {
         if let Some(from) = moved_from {
             acc.reproject(&from, &view.wall, points);
         }
+        let held_at = |i: usize| held.is_some_and(|h| h[i].is_some());
+        if let Some(h) = held {
+            acc.hold(h.iter().map(Option::is_some).collect());
+        }
         let estimates = self.pass.visibility().with_placed(|placed| {
             let objects = self.pass.object_gather();
             let gather = |p: &DirectPoint, seed, n| objects.estimate(placed, p, seed, n);
@@ -854,12 +943,16 @@ impl VlfBase {
             }
         });
         let screen = Screen::of(&view.wall, 1);
-        let at_points = at_points(points, &kept, |i, p| {
+        let at_points = at_points(points, &kept, held_at, |i, p| {
             self.pass.caustics(&lookups[i], p, Some(&screen))
         });
         let measured = *self.measured.lock().unwrap_or_else(|e| e.into_inner());
         let each = (lookups.par_iter_mut().zip(estimates).enumerate()).zip(acc.counts());
         each.for_each(|((i, (l, d)), &n)| {
+            if let Some(Some(carried)) = held.map(|h| h[i]) {
+                *l = carried;
+                return;
+            }
             // The caustics, and the mean of the frames' reflections in place of this
             // frame's.
             let kept = &at_points[i];
@@ -929,7 +1022,7 @@ mod tests {
             // The second pixel sees `a` on odd frames and `b` on even ones.
             let second = if k % 2 == 0 { b } else { a };
             let now = [point(a, r), point(second, r), None];
-            kept = at_points(&now, &kept, |_, _| Vec3::ZERO);
+            kept = at_points(&now, &kept, |_| false, |_, _| Vec3::ZERO);
             drawn.extend(r.map(|r| r.x));
             let mean = drawn.iter().sum::<f32>() / drawn.len() as f32;
             assert_eq!(kept[0].frames as usize, drawn.len());

@@ -61,6 +61,7 @@
 pub mod accuracy;
 pub mod bake;
 pub mod baked;
+pub mod carry;
 pub mod caustics;
 pub mod direct;
 pub mod directions;

@@ -855,6 +855,10 @@ pub struct Accumulator {
     /// against 1.97e-3 before either). A still view spreads them, and its pixels' means
     /// become the means over their patches.
     carried: bool,
+    /// The pixels that take no estimate in the next frame added: they show what they
+    /// carried from the last frame ([`crate::carry`]), and their means wait, as they were,
+    /// for their turn to be drawn anew ([`Self::hold`]).
+    held: Vec<bool>,
 }
 
 /// Whether two points of one triangle are the same point: equal up to the rounding of
@@ -942,6 +946,11 @@ impl Accumulator {
         &self.count
     }
 
+    /// Marks the pixels (`held[i]`) that take no estimate in the next frame added.
+    pub fn hold(&mut self, held: Vec<bool>) {
+        self.held = held;
+    }
+
     /// Forgets every pixel's mean (a view it cannot be carried to).
     pub fn restart(&mut self) {
         self.seen.iter_mut().for_each(|s| *s = None);
@@ -1006,6 +1015,7 @@ impl Accumulator {
     ) -> (Vec<T>, Vec<(u32, f32)>) {
         self.fit(points.len());
         let carried = std::mem::take(&mut self.carried);
+        let held = std::mem::take(&mut self.held);
         let (settling, frame) = (self.settling, self.frame);
         self.frame += 1;
         let out: (Vec<T>, Vec<(u32, f32)>) = points
@@ -1022,7 +1032,14 @@ impl Accumulator {
                 });
                 let p = at_point.as_ref().or(p.as_ref());
                 let mut take = start(direct, p, seen, (sum, count, spread));
-                if take == 1
+                if held.get(i).copied().unwrap_or(false) {
+                    // A mean that starts again waits to start whole, with its first
+                    // estimates, when its pixel is drawn anew.
+                    if take > 1 {
+                        *seen = None;
+                    }
+                    take = 0;
+                } else if take == 1
                     && let Some(rule) = settling
                     && rule.settled(sum, *count, spread)
                     && !rule.refreshes(i, frame)

@@ -324,6 +324,31 @@ impl WallPass {
         FrameSurfaces { lookups, edges }
     }
 
+    /// Stages 1–3 of a frame of `view` whose pixels show what they carried from the last
+    /// frame (`lookups`, at `points`: [`crate::carry`]) but for those marked in `anew`,
+    /// drawn here each along its centre's ray, the glossy lobes taking the directions of
+    /// `reflections`; then the frame's glow edges.
+    pub fn surfaces_carried(
+        &self,
+        view: &WallView,
+        (mut lookups, points): (Vec<Lookup>, &mut [Option<DirectPoint>]),
+        anew: &[bool],
+        reflections: &ReflectionFrames,
+    ) -> FrameSurfaces {
+        let vis = &self.visibility;
+        vis.with_drawn(|drawn, direct_at_point| {
+            let drawn = (drawn.unwrap_or(self.values()), direct_at_point, reflections);
+            (lookups
+                .par_iter_mut()
+                .zip(points.par_iter_mut())
+                .enumerate())
+            .filter(|(i, _)| anew[*i])
+            .for_each(|(i, (l, p))| (*l, *p) = vis.cell(view, (i, 0, 1), drawn));
+        });
+        let edges = glow_edges::find(view, &lookups, points);
+        FrameSurfaces { lookups, edges }
+    }
+
     /// Stages 1–3 again, for the pixels of a still view's kept surfaces (`lookups`, at
     /// `points`) whose lookups take their glossy lobes' reflections anew each frame
     /// ([`DirectPoint::reflected`]), each along its centre's ray, the lobes taking the
