@@ -13,6 +13,10 @@
 //! lookup's `emitted` light; the light field then gives only the rest
 //! ([`holocave_vlf::State::indirect_values`]), so nothing is counted twice.
 //!
+//! With the rays on the CPU, each eye keeps what its last frame's pixels saw and showed:
+//! a still eye draws its surfaces again, a moving one carries its pixels to the new view
+//! ([`holocave_vlf::carry`]) and traces and estimates only those it must draw anew.
+//!
 //! With [`VlfBase::with_rays`] choosing the GPU, each pixel's first hit is found on the GPU
 //! instead ([`crate::gpu_rays`]: the wall's rays made and traced there, the hits read
 //! back and kept there), and the rays on through mirrors and glass, made on the CPU from

@@ -32,6 +32,7 @@ use glam::Vec3;
 use holocave_cave::WallView;
 use rayon::prelude::*;
 
+use crate::glow_edges::neighbours;
 use crate::pixel_direct::DirectPoint;
 
 /// Frames a pixel whose light does not depend on the eye's direction is carried before it
@@ -153,19 +154,6 @@ fn outlined(from: &WallView, points: &[Option<DirectPoint>]) -> Vec<bool> {
             neighbours(i, w, h).any(|k| depth(k).is_none_or(|dk| (dk - d).abs() > DEPTH_STEP * d))
         })
         .collect()
-}
-
-/// The pixels left, right, above and below pixel `j` of a `w × h` image.
-fn neighbours(j: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
-    let (x, y) = (j % w, j / w);
-    [
-        (x > 0).then(|| j - 1),
-        (x + 1 < w).then(|| j + 1),
-        (y > 0).then(|| j - w),
-        (y + 1 < h).then(|| j + w),
-    ]
-    .into_iter()
-    .flatten()
 }
 
 #[cfg(test)]

@@ -34,6 +34,8 @@
 //! - [`probe`]: irradiance probes (order-2 harmonics) lighting what the field does not hold;
 //! - [`view`]: per-pixel visibility and the lookup (the render node does the lookup on
 //!   the GPU);
+//! - [`carry`]: a moving eye's pixels carried to its next view, as the render cache
+//!   carries its points, and which are drawn anew;
 //! - [`glow_edges`]: the edges of emitters and the sky drawn with their share of the
 //!   pixel (a wall takes one lookup through each pixel's centre), and
 //!   [`surface_edges`]: the edges between a bright and a dark surface, likewise;

@@ -12,7 +12,7 @@
 //! | 1. first hit, and the chain through mirrors and glass | [`crate::surface`] (`follow`) |
 //! | 2. the surface a pixel sees, 3. the light field's lookup, with sharpened and blurred glossy reflections | [`Visibility`] ([`Lookup`], [`DirectPoint`]) |
 //! | 4. the direct light: light choice, BSDF, MIS, shadow rays; a moving object's own indirect light, gathered | [`PixelDirect`] ([`WallPass::direct_mean`]), [`crate::object_gather`] |
-//! | 5. the running means across frames | the wall's [`crate::Accumulator`]; one ray: the mean of [`FrameContext::estimates`] |
+//! | 5. the running means across frames | the wall's [`crate::Accumulator`], a moving eye's pixels carried to its next view ([`crate::carry`], [`WallPass::surfaces_carried`]); one ray: the mean of [`FrameContext::estimates`] |
 //! | 6. caustics, tile albedo, the sky prior | [`WallPass::added`] |
 //! | 7. edges | [`crate::glow_edges`], [`crate::surface_edges`] (a wall's batch, where a pixel's neighbours are known) |
 //! | 8. the lookup shaded, under the render cache | [`shade_one`] (the render node's `vlf.wgsl` on the GPU) |
