@@ -159,6 +159,10 @@ struct KeptSurfaces {
     /// glossy lobes' reflections were drawn ([`ReflectionFrames::still`]) and a still eye
     /// draws them anew where they are.
     still: u64,
+    /// The pixels drawn anew in its frame, and those to draw anew in the next: an object
+    /// moved in their way or changed their light.
+    anew: Vec<bool>,
+    stale: Vec<bool>,
 }
 
 /// A frame's pixels found (stages 1–3): what they see, and where they carry their light
@@ -167,8 +171,8 @@ struct Found {
     surfaces: FrameSurfaces,
     ages: Vec<u8>,
     held: Option<Vec<Option<Lookup>>>,
-    /// How many pixels were drawn anew.
-    traced: usize,
+    /// The pixels drawn anew.
+    anew: Vec<bool>,
 }
 
 /// What a wall's frames cost, counted in pixels (both eyes).
@@ -410,7 +414,7 @@ impl VlfBase {
             })
             .collect();
         self.restart_where_moved(&moves);
-        self.forget_surfaces();
+        self.mark_moved(&moves);
         moves
             .into_iter()
             .filter(|m| m.object() < MAX_OBJECTS)
@@ -423,31 +427,69 @@ impl VlfBase {
     /// else more than the share beyond which a point gathers what the objects change,
     /// [`GATHERED_OCCLUSION`]), or in the way of a sharpened reflection of the sky.
     fn restart_where_moved(&self, moves: &[ObjectMove]) {
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        for x in h.iter_mut() {
+            let eye = x.view.eye;
+            (x.means).restart_where(|triangle, at| self.light_moved(moves, eye, triangle, at));
+        }
+    }
+
+    /// Whether `moves` changed the light a point `at` of `triangle` sends towards `eye`:
+    /// it is on a moved object, in its shadows before and after, beside it (where its
+    /// sphere takes more than [`SKY_SHARE`] of the point's hemisphere with the sky per
+    /// pixel, else more than the share beyond which a point gathers what the objects
+    /// change, [`GATHERED_OCCLUSION`]), or the object stands in the way of a sharpened
+    /// reflection of the sky there.
+    fn light_moved(&self, moves: &[ObjectMove], eye: Vec3, triangle: u32, at: Vec3) -> bool {
         let scene = self.scene();
-        let statics = scene.statics();
         let direct = self.pass.direct();
         let share = if direct.samples_sky() {
             SKY_SHARE
         } else {
             GATHERED_OCCLUSION
         };
-        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        for x in h.iter_mut() {
-            let eye = x.view.eye;
-            x.means.restart_where(|triangle, at| {
-                let on = statics.object_of(triangle);
-                if on.is_some_and(|k| moves.iter().any(|m| m.object() == k)) {
-                    return true;
-                }
-                let normal = on.is_none().then(|| scene.face_normal(triangle));
-                let lobe = (normal.zip(direct.sharpened_lobe(triangle)))
-                    .map(|(n, alpha)| reflected_lobe(at - eye, n, alpha));
-                moves.iter().any(|m| {
-                    m.shadows(at, &self.shadow_lights)
-                        || m.takes_more_than(share, at, normal)
-                        || lobe.is_some_and(|l| m.shadows(at, &[l]))
+        let on = scene.statics().object_of(triangle);
+        if on.is_some_and(|k| moves.iter().any(|m| m.object() == k)) {
+            return true;
+        }
+        let normal = on.is_none().then(|| scene.face_normal(triangle));
+        let lobe = (normal.zip(direct.sharpened_lobe(triangle)))
+            .map(|(n, alpha)| reflected_lobe(at - eye, n, alpha));
+        moves.iter().any(|m| {
+            m.shadows(at, &self.shadow_lights)
+                || m.takes_more_than(share, at, normal)
+                || lobe.is_some_and(|l| m.shadows(at, &[l]))
+        })
+    }
+
+    /// Marks, in what each eye keeps of its last frame, the pixels `moves` changed, to be
+    /// drawn anew: those the object stood or stands in the way of (the eye's ray to the
+    /// pixel's point, or through its centre where it sees none, or any that sees its
+    /// point through a mirror or glass), and those whose light it changed
+    /// ([`Self::light_moved`]). Every other pixel is drawn again, or carried.
+    fn mark_moved(&self, moves: &[ObjectMove]) {
+        let mut all = self.surfaces.lock().unwrap_or_else(|e| e.into_inner());
+        for k in all.iter_mut() {
+            let (view, eye) = (k.view, k.view.eye);
+            let seen_from = [ShadowLight::at(eye, 0.0)];
+            let w = view.size.width as usize;
+            let stale: Vec<bool> = (k.points.par_iter().enumerate())
+                .map(|(i, p)| match p {
+                    Some(p) if p.span == [Vec3::ZERO; 2] => true,
+                    Some(p) => {
+                        moves.iter().any(|m| m.shadows(p.position, &seen_from))
+                            || self.light_moved(moves, eye, p.triangle, p.position)
+                    }
+                    None => {
+                        let centre = glam::Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+                        let far = view.ray(centre).at(1e4);
+                        moves.iter().any(|m| m.shadows(far, &seen_from))
+                    }
                 })
-            });
+                .collect();
+            for (s, now) in k.stale.iter_mut().zip(stale) {
+                *s |= now;
+            }
         }
     }
 
@@ -683,7 +725,7 @@ impl VlfBase {
             surfaces,
             ages,
             held,
-            traced,
+            anew,
         } = found;
         let kept_surfaces = self.may_keep().then(|| surfaces.clone());
         let Pixels { points, hits, kept } = &pixels;
@@ -696,7 +738,7 @@ impl VlfBase {
             self.add_direct(eye, view, (l, p), gpu, held.as_deref());
             lit = Some(l.to_vec());
         });
-        self.count_work(points.len(), traced);
+        self.count_work(points.len(), anew.iter().filter(|&&a| a).count());
         let out = f(lookups, &pixels);
         if let Some(surfaces) = kept_surfaces {
             self.keep_surfaces(KeptSurfaces {
@@ -705,8 +747,10 @@ impl VlfBase {
                 lit: lit.unwrap_or_else(|| surfaces.lookups.clone()),
                 surfaces,
                 points: std::mem::take(&mut pixels.points),
+                stale: vec![false; ages.len()],
                 ages,
                 still,
+                anew,
             });
         }
         let mut pool = self.pixels.lock().unwrap_or_else(|e| e.into_inner());
@@ -726,12 +770,12 @@ impl VlfBase {
             surfaces,
             ages: (0..n).map(|i| carry::stagger(&view.wall, i)).collect(),
             held: None,
-            traced: n,
+            anew: vec![true; n],
         }
     }
 
     /// Stages 1–3 of a still view's frame: what its pixels saw (`k`), its glossy
-    /// reflections drawn anew.
+    /// reflections drawn anew, and the pixels a moved object changed drawn anew.
     fn drawn_again(
         &self,
         view: &EyeView,
@@ -740,20 +784,26 @@ impl VlfBase {
         reflections: &ReflectionFrames,
     ) -> Found {
         pixels.points = k.points;
-        let mut surfaces = k.surfaces;
+        let mut surfaces = if k.stale.contains(&true) {
+            let kept = (k.surfaces.lookups, &mut pixels.points[..]);
+            (self.pass).surfaces_carried(&view.wall, kept, &k.stale, reflections)
+        } else {
+            k.surfaces
+        };
         let (lookups, points) = (&mut surfaces.lookups, &mut pixels.points);
         (self.pass).redraw_reflections(&view.wall, lookups, points, reflections);
         Found {
             surfaces,
             ages: k.ages,
             held: None,
-            traced: 0,
+            anew: k.stale,
         }
     }
 
     /// Stages 1–3 of a frame of `view` after the eye moved from `k`'s view: each pixel
-    /// that carries one of the last frame's ([`carry`]) shows what that showed, its
-    /// surface and its light; the others are drawn anew.
+    /// that carries one of the last frame's ([`carry`]), but for those a moved object
+    /// changed, shows what that showed, its surface and its light; the others are drawn
+    /// anew.
     fn carried(
         &self,
         view: &EyeView,
@@ -766,18 +816,20 @@ impl VlfBase {
                 || k.points[i].is_some_and(|p| p.reflected.is_some())
         };
         let c = carry::carry(&k.view, &view.wall, (&k.points, &k.ages), view_dependent);
-        let from = |j: usize| c.from[j].map(|i| i as usize);
+        let from = |j: usize| c.from[j].map(|i| i as usize).filter(|&i| !k.stale[i]);
         let n = c.from.len();
         let lookups = (0..n).map(|j| from(j).map_or(Lookup::NONE, |i| k.surfaces.lookups[i]));
         pixels.points = (0..n).map(|j| from(j).and_then(|i| k.points[i])).collect();
-        let anew: Vec<bool> = c.from.iter().map(Option::is_none).collect();
+        let anew: Vec<bool> = (0..n).map(|j| from(j).is_none()).collect();
         let carried = (lookups.collect(), &mut pixels.points[..]);
         let surfaces = (self.pass).surfaces_carried(&view.wall, carried, &anew, reflections);
         Found {
             surfaces,
             held: Some((0..n).map(|j| from(j).map(|i| k.lit[i])).collect()),
-            traced: c.drawn(),
-            ages: c.ages,
+            ages: (0..n)
+                .map(|j| if anew[j] { 0 } else { c.ages[j] })
+                .collect(),
+            anew,
         }
     }
 
@@ -827,6 +879,14 @@ impl VlfBase {
     /// pixels drawn again from the last frame's, pixels that took direct-light estimates.
     pub fn take_work(&self) -> FrameWork {
         std::mem::take(&mut *self.work.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+
+    /// Which pixels eye `eye`'s last frame of `view` drew anew (traced, not drawn again
+    /// or carried); `None` when that eye kept no frame of that view.
+    pub fn drawn_anew(&self, eye: usize, view: &WallView) -> Option<Vec<bool>> {
+        let kept = self.surfaces.lock().unwrap_or_else(|e| e.into_inner());
+        let k = kept.iter().find(|k| k.eye == eye && k.view == *view)?;
+        Some(k.anew.clone())
     }
 
     /// How many direct-light estimates each pixel's running mean holds for eye `eye` in

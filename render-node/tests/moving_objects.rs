@@ -229,3 +229,82 @@ fn a_moved_object_restarts_the_direct_light_only_where_it_changed_it() {
         "{far} floor pixels far from the block, {shifted} under its moved shadow"
     );
 }
+
+/// A moved object makes a wall draw anew only the pixels it changed: those whose point it
+/// now hides or no longer hides, and those whose light it changed (under its sun shadow
+/// before or after, or near it); a floor pixel far from it and out of its shadows is drawn
+/// again from the last frame. Seen to fail against forgetting every kept pixel on a move
+/// ("far from the block ... drawn anew") and against keeping every one ("the block's
+/// shadow moved over it ... drawn again").
+#[test]
+fn a_moved_object_draws_anew_only_the_pixels_it_changed() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, path) = room_and_field(dir.path());
+    let base = VlfBase::open(&path, scene.clone()).unwrap();
+    let view = floor_view();
+    let (from, to) = (block_up_at(&scene, 1.0), block_up_at(&scene, 1.6));
+    base.place_objects(&from);
+    let (_, before) = base.pass().visibility().pixels_and_points(&view.wall);
+    for _ in 0..3 {
+        base.lookups(0, &view);
+    }
+    assert_eq!(
+        base.take_work().traced,
+        2 * view.wall.size.area(),
+        "frames 1 and 2 traced"
+    );
+    base.place_objects(&to);
+    base.lookups(0, &view);
+    let anew = base
+        .drawn_anew(0, &view.wall)
+        .expect("the eye's last frame");
+    let (_, after) = base.pass().visibility().pixels_and_points(&view.wall);
+
+    let spheres = [&from, &to].map(|at| scene.objects()[0].bounding_sphere(&at[0]));
+    let sun = scene.daylight.sun.as_ref().unwrap().direction;
+    let apart = |p: Vec3| {
+        spheres.iter().all(|&(c, r)| {
+            let t = (c - p).dot(sun).max(0.0);
+            c.distance(p) > 3.0 && (c - p - t * sun).length() > r + 0.2
+        })
+    };
+    let (mut far, mut shifted, mut uncovered) = (0, 0, 0);
+    for (i, (b, a)) in before.iter().zip(&after).enumerate() {
+        let same = match (b, a) {
+            (Some(b), Some(a)) => b.triangle == a.triangle && b.position == a.position,
+            (None, None) => true,
+            _ => false,
+        };
+        if !same {
+            uncovered += 1;
+            assert!(
+                anew[i],
+                "pixel {i}: the block moved across its view, drawn again"
+            );
+        }
+        let Some(p) = a.filter(|p| p.normal.y > 0.9 && p.position.y.abs() < 1e-3) else {
+            continue;
+        };
+        if sun_hidden(&scene, &from, p.position) != sun_hidden(&scene, &to, p.position) {
+            shifted += 1;
+            assert!(
+                anew[i],
+                "pixel {i} at {}: the block's shadow moved over it, drawn again",
+                p.position
+            );
+        }
+        if apart(p.position) {
+            far += 1;
+            assert!(
+                !anew[i],
+                "pixel {i} at {}: far from the block and its shadows, drawn anew",
+                p.position
+            );
+        }
+    }
+    assert!(
+        far >= 20 && shifted >= 8 && uncovered >= 1,
+        "{far} floor pixels far from the block, {shifted} under its moved shadow, \
+         {uncovered} it moved across"
+    );
+}
