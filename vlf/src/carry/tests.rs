@@ -64,8 +64,8 @@ fn off_centre(v: &WallView, p: Vec3, j: usize) -> f64 {
     (x - cx).abs().max((y - cy).abs())
 }
 
-/// An eye moving 2 cm sideways: each carried point lies within a pixel of the centre of
-/// the pixel that carries it, and
+/// An eye moving 2 cm sideways: each carried point lies in the pixel that carries it
+/// (within half a pixel of its centre), and
 /// about an eighth of the view is drawn anew (the eighth at its age limit, and the view's
 /// edge), not all of it.
 #[test]
