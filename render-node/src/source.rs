@@ -9,7 +9,7 @@ use holocave_scene::{MaterialKind, Ray};
 use holocave_tracer::Tracer;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 
-use crate::cache::{BACKGROUND, NewSample, Seen, surface_id};
+use crate::cache::{BACKGROUND, NewSample, SampleSurface, surface_id};
 use crate::{EyeView, VlfBase};
 
 /// Escaped rays are placed this far along the ray (m) and marked [`BACKGROUND`].
@@ -35,7 +35,7 @@ struct Traced {
     radiance: Vec3,
     distance: f32,
     material: Option<u32>,
-    seen: Seen,
+    seen: SampleSurface,
 }
 
 impl PixelTracer {
@@ -77,9 +77,9 @@ impl PixelTracer {
                     distance: g.distance,
                     material: g.material,
                     seen: match (g.object, g.object_beyond) {
-                        (Some(k), _) => Seen::Object(k),
-                        (None, true) => Seen::ObjectBeyond,
-                        (None, false) => Seen::Scene,
+                        (Some(k), _) => SampleSurface::Object(k),
+                        (None, true) => SampleSurface::ObjectBeyond,
+                        (None, false) => SampleSurface::Scene,
                     },
                 })
                 .collect(),
@@ -91,7 +91,7 @@ impl PixelTracer {
                     radiance: Vec3::from(t.radiance),
                     distance: t.distance,
                     material: t.material,
-                    seen: Seen::Scene,
+                    seen: SampleSurface::Scene,
                 })
                 .collect(),
         }

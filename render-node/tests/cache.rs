@@ -2,7 +2,7 @@
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use holocave_cave::{Size, WallView};
-use holocave_render_node::cache::{GpuPoint, ObjectMove, Seen, ShadowLight, surface_id};
+use holocave_render_node::cache::{GpuPoint, ObjectMove, SampleSurface, ShadowLight, surface_id};
 use holocave_render_node::{EyeView, Gpu, NewSample, RenderCache, StepTimes};
 use holocave_vlf::Lookup;
 
@@ -364,7 +364,7 @@ fn points_on_a_moved_object_move_with_it_and_its_shadows_are_dropped() {
     let v = view(Vec3::new(0.0, 1.0, 1.0));
     let at = v.wall.ray(Vec2::new(3.5, 0.5)).at(2.5);
     let shift = Vec3::new(0.5, 0.0, 0.0);
-    let on_object = surface_id(2, Seen::Object(0));
+    let on_object = surface_id(2, SampleSurface::Object(0));
     let under_before = at - Vec3::new(0.0, 0.6, 0.0);
     let under_after = under_before + shift;
     let aside = at + Vec3::new(0.25, -0.6, 0.0);
@@ -468,7 +468,7 @@ fn a_point_blends_only_where_the_pixel_sees_the_same_object() {
         0,
         &[
             sample(&v, 4, 4, 2.0, 3.0),
-            sample_on(&v, 2, 2, 2.0, 5.0, surface_id(1, Seen::Object(0))),
+            sample_on(&v, 2, 2, 2.0, 5.0, surface_id(1, SampleSurface::Object(0))),
         ],
     );
     let shown = |c: &mut RenderCache, objects: [u32; 2]| {
@@ -505,7 +505,7 @@ fn a_sample_of_an_object_never_joins_a_point_of_the_room_from_the_same_eye() {
             4,
             1.0,
             5.0,
-            surface_id(1, Seen::Object(0)),
+            surface_id(1, SampleSurface::Object(0)),
         )],
     );
     let mut valid: Vec<[f32; 2]> = (c.points().iter())

@@ -836,7 +836,7 @@ impl std::ops::AddAssign for Estimate {
 /// points that stay put: [`Accumulator::restart_where`] starts their means again.
 #[derive(Default)]
 pub struct Accumulator {
-    seen: Vec<Option<Seen>>,
+    seen: Vec<Option<MeanSite>>,
     sum: Vec<Estimate>,
     count: Vec<u32>,
     /// The spread of each pixel's frames, and the rule by which a mean needs no more
@@ -873,7 +873,7 @@ pub fn same_point(a: Vec3, b: Vec3) -> bool {
 /// footprint of `anchor`: a mean carried from pixel to pixel as the eye moves stays
 /// there, and never drifts across a shadow's edge to smear it along the motion.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Seen {
+struct MeanSite {
     triangle: u32,
     last: Vec3,
     anchor: Vec3,
@@ -881,7 +881,7 @@ struct Seen {
 
 /// What a pixel keeps between frames: where its mean was made, the sum of its estimates,
 /// their count and their frames' spread.
-type PixelMean = (Option<Seen>, Estimate, u32, Spread);
+type PixelMean = (Option<MeanSite>, Estimate, u32, Spread);
 
 /// Estimates a pixel whose point is `p` takes this frame: one more at the point it saw
 /// last, else (its mean started again) [`PixelDirect::first_estimates`]; none where it sees
@@ -889,7 +889,7 @@ type PixelMean = (Option<Seen>, Estimate, u32, Spread);
 fn start(
     direct: &PixelDirect,
     p: Option<&DirectPoint>,
-    seen: &mut Option<Seen>,
+    seen: &mut Option<MeanSite>,
     (sum, count, spread): (&mut Estimate, &mut u32, &mut Spread),
 ) -> u32 {
     let Some(p) = p else {
@@ -900,7 +900,7 @@ fn start(
     if seen.is_some_and(|s| s.triangle == p.triangle && same_point(s.last, p.position)) {
         return 1;
     }
-    *seen = Some(Seen {
+    *seen = Some(MeanSite {
         triangle: p.triangle,
         last: p.position,
         anchor: p.position,
@@ -1093,7 +1093,7 @@ impl Accumulator {
                         if s.triangle == p.triangle
                             && screen.footprint(p, 1.0).contains(s.anchor) =>
                     {
-                        let carried = Seen {
+                        let carried = MeanSite {
                             last: p.position,
                             ..s
                         };

@@ -282,7 +282,7 @@ fn bihemispherical_albedo(p: &SurfaceParams) -> Vec3 {
 }
 
 /// What a ray sees at a hit: the surface's parameters and whether it is a delta.
-pub struct Seen {
+pub struct SurfaceHit {
     pub hit: Hit,
     pub params: SurfaceParams,
     pub position: Vec3,
@@ -293,7 +293,7 @@ pub struct Seen {
     pub emitted: Vec3,
 }
 
-impl Seen {
+impl SurfaceHit {
     /// The point as the direct light per pixel takes it, seen from direction `wo` (unit,
     /// away from the surface) through delta surfaces that let `weight` through: its
     /// estimates all taken at the point ([`DirectPoint::span`] zero), nothing else of
@@ -318,7 +318,7 @@ impl Seen {
 
 /// The surface at barycentrics `(u, v)` of `triangle` (an element's centre), seen from
 /// no particular direction (emission counts only on a double-sided emitter's side).
-pub fn seen_at(scene: &Scene, triangle: u32, u: f32, v: f32) -> Seen {
+pub fn seen_at(scene: &Scene, triangle: u32, u: f32, v: f32) -> SurfaceHit {
     let hit = Hit {
         triangle,
         t: 0.0,
@@ -329,7 +329,7 @@ pub fn seen_at(scene: &Scene, triangle: u32, u: f32, v: f32) -> Seen {
 }
 
 /// The surface at `hit` seen along `dir` (on a moving object where `placed` puts it).
-pub fn seen(placed: &PlacedScene, hit: Hit, dir: Vec3) -> Seen {
+pub fn seen(placed: &PlacedScene, hit: Hit, dir: Vec3) -> SurfaceHit {
     let sp = placed.surface(&hit);
     let scene = placed.scene();
     let material = &scene.materials[sp.material as usize];
@@ -340,7 +340,7 @@ pub fn seen(placed: &PlacedScene, hit: Hit, dir: Vec3) -> Seen {
     } else {
         Vec3::ZERO
     };
-    Seen {
+    SurfaceHit {
         hit,
         delta: Bsdf::new(&params).is_pure_delta(),
         params,
@@ -364,7 +364,7 @@ pub type Branch = (Vec3, Vec3);
 /// field follows the stronger branch to a diffuse surface, and the weaker one only for
 /// the light it shows directly (a lamp's highlight on a glass sphere, the sky in a
 /// window's reflection), so each pixel and line needs one lookup.
-pub fn delta_step(s: &Seen, dir: Vec3) -> Option<(Branch, Option<Branch>)> {
+pub fn delta_step(s: &SurfaceHit, dir: Vec3) -> Option<(Branch, Option<Branch>)> {
     let p = &s.params;
     let n = s.shading_normal;
     let wo = -dir;
@@ -426,7 +426,13 @@ pub fn mirrored_gloss(params: &SurfaceParams) -> bool {
 /// and of every punctual light that `s` (its BSDF `bsdf`), seen along `dir`, reflects
 /// towards the viewer, each behind a shadow ray through `scene`: a [`mirrored_gloss`]'s
 /// highlights.
-pub fn highlights(scene: &PlacedScene, lights: &Lights, s: &Seen, bsdf: &Bsdf, dir: Vec3) -> Vec3 {
+pub fn highlights(
+    scene: &PlacedScene,
+    lights: &Lights,
+    s: &SurfaceHit,
+    bsdf: &Bsdf,
+    dir: Vec3,
+) -> Vec3 {
     let wo = -dir;
     let frame = Frame::new(s.shading_normal);
     let sun = lights.sample_sun(Vec2::ZERO);
@@ -451,7 +457,7 @@ pub fn highlights(scene: &PlacedScene, lights: &Lights, s: &Seen, bsdf: &Bsdf, d
 pub fn mirrored(
     scene: &PlacedScene,
     (weight, emitted, deltas): (Vec3, Vec3, u32),
-    s: &Seen,
+    s: &SurfaceHit,
     dir: Vec3,
     reflectance: Vec3,
     environment: &dyn Fn(Vec3) -> Vec3,
@@ -482,7 +488,7 @@ pub fn mirrored(
 /// light they let through on the way (emission of delta surfaces; the sky and sun when
 /// the ray escapes, given by `environment`). `None` when the chain is cut off.
 pub struct Chain {
-    pub end: Option<(Seen, Ray)>,
+    pub end: Option<(SurfaceHit, Ray)>,
     pub weight: Vec3,
     pub emitted: Vec3,
     /// Delta surfaces followed before the end.
@@ -491,7 +497,7 @@ pub struct Chain {
     /// the ray that reached it and the weight the way there carried: what they show is
     /// the viewer's to shade ([`crate::view::Visibility`] from the field's values), the
     /// chain's `emitted` holding only their emission.
-    pub beside: Vec<(Seen, Ray, Vec3)>,
+    pub beside: Vec<(SurfaceHit, Ray, Vec3)>,
 }
 
 pub fn follow(scene: &PlacedScene, ray: Ray, environment: &dyn Fn(Vec3) -> Vec3) -> Chain {
@@ -685,7 +691,7 @@ fn walk_with(
 }
 
 /// `beside` with every weight times `by`.
-fn scaled(mut beside: Vec<(Seen, Ray, Vec3)>, by: Vec3) -> Vec<(Seen, Ray, Vec3)> {
+fn scaled(mut beside: Vec<(SurfaceHit, Ray, Vec3)>, by: Vec3) -> Vec<(SurfaceHit, Ray, Vec3)> {
     for b in &mut beside {
         b.2 *= by;
     }

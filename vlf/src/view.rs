@@ -38,7 +38,7 @@ use crate::octahedral;
 use crate::pixel_direct::{DirectPoint, Estimate};
 use crate::sequence::{R2, r_sequence};
 use crate::surface::{
-    Chain, Seen, albedo_towards, follow, follow_all, follow_first, follow_from, highlights,
+    Chain, SurfaceHit, albedo_towards, follow, follow_all, follow_first, follow_from, highlights,
     mirrored, mirrored_gloss, seen, side_facing,
 };
 use crate::tiles::Tiles;
@@ -549,7 +549,11 @@ impl Visibility {
     /// each is a diffuse element of the static scene: the reflection of the room in a
     /// glass sphere, which near its rim is as strong as what it lets through. Nothing
     /// before the field's values are set.
-    fn beside_light(&self, beside: &[(Seen, Ray, Vec3)], placed: Option<&PlacedScene>) -> Vec3 {
+    fn beside_light(
+        &self,
+        beside: &[(SurfaceHit, Ray, Vec3)],
+        placed: Option<&PlacedScene>,
+    ) -> Vec3 {
         let Some(total) = self.light.get() else {
             return Vec3::ZERO;
         };
@@ -587,7 +591,7 @@ impl Visibility {
     /// Whether the static surface `s`, reached along `dir`, is drawn as the mirror of what
     /// it reflects: a glossy surface without a tile ([`mirrored_gloss`]) whose Lambertian
     /// base, if it has one, can be shaded from `values`.
-    fn drawn_as_mirror(&self, s: &Seen, dir: Vec3, values: Option<&[[f32; 3]]>) -> bool {
+    fn drawn_as_mirror(&self, s: &SurfaceHit, dir: Vec3, values: Option<&[[f32; 3]]>) -> bool {
         let side = side_facing(s.normal, dir);
         let element = self
             .elements
@@ -612,7 +616,7 @@ impl Visibility {
         &self,
         scene: &PlacedScene,
         objects: &ObjectLight,
-        (s, dir): (&Seen, Vec3),
+        (s, dir): (&SurfaceHit, Vec3),
         total: &[[f32; 3]],
         emitters_by_nee: bool,
         (bsdf, environment, rays): (&Bsdf, &dyn Fn(Vec3) -> Vec3, Range<u64>),
@@ -680,7 +684,7 @@ impl Visibility {
         &self,
         scene: &PlacedScene,
         objects: &ObjectLight,
-        (s, dir): (&Seen, Vec3),
+        (s, dir): (&SurfaceHit, Vec3),
         total: &[[f32; 3]],
         (own, widened): (&Bsdf, f32),
         rays: Range<u64>,
@@ -786,7 +790,7 @@ impl Visibility {
     fn untiled_glossy(
         &self,
         chain: &Chain,
-        (s, dir): (&Seen, Vec3),
+        (s, dir): (&SurfaceHit, Vec3),
         point: &mut DirectPoint,
         (objects, placed): (&ObjectLight, Option<&PlacedScene>),
         drawn: LookupDrawn,
@@ -839,7 +843,7 @@ impl Visibility {
     /// The share of the hemisphere of `s` (seen along `dir`) the moving objects leave open,
     /// and whether they take so much that the caches' samples there are wrong
     /// ([`ObjectLight::openness`]); all open where there are none or no darkening.
-    fn openness_at(&self, s: &Seen, dir: Vec3, objects: &ObjectLight) -> (f32, bool) {
+    fn openness_at(&self, s: &SurfaceHit, dir: Vec3, objects: &ObjectLight) -> (f32, bool) {
         if objects.is_empty() || !self.darkening {
             return (1.0, false);
         }
@@ -861,7 +865,7 @@ impl Visibility {
     fn tile_lookup(
         &self,
         chain: &Chain,
-        (s, dir): (&Seen, Vec3),
+        (s, dir): (&SurfaceHit, Vec3),
         g: u32,
         point: &mut DirectPoint,
         (open, samples): (f32, f32),
@@ -1192,7 +1196,7 @@ type FirstHits<'a> = dyn Fn(&PlacedScene, &[Ray], usize) -> Vec<Option<Hit>> + S
 /// the object's indirect light there ([`crate::object_gather`]); else its probe gives it.
 fn object_lookup(
     chain: &Chain,
-    (s, dir): (&Seen, Vec3),
+    (s, dir): (&SurfaceHit, Vec3),
     mut point: DirectPoint,
     (k, objects): (usize, &ObjectLight),
     direct_at_point: bool,

@@ -53,7 +53,7 @@ pub const MAX_OBJECTS: usize = 253;
 
 /// What a cached point's sample saw, for the cache to move, drop or count it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Seen {
+pub enum SampleSurface {
     /// The static scene.
     Scene,
     /// Moving object `k` (its index), the point lying on it.
@@ -66,10 +66,10 @@ pub enum Seen {
 /// The surface id of a point: its material, and what it saw (see `OBJECT_SHIFT` in
 /// `gpu/common.wgsl`), so that points on an object move with it and only ever stand
 /// for it.
-pub fn surface_id(material: u32, seen: Seen) -> u32 {
+pub fn surface_id(material: u32, seen: SampleSurface) -> u32 {
     let object = match seen {
-        Seen::Object(k) if k < MAX_OBJECTS => k as u32 + 1,
-        Seen::ObjectBeyond => 254,
+        SampleSurface::Object(k) if k < MAX_OBJECTS => k as u32 + 1,
+        SampleSurface::ObjectBeyond => 254,
         _ => 0,
     };
     (object << 24) | (material & 0x00ff_ffff)
