@@ -45,8 +45,8 @@ use holocave_vlf::pixel_direct::same_point;
 use holocave_vlf::settling::Settling;
 use holocave_vlf::view::{GATHERED_OCCLUSION, ReflectionFrames};
 use holocave_vlf::{
-    Accumulator, Aim, CpuRays, DirectPoint, FrameContext, FrameSurfaces, Lookup, Made, MadeRays,
-    StaticRays, WallPass,
+    Accumulator, Aim, CpuRays, DirectPoint, Estimate, FrameContext, FrameSurfaces, Lookup, Made,
+    MadeRays, StaticRays, WallPass,
 };
 use holocave_vlf::{baked, carry};
 use rayon::prelude::*;
@@ -811,24 +811,28 @@ impl VlfBase {
         pixels: &mut Pixels,
         reflections: &ReflectionFrames,
     ) -> Found {
-        let view_dependent = |i: usize| {
-            k.surfaces.lookups[i].tile != u32::MAX
-                || k.points[i].is_some_and(|p| p.reflected.is_some())
+        // A pixel a moved object changed is drawn anew.
+        let limit = |i: usize| {
+            let view_dependent = k.surfaces.lookups[i].tile != u32::MAX
+                || k.points[i].is_some_and(|p| p.reflected.is_some());
+            if k.stale[i] {
+                0
+            } else {
+                carry::age_limit(view_dependent)
+            }
         };
-        let c = carry::carry(&k.view, &view.wall, (&k.points, &k.ages), view_dependent);
-        let from = |j: usize| c.from[j].map(|i| i as usize).filter(|&i| !k.stale[i]);
+        let c = carry::carry(&k.view, &view.wall, (&k.points, &k.ages), limit);
+        let from = |j: usize| c.from[j].map(|i| i as usize);
         let n = c.from.len();
         let lookups = (0..n).map(|j| from(j).map_or(Lookup::NONE, |i| k.surfaces.lookups[i]));
         pixels.points = (0..n).map(|j| from(j).and_then(|i| k.points[i])).collect();
-        let anew: Vec<bool> = (0..n).map(|j| from(j).is_none()).collect();
+        let anew: Vec<bool> = c.from.iter().map(Option::is_none).collect();
         let carried = (lookups.collect(), &mut pixels.points[..]);
         let surfaces = (self.pass).surfaces_carried(&view.wall, carried, &anew, reflections);
         Found {
             surfaces,
             held: Some((0..n).map(|j| from(j).map(|i| k.lit[i])).collect()),
-            ages: (0..n)
-                .map(|j| if anew[j] { 0 } else { c.ages[j] })
-                .collect(),
+            ages: c.ages,
             anew,
         }
     }
@@ -940,7 +944,8 @@ impl VlfBase {
     /// mean of the direct light at its point (`points`), its caustics and the mean of its
     /// glossy reflections, to its lookup's `emitted` light, this frame's estimate
     /// included; the shadow rays made on the GPU from the first hits kept there (`gpu`)
-    /// where they are.
+    /// where they are. A pixel `held` shows the light it carried instead, and its mean
+    /// takes no estimate.
     fn add_direct(
         &self,
         eye: usize,
@@ -949,46 +954,7 @@ impl VlfBase {
         gpu: GpuHits,
         held: Option<&[Option<Lookup>]>,
     ) {
-        let direct = self.pass.direct();
-        // This eye's history of this view (taken out while it is used: other views may be
-        // drawn on other threads meanwhile); else, when the eye moved, its history of the
-        // same screen from where it was nearest, carried over to this view; else a new one
-        // in place of the least recently drawn. Never the other eye's: the two eyes of a
-        // wall would take each other's in turn, carrying the means across the eyes'
-        // parallax every frame.
-        let (mut acc, moved_from, kept, still) = {
-            let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-            let own_screen = |x: &History| x.eye == eye && x.view.same_screen(&view.wall);
-            let nearest = (0..h.len())
-                .filter(|&i| own_screen(&h[i]))
-                .min_by(|&a, &b| {
-                    let d = |i: usize| h[i].view.eye.distance_squared(view.wall.eye);
-                    d(a).total_cmp(&d(b))
-                });
-            match h.iter().position(|x| own_screen(x) && x.view == view.wall) {
-                Some(i) => {
-                    let x = h.swap_remove(i);
-                    (x.means, None, x.at_points, x.still + 1)
-                }
-                None => match nearest {
-                    Some(i) => {
-                        let x = h.swap_remove(i);
-                        (x.means, Some(x.view), Vec::new(), 1)
-                    }
-                    None => {
-                        if h.len() >= HISTORIES
-                            && let Some(oldest) = (0..h.len()).min_by_key(|&i| h[i].drawn)
-                        {
-                            h.swap_remove(oldest);
-                        }
-                        let acc = self
-                            .settling
-                            .map_or_else(Accumulator::new, Accumulator::settling);
-                        (acc, None, Vec::new(), 1)
-                    }
-                },
-            }
-        };
+        let (mut acc, moved_from, kept, still) = self.take_history(eye, &view.wall);
         if let Some(from) = moved_from {
             acc.reproject(&from, &view.wall, points);
         }
@@ -996,7 +962,77 @@ impl VlfBase {
         if let Some(h) = held {
             acc.hold(h.iter().map(Option::is_some).collect());
         }
-        let estimates = self.pass.visibility().with_placed(|placed| {
+        let estimates = self.estimate(&mut acc, points, gpu);
+        let screen = Screen::of(&view.wall, 1);
+        let at_points = at_points(points, &kept, held_at, |i, p| {
+            self.pass.caustics(&lookups[i], p, Some(&screen))
+        });
+        let means = (&estimates[..], acc.counts());
+        self.add_means(lookups, points, means, &at_points, held);
+        self.work
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .estimated += acc.taken();
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        let drawn = h.iter().map(|x| x.drawn).max().unwrap_or(0) + 1;
+        h.push(History {
+            drawn,
+            eye,
+            view: view.wall,
+            means: acc,
+            at_points,
+            still,
+        });
+    }
+
+    /// Eye `eye`'s running means for `view`, taken out while they are used (other views
+    /// may be drawn on other threads meanwhile): its history of this view; else, when the
+    /// eye moved, its history of the same screen from where it was nearest, with that
+    /// view, to carry them over; else new ones in place of the least recently drawn. Never
+    /// the other eye's: the two eyes of a wall would take each other's in turn, carrying
+    /// the means across the eyes' parallax every frame. With what each pixel kept of its
+    /// point, and how many frames in a row this view has now been drawn.
+    fn take_history(
+        &self,
+        eye: usize,
+        view: &WallView,
+    ) -> (Accumulator, Option<WallView>, Vec<AtPoint>, u64) {
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        let own_screen = |x: &History| x.eye == eye && x.view.same_screen(view);
+        if let Some(i) = h.iter().position(|x| own_screen(x) && x.view == *view) {
+            let x = h.swap_remove(i);
+            return (x.means, None, x.at_points, x.still + 1);
+        }
+        let nearest = (0..h.len())
+            .filter(|&i| own_screen(&h[i]))
+            .min_by(|&a, &b| {
+                let d = |i: usize| h[i].view.eye.distance_squared(view.eye);
+                d(a).total_cmp(&d(b))
+            });
+        if let Some(i) = nearest {
+            let x = h.swap_remove(i);
+            return (x.means, Some(x.view), Vec::new(), 1);
+        }
+        if h.len() >= HISTORIES
+            && let Some(oldest) = (0..h.len()).min_by_key(|&i| h[i].drawn)
+        {
+            h.swap_remove(oldest);
+        }
+        let acc = (self.settling).map_or_else(Accumulator::new, Accumulator::settling);
+        (acc, None, Vec::new(), 1)
+    }
+
+    /// Stage 4: this frame's estimates at `points` added to the means `acc`, their shadow
+    /// rays traced on the GPU where the first hits were (`gpu`), else on the CPU; each
+    /// pixel's running mean.
+    fn estimate(
+        &self,
+        acc: &mut Accumulator,
+        points: &[Option<DirectPoint>],
+        gpu: GpuHits,
+    ) -> Vec<Estimate> {
+        let direct = self.pass.direct();
+        self.pass.visibility().with_placed(|placed| {
             let objects = self.pass.object_gather();
             let gather = |p: &DirectPoint, seed, n| objects.estimate(placed, p, seed, n);
             match self.on_gpu() {
@@ -1005,47 +1041,39 @@ impl VlfBase {
                 }),
                 None => acc.add(direct, placed, points, &gather),
             }
-        });
-        let screen = Screen::of(&view.wall, 1);
-        let at_points = at_points(points, &kept, held_at, |i, p| {
-            self.pass.caustics(&lookups[i], p, Some(&screen))
-        });
+        })
+    }
+
+    /// Stages 5–6: each pixel's running mean (`means`: the estimates' means and counts),
+    /// its caustics and the mean of its frames' reflections in place of this frame's
+    /// (`at_points`), added to its lookup; a pixel `held` shows the light it carried.
+    fn add_means(
+        &self,
+        lookups: &mut [Lookup],
+        points: &[Option<DirectPoint>],
+        (estimates, counts): (&[Estimate], &[u32]),
+        at_points: &[AtPoint],
+        held: Option<&[Option<Lookup>]>,
+    ) {
         let measured = *self.measured.lock().unwrap_or_else(|e| e.into_inner());
-        let each = (lookups.par_iter_mut().zip(estimates).enumerate()).zip(acc.counts());
+        let each = (lookups.par_iter_mut().zip(estimates).enumerate()).zip(counts);
         each.for_each(|((i, (l, d)), &n)| {
             if let Some(Some(carried)) = held.map(|h| h[i]) {
                 *l = carried;
                 return;
             }
-            // The caustics, and the mean of the frames' reflections in place of this
-            // frame's.
             let kept = &at_points[i];
-            let caustic = kept.caustic;
             let reflected = match &points[i] {
                 Some(p) => kept.reflected - p.reflected.unwrap_or(Vec3::ZERO),
                 None => Vec3::ZERO,
             };
-            let added = self.pass.added(self.values(), l, (&d, n), caustic);
-            l.emitted = (glam::Vec3::from(l.emitted) + added + reflected).to_array();
+            let added = self.pass.added(self.values(), l, (d, n), kept.caustic);
+            l.emitted = (Vec3::from(l.emitted) + added + reflected).to_array();
             if d.object_shadow {
                 l.samples = 0.0;
             } else if let Some(m) = &measured {
                 l.samples *= m.worth_at(n);
             }
-        });
-        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        let drawn = h.iter().map(|x| x.drawn).max().unwrap_or(0) + 1;
-        self.work
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .estimated += acc.taken();
-        h.push(History {
-            drawn,
-            eye,
-            view: view.wall,
-            means: acc,
-            at_points,
-            still,
         });
     }
 }

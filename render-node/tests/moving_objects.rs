@@ -162,6 +162,24 @@ fn sun_hidden(scene: &Scene, placements: &[Placement], p: Vec3) -> bool {
         .objects_occluded(&ray, f32::INFINITY)
 }
 
+/// Whether the floor point `p` is far from the block at both `placements` (3 m, about 3.5
+/// of its bounding sphere's radii: the sphere takes under 0.85² / 3² · cos ≤ 0.03 of such
+/// a point's hemisphere, below the 0.04 beyond which a point gathers what an object
+/// changes) and out of its sun shadows (the sun's ray passes the sphere by 0.2 m or more).
+fn apart(scene: &Scene, placements: [&[Placement]; 2], p: Vec3) -> bool {
+    let sun = scene
+        .daylight
+        .sun
+        .as_ref()
+        .expect("the room has a sun")
+        .direction;
+    placements.iter().all(|at| {
+        let (c, r) = scene.objects()[0].bounding_sphere(&at[0]);
+        let t = (c - p).dot(sun).max(0.0);
+        c.distance(p) > 3.0 && (c - p - t * sun).length() > r + 0.2
+    })
+}
+
 /// A moved object changes the direct light only at the points it shadowed, shadows or
 /// stands near: the running means there start again, and every other pixel's mean goes on
 /// (it keeps its estimates and takes one more). Against a wall that kept every mean, the
@@ -189,18 +207,8 @@ fn a_moved_object_restarts_the_direct_light_only_where_it_changed_it() {
     let (_, points) = base.pass().visibility().pixels_and_points(&view.wall);
 
     // Must start again: where the block's sun shadow came or went. Must go on: far from
-    // the block where it was and is (3 m, about 3.5 of its bounding sphere's radii: the
-    // sphere takes under 0.85² / 3² · cos ≤ 0.03 of such a floor point's hemisphere,
-    // below the 0.04 beyond which a point gathers what an object changes) and out of its
-    // sun shadows (the sun's ray passes the sphere by 0.2 m or more).
-    let spheres = [&from, &to].map(|at| scene.objects()[0].bounding_sphere(&at[0]));
-    let sun = scene.daylight.sun.as_ref().unwrap().direction;
-    let apart = |p: Vec3| {
-        spheres.iter().all(|&(c, r)| {
-            let t = (c - p).dot(sun).max(0.0);
-            c.distance(p) > 3.0 && (c - p - t * sun).length() > r + 0.2
-        })
-    };
+    // the block where it was and is, and out of its sun shadows ([`apart`]).
+    let apart = |p: Vec3| apart(&scene, [&from, &to], p);
     let (mut far, mut shifted) = (0, 0);
     for (i, p) in points.iter().enumerate() {
         let Some(p) = p.filter(|p| p.normal.y > 0.9 && p.position.y.abs() < 1e-3) else {
@@ -260,14 +268,7 @@ fn a_moved_object_draws_anew_only_the_pixels_it_changed() {
         .expect("the eye's last frame");
     let (_, after) = base.pass().visibility().pixels_and_points(&view.wall);
 
-    let spheres = [&from, &to].map(|at| scene.objects()[0].bounding_sphere(&at[0]));
-    let sun = scene.daylight.sun.as_ref().unwrap().direction;
-    let apart = |p: Vec3| {
-        spheres.iter().all(|&(c, r)| {
-            let t = (c - p).dot(sun).max(0.0);
-            c.distance(p) > 3.0 && (c - p - t * sun).length() > r + 0.2
-        })
-    };
+    let apart = |p: Vec3| apart(&scene, [&from, &to], p);
     let (mut far, mut shifted, mut uncovered) = (0, 0, 0);
     for (i, (b, a)) in before.iter().zip(&after).enumerate() {
         let same = match (b, a) {

@@ -73,14 +73,24 @@ pub fn stagger(view: &WallView, i: usize) -> u8 {
     [[0, 4, 2, 6], [5, 1, 7, 3]][y % 2][x % 4]
 }
 
+/// The frames a pixel's light may be carried: [`GLOSSY_AGE`] where it depends on the
+/// eye's direction, else [`DIFFUSE_AGE`].
+pub fn age_limit(view_dependent: bool) -> u8 {
+    if view_dependent {
+        GLOSSY_AGE
+    } else {
+        DIFFUSE_AGE
+    }
+}
+
 /// Which of the last frame's pixels (seen from `from`, at `points`, carried for `ages`
-/// frames, `view_dependent(i)` where pixel `i`'s light depends on the eye's direction)
-/// each pixel of `to` (the same screen, the eye moved) carries.
+/// frames, each at most `limit(i)` frames: [`age_limit`], or 0 where something else
+/// changed what it shows) each pixel of `to` (the same screen, the eye moved) carries.
 pub fn carry(
     from: &WallView,
     to: &WallView,
     (points, ages): (&[Option<DirectPoint>], &[u8]),
-    view_dependent: impl Fn(usize) -> bool + Sync,
+    limit: impl Fn(usize) -> u8 + Sync,
 ) -> Carried {
     let (w, h) = (to.size.width as usize, to.size.height as usize);
     let n = w * h;
@@ -97,21 +107,22 @@ pub fn carry(
         .into_par_iter()
         .map(|j| {
             let (i, d) = landed[j]?;
-            let limit = if view_dependent(i as usize) {
-                GLOSSY_AGE
-            } else {
-                DIFFUSE_AGE
-            };
             let outline = edged[i as usize]
                 || neighbours(j, w, h)
                     .any(|k| depth(k).is_some_and(|dk| (dk - d).abs() > DEPTH_STEP * d));
-            (ages[i as usize] + 1 < limit && !outline).then_some(i)
+            (ages[i as usize] + 1 < limit(i as usize) && !outline).then_some(i)
         })
         .collect();
     let ages = (from.iter())
         .map(|f| f.map_or(0, |i| ages[i as usize] + 1))
         .collect();
     Carried { from, ages }
+}
+
+/// A point a pixel may carry: one seen straight, not through a mirror or glass, and not on
+/// a moving object (its estimates are spread over the pixel: [`DirectPoint::span`]).
+fn carriable(p: &Option<DirectPoint>) -> Option<&DirectPoint> {
+    p.as_ref().filter(|p| p.span != [Vec3::ZERO; 2])
 }
 
 /// For each pixel of `to`, the last frame's pixel whose point lands in it nearest the
@@ -126,7 +137,7 @@ fn land(to: &WallView, points: &[Option<DirectPoint>]) -> Vec<Option<(u32, f32)>
     let targets: Vec<Option<(f64, f64, f32)>> = points
         .par_iter()
         .map(|p| {
-            let p = p.as_ref().filter(|p| p.span != [Vec3::ZERO; 2])?;
+            let p = carriable(p)?;
             let v = p.position - to.eye;
             let (x, y) = to.project(v.as_dvec3())?;
             let inside = x >= 0.0 && y >= 0.0 && x < w as f64 && y < h as f64;
@@ -149,10 +160,7 @@ fn land(to: &WallView, points: &[Option<DirectPoint>]) -> Vec<Option<(u32, f32)>
 /// no point it could carry, or one more than [`DEPTH_STEP`] nearer or farther.
 fn outlined(from: &WallView, points: &[Option<DirectPoint>]) -> Vec<bool> {
     let (w, h) = (from.size.width as usize, from.size.height as usize);
-    let depth = |i: usize| {
-        let p = points[i].as_ref().filter(|p| p.span != [Vec3::ZERO; 2])?;
-        Some((p.position - from.eye).length())
-    };
+    let depth = |i: usize| Some((carriable(&points[i])?.position - from.eye).length());
     (0..w * h)
         .into_par_iter()
         .map(|i| {

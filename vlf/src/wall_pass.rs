@@ -335,16 +335,7 @@ impl WallPass {
         anew: &[bool],
         reflections: &ReflectionFrames,
     ) -> FrameSurfaces {
-        let vis = &self.visibility;
-        vis.with_drawn(|drawn, direct_at_point| {
-            let drawn = (drawn.unwrap_or(self.values()), direct_at_point, reflections);
-            (lookups
-                .par_iter_mut()
-                .zip(points.par_iter_mut())
-                .enumerate())
-            .filter(|(i, _)| anew[*i])
-            .for_each(|(i, (l, p))| (*l, *p) = vis.cell(view, (i, 0, 1), drawn));
-        });
+        self.draw_cells(view, (&mut lookups, points), reflections, |i, _| anew[i]);
         let edges = glow_edges::find(view, &lookups, points);
         FrameSurfaces { lookups, edges }
     }
@@ -363,24 +354,39 @@ impl WallPass {
         points: &mut [Option<DirectPoint>],
         reflections: &ReflectionFrames,
     ) {
-        let vis = &self.visibility;
         let averaged = reflections.sharpened.is_empty()
             && reflections.blurred.start > u64::from(AVERAGED_FRAMES);
+        if !averaged {
+            let reflected = |_, p: &Option<DirectPoint>| p.is_some_and(|p| p.reflected.is_some());
+            self.draw_cells(view, (lookups, points), reflections, reflected);
+            return;
+        }
+        (lookups.par_iter_mut().zip(points.par_iter_mut())).for_each(|(l, p)| {
+            if let Some(r) = p.as_mut().and_then(|p| p.reflected.take()) {
+                l.emitted = (Vec3::from(l.emitted) - r).to_array();
+            }
+        });
+    }
+
+    /// Stages 1–3 for the pixels of `view` that `which(i, point)` picks, each along its
+    /// centre's ray, the glossy lobes taking the directions of `reflections`: their
+    /// lookups and points written over `lookups` and `points`.
+    fn draw_cells(
+        &self,
+        view: &WallView,
+        (lookups, points): (&mut [Lookup], &mut [Option<DirectPoint>]),
+        reflections: &ReflectionFrames,
+        which: impl Fn(usize, &Option<DirectPoint>) -> bool + Sync,
+    ) {
+        let vis = &self.visibility;
         vis.with_drawn(|drawn, direct_at_point| {
-            let values = drawn.unwrap_or(self.values());
-            let drawn = (values, direct_at_point, reflections);
+            let drawn = (drawn.unwrap_or(self.values()), direct_at_point, reflections);
             (lookups
                 .par_iter_mut()
                 .zip(points.par_iter_mut())
                 .enumerate())
-            .filter(|(_, (_, p))| p.as_ref().is_some_and(|p| p.reflected.is_some()))
-            .for_each(|(i, (l, p))| match p.as_mut() {
-                Some(point) if averaged => {
-                    let r = point.reflected.take().unwrap_or(Vec3::ZERO);
-                    l.emitted = (Vec3::from(l.emitted) - r).to_array();
-                }
-                _ => (*l, *p) = vis.cell(view, (i, 0, 1), drawn),
-            });
+            .filter(|(i, (_, p))| which(*i, p))
+            .for_each(|(i, (l, p))| (*l, *p) = vis.cell(view, (i, 0, 1), drawn));
         });
     }
 

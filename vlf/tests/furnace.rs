@@ -241,8 +241,44 @@ fn the_split_draws_what_the_total_draws() {
     };
     let (state, _) = common::bake_quiet(&scene, &settings);
     assert!(state.converged);
-    // The direct part is kept as computed: every element's total holds it, and what is
-    // left is the inter-reflected light, ρ c/(1 − ρ c) of the direct light at most.
+    assert_the_direct_part_is_kept(&state);
+    let samples = 1024;
+    let exact = f64::from(LE / (1.0 - RHO));
+    let Compared {
+        diffs,
+        elements,
+        old_sum,
+        new_sum,
+    } = split_against_total(&scene, &settings, &state, samples);
+    let n = diffs.len() as f64;
+    let mean = diffs.iter().sum::<f64>() / n;
+    let rms = (diffs.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / n).sqrt();
+    eprintln!(
+        "split against total: {} rays over {} elements, mean difference {mean:.5}, spread {rms:.4}; means {:.4} and {:.4} (exact {exact})",
+        diffs.len(),
+        elements,
+        old_sum / n,
+        new_sum / n
+    );
+    // Each side's direct light is a next-event estimate of ρ Le with 1024 samples (an
+    // element's, interpolated, and a point's), per-sample spread ≤ 1.5 (see above),
+    // weighted by ρ(1 − ρ) in L: σ ≤ 0.25 × 1.5/√1024 = 1.2 % each, so their difference
+    // has σ_d ≤ 1.7 % per ray (the rest of the light field is the same on both sides);
+    // the mean over rays that see K different elements is within 4 σ_d/√K of zero.
+    let sigma_d = 2f64.sqrt() * 0.25 * 1.5 / f64::from(samples).sqrt();
+    let k = elements as f64;
+    assert!(n > 300.0, "{n} interior rays");
+    assert!(
+        mean.abs() < 4.0 * sigma_d / k.sqrt(),
+        "the split's sum differs from the total by {mean:.5} on average (bound {:.5})",
+        4.0 * sigma_d / k.sqrt()
+    );
+    assert!(rms < sigma_d, "spread {rms:.4} above σ_d {sigma_d:.4}");
+}
+
+/// The direct part is kept as computed: every element's total holds it, and what is left
+/// is the inter-reflected light, ρ c/(1 − ρ c) of the direct light at most.
+fn assert_the_direct_part_is_kept(state: &State) {
     let values = state.values();
     let indirect = state.indirect_values();
     assert_eq!(values.len(), indirect.len());
@@ -264,68 +300,57 @@ fn the_split_draws_what_the_total_draws() {
         (ratio - f64::from(RHO / (1.0 - RHO))).abs() < 0.1,
         "indirect/direct {ratio:.3}"
     );
+}
 
-    let vis = Visibility::of(scene.clone(), &settings);
+/// The total's and the split's radiance along rays from two points inside the furnace
+/// that end far from an edge: their relative differences, how many elements they see,
+/// and each side's sum.
+struct Compared {
+    diffs: Vec<f64>,
+    elements: usize,
+    old_sum: f64,
+    new_sum: f64,
+}
+
+/// [`Compared`] for the bake `state` of `scene`, the split's direct light the mean of
+/// `samples` samples at each ray's point.
+fn split_against_total(
+    scene: &Arc<Scene>,
+    settings: &Settings,
+    state: &State,
+    samples: u32,
+) -> Compared {
+    let (values, indirect) = (state.values(), state.indirect_values());
+    let vis = Visibility::of(scene.clone(), settings);
     let direct = PixelDirect::new(scene.clone());
-    let samples = 1024;
     let exact = f64::from(LE / (1.0 - RHO));
-    let elements = layout(&scene, &settings);
-    let mut diffs = Vec::new();
-    let (mut old_sum, mut new_sum) = (0f64, 0f64);
+    let element_size = layout(scene, settings).element_size;
+    let mut c = Compared {
+        diffs: Vec::new(),
+        elements: 0,
+        old_sum: 0.0,
+        new_sum: 0.0,
+    };
     let mut seen = HashSet::new();
-    for (o, origin) in [Vec3::splat(0.5), Vec3::new(0.2, 0.3, 0.7)]
-        .into_iter()
-        .enumerate()
-    {
+    let origins = [Vec3::splat(0.5), Vec3::new(0.2, 0.3, 0.7)];
+    for (o, origin) in origins.into_iter().enumerate() {
         for (k, dir) in sphere_points(500).into_iter().enumerate() {
-            let ray = Ray::new(origin * SIDE, dir);
-            let (lookup, point) = vis.lookup_and_point(ray);
+            let (lookup, point) = vis.lookup_and_point(Ray::new(origin * SIDE, dir));
             let point = point.expect("a closed box");
-            if distance_to_edge(point.position) <= 2.0 * elements.element_size {
+            if distance_to_edge(point.position) <= 2.0 * element_size {
                 continue;
             }
+            let seed = (o * 1000 + k) as u64;
+            let at_point = vis.with_placed(|s| direct.mean(s, &point, seed, 0, samples).radiance);
             let old = f64::from(shade_one(&lookup, &values).x);
-            let new = f64::from(
-                (shade_one(&lookup, &indirect)
-                    + vis.with_placed(|s| {
-                        direct
-                            .mean(s, &point, (o * 1000 + k) as u64, 0, samples)
-                            .radiance
-                    }))
-                .x,
-            );
-            diffs.push((new - old) / exact);
-            old_sum += old;
-            new_sum += new;
-            seen.insert((
-                point.triangle,
-                (lookup.u * 15.0) as u32,
-                (lookup.v * 15.0) as u32,
-            ));
+            let new = f64::from((shade_one(&lookup, &indirect) + at_point).x);
+            c.diffs.push((new - old) / exact);
+            c.old_sum += old;
+            c.new_sum += new;
+            let cell = ((lookup.u * 15.0) as u32, (lookup.v * 15.0) as u32);
+            seen.insert((point.triangle, cell));
         }
     }
-    let n = diffs.len() as f64;
-    let mean = diffs.iter().sum::<f64>() / n;
-    let rms = (diffs.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / n).sqrt();
-    eprintln!(
-        "split against total: {} rays over {} elements, mean difference {mean:.5}, spread {rms:.4}; means {:.4} and {:.4} (exact {exact})",
-        diffs.len(),
-        seen.len(),
-        old_sum / n,
-        new_sum / n
-    );
-    // Each side's direct light is a next-event estimate of ρ Le with 1024 samples (an
-    // element's, interpolated, and a point's), per-sample spread ≤ 1.5 (see above),
-    // weighted by ρ(1 − ρ) in L: σ ≤ 0.25 × 1.5/√1024 = 1.2 % each, so their difference
-    // has σ_d ≤ 1.7 % per ray (the rest of the light field is the same on both sides);
-    // the mean over rays that see K different elements is within 4 σ_d/√K of zero.
-    let sigma_d = 2f64.sqrt() * 0.25 * 1.5 / f64::from(samples).sqrt();
-    let k = seen.len() as f64;
-    assert!(n > 300.0, "{n} interior rays");
-    assert!(
-        mean.abs() < 4.0 * sigma_d / k.sqrt(),
-        "the split's sum differs from the total by {mean:.5} on average (bound {:.5})",
-        4.0 * sigma_d / k.sqrt()
-    );
-    assert!(rms < sigma_d, "spread {rms:.4} above σ_d {sigma_d:.4}");
+    c.elements = seen.len();
+    c
 }

@@ -75,7 +75,7 @@ fn a_moving_eye_carries_most_pixels_each_to_the_pixel_its_point_lies_in() {
         view(Vec3::new(0.02, 1.6, 0.0)),
     );
     let seen = points(&a, None);
-    let carried = carry(&a, &b, (&seen, &staggered(&a)), |_| false);
+    let carried = carry(&a, &b, (&seen, &staggered(&a)), |_| DIFFUSE_AGE);
     for (j, f) in carried.from.iter().enumerate() {
         if let Some(i) = f {
             let p = seen[*i as usize].expect("a point").position;
@@ -109,7 +109,7 @@ fn no_pixel_is_carried_past_its_age_limit() {
     for frame in 1..=20 {
         let to = view(Vec3::new(0.003 * frame as f32, 1.6, 0.0));
         let now = points(&to, None);
-        let c = carry(&from, &to, (&seen, &ages), |i| glossy(&seen[i]));
+        let c = carry(&from, &to, (&seen, &ages), |i| age_limit(glossy(&seen[i])));
         // What each pixel shows is what it carried, where it carried one.
         let shown: Vec<_> = (0..n)
             .map(|j| c.from[j].map_or(now[j], |i| seen[i as usize]))
@@ -145,7 +145,7 @@ fn outlines_and_what_comes_into_sight_are_drawn_anew() {
         view(Vec3::new(0.1, 1.6, 0.0)),
     );
     let (seen, now) = (points(&a, panel), points(&b, panel));
-    let carried = carry(&a, &b, (&seen, &vec![0; a.size.area()]), |_| false);
+    let carried = carry(&a, &b, (&seen, &vec![0; a.size.area()]), |_| DIFFUSE_AGE);
     let w = b.size.width as usize;
     let surface = |j: usize| carried.from[j].map(|i| seen[i as usize].unwrap().triangle);
     for (j, truth) in now.iter().enumerate() {
@@ -175,6 +175,6 @@ fn another_screen_carries_nothing() {
     let mut b = view(Vec3::new(0.0, 1.6, 0.0));
     b.pa.x -= 0.1;
     let seen = points(&a, None);
-    let carried = carry(&a, &b, (&seen, &staggered(&a)), |_| false);
+    let carried = carry(&a, &b, (&seen, &staggered(&a)), |_| DIFFUSE_AGE);
     assert_eq!(carried.drawn(), b.size.area());
 }
