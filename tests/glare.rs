@@ -135,6 +135,125 @@ fn bad_flags_are_named() {
     assert!(String::from_utf8_lossy(&o.stderr).contains(".exr"));
 }
 
+/// A weather file of one June day at Chicago's site, hours 5 to 20 (the stamps' hours
+/// ending then): clear, but overcast at 13:00.
+fn june_day(dir: &Path) -> PathBuf {
+    let mut s = String::from("LOCATION,Here,,,,0,41.98,-87.92,-6.0,201.0\n");
+    s += &"HEADER,x\n".repeat(6);
+    s += "DATA PERIODS,1,1,Data,Sunday, 1/ 1,12/31\n";
+    for h in 5..=20 {
+        let (dni, dhi) = if h == 13 { (0, 300) } else { (600, 100) };
+        s += &format!("1999,6,21,{h},0,f,20,10,50,99000,1300,1360,350,800,{dni},{dhi}\n");
+    }
+    let path = dir.join("june.epw");
+    std::fs::write(&path, s).unwrap();
+    path
+}
+
+/// `--annual` looking straight up under each hour's Perez sky and sun: every daylit hour
+/// has a row, and its Ev is the global horizontal illuminance `efficacy (DHI + DNI sin h)`
+/// (the sky normalised to the DHI, the sun's disc in view), within the fisheye's
+/// discretisation: `2.5 π²/N²` of the sky's part, and for the sun its cosine taken at the
+/// centre of the pixel it falls in, within half a pixel's diagonal `k √2/2` (`k = π/N`) of
+/// its own. The summary counts the rows; the temporal map is written beside the CSV.
+#[test]
+fn a_year_looking_up_sees_the_global_illuminance_each_hour() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, daylight) = sky_scene(dir.path());
+    let epw = june_day(dir.path());
+    let out = dir.path().join("year.csv");
+    let n = 64u32;
+    let o = glare(
+        &scene,
+        &daylight,
+        &out,
+        &[
+            "--look",
+            "0,1,0",
+            "--up",
+            "0,0,-1",
+            "--size",
+            "64",
+            "--spp",
+            "1",
+            "--annual",
+            "--weather",
+            epw.to_str().unwrap(),
+            "--json",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let summary: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<Vec<f64>> = (csv.lines().skip(1))
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            [4, 5, 6, 7]
+                .iter()
+                .map(|&i| f[i].parse().unwrap())
+                .collect()
+        })
+        .collect();
+    // The sun is up from about 4:15 to 19:30 on 21 June in Chicago's standard time: the
+    // hours ending at 5 … 20 have their middles (4:30 … 19:30) up but for the last.
+    assert_eq!(rows.len(), 15, "{csv}");
+    assert_eq!(summary["daylit_hours"].as_u64(), Some(15));
+    let k = std::f64::consts::PI / f64::from(n);
+    for r in &rows {
+        let (altitude, dni, dhi, ev) = (r[0], r[1], r[2], r[3]);
+        let sky = EFFICACY * dhi;
+        let sun = EFFICACY * dni * altitude.to_radians().sin();
+        let bound = 2.5 * std::f64::consts::PI.powi(2) / f64::from(n * n) * sky
+            + EFFICACY * dni * k * 2f64.sqrt() / 2.0
+            + 1e-3;
+        assert!(
+            (ev - sky - sun).abs() < bound,
+            "{r:?}: Ev {ev} against {}",
+            sky + sun
+        );
+    }
+    assert!(out.with_extension("png").is_file());
+}
+
+/// `--annual`'s own bad flags are named too.
+#[test]
+fn bad_annual_flags_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, daylight) = sky_scene(dir.path());
+    let epw = june_day(dir.path());
+    let epw = epw.to_str().unwrap();
+    let csv = dir.path().join("y.csv");
+    let exr = dir.path().join("y.exr");
+    for (out, flags, says) in [
+        (&csv, vec!["--annual"], "--weather"),
+        (&exr, vec!["--annual", "--weather", epw], ".csv"),
+        (
+            &csv,
+            vec!["--annual", "--weather", epw, "--occupied", "18-8"],
+            "--occupied",
+        ),
+        (
+            &csv,
+            vec!["--annual", "--weather", epw, "--glare-limit", "2"],
+            "--glare-limit",
+        ),
+        (&exr, vec!["--weather", epw], "--when"),
+    ] {
+        let mut flags = flags;
+        flags.extend(["--look", "1,0,0"]);
+        let o = glare(&scene, &daylight, out, &flags);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{flags:?} was accepted");
+        assert!(err.contains(says), "{flags:?}: {err}");
+        assert!(!err.contains("panicked"), "{flags:?}: {err}");
+    }
+}
+
 /// `node --standalone --glare`: the wall runs and a thread beside it measures the newest
 /// frame's view whenever it is free. Every measured frame has a line per eye (left, then
 /// right, the same frame), frames only move forward and were all drawn, the figures are

@@ -69,7 +69,7 @@ pub const SUN_RAYS: u32 = 4096;
 const PLASTIC: f64 = 1.324_717_957_244_746;
 
 /// Point `i` of the 2-D R sequence in the unit square.
-fn r2(i: u32) -> (f64, f64) {
+pub(crate) fn r2(i: u32) -> (f64, f64) {
     let (a1, a2) = (1.0 / PLASTIC, 1.0 / (PLASTIC * PLASTIC));
     (
         (0.5 + a1 * f64::from(i)).fract(),
@@ -78,7 +78,7 @@ fn r2(i: u32) -> (f64, f64) {
 }
 
 /// The rays of pixel `(x, y)`: `count` points spread over it, those in the circle.
-fn pixel_rays(fisheye: &Fisheye, x: u32, y: u32, count: u32) -> Vec<Ray> {
+pub(crate) fn pixel_rays(fisheye: &Fisheye, x: u32, y: u32, count: u32) -> Vec<Ray> {
     if fisheye.pixel_direction(x, y).is_none() {
         return Vec::new();
     }

@@ -5,9 +5,10 @@
 //! glare rating UGR and the glare sources ([`figures`], [`sources`], [`position_index`],
 //! by the [`rules`]). [`meter`] measures a moving head frame after frame, [`log`] writes
 //! the figures per frame and a session's summary, [`session`] does both for a recorded
-//! session and [`live`] while one runs; [`picture`] draws the fisheye for a person to look at, the sources outlined. Usage and the limits of validity:
+//! session and [`live`] while one runs, [`annual`] a seat over a year's weather; [`picture`] draws the fisheye for a person to look at, the sources outlined. Usage and the limits of validity:
 //! `docs/usage/glare.md`.
 
+pub mod annual;
 pub mod draw;
 pub mod error;
 pub mod figures;

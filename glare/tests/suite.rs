@@ -1,6 +1,7 @@
 //! The crate's integration tests as one binary (one link, not one per file): each
 //! file of this folder is a module.
 
+mod annual;
 mod figures;
 mod meter;
 

@@ -88,6 +88,23 @@ pub fn default_daylight_path(scene: &Path) -> PathBuf {
     scene.with_file_name(format!("{stem}.daylight.toml"))
 }
 
+/// The daylight a scene at `scene` is loaded with: the file `daylight` (else the one
+/// beside the scene, if present) at `moment`; a moment without a file takes the weather
+/// file's site and sky.
+pub fn load_daylight(
+    scene: &Path,
+    daylight: Option<&Path>,
+    moment: Option<&crate::daylight::Moment>,
+) -> Result<Daylight, SceneError> {
+    let beside = default_daylight_path(scene);
+    let path = daylight.or_else(|| Some(beside.as_path()).filter(|p| p.exists()));
+    match (path, moment) {
+        (Some(p), _) => Daylight::load_at(p, moment),
+        (None, Some(_)) => Daylight::parse_at("", Path::new("(no daylight file)"), moment),
+        (None, None) => Ok(Daylight::default()),
+    }
+}
+
 struct Loader<'a> {
     path: &'a Path,
     doc: &'a Document,
@@ -127,17 +144,7 @@ fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
     warnings.extend(tex_warnings);
 
     // The daylight file is the scene's settings: its `[[object]]`s join the options'.
-    let daylight_path = opts
-        .daylight
-        .clone()
-        .or_else(|| Some(default_daylight_path(path)).filter(|p| p.exists()));
-    let moment = opts.moment.as_ref();
-    let daylight = match (daylight_path.as_deref(), moment) {
-        (Some(p), _) => Daylight::load_at(p, moment)?,
-        // A time without a daylight file: the weather file's site and sky.
-        (None, Some(_)) => Daylight::parse_at("", Path::new("(no daylight file)"), moment)?,
-        (None, None) => Daylight::default(),
-    };
+    let daylight = load_daylight(path, opts.daylight.as_deref(), opts.moment.as_ref())?;
     let mut specs = opts.objects.clone();
     specs.extend(daylight.objects.iter().cloned());
     let (objects, claims, first_nodes) = resolve_objects(path, &gltf.document, &specs)?;

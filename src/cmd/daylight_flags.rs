@@ -22,7 +22,7 @@ pub struct DaylightFlags {
     pub when: Option<When>,
     /// An EPW weather file: the site, and the hour's direct and diffuse irradiance for the
     /// sun and a Perez sky (instead of the daylight file's sun light and sky).
-    #[arg(long, value_name = "FILE.epw", requires = "when")]
+    #[arg(long, value_name = "FILE.epw")]
     pub weather: Option<PathBuf>,
 }
 
@@ -30,6 +30,12 @@ impl DaylightFlags {
     /// The time and weather asked for, the weather file read; `None` without `--when`.
     pub fn moment(&self) -> Result<Option<Moment>> {
         let Some(when) = self.when else {
+            if let Some(w) = &self.weather {
+                anyhow::bail!(
+                    "--weather {}: give --when TIME, the hour to take from it",
+                    w.display()
+                );
+            }
             return Ok(None);
         };
         let weather = (self.weather.as_deref())

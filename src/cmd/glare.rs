@@ -38,9 +38,9 @@ pub struct GlareArgs {
     /// direct light per pixel); without it, path-trace it (the reference).
     #[arg(long)]
     pub vlf: Option<PathBuf>,
-    /// Path samples per pixel (without --vlf).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..))]
-    pub spp: u32,
+    /// Path samples per pixel (without --vlf; default 64, with --annual 16).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub spp: Option<u32>,
     /// Light-field lookups per pixel along each axis (with --vlf).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub aa: u32,
@@ -51,13 +51,16 @@ pub struct GlareArgs {
     /// With --vlf: leave out the direct light per pixel (the light field alone).
     #[arg(long)]
     pub no_direct: bool,
-    /// The fisheye's size N (N × N pixels).
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=8192))]
-    pub size: u32,
+    /// The fisheye's size N (N × N pixels; default 512, with --annual 256).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=8192))]
+    pub size: Option<u32>,
     /// The fisheye's radiance (OpenEXR, the scene's units); a PNG with the glare sources
-    /// outlined is written beside it.
+    /// outlined is written beside it. With --annual: the hours' CSV, and the temporal map
+    /// (PNG) beside it.
     #[arg(long)]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub annual: super::glare_annual::AnnualFlags,
     /// Also write the fisheye's luminance as a Radiance picture (-vta) for evalglare.
     #[arg(long)]
     pub hdr: Option<PathBuf>,
@@ -83,16 +86,13 @@ pub struct GlareArgs {
 }
 
 pub fn run(a: GlareArgs) -> Result<()> {
-    let rules = Rules {
-        threshold: Threshold::from_evalglare(a.threshold).context("--threshold")?,
-        search_radius: a.search_radius,
-        peak_limit: (!a.no_peaks)
-            .then_some(Rules::default().peak_limit)
-            .flatten(),
-        low_light: !a.no_low_light,
-    };
-    rules.validate()?;
-    let fisheye = Fisheye::new(a.size, a.eye, a.look, a.up).context("--eye, --look and --up")?;
+    let rules = rules(&a)?;
+    if a.annual.annual {
+        return super::glare_annual::run(&a, &rules);
+    }
+    let size = a.size.unwrap_or(512);
+    let spp = a.spp.unwrap_or(64);
+    let fisheye = Fisheye::new(size, a.eye, a.look, a.up).context("--eye, --look and --up")?;
     if a.out.extension().and_then(|e| e.to_str()) != Some("exr") {
         bail!(
             "--out {}: give an .exr file (a PNG is written beside it)",
@@ -114,10 +114,10 @@ pub fn run(a: GlareArgs) -> Result<()> {
         None => (
             Drawing::PathTraced {
                 tracer: Box::new(Tracer::new(scene.clone(), TraceSettings::default())),
-                spp: a.spp,
+                spp,
                 seed: a.seed,
             },
-            format!("path traced at {} spp", a.spp),
+            format!("path traced at {spp} spp"),
         ),
     };
     let start = std::time::Instant::now();
@@ -126,10 +126,7 @@ pub fn run(a: GlareArgs) -> Result<()> {
         a.out.display()
     );
     let image = super::interrupt::ending_at_once(nothing, || {
-        tracing::info!(
-            "drawing the {0}x{0} fisheye {how} (Ctrl-C ends it, writing nothing)",
-            a.size
-        );
+        tracing::info!("drawing the {size}x{size} fisheye {how} (Ctrl-C ends it, writing nothing)");
         drawing.draw(&fisheye)
     });
     let secs = start.elapsed().as_secs_f64();
@@ -147,15 +144,27 @@ pub fn run(a: GlareArgs) -> Result<()> {
         return Ok(());
     }
     println!(
-        "wrote {} and {} ({}x{} fisheye {how}, {secs:.1} s; efficacy {} lm/W)",
+        "wrote {} and {} ({size}x{size} fisheye {how}, {secs:.1} s; efficacy {} lm/W)",
         a.out.display(),
         png.display(),
-        a.size,
-        a.size,
         photometry.efficacy
     );
     print!("{}", figures.report());
     Ok(())
+}
+
+/// The glare rules the flags ask for.
+fn rules(a: &GlareArgs) -> Result<Rules> {
+    let rules = Rules {
+        threshold: Threshold::from_evalglare(a.threshold).context("--threshold")?,
+        search_radius: a.search_radius,
+        peak_limit: (!a.no_peaks)
+            .then_some(Rules::default().peak_limit)
+            .flatten(),
+        low_light: !a.no_low_light,
+    };
+    rules.validate()?;
+    Ok(rules)
 }
 
 /// Glare measured live while a session runs (`master --glare`, `node --standalone

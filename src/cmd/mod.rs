@@ -7,6 +7,7 @@ pub mod daylight;
 pub mod daylight_flags;
 pub mod fill;
 pub mod glare;
+pub mod glare_annual;
 pub mod holodeck;
 pub mod interrupt;
 pub mod master;

@@ -148,6 +148,11 @@ impl Weather {
         self.rows.is_empty()
     }
 
+    /// Each row's stamp, in the file's order: (month, day, hour 1–24, the hour ending then).
+    pub fn stamps(&self) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
+        self.rows.iter().map(|r| (r.month, r.day, r.hour))
+    }
+
     /// The row whose hour holds `when` (turned into the file's standard time): from
     /// `HH:00` up to the next hour is the row stamped `HH + 1`.
     pub fn hour_at(&self, when: &DateTime<FixedOffset>) -> Result<Hour, EpwError> {
