@@ -88,7 +88,17 @@ pub struct GlareArgs {
 pub fn run(a: GlareArgs) -> Result<()> {
     let rules = rules(&a)?;
     if a.annual.annual {
-        return super::glare_annual::run(&a, &rules);
+        let run = super::glare_annual::AnnualRun {
+            scene: &a.scene,
+            daylight: &a.daylight,
+            view: [a.eye, a.look, a.up],
+            size: a.size,
+            spp: a.spp,
+            seed: a.seed,
+            out: &a.out,
+            json: a.json,
+        };
+        return super::glare_annual::run(&run, &a.annual, &rules);
     }
     let size = a.size.unwrap_or(512);
     let spp = a.spp.unwrap_or(64);

@@ -1,17 +1,19 @@
 //! `holocave glare --annual`: a year's glare at one seat, from a weather file (the
 //! `holocave_glare::annual` crate module does the work).
 
+use std::path::Path;
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use glam::Vec3;
 use holocave_glare::annual::table::{Occupied, Summary, write_csv};
 use holocave_glare::annual::{self, map::write_temporal_map};
 use holocave_glare::{Fisheye, Rules};
 use holocave_scene::daylight::{Weather, When};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::glare::GlareArgs;
+use super::daylight_flags::DaylightFlags;
 use super::render::load_scene;
 
 #[derive(Args, Clone, Debug)]
@@ -41,8 +43,20 @@ fn parse_occupied(s: &str) -> Result<Occupied, String> {
     }
 }
 
-pub fn run(a: &GlareArgs, rules: &Rules) -> Result<()> {
-    let f = &a.annual;
+/// What an annual run measures, from `glare`'s flags.
+pub struct AnnualRun<'a> {
+    pub scene: &'a Path,
+    pub daylight: &'a DaylightFlags,
+    /// Eye, look and up.
+    pub view: [Vec3; 3],
+    pub size: Option<u32>,
+    pub spp: Option<u32>,
+    pub seed: u64,
+    pub out: &'a Path,
+    pub json: bool,
+}
+
+pub fn run(a: &AnnualRun, f: &AnnualFlags, rules: &Rules) -> Result<()> {
     if !(f.glare_limit > 0.0 && f.glare_limit <= 1.0) {
         bail!("--glare-limit {}: give a DGP in (0, 1]", f.glare_limit);
     }
@@ -53,7 +67,8 @@ pub fn run(a: &GlareArgs, rules: &Rules) -> Result<()> {
         );
     }
     let (size, spp) = (a.size.unwrap_or(256), a.spp.unwrap_or(16));
-    let fisheye = Fisheye::new(size, a.eye, a.look, a.up).context("--eye, --look and --up")?;
+    let [eye, look, up] = a.view;
+    let fisheye = Fisheye::new(size, eye, look, up).context("--eye, --look and --up")?;
     let epw = a
         .daylight
         .weather
@@ -64,7 +79,7 @@ pub fn run(a: &GlareArgs, rules: &Rules) -> Result<()> {
     // The scene's geometry and photometry; each hour's light comes from `light_of_hours`.
     let mut flags = a.daylight.clone();
     flags.when = hours.first().map(|h| When::Local(h.when));
-    let scene = load_scene(&a.scene, flags, false)?;
+    let scene = load_scene(a.scene, flags, false)?;
     let photometry = scene.daylight.photometry;
     let nothing = format!(
         "nothing written ({} is written once every hour is measured)",
@@ -74,7 +89,7 @@ pub fn run(a: &GlareArgs, rules: &Rules) -> Result<()> {
     let (rows, sun_patches, [lighting, traced]) =
         super::interrupt::ending_at_once(nothing, || {
             let file = (a.daylight.daylight.as_deref(), scene.daylight.site.as_ref());
-            let lit = annual::light_of_hours(&a.scene, file, &weather, &hours)?;
+            let lit = annual::light_of_hours(a.scene, file, &weather, &hours)?;
             let lighting = start.elapsed().as_secs_f64();
             eprintln!(
                 "tracing the {size}x{size} fisheye's daylight coefficients at {spp} paths a pixel"
@@ -97,7 +112,7 @@ pub fn run(a: &GlareArgs, rules: &Rules) -> Result<()> {
             ))
         })?;
     let secs = start.elapsed().as_secs_f64();
-    write_csv(&a.out, &rows)?;
+    write_csv(a.out, &rows)?;
     let png = a.out.with_extension("png");
     write_temporal_map(&png, &rows)?;
     let summary = Summary::of(&rows, &hours, f.occupied, f.glare_limit);
