@@ -52,15 +52,10 @@ fn server(path: &Path) -> Server {
     Server::new(h, Mode::Batch, config)
 }
 
-fn fill(c: &mut Criterion) {
-    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.gltf");
-    let scene = Scene::load(&scene_path, &LoadOptions::default()).unwrap();
-    let source = HolodeckTracer(Tracer::new(Arc::new(scene), TraceSettings::default()));
-    let dir = tempfile::tempdir().unwrap();
-
-    // The rays a batch fill sends to workers: every other ray of its first sweep over all
-    // beams (about 8 rays per beam of average volume, in beam order).
-    let mut srv = server(&dir.path().join("rays.hdk"));
+/// The rays a batch fill sends to workers: every other ray of its first sweep over all
+/// beams (about 8 rays per beam of average volume, in beam order).
+fn first_sweep_rays(path: &Path) -> Vec<SourceRay> {
+    let mut srv = server(path);
     let w = srv.add_worker();
     let mut rays = Vec::new();
     let mut t = 0.0;
@@ -81,8 +76,16 @@ fn fill(c: &mut Criterion) {
             srv.complete(w, &r, t).unwrap();
         }
     }
-    let rays: Vec<_> = rays.into_iter().step_by(2).take(RAYS as usize).collect();
-    drop(srv);
+    rays.into_iter().step_by(2).take(RAYS as usize).collect()
+}
+
+fn fill(c: &mut Criterion) {
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.gltf");
+    let scene = Scene::load(&scene_path, &LoadOptions::default()).unwrap();
+    let source = HolodeckTracer(Tracer::new(Arc::new(scene), TraceSettings::default()));
+    let dir = tempfile::tempdir().unwrap();
+
+    let rays = first_sweep_rays(&dir.path().join("rays.hdk"));
 
     let mut g = c.benchmark_group("holodeck_fill_cornell");
     g.sample_size(10);

@@ -5,3 +5,6 @@
 
 pub mod launch;
 pub mod supervise;
+
+#[cfg(test)]
+mod doc_links;

@@ -175,28 +175,8 @@ impl Bvh {
                         None => bound = leaf(node, slot, node.children[slot].leaf_block()),
                     }
                 } else if mask != 0 {
-                    // Order the children entered by entry distance. Entry distances are
-                    // ≥ 0, so their bits order like the floats, and the low three bits can
-                    // carry the slot.
-                    let mut keys = [0u32; 8];
-                    let mut n = 0;
-                    let mut bits = mask;
-                    while bits != 0 {
-                        let slot = bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        keys[n] = (entry[slot].to_bits() & !7) | slot as u32;
-                        n += 1;
-                    }
-                    let keys = &mut keys[..n];
-                    for i in 1..n {
-                        let key = keys[i];
-                        let mut j = i;
-                        while j > 0 && keys[j - 1] > key {
-                            keys[j] = keys[j - 1];
-                            j -= 1;
-                        }
-                        keys[j] = key;
-                    }
+                    let (keys, n) = Self::entry_order(mask, &entry);
+                    let keys = &keys[..n];
                     // Leaves nearer than every inner child are tested now. The nearest
                     // inner child is visited next; the children beyond it wait, farthest
                     // deepest.
@@ -259,6 +239,32 @@ impl Bvh {
                 }
             }
         })
+    }
+
+    /// The children entered (`mask`), ordered by their entry distance: each key holds the
+    /// distance's bits with the slot in the low three (entry distances are ≥ 0, so their
+    /// bits order like the floats), and how many there are.
+    #[inline(always)]
+    fn entry_order(mask: u32, entry: &[f32; 8]) -> ([u32; 8], usize) {
+        let mut keys = [0u32; 8];
+        let mut n = 0;
+        let mut bits = mask;
+        while bits != 0 {
+            let slot = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            keys[n] = (entry[slot].to_bits() & !7) | slot as u32;
+            n += 1;
+        }
+        for i in 1..n {
+            let key = keys[i];
+            let mut j = i;
+            while j > 0 && keys[j - 1] > key {
+                keys[j] = keys[j - 1];
+                j -= 1;
+            }
+            keys[j] = key;
+        }
+        (keys, n)
     }
 
     /// The hit of a block's lane (slot `4 · block + lane`), in the caller's triangle

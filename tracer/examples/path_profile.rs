@@ -122,6 +122,12 @@ fn main() -> Result<(), String> {
             }
         }
     }
+    print_shares(&mean, &var);
+    Ok(())
+}
+
+/// Each vertex's share of the path's mean and variance, and the totals.
+fn print_shares(mean: &[f64; DEPTHS + 1], var: &[f64; DEPTHS + 1]) {
     let (total_mean, total_var) = (mean.iter().sum::<f64>(), var.iter().sum::<f64>());
     println!("vertex  share of mean  share of variance (per-vertex, without covariances)");
     for k in 0..=DEPTHS {
@@ -141,5 +147,4 @@ fn main() -> Result<(), String> {
          relative {:.3}",
         total_var / (total_mean * total_mean)
     );
-    Ok(())
 }

@@ -281,14 +281,7 @@ pub fn finish_path(
 
         // Emission, weighted against the light sampling that could have chosen it.
         if params.emission.max_element() > 0.0 && (ng.dot(wo) > 0.0 || material.double_sided) {
-            let w = match (prev_pdf, via_mirror) {
-                (Some(p), _) => power_heuristic(p, lights.area_pdf(&hit, ray.origin, ng, ray.dir)),
-                (None, Some(via)) => power_heuristic(
-                    via.bsdf_pdf,
-                    lights.mirror_pdf(&via, hit.triangle, ng, ray.dir, hit.t),
-                ),
-                (None, None) => 1.0,
-            };
+            let w = emission_weight(lights, (prev_pdf, via_mirror), &hit, &ray, ng);
             path.radiance += path.throughput * params.emission * w;
         }
 
@@ -330,6 +323,27 @@ pub fn finish_path(
     }
     sample.radiance = finish(path.radiance);
     sample
+}
+
+/// The MIS weight of emission met at `hit` along `ray` against the light sampling that
+/// could have chosen it: directly after a non-delta bounce of density `prev_pdf`, or
+/// through one flat mirror (`via`); 1 where no light sampling could have.
+#[inline]
+fn emission_weight(
+    lights: &Lights,
+    (prev_pdf, via): (Option<f32>, Option<ViaMirror>),
+    hit: &Hit,
+    ray: &Ray,
+    ng: Vec3,
+) -> f32 {
+    match (prev_pdf, via) {
+        (Some(p), _) => power_heuristic(p, lights.area_pdf(hit, ray.origin, ng, ray.dir)),
+        (None, Some(via)) => power_heuristic(
+            via.bsdf_pdf,
+            lights.mirror_pdf(&via, hit.triangle, ng, ray.dir, hit.t),
+        ),
+        (None, None) => 1.0,
+    }
 }
 
 /// The radiance reported for a path: never negative, and zero rather than NaN or Inf.
