@@ -13,6 +13,7 @@ use std::process::{ChildStdout, Stdio};
 use std::time::{Duration, Instant};
 
 use common::{Watched, holocave, scratch, start_master};
+use holocave_master::navigation::log::Row;
 use xvfb::{WindowManager, Xvfb};
 
 const CONFIG: &str = "configs/cave4-room.toml";
@@ -140,7 +141,7 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
     };
     let out = scratch("cluster-window-close");
     let frames = 100_000;
-    let (m, addr, mut stdout) = master(frames);
+    let (m, addr, stdout) = master(frames);
     let mut nodes: Vec<Option<Watched>> = WALLS
         .iter()
         .map(|w| Some(node(&addr, w, &out, Some(&x))))
@@ -154,23 +155,7 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
     wm.resize("holocave left", 96, 60);
     wm.close("holocave right");
     wm.press_escape("holocave floor");
-    let mut last_closed = 0;
-    let mut closed_logs = Vec::new();
-    for (i, wall) in [(2, "right"), (3, "floor")] {
-        let n = nodes[i].take().unwrap();
-        let (status, nout, nerr) = n.finish(Duration::from_secs(30));
-        assert!(
-            status.is_some_and(|s| s.success()),
-            "the closed {wall} node failed:\n{nout}\n{nerr}"
-        );
-        assert!(
-            nout.contains("left: its window was closed"),
-            "the closed {wall} node did not say why it left:\n{nout}"
-        );
-        let log = presented(&out, wall);
-        last_closed = last_closed.max(*log.last().expect("frames before closing"));
-        closed_logs.push(log);
-    }
+    let (last_closed, closed_logs) = check_the_closed_nodes_leave_saying_why(&mut nodes, &out);
     // The others go on: 40 more frames each after the closed walls' last.
     wait_until(
         Duration::from_secs(120),
@@ -194,9 +179,47 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
         shot.pixels().any(|p| p.0 != [0, 0, 0]),
         "the resized window is black"
     );
-    // Stop the master (it would run 100 000 frames) and read its log: the closed node
-    // told it that it leaves, so it was never declared out.
-    let mut m = m;
+    check_the_master_was_told_the_closed_walls_leave(m, stdout);
+    for n in nodes.iter_mut().take(2) {
+        drop(n.take());
+    }
+    check_all_walls_showed_the_same_frames(&out, &closed_logs);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The right and floor nodes (whose windows were closed) end successfully, saying why
+/// they left, having presented some frames. Returns the last frame either presented and
+/// the frames each presented.
+fn check_the_closed_nodes_leave_saying_why(
+    nodes: &mut [Option<Watched>],
+    out: &Path,
+) -> (u64, Vec<Vec<u64>>) {
+    let mut last_closed = 0;
+    let mut closed_logs = Vec::new();
+    for (i, wall) in [(2, "right"), (3, "floor")] {
+        let n = nodes[i].take().unwrap();
+        let (status, nout, nerr) = n.finish(Duration::from_secs(30));
+        assert!(
+            status.is_some_and(|s| s.success()),
+            "the closed {wall} node failed:\n{nout}\n{nerr}"
+        );
+        assert!(
+            nout.contains("left: its window was closed"),
+            "the closed {wall} node did not say why it left:\n{nout}"
+        );
+        let log = presented(out, wall);
+        last_closed = last_closed.max(*log.last().expect("frames before closing"));
+        closed_logs.push(log);
+    }
+    (last_closed, closed_logs)
+}
+
+/// Stop the master (it would run 100 000 frames) and read its log: the closed node
+/// told it that it leaves, so it was never declared out.
+fn check_the_master_was_told_the_closed_walls_leave(
+    mut m: Watched,
+    mut stdout: BufReader<ChildStdout>,
+) {
     let _ = m.child.kill();
     let (_, _, log) = m.finish(Duration::from_secs(10));
     let mut said = String::new();
@@ -212,12 +235,14 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
             "the closed {wall} wall was declared out instead:\n{log}"
         );
     }
-    for n in nodes.iter_mut().take(2) {
-        drop(n.take());
-    }
+}
+
+/// The front and left walls (still running until the master was stopped) and the closed
+/// ones (`closed_logs`) presented the same frames, as far as each got.
+fn check_all_walls_showed_the_same_frames(out: &Path, closed_logs: &[Vec<u64>]) {
     let logs: Vec<Vec<u64>> = ["front", "left"]
         .iter()
-        .map(|w| presented(&out, w))
+        .map(|w| presented(out, w))
         .collect();
     // Frame lock holds among the remaining walls: each shows the frames the others show,
     // but the last one may be cut by the kill.
@@ -230,10 +255,9 @@ fn resizing_or_closing_one_window_stops_neither_the_others_nor_the_master() {
         );
     }
     // The closed walls presented what the others did, up to their close.
-    for log in &closed_logs {
+    for log in closed_logs {
         assert_eq!(&log[..], &logs[0][..log.len()]);
     }
-    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// A desk user in a node's window (keys and mouse sent through XTEST as a keyboard and
@@ -248,33 +272,90 @@ fn a_desk_users_key_and_drag_in_a_window_move_the_world_until_released() {
     let Some(x) = Xvfb::start(640, 480) else {
         return;
     };
-    const DESK: &str = "configs/desk.toml";
-    // The navigation's defaults: m/s, rad/s, the axes' dead zone; the drag's full
-    // deflection (render-node's `desk::DRAG_FULL`, px).
-    const WALK_SPEED: f64 = 1.4;
-    const TURN_RATE: f64 = std::f64::consts::PI / 4.0;
-    const DEAD_ZONE: f64 = 0.1;
-    const DRAG_FULL: f64 = 200.0;
-    const DRAG: i16 = 100;
-    const KEY_W: u32 = 0x77;
-    const WINDOW: &str = "holocave screen";
     let out = scratch("cluster-window-desk");
     let (master_out, node_out) = (out.join("master"), out.join("nodes"));
+    let (m, addr, mut stdout) = desk_master(&master_out);
+    let node = desk_node(&addr, &node_out, &x);
+    let inputs = press_w_then_drag(&x, &node_out);
+    let (status, _, err) = m.finish(Duration::from_secs(120));
+    assert!(status.is_some_and(|s| s.success()), "master failed: {err}");
+    let mut summary = String::new();
+    stdout.read_to_string(&mut summary).unwrap();
+    let (status, nout, nerr) = node.finish(Duration::from_secs(30));
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "node failed:\n{nout}\n{nerr}"
+    );
+
+    let desk = std::fs::read_to_string(master_out.join("desk.csv")).expect("desk.csv");
+    let nav = std::fs::read_to_string(master_out.join("navigation.csv")).expect("navigation.csv");
+    let rows = holocave_master::navigation::log::read(&nav).expect("navigation.csv reads back");
+    let DeskInputs {
+        pressed_after,
+        released_after,
+        dragged_after,
+        let_go_after,
+    } = inputs;
+    println!(
+        "{summary}\ndesk.csv:\n{desk}\nW pressed after frame {pressed_after}, released after \
+         {released_after}; dragged after {dragged_after}, let go after {let_go_after}"
+    );
+    let (walked, turned) = check_each_step_walks_or_turns(&rows);
+    println!("walked in frames {walked:?}, turned in {turned:?}");
+    let final_frame = rows.last().expect("rows").frame;
+    check_the_motion_follows_its_input(&walked, &turned, &inputs, final_frame);
+    assert!(
+        desk.lines().filter(|l| l.starts_with("axes,")).count() >= 4,
+        "desk.csv holds no press, release, drag and let-go:\n{desk}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The desk test's cave: one wall, `screen`.
+const DESK: &str = "configs/desk.toml";
+// The navigation's defaults: m/s, rad/s, the axes' dead zone; the drag's full
+// deflection (render-node's `desk::DRAG_FULL`, px).
+const WALK_SPEED: f64 = 1.4;
+const TURN_RATE: f64 = std::f64::consts::PI / 4.0;
+const DEAD_ZONE: f64 = 0.1;
+const DRAG_FULL: f64 = 200.0;
+/// How far the desk test drags the mouse to the right, px.
+const DRAG: i16 = 100;
+/// The W key's keysym.
+const KEY_W: u32 = 0x77;
+/// The desk node's window.
+const WINDOW: &str = "holocave screen";
+
+/// The frames after which the desk test gave and took back each input.
+struct DeskInputs {
+    pressed_after: u64,
+    released_after: u64,
+    dragged_after: u64,
+    let_go_after: u64,
+}
+
+/// A master for the desk cave taking a desk user's input (`--desk`) for 200 frames,
+/// writing its logs to `out`.
+fn desk_master(out: &Path) -> (Watched, String, BufReader<ChildStdout>) {
     let mut c = holocave();
     c.args(["master", "--config", DESK, "--listen", "127.0.0.1:0"])
         .args(["--rate", RATE, "--dead-node-ms", DEAD_NODE_MS])
         .args(["--frames", "200", "--wait-for-walls", "60", "--desk"])
         .arg("--out")
-        .arg(&master_out)
+        .arg(out)
         .env("HOLOCAVE_SECRET", SECRET)
         .env("RUST_LOG", "info");
-    let (m, addr, mut stdout) = start_master(c);
+    start_master(c)
+}
+
+/// The desk cave's screen node in a window on `x`, writing its presented log under `out`.
+fn desk_node(addr: &str, out: &Path, x: &Xvfb) -> Watched {
     let mut c = holocave();
-    c.args(["node", "--master", &addr, "--wall", "screen"])
+    c.args(["node", "--master", addr, "--wall", "screen"])
         .args(["--config", DESK, "--scene", SCENE, "--size", "32x24"])
         .args(["--samples", "48", "--every", "1000000", "--window"])
         .arg("--out")
-        .arg(&node_out)
+        .arg(out)
         .env("HOLOCAVE_SECRET", SECRET)
         .env("RAYON_NUM_THREADS", "1")
         .env("RUST_LOG", "info")
@@ -283,8 +364,13 @@ fn a_desk_users_key_and_drag_in_a_window_move_the_world_until_released() {
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .stdin(Stdio::null());
-    let node = Watched::adopt("node", c.spawn().expect("start holocave node"));
-    let last = || *presented(&node_out, "screen").last().unwrap_or(&0);
+    Watched::adopt("node", c.spawn().expect("start holocave node"))
+}
+
+/// After 20 frames, W held in the window for 10 frames and released, then the left
+/// button dragged `DRAG` px right for 10 frames and let go, 10 frames after each.
+fn press_w_then_drag(x: &Xvfb, node_out: &Path) -> DeskInputs {
+    let last = || *presented(node_out, "screen").last().unwrap_or(&0);
     let ten_more = |what: &str| {
         let from = last();
         wait_until(Duration::from_secs(60), what, || last() >= from + 10);
@@ -292,7 +378,7 @@ fn a_desk_users_key_and_drag_in_a_window_move_the_world_until_released() {
     wait_until(Duration::from_secs(120), "20 frames presented", || {
         last() >= 20
     });
-    let wm = WindowManager::connect(&x);
+    let wm = WindowManager::connect(x);
     let pressed_after = last();
     wm.key(WINDOW, KEY_W, true);
     ten_more("10 frames with W held");
@@ -307,25 +393,18 @@ fn a_desk_users_key_and_drag_in_a_window_move_the_world_until_released() {
     let let_go_after = last();
     wm.button(1, false);
     ten_more("10 frames after the drag");
-    let (status, _, err) = m.finish(Duration::from_secs(120));
-    assert!(status.is_some_and(|s| s.success()), "master failed: {err}");
-    let mut summary = String::new();
-    stdout.read_to_string(&mut summary).unwrap();
-    let (status, nout, nerr) = node.finish(Duration::from_secs(30));
-    assert!(
-        status.is_some_and(|s| s.success()),
-        "node failed:\n{nout}\n{nerr}"
-    );
+    DeskInputs {
+        pressed_after,
+        released_after,
+        dragged_after,
+        let_go_after,
+    }
+}
 
-    let desk = std::fs::read_to_string(master_out.join("desk.csv")).expect("desk.csv");
-    let nav = std::fs::read_to_string(master_out.join("navigation.csv")).expect("navigation.csv");
-    let rows = holocave_master::navigation::log::read(&nav).expect("navigation.csv reads back");
-    println!(
-        "{summary}\ndesk.csv:\n{desk}\nW pressed after frame {pressed_after}, released after \
-         {released_after}; dragged after {dragged_after}, let go after {let_go_after}"
-    );
-    // Each frame's step: none, the walk's (a translation), or the turn's (a rotation about
-    // +Y; it moves the room about the head, so the translation changes too).
+/// Each frame's step: none, the walk's (a translation), or the turn's (a rotation about
+/// +Y; it moves the room about the head, so the translation changes too). Returns the
+/// frames that walked and those that turned.
+fn check_each_step_walks_or_turns(rows: &[Row]) -> (Vec<u64>, Vec<u64>) {
     let deflection = f64::from(DRAG) / DRAG_FULL;
     let turn_speed = TURN_RATE * (deflection - DEAD_ZONE) / (1.0 - DEAD_ZONE);
     let (mut walked, mut turned) = (Vec::new(), Vec::new());
@@ -362,16 +441,23 @@ fn a_desk_users_key_and_drag_in_a_window_move_the_world_until_released() {
             walked.push(b.frame);
         }
     }
-    println!("walked in frames {walked:?}, turned in {turned:?}");
-    let final_frame = rows.last().expect("rows").frame;
-    // Causality: no step before its input was given, and none stopped before it was taken
-    // back (frame `released_after`'s state was made before the release). How many frames
-    // the input takes to reach the master depends on the machine; that the motion stops
-    // at all is what a stuck key breaks (it did: X's auto-repeat counted as presses kept
-    // W down after its release).
+    (walked, turned)
+}
+
+/// Causality: no step before its input was given, and none stopped before it was taken
+/// back (frame `released_after`'s state was made before the release). How many frames
+/// the input takes to reach the master depends on the machine; that the motion stops
+/// at all is what a stuck key breaks (it did: X's auto-repeat counted as presses kept
+/// W down after its release).
+fn check_the_motion_follows_its_input(
+    walked: &[u64],
+    turned: &[u64],
+    inputs: &DeskInputs,
+    final_frame: u64,
+) {
     for (what, frames, given, taken_back) in [
-        ("walk", &walked, pressed_after, released_after),
-        ("turn", &turned, dragged_after, let_go_after),
+        ("walk", walked, inputs.pressed_after, inputs.released_after),
+        ("turn", turned, inputs.dragged_after, inputs.let_go_after),
     ] {
         let (&first, &end) = (
             frames
@@ -399,9 +485,4 @@ fn a_desk_users_key_and_drag_in_a_window_move_the_world_until_released() {
              after frame {taken_back}"
         );
     }
-    assert!(
-        desk.lines().filter(|l| l.starts_with("axes,")).count() >= 4,
-        "desk.csv holds no press, release, drag and let-go:\n{desk}"
-    );
-    let _ = std::fs::remove_dir_all(&out);
 }

@@ -5,7 +5,7 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::cornell_front_node;
 use glam::Vec3;
@@ -36,6 +36,18 @@ fn png(path: &Path) -> image::RgbImage {
 fn standalone_headless_node_writes_both_eyes_per_frame() {
     let dir = std::env::temp_dir().join(format!("holocave-node-test-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
+    run_the_node(&dir);
+    let images: Vec<[Image; 2]> = (0..FRAMES)
+        .map(|frame| ["left", "right"].map(|eye| read_one_eyes_frame(&dir, frame, eye)))
+        .collect();
+    check_the_picture_fills_in(&images);
+    check_every_frame_is_new_and_the_eyes_differ(&images);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Runs `holocave node --standalone --headless` for `FRAMES` frames writing its debug
+/// images to `dir`, and checks it succeeded.
+fn run_the_node(dir: &Path) {
     let frames = FRAMES.to_string();
     let size = format!("{W}x{H}");
     let out = cornell_front_node()
@@ -51,7 +63,7 @@ fn standalone_headless_node_writes_both_eyes_per_frame() {
             "--debug-images",
             "--out",
         ])
-        .arg(&dir)
+        .arg(dir)
         .output()
         .expect("run holocave node");
     assert!(
@@ -59,58 +71,62 @@ fn standalone_headless_node_writes_both_eyes_per_frame() {
         "holocave node failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let file = |frame: u64, eye: &str, suffix: &str| {
-        let f = dir.join(format!("front/{frame:05}-{eye}{suffix}"));
-        assert!(f.exists(), "{} missing", f.display());
-        f
-    };
-    let mut images: Vec<[Image; 2]> = Vec::new();
-    for frame in 0..FRAMES {
-        let mut pair = Vec::new();
-        for eye in ["left", "right"] {
-            let img = Image::read_exr(&file(frame, eye, ".exr")).expect("read the EXR");
-            assert_eq!((img.width, img.height), (W, H), "frame {frame} {eye}: size");
-            assert!(
-                img.pixels
-                    .iter()
-                    .all(|p| p.is_finite() && p.min_element() >= 0.0),
-                "frame {frame} {eye}: a negative or non-finite radiance"
-            );
-            // The PNG is the EXR tone mapped: black exactly where the EXR is black.
-            let preview = png(&file(frame, eye, ".png"));
-            assert_eq!(
-                preview.dimensions(),
-                (W, H),
-                "frame {frame} {eye}: PNG size"
-            );
-            for (p, q) in img.pixels.iter().zip(preview.pixels()) {
-                assert_eq!(
-                    lum(*p) > 0.0,
-                    q.0 != [0, 0, 0],
-                    "frame {frame} {eye}: PNG {q:?} for radiance {p}"
-                );
-            }
-            file(frame, eye, "-priority.png");
-            // The pixels chosen this frame: exactly the eye's budget (the render cache
-            // cuts or tops up the dither's choice).
-            let chosen = png(&file(frame, eye, "-chosen.png"))
-                .pixels()
-                .filter(|q| q.0 != [0, 0, 0])
-                .count() as u32;
-            assert_eq!(
-                chosen, BUDGET,
-                "frame {frame} {eye}: {chosen} pixels chosen for a budget of {BUDGET}"
-            );
-            eprintln!(
-                "frame {frame} {eye}: {:.0}% lit, mean luminance {:.4}, {chosen} chosen",
-                lit(&img) * 100.0,
-                img.pixels.iter().map(|&p| lum(p)).sum::<f32>() / (W * H) as f32
-            );
-            pair.push(img);
-        }
-        images.push(pair.try_into().unwrap());
+}
+
+/// The front wall's file of `frame` for `eye` with `suffix`, which must exist.
+fn written(dir: &Path, frame: u64, eye: &str, suffix: &str) -> PathBuf {
+    let f = dir.join(format!("front/{frame:05}-{eye}{suffix}"));
+    assert!(f.exists(), "{} missing", f.display());
+    f
+}
+
+/// One eye's EXR of one frame, checked: its size, finite radiance that is not negative,
+/// its PNG black exactly where it is, its priority image there, and exactly the eye's
+/// budget of pixels chosen.
+fn read_one_eyes_frame(dir: &Path, frame: u64, eye: &str) -> Image {
+    let img = Image::read_exr(&written(dir, frame, eye, ".exr")).expect("read the EXR");
+    assert_eq!((img.width, img.height), (W, H), "frame {frame} {eye}: size");
+    assert!(
+        img.pixels
+            .iter()
+            .all(|p| p.is_finite() && p.min_element() >= 0.0),
+        "frame {frame} {eye}: a negative or non-finite radiance"
+    );
+    // The PNG is the EXR tone mapped: black exactly where the EXR is black.
+    let preview = png(&written(dir, frame, eye, ".png"));
+    assert_eq!(
+        preview.dimensions(),
+        (W, H),
+        "frame {frame} {eye}: PNG size"
+    );
+    for (p, q) in img.pixels.iter().zip(preview.pixels()) {
+        assert_eq!(
+            lum(*p) > 0.0,
+            q.0 != [0, 0, 0],
+            "frame {frame} {eye}: PNG {q:?} for radiance {p}"
+        );
     }
-    // Frame 0 is drawn before any sample has come back: black. Then the picture fills in.
+    written(dir, frame, eye, "-priority.png");
+    // The pixels chosen this frame: exactly the eye's budget (the render cache
+    // cuts or tops up the dither's choice).
+    let chosen = png(&written(dir, frame, eye, "-chosen.png"))
+        .pixels()
+        .filter(|q| q.0 != [0, 0, 0])
+        .count() as u32;
+    assert_eq!(
+        chosen, BUDGET,
+        "frame {frame} {eye}: {chosen} pixels chosen for a budget of {BUDGET}"
+    );
+    eprintln!(
+        "frame {frame} {eye}: {:.0}% lit, mean luminance {:.4}, {chosen} chosen",
+        lit(&img) * 100.0,
+        img.pixels.iter().map(|&p| lum(p)).sum::<f32>() / (W * H) as f32
+    );
+    img
+}
+
+/// Frame 0 is drawn before any sample has come back: black. Then the picture fills in.
+fn check_the_picture_fills_in(images: &[[Image; 2]]) {
     for (e, img) in images[0].iter().enumerate() {
         assert_eq!(
             lit(img),
@@ -132,7 +148,10 @@ fn standalone_headless_node_writes_both_eyes_per_frame() {
             last * 100.0
         );
     }
-    // Every frame shows something new (more samples, a moving head), and the eyes differ.
+}
+
+/// Every frame shows something new (more samples, a moving head), and the eyes differ.
+fn check_every_frame_is_new_and_the_eyes_differ(images: &[[Image; 2]]) {
     for (f, pair) in images.windows(2).enumerate().map(|(i, w)| (i + 1, w)) {
         for (e, (now, before)) in pair[1].iter().zip(&pair[0]).enumerate() {
             assert_ne!(
@@ -147,5 +166,4 @@ fn standalone_headless_node_writes_both_eyes_per_frame() {
             "frame {f}: both eyes show the same picture"
         );
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -117,9 +117,16 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let hdk = dir.join("cornell.hdk");
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let reference = left_eye_reference();
+    let errors = run1_filled_frames_errors(&dir, &hdk, &reference);
+    let late = check_run1_fills_and_converges(&errors);
+    check_run2_shows_the_stored_samples_at_once(&dir, &hdk, &reference, &errors, late);
+    let _ = std::fs::remove_dir_all(&dir);
+}
 
-    // The reference: the path tracer's render of the left eye's view, 1024 spp.
+/// The reference: the path tracer's render of the left eye's view, 1024 spp.
+fn left_eye_reference() -> Image {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let cave = load_cave(&root.join("configs/cave4-cornell.toml")).unwrap();
     let wall = cave.walls.iter().find(|w| w.name == "front").unwrap();
     let pose = Pose::new(Vec3::from(STILL), Quat::IDENTITY);
@@ -133,14 +140,17 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
     };
     let scene = Scene::load(&root.join("scenes/cornell.gltf"), &LoadOptions::default()).unwrap();
     let tracer = Tracer::new(Arc::new(scene), TraceSettings::default());
-    let reference = render(&tracer, &view, 1024, 11, &|| {});
-    drop(tracer);
+    render(&tracer, &view, 1024, 11, &|| {})
+}
 
-    // Run 1: a new holodeck, two tracer threads, 12 s.
+/// Run 1: a new holodeck, two tracer threads, 12 s. Checks it made the holodeck and
+/// wrote frames, some showing its samples; returns each frame's holes, relative MSE and
+/// median relative error from the first of those on.
+fn run1_filled_frames_errors(dir: &Path, hdk: &Path, reference: &Image) -> Vec<(f64, f64, f64)> {
     let run1 = dir.join("run1");
     let text = node(
         &run1,
-        &hdk,
+        hdk,
         &["--threads", "2", "--seconds", "12", "--every", "25"],
     );
     eprintln!("{text}");
@@ -149,12 +159,12 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
     assert!(frames.len() >= 4, "{} frames written", frames.len());
     let first = frames
         .iter()
-        .position(|(_, img)| holes(img, &reference) < MAX_HOLES_FIRST)
+        .position(|(_, img)| holes(img, reference) < MAX_HOLES_FIRST)
         .expect("some frame shows the holodeck's samples");
     let mut errors = Vec::new();
     for (f, img) in &frames[first..] {
-        let (h, e) = (holes(img, &reference), img.relative_mse(&reference));
-        let m = median_error(img, &reference);
+        let (h, e) = (holes(img, reference), img.relative_mse(reference));
+        let m = median_error(img, reference);
         eprintln!(
             "run 1 frame {f}: {:.1}% holes, relative MSE {e:.4}, median relative error {m:.3}",
             h * 100.0
@@ -162,37 +172,44 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
         errors.push((h, e, m));
     }
     if let Ok(out) = std::env::var("HOLOCAVE_TEST_OUT") {
-        // The last frame, the reference and the holes (white), for looking at.
-        let out = PathBuf::from(out);
-        std::fs::create_dir_all(&out).unwrap();
-        let last = &frames.last().unwrap().1;
-        let e = reference.auto_exposure();
-        let mut mask = Image::new(W, H);
-        for (m, (a, r)) in mask
-            .pixels
-            .iter_mut()
-            .zip(last.pixels.iter().zip(&reference.pixels))
-        {
-            if luminance(*r) > 1e-3 && luminance(*a) <= 0.0 {
-                *m = Vec3::ONE;
-            }
-        }
-        // Last frame, reference, holes (white), side by side, 6x.
-        let row = [
-            last.to_preview(e),
-            reference.to_preview(e),
-            mask.to_preview(0.18),
-        ];
-        let mut sheet = image::RgbImage::new(3 * W * 6, H * 6);
-        for (i, img) in row.iter().enumerate() {
-            let big =
-                image::imageops::resize(img, W * 6, H * 6, image::imageops::FilterType::Nearest);
-            image::imageops::replace(&mut sheet, &big, i as i64 * i64::from(W * 6), 0);
-        }
-        sheet.save(out.join("holodeck-node-sheet.png")).unwrap();
+        save_sheet(&PathBuf::from(out), &frames.last().unwrap().1, reference);
     }
+    errors
+}
+
+/// The last frame, the reference and the holes (white), side by side, 6x, in `out`, for
+/// looking at.
+fn save_sheet(out: &Path, last: &Image, reference: &Image) {
+    std::fs::create_dir_all(out).unwrap();
+    let e = reference.auto_exposure();
+    let mut mask = Image::new(W, H);
+    for (m, (a, r)) in mask
+        .pixels
+        .iter_mut()
+        .zip(last.pixels.iter().zip(&reference.pixels))
+    {
+        if luminance(*r) > 1e-3 && luminance(*a) <= 0.0 {
+            *m = Vec3::ONE;
+        }
+    }
+    let row = [
+        last.to_preview(e),
+        reference.to_preview(e),
+        mask.to_preview(0.18),
+    ];
+    let mut sheet = image::RgbImage::new(3 * W * 6, H * 6);
+    for (i, img) in row.iter().enumerate() {
+        let big = image::imageops::resize(img, W * 6, H * 6, image::imageops::FilterType::Nearest);
+        image::imageops::replace(&mut sheet, &big, i as i64 * i64::from(W * 6), 0);
+    }
+    sheet.save(out.join("holodeck-node-sheet.png")).unwrap();
+}
+
+/// Run 1's filled frames: never black once samples arrive, filled within the run, and
+/// converging. Returns the median of the last three frames' median relative errors.
+fn check_run1_fills_and_converges(errors: &[(f64, f64, f64)]) -> f64 {
     // No black frame once samples arrive, and filled within the run.
-    for (h, _, _) in &errors {
+    for (h, _, _) in errors {
         assert!(
             *h < MAX_HOLES_FIRST,
             "{:.1}% of the lit pixels are black",
@@ -228,22 +245,32 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
         late_mse < TOLERANCE,
         "relative MSE {late_mse:.4} at the end (needs < {TOLERANCE})"
     );
+    late
+}
 
-    // Run 2: the same file and no tracer threads: the first frame showing samples is
-    // already filled from the stored ones.
+/// Run 2: the same file and no tracer threads: the first frame showing samples is
+/// already filled from the stored ones, better than run 1 at the same coverage, and the
+/// last frame near run 1's end (`late`, its final median relative error).
+fn check_run2_shows_the_stored_samples_at_once(
+    dir: &Path,
+    hdk: &Path,
+    reference: &Image,
+    errors: &[(f64, f64, f64)],
+    late: f64,
+) {
     let run2 = dir.join("run2");
     let text = node(
         &run2,
-        &hdk,
+        hdk,
         &["--threads", "0", "--seconds", "4", "--every", "1"],
     );
     eprintln!("{text}");
     let frames = left_frames(&run2);
     let (f, img) = frames
         .iter()
-        .find(|(_, img)| holes(img, &reference) < 1.0)
+        .find(|(_, img)| holes(img, reference) < 1.0)
         .expect("the stored samples arrived");
-    let (h, m) = (holes(img, &reference), median_error(img, &reference));
+    let (h, m) = (holes(img, reference), median_error(img, reference));
     eprintln!(
         "run 2 frame {f} (the first with samples): {:.1}% holes, median relative error {m:.3}",
         h * 100.0
@@ -257,7 +284,7 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
     // nothing) had only the few samples traced so far and was worse. Coverage-matched,
     // because run 1's error at its end depends on how many frames and samples a machine
     // manages in its 12 s, and the reopened view's first frame does not.
-    let (f1, m1) = frames_run1_cover(&errors, h);
+    let (f1, m1) = frames_run1_cover(errors, h);
     assert!(
         m < m1,
         "median relative error {m:.3} at once after reopening with {:.1}% holes; run 1 had \
@@ -265,14 +292,13 @@ fn holodeck_fed_node_fills_converges_and_keeps_its_samples() {
         h * 100.0
     );
     // The beams of later frames' pixels follow within the 4 s, still with no tracing.
-    let end = median_error(&frames.last().unwrap().1, &reference);
+    let end = median_error(&frames.last().unwrap().1, reference);
     eprintln!("run 2 last frame: median relative error {end:.3}");
     assert!(
         end < REOPENED_ERROR_RATIO * late,
         "median relative error {end:.3} at the end of run 2, {late:.3} at the end of run 1 \
          (needs < {REOPENED_ERROR_RATIO}x)"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The relative MSE (`film::Image::relative_mse`, dominated by fireflies) the best of the

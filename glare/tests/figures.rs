@@ -84,18 +84,7 @@ fn one_source_on_a_uniform_background() {
     assert_eq!(fig.sources.len(), 1, "{:?}", fig.sources);
     let s = &fig.sources[0];
 
-    // The disc's pixels, their solid angle and cosine-weighted solid angle.
-    let (mut omega, mut cos_omega) = (0.0, 0.0);
-    for y in 0..n {
-        for x in 0..n {
-            if let Some(d) = f.pixel_direction(x, y)
-                && d.dot(centre) >= cos_alpha
-            {
-                omega += f.solid_angle(x, y);
-                cos_omega += f.solid_angle(x, y) * d.dot(f.look);
-            }
-        }
-    }
+    let (omega, cos_omega) = disc_solid_angles(&f, centre, cos_alpha);
     assert!(
         (s.solid_angle_sr - omega).abs() < 1e-12,
         "{} {omega}",
@@ -127,16 +116,7 @@ fn one_source_on_a_uniform_background() {
 
     let (sd, td) = (sigma.to_degrees(), tau.to_degrees());
     let (dk, dt) = (k.to_degrees(), (k / sigma.sin()).to_degrees());
-    let ps: Vec<f64> = [
-        (-1.0, -1.0),
-        (-1.0, 1.0),
-        (1.0, -1.0),
-        (1.0, 1.0),
-        (0.0, 0.0),
-    ]
-    .iter()
-    .map(|(a, b)| guth(sd + a * dk, td + b * dt))
-    .collect();
+    let ps = guth_at_the_corners(sd, td, dk, dt);
     assert!(
         (s.position_index - guth(sd, td)).abs()
             <= ps
@@ -145,24 +125,8 @@ fn one_source_on_a_uniform_background() {
                 .fold(0.0, f64::max)
     );
 
-    // Wienold & Christoffersen's coefficients, written out here so that a wrong one in
-    // the library fails.
-    let dgp_hand = |ev: f64, p: f64| {
-        5.87e-5 * ev + 9.18e-2 * (1.0 + ls * ls * omega / (ev.powf(1.87) * p * p)).log10() + 0.16
-    };
-    let ugr_hand = |ev: f64, p: f64| {
-        let lb = (ev - ls * cos_omega) / PI;
-        8.0 * (0.25 / lb * ls * ls * omega / (p * p)).log10()
-    };
-    let mut dgp_range = (f64::INFINITY, f64::NEG_INFINITY);
-    let mut ugr_range = (f64::INFINITY, f64::NEG_INFINITY);
-    for ev in [ev_mid - ev_err, ev_mid + ev_err] {
-        for &p in &ps {
-            let (d, u) = (dgp_hand(ev, p), ugr_hand(ev, p));
-            dgp_range = (dgp_range.0.min(d), dgp_range.1.max(d));
-            ugr_range = (ugr_range.0.min(u), ugr_range.1.max(u));
-        }
-    }
+    let evs = [ev_mid - ev_err, ev_mid + ev_err];
+    let (dgp_range, ugr_range) = hand_dgp_and_ugr_ranges((ls, omega, cos_omega), evs, &ps);
     let ugr = fig.ugr.unwrap();
     eprintln!(
         "Ev {:.1} lx, DGP {:.5} in [{:.5}, {:.5}], UGR {ugr:.3} in [{:.3}, {:.3}], P {:.4}, ω {:.5}",
@@ -179,6 +143,67 @@ fn one_source_on_a_uniform_background() {
     assert!(fig.ev_lux > 1000.0);
     assert!(fig.dgp >= dgp_range.0 - 1e-12 && fig.dgp <= dgp_range.1 + 1e-12);
     assert!(ugr >= ugr_range.0 - 1e-9 && ugr <= ugr_range.1 + 1e-9);
+}
+
+/// The solid angle and the cosine-weighted solid angle of the pixels whose centres see
+/// the disc about `centre` (those within `cos_alpha` of it).
+fn disc_solid_angles(f: &Fisheye, centre: DVec3, cos_alpha: f64) -> (f64, f64) {
+    let (mut omega, mut cos_omega) = (0.0, 0.0);
+    for y in 0..f.size {
+        for x in 0..f.size {
+            if let Some(d) = f.pixel_direction(x, y)
+                && d.dot(centre) >= cos_alpha
+            {
+                omega += f.solid_angle(x, y);
+                cos_omega += f.solid_angle(x, y) * d.dot(f.look);
+            }
+        }
+    }
+    (omega, cos_omega)
+}
+
+/// Guth's position index at the four corners of `sd ± dk`, `td ± dt` (degrees) and at
+/// their middle.
+fn guth_at_the_corners(sd: f64, td: f64, dk: f64, dt: f64) -> Vec<f64> {
+    [
+        (-1.0, -1.0),
+        (-1.0, 1.0),
+        (1.0, -1.0),
+        (1.0, 1.0),
+        (0.0, 0.0),
+    ]
+    .iter()
+    .map(|(a, b)| guth(sd + a * dk, td + b * dt))
+    .collect()
+}
+
+/// The least and greatest DGP and UGR the hand formulas give for a source of luminance
+/// `ls`, solid angle `omega` and cosine-weighted solid angle `cos_omega`, over every pair
+/// of `evs` and `ps`.
+fn hand_dgp_and_ugr_ranges(
+    (ls, omega, cos_omega): (f64, f64, f64),
+    evs: [f64; 2],
+    ps: &[f64],
+) -> ((f64, f64), (f64, f64)) {
+    // Wienold & Christoffersen's coefficients, written out here so that a wrong one in
+    // the library fails.
+    let dgp_hand = |ev: f64, p: f64| {
+        5.87e-5 * ev + 9.18e-2 * (1.0 + ls * ls * omega / (ev.powf(1.87) * p * p)).log10() + 0.16
+    };
+    let ugr_hand = |ev: f64, p: f64| {
+        let lb = (ev - ls * cos_omega) / PI;
+        8.0 * (0.25 / lb * ls * ls * omega / (p * p)).log10()
+    };
+    let mut dgp_range = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut ugr_range = (f64::INFINITY, f64::NEG_INFINITY);
+    for ev in evs {
+        for &p in ps {
+            let (d, u) = (dgp_hand(ev, p), ugr_hand(ev, p));
+            dgp_range = (dgp_range.0.min(d), dgp_range.1.max(d));
+            ugr_range = (ugr_range.0.min(u), ugr_range.1.max(u));
+        }
+    }
+    (dgp_range, ugr_range)
 }
 
 /// A source on the line of sight has P = 1 (its pixels are symmetric about the centre,

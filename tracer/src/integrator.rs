@@ -270,13 +270,7 @@ pub fn finish_path(
         let bsdf = Bsdf::new(&params);
 
         if let Some(v) = virtual_so_far {
-            let v = v + t;
-            if bsdf.is_pure_delta() && sp.flat {
-                virtual_so_far = Some(v);
-            } else {
-                sample.virtual_distance = v;
-                virtual_so_far = None;
-            }
+            virtual_so_far = through_flat_delta(v + t, &bsdf, sp.flat, &mut sample);
         }
 
         // Emission, weighted against the light sampling that could have chosen it.
@@ -323,6 +317,17 @@ pub fn finish_path(
     }
     sample.radiance = finish(path.radiance);
     sample
+}
+
+/// The virtual distance `v` so far, after a surface: still growing past a flat mirror or
+/// pane (`Some`), else ended there and kept as `sample`'s virtual distance (`None`).
+#[inline]
+fn through_flat_delta(v: f32, bsdf: &Bsdf, flat: bool, sample: &mut TracedRay) -> Option<f32> {
+    if bsdf.is_pure_delta() && flat {
+        return Some(v);
+    }
+    sample.virtual_distance = v;
+    None
 }
 
 /// The MIS weight of emission met at `hit` along `ray` against the light sampling that

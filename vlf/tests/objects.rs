@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use glam::{Quat, Vec3};
 use holocave_cave::Size;
-use holocave_scene::{LoadOptions, Placement, Ray, Scene};
+use holocave_scene::{LoadOptions, Placement, Ray, Scene, Sun};
 use holocave_vlf::{DirectPoint, PixelDirect, Settings, Visibility};
 
 /// The room with its block movable, and its lamp too: a moving object's emission lights
@@ -124,117 +124,185 @@ fn the_blocks_sun_shadow_is_exact_wherever_it_goes() {
         .iter()
         .map(|p| vis.with_placed(|s| direct.estimate(s, p, 7, 0)).radiance)
         .collect();
-    let s = sun.direction.normalize();
-    let (u, v) = (
-        s.any_orthonormal_vector(),
-        s.any_orthonormal_vector().cross(s),
-    );
-    let rim = [
-        s,
-        s + u * sun.angular_radius,
-        s - u * sun.angular_radius,
-        s + v * sun.angular_radius,
-        s - v * sun.angular_radius,
-    ];
-    let target = lit[lit.len() / 2].position;
+    let room = SunlitRoom {
+        rim: sun_disc_centre_and_rim(&sun),
+        scene,
+        sun,
+        vis,
+        direct,
+        lit,
+        unshadowed,
+    };
+    let target = room.lit[room.lit.len() / 2].position;
     let mut shadows = Vec::new();
     for (k, (lift, turn)) in [(0.5f32, 0.0f32), (0.8, 0.6), (0.6, -1.1)]
         .into_iter()
         .enumerate()
     {
-        let (lo, hi) = scene.objects()[0].local_bounds();
-        let rotation = Quat::from_rotation_y(turn) * Quat::from_rotation_x(0.3 * k as f32);
-        let centre = target + s * lift + Vec3::X * 0.15 * k as f32;
-        let at = Placement::new(centre - rotation * (0.5 * (lo + hi)), rotation);
-        vis.place_objects(&block_at(at));
-        let (mut umbra, mut clear) = (0, 0);
-        let mut shadow = Vec::new();
-        for (p, free) in lit.iter().zip(&unshadowed) {
-            let hits = rim
-                .iter()
-                .filter(|d| meets_box(&scene, &at, p.position, d.normalize()))
-                .count();
-            let e = vis.with_placed(|sc| direct.estimate(sc, p, 7, 0));
-            if hits == rim.len() {
-                umbra += 1;
-                shadow.push(p.position);
-                assert!(
-                    e.radiance == Vec3::ZERO && e.object_shadow,
-                    "placement {k}: {} lies in the block's umbra, estimate {e:?}",
-                    p.position
-                );
-            } else if hits == 0 {
-                clear += 1;
-                assert!(
-                    e.radiance == *free && !e.object_shadow,
-                    "placement {k}: {} is clear of the block: {e:?} against {free}",
-                    p.position
-                );
-            }
-        }
-        assert!(
-            umbra > 5 && clear > 50,
-            "placement {k}: {umbra} in umbra, {clear} clear"
-        );
-        shadows.push(shadow);
-
-        // The penumbra, across the edge between the nearest umbra and clear grid points:
-        // the mean of N frames' estimates against the seen fraction of the disc times the
-        // same frames' estimates with the block away. Each estimate is the disc's light
-        // times a visibility of 0 or 1, so the mean of N has σ ≤ E/(2√N); the rule's error
-        // is at most its crossed share, and the cosine across the disc changes the light by
-        // at most tan θ_s sin r + (1 − cos r) of itself.
-        let frames = 1024u32;
-        let theta = s.y.acos();
-        let cosine = f64::from(theta.tan() * sun.angular_radius.sin())
-            + f64::from(1.0 - sun.angular_radius.cos());
-        let in_umbra = |q: Vec3| rim.iter().all(|d| meets_box(&scene, &at, q, d.normalize()));
-        let in_clear = |q: Vec3| !rim.iter().any(|d| meets_box(&scene, &at, q, d.normalize()));
-        let (a, b) = lit
-            .iter()
-            .filter(|p| in_umbra(p.position))
-            .flat_map(|u| {
-                lit.iter()
-                    .filter(|c| in_clear(c.position))
-                    .map(move |c| (u.position, c.position))
-            })
-            .min_by(|x, y| (x.0 - x.1).length().total_cmp(&(y.0 - y.1).length()))
-            .expect("an umbra and a clear point");
-        // Each penumbra point, its seen share and the frames' estimates with the block
-        // away; then the same frames' with the block in place.
-        vis.place_objects(&block_at(away()));
-        let across: Vec<(Vec3, f64, f64, DirectPoint, f64)> = (0..400)
-            .filter_map(|step| {
-                let q = a + (b - a) * ((step as f32 + 0.5) / 400.0);
-                let (seen, crossed) = disc_seen(&scene, &at, q, s, sun.angular_radius, 64);
-                if seen <= 0.0 || seen >= 1.0 {
-                    return None;
-                }
-                let (_, point) = vis.lookup_and_point(Ray::new(q + Vec3::Y * 0.5, Vec3::NEG_Y));
-                let point = point.expect("the floor");
-                let free = vis.with_placed(|sc| direct.mean(sc, &point, 7, 0, frames));
-                Some((q, seen, crossed, point, f64::from(free.radiance.x)))
-            })
-            .collect();
-        vis.place_objects(&block_at(at));
-        let penumbra = across.len();
-        let mut worst = 0f64;
-        for (q, seen, crossed, point, free) in &across {
-            let e = vis.with_placed(|sc| direct.mean(sc, point, 7, 0, frames));
-            let e = f64::from(e.radiance.x);
-            let sigma = free / (2.0 * f64::from(frames).sqrt());
-            let tolerance = 4.0 * sigma + (crossed + cosine) * free;
-            worst = worst.max((e - seen * free).abs() / tolerance);
-            assert!(
-                (e - seen * free).abs() <= tolerance,
-                "placement {k}: at {q} {seen} of the disc is seen: {e} against {} ± {tolerance}",
-                seen * free
-            );
-        }
-        eprintln!("placement {k}: {penumbra} penumbra points, worst at {worst:.2} of its bound");
-        assert!(penumbra >= 5, "placement {k}: {penumbra} penumbra points");
+        let at = block_over(&room, target, k, lift, turn);
+        room.vis.place_objects(&block_at(at));
+        shadows.push(check_umbra_is_dark_and_clear_floor_unchanged(&room, &at, k));
+        check_penumbra_gets_the_seen_share_of_the_disc(&room, &at, k);
     }
     assert_ne!(shadows[0], shadows[1], "the shadow moved with the block");
+}
+
+/// The room in the sun with its sunlit floor: what each placement of the block is
+/// checked against.
+struct SunlitRoom {
+    scene: Arc<Scene>,
+    sun: Sun,
+    vis: Visibility,
+    direct: PixelDirect,
+    /// The sun disc's centre and four rim directions.
+    rim: [Vec3; 5],
+    /// The floor points the sun reaches with the block away.
+    lit: Vec<DirectPoint>,
+    /// What each of `lit` gets with the block away.
+    unshadowed: Vec<Vec3>,
+}
+
+/// The direction to the sun disc's centre and four directions on its rim, not normalised.
+fn sun_disc_centre_and_rim(sun: &Sun) -> [Vec3; 5] {
+    let s = sun.direction.normalize();
+    let (u, v) = (
+        s.any_orthonormal_vector(),
+        s.any_orthonormal_vector().cross(s),
+    );
+    [
+        s,
+        s + u * sun.angular_radius,
+        s - u * sun.angular_radius,
+        s + v * sun.angular_radius,
+        s - v * sun.angular_radius,
+    ]
+}
+
+/// The `k`th placement of the block: `lift` towards the sun above `target` (shifted
+/// 0.15 k along x), turned `turn` about y and 0.3 k about x.
+fn block_over(room: &SunlitRoom, target: Vec3, k: usize, lift: f32, turn: f32) -> Placement {
+    let s = room.sun.direction.normalize();
+    let (lo, hi) = room.scene.objects()[0].local_bounds();
+    let rotation = Quat::from_rotation_y(turn) * Quat::from_rotation_x(0.3 * k as f32);
+    let centre = target + s * lift + Vec3::X * 0.15 * k as f32;
+    Placement::new(centre - rotation * (0.5 * (lo + hi)), rotation)
+}
+
+/// With the block placed at `at`: every sunlit point whose whole disc the block hides is
+/// dark with an object's shadow, every one it hides none of gets what it got with the
+/// block away, and there are enough of each. Returns the umbra's points.
+fn check_umbra_is_dark_and_clear_floor_unchanged(
+    room: &SunlitRoom,
+    at: &Placement,
+    k: usize,
+) -> Vec<Vec3> {
+    let (mut umbra, mut clear) = (0, 0);
+    let mut shadow = Vec::new();
+    for (p, free) in room.lit.iter().zip(&room.unshadowed) {
+        let hits = (room.rim.iter())
+            .filter(|d| meets_box(&room.scene, at, p.position, d.normalize()))
+            .count();
+        let e = room.vis.with_placed(|sc| room.direct.estimate(sc, p, 7, 0));
+        if hits == room.rim.len() {
+            umbra += 1;
+            shadow.push(p.position);
+            assert!(
+                e.radiance == Vec3::ZERO && e.object_shadow,
+                "placement {k}: {} lies in the block's umbra, estimate {e:?}",
+                p.position
+            );
+        } else if hits == 0 {
+            clear += 1;
+            assert!(
+                e.radiance == *free && !e.object_shadow,
+                "placement {k}: {} is clear of the block: {e:?} against {free}",
+                p.position
+            );
+        }
+    }
+    assert!(
+        umbra > 5 && clear > 50,
+        "placement {k}: {umbra} in umbra, {clear} clear"
+    );
+    shadow
+}
+
+/// The penumbra, across the edge between the nearest umbra and clear grid points:
+/// the mean of N frames' estimates against the seen fraction of the disc times the
+/// same frames' estimates with the block away. Each estimate is the disc's light
+/// times a visibility of 0 or 1, so the mean of N has σ ≤ E/(2√N); the rule's error
+/// is at most its crossed share, and the cosine across the disc changes the light by
+/// at most tan θ_s sin r + (1 − cos r) of itself.
+fn check_penumbra_gets_the_seen_share_of_the_disc(room: &SunlitRoom, at: &Placement, k: usize) {
+    let frames = 1024u32;
+    let (sun, s) = (&room.sun, room.sun.direction.normalize());
+    let theta = s.y.acos();
+    let cosine = f64::from(theta.tan() * sun.angular_radius.sin())
+        + f64::from(1.0 - sun.angular_radius.cos());
+    let (a, b) = nearest_umbra_and_clear_points(room, at);
+    let across = penumbra_unshadowed(room, at, a, b, frames);
+    room.vis.place_objects(&block_at(*at));
+    let penumbra = across.len();
+    let mut worst = 0f64;
+    for (q, seen, crossed, point, free) in &across {
+        let e = (room.vis).with_placed(|sc| room.direct.mean(sc, point, 7, 0, frames));
+        let e = f64::from(e.radiance.x);
+        let sigma = free / (2.0 * f64::from(frames).sqrt());
+        let tolerance = 4.0 * sigma + (crossed + cosine) * free;
+        worst = worst.max((e - seen * free).abs() / tolerance);
+        assert!(
+            (e - seen * free).abs() <= tolerance,
+            "placement {k}: at {q} {seen} of the disc is seen: {e} against {} ± {tolerance}",
+            seen * free
+        );
+    }
+    eprintln!("placement {k}: {penumbra} penumbra points, worst at {worst:.2} of its bound");
+    assert!(penumbra >= 5, "placement {k}: {penumbra} penumbra points");
+}
+
+/// The closest pair of sunlit points, one in the umbra of the block at `at` and one
+/// clear of it.
+fn nearest_umbra_and_clear_points(room: &SunlitRoom, at: &Placement) -> (Vec3, Vec3) {
+    let meets = |q: Vec3, d: &Vec3| meets_box(&room.scene, at, q, d.normalize());
+    let in_umbra = |q: Vec3| room.rim.iter().all(|d| meets(q, d));
+    let in_clear = |q: Vec3| !room.rim.iter().any(|d| meets(q, d));
+    (room.lit.iter())
+        .filter(|p| in_umbra(p.position))
+        .flat_map(|u| {
+            (room.lit.iter())
+                .filter(|c| in_clear(c.position))
+                .map(move |c| (u.position, c.position))
+        })
+        .min_by(|x, y| (x.0 - x.1).length().total_cmp(&(y.0 - y.1).length()))
+        .expect("an umbra and a clear point")
+}
+
+/// Each penumbra point on 400 steps from `a` to `b` (where the block at `at` hides part
+/// of the disc), its seen share, its crossed share and the frames' estimates with the
+/// block away (the block is left away).
+fn penumbra_unshadowed(
+    room: &SunlitRoom,
+    at: &Placement,
+    a: Vec3,
+    b: Vec3,
+    frames: u32,
+) -> Vec<(Vec3, f64, f64, DirectPoint, f64)> {
+    let (sun, s) = (&room.sun, room.sun.direction.normalize());
+    room.vis.place_objects(&block_at(away()));
+    (0..400)
+        .filter_map(|step| {
+            let q = a + (b - a) * ((step as f32 + 0.5) / 400.0);
+            let (seen, crossed) = disc_seen(&room.scene, at, q, s, sun.angular_radius, 64);
+            if seen <= 0.0 || seen >= 1.0 {
+                return None;
+            }
+            let ray = Ray::new(q + Vec3::Y * 0.5, Vec3::NEG_Y);
+            let (_, point) = room.vis.lookup_and_point(ray);
+            let point = point.expect("the floor");
+            let free = (room.vis).with_placed(|sc| room.direct.mean(sc, &point, 7, 0, frames));
+            Some((q, seen, crossed, point, f64::from(free.radiance.x)))
+        })
+        .collect()
 }
 
 /// The light field is laid out on the static scene only: no element belongs to the block,

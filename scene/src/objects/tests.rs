@@ -6,12 +6,12 @@ use glam::{Quat, Vec3};
 use rand::{Rng as _, SeedableRng, rngs::SmallRng};
 use serde_json::{Value, json};
 
-use super::{ObjectPaths, Placement};
+use super::{ObjectPaths, PlacedScene, Placement};
 use crate::generate::GltfWriter;
 use crate::generate::shapes::{cube, quad};
 use crate::load::{LoadOptions, ObjectSpec};
-use crate::ray::Ray;
-use crate::scene::Scene;
+use crate::ray::{Hit, Ray};
+use crate::scene::{Scene, SurfacePoint};
 
 /// A seeded generator, so every run sees the same rays and placements.
 struct Rng(SmallRng);
@@ -117,18 +117,7 @@ fn two_level_queries_match_the_flat_scene() {
         let placements: Vec<Placement> = if round == 0 {
             scene.rest_placements()
         } else {
-            (0..2)
-                .map(|_| {
-                    Placement::new(
-                        Vec3::new(
-                            rng.range(-0.6, 0.6),
-                            rng.range(0.3, 1.5),
-                            rng.range(-0.6, 0.6),
-                        ),
-                        rng.rotation(),
-                    )
-                })
-                .collect()
+            random_placements(&mut rng)
         };
         let flat = scene.with_objects_at(&placements).unwrap();
         assert_eq!(
@@ -141,29 +130,7 @@ fn two_level_queries_match_the_flat_scene() {
                     .sum::<usize>()
         );
         let placed = scene.placed(&placements);
-        let mut rays: Vec<Ray> = (0..3000)
-            .map(|_| {
-                let o = Vec3::new(
-                    rng.range(-0.95, 0.95),
-                    rng.range(0.05, 1.95),
-                    rng.range(-0.95, 2.5),
-                );
-                Ray::new(o, rng.unit())
-            })
-            .collect();
-        // And rays at the objects' corners and edges, where culling by bounds would err.
-        for _ in 0..1000 {
-            let id = static_count
-                + (rng.next() * (flat.triangle_count() as u32 - static_count) as f32) as u32;
-            let p = flat.triangle(id.min(flat.triangle_count() as u32 - 1));
-            let target = p[0] * 0.98 + p[1] * 0.01 + p[2] * 0.01;
-            let o = Vec3::new(
-                rng.range(-0.95, 0.95),
-                rng.range(0.05, 1.95),
-                rng.range(1.0, 2.5),
-            );
-            rays.push(Ray::new(o, (target - o).normalize()));
-        }
+        let rays = rays_through_the_box_and_at_the_objects(&mut rng, &flat, static_count);
         let batch = placed.closest_hits(&rays, f32::INFINITY);
         for (ray, from_batch) in rays.iter().zip(&batch) {
             let a = placed.closest_hit(ray, f32::INFINITY);
@@ -179,63 +146,11 @@ fn two_level_queries_match_the_flat_scene() {
             rays_checked += 1;
             let c = from_batch.expect("closest_hits misses what closest_hit hits");
             assert!((c.t - a.t).abs() <= 1e-6 * a.t.max(1.0), "{c:?} vs {a:?}");
-            let sa = placed.surface(&a);
-            let sb = flat.surface(&b);
-            let cos = ray.dir.dot(sb.geometric_normal).abs().max(1e-3);
-            let tol = 1e-5 / cos;
-            assert!(
-                (a.t - b.t).abs() <= tol,
-                "t {} vs {} (tol {tol}) for {ray:?}",
-                a.t,
-                b.t
-            );
-            assert!(sa.position.distance(sb.position) <= tol, "{sa:?} vs {sb:?}");
-            // Same triangle (the flat scene keeps the ids) unless the ray meets an edge or
-            // two coplanar faces (the box's rest stands on the floor): then the flat scene
-            // also meets the placed scene's triangle, as close.
-            if a.triangle == b.triangle {
-                assert_eq!(sa.material, sb.material);
-                assert!(
-                    sa.geometric_normal.dot(sb.geometric_normal) > 1.0 - 1e-5,
-                    "{sa:?} vs {sb:?}"
-                );
-                assert!(
-                    sa.shading_normal.dot(sb.shading_normal) > 1.0 - 1e-4,
-                    "{sa:?} vs {sb:?}"
-                );
-                assert!(sa.uv.distance(sb.uv) < 1e-4);
-            } else {
-                flat.all_hits(ray, b.t + 2.0 * tol, &mut all);
-                assert!(
-                    all.iter()
-                        .any(|h| h.triangle == a.triangle && (h.t - a.t).abs() <= tol),
-                    "{a:?} is not among the flat scene's hits {all:?}"
-                );
+            let (sa, tol) = check_same_surface(&placed, &flat, ray, (&a, &b), &mut all);
+            if check_hit_lies_on_its_object(&scene, &placed, &a, &sa, static_count) {
+                object_hits += 1;
             }
-            match placed.object_of(a.triangle) {
-                None => assert!(a.triangle < static_count),
-                Some(k) => {
-                    object_hits += 1;
-                    let o = &scene.objects()[k];
-                    assert!(
-                        (o.first_triangle()..o.first_triangle() + o.triangle_count() as u32)
-                            .contains(&a.triangle)
-                    );
-                    let (lo, hi) = placed.object_bounds(k);
-                    let pad = Vec3::splat(1e-5);
-                    assert!(sa.position.cmpge(lo - pad).all() && sa.position.cmple(hi + pad).all());
-                }
-            }
-            // Occlusion short of and beyond the hit.
-            if b.t > 2.0 * tol {
-                assert!(!placed.occluded(ray, b.t - tol) || flat.occluded(ray, b.t - tol));
-                assert_eq!(
-                    placed.occluded(ray, b.t - tol),
-                    flat.occluded(ray, b.t - tol),
-                    "{ray:?}"
-                );
-            }
-            assert!(placed.occluded(ray, b.t + tol));
+            check_same_occlusion(&placed, &flat, ray, b.t, tol);
         }
     }
     assert!(rays_checked > 10_000, "{rays_checked}");
@@ -243,6 +158,143 @@ fn two_level_queries_match_the_flat_scene() {
         object_hits > 500,
         "too few rays met an object: {object_hits}"
     );
+}
+
+/// A random placement of each of the two objects inside the box.
+fn random_placements(rng: &mut Rng) -> Vec<Placement> {
+    (0..2)
+        .map(|_| {
+            Placement::new(
+                Vec3::new(
+                    rng.range(-0.6, 0.6),
+                    rng.range(0.3, 1.5),
+                    rng.range(-0.6, 0.6),
+                ),
+                rng.rotation(),
+            )
+        })
+        .collect()
+}
+
+/// 3000 rays from random points in and before the box in random directions, and 1000
+/// aimed near a corner of a random object triangle of `flat`.
+fn rays_through_the_box_and_at_the_objects(
+    rng: &mut Rng,
+    flat: &Scene,
+    static_count: u32,
+) -> Vec<Ray> {
+    let mut rays: Vec<Ray> = (0..3000)
+        .map(|_| {
+            let o = Vec3::new(
+                rng.range(-0.95, 0.95),
+                rng.range(0.05, 1.95),
+                rng.range(-0.95, 2.5),
+            );
+            Ray::new(o, rng.unit())
+        })
+        .collect();
+    // And rays at the objects' corners and edges, where culling by bounds would err.
+    for _ in 0..1000 {
+        let id = static_count
+            + (rng.next() * (flat.triangle_count() as u32 - static_count) as f32) as u32;
+        let p = flat.triangle(id.min(flat.triangle_count() as u32 - 1));
+        let target = p[0] * 0.98 + p[1] * 0.01 + p[2] * 0.01;
+        let o = Vec3::new(
+            rng.range(-0.95, 0.95),
+            rng.range(0.05, 1.95),
+            rng.range(1.0, 2.5),
+        );
+        rays.push(Ray::new(o, (target - o).normalize()));
+    }
+    rays
+}
+
+/// The placed scene's hit `a` and the flat scene's `b` of `ray` are the same surface:
+/// t and the point within the bound (returned with the placed scene's surface), and
+/// the same triangle's material, normals and uv, or the placed one's triangle among the
+/// flat scene's hits as close (`all` is scratch for those hits).
+fn check_same_surface(
+    placed: &PlacedScene,
+    flat: &Scene,
+    ray: &Ray,
+    (a, b): (&Hit, &Hit),
+    all: &mut Vec<Hit>,
+) -> (SurfacePoint, f32) {
+    let sa = placed.surface(a);
+    let sb = flat.surface(b);
+    let cos = ray.dir.dot(sb.geometric_normal).abs().max(1e-3);
+    let tol = 1e-5 / cos;
+    assert!(
+        (a.t - b.t).abs() <= tol,
+        "t {} vs {} (tol {tol}) for {ray:?}",
+        a.t,
+        b.t
+    );
+    assert!(sa.position.distance(sb.position) <= tol, "{sa:?} vs {sb:?}");
+    // Same triangle (the flat scene keeps the ids) unless the ray meets an edge or
+    // two coplanar faces (the box's rest stands on the floor): then the flat scene
+    // also meets the placed scene's triangle, as close.
+    if a.triangle == b.triangle {
+        assert_eq!(sa.material, sb.material);
+        assert!(
+            sa.geometric_normal.dot(sb.geometric_normal) > 1.0 - 1e-5,
+            "{sa:?} vs {sb:?}"
+        );
+        assert!(
+            sa.shading_normal.dot(sb.shading_normal) > 1.0 - 1e-4,
+            "{sa:?} vs {sb:?}"
+        );
+        assert!(sa.uv.distance(sb.uv) < 1e-4);
+    } else {
+        flat.all_hits(ray, b.t + 2.0 * tol, all);
+        assert!(
+            all.iter()
+                .any(|h| h.triangle == a.triangle && (h.t - a.t).abs() <= tol),
+            "{a:?} is not among the flat scene's hits {all:?}"
+        );
+    }
+    (sa, tol)
+}
+
+/// A hit on a static triangle has a static id; one on an object lies in that object's
+/// ids and, at `sa`, within its placed bounds. Returns whether it met an object.
+fn check_hit_lies_on_its_object(
+    scene: &Scene,
+    placed: &PlacedScene,
+    a: &Hit,
+    sa: &SurfacePoint,
+    static_count: u32,
+) -> bool {
+    match placed.object_of(a.triangle) {
+        None => {
+            assert!(a.triangle < static_count);
+            false
+        }
+        Some(k) => {
+            let o = &scene.objects()[k];
+            assert!(
+                (o.first_triangle()..o.first_triangle() + o.triangle_count() as u32)
+                    .contains(&a.triangle)
+            );
+            let (lo, hi) = placed.object_bounds(k);
+            let pad = Vec3::splat(1e-5);
+            assert!(sa.position.cmpge(lo - pad).all() && sa.position.cmple(hi + pad).all());
+            true
+        }
+    }
+}
+
+/// Occlusion short of and beyond the hit at `t` agrees between the two scenes.
+fn check_same_occlusion(placed: &PlacedScene, flat: &Scene, ray: &Ray, t: f32, tol: f32) {
+    if t > 2.0 * tol {
+        assert!(!placed.occluded(ray, t - tol) || flat.occluded(ray, t - tol));
+        assert_eq!(
+            placed.occluded(ray, t - tol),
+            flat.occluded(ray, t - tol),
+            "{ray:?}"
+        );
+    }
+    assert!(placed.occluded(ray, t + tol));
 }
 
 #[test]
