@@ -6,9 +6,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use holocave_scene::Scene;
+use holocave_scene::daylight::When;
 use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::VlfFile;
+use holocave_vlf::hours::{BakeSet, blend};
 use holocave_vlf::remote::Workers;
 use holocave_vlf::{Casting, Threads, Visibility, WallPass};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -82,6 +84,8 @@ pub struct BakeArgs {
 
 #[derive(Args)]
 pub struct ViewArgs {
+    /// The light field (.vlf), or a bake set: a folder of bakes named by their times
+    /// (YYYY-MM-DDTHH-MM.vlf), drawn at --when from the two around it, blended.
     pub file: PathBuf,
     #[arg(long)]
     pub scene: PathBuf,
@@ -417,13 +421,53 @@ fn check(
     Ok(())
 }
 
+/// The light field `vlf view` draws: the file, or for a bake set (a folder) the blend of
+/// the two bakes around `--when`, each opened with the scene at its own time.
+fn opened_for_view(a: &ViewArgs, scene: &Scene) -> Result<Opened> {
+    if !a.file.is_dir() {
+        return Ok(baked::open(&a.file, scene)?);
+    }
+    let set = BakeSet::read(&a.file).map_err(anyhow::Error::msg)?;
+    let when = (a.daylight.when).context("a bake set is drawn at a time: give --when")?;
+    let site = (scene.daylight.site.as_ref())
+        .context("a bake set needs the scene's site ([site] or --weather)")?;
+    let local = (when.in_zone(site.offset()))
+        .with_context(|| format!("--when {when}"))?
+        .naive_local();
+    let bracket = set.bracket(local).map_err(anyhow::Error::msg)?;
+    let open_at = |(time, path): &(_, PathBuf)| -> Result<Opened> {
+        let flags = super::daylight_flags::DaylightFlags {
+            when: Some(When::Local(*time)),
+            ..a.daylight.clone()
+        };
+        let scene = load_scene(&a.scene, flags, false)?;
+        Ok(baked::open(path, &scene)?)
+    };
+    let (before, after) = (open_at(&bracket.before)?, open_at(&bracket.after)?);
+    println!(
+        "the field at {local}: {} and {} blended, {:.3} of the later",
+        bracket.before.1.display(),
+        bracket.after.1.display(),
+        bracket.t
+    );
+    let state =
+        blend(&before.file.state, &after.file.state, bracket.t).map_err(anyhow::Error::msg)?;
+    Ok(Opened {
+        file: VlfFile {
+            state,
+            ..before.file
+        },
+        ..before
+    })
+}
+
 fn view(a: ViewArgs) -> Result<()> {
     let scene = load_scene(&a.scene, a.daylight.clone(), false)?;
     let Opened {
         file: f,
         elements,
         tiles,
-    } = baked::open(&a.file, &scene)?;
+    } = opened_for_view(&a, &scene)?;
     let view = a.view.view(Some((&scene, &a.scene)), a.size)?;
     let efficacy = scene.daylight.photometry.efficacy;
     let start = std::time::Instant::now();

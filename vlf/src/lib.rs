@@ -28,7 +28,8 @@
 //! - [`bake`]: the whole bake, its stopping rule and its checkpoints;
 //! - [`file`]: the `.vlf` file, and [`baked`]: its life on disk (settings checked, bakes
 //!   saved per bounce and resumed, old versions baked again, the one `open` that checks a
-//!   file against its scene);
+//!   file against its scene); [`hours`]: a bake set's bakes at their times, and the field
+//!   of a time between two of them, blended;
 //! - [`remote`]: bake workers in other processes (subfields handed out as work);
 //! - [`objects`]: moving objects as the walls draw them (placed, lit from probes, shadowing);
 //! - [`probe`]: irradiance probes (order-2 harmonics) lighting what the field does not hold;
@@ -73,6 +74,7 @@ pub mod file;
 pub mod footprint;
 pub mod gather;
 pub mod glow_edges;
+pub mod hours;
 pub mod kept_gathers;
 pub mod object_gather;
 pub mod objects;
