@@ -171,3 +171,96 @@ fn ctrl_c_ends_sims_first_bake_at_once_keeping_what_it_finished() {
         holocave_vlf::VlfFile::read(&vlf).expect("the kept light field reads whole");
     }
 }
+
+/// The room set in Chicago: the daylight file's sun light, a CIE clear sky following the
+/// sun, which the site and `--when` place.
+const SITE_DAYLIGHT: &str = "[site]\nlatitude = 41.98\nlongitude = -87.92\nelevation = 201.0\n\
+    time_zone = -6.0\nnorth = [0.0, 0.0, -1.0]\n[sun]\nirradiance = [600.0, 560.0, 500.0]\n\
+    [sky]\nmodel = \"cie_clear\"\nzenith_radiance = [12.0, 16.0, 26.0]\n";
+
+/// `vlf view` of `file` (a bake or a bake set) at `when`, into `out`.
+fn view_at(file: &Path, daylight: &Path, when: &str, out: &Path) -> std::process::Output {
+    holocave()
+        .args(["vlf", "view"])
+        .arg(file)
+        .args(["--scene", "scenes/room.gltf", "--daylight"])
+        .arg(daylight)
+        .args(["--when", when, "--eye", "0,1.6,0.5"])
+        .args([
+            "--screen",
+            "-1.5,0,-1.5;1.5,0,-1.5;-1.5,3,-1.5",
+            "--size",
+            "32x32",
+        ])
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// A bake set of two hours draws a time between them from both (a quarter of the later
+/// half an hour after the first), a baked time exactly as that bake alone draws it (bit for bit: the blend's
+/// weight of the other is 0), and refuses a time outside its bakes, naming them.
+#[test]
+fn a_bake_set_draws_the_times_between_its_bakes() {
+    let dir = tempfile::tempdir().unwrap();
+    let daylight = dir.path().join("room.daylight.toml");
+    std::fs::write(&daylight, SITE_DAYLIGHT).unwrap();
+    let set = dir.path().join("set");
+    std::fs::create_dir(&set).unwrap();
+    for (when, name) in [
+        ("2026-06-21T14:00", "2026-06-21T14-00.vlf"),
+        ("2026-06-21T16:00", "2026-06-21T16-00.vlf"),
+    ] {
+        let o = holocave()
+            .args(["vlf", "bake", "--scene", "scenes/room.gltf", "--daylight"])
+            .arg(&daylight)
+            .args(["--when", when])
+            .args(SETTINGS)
+            .arg("--out")
+            .arg(set.join(name))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let o = view_at(
+        &set,
+        &daylight,
+        "2026-06-21T14:30",
+        &dir.path().join("mid.exr"),
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains("blended, 0.250 of the later"), "{stdout}");
+    let (from_set, alone) = (dir.path().join("set14.exr"), dir.path().join("alone14.exr"));
+    assert!(
+        view_at(&set, &daylight, "2026-06-21T14:00", &from_set)
+            .status
+            .success()
+    );
+    let bake = set.join("2026-06-21T14-00.vlf");
+    assert!(
+        view_at(&bake, &daylight, "2026-06-21T14:00", &alone)
+            .status
+            .success()
+    );
+    assert_eq!(
+        std::fs::read(&from_set).unwrap(),
+        std::fs::read(&alone).unwrap()
+    );
+    let o = view_at(
+        &set,
+        &daylight,
+        "2026-06-21T17:00",
+        &dir.path().join("late.exr"),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("outside") && err.contains("16:00"),
+        "{err}"
+    );
+}
