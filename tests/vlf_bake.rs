@@ -198,7 +198,7 @@ fn view_at(file: &Path, daylight: &Path, when: &str, out: &Path) -> std::process
         .unwrap()
 }
 
-/// A bake set of two hours draws a time between them from both (a quarter of the later
+/// `vlf bake --until` bakes a set, one bake every `--step` minutes. A set of two hours draws a time between them from both (a quarter of the later
 /// half an hour after the first), a baked time exactly as that bake alone draws it (bit for bit: the blend's
 /// weight of the other is 0), and refuses a time outside its bakes, naming them.
 #[test]
@@ -207,22 +207,28 @@ fn a_bake_set_draws_the_times_between_its_bakes() {
     let daylight = dir.path().join("room.daylight.toml");
     std::fs::write(&daylight, SITE_DAYLIGHT).unwrap();
     let set = dir.path().join("set");
-    std::fs::create_dir(&set).unwrap();
-    for (when, name) in [
-        ("2026-06-21T14:00", "2026-06-21T14-00.vlf"),
-        ("2026-06-21T16:00", "2026-06-21T16-00.vlf"),
-    ] {
-        let o = holocave()
-            .args(["vlf", "bake", "--scene", "scenes/room.gltf", "--daylight"])
-            .arg(&daylight)
-            .args(["--when", when])
-            .args(SETTINGS)
-            .arg("--out")
-            .arg(set.join(name))
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    }
+    let o = holocave()
+        .args(["vlf", "bake", "--scene", "scenes/room.gltf", "--daylight"])
+        .arg(&daylight)
+        .args([
+            "--when",
+            "2026-06-21T14:00",
+            "--until",
+            "2026-06-21T16:30",
+            "--step",
+            "120",
+        ])
+        .args(SETTINGS)
+        .arg("--out")
+        .arg(&set)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut names: Vec<String> = (std::fs::read_dir(&set).unwrap())
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["2026-06-21T14-00.vlf", "2026-06-21T16-00.vlf"]);
     let o = view_at(
         &set,
         &daylight,

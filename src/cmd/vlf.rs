@@ -80,6 +80,18 @@ pub struct BakeArgs {
     /// The cluster's name (for --listen).
     #[arg(long, default_value = super::credentials::DEFAULT_CLUSTER)]
     pub cluster: String,
+    /// A bake set: one bake every --step from --when to this time (local standard time),
+    /// each into --out (a folder) named by its time, YYYY-MM-DDTHH-MM.vlf.
+    #[arg(
+        long,
+        value_name = "TIME",
+        requires = "when",
+        conflicts_with = "listen"
+    )]
+    pub until: Option<When>,
+    /// Minutes between a bake set's bakes.
+    #[arg(long, default_value_t = 60, requires = "until", value_parser = clap::value_parser!(u32).range(1..))]
+    pub step: u32,
 }
 
 #[derive(Args)]
@@ -295,10 +307,40 @@ fn bake(a: BakeArgs) -> Result<()> {
             .build_global()
             .context("setting the number of bake threads")?;
     }
+    let Some(until) = a.until else {
+        return bake_one(&a, a.daylight.clone(), &a.out);
+    };
+    let (Some(When::Local(first)), When::Local(last)) = (a.daylight.when, until) else {
+        bail!("a bake set's --when and --until are local standard times, without an offset");
+    };
+    if last < first {
+        bail!("--until {last} is before --when {first}");
+    }
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    for time in holocave_vlf::hours::times(first, last, a.step) {
+        let daylight = super::daylight_flags::DaylightFlags {
+            when: Some(When::Local(time)),
+            ..a.daylight.clone()
+        };
+        bake_one(
+            &a,
+            daylight,
+            &a.out.join(holocave_vlf::hours::file_name(time)),
+        )?;
+    }
+    Ok(())
+}
+
+/// One bake of `a`'s scene and settings, in `daylight`, into `out`.
+fn bake_one(
+    a: &BakeArgs,
+    daylight: super::daylight_flags::DaylightFlags,
+    out: &Path,
+) -> Result<()> {
     if a.threads == Some(0) && a.listen.is_none() {
         bail!("--threads 0 leaves nobody to bake: give --listen ADDR for worker processes");
     }
-    let scene = load_scene(&a.scene, a.daylight, false)?;
+    let scene = load_scene(&a.scene, daylight, false)?;
     let settings = Settings {
         directions: a.directions,
         resolution: a.resolution,
@@ -313,7 +355,7 @@ fn bake(a: BakeArgs) -> Result<()> {
     let job = BakeJob {
         scene: &scene,
         settings,
-        out: &a.out,
+        out,
         interrupted: &super::interrupt::ctrl_c_flag(),
         kept_by_command: false,
     };
@@ -340,7 +382,7 @@ fn bake(a: BakeArgs) -> Result<()> {
     }
     println!(
         "wrote {} ({:.1} s)",
-        a.out.display(),
+        out.display(),
         start.elapsed().as_secs_f64()
     );
     Ok(())

@@ -20,6 +20,15 @@ pub fn file_name(time: NaiveDateTime) -> String {
     format!("{}.vlf", time.format(NAME_FORMAT))
 }
 
+/// The times of a set from `first` to `last` (both included when `last` is on the step),
+/// `step_minutes` apart.
+pub fn times(first: NaiveDateTime, last: NaiveDateTime, step_minutes: u32) -> Vec<NaiveDateTime> {
+    let step = chrono::Duration::minutes(i64::from(step_minutes.max(1)));
+    std::iter::successors(Some(first), |t| Some(*t + step))
+        .take_while(|t| *t <= last)
+        .collect()
+}
+
 /// A folder of bakes, each at its time, in time order.
 #[derive(Clone, Debug)]
 pub struct BakeSet {
@@ -172,6 +181,24 @@ mod tests {
         assert_eq!(mid.arrived, 1.5);
         let e = blend(&a, &state(1.0, 5), 0.5).unwrap_err();
         assert!(e.contains("elements") && e.contains("4 and 5"), "{e}");
+    }
+
+    #[test]
+    fn a_sets_times_step_from_the_first_to_the_last() {
+        let at = |s: &str| NaiveDateTime::parse_from_str(s, "%Y-%m-%dT%H:%M").unwrap();
+        let t = times(at("2026-06-21T06:00"), at("2026-06-21T07:30"), 45);
+        assert_eq!(
+            t,
+            [
+                at("2026-06-21T06:00"),
+                at("2026-06-21T06:45"),
+                at("2026-06-21T07:30")
+            ]
+        );
+        assert_eq!(
+            times(at("2026-06-21T06:00"), at("2026-06-21T06:59"), 60).len(),
+            1
+        );
     }
 
     #[test]
