@@ -246,11 +246,17 @@ impl PixelPaths<'_> {
                         throughput: s.throughput,
                     });
                 }
+                let v = Vertex {
+                    bsdf,
+                    frame,
+                    wo,
+                    p: sp.position,
+                    ng,
+                };
                 if s.surfaces > 0 {
-                    self.add_suns(&mut out.row, &s, &bsdf, &frame, wo, sp.position, ng);
+                    self.add_suns(&mut out.row, &s, &v);
                 }
-                sky_sampled =
-                    self.add_sky(&mut out.row, &s, &bsdf, &frame, wo, sp.position, ng, rng);
+                sky_sampled = self.add_sky(&mut out.row, &s, &v, rng);
                 s.surfaces += 1;
             }
             let uc: f32 = rng.random();
@@ -287,42 +293,26 @@ impl PixelPaths<'_> {
 
     /// A sun of unit irradiance at each visited patch's centre, seen from a surface after
     /// the first.
-    #[allow(clippy::too_many_arguments)]
-    fn add_suns(
-        &self,
-        row: &mut [f32],
-        s: &PathState,
-        bsdf: &Bsdf,
-        frame: &Frame,
-        wo: Vec3,
-        p: Vec3,
-        ng: Vec3,
-    ) {
+    fn add_suns(&self, row: &mut [f32], s: &PathState, v: &Vertex) {
         for (c, &wi) in self.sun_dirs.iter().enumerate() {
-            let Some(f) = reflected(bsdf, frame, wo, wi, ng) else {
+            let Some(f) = reflected(&v.bsdf, &v.frame, v.wo, wi, v.ng) else {
                 continue;
             };
             let y = luminance(s.throughput * f);
-            if y > 0.0 && !self.scene.occluded(&Ray::leaving(p, ng, wi), f32::INFINITY) {
+            if y > 0.0
+                && !self
+                    .scene
+                    .occluded(&Ray::leaving(v.p, v.ng, wi), f32::INFINITY)
+            {
                 row[PATCHES + c] += y;
             }
         }
     }
 
     /// One cosine-weighted sample of the sky (and ground) patches; whether it was taken.
-    #[allow(clippy::too_many_arguments)]
-    fn add_sky(
-        &self,
-        row: &mut [f32],
-        s: &PathState,
-        bsdf: &Bsdf,
-        frame: &Frame,
-        wo: Vec3,
-        p: Vec3,
-        ng: Vec3,
-        rng: &mut Pcg32,
-    ) -> bool {
-        if bsdf.transmits() {
+    fn add_sky(&self, row: &mut [f32], s: &PathState, v: &Vertex, rng: &mut Pcg32) -> bool {
+        let (frame, ng, wo) = (&v.frame, v.ng, v.wo);
+        if v.bsdf.transmits() {
             return false;
         }
         let side = Frame::new(front(frame.n, ng, wo));
@@ -331,17 +321,31 @@ impl PixelPaths<'_> {
         if pdf <= 0.0 {
             return true;
         }
-        let (f, bsdf_pdf) = bsdf.eval(frame.to_local(wo), frame.to_local(wi));
+        let (f, bsdf_pdf) = v.bsdf.eval(frame.to_local(wo), frame.to_local(wi));
         if ng.dot(wi) * ng.dot(wo) <= 0.0 {
             return true;
         }
         let c = f * frame.n.dot(wi).abs() / pdf;
         let y = luminance(s.throughput * c);
-        if y > 0.0 && !self.scene.occluded(&Ray::leaving(p, ng, wi), f32::INFINITY) {
+        if y > 0.0
+            && !self
+                .scene
+                .occluded(&Ray::leaving(v.p, ng, wi), f32::INFINITY)
+        {
             row[patches::patch_of(wi)] += y * power_heuristic(pdf, bsdf_pdf);
         }
         true
     }
+}
+
+/// A non-delta surface a path meets: its scattering, shading frame, the direction the
+/// path came back along, the point and its face normal.
+struct Vertex {
+    bsdf: Bsdf,
+    frame: Frame,
+    wo: Vec3,
+    p: Vec3,
+    ng: Vec3,
 }
 
 /// The shading normal turned to the side the surface is seen from.
