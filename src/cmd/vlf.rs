@@ -317,7 +317,7 @@ fn bake(a: BakeArgs) -> Result<()> {
         bail!("--until {last} is before --when {first}");
     }
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
-    for time in holocave_vlf::hours::times(first, last, a.step) {
+    for time in holocave_vlf::hours::times(first, last, a.step).map_err(anyhow::Error::msg)? {
         let daylight = super::daylight_flags::DaylightFlags {
             when: Some(When::Local(time)),
             ..a.daylight.clone()

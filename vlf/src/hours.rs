@@ -8,7 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
-use chrono::NaiveDateTime;
+use chrono::{NaiveDateTime, Timelike};
 
 use crate::bake::State;
 
@@ -21,12 +21,22 @@ pub fn file_name(time: NaiveDateTime) -> String {
 }
 
 /// The times of a set from `first` to `last` (both included when `last` is on the step),
-/// `step_minutes` apart.
-pub fn times(first: NaiveDateTime, last: NaiveDateTime, step_minutes: u32) -> Vec<NaiveDateTime> {
+/// `step_minutes` apart. Error: a first time with seconds (a set's files are named to the
+/// minute, and each is opened at the time its name says).
+pub fn times(
+    first: NaiveDateTime,
+    last: NaiveDateTime,
+    step_minutes: u32,
+) -> Result<Vec<NaiveDateTime>, String> {
+    if first.second() != 0 || first.nanosecond() != 0 {
+        return Err(format!(
+            "a bake set's times are whole minutes: {first} has seconds"
+        ));
+    }
     let step = chrono::Duration::minutes(i64::from(step_minutes.max(1)));
-    std::iter::successors(Some(first), |t| Some(*t + step))
+    Ok(std::iter::successors(Some(first), |t| Some(*t + step))
         .take_while(|t| *t <= last)
-        .collect()
+        .collect())
 }
 
 /// A folder of bakes, each at its time, in time order.
@@ -46,8 +56,9 @@ pub struct Bracket {
 }
 
 impl BakeSet {
-    /// The set in `dir`: every `.vlf` file named by its time (other files are an error
-    /// naming them, so a misnamed bake is not silently left out).
+    /// The set in `dir`: every `.vlf` file, named by its time (a `.vlf` file named
+    /// otherwise is an error naming it, so a misnamed bake is not silently left out; other
+    /// files are passed over).
     pub fn read(dir: &Path) -> Result<BakeSet, String> {
         let entries = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         let mut bakes = Vec::new();
@@ -81,7 +92,9 @@ impl BakeSet {
     /// The bakes around `time` (the same bake twice at a baked time). Error: a time
     /// outside the set's.
     pub fn bracket(&self, time: NaiveDateTime) -> Result<Bracket, String> {
-        let (first, last) = (&self.bakes[0], &self.bakes[self.bakes.len() - 1]);
+        let (Some(first), Some(last)) = (self.bakes.first(), self.bakes.last()) else {
+            return Err(format!("{}: no bakes in the set", self.dir.display()));
+        };
         if time < first.0 || time > last.0 {
             return Err(format!(
                 "{} holds bakes from {} to {}: {time} is outside",
@@ -186,7 +199,7 @@ mod tests {
     #[test]
     fn a_sets_times_step_from_the_first_to_the_last() {
         let at = |s: &str| NaiveDateTime::parse_from_str(s, "%Y-%m-%dT%H:%M").unwrap();
-        let t = times(at("2026-06-21T06:00"), at("2026-06-21T07:30"), 45);
+        let t = times(at("2026-06-21T06:00"), at("2026-06-21T07:30"), 45).unwrap();
         assert_eq!(
             t,
             [
@@ -195,10 +208,11 @@ mod tests {
                 at("2026-06-21T07:30")
             ]
         );
-        assert_eq!(
-            times(at("2026-06-21T06:00"), at("2026-06-21T06:59"), 60).len(),
-            1
-        );
+        let hour = times(at("2026-06-21T06:00"), at("2026-06-21T06:59"), 60).unwrap();
+        assert_eq!(hour.len(), 1);
+        let seconds = at("2026-06-21T06:00") + chrono::Duration::seconds(30);
+        let e = times(seconds, at("2026-06-21T07:00"), 60).unwrap_err();
+        assert!(e.contains("seconds"), "{e}");
     }
 
     #[test]

@@ -12,8 +12,9 @@
 //! Everything after the first surface goes through the coefficients: the sky by next-event
 //! estimation (cosine-weighted, MIS against the BSDF's own sampling, which also ends in the
 //! patch its escaping ray meets), the sun by a shadow ray to each visited patch's centre
-//! (the sun's light after one bounce moves by at most half a patch), the lamps when a path
-//! meets them. The sun and sky are grey (the Perez model gives irradiance, not colour),
+//! (the sun's light after one bounce moves by up to a patch's half diagonal, about 8.5°),
+//! the lamps: emitting surfaces when a path meets them, point, spot and directional lights
+//! by a shadow ray from every surface. The sun and sky are grey (the Perez model gives irradiance, not colour),
 //! so a coefficient is the luminance of a path's RGB throughput.
 
 use glam::{DVec3, Vec2, Vec3};
@@ -21,6 +22,8 @@ use holocave_scene::color::luminance;
 use holocave_scene::{Ray, Scene};
 use holocave_tracer::bsdf::Bsdf;
 use holocave_tracer::frame::Frame;
+use holocave_tracer::integrator::light_unblocked;
+use holocave_tracer::lights::Lights;
 use holocave_tracer::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, power_heuristic};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
@@ -109,6 +112,7 @@ impl ViewCoefficients {
             .iter()
             .map(|&p| patches::centre(p))
             .collect();
+        let lights = Lights::new(scene);
         let n = fisheye.size;
         let results: Vec<PixelResult> = (0..n * n)
             .into_par_iter()
@@ -117,6 +121,7 @@ impl ViewCoefficients {
                     scene,
                     columns: &columns,
                     sun_dirs: &sun_dirs,
+                    lights: &lights,
                 };
                 tracer.pixel(fisheye, i, spp, seed)
             })
@@ -149,6 +154,8 @@ struct PixelPaths<'a> {
     scene: &'a Scene,
     columns: &'a Columns,
     sun_dirs: &'a [Vec3],
+    /// The scene's lights, for its point, spot and directional ones.
+    lights: &'a Lights,
 }
 
 /// One path's state between surfaces.
@@ -256,6 +263,7 @@ impl PixelPaths<'_> {
                 if s.surfaces > 0 {
                     self.add_suns(&mut out.row, &s, &v);
                 }
+                self.add_punctual(&mut out.row, &s, &v);
                 sky_sampled = self.add_sky(&mut out.row, &s, &v, rng);
                 s.surfaces += 1;
             }
@@ -305,6 +313,23 @@ impl PixelPaths<'_> {
                     .occluded(&Ray::leaving(v.p, v.ng, wi), f32::INFINITY)
             {
                 row[PATCHES + c] += y;
+            }
+        }
+    }
+
+    /// The point, spot and directional lights, each by its shadow ray (delta lights: no
+    /// other strategy finds them), into the lamps' column.
+    fn add_punctual(&self, row: &mut [f32], s: &PathState, v: &Vertex) {
+        for i in 0..self.lights.punctual.len() {
+            let Some(ls) = self.lights.sample_punctual(i, v.p) else {
+                continue;
+            };
+            let Some(f) = reflected(&v.bsdf, &v.frame, v.wo, ls.wi, v.ng) else {
+                continue;
+            };
+            let y = luminance(s.throughput * f * ls.contribution);
+            if y > 0.0 && light_unblocked(self.scene, &ls, v.p, v.ng) {
+                row[self.columns.lamps()] += y;
             }
         }
     }

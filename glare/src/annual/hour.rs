@@ -102,7 +102,8 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
 
 /// The sun's disc where the eye sees it: [`DISC_RAYS`] rays over its solid angle, each
 /// unblocked one adding its share of the disc's `L ω` to the pixel it falls in, divided by
-/// that pixel's solid angle (as `draw` counts the disc).
+/// that pixel's solid angle (as `draw` counts the disc, but blocked by glass, which `draw`
+/// sees through).
 fn add_disc(scene: &Scene, coefficients: &ViewCoefficients, sun: &Sun, pixels: &mut [f32]) {
     let fisheye = &coefficients.fisheye;
     let n = fisheye.size;

@@ -1,11 +1,11 @@
 //! The temporal map of a year's glare: day of the year across, hour of the day down, each
-//! hour coloured by its DGP class (EN 17037): imperceptible (below 0.35) pale, perceptible
-//! yellow, disturbing orange, intolerable (0.45 and up) red; hours without daylight dark.
+//! hour coloured by its DGP class (EN 17037): imperceptible (up to 0.35) pale, perceptible
+//! yellow, disturbing orange, intolerable (above 0.45) red; hours without daylight dark.
 //! Grey lines mark 6:00, 12:00 and 18:00, and each month's first day.
 
 use std::path::Path;
 
-use chrono::Datelike;
+use chrono::{Datelike, NaiveDate};
 use image::{Rgb, RgbImage};
 
 use super::Row;
@@ -26,25 +26,25 @@ const CLASSES: [Rgb<u8>; 4] = [
 
 /// The colour of a DGP.
 pub fn class_colour(dgp: f64) -> Rgb<u8> {
-    let class = CLASS_LIMITS.iter().filter(|&&l| dgp >= l).count();
+    let class = CLASS_LIMITS.iter().filter(|&&l| dgp > l).count();
     CLASSES[class]
 }
 
 const GRID: Rgb<u8> = Rgb([128, 128, 136]);
 
-/// Lines at 6:00, 12:00 and 18:00, and at the first of each month (of a year without 29
-/// February).
-fn draw_grid(img: &mut RgbImage) {
+/// Lines at 6:00, 12:00 and 18:00, and at the first of each month of `year` but January.
+fn draw_grid(img: &mut RgbImage, year: i32) {
     for hour in [6, 12, 18] {
         for x in 0..img.width() {
             img.put_pixel(x, hour * HOUR_PX, GRID);
         }
     }
-    let mut day = 0;
-    for length in [31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30] {
-        day += length;
+    for month in 2..=12 {
+        let Some(first) = NaiveDate::from_ymd_opt(year, month, 1) else {
+            continue;
+        };
         for y in 0..img.height() {
-            img.put_pixel(day * DAY_PX, y, GRID);
+            img.put_pixel(first.ordinal0() * DAY_PX, y, GRID);
         }
     }
 }
@@ -62,7 +62,8 @@ pub fn write_temporal_map(path: &Path, rows: &[Row]) -> Result<(), GlareError> {
             }
         }
     }
-    draw_grid(&mut img);
+    let year = rows.first().map_or(2026, |r| r.hour.when.year());
+    draw_grid(&mut img, year);
     img.save(path).map_err(|e| GlareError::Write {
         path: path.into(),
         message: e.to_string(),

@@ -87,7 +87,8 @@ impl LitHour {
 
 /// The light of each hour as `holocave glare --when` loads it: the scene's daylight file
 /// `daylight` (else the one beside `scene_path`; `file_site` its `[site]`) with the
-/// weather's hour. The sun's position comes first: a night hour loads no daylight.
+/// weather's hour. The sun's position comes first: a night hour loads no daylight and
+/// reads no weather row.
 pub fn light_of_hours(
     scene_path: &Path,
     (daylight, file_site): (Option<&Path>, Option<&Site>),
@@ -109,17 +110,23 @@ pub fn light_of_hours(
             let time = (hour.when.and_local_timezone(site.offset()).single())
                 .ok_or_else(|| err(format!("{} has no instant", hour.when)))?;
             let altitude_deg = (site.sun_at(&time).map_err(|e| err(e.to_string()))?).altitude_deg();
+            if altitude_deg <= 0.0 {
+                return Ok(LitHour {
+                    hour,
+                    altitude_deg,
+                    dni: 0.0,
+                    dhi: 0.0,
+                    daylight: None,
+                });
+            }
             let row =
                 (weather.hour(hour.month, hour.day, hour.hour)).map_err(|e| err(e.to_string()))?;
-            let daylight = (altitude_deg > 0.0)
-                .then(|| load_daylight(scene_path, daylight, Some(&moment)))
-                .transpose()?;
             Ok(LitHour {
                 hour,
                 altitude_deg,
                 dni: row.dni,
                 dhi: row.dhi,
-                daylight,
+                daylight: Some(load_daylight(scene_path, daylight, Some(&moment))?),
             })
         })
         .collect()

@@ -1,7 +1,7 @@
 //! The sky dome cut into Tregenza's 145 patches (Radiance's `gendaymtx` at `-m 1`, the
 //! Reinhart subdivision's first level) and one more for the ground: the sky's basis for
-//! daylight coefficients. Eight bands of 12° of altitude hold 30, 30, 24, 24, 18, 12 and 6
-//! patches; the eighth, from 84° up, is one cap. Azimuth counts in scene coordinates from
+//! daylight coefficients. Seven bands of 12° of altitude hold 30, 30, 24, 24, 18, 12 and 6
+//! patches; above 84° one cap. Azimuth counts in scene coordinates from
 //! +X towards +Z (the order only has to agree with itself); up is +Y, as the sky's.
 
 use std::f32::consts::{FRAC_PI_2, TAU};
@@ -72,7 +72,7 @@ fn point_in(patch: usize, a: f32, b: f32) -> Vec3 {
 }
 
 /// The centre of sky patch `patch` (the zenith for the cap): where a sun in the patch is
-/// put for its light after the first bounce.
+/// put for its light after the first bounce (at most a half diagonal, about 8.5°, away).
 pub fn centre(patch: usize) -> Vec3 {
     if patch == SKY_PATCHES - 1 {
         return Vec3::Y;
