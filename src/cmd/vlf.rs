@@ -10,7 +10,7 @@ use holocave_scene::daylight::When;
 use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::VlfFile;
-use holocave_vlf::hours::{BakeSet, blend};
+use holocave_vlf::hours::{BakeSet, blend_opened};
 use holocave_vlf::remote::Workers;
 use holocave_vlf::{Casting, Threads, Visibility, WallPass};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -492,15 +492,7 @@ fn opened_for_view(a: &ViewArgs, scene: &Scene) -> Result<Opened> {
         bracket.after.1.display(),
         bracket.t
     );
-    let state =
-        blend(&before.file.state, &after.file.state, bracket.t).map_err(anyhow::Error::msg)?;
-    Ok(Opened {
-        file: VlfFile {
-            state,
-            ..before.file
-        },
-        ..before
-    })
+    blend_opened(before, &after, bracket.t).map_err(anyhow::Error::msg)
 }
 
 fn view(a: ViewArgs) -> Result<()> {

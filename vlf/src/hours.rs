@@ -11,6 +11,8 @@ use std::path::{Path, PathBuf};
 use chrono::{NaiveDateTime, Timelike};
 
 use crate::bake::State;
+use crate::baked::Opened;
+use crate::file::VlfFile;
 
 /// The file-name form of a bake's time.
 const NAME_FORMAT: &str = "%Y-%m-%dT%H-%M";
@@ -159,6 +161,19 @@ pub fn blend(a: &State, b: &State, t: f32) -> Result<State, String> {
             b.residuals.clone()
         },
         converged: a.converged && b.converged,
+    })
+}
+
+/// Two opened bakes of a set mixed as [`blend`] mixes their states; `before`'s layout
+/// (its elements and tiles: the same geometry and settings) is kept.
+pub fn blend_opened(before: Opened, after: &Opened, t: f32) -> Result<Opened, String> {
+    let state = blend(&before.file.state, &after.file.state, t)?;
+    Ok(Opened {
+        file: VlfFile {
+            state,
+            ..before.file
+        },
+        ..before
     })
 }
 

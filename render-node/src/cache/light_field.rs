@@ -1,4 +1,4 @@
-//! The light field's pass (`vlf.wgsl`), per eye: shade each pixel's lookup from the baked
+//! The light field's pass (`light_field.wgsl`), per eye: shade each pixel's lookup from the baked
 //! irradiance and blend it under the cache's samples (or draw it alone).
 
 use crate::gpu::{Binding, ComputePass, Gpu};
