@@ -35,17 +35,18 @@ fn pages() -> Vec<PathBuf> {
     pages
 }
 
-/// The page's text outside fenced code blocks, line by line.
-fn prose(text: &str) -> Vec<&str> {
+/// The page's lines outside fenced code blocks, with their line numbers (from 1).
+fn prose(text: &str) -> Vec<(usize, &str)> {
     let mut fenced = false;
-    text.lines()
-        .filter(|l| {
+    (text.lines().enumerate())
+        .filter(|(_, l)| {
             if l.trim_start().starts_with("```") {
                 fenced = !fenced;
                 return false;
             }
             !fenced
         })
+        .map(|(n, l)| (n + 1, l))
         .collect()
 }
 
@@ -80,7 +81,7 @@ fn slug(heading: &str) -> String {
 fn anchors(text: &str) -> Vec<String> {
     let mut seen: HashMap<String, usize> = HashMap::new();
     let mut out = Vec::new();
-    for line in prose(text) {
+    for (_, line) in prose(text) {
         let Some(heading) = line.strip_prefix('#') else {
             continue;
         };
@@ -126,17 +127,10 @@ fn every_link_of_the_documentation_leads_somewhere() {
     let mut problems = Vec::new();
     for page in pages() {
         let text = std::fs::read_to_string(&page).unwrap();
-        let mut fenced = false;
-        for (n, line) in text.lines().enumerate() {
-            if line.trim_start().starts_with("```") {
-                fenced = !fenced;
-            }
-            if fenced {
-                continue;
-            }
+        for (n, line) in prose(&text) {
             for target in link_targets(line) {
                 if let Some(p) = broken(&page, target) {
-                    problems.push(format!("{}:{}: {p}", page.display(), n + 1));
+                    problems.push(format!("{}:{n}: {p}", page.display()));
                 }
             }
         }

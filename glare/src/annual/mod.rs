@@ -107,7 +107,7 @@ pub fn light_of_hours(
                 weather: Some(weather.clone()),
             };
             let site = moment.site(file_site).map_err(|e| err(e.to_string()))?;
-            let time = (hour.when.and_local_timezone(site.offset()).single())
+            let time = (moment.when.in_zone(site.offset()))
                 .ok_or_else(|| err(format!("{} has no instant", hour.when)))?;
             let altitude_deg = (site.sun_at(&time).map_err(|e| err(e.to_string()))?).altitude_deg();
             if altitude_deg <= 0.0 {
