@@ -630,7 +630,14 @@ fn garbage_from_the_master_makes_a_node_reconnect_and_serve_the_honest_master() 
             display_ns: (frame + 1) * 50_000_000,
             tracker_ns: None,
         };
-        MasterMsg::Frame(frame_state(&cave, &frusta, frame, times, &pose, Vec::new()))
+        MasterMsg::Frame(frame_state(
+            &cave,
+            &frusta,
+            frame,
+            times,
+            &pose,
+            Default::default(),
+        ))
     };
     // Five bad masters in a row, each after an honest handshake: random payload, an
     // oversized length, a truncated frame, a well-formed but unsealed frame state (an

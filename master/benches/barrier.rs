@@ -105,7 +105,7 @@ fn cluster(frames: u64) -> Summary {
             on_frame: None,
             session_state: None,
             resume: None,
-            when: None,
+            sun: None,
         },
     )
     .unwrap();

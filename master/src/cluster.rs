@@ -30,13 +30,14 @@ use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
 use tokio::time::timeout_at;
 
 use crate::barrier::{Barrier, NodeId};
-use crate::frame_state::{FrameTimes, frame_state};
+use crate::frame_state::{FrameTimes, FrameWorld, frame_state};
 use crate::head::{Clock, Head};
 use crate::navigation::log::NavigationLog;
 use crate::navigation::placement::Placement;
 use crate::navigation::run::NavigationRun;
 use crate::pacing::Pacer;
 use crate::session::{SessionClock, SessionState, StateKeeper};
+use crate::sun_clock::SunClock;
 use holocave_cave::Cave;
 use holocave_cave::CaveFrusta;
 
@@ -95,8 +96,9 @@ pub struct MasterOptions {
     /// Go on with this session: frames numbered from its frame + 1, the clock, the room's
     /// place and the objects as it left them.
     pub resume: Option<SessionState>,
-    /// The scene's time of day (`--when`), kept in the session's state.
-    pub when: Option<String>,
+    /// The scene's time of day (from `--when`), sent with every frame and kept in the
+    /// session's state; `None`: the scene has no time.
+    pub sun: Option<SunClock>,
 }
 
 /// What a run measured.
@@ -821,11 +823,11 @@ fn frame_state_of(
     frusta: &mut CaveFrusta,
     (placed, in_room): (&Cave, Option<&Cave>),
     (frame, times, pose): (u64, FrameTimes, &holocave_tracking::Pose),
-    objects: Vec<WireObject>,
+    world: FrameWorld,
 ) -> FrameState {
     let Some(in_room) = in_room else {
         frusta.update(placed, pose);
-        return frame_state(placed, frusta, frame, times, pose, objects);
+        return frame_state(placed, frusta, frame, times, pose, world);
     };
     frusta.update(in_room, pose);
     let to_room = placed.room_to_scene.inverse();
@@ -835,7 +837,24 @@ fn frame_state_of(
             f.view *= to_room;
         }
     }
-    frame_state(placed, &placed_frusta, frame, times, pose, objects)
+    frame_state(placed, &placed_frusta, frame, times, pose, world)
+}
+
+/// The time of day of the frame at `master_ns`: the session's clock advanced by the
+/// frame's time inputs (a replayed `time` row, the desk's keys), each change logged and
+/// written to `desk.csv` (when kept).
+fn time_of_day(opts: &mut MasterOptions, frame: u64, master_ns: u64) -> Option<String> {
+    let sun = opts.sun.as_mut()?;
+    if let Some(nav) = &mut opts.navigation {
+        let (set, step) = nav.time_input();
+        if sun.advance(set, step) {
+            tracing::info!("frame {frame}: the time of day is now {}", sun.now());
+            if let Some(local) = sun.local() {
+                nav.log_time(master_ns, local);
+            }
+        }
+    }
+    Some(sun.now().to_string())
 }
 
 async fn run_frames(
@@ -942,6 +961,12 @@ fn start_of(opts: &mut MasterOptions, head: &mut Head) -> std::io::Result<RunSta
     if let Some(o) = &mut opts.objects {
         o.resume(&s.objects).map_err(std::io::Error::other)?;
     }
+    if let (Some(sun), Some(now)) = (&mut opts.sun, &s.time_of_day) {
+        let now = now.parse().map_err(|e| {
+            std::io::Error::other(format!("the session's time of day {now:?}: {e}"))
+        })?;
+        *sun = SunClock::resumed(sun.start(), now);
+    }
     tracing::info!(
         "resuming the session after frame {} (its clock at {:.3} s, {} tracker samples read)",
         s.frame,
@@ -975,7 +1000,8 @@ fn session_state(
         recentred_from: head.recentred_from().map(|o| o.to_array()),
         navigation: state.navigation,
         objects: opts.objects.as_ref().map_or_else(Vec::new, |o| o.saved()),
-        when: opts.when.clone(),
+        when: opts.sun.as_ref().map(|s| s.start().to_string()),
+        time_of_day: opts.sun.as_ref().map(|s| s.now().to_string()),
     }
 }
 
@@ -1028,13 +1054,16 @@ impl Caves {
             display_ns,
             tracker_ns,
         };
-        let objects = objects_at(opts, display_ns, &place);
+        let world = FrameWorld {
+            objects: objects_at(opts, display_ns, &place),
+            when: time_of_day(opts, frame, master_ns),
+        };
         let navigated = opts.navigation.is_some().then_some(&self.in_room);
         Ok(frame_state_of(
             &mut self.frusta,
             (&self.placed, navigated),
             (frame, times, &pose),
-            objects,
+            world,
         ))
     }
 }

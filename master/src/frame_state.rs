@@ -24,15 +24,22 @@ fn wire_eye(e: Eye) -> WireEye {
     }
 }
 
-/// Frame `frame`'s state from the current frusta (already updated for `head`), with the
-/// moving objects where they are at its display time.
+/// What a frame shows besides the views: the moving objects where they are at its display
+/// time, and the scene's time of day.
+#[derive(Clone, Debug, Default)]
+pub struct FrameWorld {
+    pub objects: Vec<WireObject>,
+    pub when: Option<String>,
+}
+
+/// Frame `frame`'s state from the current frusta (already updated for `head`).
 pub fn frame_state(
     cave: &Cave,
     frusta: &CaveFrusta,
     frame: u64,
     times: FrameTimes,
     head: &Pose,
-    objects: Vec<WireObject>,
+    world: FrameWorld,
 ) -> FrameState {
     let walls = cave
         .walls
@@ -64,6 +71,7 @@ pub fn frame_state(
         },
         walls,
         navigation: cave.room_to_scene.to_cols_array(),
-        objects,
+        objects: world.objects,
+        when: world.when,
     }
 }

@@ -10,3 +10,4 @@ pub mod navigation;
 pub mod objects;
 pub mod pacing;
 pub mod session;
+pub mod sun_clock;

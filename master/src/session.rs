@@ -69,8 +69,11 @@ pub struct SessionState {
     pub navigation: [f64; 16],
     /// The moving objects' placements at that frame, in the scene's order.
     pub objects: Vec<SavedObject>,
-    /// The scene's time of day (`--when`), if it has one.
+    /// The scene's time of day at the session's start (`--when`), if it has one.
     pub when: Option<String>,
+    /// Its time of day at that frame (the start's, stepped by keys or a replayed log).
+    #[serde(default)]
+    pub time_of_day: Option<String>,
 }
 
 /// Why a state file could not be read or written.
@@ -250,6 +253,7 @@ mod tests {
                 off_path: true,
             }],
             when: Some("2026-06-21T12:00".into()),
+            time_of_day: Some("2026-06-21T13:15".into()),
         }
     }
 

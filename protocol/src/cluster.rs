@@ -67,6 +67,10 @@ pub struct FrameState {
     /// Where each moving object is this frame (scene coordinates); every wall draws the
     /// same placement.
     pub objects: Vec<WireObject>,
+    /// The scene's time of day this frame, as `--when` writes it (`None`: the scene has no
+    /// time; every wall draws its light as loaded). Keys or a replayed session step it;
+    /// a node whose light is for another time lights its wall anew.
+    pub when: Option<String>,
 }
 
 /// A moving object's placement: the object named `name` (as the scene names it) turned by
@@ -180,7 +184,13 @@ pub struct DeskInput {
     pub teleport: bool,
     /// The walk/fly toggle held (each press toggles).
     pub mode: bool,
+    /// Minutes the time of day was stepped by keys since the node's last desk input
+    /// (at most [`MAX_TIME_STEP_MIN`] either way); it is added once, not held.
+    pub time_step_min: i32,
 }
+
+/// The largest time step one desk input carries (a week, in minutes).
+pub const MAX_TIME_STEP_MIN: i32 = 7 * 24 * 60;
 
 impl DeskInput {
     /// Nothing pressed.
@@ -190,6 +200,7 @@ impl DeskInput {
         grab: false,
         teleport: false,
         mode: false,
+        time_step_min: 0,
     };
 
     /// An error naming the field when an axis is not a finite number in `-1..=1`.
@@ -198,6 +209,12 @@ impl DeskInput {
             if !v.is_finite() || v.abs() > 1.0 {
                 return Err(format!("desk input: {name} {v} is not a number in -1..=1"));
             }
+        }
+        if self.time_step_min.abs() > MAX_TIME_STEP_MIN {
+            return Err(format!(
+                "desk input: a time step of {} min is more than a week",
+                self.time_step_min
+            ));
         }
         Ok(())
     }
@@ -220,6 +237,7 @@ mod tests {
             grab: true,
             teleport: false,
             mode: true,
+            time_step_min: -60,
         };
         assert!(d.validate().is_ok());
         let msg = NodeMsg::DeskInput(d);

@@ -29,8 +29,9 @@ use crate::session::SessionKeys;
 /// First bytes of every cluster connection.
 pub const MAGIC: [u8; 8] = *b"HOLOCAVE";
 /// Version of the cluster messages (this module, [`crate::cluster`] and the sealing of
-/// [`crate::session`]: 2 since messages are tagged with keyed BLAKE3).
-pub const CLUSTER_PROTOCOL_VERSION: u32 = 2;
+/// [`crate::session`]: 2 since messages are tagged with keyed BLAKE3, 3 since a frame
+/// carries the time of day).
+pub const CLUSTER_PROTOCOL_VERSION: u32 = 3;
 /// Handshake messages are small; a larger frame is hostile or garbage.
 const MAX_HANDSHAKE_FRAME: u32 = 4096;
 

@@ -11,13 +11,16 @@
 //! | Space | teleport (a tap counts) |
 //! | G, right mouse button | grab (held) |
 //! | F | walk ↔ fly |
+//! | [ / ] | the time of day 15 min earlier / later |
+//! | - / = | 1 h earlier / later |
+//! | , / . | 1 day earlier / later |
 //!
 //! A key's axis wins over the drag's. Losing the focus releases everything.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 
-use holocave_protocol::cluster::DeskInput;
+use holocave_protocol::cluster::{DeskInput, MAX_TIME_STEP_MIN};
 use winit::keyboard::KeyCode;
 
 /// Drag distance (pixels) for a full deflection.
@@ -53,6 +56,20 @@ pub fn control_of(code: KeyCode) -> Option<Control> {
     })
 }
 
+/// The minutes the key at `code`'s place steps the time of day, if it is a time key.
+pub fn time_step_of(code: KeyCode) -> Option<i32> {
+    use KeyCode::*;
+    Some(match code {
+        BracketLeft => -15,
+        BracketRight => 15,
+        Minus => -60,
+        Equal => 60,
+        Comma => -24 * 60,
+        Period => 24 * 60,
+        _ => return None,
+    })
+}
+
 /// Keys held, the mouse's drag. A control is on while any of its keys is held.
 #[derive(Clone, Debug, Default)]
 pub struct DeskKeys {
@@ -63,6 +80,8 @@ pub struct DeskKeys {
     cursor: Option<(f64, f64)>,
     drag_from: Option<(f64, f64)>,
     right_button: bool,
+    /// Minutes the time keys stepped since the input was last sent.
+    time_step_min: i32,
 }
 
 impl DeskKeys {
@@ -70,8 +89,14 @@ impl DeskKeys {
     pub fn key(&mut self, code: KeyCode, down: bool) {
         if !down {
             self.held.retain(|&k| k != code);
-        } else if control_of(code).is_some() && !self.held.contains(&code) {
-            self.held.push(code);
+        } else if !self.held.contains(&code) {
+            if let Some(step) = time_step_of(code) {
+                self.time_step_min =
+                    (self.time_step_min + step).clamp(-MAX_TIME_STEP_MIN, MAX_TIME_STEP_MIN);
+                self.held.push(code);
+            } else if control_of(code).is_some() {
+                self.held.push(code);
+            }
         }
     }
 
@@ -122,6 +147,7 @@ impl DeskKeys {
             grab: self.on(Control::Grab) || self.right_button,
             teleport: self.on(Control::Teleport),
             mode: self.on(Control::Mode),
+            time_step_min: self.time_step_min,
         }
     }
 }
@@ -139,8 +165,9 @@ struct Shared {
     pending: VecDeque<DeskInput>,
 }
 
+/// Whether `a` and `b` differ in their axes alone (a time step counts as a button).
 fn same_buttons(a: &DeskInput, b: &DeskInput) -> bool {
-    (a.grab, a.teleport, a.mode) == (b.grab, b.teleport, b.mode)
+    (a.grab, a.teleport, a.mode, a.time_step_min) == (b.grab, b.teleport, b.mode, b.time_step_min)
 }
 
 impl DeskFeed {
@@ -149,6 +176,8 @@ impl DeskFeed {
         let mut s = self.0.lock().unwrap_or_else(|e| e.into_inner());
         f(&mut s.keys);
         let now = s.keys.input();
+        // A time step is sent once.
+        s.keys.time_step_min = 0;
         if now == s.last {
             return;
         }
@@ -156,7 +185,13 @@ impl DeskFeed {
         s.last = now;
         let full = s.pending.len() >= MAX_PENDING;
         match s.pending.back_mut() {
-            Some(b) if full || (same_buttons(b, &now) && same_buttons(&last, &now)) => *b = now,
+            Some(b) if full || (same_buttons(b, &now) && same_buttons(&last, &now)) => {
+                let steps = b.time_step_min.saturating_add(now.time_step_min);
+                *b = DeskInput {
+                    time_step_min: steps.clamp(-MAX_TIME_STEP_MIN, MAX_TIME_STEP_MIN),
+                    ..now
+                };
+            }
             _ => s.pending.push_back(now),
         }
     }
@@ -201,6 +236,32 @@ mod tests {
         assert_eq!(control_of(KeyCode::KeyZ), None);
         k.release_all();
         assert_eq!(k.input(), DeskInput::NEUTRAL);
+    }
+
+    #[test]
+    fn time_keys_step_the_time_once_per_press_and_the_feed_sends_each_step_once() {
+        let feed = DeskFeed::default();
+        feed.update(|k| k.key(KeyCode::Equal, true));
+        // An unmarked auto-repeat of a key already down steps nothing.
+        feed.update(|k| k.key(KeyCode::Equal, true));
+        feed.update(|k| k.key(KeyCode::Equal, false));
+        feed.update(|k| k.key(KeyCode::BracketLeft, true));
+        feed.update(|k| k.key(KeyCode::KeyW, true));
+        let sent = feed.take();
+        let steps: Vec<i32> = sent.iter().map(|d| d.time_step_min).collect();
+        assert_eq!(steps.iter().sum::<i32>(), 60 - 15, "{sent:?}");
+        assert_eq!(steps.iter().filter(|&&s| s != 0).count(), 2, "{sent:?}");
+        assert_eq!(sent.last().unwrap().forward, 1.0);
+        // Past the queue's bound the taps add up in its last message, a week at most.
+        for _ in 0..100 {
+            feed.update(|k| k.key(KeyCode::Comma, true));
+            feed.update(|k| k.key(KeyCode::Comma, false));
+        }
+        let sent = feed.take();
+        assert!(sent.len() <= MAX_PENDING);
+        assert!(sent.iter().all(|d| d.validate().is_ok()));
+        let total: i32 = sent.iter().map(|d| d.time_step_min).sum();
+        assert!(total < -31 * 24 * 60 && total >= -100 * 24 * 60, "{total}");
     }
 
     #[test]

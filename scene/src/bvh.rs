@@ -58,6 +58,7 @@ impl Waiting {
 }
 
 /// The BVH and its triangles, stored in the BVH's leaf order.
+#[derive(Clone)]
 pub struct Bvh {
     nodes: Vec<WideNode>,
     /// Each leaf's triangles, in the order the leaves are first met breadth first (a

@@ -51,6 +51,7 @@ impl Face {
 }
 
 /// A loaded scene.
+#[derive(Clone)]
 pub struct Scene {
     pub name: String,
     pub(crate) positions: Vec<[Vec3; 3]>,

@@ -21,6 +21,7 @@ use holocave_master::navigation::log::FILE_NAME as NAVIGATION_CSV;
 use holocave_master::navigation::run::{Devices, NavigationRun};
 use holocave_master::objects::ObjectMotion;
 use holocave_master::session::{FILE_NAME as SESSION_STATE, SessionClock, SessionState};
+use holocave_master::sun_clock::SunClock;
 use holocave_protocol::cluster::FrameState;
 use holocave_protocol::stats::quantile_duration;
 use holocave_tracking::source::SourceSpec;
@@ -425,7 +426,7 @@ pub fn run(mut args: MasterArgs) -> Result<()> {
             on_frame,
             session_state: args.out.as_ref().map(|d| d.join(SESSION_STATE)),
             resume,
-            when: args.holodeck.daylight.when.map(|w| w.to_string()),
+            sun: args.holodeck.daylight.when.map(SunClock::new),
         },
     );
     // Asked now: stopping the hosted holodeck sets the same flag.

@@ -23,6 +23,7 @@ use holocave_cave::{Cave, Eye, Place, Unfolded, Wall, load_cave, unfold};
 use holocave_glare::session::{FrameView, measure_session, views_of};
 use holocave_holodeck::auth::Credentials;
 use holocave_master::cluster::{FrameHook, MasterOptions, run as run_master};
+use holocave_master::sun_clock::SunClock;
 use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg};
 use holocave_protocol::frame::{FrameError, read_frame};
 use holocave_render_node::gpu_rays::Rays;
@@ -326,7 +327,7 @@ fn master_options(
         on_frame: None,
         session_state: None,
         resume: None,
-        when: None,
+        sun: args.daylight.when.map(SunClock::new),
     })
 }
 

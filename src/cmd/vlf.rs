@@ -10,7 +10,7 @@ use holocave_scene::daylight::When;
 use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::VlfFile;
-use holocave_vlf::hours::{BakeSet, blend_opened};
+use holocave_vlf::hours::open_blended;
 use holocave_vlf::remote::Workers;
 use holocave_vlf::{Casting, Threads, Visibility, WallPass};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -469,30 +469,27 @@ fn opened_for_view(a: &ViewArgs, scene: &Scene) -> Result<Opened> {
     if !a.file.is_dir() {
         return Ok(baked::open(&a.file, scene)?);
     }
-    let set = BakeSet::read(&a.file).map_err(anyhow::Error::msg)?;
     let when = (a.daylight.when).context("a bake set is drawn at a time: give --when")?;
     let site = (scene.daylight.site.as_ref())
         .context("a bake set needs the scene's site ([site] or --weather)")?;
     let local = (when.in_zone(site.offset()))
         .with_context(|| format!("--when {when}"))?
         .naive_local();
-    let bracket = set.bracket(local).map_err(anyhow::Error::msg)?;
-    let open_at = |(time, path): &(_, PathBuf)| -> Result<Opened> {
+    let scene_at = |time| {
         let flags = super::daylight_flags::DaylightFlags {
-            when: Some(When::Local(*time)),
+            when: Some(When::Local(time)),
             ..a.daylight.clone()
         };
-        let scene = load_scene(&a.scene, flags, false)?;
-        Ok(baked::open(path, &scene)?)
+        load_scene(&a.scene, flags, false).map_err(|e| format!("{e:#}"))
     };
-    let (before, after) = (open_at(&bracket.before)?, open_at(&bracket.after)?);
+    let (opened, bracket) = open_blended(&a.file, local, scene_at).map_err(anyhow::Error::msg)?;
     println!(
         "the field at {local}: {} and {} blended, {:.3} of the later",
         bracket.before.1.display(),
         bracket.after.1.display(),
         bracket.t
     );
-    blend_opened(before, &after, bracket.t).map_err(anyhow::Error::msg)
+    Ok(opened)
 }
 
 fn view(a: ViewArgs) -> Result<()> {

@@ -2,7 +2,13 @@
 //! session log delivers them, each with its time (the device's clock, like a tracker
 //! sample's). A wand's pose is an ordinary tracker [`crate::Sample`].
 
-/// One event of a button box or a joystick.
+use chrono::NaiveDateTime;
+
+/// The form of a time of day in a session log (the site's local standard time, to the
+/// minute: `2026-06-21T14:30`).
+pub const TIME_FORMAT: &str = "%Y-%m-%dT%H:%M";
+
+/// One event of a button box or a joystick, or the time of day set.
 #[derive(Clone, Debug, PartialEq)]
 pub enum InputEvent {
     /// Button `index` went down (`true`) or up.
@@ -11,6 +17,9 @@ pub enum InputEvent {
     Buttons(Vec<bool>),
     /// Every axis channel's value at once (VRPN's `vrpn_Analog Channel`), channel 0 first.
     Axes(Vec<f64>),
+    /// The scene's time of day set (a replayed session's `time` row), in the site's local
+    /// standard time.
+    Time(NaiveDateTime),
 }
 
 /// An input event and its time (ns).

@@ -11,7 +11,11 @@
 //! button,5000000,0,1                       button 0 went down (1) or up (0)
 //! buttons,5000000,1,0                      every button's state at once
 //! axes,8333333,0,0.5                       every joystick channel at once
+//! time,9000000,2026-06-21T14:30            the scene's time of day from then on
 //! ```
+//!
+//! A `time` row's time of day is the site's local standard time, to the minute, as
+//! `--when` takes it; the master steps the sun and sky to it at that point of the replay.
 //!
 //! A head log without tagged rows is still read by [`crate::csv_log`], leniently; a
 //! session log (a `# session` line or any tagged row) is read strictly: a row that is not
@@ -28,7 +32,9 @@ use std::path::{Path, PathBuf};
 use glam::{Quat, Vec3};
 
 use crate::csv_log::TimeUnit;
-use crate::input::{InputEvent, InputSample};
+use chrono::NaiveDateTime;
+
+use crate::input::{InputEvent, InputSample, TIME_FORMAT};
 use crate::pose::{Pose, Sample};
 use crate::vrpn_input::{MAX_BUTTONS, MAX_CHANNELS};
 
@@ -72,7 +78,7 @@ pub fn is_session(text: &str) -> bool {
     text.lines().any(|l| {
         let l = l.trim_start();
         l.starts_with("# session")
-            || ["wand,", "button,", "buttons,", "axes,"]
+            || ["wand,", "button,", "buttons,", "axes,", "time,"]
                 .iter()
                 .any(|t| l.starts_with(t))
     })
@@ -267,6 +273,19 @@ fn parse_row(line: &str) -> Result<Row, String> {
                 .collect::<Result<_, _>>()?;
             Ok(Row::Input(t, InputEvent::Buttons(states)))
         }
+        "time" => {
+            let t = tagged(3)?;
+            if fields.len() != 3 {
+                return Err("a `time` row is time,TIME,YYYY-MM-DDTHH:MM".into());
+            }
+            let when = NaiveDateTime::parse_from_str(fields[2], TIME_FORMAT).map_err(|_| {
+                format!(
+                    "time of day `{}` is not YYYY-MM-DDTHH:MM (local standard time)",
+                    fields[2]
+                )
+            })?;
+            Ok(Row::Input(t, InputEvent::Time(when)))
+        }
         "axes" => {
             let t = tagged(2)?;
             if fields.len() - 2 > MAX_CHANNELS {
@@ -284,7 +303,7 @@ fn parse_row(line: &str) -> Result<Row, String> {
             Ok(Row::Pose(Device::Head, t, pose(&fields[1..])?))
         }
         other => Err(format!(
-            "`{other}` is not a timestamp or a device (wand, button, buttons, axes)"
+            "`{other}` is not a timestamp or a device (wand, button, buttons, axes, time)"
         )),
     }
 }
@@ -336,6 +355,9 @@ impl<W: Write> SessionWriter<W> {
                     let _ = write!(row, ",{v}");
                 }
             }
+            InputEvent::Time(when) => {
+                let _ = write!(row, "time,{},{}", s.t_ns, when.format(TIME_FORMAT));
+            }
         }
         writeln!(self.out, "{row}")
     }
@@ -370,9 +392,12 @@ mod tests {
         );
         let axes = InputSample::new(7_000, InputEvent::Axes(vec![0.125, -1.0]));
         let states = InputSample::new(8_000, InputEvent::Buttons(vec![true, false]));
+        let noon = NaiveDateTime::parse_from_str("2026-06-21T12:15", TIME_FORMAT).unwrap();
+        let time = InputSample::new(8_500, InputEvent::Time(noon));
         w.input(&press).unwrap();
         w.input(&axes).unwrap();
         w.input(&states).unwrap();
+        w.input(&time).unwrap();
         w.head(&sample(9_000, 0.75)).unwrap();
         let text = String::from_utf8(w.finish().unwrap()).unwrap();
         assert!(is_session(&text));
@@ -382,7 +407,12 @@ mod tests {
         let shifted = |s: &InputSample| InputSample::new(s.t_ns - 5_000, s.event.clone());
         assert_eq!(
             log.inputs,
-            vec![shifted(&press), shifted(&axes), shifted(&states)]
+            vec![
+                shifted(&press),
+                shifted(&axes),
+                shifted(&states),
+                shifted(&time)
+            ]
         );
         // The head rows alone are a head log the lenient reader still reads.
         let head = crate::csv_log::parse_csv(&text, None).unwrap();
@@ -415,6 +445,12 @@ mod tests {
             ),
             ("10,0,NaN,0,0,0,0,1\n", "y `NaN`"),
             ("axes,-5,0,0\n", "before the Axes row before it"),
+            (
+                "time,10,2026-06-21 14:30\n",
+                "`2026-06-21 14:30` is not YYYY-MM-DDTHH:MM",
+            ),
+            ("time,10,2026-13-21T14:30\n", "is not YYYY-MM-DDTHH:MM"),
+            ("time,10\n", "at least 3 fields"),
             (
                 "wand,1796301471584801000,0,1,0,0,0,0,1\n",
                 "not on one clock",

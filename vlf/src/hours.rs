@@ -13,6 +13,7 @@ use chrono::{NaiveDateTime, Timelike};
 use crate::bake::State;
 use crate::baked::Opened;
 use crate::file::VlfFile;
+use holocave_scene::Scene;
 
 /// The file-name form of a bake's time.
 const NAME_FORMAT: &str = "%Y-%m-%dT%H-%M";
@@ -175,6 +176,28 @@ pub fn blend_opened(before: Opened, after: &Opened, t: f32) -> Result<Opened, St
         },
         ..before
     })
+}
+
+/// The field of `time` from the set in `dir`: the two bakes around it, each opened with
+/// the scene at its own time (`scene_at`: the scene lit for a bake's time, which its
+/// fingerprint was taken of), blended. Returns it with the bracket it was blended from.
+pub fn open_blended(
+    dir: &Path,
+    time: NaiveDateTime,
+    scene_at: impl Fn(NaiveDateTime) -> Result<Scene, String>,
+) -> Result<(Opened, Bracket), String> {
+    let set = BakeSet::read(dir)?;
+    let bracket = set.bracket(time)?;
+    let open_at = |(time, path): &(NaiveDateTime, PathBuf)| -> Result<Opened, String> {
+        crate::baked::open(path, &scene_at(*time)?).map_err(|e| e.to_string())
+    };
+    let before = open_at(&bracket.before)?;
+    let blended = if bracket.after == bracket.before {
+        before
+    } else {
+        blend_opened(before, &open_at(&bracket.after)?, bracket.t)?
+    };
+    Ok((blended, bracket))
 }
 
 #[cfg(test)]

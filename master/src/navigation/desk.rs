@@ -6,6 +6,9 @@
 //! wand, and `desk.csv` replays all of it. The master stays the only one that
 //! integrates navigation.
 //!
+//! A node's time keys step the scene's time of day: each step is added once
+//! ([`DeskInput::time_step_min`]), whatever else the node holds.
+//!
 //! The rule with several nodes and the VRPN devices: an axis is the first non-neutral one
 //! of the nodes (by node id), else the devices'; a button is held when any node or device
 //! holds it, and presses add up. A node that leaves releases everything it held.
@@ -32,6 +35,7 @@ impl Desk {
     /// Node `node` sent `input`; an invalid one is refused with the error naming it.
     pub fn receive(&mut self, s: &Navigation, node: u64, input: DeskInput) -> Result<(), String> {
         input.validate()?;
+        self.state.time_step_min += i64::from(input.time_step_min);
         self.nodes.insert(node, input);
         self.merge(s);
         Ok(())
@@ -86,11 +90,12 @@ impl Desk {
         }
     }
 
-    /// The desk's state for this frame (its press counts start again from zero after)
-    /// and the changes as events.
+    /// The desk's state for this frame (its press counts and time steps start again from
+    /// zero after) and the changes as events.
     pub fn take(&mut self) -> (InputState, Vec<InputEvent>) {
         let state = self.state.clone();
         self.state.presses.iter_mut().for_each(|p| *p = 0);
+        self.state.time_step_min = 0;
         (state, std::mem::take(&mut self.events))
     }
 }
@@ -123,5 +128,6 @@ pub fn combine(devices: &InputState, desk: &InputState) -> InputState {
         out.buttons[i] |= b;
         out.presses[i] += desk.presses.get(i).copied().unwrap_or(0);
     }
+    out.time_step_min += desk.time_step_min;
     out
 }

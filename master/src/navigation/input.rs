@@ -6,6 +6,8 @@
 
 use std::time::{Duration, Instant};
 
+use chrono::NaiveDateTime;
+
 use glam::{DMat4, DQuat, DVec3};
 use holocave_tracking::Sample;
 use holocave_tracking::input::{InputEvent, InputSample};
@@ -40,6 +42,11 @@ pub struct InputState {
     pub presses: Vec<u32>,
     /// Joystick channels, as the device sends them (usually −1..1).
     pub axes: Vec<f64>,
+    /// The time of day a device set since the last frame (a replayed `time` row; the
+    /// latest wins).
+    pub time_set: Option<NaiveDateTime>,
+    /// Minutes the desk's keys stepped the time of day since the last frame.
+    pub time_step_min: i64,
 }
 
 impl InputState {
@@ -76,6 +83,7 @@ impl InputState {
                 }
             }
             InputEvent::Axes(values) => self.axes.clone_from(values),
+            InputEvent::Time(when) => self.time_set = Some(*when),
         }
     }
 }
@@ -145,9 +153,10 @@ impl Inputs {
     }
 
     /// The state once every event that has arrived by `now_ns` on the master's clock is
-    /// applied; the press counts start again from zero.
+    /// applied; the press counts and the time set start again from nothing.
     pub fn advance(&mut self, now_ns: u64) -> &InputState {
         self.state.presses.iter_mut().for_each(|p| *p = 0);
+        self.state.time_set = None;
         let deadline = self.deadline();
         let replay = self.clock == Clock::Replay;
         if let Some(feed) = &mut self.wand {

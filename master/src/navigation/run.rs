@@ -228,6 +228,23 @@ impl NavigationRun {
         place
     }
 
+    /// The last frame's time inputs: a time of day set (a replayed `time` row) and the
+    /// desk's steps in minutes ([`crate::sun_clock::SunClock::advance`] takes them).
+    pub fn time_input(&self) -> (Option<chrono::NaiveDateTime>, i64) {
+        (self.last.time_set, self.last.time_step_min)
+    }
+
+    /// Notes in `desk.csv` (when written) that the time of day became `when` at `now_ns`,
+    /// so the desk's replay sets it there.
+    pub fn log_time(&mut self, now_ns: u64, when: chrono::NaiveDateTime) {
+        if let Some(w) = &mut self.desk_log
+            && let Err(e) = w.input(&InputSample::new(now_ns, InputEvent::Time(when)))
+        {
+            tracing::warn!("desk.csv: {e}; no longer written");
+            self.desk_log = None;
+        }
+    }
+
     /// The last frame's wand in scene coordinates (room placed by `place`), and whether
     /// its object button is held: what carries a moving object.
     pub fn object_hand(&self, place: &Placement) -> (Option<WandPose>, bool) {

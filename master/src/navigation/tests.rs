@@ -163,6 +163,7 @@ fn grabbing_moves_the_world_by_the_wands_motion_while_held_and_not_after() {
             buttons: vec![down],
             presses: vec![0],
             axes: vec![],
+            ..InputState::default()
         };
         let at = |k: usize| {
             let k = k as f64;
@@ -222,6 +223,7 @@ fn grabbing_the_world_does_not_pull_the_body_through_a_wall() {
         buttons: vec![true],
         presses: vec![0],
         axes: vec![],
+        ..InputState::default()
     };
     for with_scene in [true, false] {
         let mut nav = Navigator::new(settings(TravelMode::Walk), &DMat4::IDENTITY);
@@ -254,6 +256,7 @@ fn yaw_only_keeps_the_world_upright() {
             buttons: vec![true],
             presses: vec![0],
             axes: vec![],
+            ..InputState::default()
         };
         nav.step(&head(), &input, DT, None);
     }
@@ -378,6 +381,7 @@ fn teleport_stands_the_user_on_the_floor_where_the_wand_points() {
         buttons: vec![false, true],
         presses: vec![0, 1],
         axes: vec![],
+        ..InputState::default()
     };
     nav.step(&head(), &press(w), DT, Some(&sc));
     let f = feet_in_scene(&nav.placement());
@@ -533,6 +537,7 @@ mod desk {
                 buttons: vec![false; 3],
                 presses: vec![0, 0, u32::from(d.teleport)],
                 axes,
+                ..InputState::default()
             };
             let dt = if i == 0 { 0.0 } else { PERIOD_NS as f64 * 1e-9 };
             let b = by_joystick.step(&head(), &state, dt, Some(&sc));
@@ -612,6 +617,42 @@ mod desk {
         d.forget(&s, 2);
         let (state, _) = d.take();
         assert_eq!((state.axis(0), state.axis(1)), (0.0, 0.0));
+    }
+
+    #[test]
+    fn the_time_keys_step_the_time_once_and_desk_csv_replays_the_time() {
+        let sc = room();
+        let dir = tempfile::tempdir().unwrap();
+        let desk_csv = dir.path().join("desk.csv");
+        let mut run = run_of(&settings(TravelMode::Walk), no_devices(), &sc);
+        run.desk = Some(Desk::default());
+        run.log_desk(&desk_csv).unwrap();
+        let mut sun = crate::sun_clock::SunClock::new("2026-12-21T09:00".parse().unwrap());
+        let step = |m| DeskInput {
+            time_step_min: m,
+            ..DeskInput::NEUTRAL
+        };
+        run.desk_message(1, Some(step(60)));
+        run.desk_message(2, Some(step(-15)));
+        let mut times = Vec::new();
+        for f in 0..3 {
+            run.frame(f * PERIOD_NS, &head(), Vec3::ZERO);
+            let (set, step) = run.time_input();
+            if sun.advance(set, step) {
+                run.log_time(f * PERIOD_NS, sun.local().unwrap());
+            }
+            times.push(sun.now().to_string());
+        }
+        assert_eq!(times, ["2026-12-21T09:45:00"; 3]);
+        run.finish().unwrap();
+        let log = holocave_tracking::session_log::read_session(&desk_csv).unwrap();
+        let set: Vec<_> = (log.inputs.iter())
+            .filter_map(|e| match &e.event {
+                holocave_tracking::input::InputEvent::Time(t) => Some((e.t_ns, t.to_string())),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(set, [(0, "2026-12-21 09:45:00".to_string())]);
     }
 
     #[test]

@@ -59,6 +59,7 @@ impl ObjectParts {
 }
 
 /// A movable object: its triangles in its own frame, with their own BVH.
+#[derive(Clone)]
 pub struct MovableObject {
     pub name: String,
     /// Where the object stood when it was loaded: the rigid part of its first node's
