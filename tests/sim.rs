@@ -133,3 +133,85 @@ fn a_moving_objects_path_is_replayed_bit_for_bit() {
         "the frame states do not carry the object's placements"
     );
 }
+
+/// The Cornell box set in Chicago, so that it has a time of day.
+const SITED: &str = "[site]\nlatitude = 41.98\nlongitude = -87.92\nelevation = 201.0\n\
+                     time_zone = -6.0\nnorth = [0.0, 0.0, -1.0]\n\n\
+                     [sun]\nangular_diameter_deg = 0.53\nirradiance = [600.0, 540.0, 460.0]\n";
+
+/// Each frame's time of day in a states log, in frame order.
+fn times_of_day(states: &Path) -> Vec<Option<String>> {
+    use holocave_protocol::cluster::{MAX_CLUSTER_FRAME, MasterMsg};
+    use holocave_protocol::frame::{FrameError, read_frame};
+    let mut r = std::io::BufReader::new(std::fs::File::open(states).unwrap());
+    let mut times = Vec::new();
+    loop {
+        match read_frame::<_, MasterMsg>(&mut r, MAX_CLUSTER_FRAME) {
+            Ok(MasterMsg::Frame(f)) => times.push(f.when),
+            Ok(_) => {}
+            Err(FrameError::Closed) => return times,
+            Err(e) => panic!("{}: {e}", states.display()),
+        }
+    }
+}
+
+#[test]
+fn a_replayed_time_of_day_steps_at_the_same_frame_bit_for_bit() {
+    let dir = scratch("sim-time");
+    let daylight = dir.join("cornell.daylight.toml");
+    std::fs::write(&daylight, SITED).unwrap();
+    // 15:00 from the start (a log's times count from its first row), 18:00 from 0.15 s:
+    // frame 5 (at 5/30 s) is the first at the new time.
+    let times = dir.join("times.csv");
+    std::fs::write(
+        &times,
+        "# unit: ns\ntime,0,2026-06-21T15:00\ntime,150000000,2026-06-21T18:00\n",
+    )
+    .unwrap();
+    let buttons = format!("file:{}", times.display());
+    let vlf = dir.join("cornell.vlf");
+    let flags = [
+        "--daylight".as_ref(),
+        daylight.as_os_str(),
+        "--when".as_ref(),
+        "2026-06-21T15:00".as_ref(),
+        "--buttons".as_ref(),
+        buttons.as_ref(),
+        "--vlf".as_ref(),
+        vlf.as_os_str(),
+        "--glare".as_ref(),
+        "16".as_ref(),
+    ];
+    let runs: Vec<(Vec<u8>, String)> = ["a", "b"]
+        .iter()
+        .map(|name| {
+            let out = dir.join(name);
+            let stdout = sim_with(&out, &flags);
+            for wall in ["front", "left", "right", "floor"] {
+                let log = std::fs::read_to_string(out.join(wall).join("node.log")).unwrap();
+                assert!(
+                    log.contains("lit for 2026-06-21T18:00:00 in"),
+                    "the {wall} wall was not lit for the new time:\n{log}"
+                );
+            }
+            (std::fs::read(out.join("states.bin")).unwrap(), stdout)
+        })
+        .collect();
+    let stdout = &runs[0].1;
+    assert!(
+        stdout.contains(&format!(
+            "presented logs: identical on all 4 walls ({FRAMES} frames)"
+        )),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("glare: 5 frames at another time of day than --when not measured"),
+        "{stdout}"
+    );
+    assert!(runs[0].0 == runs[1].0, "two replays of one session differ");
+    let (start, later) = ("2026-06-21T15:00:00", "2026-06-21T18:00:00");
+    let expected: Vec<Option<String>> = (0..FRAMES)
+        .map(|f| Some(if f < 5 { start } else { later }.to_string()))
+        .collect();
+    assert_eq!(times_of_day(&dir.join("a").join("states.bin")), expected);
+}

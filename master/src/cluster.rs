@@ -882,6 +882,7 @@ async fn run_frames(
     let mut next_tick = start;
     let mut status = StatusClock::new(start, first.frame);
     let mut frame = first.frame;
+    let mut when: Option<String> = None;
     loop {
         if stopping(&opts, frame, start, &head) {
             break;
@@ -890,6 +891,8 @@ async fn run_frames(
         let times = frame_clock(opts.clock, (start, frame, period), &pacer, first.clock_ns);
         let state = caves.state(&mut m, &mut opts, &mut head, &mut nav_log, (frame, times))?;
         let tracker_ns = state.tracker_time_ns;
+        let relit = frame != first.frame && state.when != when;
+        when.clone_from(&state.when);
         if let Some(k) = &mut m.keeper {
             k.offer(session_state(&opts, &state, period, &head));
         }
@@ -911,6 +914,13 @@ async fn run_frames(
             )
             .await?;
         pacer.record(swapped - sent);
+        if relit {
+            tracing::info!(
+                "frame {frame}: the walls lit for {} swapped {:.0} ms after its state was sent",
+                when.as_deref().unwrap_or("no time"),
+                (swapped - sent).as_secs_f64() * 1e3
+            );
+        }
         m.relay_veils().await?;
         if let (Clock::Live, Some(t)) = (opts.clock, tracker_ns) {
             let t = start + Duration::from_nanos(t.saturating_sub(first.clock_ns));

@@ -274,22 +274,26 @@ pub enum Ended {
     SourceLost,
     /// The user closed the node (its window); the master has been told.
     Closed(String),
+    /// This frame is for another time of day than the display is lit for: the caller
+    /// makes the display again for it and follows on from this frame.
+    Relight(Box<FrameState>),
 }
 
-/// Follows the master's frames until it shuts down or the link fails. `present` shows a
+/// Follows the master's frames until it shuts down or the link fails, drawing on
+/// `display` (lit for the time of day `lit`), `first` first when given. `present` shows a
 /// swapped frame (writes it, for a headless node). `slow_by` is added to every frame's
 /// drawing (a wall made slow on purpose, to see frame lock hold; zero otherwise).
 #[allow(clippy::too_many_arguments)]
 pub fn follow(
     link: &mut MasterLink,
-    display: &mut WallDisplay,
+    (display, lit, first): (&mut WallDisplay, Option<&str>, Option<FrameState>),
     wall: &Wall,
     size: Size,
     slow_by: Duration,
     counters: &mut NodeCounters,
     present: &mut dyn Presentation,
 ) -> Ended {
-    let mut next: Option<FrameState> = None;
+    let mut next: Option<FrameState> = first;
     let mut warmed = false;
     loop {
         if let Some(reason) = present.closed() {
@@ -330,6 +334,9 @@ pub fn follow(
         // master hosts) is seen as one.
         if display.source_lost() {
             return Ended::SourceLost;
+        }
+        if state.when.as_deref() != lit {
+            return Ended::Relight(Box::new(state));
         }
         let Some(views) = eye_views(&state, wall, size) else {
             return Ended::Lost(LinkError::Lost(format!(

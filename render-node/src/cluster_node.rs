@@ -12,11 +12,16 @@ use std::time::{Duration, Instant};
 
 use holocave_cave::{Eye, Size, Wall};
 use holocave_holodeck::auth::Credentials;
+use holocave_protocol::cluster::FrameState;
 use holocave_scene::Scene;
+use holocave_scene::daylight::When;
 use holocave_tracer::Tracer;
+use holocave_vlf::baked::{self, Opened};
+use holocave_vlf::hours::open_blended;
 
 use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
 use crate::gpu_rays::Rays;
+use crate::time_of_day::{TimeOfDay, local_time};
 use crate::{
     DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderNodeError, VlfBase,
     VlfDrawing, WallDisplay,
@@ -61,8 +66,10 @@ pub struct DisplayMaker {
     /// What the holodeck server asks of its displays: the cluster's name and secret.
     credentials: Credentials,
     /// The light field to draw under the samples: the node's own file, else the one the
-    /// master names (read once per path).
+    /// master names (read once per path and time of day).
     vlf: Option<VlfChoice>,
+    /// How the scene is lit for another time of day (`None`: the node has no time).
+    time: Option<TimeOfDay>,
 }
 
 /// How a cluster node draws its light field.
@@ -83,24 +90,49 @@ struct VlfChoice {
     options: VlfOptions,
     /// The device for the GPU's rays (the window's, else one of the light field's own).
     gpu: Option<Gpu>,
-    loaded: Mutex<Option<(PathBuf, Arc<VlfBase>)>>,
+    /// The field last opened: its path and the time of day it is lit for.
+    loaded: Mutex<Option<((PathBuf, Option<String>), Arc<VlfBase>)>>,
+    /// The last single bake read: drawn again under the scene lit for each time of day.
+    bake: Mutex<Option<(PathBuf, Opened)>>,
 }
 
 impl VlfChoice {
-    /// The light field to draw given what the master names; `None` when there is none or
-    /// it cannot be read (said in the log: the wall then shows its samples alone).
-    fn base(&self, named: Option<&str>) -> Option<Arc<VlfBase>> {
+    /// The bake at `path` opened for the scene as loaded (its own time), read once.
+    fn bake(&self, path: &std::path::Path) -> Result<Opened, RenderNodeError> {
+        let mut bake = self.bake.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((p, opened)) = bake.as_ref()
+            && p == path
+        {
+            return Ok(opened.clone());
+        }
+        let opened =
+            baked::open(path, &self.scene).map_err(|e| RenderNodeError::Vlf(e.to_string()))?;
+        *bake = Some((path.to_owned(), opened.clone()));
+        Ok(opened)
+    }
+
+    /// The light field to draw given what the master names, lit for `at` (a time of day
+    /// other than the start's, and the scene lit for it; `None`: the start's); `None` when
+    /// there is none or it cannot be read (said in the log: the wall then shows its
+    /// samples alone).
+    fn base(
+        &self,
+        named: Option<&str>,
+        at: Option<(When, &Arc<Scene>)>,
+        time: Option<&TimeOfDay>,
+    ) -> Option<Arc<VlfBase>> {
         let path = (self.options.own.clone()).or_else(|| named.map(PathBuf::from))?;
+        let key = (path, at.map(|(w, _)| w.to_string()));
         let mut loaded = self.loaded.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some((p, b)) = loaded.as_ref()
-            && *p == path
+        if let Some((k, b)) = loaded.as_ref()
+            && *k == key
         {
             return Some(b.clone());
         }
-        match self.open(&path) {
+        match self.open(&key.0, at, time) {
             Ok(b) => {
                 let b = Arc::new(b);
-                *loaded = Some((path, b.clone()));
+                *loaded = Some((key, b.clone()));
                 Some(b)
             }
             Err(e) => {
@@ -110,14 +142,42 @@ impl VlfChoice {
         }
     }
 
-    /// Opens the file as the options draw it.
-    fn open(&self, path: &std::path::Path) -> Result<VlfBase, RenderNodeError> {
-        VlfBase::for_wall(
-            path,
-            self.scene.clone(),
-            self.options.drawing,
-            self.gpu.as_ref(),
-        )
+    /// Opens the file (or the bake set's field at the time) as the options draw it, under
+    /// the scene lit for `at` (else the start's scene).
+    fn open(
+        &self,
+        path: &std::path::Path,
+        at: Option<(When, &Arc<Scene>)>,
+        time: Option<&TimeOfDay>,
+    ) -> Result<VlfBase, RenderNodeError> {
+        let scene = at.map_or(&self.scene, |(_, s)| s).clone();
+        let vlf_error = |e: String| RenderNodeError::Vlf(format!("{}: {e}", path.display()));
+        let opened = if path.is_dir() {
+            let time = time.ok_or_else(|| {
+                vlf_error("a bake set is drawn at a time of day: give --when".into())
+            })?;
+            let when = at.map_or(time.start, |(w, _)| w);
+            let local = local_time(&scene, when).map_err(vlf_error)?;
+            let scene_at = |t| time.scene_at(&self.scene, When::Local(t));
+            let (opened, bracket) = open_blended(path, local, scene_at).map_err(vlf_error)?;
+            tracing::info!(
+                "the light field at {local}: {} and {} blended, {:.3} of the later",
+                bracket.before.1.display(),
+                bracket.after.1.display(),
+                bracket.t
+            );
+            opened
+        } else {
+            if at.is_some() {
+                tracing::warn!(
+                    "{}: one bake: its indirect light stays that of its own time (give a bake \
+                     set, a folder, for the field to follow the time)",
+                    path.display()
+                );
+            }
+            self.bake(path)?
+        };
+        VlfBase::drawn(opened, scene, self.options.drawing, self.gpu.as_ref(), path)
     }
 }
 
@@ -153,7 +213,14 @@ impl DisplayMaker {
                 secret: member.secret.clone(),
             },
             vlf: None,
+            time: None,
         }
+    }
+
+    /// Lights the wall for the time of day of each frame ([`crate::time_of_day`]).
+    pub fn with_time_of_day(mut self, time: TimeOfDay) -> DisplayMaker {
+        self.time = Some(time);
+        self
     }
 
     /// Draws a light field under the samples, as `options` say; it must have been baked
@@ -172,11 +239,12 @@ impl DisplayMaker {
             options,
             gpu: self.builder.gpu.clone(),
             loaded: Mutex::new(None),
+            bake: Mutex::new(None),
         };
         // The node's own file is read now, before it joins: reading it after the welcome
         // would hold up the cluster's first frames.
         if choice.options.own.is_some() {
-            choice.base(None);
+            choice.base(None, None, self.time.as_ref());
         }
         self.vlf = Some(choice);
         self
@@ -193,17 +261,26 @@ impl DisplayMaker {
         self.builder.size
     }
 
-    /// The display, and the holodeck address it draws from (`None`: tracing locally).
+    /// The display lit for the frame's time of day `when`, and the holodeck address it
+    /// draws from (`None`: tracing locally). At a time other than the start's it traces
+    /// its own samples ([`crate::time_of_day`]) and is kept for the holodeck named all
+    /// the same, until the time changes.
     fn display(
         &self,
         holodeck: Option<&str>,
         vlf: Option<&str>,
+        when: Option<&str>,
     ) -> Result<(Option<String>, WallDisplay), RenderNodeError> {
+        if let Some(time) = &self.time
+            && let Some(at) = time.other_time(when)
+        {
+            return Ok((holodeck.map(String::from), self.display_at(time, at, vlf)?));
+        }
         let mut builder = self.builder.clone();
         builder.gather = self.vlf.as_ref().is_some_and(|c| c.options.gather);
         builder.light_field = self.vlf.as_ref().and_then(|c| {
             Some(LightField {
-                base: c.base(vlf)?,
+                base: c.base(vlf, None, self.time.as_ref())?,
                 prior: c.options.prior,
             })
         });
@@ -229,6 +306,36 @@ impl DisplayMaker {
         })
     }
 
+    /// The display lit for `when`: the scene, its tracer and the light field at that time,
+    /// its samples traced here.
+    fn display_at(
+        &self,
+        time: &TimeOfDay,
+        when: When,
+        vlf: Option<&str>,
+    ) -> Result<WallDisplay, RenderNodeError> {
+        let started = Instant::now();
+        let old = &self.builder.tracer;
+        let scene = (time.scene_at(old.scene(), when))
+            .map_err(|e| RenderNodeError::Vlf(format!("the time of day {when}: {e}")))?;
+        let scene = Arc::new(scene);
+        let mut builder = self.builder.clone();
+        builder.tracer = Arc::new(Tracer::new(scene.clone(), old.settings()));
+        builder.gather = self.vlf.as_ref().is_some_and(|c| c.options.gather);
+        builder.light_field = self.vlf.as_ref().and_then(|c| {
+            Some(LightField {
+                base: c.base(vlf, Some((when, &scene)), Some(time))?,
+                prior: c.options.prior,
+            })
+        });
+        let display = builder.build(Feed::Thread)?;
+        tracing::info!(
+            "lit for {when} in {:.0} ms",
+            started.elapsed().as_secs_f64() * 1e3
+        );
+        Ok(display)
+    }
+
     fn resolve(&self, addr: &str) -> Result<SocketAddr, String> {
         let mut a = addr
             .to_socket_addrs()
@@ -252,8 +359,11 @@ pub fn run(
     present: &mut dyn Presentation,
 ) -> Result<(NodeCounters, String), NodeError> {
     let wall = &member.wall;
-    // The display and the holodeck it draws from (`None`: tracing locally).
-    let mut display: Option<(Option<String>, WallDisplay)> = None;
+    // The display, the holodeck it was made for (`None`: tracing locally) and the time of
+    // day it is lit for.
+    let mut display: Option<(Option<String>, Option<String>, WallDisplay)> = None;
+    // A frame to draw first: the one whose time of day the display was made again for.
+    let mut first: Option<FrameState> = None;
     let mut counters = NodeCounters::default();
     let mut since = Instant::now();
     let mut warned = false;
@@ -295,23 +405,35 @@ pub fn run(
             // Keep the display while it serves what the master names: a live link to that
             // holodeck, or local tracing when it names none. A wall tracing locally because
             // the holodeck was unreachable tries it again here.
+            let when = first.as_ref().map_or_else(
+                || display.as_ref().and_then(|d| d.1.clone()),
+                |f| f.when.clone(),
+            );
             let made = match display.take() {
-                Some((using, d)) if using == wanted && !d.source_lost() => (using, d),
+                Some((using, lit, d)) if using == wanted && lit == when && !d.source_lost() => {
+                    (using, lit, d)
+                }
                 old => {
                     drop(old);
-                    maker.display(wanted.as_deref(), link.welcome.vlf.as_deref())?
+                    let (using, d) = maker.display(
+                        wanted.as_deref(),
+                        link.welcome.vlf.as_deref(),
+                        when.as_deref(),
+                    )?;
+                    (using, when, d)
                 }
             };
-            let display = &mut display.insert(made).1;
+            let (_, lit, display) = display.insert(made);
             match follow(
                 &mut link,
-                display,
+                (display, lit.as_deref(), first.take()),
                 wall,
                 maker.size(),
                 member.slow_by,
                 &mut counters,
                 present,
             ) {
+                Ended::Relight(state) => first = Some(*state),
                 Ended::SourceLost => tracing::warn!(
                     "wall {:?}: the holodeck went away; reconnecting to it (or tracing locally)",
                     wall.name

@@ -47,6 +47,7 @@ pub mod present;
 pub mod prior;
 pub mod source;
 pub mod standalone;
+pub mod time_of_day;
 pub mod tonemap;
 pub mod view;
 pub mod vision;

@@ -38,6 +38,7 @@ use std::sync::{Arc, Mutex};
 use glam::{Mat4, Vec3};
 use holocave_cave::WallView;
 use holocave_scene::{Hit, Placement, PunctualKind, Ray, Scene};
+use holocave_vlf::baked::Opened;
 use holocave_vlf::footprint::Screen;
 use holocave_vlf::gather::{Gathered, gather_all};
 use holocave_vlf::kept_gathers::KeptGathers;
@@ -319,8 +320,21 @@ impl VlfBase {
         drawing: VlfDrawing,
         gpu: Option<&Gpu>,
     ) -> Result<VlfBase, RenderNodeError> {
-        let base =
-            Self::open_with_sky(path, scene, drawing.sky_per_pixel)?.with_direct(drawing.direct);
+        let opened = baked::open(path, &scene).map_err(|e| RenderNodeError::Vlf(e.to_string()))?;
+        Self::drawn(opened, scene, drawing, gpu, path)
+    }
+
+    /// [`Self::for_wall`] of a field already opened (`path` names it in messages): a bake
+    /// set's blend, or a bake drawn under a scene lit at another time than its own.
+    pub fn drawn(
+        opened: Opened,
+        scene: Arc<Scene>,
+        drawing: VlfDrawing,
+        gpu: Option<&Gpu>,
+        path: &Path,
+    ) -> Result<VlfBase, RenderNodeError> {
+        let base = Self::of_opened(opened, scene, drawing.sky_per_pixel, path)?
+            .with_direct(drawing.direct);
         if drawing.rays == Rays::Cpu {
             return Ok(base);
         }
@@ -347,6 +361,15 @@ impl VlfBase {
         sky_per_pixel: bool,
     ) -> Result<VlfBase, RenderNodeError> {
         let opened = baked::open(path, &scene).map_err(|e| RenderNodeError::Vlf(e.to_string()))?;
+        Self::of_opened(opened, scene, sky_per_pixel, path)
+    }
+
+    fn of_opened(
+        opened: Opened,
+        scene: Arc<Scene>,
+        sky_per_pixel: bool,
+        path: &Path,
+    ) -> Result<VlfBase, RenderNodeError> {
         if !opened.file.state.converged {
             tracing::warn!(
                 "{}: bake not finished ({} bounces); drawing what it has",
@@ -357,7 +380,7 @@ impl VlfBase {
         let shadow_lights = shadow_lights(&scene);
         let pass = WallPass::of_opened(scene, opened, sky_per_pixel)
             .map_err(|e| RenderNodeError::Vlf(format!("{}: {e}", path.display())))?;
-        let base = VlfBase {
+        Ok(VlfBase {
             pass,
             settling: Some(Settling::WALLS),
             surfaces: Mutex::new(Vec::new()),
@@ -369,8 +392,7 @@ impl VlfBase {
             shadow_lights,
             kept: Mutex::new(None),
             measured: Mutex::new(None),
-        };
-        Ok(base)
+        })
     }
 
     /// The scene drawn.

@@ -72,6 +72,15 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The same scene under `daylight` (another time of day): the geometry is shared
+    /// work already done, copied.
+    pub fn with_daylight(&self, daylight: Daylight) -> Scene {
+        Scene {
+            daylight,
+            ..self.clone()
+        }
+    }
+
     /// The same scene scaled by `scale` about the origin and then moved by `offset` (for
     /// stress tests of numerical range). Radiance is unchanged: emission, the sky and the
     /// sun stay as they are; a point or spot light's intensity grows by `scale²`, so the

@@ -3,12 +3,14 @@
 //! ([`DaylightFlags::args`]), so that every process of a cluster sees the same sun and sky.
 
 use std::ffi::OsString;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::Result;
 use clap::Args;
+use holocave_render_node::time_of_day::TimeOfDay;
 use holocave_scene::daylight::{Moment, Weather, When};
+use holocave_scene::load::load_daylight;
 
 #[derive(Args, Clone, Debug, Default)]
 pub struct DaylightFlags {
@@ -42,6 +44,26 @@ impl DaylightFlags {
             .map(|p| Weather::load(p).map(Arc::new))
             .transpose()?;
         Ok(Some(Moment { when, weather }))
+    }
+
+    /// How a node lights `scene` for the session's other times of day (`None` without
+    /// `--when`): its daylight file and the weather file (read once, here) at each time.
+    pub fn time_of_day(&self, scene: &Path) -> Result<Option<TimeOfDay>> {
+        let Some(moment) = self.moment()? else {
+            return Ok(None);
+        };
+        let (scene, file, weather) = (scene.to_owned(), self.daylight.clone(), moment.weather);
+        let daylight_at = move |when| {
+            let moment = Moment {
+                when,
+                weather: weather.clone(),
+            };
+            load_daylight(&scene, file.as_deref(), Some(&moment)).map_err(|e| e.to_string())
+        };
+        Ok(Some(TimeOfDay {
+            start: moment.when,
+            daylight_at: Arc::new(daylight_at),
+        }))
     }
 
     /// The flags as another `holocave` process takes them.

@@ -625,6 +625,9 @@ fn in_cluster(
     if let Some(w) = &windows {
         maker = maker.with_gpu(w.screens.gpu.clone());
     }
+    if let Some(time) = args.daylight.time_of_day(&args.scene)? {
+        maker = maker.with_time_of_day(time);
+    }
     let maker = maker.with_vlf(
         scene,
         VlfOptions {

@@ -676,7 +676,14 @@ fn measure_glare(
 ) -> Result<()> {
     let meter = holocave_glare::meter::GlareMeter::of_light_field(scene, vlf, size)?;
     let states = args.out.join("states.bin");
-    let views = frame_views(&states)?;
+    let start = args.daylight.when.map(|w| w.to_string());
+    let (views, other_times) = frame_views(&states, start.as_deref())?;
+    if other_times > 0 {
+        println!(
+            "glare: {other_times} frames at another time of day than --when not measured \
+             (the meter draws the session's light field at its start)"
+        );
+    }
     let csv = args.out.join(holocave_glare::log::GLARE_CSV);
     let summary = measure_session(&meter, &views, &csv)?;
     println!(
@@ -687,21 +694,23 @@ fn measure_glare(
     Ok(())
 }
 
-/// Every frame state's views (each eye), from the states log.
-fn frame_views(states: &Path) -> Result<Vec<FrameView>> {
+/// Every frame state's views (each eye) at the time of day `start`, from the states log,
+/// and how many frames were at another time.
+fn frame_views(states: &Path, start: Option<&str>) -> Result<(Vec<FrameView>, usize)> {
     let mut r = std::io::BufReader::new(
         std::fs::File::open(states).with_context(|| format!("{}", states.display()))?,
     );
-    let mut views = Vec::new();
+    let (mut views, mut other_times) = (Vec::new(), 0);
     loop {
         match read_frame::<_, MasterMsg>(&mut r, MAX_CLUSTER_FRAME) {
+            Ok(MasterMsg::Frame(f)) if f.when.as_deref() != start => other_times += 1,
             Ok(MasterMsg::Frame(f)) => views.extend(views_of(&f)),
             Ok(_) => {}
             Err(FrameError::Closed) => break,
             Err(e) => return Err(anyhow::anyhow!("{}: {e}", states.display())),
         }
     }
-    Ok(views)
+    Ok((views, other_times))
 }
 
 /// Each wall's presented frames in this run (its `presented.log`).

@@ -114,6 +114,10 @@ impl Tracer {
         &self.scene
     }
 
+    pub fn settings(&self) -> TraceSettings {
+        self.settings
+    }
+
     /// One sample per ray, on all cores. The result depends only on the rays and `seed`.
     /// Rays next to each other should be coherent (neighbouring pixels, one beam): their
     /// first hits are found together (see [`Scene::closest_hits`]).

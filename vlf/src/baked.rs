@@ -46,6 +46,7 @@ pub fn validate(s: &Settings) -> Result<(), BakedError> {
 }
 
 /// A light field opened for the scene it is drawn with.
+#[derive(Clone)]
 pub struct Opened {
     pub file: VlfFile,
     pub elements: Elements,
