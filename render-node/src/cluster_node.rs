@@ -90,11 +90,14 @@ struct VlfChoice {
     options: VlfOptions,
     /// The device for the GPU's rays (the window's, else one of the light field's own).
     gpu: Option<Gpu>,
-    /// The field last opened: its path and the time of day it is lit for.
-    loaded: Mutex<Option<((PathBuf, Option<String>), Arc<VlfBase>)>>,
+    /// The field last opened, by its path and the time of day it is lit for.
+    loaded: Mutex<Option<(FieldKey, Arc<VlfBase>)>>,
     /// The last single bake read: drawn again under the scene lit for each time of day.
     bake: Mutex<Option<(PathBuf, Opened)>>,
 }
+
+/// A light field's path and the time of day it is lit for (`None`: the node's start).
+type FieldKey = (PathBuf, Option<String>);
 
 impl VlfChoice {
     /// The bake at `path` opened for the scene as loaded (its own time), read once.

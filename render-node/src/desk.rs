@@ -261,7 +261,7 @@ mod tests {
         assert!(sent.len() <= MAX_PENDING);
         assert!(sent.iter().all(|d| d.validate().is_ok()));
         let total: i32 = sent.iter().map(|d| d.time_step_min).sum();
-        assert!(total < -31 * 24 * 60 && total >= -100 * 24 * 60, "{total}");
+        assert!((-100 * 24 * 60..-31 * 24 * 60).contains(&total), "{total}");
     }
 
     #[test]

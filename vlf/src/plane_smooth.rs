@@ -22,7 +22,7 @@
 //! its tiles); the breakfast room unchanged (0.0494 → 0.0496).
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 
 use glam::{IVec3, Vec3};
 use holocave_scene::{Hit, Scene, luminance};
@@ -54,7 +54,13 @@ const LEAST_ELEMENT: f32 = 0.25;
 /// The last field smoothed in this process, by a checksum of its values and layout: a
 /// node lighting its wall for another time of day draws the same bake again, and
 /// smoothing it is most of that work (1.3 s of 1.5 on the room, four nodes on two cores).
-static LAST: Mutex<Option<(u32, Arc<Vec<[f32; 3]>>)>> = Mutex::new(None);
+static LAST: Mutex<Option<Smoothed>> = Mutex::new(None);
+
+/// A field smoothed, and the checksum of what it was smoothed from.
+struct Smoothed {
+    key: u32,
+    values: Vec<[f32; 3]>,
+}
 
 /// `values` (the elements', then the tiles') with each element of a large triangle
 /// averaged over the elements of its plane and side within [`RADIUS`] element sizes that
@@ -68,13 +74,16 @@ pub fn smooth_over_planes(
 ) -> Vec<[f32; 3]> {
     let key = checksum(scene, elements, values);
     let mut last = LAST.lock().unwrap_or_else(|p| p.into_inner());
-    if let Some((k, smoothed)) = last.as_ref()
-        && *k == key
+    if let Some(kept) = last.as_ref()
+        && kept.key == key
     {
-        return smoothed.to_vec();
+        return kept.values.clone();
     }
     let smoothed = smoothed_anew(scene, elements, tiles, values);
-    *last = Some((key, Arc::new(smoothed.clone())));
+    *last = Some(Smoothed {
+        key,
+        values: smoothed.clone(),
+    });
     smoothed
 }
 
