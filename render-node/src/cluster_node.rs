@@ -92,26 +92,34 @@ struct VlfChoice {
     gpu: Option<Gpu>,
     /// The field last opened, by its path and the time of day it is lit for.
     loaded: Mutex<Option<(FieldKey, Arc<VlfBase>)>>,
-    /// The last single bake read: drawn again under the scene lit for each time of day.
-    bake: Mutex<Option<(PathBuf, Opened)>>,
+    /// The last bakes read ([`KEPT_BAKES`] at most): a single bake is drawn again under
+    /// the scene lit for each time of day, a bake set's two around it blended again.
+    bakes: Mutex<Vec<(PathBuf, Opened)>>,
 }
+
+/// How many bakes a node keeps read: a bake set's two around the time and the next one a
+/// step reaches.
+const KEPT_BAKES: usize = 3;
 
 /// A light field's path and the time of day it is lit for (`None`: the node's start).
 type FieldKey = (PathBuf, Option<String>);
 
 impl VlfChoice {
-    /// The bake at `path` opened for the scene as loaded (its own time), read once.
-    fn bake(&self, path: &std::path::Path) -> Result<Opened, RenderNodeError> {
-        let mut bake = self.bake.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some((p, opened)) = bake.as_ref()
-            && p == path
-        {
-            return Ok(opened.clone());
+    /// The bake at `path` opened with `scene` (lit for the bake's own time), read once
+    /// while it is among the last [`KEPT_BAKES`].
+    fn bake(&self, path: &std::path::Path, scene: &Scene) -> Result<Opened, String> {
+        let mut bakes = self.bakes.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(i) = bakes.iter().position(|(p, _)| p == path) {
+            let kept = bakes.remove(i);
+            bakes.push(kept);
+        } else {
+            let opened = baked::open(path, scene).map_err(|e| e.to_string())?;
+            if bakes.len() == KEPT_BAKES {
+                bakes.remove(0);
+            }
+            bakes.push((path.to_owned(), opened));
         }
-        let opened =
-            baked::open(path, &self.scene).map_err(|e| RenderNodeError::Vlf(e.to_string()))?;
-        *bake = Some((path.to_owned(), opened.clone()));
-        Ok(opened)
+        Ok(bakes.last().map(|(_, o)| o.clone()).expect("just kept"))
     }
 
     /// The light field to draw given what the master names, lit for `at` (a time of day
@@ -161,8 +169,9 @@ impl VlfChoice {
             })?;
             let when = at.map_or(time.start, |(w, _)| w);
             let local = local_time(&scene, when).map_err(vlf_error)?;
-            let scene_at = |t| time.scene_at(&self.scene, When::Local(t));
-            let (opened, bracket) = open_blended(path, local, scene_at).map_err(vlf_error)?;
+            let open_at =
+                |t, p: &std::path::Path| self.bake(p, &time.scene_at(&self.scene, When::Local(t))?);
+            let (opened, bracket) = open_blended(path, local, open_at).map_err(vlf_error)?;
             tracing::info!(
                 "the light field at {local}: {} and {} blended, {:.3} of the later",
                 bracket.before.1.display(),
@@ -178,7 +187,7 @@ impl VlfChoice {
                     path.display()
                 );
             }
-            self.bake(path)?
+            self.bake(path, &self.scene).map_err(vlf_error)?
         };
         VlfBase::drawn(opened, scene, self.options.drawing, self.gpu.as_ref(), path)
     }
@@ -242,7 +251,7 @@ impl DisplayMaker {
             options,
             gpu: self.builder.gpu.clone(),
             loaded: Mutex::new(None),
-            bake: Mutex::new(None),
+            bakes: Mutex::new(Vec::new()),
         };
         // The node's own file is read now, before it joins: reading it after the welcome
         // would hold up the cluster's first frames.

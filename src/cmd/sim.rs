@@ -94,7 +94,8 @@ pub struct SimArgs {
     #[arg(long, default_value_t = 2)]
     pub workers: usize,
     /// The light field the walls draw under their samples, baked when missing and kept
-    /// between runs (default: DIR/<scene>.vlf, baked with default settings).
+    /// between runs (default: DIR/<scene>.vlf, baked with default settings); a folder is
+    /// a bake set (`vlf bake --until`), drawn at each frame's time of day.
     #[arg(long)]
     pub vlf: Option<PathBuf>,
     /// No light field: the walls show the render cache alone.
@@ -437,14 +438,17 @@ fn wall_again(
     format!("presenting again from frame {again}{after}: {missed} frames missed")
 }
 
-/// The light field the walls draw: none with `--no-vlf`, else `--vlf` or the one kept
-/// beside the output, baked first where it is not there.
+/// The light field the walls draw: none with `--no-vlf`, else `--vlf` (a bake set, a
+/// folder, as it is) or the one kept beside the output, baked first where it is not there.
 fn light_field(args: &SimArgs, scene: &super::render::SharedScene) -> Result<Option<PathBuf>> {
     if args.no_vlf {
         return Ok(None);
     }
     let path =
         (args.vlf.clone()).unwrap_or_else(|| super::kept_beside(&args.out, &args.scene, "vlf"));
+    if path.is_dir() {
+        return Ok(Some(path));
+    }
     Ok(Some(super::vlf::baked_default(&*scene.get()?, &path)?))
 }
 

@@ -10,7 +10,7 @@ use holocave_scene::daylight::When;
 use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::VlfFile;
-use holocave_vlf::hours::open_blended;
+use holocave_vlf::hours::{open_blended, open_lit};
 use holocave_vlf::remote::Workers;
 use holocave_vlf::{Casting, Threads, Visibility, WallPass};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -482,7 +482,8 @@ fn opened_for_view(a: &ViewArgs, scene: &Scene) -> Result<Opened> {
         };
         load_scene(&a.scene, flags, false).map_err(|e| format!("{e:#}"))
     };
-    let (opened, bracket) = open_blended(&a.file, local, scene_at).map_err(anyhow::Error::msg)?;
+    let (opened, bracket) = open_blended(&a.file, local, |t, p| open_lit(t, p, scene_at))
+        .map_err(anyhow::Error::msg)?;
     println!(
         "the field at {local}: {} and {} blended, {:.3} of the later",
         bracket.before.1.display(),

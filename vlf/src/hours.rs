@@ -178,26 +178,34 @@ pub fn blend_opened(before: Opened, after: &Opened, t: f32) -> Result<Opened, St
     })
 }
 
-/// The field of `time` from the set in `dir`: the two bakes around it, each opened with
-/// the scene at its own time (`scene_at`: the scene lit for a bake's time, which its
-/// fingerprint was taken of), blended. Returns it with the bracket it was blended from.
+/// The field of `time` from the set in `dir`: the two bakes around it, each opened by
+/// `open_at` (given a bake's time and path: opened with the scene lit for that time, which
+/// its fingerprint was taken of; [`open_lit`] does that), blended. Returns it with the
+/// bracket it was blended from.
 pub fn open_blended(
     dir: &Path,
     time: NaiveDateTime,
-    scene_at: impl Fn(NaiveDateTime) -> Result<Scene, String>,
+    open_at: impl Fn(NaiveDateTime, &Path) -> Result<Opened, String>,
 ) -> Result<(Opened, Bracket), String> {
     let set = BakeSet::read(dir)?;
     let bracket = set.bracket(time)?;
-    let open_at = |(time, path): &(NaiveDateTime, PathBuf)| -> Result<Opened, String> {
-        crate::baked::open(path, &scene_at(*time)?).map_err(|e| e.to_string())
-    };
-    let before = open_at(&bracket.before)?;
+    let before = open_at(bracket.before.0, &bracket.before.1)?;
     let blended = if bracket.after == bracket.before {
         before
     } else {
-        blend_opened(before, &open_at(&bracket.after)?, bracket.t)?
+        let after = open_at(bracket.after.0, &bracket.after.1)?;
+        blend_opened(before, &after, bracket.t)?
     };
     Ok((blended, bracket))
+}
+
+/// The bake at `path` opened with `scene_at(time)`, the scene lit for its time.
+pub fn open_lit(
+    time: NaiveDateTime,
+    path: &Path,
+    scene_at: impl Fn(NaiveDateTime) -> Result<Scene, String>,
+) -> Result<Opened, String> {
+    crate::baked::open(path, &scene_at(time)?).map_err(|e| e.to_string())
 }
 
 #[cfg(test)]

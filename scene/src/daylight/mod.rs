@@ -357,7 +357,8 @@ impl Daylight {
             sky,
             photometry: Self::parse_photometry(t.photometry, path)?,
             objects: Self::parse_objects(t.object, path)?,
-            site,
+            // The site the sun was placed for: the file's, else the weather file's.
+            site: site.or_else(|| instant.map(|i| i.site)),
         })
     }
 
