@@ -10,7 +10,7 @@ use holocave_scene::daylight::When;
 use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::VlfFile;
-use holocave_vlf::hours::{open_blended, open_lit};
+use holocave_vlf::hours::{Share, open_blended, open_lit};
 use holocave_vlf::remote::Workers;
 use holocave_vlf::{Casting, Threads, Visibility, WallPass};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -92,6 +92,11 @@ pub struct BakeArgs {
     /// Minutes between a bake set's bakes.
     #[arg(long, default_value_t = 60, requires = "until", value_parser = clap::value_parser!(u32).range(1..))]
     pub step: u32,
+    /// This machine's share of a bake set, K/N: the K-th of every N times. N machines
+    /// running the same command with 1/N … N/N bake the set between them; the files of
+    /// their --out folders together are the set.
+    #[arg(long, value_name = "K/N", requires = "until")]
+    pub share: Option<Share>,
 }
 
 #[derive(Args)]
@@ -317,7 +322,9 @@ fn bake(a: BakeArgs) -> Result<()> {
         bail!("--until {last} is before --when {first}");
     }
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
-    for time in holocave_vlf::hours::times(first, last, a.step).map_err(anyhow::Error::msg)? {
+    let times = holocave_vlf::hours::times(first, last, a.step).map_err(anyhow::Error::msg)?;
+    let share = a.share.unwrap_or(Share { k: 1, n: 1 });
+    for time in share.of(&times) {
         let daylight = super::daylight_flags::DaylightFlags {
             when: Some(When::Local(time)),
             ..a.daylight.clone()

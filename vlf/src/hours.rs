@@ -42,6 +42,42 @@ pub fn times(
         .collect())
 }
 
+/// One machine's share of a set's bakes, `K/N`: the K-th of every N times (1-based), so
+/// N machines running the same command with shares 1/N … N/N bake the set between them,
+/// each time once, into folders that together make the set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Share {
+    pub k: u32,
+    pub n: u32,
+}
+
+impl std::str::FromStr for Share {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Share, String> {
+        let bad = || format!("share {s:?}: write K/N, with 1 ≤ K ≤ N (this machine's part of N)");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let (k, n): (u32, u32) = (
+            k.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if k == 0 || k > n {
+            return Err(bad());
+        }
+        Ok(Share { k, n })
+    }
+}
+
+impl Share {
+    /// The times of `times` that are this share's.
+    pub fn of(&self, times: &[NaiveDateTime]) -> Vec<NaiveDateTime> {
+        (times.iter().enumerate())
+            .filter(|(i, _)| *i as u32 % self.n == self.k - 1)
+            .map(|(_, t)| *t)
+            .collect()
+    }
+}
+
 /// A folder of bakes, each at its time, in time order.
 #[derive(Clone, Debug)]
 pub struct BakeSet {
@@ -259,6 +295,24 @@ mod tests {
         let seconds = at("2026-06-21T06:00") + chrono::Duration::seconds(30);
         let e = times(seconds, at("2026-06-21T07:00"), 60).unwrap_err();
         assert!(e.contains("seconds"), "{e}");
+    }
+
+    #[test]
+    fn shares_split_a_sets_times_each_to_one_machine() {
+        let at = |s: &str| NaiveDateTime::parse_from_str(s, "%Y-%m-%dT%H:%M").unwrap();
+        let day = times(at("2026-06-21T06:00"), at("2026-06-21T12:00"), 60).unwrap();
+        let shares: Vec<Vec<NaiveDateTime>> = (1..=3)
+            .map(|k| format!("{k}/3").parse::<Share>().unwrap().of(&day))
+            .collect();
+        assert_eq!(shares.iter().map(Vec::len).collect::<Vec<_>>(), [3, 2, 2]);
+        let mut all: Vec<NaiveDateTime> = shares.concat();
+        all.sort();
+        assert_eq!(all, day);
+        assert_eq!("1/1".parse::<Share>().unwrap().of(&day), day);
+        for bad in ["0/3", "4/3", "3", "a/b", "1/0"] {
+            let e = bad.parse::<Share>().unwrap_err();
+            assert!(e.contains(bad) && e.contains("K/N"), "{e}");
+        }
     }
 
     #[test]
