@@ -64,6 +64,12 @@ pub struct NavigationSection {
     pub object_button: i64,
     /// The button that switches walking and flying at each press; `-1`: none.
     pub mode_button: i64,
+    /// The buttons that step the scene's time of day by `time_step_min` earlier and
+    /// later at each press; `-1`: none.
+    pub earlier_button: i64,
+    pub later_button: i64,
+    /// Minutes a press of the earlier or later button steps the time of day.
+    pub time_step_min: i64,
     /// Grabbing turns the world about the vertical only (no pitch, no roll).
     pub grab_yaw_only: bool,
     /// How close the user's body comes to a wall (m).
@@ -103,6 +109,9 @@ impl Default for NavigationSection {
             teleport_button: 1,
             object_button: 2,
             mode_button: 3,
+            earlier_button: -1,
+            later_button: -1,
+            time_step_min: 60,
             grab_yaw_only: true,
             radius: 0.3,
             step_height: 0.35,
@@ -143,6 +152,9 @@ pub struct Navigation {
     pub teleport_button: Option<usize>,
     pub object_button: Option<usize>,
     pub mode_button: Option<usize>,
+    pub earlier_button: Option<usize>,
+    pub later_button: Option<usize>,
+    pub time_step_min: i64,
     pub grab_yaw_only: bool,
     pub radius: f64,
     pub step_height: f64,
@@ -162,6 +174,7 @@ impl Default for Navigation {
 pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
     check_amounts(s, problems);
     let [grab_button, teleport_button, object_button, mode_button] = check_buttons(s, problems);
+    let [earlier_button, later_button] = check_time_buttons(s, problems);
     check_axes(s, problems);
     let sections = check_sections(s, problems);
     Navigation {
@@ -181,6 +194,9 @@ pub fn check(s: &NavigationSection, problems: &mut Vec<String>) -> Navigation {
         teleport_button,
         object_button,
         mode_button,
+        earlier_button,
+        later_button,
+        time_step_min: s.time_step_min,
         grab_yaw_only: s.grab_yaw_only,
         radius: s.radius,
         step_height: s.step_height,
@@ -219,10 +235,9 @@ fn check_amounts(s: &NavigationSection, problems: &mut Vec<String>) {
     }
 }
 
-/// The grab, teleport, object and mode buttons (`None`: none), each a button and no two
-/// the same.
-fn check_buttons(s: &NavigationSection, problems: &mut Vec<String>) -> [Option<usize>; 4] {
-    let mut button = |key: &str, b: i64| match b {
+/// Button `b` of key `key` (`None` for -1), or a problem naming the key.
+fn button(key: &str, b: i64, problems: &mut Vec<String>) -> Option<usize> {
+    match b {
         -1 => None,
         0..=255 => Some(b as usize),
         _ => {
@@ -231,7 +246,48 @@ fn check_buttons(s: &NavigationSection, problems: &mut Vec<String>) -> [Option<u
             ));
             None
         }
-    };
+    }
+}
+
+/// The earlier and later buttons (`None`: none), each a button of its own, and the step.
+fn check_time_buttons(s: &NavigationSection, problems: &mut Vec<String>) -> [Option<usize>; 2] {
+    let earlier = button("earlier_button", s.earlier_button, problems);
+    let later = button("later_button", s.later_button, problems);
+    let taken = [
+        s.grab_button,
+        s.teleport_button,
+        s.object_button,
+        s.mode_button,
+    ];
+    for (key, b, v) in [
+        ("earlier_button", earlier, s.earlier_button),
+        ("later_button", later, s.later_button),
+    ] {
+        if b.is_some() && taken.contains(&v) {
+            problems.push(format!(
+                "navigation.{key}: {v} is also the grab, teleport, object or mode button"
+            ));
+        }
+    }
+    if earlier.is_some() && earlier == later {
+        problems.push(format!(
+            "navigation.later_button: {} is also the earlier button",
+            s.later_button
+        ));
+    }
+    if !(1..=7 * 24 * 60).contains(&s.time_step_min) {
+        problems.push(format!(
+            "navigation.time_step_min: {} must be 1 to 10080 (a week)",
+            s.time_step_min
+        ));
+    }
+    [earlier, later]
+}
+
+/// The grab, teleport, object and mode buttons (`None`: none), each a button and no two
+/// the same.
+fn check_buttons(s: &NavigationSection, problems: &mut Vec<String>) -> [Option<usize>; 4] {
+    let mut button = |key: &str, b: i64| button(key, b, problems);
     let grab_button = button("grab_button", s.grab_button);
     let teleport_button = button("teleport_button", s.teleport_button);
     let object_button = button("object_button", s.object_button);
@@ -320,6 +376,17 @@ mod tests {
             assert!(all.contains(key), "{key} not named in:\n{all}");
         }
         assert_eq!(problems.len(), 6, "{all}");
+        let s: NavigationSection =
+            toml::from_str("earlier_button = 0\nlater_button = 9\ntime_step_min = 0").unwrap();
+        let mut problems = Vec::new();
+        check(&s, &mut problems);
+        let all = problems.join("\n");
+        assert!(
+            all.contains("navigation.earlier_button: 0 is also the grab"),
+            "{all}"
+        );
+        assert!(all.contains("navigation.time_step_min: 0"), "{all}");
+        assert_eq!(problems.len(), 2, "{all}");
         let s: NavigationSection = toml::from_str("sections = [[0, 0, 0, 1, 2, 3]]").unwrap();
         let n = check(&s, &mut problems);
         assert_eq!(n.sections, vec![[DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0)]]);

@@ -229,9 +229,16 @@ impl NavigationRun {
     }
 
     /// The last frame's time inputs: a time of day set (a replayed `time` row) and the
-    /// desk's steps in minutes ([`crate::sun_clock::SunClock::advance`] takes them).
+    /// steps in minutes, the desk's keys' and the earlier and later buttons'
+    /// ([`crate::sun_clock::SunClock::advance`] takes them).
     pub fn time_input(&self) -> (Option<chrono::NaiveDateTime>, i64) {
-        (self.last.time_set, self.last.time_step_min)
+        let s = self.navigator.settings();
+        let presses = |b: Option<usize>| {
+            b.and_then(|b| self.last.presses.get(b))
+                .map_or(0, |&p| i64::from(p))
+        };
+        let buttons = (presses(s.later_button) - presses(s.earlier_button)) * s.time_step_min;
+        (self.last.time_set, self.last.time_step_min + buttons)
     }
 
     /// Notes in `desk.csv` (when written) that the time of day became `when` at `now_ns`,

@@ -656,6 +656,50 @@ mod desk {
     }
 
     #[test]
+    fn the_wands_earlier_and_later_buttons_step_the_time_once_a_press() {
+        use holocave_tracking::input::{InputEvent, InputSample};
+        use holocave_tracking::input_source::InputSource;
+        let s = Navigation {
+            earlier_button: Some(5),
+            later_button: Some(6),
+            time_step_min: 30,
+            ..settings(TravelMode::Walk)
+        };
+        let press = |t, index| {
+            [true, false].map(|down| {
+                InputSample::new(
+                    t,
+                    InputEvent::Button {
+                        index,
+                        pressed: down,
+                    },
+                )
+            })
+        };
+        // Later twice in the first frame (a click shorter than a frame counts), earlier
+        // once in the third; held buttons do not step again.
+        let events: std::collections::VecDeque<_> =
+            [press(1, 6), press(2, 6), press(2 * PERIOD_NS + 1, 5)]
+                .concat()
+                .into();
+        let inputs = Inputs::new(
+            Clock::Replay,
+            None,
+            Some(InputSource::Replay(events)),
+            None,
+            DMat4::IDENTITY,
+        );
+        let mut run = run_of(&s, inputs, &room());
+        let steps: Vec<i64> = (0..4)
+            .map(|f| {
+                run.frame(f * PERIOD_NS + 10, &head(), Vec3::ZERO);
+                run.time_input().1
+            })
+            .collect();
+        assert_eq!(steps, [60, 0, -30, 0]);
+    }
+
+    #[test]
     fn the_mode_key_toggles_walk_and_fly_once_a_press() {
         let sc = room();
         let mut run = run_of(&settings(TravelMode::Walk), no_devices(), &sc);
