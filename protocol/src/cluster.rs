@@ -249,9 +249,11 @@ mod tests {
     #[test]
     fn garbage_desk_input_is_refused() {
         let good = payload(&NodeMsg::DeskInput(DeskInput::NEUTRAL));
-        // Cut short, a trailing byte, a bool that is not 0 or 1, an unknown variant.
+        // Cut short, a trailing byte, a bool that is not 0 or 1 (`mode`, before the time
+        // step's one byte), an unknown variant.
         let mut bad_bool = good.clone();
-        *bad_bool.last_mut().unwrap() = 7;
+        let mode = bad_bool.len() - 2;
+        bad_bool[mode] = 7;
         let mut long = good.clone();
         long.push(0);
         let mut variant = good.clone();
@@ -286,5 +288,11 @@ mod tests {
             let e = back.validate().unwrap_err();
             assert!(e.contains(if f != 0.0 { "forward" } else { "turn" }), "{e}");
         }
+        let leap = DeskInput {
+            time_step_min: -MAX_TIME_STEP_MIN - 1,
+            ..DeskInput::NEUTRAL
+        };
+        let e = leap.validate().unwrap_err();
+        assert!(e.contains("time step of -10081 min"), "{e}");
     }
 }
