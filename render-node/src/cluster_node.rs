@@ -21,7 +21,7 @@ use holocave_vlf::hours::open_blended;
 
 use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
 use crate::gpu_rays::Rays;
-use crate::time_of_day::{TimeOfDay, local_time};
+use crate::time_of_day::TimeOfDay;
 use crate::{
     DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderNodeError, VlfBase,
     VlfDrawing, WallDisplay,
@@ -105,15 +105,20 @@ const KEPT_BAKES: usize = 3;
 type FieldKey = (PathBuf, Option<String>);
 
 impl VlfChoice {
-    /// The bake at `path` opened with `scene` (lit for the bake's own time), read once
-    /// while it is among the last [`KEPT_BAKES`].
-    fn bake(&self, path: &std::path::Path, scene: &Scene) -> Result<Opened, String> {
+    /// The bake at `path` opened with the scene lit for the bake's own time (`scene`,
+    /// made only when the bake is read), read once while it is among the last
+    /// [`KEPT_BAKES`].
+    fn bake(
+        &self,
+        path: &std::path::Path,
+        scene: impl FnOnce() -> Result<Arc<Scene>, String>,
+    ) -> Result<Opened, String> {
         let mut bakes = self.bakes.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(i) = bakes.iter().position(|(p, _)| p == path) {
             let kept = bakes.remove(i);
             bakes.push(kept);
         } else {
-            let opened = baked::open(path, scene).map_err(|e| e.to_string())?;
+            let opened = baked::open(path, &*scene()?).map_err(|e| e.to_string())?;
             if bakes.len() == KEPT_BAKES {
                 bakes.remove(0);
             }
@@ -168,9 +173,12 @@ impl VlfChoice {
                 vlf_error("a bake set is drawn at a time of day: give --when".into())
             })?;
             let when = at.map_or(time.start, |(w, _)| w);
-            let local = local_time(&scene, when).map_err(vlf_error)?;
-            let open_at =
-                |t, p: &std::path::Path| self.bake(p, &time.scene_at(&self.scene, When::Local(t))?);
+            let local = scene.daylight.local_time(when).map_err(vlf_error)?;
+            let open_at = |t, p: &std::path::Path| {
+                self.bake(p, || {
+                    time.scene_at(&self.scene, When::Local(t)).map(Arc::new)
+                })
+            };
             let (opened, bracket) = open_blended(path, local, open_at).map_err(vlf_error)?;
             tracing::info!(
                 "the light field at {local}: {} and {} blended, {:.3} of the later",
@@ -187,7 +195,9 @@ impl VlfChoice {
                     path.display()
                 );
             }
-            self.bake(path, &self.scene).map_err(vlf_error)?
+            // The node's scene is lit for the bake's own time (its fingerprint checks).
+            self.bake(path, || Ok(self.scene.clone()))
+                .map_err(vlf_error)?
         };
         VlfBase::drawn(opened, scene, self.options.drawing, self.gpu.as_ref(), path)
     }
@@ -288,14 +298,7 @@ impl DisplayMaker {
         {
             return Ok((holodeck.map(String::from), self.display_at(time, at, vlf)?));
         }
-        let mut builder = self.builder.clone();
-        builder.gather = self.vlf.as_ref().is_some_and(|c| c.options.gather);
-        builder.light_field = self.vlf.as_ref().and_then(|c| {
-            Some(LightField {
-                base: c.base(vlf, None, self.time.as_ref())?,
-                prior: c.options.prior,
-            })
-        });
+        let builder = self.builder_with_field(vlf, None);
         let Some(addr) = holodeck else {
             return Ok((None, builder.build(Feed::Thread)?));
         };
@@ -318,6 +321,25 @@ impl DisplayMaker {
         })
     }
 
+    /// The builder with the light field the master names (or the node's own), lit for
+    /// `at` (a time of day other than the start's and the scene lit for it; `None`: the
+    /// start's).
+    fn builder_with_field(
+        &self,
+        vlf: Option<&str>,
+        at: Option<(When, &Arc<Scene>)>,
+    ) -> DisplayBuilder {
+        let mut builder = self.builder.clone();
+        builder.gather = self.vlf.as_ref().is_some_and(|c| c.options.gather);
+        builder.light_field = self.vlf.as_ref().and_then(|c| {
+            Some(LightField {
+                base: c.base(vlf, at, self.time.as_ref())?,
+                prior: c.options.prior,
+            })
+        });
+        builder
+    }
+
     /// The display lit for `when`: the scene, its tracer and the light field at that time,
     /// its samples traced here.
     fn display_at(
@@ -331,15 +353,8 @@ impl DisplayMaker {
         let scene = (time.scene_at(old.scene(), when))
             .map_err(|e| RenderNodeError::Vlf(format!("the time of day {when}: {e}")))?;
         let scene = Arc::new(scene);
-        let mut builder = self.builder.clone();
+        let mut builder = self.builder_with_field(vlf, Some((when, &scene)));
         builder.tracer = Arc::new(Tracer::new(scene.clone(), old.settings()));
-        builder.gather = self.vlf.as_ref().is_some_and(|c| c.options.gather);
-        builder.light_field = self.vlf.as_ref().and_then(|c| {
-            Some(LightField {
-                base: c.base(vlf, Some((when, &scene)), Some(time))?,
-                prior: c.options.prior,
-            })
-        });
         let display = builder.build(Feed::Thread)?;
         tracing::info!(
             "lit for {when} in {:.0} ms",

@@ -12,7 +12,6 @@
 
 use std::sync::Arc;
 
-use chrono::NaiveDateTime;
 use holocave_scene::Scene;
 use holocave_scene::daylight::{Daylight, When};
 
@@ -46,14 +45,4 @@ impl TimeOfDay {
     pub fn scene_at(&self, scene: &Scene, when: When) -> Result<Scene, String> {
         Ok(scene.with_daylight((self.daylight_at)(when)?))
     }
-}
-
-/// `when` in the local standard time of `scene`'s site (a bake set names its files so).
-pub fn local_time(scene: &Scene, when: When) -> Result<NaiveDateTime, String> {
-    let site = (scene.daylight.site.as_ref())
-        .ok_or("a time of day needs the scene's site ([site] or a weather file)")?;
-    Ok(when
-        .in_zone(site.offset())
-        .ok_or_else(|| format!("time {when} is out of range"))?
-        .naive_local())
 }

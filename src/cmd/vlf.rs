@@ -10,7 +10,7 @@ use holocave_scene::daylight::When;
 use holocave_vlf::bake::{Settings, Stage, tail};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
 use holocave_vlf::file::VlfFile;
-use holocave_vlf::hours::{Share, open_blended, open_lit};
+use holocave_vlf::hours::{Share, open_blended};
 use holocave_vlf::remote::Workers;
 use holocave_vlf::{Casting, Threads, Visibility, WallPass};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -476,21 +476,15 @@ fn opened_for_view(a: &ViewArgs, scene: &Scene) -> Result<Opened> {
     if !a.file.is_dir() {
         return Ok(baked::open(&a.file, scene)?);
     }
-    let when = (a.daylight.when).context("a bake set is drawn at a time: give --when")?;
-    let site = (scene.daylight.site.as_ref())
-        .context("a bake set needs the scene's site ([site] or --weather)")?;
-    let local = (when.in_zone(site.offset()))
-        .with_context(|| format!("--when {when}"))?
-        .naive_local();
-    let scene_at = |time| {
-        let flags = super::daylight_flags::DaylightFlags {
-            when: Some(When::Local(time)),
-            ..a.daylight.clone()
-        };
-        load_scene(&a.scene, flags, false).map_err(|e| format!("{e:#}"))
+    let time = (a.daylight.time_of_day(&a.scene)?)
+        .context("a bake set is drawn at a time: give --when")?;
+    let local = (scene.daylight.local_time(time.start))
+        .map_err(|e| anyhow::anyhow!("--when {}: {e}", time.start))?;
+    let open_at = |t, path: &Path| {
+        let lit = time.scene_at(scene, When::Local(t))?;
+        baked::open(path, &lit).map_err(|e| e.to_string())
     };
-    let (opened, bracket) = open_blended(&a.file, local, |t, p| open_lit(t, p, scene_at))
-        .map_err(anyhow::Error::msg)?;
+    let (opened, bracket) = open_blended(&a.file, local, open_at).map_err(anyhow::Error::msg)?;
     println!(
         "the field at {local}: {} and {} blended, {:.3} of the later",
         bracket.before.1.display(),

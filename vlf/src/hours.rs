@@ -13,7 +13,6 @@ use chrono::{NaiveDateTime, Timelike};
 use crate::bake::State;
 use crate::baked::Opened;
 use crate::file::VlfFile;
-use holocave_scene::Scene;
 
 /// The file-name form of a bake's time.
 const NAME_FORMAT: &str = "%Y-%m-%dT%H-%M";
@@ -216,7 +215,7 @@ pub fn blend_opened(before: Opened, after: &Opened, t: f32) -> Result<Opened, St
 
 /// The field of `time` from the set in `dir`: the two bakes around it, each opened by
 /// `open_at` (given a bake's time and path: opened with the scene lit for that time, which
-/// its fingerprint was taken of; [`open_lit`] does that), blended. Returns it with the
+/// its fingerprint was taken of), blended. Returns it with the
 /// bracket it was blended from.
 pub fn open_blended(
     dir: &Path,
@@ -233,15 +232,6 @@ pub fn open_blended(
         blend_opened(before, &after, bracket.t)?
     };
     Ok((blended, bracket))
-}
-
-/// The bake at `path` opened with `scene_at(time)`, the scene lit for its time.
-pub fn open_lit(
-    time: NaiveDateTime,
-    path: &Path,
-    scene_at: impl Fn(NaiveDateTime) -> Result<Scene, String>,
-) -> Result<Opened, String> {
-    crate::baked::open(path, &scene_at(time)?).map_err(|e| e.to_string())
 }
 
 #[cfg(test)]

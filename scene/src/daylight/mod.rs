@@ -308,6 +308,17 @@ fn ground_under(sky: &Sky, sun: Option<&Sun>, albedo: f32) -> Vec3 {
 }
 
 impl Daylight {
+    /// `when` in the local standard time of the site (a bake set names its files so).
+    /// Error: no site, or a time out of range.
+    pub fn local_time(&self, when: When) -> Result<chrono::NaiveDateTime, String> {
+        let site = (self.site.as_ref())
+            .ok_or("a time of day needs the scene's site ([site] or a weather file)")?;
+        Ok(when
+            .in_zone(site.offset())
+            .ok_or_else(|| format!("time {when} is out of range"))?
+            .naive_local())
+    }
+
     /// Reads a daylight TOML file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
         Self::load_at(path, None)
