@@ -32,4 +32,7 @@ pub enum GlareError {
     /// The light field a session's fisheyes are drawn from.
     #[error("the light field {path}: {message}")]
     LightField { path: PathBuf, message: String },
+    /// The master's log of frame states a session's views are read from.
+    #[error("the frame states {path}: {message}")]
+    StatesLog { path: PathBuf, message: String },
 }

@@ -7,7 +7,8 @@
 use std::path::Path;
 
 use glam::{DMat4, DVec3, Vec3};
-use holocave_protocol::cluster::{FrameState, WireEye};
+use holocave_protocol::cluster::{FrameState, MAX_CLUSTER_FRAME, MasterMsg, WireEye};
+use holocave_protocol::frame::{FrameError, read_frame};
 use rayon::prelude::*;
 
 use crate::error::GlareError;
@@ -37,6 +38,28 @@ pub fn gaze(room_to_scene: &DMat4, orientation: glam::DQuat) -> Vec3 {
         .normalize_or_zero()
 }
 
+/// One frame's views as a standalone wall shows them: each of `eyes` (its name and
+/// position, scene coordinates) looking where the head, turned by `orientation` in the
+/// room, looks.
+pub fn views_at(
+    frame: u64,
+    time_ns: u64,
+    room_to_scene: &DMat4,
+    orientation: glam::DQuat,
+    eyes: impl IntoIterator<Item = (&'static str, Vec3)>,
+) -> Vec<FrameView> {
+    let look = gaze(room_to_scene, orientation);
+    (eyes.into_iter())
+        .map(|(eye_name, eye)| FrameView {
+            frame,
+            time_ns,
+            eye_name,
+            eye,
+            look,
+        })
+        .collect()
+}
+
 /// A frame state's views: each eye of its first wall (every wall has the same eyes),
 /// looking where the head looks, in scene coordinates.
 pub fn views_of(state: &FrameState) -> Vec<FrameView> {
@@ -62,6 +85,46 @@ pub fn views_of(state: &FrameState) -> Vec<FrameView> {
             look,
         })
         .collect()
+}
+
+/// Every frame state's views (each eye) at the time of day `when` (as the frame states
+/// write it; `None`: frames that carry none), read from the master's log of frame states
+/// (`states.bin`), and how many frames were at another time.
+pub fn views_in_states_log(
+    states: &Path,
+    when: Option<&str>,
+) -> Result<(Vec<FrameView>, usize), GlareError> {
+    let failed = |message: String| GlareError::StatesLog {
+        path: states.to_owned(),
+        message,
+    };
+    let file = std::fs::File::open(states).map_err(|e| failed(e.to_string()))?;
+    let mut r = std::io::BufReader::new(file);
+    let (mut views, mut other_times) = (Vec::new(), 0);
+    loop {
+        match read_frame::<_, MasterMsg>(&mut r, MAX_CLUSTER_FRAME) {
+            Ok(MasterMsg::Frame(f)) if f.when.as_deref() != when => other_times += 1,
+            Ok(MasterMsg::Frame(f)) => views.extend(views_of(&f)),
+            Ok(_) => {}
+            Err(FrameError::Closed) => break,
+            Err(e) => return Err(failed(e.to_string())),
+        }
+    }
+    Ok((views, other_times))
+}
+
+/// A session's glare from the master's log of frame states (`states.bin`): every frame's
+/// views at the time of day `when` measured with `meter` and written to `csv`; the
+/// summary, the views measured, and the frames left out at another time.
+pub fn measure_states_log(
+    meter: &GlareMeter,
+    states: &Path,
+    when: Option<&str>,
+    csv: &Path,
+) -> Result<(Summary, usize, usize), GlareError> {
+    let (views, other_times) = views_in_states_log(states, when)?;
+    let summary = measure_session(meter, &views, csv)?;
+    Ok((summary, views.len(), other_times))
 }
 
 /// Measures every view with `meter` and writes the figures to `csv` (the views of one

@@ -23,8 +23,8 @@ use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, f
 use crate::gpu_rays::Rays;
 use crate::time_of_day::TimeOfDay;
 use crate::{
-    DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderNodeError, VlfBase,
-    VlfDrawing, WallDisplay,
+    DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderCache, RenderNodeError,
+    VlfBase, VlfDrawing, WallDisplay,
 };
 
 /// Pause between attempts to reach the master.
@@ -204,17 +204,19 @@ impl VlfChoice {
 }
 
 impl DisplayMaker {
-    /// Displays of the member's wall at `size` pixels per eye asking for `samples` per eye and frame,
-    /// tracing locally with `tracer` when there is no holodeck. `display_id` names the
+    /// Displays of the member's wall at `size` pixels per eye asking for `samples` per eye
+    /// and frame (`None`: the render cache's default for the size), tracing locally with
+    /// `tracer` when there is no holodeck. `display_id` names the
     /// wall at the holodeck (its place in the config, which every node reads alike).
     pub fn new(
         member: &Membership,
         display_id: u32,
         size: Size,
-        samples: u32,
+        samples: Option<u32>,
         tracer: Arc<Tracer>,
     ) -> DisplayMaker {
         let wall = &member.wall;
+        let samples = samples.unwrap_or_else(|| RenderCache::default_samples(size));
         let mut builder =
             DisplayBuilder::new(size, Eye::for_mode(wall.stereo).len(), samples, tracer);
         builder.seed = wall

@@ -1,8 +1,13 @@
 //! The unfolded CAVE as one picture: each wall's image pasted at its place in the layout
 //! (`holocave_cave::unfolded`), so that each seam of the picture is a seam of the room.
 
-use holocave_cave::Unfolded;
+use std::path::{Path, PathBuf};
+
+use holocave_cave::{Eye, Unfolded, Wall};
 use image::{Rgb, RgbImage};
+
+use crate::RenderNodeError;
+use crate::output::frame_png;
 
 /// Grey of the empty parts of the picture.
 const EMPTY: Rgb<u8> = Rgb([48, 48, 48]);
@@ -23,6 +28,38 @@ pub fn cave_mosaic(layout: &Unfolded, images: &[(&str, &RgbImage)]) -> RgbImage 
         }
     }
     out
+}
+
+/// The mosaic of each of `frames` from the first-eye previews `walls`' nodes wrote in
+/// `OUT/<wall>/` (a wall that did not write the frame is left grey), written to
+/// `OUT/mosaic/NNNNN.png`; the paths written.
+pub fn write_mosaics(
+    out: &Path,
+    walls: &[Wall],
+    layout: &Unfolded,
+    frames: &[u64],
+) -> Result<Vec<PathBuf>, RenderNodeError> {
+    let dir = out.join("mosaic");
+    let failed = |path: &Path, message: String| RenderNodeError::Write {
+        path: path.display().to_string(),
+        message,
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| failed(&dir, e.to_string()))?;
+    let mut written = Vec::new();
+    for &frame in frames {
+        let images: Vec<(&str, RgbImage)> = (walls.iter())
+            .filter_map(|wall| {
+                let eye = Eye::for_mode(wall.stereo)[0];
+                let img = image::open(frame_png(&out.join(&wall.name), frame, eye)).ok()?;
+                Some((wall.name.as_str(), img.to_rgb8()))
+            })
+            .collect();
+        let images: Vec<(&str, &RgbImage)> = images.iter().map(|(n, i)| (*n, i)).collect();
+        let path = dir.join(format!("{frame:05}.png"));
+        (cave_mosaic(layout, &images).save(&path)).map_err(|e| failed(&path, e.to_string()))?;
+        written.push(path);
+    }
+    Ok(written)
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 //! debug images and a contact sheet on request) and, in a cluster, `presented.log` (one
 //! presented frame number per line), which `sim` and the tests read back.
 
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -172,6 +173,19 @@ pub fn read_presented(dir: &Path) -> Result<Vec<u64>, PresentedLogError> {
                     line: i + 1,
                     text: l.to_owned(),
                 })
+        })
+        .collect()
+}
+
+/// Each of `walls`' presented frames, from its `OUT/<wall>/presented.log`.
+pub fn presented_logs(
+    out: &Path,
+    walls: &[holocave_cave::Wall],
+) -> Result<BTreeMap<String, BTreeSet<u64>>, PresentedLogError> {
+    (walls.iter())
+        .map(|wall| {
+            let frames = read_presented(&out.join(&wall.name))?;
+            Ok((wall.name.clone(), frames.into_iter().collect()))
         })
         .collect()
 }

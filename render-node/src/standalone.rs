@@ -13,11 +13,14 @@ use holocave_cave::{Cave, Eye, Size, Wall, wall_frusta};
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_scene::{ObjectPaths, Scene};
+use holocave_tracer::Tracer;
 use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
 use holocave_tracking::Pose;
 
+use crate::cluster_node::VlfOptions;
 use crate::{
-    DisplayBuilder, EyeView, Feed, HolodeckOptions, HolodeckSource, RenderNodeError, WallDisplay,
+    DisplayBuilder, EyeView, Feed, Gpu, HolodeckOptions, HolodeckSource, LightField, RenderCache,
+    RenderNodeError, VlfBase, WallDisplay,
 };
 
 /// The holodeck a standalone wall draws from, served in its own process.
@@ -32,18 +35,71 @@ pub struct OwnHolodeck<'a> {
     pub stop: Arc<AtomicBool>,
 }
 
+/// What a standalone wall is built from.
+pub struct StandaloneSpec<'a> {
+    pub cave: &'a Cave,
+    pub wall: &'a Wall,
+    /// Pixels per eye.
+    pub size: Size,
+    /// Samples traced per eye and frame (`None`: the render cache's default for the size).
+    pub samples: Option<u32>,
+    pub scene: Arc<Scene>,
+    /// The path tracer of the inline and threaded feeds.
+    pub tracer: Arc<Tracer>,
+    /// The device to draw on (a window's); `None`: a new one.
+    pub gpu: Option<Gpu>,
+    /// The light field drawn under the samples (`own`; none: the samples alone), and how.
+    pub vlf: VlfOptions,
+    /// The holodeck it serves itself; `None`: the path tracer feeds it.
+    pub holodeck: Option<OwnHolodeck<'a>>,
+    /// Without a holodeck, trace between frames on the display's thread (deterministic)
+    /// instead of on a tracer thread that frames never wait for.
+    pub sync: bool,
+}
+
 /// A standalone wall's display and the holodeck it serves itself, if any.
 pub struct StandaloneWall {
     pub display: WallDisplay,
     pub holodeck: Option<Running>,
     /// What the holodeck opened holds (its [`CaveHolodeck::describe`]).
     pub holodeck_described: Option<String>,
+    /// What the wall draws, and on which device, in a line.
+    pub described: String,
 }
 
 impl StandaloneWall {
+    /// The wall of `spec`: its display with the light field and its feed.
+    pub fn build(spec: StandaloneSpec) -> Result<StandaloneWall, RenderNodeError> {
+        let gpu = match spec.gpu {
+            Some(gpu) => gpu,
+            None => Gpu::new()?,
+        };
+        let eyes = Eye::for_mode(spec.wall.stereo).len();
+        let samples = (spec.samples).unwrap_or_else(|| RenderCache::default_samples(spec.size));
+        let mut builder = DisplayBuilder::new(spec.size, eyes, samples, spec.tracer);
+        builder.gpu = Some(gpu.clone());
+        builder.gather = spec.vlf.gather;
+        if let Some(path) = &spec.vlf.own {
+            let base = VlfBase::for_wall(path, spec.scene.clone(), spec.vlf.drawing, Some(&gpu))?;
+            builder.light_field = Some(LightField {
+                base: Arc::new(base),
+                prior: spec.vlf.prior,
+            });
+        }
+        let mut wall = Self::assemble(&builder, spec.cave, &spec.scene, spec.holodeck, spec.sync)?;
+        wall.described = format!(
+            "wall {:?}: {eyes} eye(s) at {}, {} points, {samples} samples per eye and frame, GPU {}",
+            spec.wall.name,
+            spec.size,
+            wall.display.cache.capacity(),
+            wall.display.cache.gpu().adapter
+        );
+        Ok(wall)
+    }
+
     /// The wall's display from `builder`: fed by its own holodeck server when given one,
     /// else by the path tracer inline (`sync`, deterministic) or on a thread.
-    pub fn assemble(
+    fn assemble(
         builder: &DisplayBuilder,
         cave: &Cave,
         scene: &Arc<Scene>,
@@ -56,6 +112,7 @@ impl StandaloneWall {
                 display: builder.build(feed)?,
                 holodeck: None,
                 holodeck_described: None,
+                described: String::new(),
             });
         };
         let hd = |e: holocave_tracer::cave_holodeck::CaveHolodeckError| {
@@ -79,6 +136,7 @@ impl StandaloneWall {
             display: builder.build(Feed::Holodeck(source))?,
             holodeck: Some(running),
             holodeck_described: Some(described),
+            described: String::new(),
         })
     }
 }
@@ -117,6 +175,24 @@ pub struct Totals {
     pub inserted: usize,
     /// Summed over frames: the light field's visibility (ray casts per pixel).
     pub vlf: Duration,
+}
+
+impl Totals {
+    /// The run's times per frame, in a line; `feed` says where the tracing ran.
+    pub fn describe(&self, feed: &str) -> String {
+        let n = self.frames.max(1) as f64;
+        let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
+        format!(
+            "{} frames in {:.2} s; per frame: light field visibility {:.2} ms, draw + choose {:.2} ms, trace {:.2} ms{feed}, insert {:.2} ms, {:.0} samples inserted",
+            self.frames,
+            self.elapsed.as_secs_f64(),
+            ms(self.vlf),
+            ms(self.draw),
+            ms(self.trace),
+            ms(self.insert),
+            self.inserted as f64 / n,
+        )
+    }
 }
 
 /// Told of each frame drawn: its number, its time (ns from the start), the head pose and

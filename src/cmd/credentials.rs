@@ -56,8 +56,3 @@ pub fn fresh(cluster: &str) -> Result<Credentials> {
             .into_bytes(),
     })
 }
-
-/// The secret as the environment variable carries it to a child process.
-pub fn secret_text(c: &Credentials) -> String {
-    String::from_utf8_lossy(&c.secret).into_owned()
-}

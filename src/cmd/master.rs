@@ -171,19 +171,6 @@ pub fn host(spec: HostSpec) -> Result<Hosted> {
     Ok(hosted)
 }
 
-/// Stops a cluster's holodeck, committing everything traced, and says how much it holds.
-pub fn stop_hosted(hosted: Hosted) -> Result<()> {
-    let path = hosted.path.clone();
-    let s = hosted.stop()?;
-    println!(
-        "holodeck {}: {} samples added by this run, {} in all (committed)",
-        path.display(),
-        s.added,
-        s.samples
-    );
-    Ok(())
-}
-
 /// Where head poses come from, shared by `master` and `sim`.
 #[derive(Args, Clone)]
 pub struct HeadArgs {
@@ -439,7 +426,8 @@ pub fn run(mut args: MasterArgs) -> Result<()> {
     }
     // The holodeck commits what was traced even when the master failed.
     if let Some(h) = hosted {
-        stop_hosted(h)?;
+        let path = h.path.clone();
+        println!("holodeck {}: {}", path.display(), h.stop()?);
     }
     print_summary(&summary?);
     if interrupted {

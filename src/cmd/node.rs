@@ -14,9 +14,9 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow, bail};
 use clap::Args;
-use glam::{DMat4, Quat, Vec3};
+use glam::{Quat, Vec3};
 use holocave_cave::{Cave, Eye, Size, Wall, load_cave};
-use holocave_glare::session::{FrameView, gaze};
+use holocave_glare::session::views_at;
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
@@ -26,13 +26,12 @@ use holocave_render_node::cluster_node::{self, DisplayMaker, Membership, VlfOpti
 use holocave_render_node::gpu_rays::Rays;
 use holocave_render_node::holodeck::HolodeckCounts;
 use holocave_render_node::output::{PresentedLog, eye_name, write_frame};
-use holocave_render_node::standalone::{self, OwnHolodeck, Schedule, StandaloneWall};
+use holocave_render_node::standalone::{
+    self, OwnHolodeck, Schedule, StandaloneSpec, StandaloneWall,
+};
 use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
 use holocave_render_node::window::Screens;
-use holocave_render_node::{
-    DisplayBuilder, EyeView, Gpu, LightField, RenderCache, ToneMapper, VlfBase, VlfDrawing,
-    WallDisplay,
-};
+use holocave_render_node::{EyeView, ToneMapper, VlfDrawing, WallDisplay};
 use holocave_scene::Scene;
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
@@ -193,9 +192,6 @@ pub fn run(args: NodeArgs) -> Result<()> {
     // they include the layout's.
     let wall = args.window.wall_for_run(&wall, args.master.is_none())?;
     let size = args.size.unwrap_or(wall.pixels);
-    let samples = args
-        .samples
-        .unwrap_or_else(|| RenderCache::default_samples(size));
     if args.window.window {
         // Windows take only the histogram tone curves: checked before any window opens.
         // The scene's efficacy is set once it is loaded.
@@ -211,7 +207,6 @@ pub fn run(args: NodeArgs) -> Result<()> {
                 wall,
                 display_id,
                 size,
-                samples,
                 Some(Windows {
                     screens: &mut screens,
                     tone,
@@ -222,7 +217,6 @@ pub fn run(args: NodeArgs) -> Result<()> {
                 &cave,
                 &wall,
                 size,
-                samples,
                 Some(Windows {
                     screens: &mut screens,
                     tone,
@@ -231,40 +225,22 @@ pub fn run(args: NodeArgs) -> Result<()> {
         })?;
     }
     match &args.master {
-        Some(master) => in_cluster(&args, master, cave, wall, display_id, size, samples, None),
-        None => standalone(&args, &cave, &wall, size, samples, None),
+        Some(master) => in_cluster(&args, master, cave, wall, display_id, size, None),
+        None => standalone(&args, &cave, &wall, size, None),
     }
 }
 
-/// The views a standalone wall's frame shows, as the glare meter takes them: each eye
-/// (scene coordinates) looking where the head looks.
-fn glare_views(
-    frame: u64,
-    ns: u64,
-    pose: &Pose,
-    eyes: &[Eye],
-    views: &[EyeView],
-    room_to_scene: &DMat4,
-) -> Vec<FrameView> {
-    let look = gaze(room_to_scene, pose.orientation.as_dquat());
-    eyes.iter()
-        .zip(views)
-        .map(|(e, v)| FrameView {
-            frame,
-            time_ns: ns,
-            eye_name: eye_name(*e),
-            eye: v.wall.eye,
-            look,
-        })
-        .collect()
-}
-
 /// How the node's flags draw the light field.
-fn vlf_drawing(args: &NodeArgs) -> VlfDrawing {
-    VlfDrawing {
-        direct: !args.no_direct,
-        sky_per_pixel: args.sky_per_pixel,
-        rays: args.rays,
+fn vlf_options(args: &NodeArgs) -> VlfOptions {
+    VlfOptions {
+        own: args.vlf.clone(),
+        prior: args.vlf_prior,
+        gather: args.gather,
+        drawing: VlfDrawing {
+            direct: !args.no_direct,
+            sky_per_pixel: args.sky_per_pixel,
+            rays: args.rays,
+        },
     }
 }
 
@@ -282,7 +258,6 @@ fn standalone(
     cave: &Cave,
     wall: &Wall,
     size: Size,
-    samples: u32,
     windows: Option<Windows>,
 ) -> Result<()> {
     check_standalone_flags(args)?;
@@ -290,17 +265,28 @@ fn standalone(
     let (scene, tracer) = load_tracer(&args.scene, args.daylight.clone())?;
     let objects = standalone_objects(args, &scene)?;
     let mut pose_at = replayed_head(args, cave)?;
+    let built = StandaloneWall::build(StandaloneSpec {
+        cave,
+        wall,
+        size,
+        samples: args.samples,
+        scene: scene.clone(),
+        tracer,
+        gpu: windows.as_ref().map(|w| w.screens.gpu.clone()),
+        vlf: vlf_options(args),
+        holodeck: own_holodeck(args, cave)?,
+        sync: args.sync,
+    })?;
+    (built.holodeck_described.iter()).for_each(|d| println!("{d}"));
+    if let Some(a) = built.holodeck.as_ref().and_then(Running::local_addr) {
+        println!("holodeck workers and displays may connect to {a}");
+    }
+    println!("{}", built.described);
     let StandaloneWall {
         mut display,
         holodeck,
         ..
-    } = standalone_display(
-        args,
-        (cave, wall),
-        (size, samples, eyes.len()),
-        (&scene, tracer),
-        windows.as_ref(),
-    )?;
+    } = built;
     let efficacy = scene.daylight.photometry.efficacy;
     let mut tone = args.tone.mapper(efficacy);
     let windows = windows.map(|mut w| {
@@ -312,7 +298,6 @@ fn standalone(
         .map(|w| WindowOutput::new(w.screens, wall, w.tone, args.window.present_log.as_deref()))
         .transpose()?;
     let dir = args.out.join(&wall.name);
-    let schedule = schedule_of(args);
     let stopping = || {
         holodeck.as_ref().is_some_and(Running::stopping)
             || closed.as_ref().is_some_and(|c| c.load(Ordering::Acquire))
@@ -331,15 +316,19 @@ fn standalone(
     };
     let mut shown = |frame: u64, ns: u64, pose: &Pose, views: &[EyeView]| {
         if let Some(g) = &glare {
-            g.offer(glare_views(
-                frame,
-                ns,
-                pose,
-                eyes,
-                views,
-                &cave.room_to_scene,
-            ));
+            let seen = eyes
+                .iter()
+                .zip(views)
+                .map(|(e, v)| (eye_name(*e), v.wall.eye));
+            let orientation = pose.orientation.as_dquat();
+            g.offer(views_at(frame, ns, &cave.room_to_scene, orientation, seen));
         }
+    };
+    let schedule = Schedule {
+        frames: args.frames,
+        seconds: args.seconds,
+        fps: args.fps,
+        every: args.every,
     };
     let totals = standalone::run(
         &mut display,
@@ -366,7 +355,16 @@ fn standalone(
     if let (Some(running), Some(path)) = (holodeck, &args.holodeck) {
         stop_own_holodeck(running, path, holo_counts.unwrap_or_default())?;
     }
-    print_standalone_times(args, &totals, &dir);
+    let feed = match (&args.holodeck, args.sync) {
+        (Some(_), _) => " (the holodeck's workers)",
+        (None, true) => "",
+        (None, false) => " (on the tracer thread)",
+    };
+    let images = match args.window.window {
+        true => "windows".to_owned(),
+        false => dir.display().to_string(),
+    };
+    println!("{}; images in {images}", totals.describe(feed));
     Ok(())
 }
 
@@ -389,50 +387,6 @@ fn standalone_objects(
     Ok(objects)
 }
 
-/// A standalone wall's display, fed by its own holodeck where asked, said on stdout.
-fn standalone_display(
-    args: &NodeArgs,
-    (cave, wall): (&Cave, &Wall),
-    (size, samples, eyes): (Size, u32, usize),
-    (scene, tracer): (&Arc<Scene>, Arc<Tracer>),
-    windows: Option<&Windows>,
-) -> Result<StandaloneWall> {
-    let gpu = match windows {
-        Some(w) => w.screens.gpu.clone(),
-        None => Gpu::new()?,
-    };
-    let mut builder = DisplayBuilder::new(size, eyes, samples, tracer);
-    builder.gpu = Some(gpu.clone());
-    builder.gather = args.gather;
-    builder.light_field = light_field(args, scene, &gpu)?;
-    let own = own_holodeck(args, cave)?;
-    let wall_display = StandaloneWall::assemble(&builder, cave, scene, own, args.sync)?;
-    if let Some(d) = &wall_display.holodeck_described {
-        println!("{d}");
-    }
-    if let Some(a) = wall_display.holodeck.as_ref().and_then(Running::local_addr) {
-        println!("holodeck workers and displays may connect to {a}");
-    }
-    println!(
-        "wall {:?}: {} eye(s) at {size}, {} points, {samples} samples per eye and frame, GPU {}",
-        wall.name,
-        eyes,
-        wall_display.display.cache.capacity(),
-        wall_display.display.cache.gpu().adapter
-    );
-    Ok(wall_display)
-}
-
-/// How many frames a standalone wall draws, and when.
-fn schedule_of(args: &NodeArgs) -> Schedule {
-    Schedule {
-        frames: args.frames,
-        seconds: args.seconds,
-        fps: args.fps,
-        every: args.every,
-    }
-}
-
 /// The windows' end: the last frame kept on screen for `--linger` seconds, then their
 /// summary.
 fn finish_windows(args: &NodeArgs, o: &mut WindowOutput, display: &WallDisplay, frames: u64) {
@@ -447,18 +401,6 @@ fn finish_windows(args: &NodeArgs, o: &mut WindowOutput, display: &WallDisplay, 
         o.linger(display, args.window.linger, args.fps, last);
     }
     print!("{}", o.summary());
-}
-
-/// `--vlf`'s light field as this node draws it, with its prior.
-fn light_field(args: &NodeArgs, scene: &Arc<Scene>, gpu: &Gpu) -> Result<Option<LightField>> {
-    let Some(path) = &args.vlf else {
-        return Ok(None);
-    };
-    let base = VlfBase::for_wall(path, scene.clone(), vlf_drawing(args), Some(gpu))?;
-    Ok(Some(LightField {
-        base: Arc::new(base),
-        prior: args.vlf_prior,
-    }))
 }
 
 /// The flags a standalone node needs together, checked before anything is opened.
@@ -542,34 +484,6 @@ fn stop_own_holodeck(running: Running, path: &Path, c: HolodeckCounts) -> Result
     Ok(())
 }
 
-/// The run's times per frame and where its images went.
-fn print_standalone_times(args: &NodeArgs, totals: &standalone::Totals, dir: &Path) {
-    let n = totals.frames.max(1) as f64;
-    let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
-    println!(
-        "{} frames in {:.2} s; per frame: light field visibility {:.2} ms, draw + choose {:.2} ms, trace {:.2} ms{}, insert {:.2} ms, {:.0} samples inserted; images in {}",
-        totals.frames,
-        totals.elapsed.as_secs_f64(),
-        ms(totals.vlf),
-        ms(totals.draw),
-        ms(totals.trace),
-        if args.holodeck.is_some() {
-            " (the holodeck's workers)"
-        } else if args.sync {
-            ""
-        } else {
-            " (on the tracer thread)"
-        },
-        ms(totals.insert),
-        totals.inserted as f64 / n,
-        if args.window.window {
-            "windows".to_owned()
-        } else {
-            dir.display().to_string()
-        }
-    );
-}
-
 /// `--master`: follows the cluster's frames, appending every presented frame's number to
 /// `DIR/<wall>/presented.log` and writing its images every `--every` frames.
 #[allow(clippy::too_many_arguments)]
@@ -580,7 +494,6 @@ fn in_cluster(
     wall: Wall,
     display_id: u32,
     size: Size,
-    samples: u32,
     windows: Option<Windows>,
 ) -> Result<()> {
     let secret = cave
@@ -621,22 +534,14 @@ fn in_cluster(
         give_up_after: args.seconds.map(Duration::from_secs_f64),
         slow_by: Duration::from_millis(args.slow_ms),
     };
-    let mut maker = DisplayMaker::new(&member, display_id, size, samples, tracer);
+    let mut maker = DisplayMaker::new(&member, display_id, size, args.samples, tracer);
     if let Some(w) = &windows {
         maker = maker.with_gpu(w.screens.gpu.clone());
     }
     if let Some(time) = args.daylight.time_of_day(&args.scene)? {
         maker = maker.with_time_of_day(time);
     }
-    let maker = maker.with_vlf(
-        scene,
-        VlfOptions {
-            own: args.vlf.clone(),
-            prior: args.vlf_prior,
-            gather: args.gather,
-            drawing: vlf_drawing(args),
-        },
-    );
+    let maker = maker.with_vlf(scene, vlf_options(args));
     let (counters, reason) = match windows {
         Some(Windows { screens, tone }) => {
             let output = WindowOutput::new(

@@ -361,6 +361,16 @@ pub struct Stopped {
     pub samples: u64,
 }
 
+impl std::fmt::Display for Stopped {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} samples added by this run, {} in all (committed)",
+            self.added, self.samples
+        )
+    }
+}
+
 impl Hosted {
     /// A status-line part: samples held, samples added per second since the last call,
     /// workers connected.
