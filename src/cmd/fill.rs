@@ -21,8 +21,7 @@ use holocave_holodeck::server::{Mode, Server, ServerConfig};
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_scene::Scene;
 use holocave_scene::empty_box::{Aabb, triangles_inside};
-use holocave_tracer::holodeck::{HolodeckTracer, file_settings, scene_identity};
-use holocave_tracer::{TraceSettings, Tracer};
+use holocave_tracer::holodeck::{file_settings, sample_source, scene_identity};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// A section's view class.
@@ -188,10 +187,7 @@ pub fn run(args: FillArgs) -> anyhow::Result<()> {
         children = spawn_workers(processes, &addr, &args.scene, &args.daylight, &credentials)?;
         (0, None)
     } else {
-        let src: Arc<dyn holocave_holodeck::worker::SampleSource> = Arc::new(HolodeckTracer(
-            Tracer::new(scene.clone(), TraceSettings::default()),
-        ));
-        (args.threads, Some(src))
+        (args.threads, Some(sample_source(scene.clone())))
     };
     let limit = args.time.map(Duration::from_secs_f64);
     let bar = progress_bar(limit);

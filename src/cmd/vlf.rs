@@ -7,12 +7,12 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use holocave_scene::Scene;
 use holocave_scene::daylight::When;
-use holocave_vlf::bake::{Settings, Stage, tail};
+use holocave_vlf::bake::{Settings, Stage};
 use holocave_vlf::baked::{self, BakeJob, Opened, Start};
-use holocave_vlf::file::VlfFile;
+use holocave_vlf::file_summary;
 use holocave_vlf::hours::{Share, open_blended};
 use holocave_vlf::remote::Workers;
-use holocave_vlf::{Casting, Threads, Visibility, WallPass};
+use holocave_vlf::{Casting, Threads, WallPass};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::render::load_scene;
@@ -179,7 +179,7 @@ pub fn run(c: VlfCommand) -> Result<()> {
 /// Bakes (or finishes baking) `job`'s file with a progress bar (none when `quiet`), and
 /// prints what the bake did. Ctrl-C ends it at once: its finished bounces are in the file,
 /// each written whole, and the next run resumes from them.
-fn run_bake(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<VlfFile> {
+fn run_bake(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<()> {
     super::interrupt::ending_at_once(bounces_kept(job.out), || {
         if !quiet {
             println!(
@@ -200,7 +200,7 @@ fn bounces_kept(out: &Path) -> String {
 }
 
 /// [`run_bake`]'s steps.
-fn bake_steps(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<VlfFile> {
+fn bake_steps(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<()> {
     if let Start::Resumed { bounces, residual } = job.start()? {
         eprintln!(
             "resuming {} after bounce {bounces} (residual {residual:.2e})",
@@ -266,7 +266,7 @@ fn bake_steps(job: &BakeJob, quiet: bool, casting: &dyn Casting) -> Result<VlfFi
             state.tail()
         );
     }
-    Ok(file)
+    Ok(())
 }
 
 /// The light field at `path`, baked with default settings for `scene` if it is missing,
@@ -396,44 +396,9 @@ fn bake_one(
 }
 
 fn info(file: &Path) -> Result<()> {
-    let f = VlfFile::read(file)?;
-    let s = &f.settings;
-    println!("{}", file.display());
-    println!(
-        "  scene        {} (fingerprint {:016x})",
-        f.scene, f.fingerprint
-    );
-    println!(
-        "  settings     {} directions, {}² lines per subfield, element size {:.4}, {} direct samples, tolerance {:.1e}",
-        s.directions, s.resolution, f.element_size, s.direct_samples, s.tolerance
-    );
-    println!("  elements     {}", f.state.irradiance.len());
-    let per_tile = (s.tile_bins * s.tile_bins).max(1) as usize;
-    println!(
-        "  glossy tiles {} of {}² bins ({:.2} MB), for GGX alpha below {}",
-        f.state.tiles.len() / per_tile,
-        s.tile_bins,
-        (f.state.tiles.len() * 12) as f64 / 1e6,
-        s.glossy_alpha
-    );
-    println!(
-        "  bounces      {} ({}), residual {:.3e}, tail {:.3e}",
-        f.state.bounces,
-        if f.state.converged {
-            "converged"
-        } else {
-            "not finished: `vlf bake` resumes it"
-        },
-        f.state.residual(),
-        tail(&f.state.residuals)
-    );
-    let r: Vec<String> = f
-        .state
-        .residuals
+    file_summary::describe(file)?
         .iter()
-        .map(|r| format!("{r:.2e}"))
-        .collect();
-    println!("  per bounce   {}", r.join(" "));
+        .for_each(|l| println!("{l}"));
     Ok(())
 }
 
@@ -442,31 +407,8 @@ fn check(
     scene: Option<&Path>,
     daylight: super::daylight_flags::DaylightFlags,
 ) -> Result<()> {
-    let f = VlfFile::read(file)?;
-    if let Some(scene) = scene {
-        let scene = load_scene(scene, daylight, false)?;
-        baked::open(file, &scene)?;
-    }
-    let bad = f
-        .state
-        .irradiance
-        .iter()
-        .chain(&f.state.tiles)
-        .flatten()
-        .filter(|x| !x.is_finite() || **x < 0.0)
-        .count();
-    if bad > 0 {
-        bail!(
-            "{}: {bad} irradiance or tile values are negative or not finite",
-            file.display()
-        );
-    }
-    println!(
-        "{}: ok ({} elements, {} bounces)",
-        file.display(),
-        f.state.irradiance.len(),
-        f.state.bounces
-    );
+    let scene = scene.map(|s| load_scene(s, daylight, false)).transpose()?;
+    println!("{}", file_summary::check(file, scene.as_ref())?);
     Ok(())
 }
 
@@ -496,26 +438,18 @@ fn opened_for_view(a: &ViewArgs, scene: &Scene) -> Result<Opened> {
 
 fn view(a: ViewArgs) -> Result<()> {
     let scene = load_scene(&a.scene, a.daylight.clone(), false)?;
-    let Opened {
-        file: f,
-        elements,
-        tiles,
-    } = opened_for_view(&a, &scene)?;
+    let opened = opened_for_view(&a, &scene)?;
     let view = a.view.view(Some((&scene, &a.scene)), a.size)?;
     let efficacy = scene.daylight.photometry.efficacy;
     let start = std::time::Instant::now();
     let scene = std::sync::Arc::new(scene);
-    let vis = Visibility::new(scene.clone(), elements, tiles);
-    let vis = if a.no_darkening {
-        vis.without_darkening()
-    } else {
-        vis
-    };
-    vis.place_objects(&a.objects.placements(&scene)?);
-    let pass = WallPass::new(vis, &f.settings, &f.state, a.sky_per_pixel)
+    let pass = WallPass::of_opened(scene.clone(), opened, a.sky_per_pixel)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?
+        .with_darkening(!a.no_darkening)
         .with_direct(!a.no_direct)
         .with_sky_prior(a.sky_prior.max(0.0));
+    pass.visibility()
+        .place_objects(&a.objects.placements(&scene)?);
     let image = if pass.direct_per_pixel() {
         println!(
             "direct light per pixel: {} shadow rays per lookup and frame, {} frame(s), {} lookups per pixel",

@@ -3,15 +3,14 @@
 //! `HOLOCAVE_SECRET`) and traces the ray packets it is sent until the server says goodbye;
 //! a server that goes away without one (its master died) is connected to again.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
 use holocave_holodeck::worker::{WorkerError, WorkerReport, run_remote};
-use holocave_tracer::holodeck::{HolodeckTracer, scene_identity};
-use holocave_tracer::{TraceSettings, Tracer};
+use holocave_tracer::holodeck::{sample_source, scene_identity};
 
 #[derive(Args)]
 pub struct WorkerArgs {
@@ -39,18 +38,6 @@ pub struct WorkerArgs {
 /// How long a worker that lost its server waits between tries to connect again.
 const RECONNECT_EVERY: Duration = Duration::from_millis(200);
 
-/// Loads a scene (with `daylight`, else the file beside it) and makes its sample generator.
-pub fn load_source(
-    scene: &Path,
-    daylight: super::daylight_flags::DaylightFlags,
-) -> anyhow::Result<HolodeckTracer> {
-    let s = super::render::load_scene(scene, daylight, false)?;
-    Ok(HolodeckTracer(Tracer::new(
-        Arc::new(s),
-        TraceSettings::default(),
-    )))
-}
-
 pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
     let credentials = super::credentials::from_env(&args.cluster)?;
     if args.vlf {
@@ -65,10 +52,12 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
         tracing::info!("bake worker done: {cast} subfields cast");
         return Ok(());
     }
-    let source = load_source(&args.scene, args.daylight.clone())?;
+    let loaded = super::render::load_scene(&args.scene, args.daylight.clone(), false)?;
+    let scene = scene_identity(&args.scene, &loaded);
+    let source = sample_source(Arc::new(loaded));
+    let source = &*source;
     let name = format!("pid {}", std::process::id());
-    let scene = scene_identity(&args.scene, source.0.scene());
-    let mut report = run_remote(&args.server, &credentials, &name, &scene, &source)?;
+    let mut report = run_remote(&args.server, &credentials, &name, &scene, source)?;
     while !report.said_goodbye {
         tracing::warn!(
             "worker {}: the holodeck server at {} went away; connecting again",
@@ -76,7 +65,7 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<()> {
             args.server
         );
         report = reconnect(&args, || {
-            run_remote(&args.server, &credentials, &name, &scene, &source)
+            run_remote(&args.server, &credentials, &name, &scene, source)
         })?;
     }
     tracing::info!(

@@ -17,14 +17,12 @@ use holocave_holodeck::file::DistanceKind;
 use holocave_holodeck::run::{RayAllowance, RunOptions, Running, start, start_held};
 use holocave_holodeck::scene_id::{fingerprint_of, same_scene};
 use holocave_holodeck::server::{Mode, Server, ServerConfig};
-use holocave_holodeck::worker::SampleSource;
 use holocave_holodeck::{HoloFile, Section, ViewClass};
 use holocave_scene::empty_box::{Aabb, triangles_inside};
 use holocave_scene::fingerprint::set_aside;
 use holocave_scene::{LoadOptions, Scene};
 
-use crate::holodeck::{HolodeckTracer, file_settings, scene_identity};
-use crate::{TraceSettings, Tracer};
+use crate::holodeck::{file_settings, sample_source, scene_identity};
 
 /// Why a CAVE's holodeck could not be opened, created or served.
 #[derive(Debug, thiserror::Error)]
@@ -187,10 +185,7 @@ impl CaveHolodeck {
     /// the scene, and TCP workers and displays on the port. It commits every 5 s;
     /// [`Running::stop`] commits the rest.
     pub fn serve(self, serving: Serving) -> Result<Running, CaveHolodeckError> {
-        let source = serving.scene.map(|s| {
-            Arc::new(HolodeckTracer(Tracer::new(s, TraceSettings::default())))
-                as Arc<dyn SampleSource>
-        });
+        let source = serving.scene.map(sample_source);
         let server = Server::new(self.file, Mode::Interactive, ServerConfig::interactive());
         let opts = RunOptions {
             threads: if source.is_some() { serving.threads } else { 0 },

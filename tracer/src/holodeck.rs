@@ -5,15 +5,30 @@ use std::collections::BTreeMap;
 
 use holocave_holodeck::file::{DISTANCE_SETTING, DistanceKind};
 use holocave_holodeck::worker::{SampleSource, SourceRay, SourceResult};
-use holocave_scene::Ray;
+use std::sync::Arc;
 
-use crate::Tracer;
+use holocave_scene::{Ray, Scene};
+
+use crate::{TraceSettings, Tracer};
 
 /// The tracer answering holodeck ray packets, one packet per calling thread (the server
 /// runs as many workers as it wants cores used). It answers the distance the holodeck file
 /// records: the tracer's `virtual_distance` (the paper's `VDISTANCE=True`, the default for
 /// new files) or its first-hit `distance`.
 pub struct HolodeckTracer(pub Tracer);
+
+impl HolodeckTracer {
+    /// The path tracer of `scene` at its default settings, as every holodeck's tracer
+    /// threads and workers run it.
+    pub fn of_scene(scene: Arc<Scene>) -> HolodeckTracer {
+        HolodeckTracer(Tracer::new(scene, TraceSettings::default()))
+    }
+}
+
+/// [`HolodeckTracer::of_scene`] as a holodeck server's sample source.
+pub fn sample_source(scene: Arc<Scene>) -> Arc<dyn SampleSource> {
+    Arc::new(HolodeckTracer::of_scene(scene))
+}
 
 impl SampleSource for HolodeckTracer {
     fn trace(&self, rays: &[SourceRay], seed: u64, distance: DistanceKind) -> Vec<SourceResult> {

@@ -71,6 +71,7 @@ pub mod directions;
 pub mod elements;
 pub mod exitance;
 pub mod file;
+pub mod file_summary;
 pub mod footprint;
 pub mod gather;
 pub mod glow_edges;

@@ -131,6 +131,15 @@ impl WallPass {
         Self::new(visibility, &file.settings, &file.state, sky_per_pixel)
     }
 
+    /// With `on` false, without the moving objects' darkening of the light field near
+    /// them (to measure its effect; the walls always darken).
+    pub fn with_darkening(mut self, on: bool) -> Self {
+        if !on {
+            self.visibility = self.visibility.without_darkening();
+        }
+        self
+    }
+
     /// With `on` false, the light field alone as baked (its direct light included, no
     /// shadow rays); with `on` true (as made), the direct light per pixel and the field's
     /// remainder, where the scene has a light that pass takes.

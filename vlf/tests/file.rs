@@ -525,3 +525,35 @@ fn the_caustics_part_reads_back_and_a_wrong_length_is_refused() {
         "{e:?}"
     );
 }
+
+#[test]
+fn the_check_names_a_negative_value_and_info_describes_the_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = furnace("summary", 0.5);
+    let mut f = baked(&scene);
+    let path = dir.path().join("summary.vlf");
+    f.write(&path).unwrap();
+    let ok = holocave_vlf::file_summary::check(&path, Some(&scene)).unwrap();
+    assert!(
+        ok.ends_with(&format!(
+            "ok ({} elements, {} bounces)",
+            f.state.irradiance.len(),
+            f.state.bounces
+        )),
+        "{ok}"
+    );
+    let lines = holocave_vlf::file_summary::describe(&path).unwrap();
+    assert!(
+        lines[1].contains(&format!("{:016x}", f.fingerprint)),
+        "{lines:?}"
+    );
+    f.state.irradiance[3][1] = -0.5;
+    f.write(&path).unwrap();
+    let e = holocave_vlf::file_summary::check(&path, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("summary.vlf") && e.contains("1 irradiance or tile values"),
+        "{e}"
+    );
+}
