@@ -21,7 +21,9 @@ use holocave_vlf::hours::open_blended;
 
 use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
 use crate::gpu_rays::Rays;
+use crate::output::{FrameImages, PresentedLog};
 use crate::time_of_day::TimeOfDay;
+use crate::wall_windows::{ClusterWindows, WindowOutput};
 use crate::{
     DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderCache, RenderNodeError,
     VlfBase, VlfDrawing, WallDisplay,
@@ -378,6 +380,47 @@ impl DisplayMaker {
         }
         Ok(a)
     }
+}
+
+/// Where a cluster node's swapped frames go: each into its presented log, then shown in its
+/// windows, or written as images every `every` frames.
+pub struct ClusterOutput<'a> {
+    pub log: PresentedLog,
+    pub windows: Option<WindowOutput<'a>>,
+    pub images: FrameImages,
+    pub every: u64,
+}
+
+/// [`run`], presenting into `output`; with windows, their summary is printed at the end.
+pub fn run_into(
+    member: &Membership,
+    maker: &DisplayMaker,
+    output: ClusterOutput,
+) -> Result<(NodeCounters, String), NodeError> {
+    let ClusterOutput {
+        mut log,
+        windows,
+        mut images,
+        every,
+    } = output;
+    let windowed = windows.is_some();
+    let mut present = |state: &FrameState, display: &mut WallDisplay| -> Result<(), String> {
+        log.presented(state.frame).map_err(|e| e.to_string())?;
+        if !windowed && state.frame.is_multiple_of(every.max(1)) {
+            images.write(state.frame, display)?;
+        }
+        Ok(())
+    };
+    let Some(output) = windows else {
+        return run(member, maker, &mut present);
+    };
+    let mut windows = ClusterWindows {
+        output,
+        then: present,
+    };
+    let ended = run(member, maker, &mut windows)?;
+    print!("{}", windows.output.summary());
+    Ok(ended)
 }
 
 /// Runs the node until the master shuts it down (its reason is returned with the

@@ -108,6 +108,31 @@ pub fn write_frame(
     Ok(())
 }
 
+/// A wall's frames written as images (every eye's EXR and PNG preview) into its folder.
+pub struct FrameImages {
+    pub dir: PathBuf,
+    pub eyes: &'static [Eye],
+    /// The previews' tone mapping (`None`: the tracer's Reinhard preview).
+    pub tone: Option<ToneMapper>,
+    /// Also the priority image, the chosen pixels and a contact sheet of the three.
+    pub debug: bool,
+}
+
+impl FrameImages {
+    /// Writes frame `frame`'s images ([`write_frame`]).
+    pub fn write(&mut self, frame: u64, display: &mut WallDisplay) -> Result<(), String> {
+        write_frame(
+            &self.dir,
+            frame,
+            self.eyes,
+            display,
+            &mut self.tone,
+            self.debug,
+        )
+        .map_err(|e| format!("{e:#}"))
+    }
+}
+
 /// A wall's `presented.log`, appended to as frames are presented.
 pub struct PresentedLog {
     path: PathBuf,

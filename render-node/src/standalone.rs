@@ -6,7 +6,7 @@
 
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use holocave_cave::{Cave, Eye, Size, Wall, wall_frusta};
@@ -18,6 +18,9 @@ use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
 use holocave_tracking::Pose;
 
 use crate::cluster_node::VlfOptions;
+use crate::holodeck::HolodeckCounts;
+use crate::output::FrameImages;
+use crate::wall_windows::WindowOutput;
 use crate::{
     DisplayBuilder, EyeView, Feed, Gpu, HolodeckOptions, HolodeckSource, LightField, RenderCache,
     RenderNodeError, VlfBase, WallDisplay,
@@ -195,29 +198,111 @@ impl Totals {
     }
 }
 
+/// How a standalone run goes: its schedule, the head and moving objects it follows, and
+/// where its frames go.
+pub struct StandaloneRun<'a> {
+    pub cave: &'a Cave,
+    pub wall: &'a Wall,
+    /// Pixels per eye.
+    pub size: Size,
+    pub schedule: Schedule,
+    /// The head pose (room coordinates) at a time in ns from the start.
+    pub head: &'a mut dyn FnMut(u64) -> Pose,
+    /// The moving objects' paths over the same time.
+    pub objects: Option<&'a ObjectPaths>,
+    /// The windows the frames are shown in; `None`: they are written as `images`.
+    pub windows: Option<WindowOutput<'a>>,
+    pub images: FrameImages,
+    /// With windows: the last frame kept on screen this many seconds.
+    pub linger: f64,
+}
+
+/// What a standalone run did, and the holodeck it served (to be stopped) with what its
+/// display received from it.
+pub struct Ran {
+    pub totals: Totals,
+    pub holodeck: Option<(Running, HolodeckCounts)>,
+}
+
+impl StandaloneWall {
+    /// Runs the wall until its schedule ends, a window is closed or its holodeck stops
+    /// (Ctrl-C), presenting every `schedule.every` frames in its windows or as images;
+    /// `shown` hears of every frame drawn ([`run_frames`]). Windows linger on the last
+    /// frame.
+    pub fn run(self, run: StandaloneRun, shown: &mut Shown) -> Result<Ran, String> {
+        let StandaloneWall {
+            mut display,
+            holodeck,
+            ..
+        } = self;
+        let closed = run.windows.as_ref().map(|w| w.screens.closed_flag());
+        let (mut windows, mut images) = (run.windows, run.images);
+        let stopping = || {
+            holodeck.as_ref().is_some_and(Running::stopping)
+                || closed.as_ref().is_some_and(|c| c.load(Ordering::Acquire))
+        };
+        let mut present = |frame: u64, display: &mut WallDisplay| match &mut windows {
+            Some(o) => {
+                o.prepare(display);
+                o.show(frame).map(|_| ())
+            }
+            None => images.write(frame, display),
+        };
+        let frames = Frames {
+            cave: run.cave,
+            wall: run.wall,
+            size: run.size,
+            schedule: run.schedule,
+            head: run.head,
+            objects: run.objects,
+        };
+        let totals = run_frames(&mut display, frames, &stopping, shown, &mut present)?;
+        if let Some(o) = &mut windows {
+            o.finish(&display, (run.linger, run.schedule.fps), totals.frames);
+        }
+        drop(windows);
+        let counts = display.holodeck_counts().unwrap_or_default();
+        Ok(Ran {
+            totals,
+            holodeck: holodeck.map(|h| (h, counts)),
+        })
+    }
+}
+
+/// The frames a standalone run draws: the wall of the CAVE at its size, when, and the head
+/// and moving objects at each frame's time.
+struct Frames<'a> {
+    cave: &'a Cave,
+    wall: &'a Wall,
+    size: Size,
+    schedule: Schedule,
+    head: &'a mut dyn FnMut(u64) -> Pose,
+    objects: Option<&'a ObjectPaths>,
+}
+
 /// Told of each frame drawn: its number, its time (ns from the start), the head pose and
 /// the eyes' views.
 pub type Shown<'a> = dyn FnMut(u64, u64, &Pose, &[EyeView]) + 'a;
 
-/// Runs `wall` of `cave` at `size` pixels per eye until the schedule ends or `stop` says
-/// so. `head` gives the head pose (room coordinates) at a time in ns from the start, and
-/// `objects` the moving objects' paths over the same time; `shown` hears of every frame
-/// drawn (its number, its time in ns, the head pose and the eyes' views) and must not
-/// block; `present` receives every presented frame's number and the display holding its
-/// images.
-#[allow(clippy::too_many_arguments)]
-pub fn run(
+/// Draws `frames` on `display` until the schedule ends or `stop` says so. `shown` hears
+/// of every frame drawn (its number, its time in ns, the head pose and the eyes' views)
+/// and must not block; `present` receives every presented frame's number and the display
+/// holding its images.
+fn run_frames(
     display: &mut WallDisplay,
-    cave: &Cave,
-    wall: &Wall,
-    size: Size,
-    schedule: Schedule,
-    head: &mut dyn FnMut(u64) -> Pose,
-    objects: Option<&ObjectPaths>,
+    frames: Frames,
     stop: &dyn Fn() -> bool,
     shown: &mut Shown,
     present: &mut dyn FnMut(u64, &mut WallDisplay) -> Result<(), String>,
 ) -> Result<Totals, String> {
+    let Frames {
+        cave,
+        wall,
+        size,
+        schedule,
+        head,
+        objects,
+    } = frames;
     let eyes = Eye::for_mode(wall.stereo);
     let mut views: Vec<EyeView> = Vec::new();
     let start = Instant::now();

@@ -265,6 +265,19 @@ impl<'a> WindowOutput<'a> {
         }
     }
 
+    /// The windows' end: with `linger` seconds, the last of `frames` kept on screen that
+    /// long (redrawn at `fps`) unless a window was closed, said first on stdout (tests wait
+    /// for that line before taking a screenshot); then their summary.
+    pub fn finish(&mut self, display: &WallDisplay, (linger, fps): (f64, f64), frames: u64) {
+        let last = frames.saturating_sub(1);
+        if linger > 0.0 && !self.screens.closed() {
+            println!("lingering: frame {last} on screen for {linger} s");
+            let _ = std::io::stdout().flush();
+            self.linger(display, linger, fps, last);
+        }
+        print!("{}", self.summary());
+    }
+
     /// Per-frame costs of presenting, for the summary line.
     pub fn summary(&self) -> String {
         let mut s = format!(

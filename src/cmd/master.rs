@@ -426,8 +426,7 @@ pub fn run(mut args: MasterArgs) -> Result<()> {
     }
     // The holodeck commits what was traced even when the master failed.
     if let Some(h) = hosted {
-        let path = h.path.clone();
-        println!("holodeck {}: {}", path.display(), h.stop()?);
+        holocave::sim::stop_hosted(h)?;
     }
     print_summary(&summary?);
     if interrupted {

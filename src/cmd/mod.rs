@@ -5,6 +5,7 @@ pub mod compare;
 pub mod credentials;
 pub mod daylight;
 pub mod daylight_flags;
+pub mod drawing_flags;
 pub mod fill;
 pub mod glare;
 pub mod glare_annual;

@@ -5,11 +5,9 @@
 //! traces in the file. `--master HOST:PORT` joins a cluster (`render_node::cluster_node`)
 //! and writes the frames the master swaps.
 
-use std::io::Write;
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow, bail};
@@ -20,18 +18,17 @@ use holocave_glare::session::views_at;
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
-use holocave_protocol::cluster::FrameState;
-use holocave_render_node::Prior;
-use holocave_render_node::cluster_node::{self, DisplayMaker, Membership, VlfOptions};
-use holocave_render_node::gpu_rays::Rays;
-use holocave_render_node::holodeck::HolodeckCounts;
-use holocave_render_node::output::{PresentedLog, eye_name, write_frame};
-use holocave_render_node::standalone::{
-    self, OwnHolodeck, Schedule, StandaloneSpec, StandaloneWall,
+use holocave_render_node::cluster_node::{
+    self, ClusterOutput, DisplayMaker, Membership, VlfOptions,
 };
-use holocave_render_node::wall_windows::{ClusterWindows, WindowOutput};
+use holocave_render_node::holodeck::HolodeckCounts;
+use holocave_render_node::output::{FrameImages, PresentedLog, eye_name};
+use holocave_render_node::standalone::{
+    OwnHolodeck, Schedule, StandaloneRun, StandaloneSpec, StandaloneWall,
+};
+use holocave_render_node::wall_windows::WindowOutput;
 use holocave_render_node::window::Screens;
-use holocave_render_node::{EyeView, ToneMapper, VlfDrawing, WallDisplay};
+use holocave_render_node::{EyeView, ToneMapper};
 use holocave_scene::Scene;
 use holocave_tracer::{TraceSettings, Tracer};
 use holocave_tracking::Pose;
@@ -84,28 +81,8 @@ pub struct NodeArgs {
     /// unless this is given.
     #[arg(long)]
     pub(crate) vlf: Option<PathBuf>,
-    /// Where the light field's rays (each pixel's first hit, the direct light's shadow rays,
-    /// gather samples) are traced: `auto`
-    /// (the GPU on a hardware adapter, the CPU on a software one such as lavapipe, where the
-    /// CPU's walk is faster), `gpu` or `cpu`.
-    #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]
-    pub(crate) rays: Rays,
-    /// Leave out the direct light computed per pixel: draw the light field alone, its
-    /// baked direct light included.
-    #[arg(long)]
-    pub(crate) no_direct: bool,
-    /// Take the sky's light per pixel too (two more shadow rays per pixel and frame), under
-    /// the light field's sky as a prior worth 32 of a pixel's estimates: the first frame as
-    /// without, a still view's window light exact within seconds (without, the sky is the
-    /// field's, its reflection in glossy floors sharpened per pixel). Needs a light field
-    /// baked with the sky's part.
-    #[arg(long, conflicts_with = "no_direct")]
-    pub(crate) sky_per_pixel: bool,
-    /// How many samples the light field is worth in a pixel: `auto` (measured at the first
-    /// frame from the feed's own samples: their variance against the field's disagreement
-    /// with their mean) or a number (0: the samples alone).
-    #[arg(long, default_value = "auto", value_parser = str::parse::<Prior>)]
-    pub(crate) vlf_prior: Prior,
+    #[command(flatten)]
+    pub(crate) drawing: super::drawing_flags::DrawingFlags,
     /// With --vlf and no holodeck, the node's own samples are gathers over the light field
     /// (the direct light exact at the point seen and after one bounce, the field beyond)
     /// instead of full paths: far less noise, the field's error only after a bounce.
@@ -234,13 +211,9 @@ pub fn run(args: NodeArgs) -> Result<()> {
 fn vlf_options(args: &NodeArgs) -> VlfOptions {
     VlfOptions {
         own: args.vlf.clone(),
-        prior: args.vlf_prior,
+        prior: args.drawing.vlf_prior,
         gather: args.gather,
-        drawing: VlfDrawing {
-            direct: !args.no_direct,
-            sky_per_pixel: args.sky_per_pixel,
-            rays: args.rays,
-        },
+        drawing: args.drawing.drawing(),
     }
 }
 
@@ -282,34 +255,11 @@ fn standalone(
         println!("holodeck workers and displays may connect to {a}");
     }
     println!("{}", built.described);
-    let StandaloneWall {
-        mut display,
-        holodeck,
-        ..
-    } = built;
-    let efficacy = scene.daylight.photometry.efficacy;
-    let mut tone = args.tone.mapper(efficacy);
-    let windows = windows.map(|mut w| {
-        w.tone.efficacy = efficacy;
-        w
-    });
-    let closed = windows.as_ref().map(|w| w.screens.closed_flag());
-    let mut output = windows
+    let dir = args.out.join(&wall.name);
+    let (images, windows) = frame_images(args, &scene, &dir, eyes, windows);
+    let windows = windows
         .map(|w| WindowOutput::new(w.screens, wall, w.tone, args.window.present_log.as_deref()))
         .transpose()?;
-    let dir = args.out.join(&wall.name);
-    let stopping = || {
-        holodeck.as_ref().is_some_and(Running::stopping)
-            || closed.as_ref().is_some_and(|c| c.load(Ordering::Acquire))
-    };
-    let mut present = |frame: u64, display: &mut WallDisplay| match &mut output {
-        Some(o) => {
-            o.prepare(display);
-            o.show(frame).map(|_| ())
-        }
-        None => write_frame(&dir, frame, eyes, display, &mut tone, args.debug_images)
-            .map_err(|e| format!("{e:#}")),
-    };
     let glare = match (args.glare, &args.vlf) {
         (Some(size), Some(vlf)) => Some(super::glare::start_live(&scene, vlf, size, &dir)?),
         _ => None,
@@ -324,36 +274,28 @@ fn standalone(
             g.offer(views_at(frame, ns, &cave.room_to_scene, orientation, seen));
         }
     };
-    let schedule = Schedule {
-        frames: args.frames,
-        seconds: args.seconds,
-        fps: args.fps,
-        every: args.every,
-    };
-    let totals = standalone::run(
-        &mut display,
+    let run = StandaloneRun {
         cave,
         wall,
         size,
-        schedule,
-        &mut pose_at,
-        objects.as_ref(),
-        &stopping,
-        &mut shown,
-        &mut present,
-    )
-    .map_err(|e| anyhow!(e))?;
+        schedule: Schedule {
+            frames: args.frames,
+            seconds: args.seconds,
+            fps: args.fps,
+            every: args.every,
+        },
+        head: &mut pose_at,
+        objects: objects.as_ref(),
+        windows,
+        images,
+        linger: args.window.linger,
+    };
+    let ran = built.run(run, &mut shown).map_err(|e| anyhow!(e))?;
     if let Some(g) = glare {
         super::glare::finish_live(g, &dir)?;
     }
-    if let Some(o) = &mut output {
-        finish_windows(args, o, &display, totals.frames);
-    }
-    drop(output);
-    let holo_counts = display.holodeck_counts();
-    drop(display);
-    if let (Some(running), Some(path)) = (holodeck, &args.holodeck) {
-        stop_own_holodeck(running, path, holo_counts.unwrap_or_default())?;
+    if let (Some((running, counts)), Some(path)) = (ran.holodeck, &args.holodeck) {
+        stop_own_holodeck(running, path, counts)?;
     }
     let feed = match (&args.holodeck, args.sync) {
         (Some(_), _) => " (the holodeck's workers)",
@@ -364,7 +306,7 @@ fn standalone(
         true => "windows".to_owned(),
         false => dir.display().to_string(),
     };
-    println!("{}; images in {images}", totals.describe(feed));
+    println!("{}; images in {images}", ran.totals.describe(feed));
     Ok(())
 }
 
@@ -387,20 +329,27 @@ fn standalone_objects(
     Ok(objects)
 }
 
-/// The windows' end: the last frame kept on screen for `--linger` seconds, then their
-/// summary.
-fn finish_windows(args: &NodeArgs, o: &mut WindowOutput, display: &WallDisplay, frames: u64) {
-    let last = frames.saturating_sub(1);
-    if args.window.linger > 0.0 && !o.screens.closed() {
-        // Tests wait for this line before taking a screenshot.
-        println!(
-            "lingering: frame {last} on screen for {} s",
-            args.window.linger
-        );
-        let _ = std::io::stdout().flush();
-        o.linger(display, args.window.linger, args.fps, last);
-    }
-    print!("{}", o.summary());
+/// The wall's frames written as images in `dir`, and its windows, each tone-mapped for
+/// the scene's luminous efficacy.
+fn frame_images<'a>(
+    args: &NodeArgs,
+    scene: &Scene,
+    dir: &Path,
+    eyes: &'static [Eye],
+    windows: Option<Windows<'a>>,
+) -> (FrameImages, Option<Windows<'a>>) {
+    let efficacy = scene.daylight.photometry.efficacy;
+    let images = FrameImages {
+        dir: dir.to_owned(),
+        eyes,
+        tone: args.tone.mapper(efficacy),
+        debug: args.debug_images,
+    };
+    let windows = windows.map(|mut w| {
+        w.tone.efficacy = efficacy;
+        w
+    });
+    (images, windows)
 }
 
 /// The flags a standalone node needs together, checked before anything is opened.
@@ -500,32 +449,9 @@ fn in_cluster(
         .secret()
         .map_err(|e| anyhow!("{}: {e}", args.config.display()))?;
     let (scene, tracer) = load_tracer(&args.scene, args.daylight.clone())?;
-    let eyes = Eye::for_mode(wall.stereo);
-    let efficacy = scene.daylight.photometry.efficacy;
-    let mut tone = args.tone.mapper(efficacy);
-    let windows = windows.map(|mut w| {
-        w.tone.efficacy = efficacy;
-        w
-    });
     let dir = args.out.join(&wall.name);
-    let mut log = PresentedLog::append(&dir)?;
-    let every = args.every.max(1);
-    let windowed = windows.is_some();
-    let mut present = |state: &FrameState, display: &mut WallDisplay| -> Result<(), String> {
-        log.presented(state.frame).map_err(|e| e.to_string())?;
-        if !windowed && state.frame.is_multiple_of(every) {
-            write_frame(
-                &dir,
-                state.frame,
-                eyes,
-                display,
-                &mut tone,
-                args.debug_images,
-            )
-            .map_err(|e| format!("{e:#}"))?;
-        }
-        Ok(())
-    };
+    let eyes = Eye::for_mode(wall.stereo);
+    let (images, windows) = frame_images(args, &scene, &dir, eyes, windows);
     let member = Membership {
         master: master.to_owned(),
         cluster: cave.cluster.id.clone(),
@@ -542,24 +468,17 @@ fn in_cluster(
         maker = maker.with_time_of_day(time);
     }
     let maker = maker.with_vlf(scene, vlf_options(args));
-    let (counters, reason) = match windows {
-        Some(Windows { screens, tone }) => {
-            let output = WindowOutput::new(
-                screens,
-                &member.wall,
-                tone,
-                args.window.present_log.as_deref(),
-            )?;
-            let mut windows = ClusterWindows {
-                output,
-                then: present,
-            };
-            let ended = cluster_node::run(&member, &maker, &mut windows)?;
-            print!("{}", windows.output.summary());
-            ended
-        }
-        None => cluster_node::run(&member, &maker, &mut present)?,
+    let windows = windows.map(|w| {
+        let log = args.window.present_log.as_deref();
+        WindowOutput::new(w.screens, &member.wall, w.tone, log)
+    });
+    let output = ClusterOutput {
+        log: PresentedLog::append(&dir)?,
+        windows: windows.transpose()?,
+        images,
+        every: args.every,
     };
+    let (counters, reason) = cluster_node::run_into(&member, &maker, output)?;
     println!(
         "wall {:?}: {} frames presented, {} skipped; master: {reason}",
         member.wall.name, counters.presented, counters.skipped

@@ -21,7 +21,6 @@ use holocave_glare::session::measure_states_log;
 use holocave_holodeck::auth::Credentials;
 use holocave_master::cluster::{MasterOptions, run as run_master};
 use holocave_master::sun_clock::SunClock;
-use holocave_render_node::gpu_rays::Rays;
 use holocave_tracer::cave_holodeck::{HostSpec, Hosted};
 
 use super::credentials;
@@ -93,19 +92,16 @@ pub struct SimArgs {
     #[arg(long)]
     pub vlf: Option<PathBuf>,
     /// No light field: the walls show the render cache alone.
-    #[arg(long, conflicts_with = "vlf")]
+    #[arg(long, conflicts_with_all = ["vlf", "sky_per_pixel"])]
     pub no_vlf: bool,
     /// Also measure the glare of every frame's view (a SIZE×SIZE fisheye drawn from the
     /// light field with the direct light per pixel): `glare.csv` and a summary, computed
     /// after the run from the frame states, so the walls are not slowed.
     #[arg(long, value_name = "SIZE", conflicts_with = "no_vlf")]
     pub glare: Option<u32>,
-    /// Every node takes the sky's light per pixel too (`node --sky-per-pixel`).
-    #[arg(long, conflicts_with = "no_vlf")]
-    pub sky_per_pixel: bool,
-    /// Where each node traces its light field's per-pixel rays (`node --rays`).
-    #[arg(long, default_value = "auto", value_parser = str::parse::<Rays>)]
-    pub rays: Rays,
+    /// How every node draws the light field per pixel (`node`'s flags).
+    #[command(flatten)]
+    pub drawing: super::drawing_flags::DrawingFlags,
     /// Every wall's tone mapping (windows and PNG frames): `camera`, `human` (what a person
     /// would see), `falsecolor` (cd/m² with a legend), or `reinhard` (PNG frames only).
     #[arg(long, value_enum, default_value_t = super::tone::Tone::Camera)]
@@ -280,8 +276,7 @@ fn node_flags(args: &SimArgs, vlf: Option<&Path>) -> Vec<OsString> {
     if let Some(v) = vlf {
         flags.extend(["--vlf".into(), v.into()]);
     }
-    flags.extend(["--rays".into(), args.rays.to_string().into()]);
-    flags.extend(args.sky_per_pixel.then(|| "--sky-per-pixel".into()));
+    flags.extend(args.drawing.node_args());
     flags
 }
 

@@ -214,7 +214,8 @@ fn end_if_the_master_hangs(
     }
 }
 
-/// Stops a hosted holodeck, committing everything traced, and says how much it holds.
+/// Stops a hosted holodeck (`sim`'s, or a master's), committing everything traced, and
+/// says how much it holds.
 pub fn stop_hosted(hosted: Hosted) -> Result<()> {
     let path = hosted.path.clone();
     let stopped = hosted.stop()?;
