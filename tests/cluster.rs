@@ -80,7 +80,7 @@ fn node_with(addr: &str, wall: &str, out: &Path, secret: &str, extra: &[&str]) -
 
 /// The frames a node presented, in order.
 fn presented(out: &Path, wall: &str) -> Vec<u64> {
-    holocave_render_node::output::read_presented(&out.join(wall)).expect("a presented log")
+    holocave_render_node::present::output::read_presented(&out.join(wall)).expect("a presented log")
 }
 
 /// Waits until `cond` holds, polling.

@@ -113,7 +113,7 @@ impl Cluster {
         std::fs::read_to_string(self.dir.join(format!("{name}.log"))).unwrap_or_default()
     }
     fn presented(&self, wall: usize) -> Vec<u64> {
-        holocave_render_node::output::read_presented(&self.walls().join(WALLS[wall]))
+        holocave_render_node::present::output::read_presented(&self.walls().join(WALLS[wall]))
             .unwrap_or_default()
     }
     /// The process `target`'s supervisor runs now.

@@ -65,7 +65,7 @@ fn node(addr: &str, wall: &str, out: &Path, x: Option<&Xvfb>) -> Watched {
 }
 
 fn presented(out: &Path, wall: &str) -> Vec<u64> {
-    holocave_render_node::output::read_presented(&out.join(wall)).expect("a presented log")
+    holocave_render_node::present::output::read_presented(&out.join(wall)).expect("a presented log")
 }
 
 /// Every wall's presented frames in a lockstep run of `frames` frames.

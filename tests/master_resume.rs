@@ -78,7 +78,7 @@ fn node_args(addr: &str, wall: &str, out: &Path) -> Vec<std::ffi::OsString> {
 
 /// The frames `wall` presented so far (none before its log exists).
 fn presented(out: &Path, wall: &str) -> Vec<u64> {
-    holocave_render_node::output::read_presented(&out.join(wall)).unwrap_or_default()
+    holocave_render_node::present::output::read_presented(&out.join(wall)).unwrap_or_default()
 }
 
 /// Waits until `cond` holds, polling; fails at `limit` or when `master` exits first.

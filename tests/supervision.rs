@@ -95,7 +95,8 @@ fn start_sim(dir: &Path, extra: &[&str]) -> Sim {
 
 /// The frames `wall` presented so far (none before its log exists).
 fn presented(dir: &Path, wall: &str) -> Vec<u64> {
-    holocave_render_node::output::read_presented(&dir.join("out").join(wall)).unwrap_or_default()
+    holocave_render_node::present::output::read_presented(&dir.join("out").join(wall))
+        .unwrap_or_default()
 }
 
 /// What `sim` wrote to `name` (`stdout.txt`, `stderr.txt`) so far.
@@ -532,7 +533,7 @@ fn holocave_supervise_keeps_a_clusters_node_running() {
         .map(|w| Watched::spawn(*w, node(w).stderr(std::process::Stdio::null())).unwrap())
         .collect();
     let front = |dir: &Path| {
-        holocave_render_node::output::read_presented(&dir.join("out").join("front"))
+        holocave_render_node::present::output::read_presented(&dir.join("out").join("front"))
             .unwrap_or_default()
     };
     let limit = Duration::from_secs(120);

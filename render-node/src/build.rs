@@ -8,7 +8,7 @@ use std::sync::Arc;
 use holocave_cave::Size;
 use holocave_tracer::Tracer;
 
-use crate::vlf::DEFAULT_PRIOR_SAMPLES;
+use crate::light_field::DEFAULT_PRIOR_SAMPLES;
 
 use crate::{
     Gpu, HolodeckSource, PixelTracer, Prior, RenderCache, RenderNodeError, VlfBase, WallDisplay,

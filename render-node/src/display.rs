@@ -10,10 +10,10 @@ use holocave_scene::{ObjectPaths, Placement, Scene};
 use holocave_tracer::film::Image;
 
 use crate::cache::{RenderCache, StepTimes};
-use crate::holodeck::{HolodeckCounts, HolodeckSource};
-use crate::prior;
-use crate::source::{PixelTracer, TracerThread};
-use crate::vlf::FrameWork;
+use crate::feed::holodeck::{HolodeckCounts, HolodeckSource};
+use crate::feed::tracer::{PixelTracer, TracerThread};
+use crate::light_field::FrameWork;
+use crate::light_field::prior;
 use crate::{EyeView, RenderNodeError, VlfBase};
 
 /// What one frame did.
@@ -57,7 +57,7 @@ pub struct WallDisplay {
     exposure: Option<f32>,
     vlf: Option<Arc<VlfBase>>,
     /// Samples made as the feed makes them, to measure the light field's worth at the
-    /// first frame drawn ([`crate::prior`]); `None` once measured, or when given.
+    /// first frame drawn ([`crate::light_field::prior`]); `None` once measured, or when given.
     measurer: Option<PixelTracer>,
     /// What the light field is worth in samples per pixel now.
     prior: f32,
@@ -126,7 +126,7 @@ impl WallDisplay {
     }
 
     /// Draws the light field `base` under the samples from now on, worth `prior` samples
-    /// per pixel (see `cache/light_field.wgsl`).
+    /// per pixel (see `cache/shade_field.wgsl`).
     pub fn with_vlf(mut self, base: Arc<VlfBase>, prior: f32) -> Result<Self, RenderNodeError> {
         self.cache.set_vlf(base.values(), prior)?;
         self.prior = prior;
@@ -147,7 +147,7 @@ impl WallDisplay {
         }
     }
 
-    /// Measures the light field's worth at the first frame drawn ([`crate::prior`]), with
+    /// Measures the light field's worth at the first frame drawn ([`crate::light_field::prior`]), with
     /// samples `measurer` makes as the feed makes its own.
     pub fn measuring_prior(mut self, measurer: PixelTracer) -> Self {
         self.measurer = Some(measurer);
@@ -175,7 +175,7 @@ impl WallDisplay {
         );
         self.prior = found.samples;
         // Per pixel only under full paths, whose mean is the true radiance (see
-        // `crate::prior`): a gather's mean has the field's error one bounce later.
+        // `crate::light_field::prior`): a gather's mean has the field's error one bounce later.
         let spread = if m.gathers() { 0.0 } else { found.spread };
         self.cache.set_vlf_prior(self.prior, spread);
         base.under_samples(found);

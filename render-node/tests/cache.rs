@@ -521,7 +521,7 @@ fn a_sample_of_an_object_never_joins_a_point_of_the_room_from_the_same_eye() {
 }
 
 /// The light field's worth per pixel follows how the pixel's own samples spread
-/// (`cache/light_field.wgsl`, `pixel_prior`). The field gives 1 everywhere, worth `prior` = 10
+/// (`cache/shade_field.wgsl`, `pixel_prior`). The field gives 1 everywhere, worth `prior` = 10
 /// samples where a sample's variance over `μ² + 0.01` is the display's `spread` (0.25).
 /// Pixel (4, 4) takes eight samples of 3 (variance 0), pixel (2, 2) eight alternating 1
 /// and 5 (mean 3, unbiased variance 4 · 8/7); each pixel's variance is pooled with the

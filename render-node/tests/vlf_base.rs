@@ -145,7 +145,7 @@ fn a_cold_start_shows_the_light_field_and_a_still_viewer_converges() {
         WallDisplay::new(cache, PixelTracer::new(tracer.clone(), 1), samples)
             .with_vlf(
                 base.clone(),
-                holocave_render_node::vlf::DEFAULT_PRIOR_SAMPLES,
+                holocave_render_node::light_field::DEFAULT_PRIOR_SAMPLES,
             )
             .unwrap()
     };

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use anyhow::Result;
 use clap::Args;
-use holocave_render_node::time_of_day::TimeOfDay;
+use holocave_render_node::light_field::time_of_day::TimeOfDay;
 use holocave_scene::daylight::{Moment, Weather, When};
 use holocave_scene::load::load_daylight;
 

@@ -1,8 +1,8 @@
 //! `holocave node`: one render node. `--standalone --headless` runs one wall by itself
-//! (`render_node::standalone`): its own tracker source, path tracer and GPU render cache,
+//! (`render_node::node::standalone`): its own tracker source, path tracer and GPU render cache,
 //! writing each frame's images. With `--holodeck H.hdk` the samples come from a holodeck
 //! server in this process (with `--threads` tracer threads), which keeps every ray it
-//! traces in the file. `--master HOST:PORT` joins a cluster (`render_node::cluster_node`)
+//! traces in the file. `--master HOST:PORT` joins a cluster (`render_node::node::cluster`)
 //! and writes the frames the master swaps.
 
 use std::net::TcpListener;
@@ -18,16 +18,16 @@ use holocave_glare::session::views_at;
 use holocave_holodeck::auth::Port;
 use holocave_holodeck::run::Running;
 use holocave_master::head::Clock;
-use holocave_render_node::cluster_node::{
+use holocave_render_node::feed::holodeck::HolodeckCounts;
+use holocave_render_node::node::cluster::{
     self, ClusterOutput, DisplayMaker, Membership, VlfOptions,
 };
-use holocave_render_node::holodeck::HolodeckCounts;
-use holocave_render_node::output::{FrameImages, PresentedLog, eye_name};
-use holocave_render_node::standalone::{
+use holocave_render_node::node::standalone::{
     OwnHolodeck, Schedule, StandaloneRun, StandaloneSpec, StandaloneWall,
 };
-use holocave_render_node::wall_windows::WindowOutput;
-use holocave_render_node::window::Screens;
+use holocave_render_node::present::output::{FrameImages, PresentedLog, eye_name};
+use holocave_render_node::present::wall_windows::WindowOutput;
+use holocave_render_node::present::window::Screens;
 use holocave_render_node::{EyeView, ToneMapper};
 use holocave_scene::Scene;
 use holocave_tracer::{TraceSettings, Tracer};
@@ -176,29 +176,31 @@ pub fn run(args: NodeArgs) -> Result<()> {
             "--tone reinhard is for PNG previews; windows tone-map with camera, human or falsecolor",
         )?;
         let specs = args.window.specs(&wall, size);
-        return holocave_render_node::window::run(&specs, |mut screens| match &args.master {
-            Some(master) => in_cluster(
-                &args,
-                master,
-                cave,
-                wall,
-                display_id,
-                size,
-                Some(Windows {
-                    screens: &mut screens,
-                    tone,
-                }),
-            ),
-            None => standalone(
-                &args,
-                &cave,
-                &wall,
-                size,
-                Some(Windows {
-                    screens: &mut screens,
-                    tone,
-                }),
-            ),
+        return holocave_render_node::present::window::run(&specs, |mut screens| {
+            match &args.master {
+                Some(master) => in_cluster(
+                    &args,
+                    master,
+                    cave,
+                    wall,
+                    display_id,
+                    size,
+                    Some(Windows {
+                        screens: &mut screens,
+                        tone,
+                    }),
+                ),
+                None => standalone(
+                    &args,
+                    &cave,
+                    &wall,
+                    size,
+                    Some(Windows {
+                        screens: &mut screens,
+                        tone,
+                    }),
+                ),
+            }
         })?;
     }
     match &args.master {
@@ -478,7 +480,7 @@ fn in_cluster(
         images,
         every: args.every,
     };
-    let (counters, reason) = cluster_node::run_into(&member, &maker, output)?;
+    let (counters, reason) = cluster::run_into(&member, &maker, output)?;
     println!(
         "wall {:?}: {} frames presented, {} skipped; master: {reason}",
         member.wall.name, counters.presented, counters.skipped

@@ -7,8 +7,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
 use holocave_cave::{Size, WallView};
-use holocave_render_node::tonemap::wall_directions;
-use holocave_render_node::vision::VeilSources;
+use holocave_render_node::present::tonemap::wall_directions;
+use holocave_render_node::present::vision::VeilSources;
 use holocave_scene::Scene;
 use holocave_tracer::film::Image;
 

@@ -1,7 +1,7 @@
 //! The window flags: `holocave node --window` (the windows of a node's wall from its
 //! config, or one window in `--layout`, placed by `--window-pos` / `--window-size`) and
 //! `holocave sim --window` (every wall's window placed in the unfolded CAVE). What a frame
-//! does with the windows is `holocave_render_node::wall_windows`.
+//! does with the windows is `holocave_render_node::present::wall_windows`.
 
 use std::path::Path;
 
@@ -9,7 +9,7 @@ use anyhow::{Result, bail};
 use clap::Args;
 use holocave_cave::{Eye, Layout, Place, Size, Wall, WindowSettings};
 use holocave_render_node::present::layout_eyes;
-use holocave_render_node::window::WindowSpec;
+use holocave_render_node::present::window::WindowSpec;
 
 /// The node's window options (flattened into `holocave node`).
 #[derive(Args, Clone, Debug, Default)]

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use holocave_cave::{Unfolded, Wall};
-use holocave_render_node::mosaic::write_mosaics;
-use holocave_render_node::wall_windows::present_skew;
+use holocave_render_node::present::mosaic::write_mosaics;
+use holocave_render_node::present::wall_windows::present_skew;
 
 /// Where the frames went: windows, whose present times each node logged, or images
 /// written every `every` frames.

@@ -22,7 +22,7 @@ use holocave_holodeck::auth::Credentials;
 use holocave_master::cluster::FrameHook;
 use holocave_tracer::cave_holodeck::Hosted;
 
-use holocave_render_node::output::presented_logs;
+use holocave_render_node::present::output::presented_logs;
 
 use crate::launch::{Group, worker_command};
 use crate::supervise::{Backoff, Death, Relaunch, Supervisor};

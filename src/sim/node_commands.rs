@@ -4,7 +4,7 @@ use std::process::Command;
 
 use anyhow::{Context, Result};
 use holocave_cave::Wall;
-use holocave_render_node::output::PRESENTED_LOG;
+use holocave_render_node::present::output::PRESENTED_LOG;
 
 use super::SimSpec;
 use crate::launch::SECRET_VAR;

@@ -52,7 +52,7 @@ pub fn cell_at(u: f32, v: f32, r: u32) -> u32 {
 
 /// The value at barycentric `(u, v)` interpolated bilinearly between the four nearest
 /// cell centres of one side (`base` = its first element). The render node's shader
-/// (`render-node/src/cache/light_field.wgsl`) does the same.
+/// (`render-node/src/cache/shade_field.wgsl`) does the same.
 pub fn interpolate(values: &[[f32; 3]], base: u32, r: u32, u: f32, v: f32) -> Vec3 {
     let ([c00, c10, c01, c11], fx, fy) = corners(r, u, v);
     let at = |c: u32| Vec3::from(values[(base + c) as usize]);

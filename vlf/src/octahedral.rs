@@ -132,7 +132,7 @@ pub fn bilinear(k: u32, (x, y): (f32, f32)) -> [(u32, f32); 4] {
 
 /// The value at map coordinates `(x, y)` interpolated bilinearly between the four
 /// nearest bin centres of the tile whose first bin is `base` (clamped at the edges).
-/// The render node's shader (`render-node/src/cache/light_field.wgsl`) does the same.
+/// The render node's shader (`render-node/src/cache/shade_field.wgsl`) does the same.
 pub fn interpolate(values: &[[f32; 3]], base: u32, k: u32, x: f32, y: f32) -> Vec3 {
     bilinear(k, (x, y))
         .iter()

@@ -10,7 +10,7 @@
 //! `emitted + weight · L(tile, x, y)` with `L` its tile's radiance interpolated between
 //! bins ([`crate::octahedral::interpolate`]) in the direction towards the eye
 //! ([`Tiles::view_coords`]). The render node does the second step on the GPU
-//! (`render-node/src/cache/light_field.wgsl`), [`shade`] on the CPU; both read one array of
+//! (`render-node/src/cache/shade_field.wgsl`), [`shade`] on the CPU; both read one array of
 //! values, the elements' irradiance followed by the tiles' radiance
 //! ([`crate::State::values`]).
 
@@ -57,7 +57,7 @@ pub const AVERAGED_FRAMES: u32 = 32;
 
 /// What one pixel (or one ray) sees of the light field.
 /// Laid out as the render node's shader reads it (`Lookup` in
-/// `render-node/src/cache/light_field.wgsl`): uploaded as it is.
+/// `render-node/src/cache/shade_field.wgsl`): uploaded as it is.
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct Lookup {

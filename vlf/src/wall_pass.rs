@@ -15,7 +15,7 @@
 //! | 5. the running means across frames | the wall's [`crate::Accumulator`], a moving eye's pixels carried to its next view ([`crate::carry`], [`WallPass::surfaces_carried`]); one ray: the mean of [`FrameContext::estimates`] |
 //! | 6. caustics, tile albedo, the sky prior | [`WallPass::added`] |
 //! | 7. edges | [`crate::glow_edges`], [`crate::surface_edges`] (a wall's batch, where a pixel's neighbours are known) |
-//! | 8. the lookup shaded, under the render cache | [`shade_one`] (the render node's `cache/light_field.wgsl` on the GPU) |
+//! | 8. the lookup shaded, under the render cache | [`shade_one`] (the render node's `cache/shade_field.wgsl` on the GPU) |
 //!
 //! A frame's parameters reach the stages by value, as one [`FrameContext`]; nothing is set
 //! beforehand for the next frame to find.

@@ -27,18 +27,18 @@ mod age;
 mod dither;
 mod filter;
 mod insert;
-mod light_field;
 mod objects;
 mod project;
+mod shade_field;
 
 use age::Age;
 use dither::Dither;
 use filter::Filter;
 use insert::Insert;
-use light_field::VlfPass;
 use objects::MovePoints;
 pub use objects::{ObjectMove, SKY_SHARE, ShadowLight};
 use project::Project;
+use shade_field::VlfPass;
 
 /// Points per replacement group (the oldest of a group is replaced, groups round robin).
 pub const GROUP_SIZE: u32 = 8;
@@ -349,7 +349,7 @@ struct VlfParams {
     prior: f32,
     /// Values per light-field buffer (the last may hold fewer).
     chunk: u32,
-    /// A sample's variance over `μ² + 0.01` on the display ([`crate::prior::Measured`]);
+    /// A sample's variance over `μ² + 0.01` on the display ([`crate::light_field::prior::Measured`]);
     /// 0: the prior is the same in every pixel.
     spread: f32,
     _pad: [u32; 2],
@@ -526,7 +526,7 @@ impl RenderCache {
     /// Draws a Virtual Light Field under the cache's samples from now on: `values`, the
     /// irradiance of every element then the radiance of every glossy tile's bins (from a
     /// `.vlf` file: `holocave_vlf::State::values`), worth `prior` samples in each pixel (see
-    /// `cache/light_field.wgsl`). Each frame needs every eye's lookups ([`Self::set_lookups`]).
+    /// `cache/shade_field.wgsl`). Each frame needs every eye's lookups ([`Self::set_lookups`]).
     pub fn set_vlf(&mut self, values: &[[f32; 3]], prior: f32) -> Result<(), RenderNodeError> {
         let limit = self.gpu.device.limits().max_storage_buffer_binding_size;
         // Floats per buffer: what one binding holds, in whole 256-byte blocks.
@@ -635,8 +635,8 @@ impl RenderCache {
 
     /// What the light field is worth from now on, in samples per pixel (see
     /// [`Self::set_vlf`]): `prior` where a pixel's samples spread as the display's do,
-    /// `spread` their variance over `μ² + 0.01` ([`crate::prior::Measured::spread`]),
-    /// scaled in each pixel by how its own samples spread (`cache/light_field.wgsl`); with
+    /// `spread` their variance over `μ² + 0.01` ([`crate::light_field::prior::Measured::spread`]),
+    /// scaled in each pixel by how its own samples spread (`cache/shade_field.wgsl`); with
     /// `spread` 0, `prior` in every pixel. Nothing without a light field.
     pub fn set_vlf_prior(&mut self, prior: f32, spread: f32) {
         if let Some(v) = &self.vlf {
@@ -1066,7 +1066,7 @@ mod layout_tests {
     use super::objects::MoveParams;
     use super::{
         EyeParams, GpuPoint, InsertParams, Lookup, NewSample, ObjectMove, ShadowLight, VlfParams,
-        insert, light_field, objects,
+        insert, objects, shade_field,
     };
     use crate::gpu::layout::{assert_same_layout, every_field};
     use crate::gpu::with_common;
@@ -1171,7 +1171,7 @@ mod layout_tests {
 
     #[test]
     fn vlf_wgsl_lookup_and_params_are_laid_out_as_in_rust() {
-        let src = with_common(light_field::SOURCE);
+        let src = with_common(shade_field::SOURCE);
         // `holocave_vlf::Lookup`'s colour arrays are three scalars each in the WGSL.
         let (w, e) = (offset_of!(Lookup, weight), offset_of!(Lookup, emitted));
         assert_same_layout(

@@ -4,7 +4,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::gpu::{Binding, ComputePass, Gpu};
-use crate::tonemap::{LogHistogram, TONE_BINS};
+use crate::present::tonemap::{LogHistogram, TONE_BINS};
 
 /// `MAX_BINS` in the shader.
 const _: () = assert!(TONE_BINS <= 128);

@@ -7,6 +7,17 @@
 //! A lost or outdated surface is reconfigured and that frame skipped; a timeout or an
 //! occluded window skips the frame; a resize (the window's size, as the event loop last
 //! saw it) reconfigures the surface before the next frame. None of these is an error.
+//!
+//! Beside it, everything else between a drawn frame and what a person sees of it:
+//! - [`tonemap`]: Ward Larson's histogram adjustment (camera and human modes) and false
+//!   colour, at display; [`falsecolor`]: luminance on a logarithmic scale with a legend;
+//! - [`vision`]: what a person would see (veiling glare, acuity, colour loss), for the
+//!   human mode, on the CPU and the GPU;
+//! - [`window`]: the node's windows (winit) and their GPU device; [`wall_windows`]: a
+//!   wall's windows frame by frame (tone curve, prepare before Ready, show on Swap, the
+//!   present log) and the skew between walls read from those logs;
+//! - [`output`]: a headless node's files (frame images, `presented.log`) and their reader;
+//!   [`mosaic`]: the unfolded CAVE as one picture.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -15,10 +26,17 @@ use std::time::{Duration, Instant};
 use holocave_cave::{Eye, PresentMode, Size, WindowSettings};
 
 use crate::gpu::Gpu;
-use crate::tonemap::ToneCurve;
+use crate::present::tonemap::ToneCurve;
 
+pub mod falsecolor;
 mod luminance;
+pub mod mosaic;
+pub mod output;
 mod screen;
+pub mod tonemap;
+pub mod vision;
+pub mod wall_windows;
+pub mod window;
 
 pub use luminance::Histogrammer;
 

@@ -4,9 +4,9 @@
 use bytemuck::{Pod, Zeroable};
 use holocave_cave::{Layout, Size, WindowSettings};
 
-use crate::falsecolor::{FalseColor, Legend};
 use crate::gpu::{Gpu, with_common};
-use crate::tonemap::{TONE_BINS, ToneCurve};
+use crate::present::falsecolor::{FalseColor, Legend};
+use crate::present::tonemap::{TONE_BINS, ToneCurve};
 
 /// The shader (compiled after `common.wgsl`, as the compute passes are).
 pub(crate) const SOURCE: &str = include_str!("screen.wgsl");
@@ -299,7 +299,7 @@ impl ScreenParams {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tonemap::{ToneMapper, ToneMode};
+    use crate::present::tonemap::{ToneMapper, ToneMode};
     use glam::Vec3;
     use holocave_tracer::film::Image;
 

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use holocave_cave::Eye;
 
 use crate::display::contact_sheet;
-use crate::tonemap::wall_directions;
-use crate::vision::{VeilSources, perceive};
+use crate::present::tonemap::wall_directions;
+use crate::present::vision::{VeilSources, perceive};
 use crate::{RenderNodeError, ToneMapper, ToneMode, WallDisplay};
 
 /// The presented-frame log's name in a wall's folder.

@@ -2,7 +2,7 @@
 //! the baked irradiance of a `.vlf` file, and its glossy tiles' radiance, go to the GPU once; every frame the node casts
 //! one ray per pixel of each eye (visibility, continued through mirrors and glass:
 //! `holocave_vlf::view`) and the GPU shades each pixel's lookup and blends it under the
-//! render cache's exact samples (`cache/light_field.wgsl`, through [`crate::RenderCache`]).
+//! render cache's exact samples (`cache/shade_field.wgsl`, through [`crate::RenderCache`]).
 //!
 //! The direct light of the sun, punctual lights and emissive triangles is computed per
 //! pixel on the same threads, for the point each pixel's ray found
@@ -32,6 +32,9 @@
 //! sends the weight), and gather samples trace their three batches of rays there
 //! ([`VlfBase::gather`]).
 
+pub mod prior;
+pub mod time_of_day;
+
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
@@ -55,7 +58,7 @@ use rayon::prelude::*;
 use crate::cache::{MAX_OBJECTS, ObjectMove, SKY_SHARE, ShadowLight};
 use crate::gpu_rays::lookups::{LookupComposer, split};
 use crate::gpu_rays::{GpuRays, KeptHits, OnGpu, Query, Rays, ShadowMaker};
-use crate::prior::Measured;
+use crate::light_field::prior::Measured;
 use crate::{EyeView, Gpu, RenderCache, RenderNodeError};
 
 /// How many samples the light field is worth in a pixel unless told. Blending `n`

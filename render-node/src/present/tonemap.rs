@@ -2,9 +2,9 @@
 //! & Piatko 1997; the holodeck paper §2.4.6), in *camera* mode (every luminance level made
 //! visible, contrast never exaggerated) and *human* mode (contrast limited by the
 //! threshold-versus-intensity function of human vision), and *false colour* (luminance on
-//! a fixed logarithmic scale with a legend, [`crate::falsecolor`]). In human mode the
+//! a fixed logarithmic scale with a legend, [`crate::present::falsecolor`]). In human mode the
 //! image is first changed as the eye changes it — veiling glare, acuity and colour loss
-//! ([`crate::vision`], [`ToneMapper::map_view`]) — and the mapping is made from that.
+//! ([`crate::present::vision`], [`ToneMapper::map_view`]) — and the mapping is made from that.
 //!
 //! World luminance is `efficacy` × the Rec. 709 luminance of the scene's radiance (cd/m²);
 //! the efficacy is the tone mapper's (default Radiance's 179 lm/W, or a scene's
@@ -25,8 +25,8 @@
 use glam::{Vec2, Vec3};
 use holocave_tracer::film::{Image, srgb8};
 
-use crate::falsecolor::{FalseColor, Legend};
-use crate::vision::{self, PixelDirections, VeilSources};
+use crate::present::falsecolor::{FalseColor, Legend};
+use crate::present::vision::{self, PixelDirections, VeilSources};
 
 const BINS: usize = 100;
 /// Display luminance range (cd/m²).

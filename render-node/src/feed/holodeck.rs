@@ -46,7 +46,7 @@ use rand::{Rng, SeedableRng, rngs::SmallRng};
 
 use crate::EyeView;
 use crate::cache::{BACKGROUND, NewSample};
-use crate::source::BACKGROUND_DISTANCE;
+use crate::feed::tracer::BACKGROUND_DISTANCE;
 
 /// The surface id of every holodeck sample that hit something (see the module notes).
 pub const HOLODECK_SURFACE: u32 = u32::MAX - 2;

@@ -12,12 +12,12 @@ use glam::Vec3;
 use holocave_cave::{Eye, Size, Wall};
 use holocave_protocol::cluster::{DeskInput, FrameState, VeilSource as WireVeil};
 
-use crate::cluster::Presentation;
+use crate::node::follow::Presentation;
+use crate::present::tonemap::wall_directions;
+use crate::present::vision::gpu::VisionPass;
+use crate::present::vision::{Fovea, VeilSource, VeilSources};
+use crate::present::window::{Screens, WindowError};
 use crate::present::{Histogrammer, Prepared, layout_eyes};
-use crate::tonemap::wall_directions;
-use crate::vision::gpu::VisionPass;
-use crate::vision::{Fovea, VeilSource, VeilSources};
-use crate::window::{Screens, WindowError};
 use crate::{ToneMapper, ToneMode, WallDisplay};
 
 /// A cluster node's windows: each frame prepared before Ready, shown on Swap (then `then`

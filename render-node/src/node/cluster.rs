@@ -19,11 +19,11 @@ use holocave_tracer::Tracer;
 use holocave_vlf::baked::{self, Opened};
 use holocave_vlf::hours::open_blended;
 
-use crate::cluster::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
 use crate::gpu_rays::Rays;
-use crate::output::{FrameImages, PresentedLog};
-use crate::time_of_day::TimeOfDay;
-use crate::wall_windows::{ClusterWindows, WindowOutput};
+use crate::light_field::time_of_day::TimeOfDay;
+use crate::node::follow::{Ended, LinkError, MasterLink, NodeCounters, Presentation, follow};
+use crate::present::output::{FrameImages, PresentedLog};
+use crate::present::wall_windows::{ClusterWindows, WindowOutput};
 use crate::{
     DisplayBuilder, Feed, Gpu, HolodeckSource, LightField, Prior, RenderCache, RenderNodeError,
     VlfBase, VlfDrawing, WallDisplay,
@@ -243,7 +243,7 @@ impl DisplayMaker {
         }
     }
 
-    /// Lights the wall for the time of day of each frame ([`crate::time_of_day`]).
+    /// Lights the wall for the time of day of each frame ([`crate::light_field::time_of_day`]).
     pub fn with_time_of_day(mut self, time: TimeOfDay) -> DisplayMaker {
         self.time = Some(time);
         self
@@ -289,7 +289,7 @@ impl DisplayMaker {
 
     /// The display lit for the frame's time of day `when`, and the holodeck address it
     /// draws from (`None`: tracing locally). At a time other than the start's it traces
-    /// its own samples ([`crate::time_of_day`]) and is kept for the holodeck named all
+    /// its own samples ([`crate::light_field::time_of_day`]) and is kept for the holodeck named all
     /// the same, until the time changes.
     fn display(
         &self,

@@ -1,5 +1,5 @@
 //! The passes of `vision.wgsl`: an eye image in a GPU buffer seen as a person would see it
-//! ([`crate::vision::perceive`] on the GPU), into another buffer that the histogram and the
+//! ([`crate::present::vision::perceive`] on the GPU), into another buffer that the histogram and the
 //! window's tone mapping then read. The foveal grid's geometry (each cell's direction,
 //! solid angle and pixels per degree) is made on the CPU from the view and uploaded: a few
 //! kilobytes per frame; the pixels never leave the GPU.
@@ -218,8 +218,8 @@ impl VisionPass {
 mod tests {
     use super::*;
     use crate::gpu::with_common;
-    use crate::tonemap::{ToneMapper, ToneMode};
-    use crate::vision::VeilSource;
+    use crate::present::tonemap::{ToneMapper, ToneMode};
+    use crate::present::vision::VeilSource;
     use glam::{Vec2, Vec3};
     use holocave_tracer::film::Image;
     use std::mem::{offset_of, size_of};
@@ -336,7 +336,7 @@ mod tests {
 
     fn gpu_equals_cpu(gpu: &Gpu, scale: f32, width: f32) {
         let (img, dirs, sources) = scene(scale, width);
-        let cpu = crate::vision::perceive(&img, &dirs, &sources, 179.0);
+        let cpu = crate::present::vision::perceive(&img, &dirs, &sources, 179.0);
         let fovea = Fovea::new(img.width, img.height, &dirs);
         let data: Vec<[f32; 4]> = img.pixels.iter().map(|p| [p.x, p.y, p.z, 1.0]).collect();
         let buf = gpu.storage_init("image", bytemuck::cast_slice(&data));

@@ -1,7 +1,7 @@
 //! How many samples the light field is worth in a pixel, measured from the samples.
 //!
 //! A pixel shows `(k V + n C̄) / (k + n)`: the light field's value `V` worth `k` samples,
-//! and the mean `C̄` of the `n` samples the render cache holds there (`cache/light_field.wgsl`).
+//! and the mean `C̄` of the `n` samples the render cache holds there (`cache/shade_field.wgsl`).
 //! The samples converge to their own mean `μ = E[C]` (a full path's is the true radiance;
 //! a gather's is the light field's error seen after one bounce); around it, the shown value
 //! has the squared error
@@ -34,7 +34,7 @@
 //! sample squared), so the field's error is the display's, relative to `μ² + 0.01`; `σ²`
 //! is the pixel's own, from the squared luminance its cached point keeps beside the mean,
 //! pooled with the display's [`Measured::spread`] while the point has few samples
-//! (`cache/light_field.wgsl`): where a pixel's samples agree, the field gives way sooner.
+//! (`cache/shade_field.wgsl`): where a pixel's samples agree, the field gives way sooner.
 //!
 //! That is done under full paths only. `k = σ²/b²` is least error against the samples'
 //! own mean, which for a path is the true radiance; a gather's mean keeps the field's
@@ -115,7 +115,7 @@ pub struct Measured {
     pub variance: f64,
     pub bias2: f64,
     /// A sample's variance over `μ² + 0.01`, in luminance, the mean over the pixels: what
-    /// a pixel's own spread is set against (`cache/light_field.wgsl`).
+    /// a pixel's own spread is set against (`cache/shade_field.wgsl`).
     pub spread: f32,
     /// The share of the squared error `samples` stands for (`variance / samples`) that is
     /// the per-pixel direct light's noise with [`MEASURED_ESTIMATES`] estimates in its

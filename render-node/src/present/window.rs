@@ -6,7 +6,7 @@
 //! thread and the node's frame loop on a thread of its own (scoped: it may borrow). Esc
 //! or closing a window sets a flag the frame loop reads ([`Screens::closed`]); a resize
 //! reaches the window's [`Presenter`] through its [`SharedSize`]; the navigating keys and
-//! the mouse go to [`Screens::desk`] ([`crate::desk`]). The event loop ends when the frame
+//! the mouse go to [`Screens::desk`] ([`crate::node::desk`]). The event loop ends when the frame
 //! loop returns.
 
 use std::sync::Arc;
@@ -22,7 +22,7 @@ use winit::keyboard::{Key, NamedKey, PhysicalKey};
 use winit::monitor::MonitorHandle;
 use winit::window::{Window, WindowId};
 
-use crate::desk::{DeskFeed, DeskKeys, control_of};
+use crate::node::desk::{DeskFeed, DeskKeys, control_of};
 use crate::present::{Presenter, SharedSize};
 use crate::{Gpu, RenderNodeError};
 

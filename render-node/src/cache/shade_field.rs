@@ -1,4 +1,4 @@
-//! The light field's pass (`light_field.wgsl`), per eye: shade each pixel's lookup from the baked
+//! The light field's pass (`shade_field.wgsl`), per eye: shade each pixel's lookup from the baked
 //! irradiance and blend it under the cache's samples (or draw it alone).
 
 use crate::gpu::{Binding, ComputePass, Gpu};
@@ -6,7 +6,7 @@ use crate::gpu::{Binding, ComputePass, Gpu};
 use super::Recorder;
 
 /// The shader (compiled after `common.wgsl`: `gpu::with_common`).
-pub(super) const SOURCE: &str = include_str!("light_field.wgsl");
+pub(super) const SOURCE: &str = include_str!("shade_field.wgsl");
 
 /// `@workgroup_size` of the shader's entry points.
 const WORKGROUP: u32 = 256;

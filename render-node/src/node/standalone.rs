@@ -17,10 +17,10 @@ use holocave_tracer::Tracer;
 use holocave_tracer::cave_holodeck::{CaveHolodeck, Serving};
 use holocave_tracking::Pose;
 
-use crate::cluster_node::VlfOptions;
-use crate::holodeck::HolodeckCounts;
-use crate::output::FrameImages;
-use crate::wall_windows::WindowOutput;
+use crate::feed::holodeck::HolodeckCounts;
+use crate::node::cluster::VlfOptions;
+use crate::present::output::FrameImages;
+use crate::present::wall_windows::WindowOutput;
 use crate::{
     DisplayBuilder, EyeView, Feed, Gpu, HolodeckOptions, HolodeckSource, LightField, RenderCache,
     RenderNodeError, VlfBase, WallDisplay,

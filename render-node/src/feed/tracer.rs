@@ -1,6 +1,6 @@
 //! Samples traced by the node itself: the chosen pixels of an eye become jittered eye
 //! rays, traced by the path tracer, and come back as [`NewSample`]s. (The other source is
-//! a holodeck server: [`crate::holodeck`].)
+//! a holodeck server: [`crate::feed::holodeck`].)
 
 use std::sync::Arc;
 

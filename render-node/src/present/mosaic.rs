@@ -7,7 +7,7 @@ use holocave_cave::{Eye, Unfolded, Wall};
 use image::{Rgb, RgbImage};
 
 use crate::RenderNodeError;
-use crate::output::frame_png;
+use crate::present::output::frame_png;
 
 /// Grey of the empty parts of the picture.
 const EMPTY: Rgb<u8> = Rgb([48, 48, 48]);
