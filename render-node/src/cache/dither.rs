@@ -4,7 +4,7 @@
 
 use crate::gpu::{Binding, ComputePass, Gpu};
 
-use super::Recorder;
+use super::recorder::Recorder;
 
 /// `@workgroup_size` of the shader's entry point.
 const WORKGROUP: u32 = 64;

@@ -6,7 +6,7 @@
 
 use crate::gpu::{Binding, ComputePass, Gpu};
 
-use super::Recorder;
+use super::recorder::Recorder;
 
 /// The shader (compiled after `common.wgsl`: `gpu::with_common`).
 pub(super) const SOURCE: &str = include_str!("insert.wgsl");

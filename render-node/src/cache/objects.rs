@@ -8,7 +8,8 @@ use glam::{Mat4, Vec3, Vec4};
 
 use crate::gpu::{Binding, ComputePass, Gpu};
 
-use super::{MAX_OBJECTS, Recorder};
+use super::MAX_OBJECTS;
+use super::recorder::Recorder;
 
 pub(super) const SOURCE: &str = include_str!("objects.wgsl");
 /// `@workgroup_size` of the shader's entry point.
