@@ -114,11 +114,17 @@ fn smoothed_anew(
     if elements.count == 0 {
         return out;
     }
-    let planes = Planes::new(scene, elements, tiles, values);
-    let smoothed: Vec<(usize, Vec<Vec3>)> = (0..elements.count)
+    let planes = &Planes::new(scene, elements, tiles, values);
+    // Cell by cell: the elements of a cell share the neighbours they look at.
+    let cells: Vec<(&IVec3, &Vec<u32>)> = planes.grid.iter().collect();
+    let smoothed: Vec<(usize, Vec<Vec3>)> = cells
         .into_par_iter()
-        .filter(|&e| planes.taking[e])
-        .map(|e| (e, planes.mean_around(e, values)))
+        .flat_map_iter(|(&at, list)| {
+            let around = planes.around(at);
+            list.iter()
+                .map(move |&e| (e as usize, planes.mean_among(e as usize, &around, values)))
+                .collect::<Vec<_>>()
+        })
         .collect();
     for (e, v) in smoothed {
         for (o, x) in out[planes.range_of(e)].iter_mut().zip(v) {
@@ -128,6 +134,18 @@ fn smoothed_anew(
     out
 }
 
+/// What a mean looks at of an element taking part: where it lies, its side's normal, its
+/// area and log luminance, and whether it has a tile.
+#[derive(Clone, Copy)]
+struct Taker {
+    index: u32,
+    place: Vec3,
+    normal: Vec3,
+    area: f32,
+    log_lum: f32,
+    tiled: bool,
+}
+
 /// The elements that take part, where they lie, a grid of them by place, and their log
 /// luminance: what each element's mean looks at.
 struct Planes<'a> {
@@ -135,15 +153,10 @@ struct Planes<'a> {
     radius: f32,
     /// How far an element may lie off another's plane.
     tolerance: f32,
-    area: Vec<f32>,
-    taking: Vec<bool>,
-    /// Each taking part element's centre and side's normal (the rest are not looked at).
-    place: Vec<(Vec3, Vec3)>,
     /// The taking part elements by cell of `radius`.
     grid: HashMap<IVec3, Vec<u32>>,
-    /// Each taking part element's log luminance (a tile's: its bins' mean), for the range
-    /// weight.
-    log_lum: Vec<f32>,
+    /// Each element as the means look at it (meaningful where it takes part).
+    takers: Vec<Taker>,
 }
 
 impl<'a> Planes<'a> {
@@ -155,50 +168,38 @@ impl<'a> Planes<'a> {
         let taking: Vec<bool> = (0..elements.count)
             .map(|e| scene.triangle_area(centres[e].0) >= large_area && area[e] >= least_element)
             .collect();
-        let place: Vec<(Vec3, Vec3)> = (0..elements.count)
+        let mut planes = Planes {
+            tiles,
+            radius,
+            tolerance: PLANE_TOLERANCE * elements.element_size,
+            grid: HashMap::new(),
+            takers: Vec::new(),
+        };
+        planes.takers = (0..elements.count)
             .into_par_iter()
             .map(|e| {
+                let mut taker = Taker {
+                    index: e as u32,
+                    place: Vec3::ZERO,
+                    normal: Vec3::ZERO,
+                    area: area[e],
+                    log_lum: 0.0,
+                    tiled: tiles.of(e as u32).is_some(),
+                };
                 if !taking[e] {
-                    return (Vec3::ZERO, Vec3::ZERO);
+                    return taker;
                 }
                 let (t, u, v) = centres[e];
                 let c = elements.triangles[t as usize];
                 let back = e as u32 >= c.base(1);
-                let n = scene.face_normal(t) * if back { -1.0 } else { 1.0 };
+                taker.normal = scene.face_normal(t) * if back { -1.0 } else { 1.0 };
                 let hit = Hit {
                     triangle: t,
                     t: 0.0,
                     u,
                     v,
                 };
-                (scene.surface(&hit).position, n)
-            })
-            .collect();
-        let mut planes = Planes {
-            tiles,
-            radius,
-            tolerance: PLANE_TOLERANCE * elements.element_size,
-            area,
-            taking,
-            place,
-            grid: HashMap::new(),
-            log_lum: Vec::new(),
-        };
-        for (e, (p, _)) in planes.place.iter().enumerate() {
-            if planes.taking[e] {
-                planes
-                    .grid
-                    .entry(planes.cell(*p))
-                    .or_default()
-                    .push(e as u32);
-            }
-        }
-        planes.log_lum = (0..elements.count)
-            .into_par_iter()
-            .map(|e| {
-                if !planes.taking[e] {
-                    return 0.0;
-                }
+                taker.place = scene.surface(&hit).position;
                 let r = planes.range_of(e);
                 let n = r.len() as f32;
                 let mean = values[r]
@@ -206,9 +207,16 @@ impl<'a> Planes<'a> {
                     .map(|v| luminance(Vec3::from(*v)))
                     .sum::<f32>()
                     / n;
-                mean.max(f32::MIN_POSITIVE).ln()
+                taker.log_lum = mean.max(f32::MIN_POSITIVE).ln();
+                taker
             })
             .collect();
+        for (e, t) in planes.takers.iter().enumerate() {
+            if taking[e] {
+                let at = planes.cell(t.place);
+                planes.grid.entry(at).or_default().push(e as u32);
+            }
+        }
         planes
     }
 
@@ -229,44 +237,55 @@ impl<'a> Planes<'a> {
         }
     }
 
-    /// Element `e`'s mean of `values` over the elements of its plane and side within the
-    /// radius that are alike in value, diffuse with diffuse, a tile with tiles.
-    fn mean_around(&self, e: usize, values: &[[f32; 3]]) -> Vec<Vec3> {
-        let (p, n) = self.place[e];
-        let at = self.cell(p);
-        let tiled = self.tiles.of(e as u32).is_some();
-        let own = self.log_lum[e];
-        let mut sum = vec![Vec3::ZERO; self.range_of(e).len()];
-        let mut w = 0.0f32;
+    /// The elements an element of cell `at` may take its mean over: those of the cell and
+    /// its 26 neighbours, in a fixed order.
+    fn around(&self, at: IVec3) -> Vec<Taker> {
+        let mut around = Vec::new();
         for dz in -1..=1 {
             for dy in -1..=1 {
                 for dx in -1..=1 {
-                    let Some(list) = self.grid.get(&(at + IVec3::new(dx, dy, dz))) else {
-                        continue;
-                    };
-                    for &j in list {
-                        let j = j as usize;
-                        let (q, m) = self.place[j];
-                        let d = q - p;
-                        let dist = d.length();
-                        if dist >= self.radius
-                            || n.dot(m) < SAME_NORMAL
-                            || n.dot(d).abs() > self.tolerance
-                            || self.tiles.of(j as u32).is_some() != tiled
-                        {
-                            continue;
-                        }
-                        let range = (self.log_lum[j] - own).powi(2);
-                        let weight = self.area[j]
-                            * (1.0 - dist / self.radius)
-                            * (-range / (2.0 * RANGE_SIGMA * RANGE_SIGMA)).exp();
-                        for (s, v) in sum.iter_mut().zip(&values[self.range_of(j)]) {
-                            *s += Vec3::from(*v) * weight;
-                        }
-                        w += weight;
+                    if let Some(list) = self.grid.get(&(at + IVec3::new(dx, dy, dz))) {
+                        around.extend(list.iter().map(|&j| self.takers[j as usize]));
                     }
                 }
             }
+        }
+        around
+    }
+
+    /// Element `e`'s mean of `values` over the elements `around` it that lie on its plane
+    /// and side within the radius and are alike in value, diffuse with diffuse, a tile
+    /// with tiles.
+    fn mean_among(&self, e: usize, around: &[Taker], values: &[[f32; 3]]) -> Vec<Vec3> {
+        let me = self.takers[e];
+        let mut sum = vec![Vec3::ZERO; self.range_of(e).len()];
+        let mut w = 0.0f32;
+        for j in around {
+            if j.tiled != me.tiled || me.normal.dot(j.normal) < SAME_NORMAL {
+                continue;
+            }
+            let d = j.place - me.place;
+            if me.normal.dot(d).abs() > self.tolerance {
+                continue;
+            }
+            let dist = d.length();
+            if dist >= self.radius {
+                continue;
+            }
+            let range = (j.log_lum - me.log_lum).powi(2);
+            let weight = j.area
+                * (1.0 - dist / self.radius)
+                * (-range / (2.0 * RANGE_SIGMA * RANGE_SIGMA)).exp();
+            match sum.as_mut_slice() {
+                [s] => *s += Vec3::from(values[j.index as usize]) * weight,
+                bins => {
+                    let theirs = &values[self.range_of(j.index as usize)];
+                    for (s, v) in bins.iter_mut().zip(theirs) {
+                        *s += Vec3::from(*v) * weight;
+                    }
+                }
+            }
+            w += weight;
         }
         sum.into_iter()
             .map(|s| s / w.max(f32::MIN_POSITIVE))
