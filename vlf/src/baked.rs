@@ -4,6 +4,7 @@
 //! scene it is drawn with (elements and tiles laid out alike).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use holocave_scene::Scene;
@@ -51,6 +52,18 @@ pub struct Opened {
     pub file: VlfFile,
     pub elements: Elements,
     pub tiles: Tiles,
+    /// For a bake set's blend (`file.state`), the two bakes it was blended from: the walls
+    /// smooth each bake's remainder alone and blend the smoothed fields
+    /// ([`crate::split::Split`]), so a new time of day smooths nothing again.
+    pub blended: Option<Arc<Blended>>,
+}
+
+/// The two bakes around a time of day, and how far the time lies from the first to the
+/// second (0 to 1).
+pub struct Blended {
+    pub before: State,
+    pub after: State,
+    pub t: f32,
 }
 
 /// Opens `path` for `scene`: refuses a file baked for another scene (by its fingerprint)
@@ -81,6 +94,7 @@ pub fn open(path: &Path, scene: &Scene) -> Result<Opened, BakedError> {
         file,
         elements,
         tiles,
+        blended: None,
     })
 }
 

@@ -7,11 +7,12 @@
 //! them. Its error against a bake at the exact time: `docs/performance/vlf.md`.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use chrono::{NaiveDateTime, Timelike};
 
 use crate::bake::State;
-use crate::baked::Opened;
+use crate::baked::{Blended, Opened};
 use crate::file::VlfFile;
 
 /// The file-name form of a bake's time.
@@ -204,11 +205,17 @@ pub fn blend(a: &State, b: &State, t: f32) -> Result<State, String> {
 /// (its elements and tiles: the same geometry and settings) is kept.
 pub fn blend_opened(before: Opened, after: &Opened, t: f32) -> Result<Opened, String> {
     let state = blend(&before.file.state, &after.file.state, t)?;
+    let blended = Blended {
+        before: before.file.state.clone(),
+        after: after.file.state.clone(),
+        t,
+    };
     Ok(Opened {
         file: VlfFile {
             state,
             ..before.file
         },
+        blended: Some(Arc::new(blended)),
         ..before
     })
 }

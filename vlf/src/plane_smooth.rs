@@ -51,10 +51,14 @@ const LARGE: f32 = 0.25;
 /// one sees on a strip a few centimetres wide.
 const LEAST_ELEMENT: f32 = 0.25;
 
-/// The last field smoothed in this process, by a checksum of its values and layout: a
-/// node lighting its wall for another time of day draws the same bake again, and
-/// smoothing it is most of that work (1.3 s of 1.5 on the room, four nodes on two cores).
-static LAST: Mutex<Option<Smoothed>> = Mutex::new(None);
+/// The last fields smoothed in this process ([`KEPT`] at most, the newest last), by a
+/// checksum of their values and layout: a node lighting its wall for another time of day
+/// draws the same bake again, or a bake set's same two bakes blended anew, and smoothing
+/// them is most of that work (1.3 s of 1.5 on the room, four nodes on two cores).
+static LAST: Mutex<Vec<Smoothed>> = Mutex::new(Vec::new());
+
+/// How many smoothed fields are kept: a bake set's two around the time of day.
+const KEPT: usize = 2;
 
 /// A field smoothed, and the checksum of what it was smoothed from.
 struct Smoothed {
@@ -64,8 +68,8 @@ struct Smoothed {
 
 /// `values` (the elements', then the tiles') with each element of a large triangle
 /// averaged over the elements of its plane and side within [`RADIUS`] element sizes that
-/// are alike in value, diffuse with diffuse, a tile with tiles bin by bin. The last field
-/// smoothed is kept, and given again for the same values and layout.
+/// are alike in value, diffuse with diffuse, a tile with tiles bin by bin. The last fields
+/// smoothed are kept, and given again for the same values and layout.
 pub fn smooth_over_planes(
     scene: &Scene,
     elements: &Elements,
@@ -74,13 +78,17 @@ pub fn smooth_over_planes(
 ) -> Vec<[f32; 3]> {
     let key = checksum(scene, elements, values);
     let mut last = LAST.lock().unwrap_or_else(|p| p.into_inner());
-    if let Some(kept) = last.as_ref()
-        && kept.key == key
-    {
-        return kept.values.clone();
+    if let Some(at) = last.iter().position(|kept| kept.key == key) {
+        let kept = last.remove(at);
+        let values = kept.values.clone();
+        last.push(kept);
+        return values;
     }
     let smoothed = smoothed_anew(scene, elements, tiles, values);
-    *last = Some(Smoothed {
+    if last.len() == KEPT {
+        last.remove(0);
+    }
+    last.push(Smoothed {
         key,
         values: smoothed.clone(),
     });

@@ -26,6 +26,7 @@ use holocave_scene::Scene;
 use holocave_tracer::lights::Lights;
 
 use crate::bake::{Settings, State};
+use crate::baked::Blended;
 use crate::caustics::{Caustics, PHOTONS};
 use crate::elements::Elements;
 use crate::pixel_direct::PixelDirect;
@@ -55,30 +56,48 @@ impl Split {
         scene: Arc<Scene>,
         settings: &Settings,
         state: &State,
+        layout: (&Elements, &Tiles),
+        sky_per_pixel: bool,
+    ) -> Result<Split, String> {
+        Self::of_parts(scene, settings, (state, None), layout, sky_per_pixel)
+    }
+
+    /// [`Self::new`] of `state`, which may be a bake set's blend of two bakes
+    /// (`blended`): then each bake's remainder is smoothed over planes alone and the
+    /// smoothed remainders are blended, so each bake is smoothed once (and kept,
+    /// [`smooth_over_planes`]) whatever the time of day.
+    pub fn of_parts(
+        scene: Arc<Scene>,
+        settings: &Settings,
+        (state, blended): (&State, Option<&Blended>),
         (elements, tiles): (&Elements, &Tiles),
         sky_per_pixel: bool,
     ) -> Result<Split, String> {
         let direct = PixelDirect::new(scene.clone());
         let directions = Settings::rounded_directions(settings.directions);
         let caustics = Caustics::trace(&scene, &Lights::new(&scene), PHOTONS).map(Arc::new);
-        // The field less what is taken per pixel; smoothed over planes after, so that
-        // the caustics' sharp part is not spread into the rest.
-        let remainder = |values: Vec<[f32; 3]>| {
+        // The field less what is taken per pixel (`part` of a state); smoothed over
+        // planes after, so that the caustics' sharp part is not spread into the rest.
+        let smoothed = |s: &State, part: &dyn Fn(&State) -> Vec<[f32; 3]>| {
             let values = match &caustics {
-                Some(_) => state.less_caustics(values),
-                None => values,
+                Some(_) => s.less_caustics(part(s)),
+                None => part(s),
             };
             smooth_over_planes(&scene, elements, tiles, &values)
         };
+        let remainder = |part: &dyn Fn(&State) -> Vec<[f32; 3]>| match blended {
+            None => smoothed(state, part),
+            Some(b) => mix(&smoothed(&b.before, part), &smoothed(&b.after, part), b.t),
+        };
         if sky_per_pixel {
-            let parts = state.indirect_values_without_sky().zip(state.sky_values());
-            let (without_sky, field_sky) = parts
+            let field_sky = (state.indirect_values_without_sky().and(state.sky_values()))
                 .ok_or("holds no sky part: bake it again to take the sky per pixel".to_string())?;
+            let without_sky = |s: &State| s.indirect_values_without_sky().unwrap_or_default();
             return Ok(Split {
                 direct: direct
                     .with_sky(true)
                     .with_tile_albedo(TileAlbedo::new(tiles, directions, None)),
-                remainder: remainder(without_sky),
+                remainder: remainder(&without_sky),
                 sky: Some(field_sky),
                 caustics,
             });
@@ -90,9 +109,16 @@ impl Split {
             direct: direct
                 .with_sharp_sky_reflections(floor, tiles.triangles_widened(elements))
                 .with_tile_albedo(tile_albedo),
-            remainder: remainder(state.indirect_values()),
+            remainder: remainder(&State::indirect_values),
             sky: None,
             caustics,
         })
     }
+}
+
+/// `(1 − t)·a + t·b`, value by value.
+fn mix(a: &[[f32; 3]], b: &[[f32; 3]], t: f32) -> Vec<[f32; 3]> {
+    (a.iter().zip(b))
+        .map(|(p, q)| std::array::from_fn(|i| (1.0 - t) * p[i] + t * q[i]))
+        .collect()
 }

@@ -29,7 +29,7 @@ use holocave_tracer::film::Image;
 use rayon::prelude::*;
 
 use crate::bake::{Settings, State};
-use crate::baked::Opened;
+use crate::baked::{Blended, Opened};
 use crate::footprint::Screen;
 use crate::object_gather::ObjectGather;
 use crate::pixel_direct::{DirectPoint, Estimate, PixelDirect};
@@ -91,6 +91,17 @@ impl WallPass {
         state: &State,
         sky_per_pixel: bool,
     ) -> Result<WallPass, String> {
+        Self::of_parts(visibility, settings, (state, None), sky_per_pixel)
+    }
+
+    /// [`Self::new`] of a state that may be a bake set's blend of two bakes (`blended`),
+    /// whose remainders are smoothed each alone ([`Split::of_parts`]).
+    fn of_parts(
+        visibility: Visibility,
+        settings: &Settings,
+        (state, blended): (&State, Option<&Blended>),
+        sky_per_pixel: bool,
+    ) -> Result<WallPass, String> {
         let scene = visibility.scene().clone();
         let layout = (visibility.elements(), visibility.tiles());
         let Split {
@@ -98,7 +109,7 @@ impl WallPass {
             remainder,
             sky,
             caustics,
-        } = Split::new(scene, settings, state, layout, sky_per_pixel)?;
+        } = Split::of_parts(scene, settings, (state, blended), layout, sky_per_pixel)?;
         let total = Arc::new(state.values());
         visibility.light_objects(total.clone());
         if let Some(c) = caustics {
@@ -126,9 +137,16 @@ impl WallPass {
             file,
             elements,
             tiles,
+            blended,
         } = opened;
         let visibility = Visibility::new(scene, elements, tiles);
-        Self::new(visibility, &file.settings, &file.state, sky_per_pixel)
+        let parts = blended.as_deref();
+        Self::of_parts(
+            visibility,
+            &file.settings,
+            (&file.state, parts),
+            sky_per_pixel,
+        )
     }
 
     /// With `on` false, without the moving objects' darkening of the light field near

@@ -6,8 +6,10 @@ use crate::common;
 
 use glam::Vec3;
 use holocave_scene::{Hit, Scene};
+use holocave_vlf::baked::Blended;
 use holocave_vlf::plane_smooth::{RADIUS, smooth_over_planes};
-use holocave_vlf::{Elements, Settings};
+use holocave_vlf::split::Split;
+use holocave_vlf::{Elements, Settings, State};
 
 const SIZE: f32 = 0.05;
 const STRIP: f32 = 1.3;
@@ -162,4 +164,57 @@ fn a_glossy_planes_tiles_are_smoothed_bin_by_bin() {
         }
     }
     assert!(tiled > 100, "{tiled} inner tiles");
+}
+
+/// A bake set's blend of two bakes (`Split::of_parts`) draws each bake's remainder
+/// smoothed alone, then blended: the same field whatever time of day between them, so a
+/// node smooths each bake once (kept) and a new time smooths nothing. It is not the blend
+/// smoothed, which the smoothing's range weights make another field (checked too, so the
+/// test sees a difference where it must).
+#[test]
+fn a_blend_of_two_bakes_is_the_blend_of_each_smoothed() {
+    let glowing = common::lambert("glowing", 0.5, Vec3::ONE);
+    let scene = std::sync::Arc::new(common::closed_box("blend", 2.0, glowing));
+    let settings = Settings {
+        directions: 12,
+        resolution: 16,
+        element_size: Some(0.25),
+        direct_samples: 4,
+        tolerance: 1e-2,
+        max_bounces: 50,
+        ..Settings::default()
+    };
+    let (a, _) = common::bake_quiet(&scene, &settings);
+    // A second bake whose light differs from place to place (a mere scaling of the first
+    // would be smoothed alike).
+    let mut b = a.clone();
+    for (i, v) in b.irradiance.iter_mut().enumerate() {
+        let k = 1.0 + (i % 7) as f32 * 0.3;
+        v.iter_mut().for_each(|c| *c *= k);
+    }
+    let t = 0.25;
+    let blend = holocave_vlf::hours::blend(&a, &b, t).unwrap();
+    let vis = holocave_vlf::Visibility::of(scene.clone(), &settings);
+    let layout = (vis.elements(), vis.tiles());
+    let parts = Blended {
+        before: a.clone(),
+        after: b.clone(),
+        t,
+    };
+    let split = |s: &State, parts: Option<&Blended>| {
+        Split::of_parts(scene.clone(), &settings, (s, parts), layout, false)
+            .unwrap()
+            .remainder
+    };
+    let drawn = split(&blend, Some(&parts));
+    let (ra, rb) = (split(&a, None), split(&b, None));
+    let want: Vec<[f32; 3]> = (ra.iter().zip(&rb))
+        .map(|(p, q)| std::array::from_fn(|i| (1.0 - t) * p[i] + t * q[i]))
+        .collect();
+    assert_eq!(drawn, want, "each bake smoothed alone, then blended");
+    assert_ne!(
+        split(&blend, None),
+        want,
+        "the blend smoothed is another field"
+    );
 }
