@@ -14,7 +14,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::DVec3;
-use holocave::sim::frames::{self, Shown};
+use holocave::sim::frames::{self, ShownIn};
 use holocave::sim::{SimCluster, SimSpec};
 use holocave_cave::{Cave, load_cave, unfold};
 use holocave_glare::session::measure_states_log;
@@ -191,8 +191,8 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     // them at once.
     ending_at_once(again, || {
         let shown = match args.windows.window {
-            true => Shown::Windows,
-            false => Shown::Images {
+            true => ShownIn::Windows,
+            false => ShownIn::Images {
                 every: args.every,
                 unfolded: &unfolded,
             },

@@ -5,13 +5,13 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
-use super::{Ended, node_name};
+use super::{Aftermath, node_name};
 
 /// The lines: how many died and were started again (`restarting`: whether they were to
 /// be), then each death. Times are seconds from the processes' start; `presented` holds
 /// each wall's presented frames.
 pub fn report(
-    ended: &Ended,
+    ended: &Aftermath,
     restarting: bool,
     presented: &BTreeMap<String, BTreeSet<u64>>,
 ) -> Vec<String> {

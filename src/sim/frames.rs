@@ -12,15 +12,20 @@ use holocave_render_node::present::wall_windows::present_skew;
 
 /// Where the frames went: windows, whose present times each node logged, or images
 /// written every `every` frames.
-pub enum Shown<'a> {
+pub enum ShownIn<'a> {
     Windows,
     Images { every: u64, unfolded: &'a Unfolded },
 }
 
 /// With windows, how far apart `walls` presented each frame; with images, the mosaics of
 /// the frames written among those some wall presented (`all`). The lines to print.
-pub fn shown(out: &Path, walls: &[Wall], shown: Shown, all: &BTreeSet<u64>) -> Result<Vec<String>> {
-    let Shown::Images { every, unfolded } = shown else {
+pub fn shown(
+    out: &Path,
+    walls: &[Wall],
+    shown: ShownIn,
+    all: &BTreeSet<u64>,
+) -> Result<Vec<String>> {
+    let ShownIn::Images { every, unfolded } = shown else {
         let logs: Vec<(String, PathBuf)> = (walls.iter())
             .map(|w| (w.name.clone(), out.join(&w.name).join("present-times.log")))
             .collect();

@@ -63,7 +63,7 @@ pub struct SimCluster {
 }
 
 /// What became of the processes once the master returned.
-pub struct Ended {
+pub struct Aftermath {
     /// The nodes and workers, to wait for.
     pub children: Group,
     /// Every death the supervisor saw.
@@ -73,7 +73,7 @@ pub struct Ended {
     pub sent: Vec<Instant>,
 }
 
-impl Ended {
+impl Aftermath {
     /// Waits up to `limit` for the nodes and workers to exit (told to shut down, they end
     /// at once; one that does not is killed), then reads what each wall in `out` presented:
     /// the summary's lines on the processes that died (`restarting`: whether they were to
@@ -154,7 +154,7 @@ impl SimCluster {
         interrupted: &(dyn Fn() -> bool + Sync),
         on_hang: &(dyn Fn() + Sync),
         master: impl FnOnce() -> T,
-    ) -> Result<(T, Ended)> {
+    ) -> Result<(T, Aftermath)> {
         let origin = self.supervisor.started;
         let sent = self.sent.clone();
         let running = Mutex::new(Some(self));
@@ -169,7 +169,7 @@ impl SimCluster {
             stop_hosted(h)?;
         }
         let sent = lock(&sent).clone();
-        let ended = Ended {
+        let ended = Aftermath {
             children,
             deaths,
             origin,

@@ -203,20 +203,24 @@ pub fn blend(a: &State, b: &State, t: f32) -> Result<State, String> {
 
 /// Two opened bakes of a set mixed as [`blend`] mixes their states; `before`'s layout
 /// (its elements and tiles: the same geometry and settings) is kept.
-pub fn blend_opened(before: Opened, after: &Opened, t: f32) -> Result<Opened, String> {
+pub fn blend_opened(before: Opened, after: Opened, t: f32) -> Result<Opened, String> {
     let state = blend(&before.file.state, &after.file.state, t)?;
+    let Opened {
+        file,
+        elements,
+        tiles,
+        ..
+    } = before;
     let blended = Blended {
-        before: before.file.state.clone(),
-        after: after.file.state.clone(),
+        before: file.state,
+        after: after.file.state,
         t,
     };
     Ok(Opened {
-        file: VlfFile {
-            state,
-            ..before.file
-        },
+        file: VlfFile { state, ..file },
+        elements,
+        tiles,
         blended: Some(Arc::new(blended)),
-        ..before
     })
 }
 
@@ -236,7 +240,7 @@ pub fn open_blended(
         before
     } else {
         let after = open_at(bracket.after.0, &bracket.after.1)?;
-        blend_opened(before, &after, bracket.t)?
+        blend_opened(before, after, bracket.t)?
     };
     Ok((blended, bracket))
 }
