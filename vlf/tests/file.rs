@@ -11,15 +11,7 @@ use holocave_scene::Scene;
 use holocave_vlf::{Settings, VlfError, VlfFile, layout};
 
 fn settings() -> Settings {
-    Settings {
-        directions: 12,
-        resolution: 16,
-        element_size: Some(0.25),
-        direct_samples: 4,
-        tolerance: 1e-2,
-        max_bounces: 50,
-        ..Settings::default()
-    }
+    common::small_settings()
 }
 
 fn furnace(name: &str, rho: f32) -> Scene {

@@ -175,15 +175,7 @@ fn a_glossy_planes_tiles_are_smoothed_bin_by_bin() {
 fn a_blend_of_two_bakes_is_the_blend_of_each_smoothed() {
     let glowing = common::lambert("glowing", 0.5, Vec3::ONE);
     let scene = std::sync::Arc::new(common::closed_box("blend", 2.0, glowing));
-    let settings = Settings {
-        directions: 12,
-        resolution: 16,
-        element_size: Some(0.25),
-        direct_samples: 4,
-        tolerance: 1e-2,
-        max_bounces: 50,
-        ..Settings::default()
-    };
+    let settings = common::small_settings();
     let (a, _) = common::bake_quiet(&scene, &settings);
     // A second bake whose light differs from place to place (a mere scaling of the first
     // would be smoothed alike).

@@ -109,6 +109,19 @@ pub fn point_light(position: Vec3, intensity: f32) -> PunctualLight {
     }
 }
 
+/// A small, quick bake's settings: 12 directions of 16² lines, 25 cm elements.
+pub fn small_settings() -> Settings {
+    Settings {
+        directions: 12,
+        resolution: 16,
+        element_size: Some(0.25),
+        direct_samples: 4,
+        tolerance: 1e-2,
+        max_bounces: 50,
+        ..Settings::default()
+    }
+}
+
 /// A bake with no progress and no saving.
 pub fn bake_quiet(scene: &Scene, settings: &Settings) -> (State, Stats) {
     match bake::<Infallible>(scene, settings, None, &|_| {}, &mut |_| Ok(())) {
