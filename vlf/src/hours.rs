@@ -128,6 +128,12 @@ impl BakeSet {
         })
     }
 
+    /// The first bake after `time`, if any: the one a step forward from `time` needs
+    /// next (a node reads it ahead).
+    pub fn next_after(&self, time: NaiveDateTime) -> Option<&(NaiveDateTime, PathBuf)> {
+        self.bakes.iter().find(|(t, _)| *t > time)
+    }
+
     /// The bakes around `time` (the same bake twice at a baked time). Error: a time
     /// outside the set's.
     pub fn bracket(&self, time: NaiveDateTime) -> Result<Bracket, String> {
@@ -340,6 +346,11 @@ mod tests {
                 .unwrap_err()
                 .contains("outside")
         );
+        // The bake a step forward needs next: after a baked time, the following one.
+        let next = |s: &str| set.next_after(at(s)).map(|b| b.0);
+        assert_eq!(next("2026-06-21T10:00"), Some(at("2026-06-21T11:00")));
+        assert_eq!(next("2026-06-21T09:30"), Some(at("2026-06-21T10:00")));
+        assert_eq!(next("2026-06-21T11:00"), None);
         std::fs::write(dir.path().join("noon.vlf"), b"").unwrap();
         assert!(BakeSet::read(dir.path()).unwrap_err().contains("noon.vlf"));
     }

@@ -17,7 +17,8 @@ use holocave_scene::Scene;
 use holocave_scene::daylight::When;
 use holocave_tracer::Tracer;
 use holocave_vlf::baked::{self, Opened};
-use holocave_vlf::hours::open_blended;
+use holocave_vlf::hours::{BakeSet, open_blended};
+use holocave_vlf::split::Split;
 
 use crate::gpu_rays::Rays;
 use crate::light_field::time_of_day::TimeOfDay;
@@ -69,7 +70,7 @@ pub struct DisplayMaker {
     credentials: Credentials,
     /// The light field to draw under the samples: the node's own file, else the one the
     /// master names (read once per path and time of day).
-    vlf: Option<VlfChoice>,
+    vlf: Option<Arc<VlfChoice>>,
     /// How the scene is lit for another time of day (`None`: the node has no time).
     time: Option<TimeOfDay>,
 }
@@ -134,7 +135,7 @@ impl VlfChoice {
     /// there is none or it cannot be read (said in the log: the wall then shows its
     /// samples alone).
     fn base(
-        &self,
+        self: &Arc<Self>,
         named: Option<&str>,
         at: Option<(When, &Arc<Scene>)>,
         time: Option<&TimeOfDay>,
@@ -150,6 +151,9 @@ impl VlfChoice {
         match self.open(&key.0, at, time) {
             Ok(b) => {
                 let b = Arc::new(b);
+                if let (true, None, Some(time)) = (key.0.is_dir(), at, time) {
+                    self.read_next_ahead(&key.0, time);
+                }
                 *loaded = Some((key, b.clone()));
                 Some(b)
             }
@@ -158,6 +162,46 @@ impl VlfChoice {
                 None
             }
         }
+    }
+
+    /// On a thread of its own, reads the bake set `dir`'s next bake after the start's
+    /// time and draws it once (its remainder smoothed and kept:
+    /// `holocave_vlf::plane_smooth`), so that the first step forward into the next pair
+    /// of bakes finds both ready instead of reading and smoothing one (seconds, on a
+    /// node sharing its cores).
+    fn read_next_ahead(self: &Arc<Self>, dir: &std::path::Path, time: &TimeOfDay) {
+        let (me, dir, time) = (self.clone(), dir.to_owned(), time.clone());
+        let reading = std::thread::Builder::new()
+            .name("next bake".into())
+            .spawn(move || {
+                if let Err(e) = me.draw_next(&dir, &time) {
+                    tracing::warn!("{}: the next bake not read ahead: {e}", dir.display());
+                }
+            });
+        if let Err(e) = reading {
+            tracing::warn!("the next bake not read ahead: {e}");
+        }
+    }
+
+    /// [`Self::read_next_ahead`]'s work.
+    fn draw_next(&self, dir: &std::path::Path, time: &TimeOfDay) -> Result<(), String> {
+        let start = self.scene.daylight.local_time(time.start)?;
+        let Some((at, path)) = BakeSet::read(dir)?.next_after(start).cloned() else {
+            return Ok(());
+        };
+        let scene = Arc::new(time.scene_at(&self.scene, When::Local(at))?);
+        let opened = self.bake(&path, || Ok(scene.clone()))?;
+        let layout = (&opened.elements, &opened.tiles);
+        let sky = self.options.drawing.sky_per_pixel;
+        Split::new(
+            scene,
+            &opened.file.settings,
+            &opened.file.state,
+            layout,
+            sky,
+        )?;
+        tracing::info!("{}: read ahead", path.display());
+        Ok(())
     }
 
     /// Opens the file (or the bake set's field at the time) as the options draw it, under
@@ -260,13 +304,13 @@ impl DisplayMaker {
                 Err(e) => tracing::warn!("{e}; each display opens its own device"),
             }
         }
-        let choice = VlfChoice {
+        let choice = Arc::new(VlfChoice {
             scene,
             options,
             gpu: self.builder.gpu.clone(),
             loaded: Mutex::new(None),
             bakes: Mutex::new(Vec::new()),
-        };
+        });
         // The node's own file is read now, before it joins: reading it after the welcome
         // would hold up the cluster's first frames.
         if choice.options.own.is_some() {
