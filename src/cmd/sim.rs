@@ -171,18 +171,17 @@ pub fn run(mut args: SimArgs) -> Result<()> {
     let head = args.head.open(&cave)?;
     let kept = kept_on_ctrl_c(&args, vlf.as_deref());
     let again = format!("{kept}; run again to go on");
-    let (summary, ended) =
-        cluster.run_master(&interrupted, &|| exit_interrupted(&again), || {
-            run_master(&cave, head, listener, credentials.secret.clone(), opts)
-        })?;
-    let interrupted = interrupted();
+    let (summary, ended) = cluster.run_master(&|| exit_interrupted(&again), || {
+        run_master(&cave, head, listener, credentials.secret.clone(), opts)
+    })?;
+    let was_interrupted = interrupted();
     let summary = summary?;
-    let limit = Duration::from_secs(if interrupted { 1 } else { 20 });
+    let limit = Duration::from_secs(if was_interrupted { 1 } else { 20 });
     let report = ended.report(limit, &args.out, &cave.walls, !args.no_restart);
     print_summary(&summary);
     let (lines, all) = report?;
     lines.iter().for_each(|l| println!("{l}"));
-    if interrupted {
+    if was_interrupted {
         exit_interrupted(&format!(
             "{kept} (no mosaics or glare made); run again to go on"
         ));

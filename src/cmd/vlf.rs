@@ -424,7 +424,7 @@ fn opened_for_view(a: &ViewArgs, scene: &Scene) -> Result<Opened> {
         .map_err(|e| anyhow::anyhow!("--when {}: {e}", time.start))?;
     let open_at = |t, path: &Path| {
         let lit = time.scene_at(scene, When::Local(t))?;
-        baked::open(path, &lit).map_err(|e| e.to_string())
+        (baked::open(path, &lit).map(std::sync::Arc::new)).map_err(|e| e.to_string())
     };
     let (opened, bracket) = open_blended(&a.file, local, open_at).map_err(anyhow::Error::msg)?;
     println!(

@@ -60,6 +60,9 @@ pub struct SimCluster {
     hosted: Option<Hosted>,
     /// When each frame's state was made, by frame number.
     sent: Arc<Mutex<Vec<Instant>>>,
+    /// Ctrl-C's flag: no child is started again once it is set, and the master then has
+    /// [`MASTER_GRACE`] to stop.
+    halt: Arc<AtomicBool>,
 }
 
 /// What became of the processes once the master returned.
@@ -111,11 +114,12 @@ impl SimCluster {
             children.push(node_commands::child(spec, wall, own)?);
         }
         let backoff = spec.restart.then(Backoff::default);
-        let supervisor = Supervisor::start(children, backoff, halt)?;
+        let supervisor = Supervisor::start(children, backoff, halt.clone())?;
         Ok(SimCluster {
             supervisor,
             hosted,
             sent: Arc::default(),
+            halt,
         })
     }
 
@@ -143,7 +147,7 @@ impl SimCluster {
         (status, hook)
     }
 
-    /// Runs `master` beside a watchdog: once `interrupted` is set and the master has not
+    /// Runs `master` beside a watchdog: once Ctrl-C's flag is set and the master has not
     /// returned within [`MASTER_GRACE`], the watchdog kills the processes, stops the
     /// holodeck (committing what it received) and calls `on_hang` (which ends the
     /// process). When the master returns, stops supervising, then the holodeck, which
@@ -151,15 +155,14 @@ impl SimCluster {
     /// what the workers traced is kept).
     pub fn run_master<T>(
         self,
-        interrupted: &(dyn Fn() -> bool + Sync),
         on_hang: &(dyn Fn() + Sync),
         master: impl FnOnce() -> T,
     ) -> Result<(T, Aftermath)> {
         let origin = self.supervisor.started;
-        let sent = self.sent.clone();
+        let (sent, halt) = (self.sent.clone(), self.halt.clone());
         let running = Mutex::new(Some(self));
         let (out, running) = std::thread::scope(|s| {
-            s.spawn(|| end_if_the_master_hangs(&running, interrupted, on_hang));
+            s.spawn(|| end_if_the_master_hangs(&running, &halt, on_hang));
             let out = master();
             (out, lock(&running).take())
         });
@@ -168,7 +171,7 @@ impl SimCluster {
         if let Some(h) = cluster.hosted {
             stop_hosted(h)?;
         }
-        let sent = lock(&sent).clone();
+        let sent = std::mem::take(&mut *lock(&sent));
         let ended = Aftermath {
             children,
             deaths,
@@ -190,7 +193,7 @@ impl SimCluster {
 /// master returned first (it took `running`).
 fn end_if_the_master_hangs(
     running: &Mutex<Option<SimCluster>>,
-    interrupted: &(dyn Fn() -> bool + Sync),
+    halt: &AtomicBool,
     on_hang: &(dyn Fn() + Sync),
 ) {
     let mut since = None;
@@ -200,7 +203,7 @@ fn end_if_the_master_hangs(
         if r.is_none() {
             return;
         }
-        if !interrupted() {
+        if !halt.load(Ordering::Relaxed) {
             continue;
         }
         if since.get_or_insert_with(Instant::now).elapsed() < MASTER_GRACE {

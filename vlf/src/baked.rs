@@ -61,8 +61,8 @@ pub struct Opened {
 /// The two bakes around a time of day, and how far the time lies from the first to the
 /// second (0 to 1).
 pub struct Blended {
-    pub before: State,
-    pub after: State,
+    pub before: Arc<Opened>,
+    pub after: Arc<Opened>,
     pub t: f32,
 }
 

@@ -52,10 +52,10 @@ pub fn describe(path: &Path) -> Result<Vec<String>, VlfError> {
 /// finite and not negative, and with `scene`, that it was baked for it and fits its
 /// layout. What it holds, in a line.
 pub fn check(path: &Path, scene: Option<&Scene>) -> Result<String, BakedError> {
-    let f = VlfFile::read(path)?;
-    if let Some(scene) = scene {
-        baked::open(path, scene)?;
-    }
+    let f = match scene {
+        Some(scene) => baked::open(path, scene)?.file,
+        None => VlfFile::read(path)?,
+    };
     let values = f.state.irradiance.iter().chain(&f.state.tiles).flatten();
     let bad = values.filter(|x| !x.is_finite() || **x < 0.0).count();
     if bad > 0 {

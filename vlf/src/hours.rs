@@ -181,10 +181,7 @@ pub fn blend(a: &State, b: &State, t: f32) -> Result<State, String> {
                 y.len()
             ));
         }
-        Ok(x.iter()
-            .zip(y)
-            .map(|(p, q)| std::array::from_fn(|i| (1.0 - t) * p[i] + t * q[i]))
-            .collect::<Vec<[f32; 3]>>())
+        Ok(mix(x, y, t))
     };
     Ok(State {
         bounces: a.bounces.max(b.bounces),
@@ -207,26 +204,31 @@ pub fn blend(a: &State, b: &State, t: f32) -> Result<State, String> {
     })
 }
 
+/// `(1 − t)·x + t·y`, value by value (of two arrays of one layout).
+pub fn mix(x: &[[f32; 3]], y: &[[f32; 3]], t: f32) -> Vec<[f32; 3]> {
+    (x.iter().zip(y))
+        .map(|(p, q)| std::array::from_fn(|i| (1.0 - t) * p[i] + t * q[i]))
+        .collect()
+}
+
 /// Two opened bakes of a set mixed as [`blend`] mixes their states; `before`'s layout
-/// (its elements and tiles: the same geometry and settings) is kept.
-pub fn blend_opened(before: Opened, after: Opened, t: f32) -> Result<Opened, String> {
+/// (its elements and tiles: the same geometry and settings) is kept, and both bakes are
+/// kept beside the blend ([`Blended`]), shared, not copied.
+pub fn blend_opened(before: Arc<Opened>, after: Arc<Opened>, t: f32) -> Result<Opened, String> {
     let state = blend(&before.file.state, &after.file.state, t)?;
-    let Opened {
-        file,
-        elements,
-        tiles,
-        ..
-    } = before;
-    let blended = Blended {
-        before: file.state,
-        after: after.file.state,
-        t,
+    let f = &before.file;
+    let file = VlfFile {
+        scene: f.scene.clone(),
+        fingerprint: f.fingerprint,
+        settings: f.settings,
+        element_size: f.element_size,
+        state,
     };
     Ok(Opened {
-        file: VlfFile { state, ..file },
-        elements,
-        tiles,
-        blended: Some(Arc::new(blended)),
+        file,
+        elements: before.elements.clone(),
+        tiles: before.tiles.clone(),
+        blended: Some(Arc::new(Blended { before, after, t })),
     })
 }
 
@@ -237,13 +239,13 @@ pub fn blend_opened(before: Opened, after: Opened, t: f32) -> Result<Opened, Str
 pub fn open_blended(
     dir: &Path,
     time: NaiveDateTime,
-    open_at: impl Fn(NaiveDateTime, &Path) -> Result<Opened, String>,
+    open_at: impl Fn(NaiveDateTime, &Path) -> Result<Arc<Opened>, String>,
 ) -> Result<(Opened, Bracket), String> {
     let set = BakeSet::read(dir)?;
     let bracket = set.bracket(time)?;
     let before = open_at(bracket.before.0, &bracket.before.1)?;
     let blended = if bracket.after == bracket.before {
-        before
+        Arc::unwrap_or_clone(before)
     } else {
         let after = open_at(bracket.after.0, &bracket.after.1)?;
         blend_opened(before, after, bracket.t)?

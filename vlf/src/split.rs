@@ -29,6 +29,7 @@ use crate::bake::{Settings, State};
 use crate::baked::Blended;
 use crate::caustics::{Caustics, PHOTONS};
 use crate::elements::Elements;
+use crate::hours::mix;
 use crate::pixel_direct::PixelDirect;
 use crate::plane_smooth::smooth_over_planes;
 use crate::tile_albedo::TileAlbedo;
@@ -87,12 +88,18 @@ impl Split {
         };
         let remainder = |part: &dyn Fn(&State) -> Vec<[f32; 3]>| match blended {
             None => smoothed(state, part),
-            Some(b) => mix(&smoothed(&b.before, part), &smoothed(&b.after, part), b.t),
+            Some(b) => {
+                let (before, after) = (&b.before.file.state, &b.after.file.state);
+                mix(&smoothed(before, part), &smoothed(after, part), b.t)
+            }
         };
         if sky_per_pixel {
-            let field_sky = (state.indirect_values_without_sky().and(state.sky_values()))
+            let field_sky = (state.sky_values())
                 .ok_or("holds no sky part: bake it again to take the sky per pixel".to_string())?;
-            let without_sky = |s: &State| s.indirect_values_without_sky().unwrap_or_default();
+            // A blend holds a sky part only where both its bakes do ([`crate::hours::blend`]).
+            let without_sky = |s: &State| {
+                (s.indirect_values_without_sky()).expect("a sky part, as the blend of it has")
+            };
             return Ok(Split {
                 direct: direct
                     .with_sky(true)
@@ -114,11 +121,4 @@ impl Split {
             caustics,
         })
     }
-}
-
-/// `(1 − t)·a + t·b`, value by value.
-fn mix(a: &[[f32; 3]], b: &[[f32; 3]], t: f32) -> Vec<[f32; 3]> {
-    (a.iter().zip(b))
-        .map(|(p, q)| std::array::from_fn(|i| (1.0 - t) * p[i] + t * q[i]))
-        .collect()
 }

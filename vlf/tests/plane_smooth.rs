@@ -6,10 +6,10 @@ use crate::common;
 
 use glam::Vec3;
 use holocave_scene::{Hit, Scene};
-use holocave_vlf::baked::Blended;
+use holocave_vlf::baked::{Blended, Opened};
 use holocave_vlf::plane_smooth::{RADIUS, smooth_over_planes};
 use holocave_vlf::split::Split;
-use holocave_vlf::{Elements, Settings, State};
+use holocave_vlf::{Elements, Settings, State, VlfFile};
 
 const SIZE: f32 = 0.05;
 const STRIP: f32 = 1.3;
@@ -188,9 +188,17 @@ fn a_blend_of_two_bakes_is_the_blend_of_each_smoothed() {
     let blend = holocave_vlf::hours::blend(&a, &b, t).unwrap();
     let vis = holocave_vlf::Visibility::of(scene.clone(), &settings);
     let layout = (vis.elements(), vis.tiles());
+    let opened = |state: &State| {
+        std::sync::Arc::new(Opened {
+            file: VlfFile::of(&scene, settings, state.clone()),
+            elements: layout.0.clone(),
+            tiles: layout.1.clone(),
+            blended: None,
+        })
+    };
     let parts = Blended {
-        before: a.clone(),
-        after: b.clone(),
+        before: opened(&a),
+        after: opened(&b),
         t,
     };
     let split = |s: &State, parts: Option<&Blended>| {

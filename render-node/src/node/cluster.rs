@@ -97,7 +97,7 @@ struct VlfChoice {
     loaded: Mutex<Option<(FieldKey, Arc<VlfBase>)>>,
     /// The last bakes read ([`KEPT_BAKES`] at most): a single bake is drawn again under
     /// the scene lit for each time of day, a bake set's two around it blended again.
-    bakes: Mutex<Vec<(PathBuf, Opened)>>,
+    bakes: Mutex<Vec<(PathBuf, Arc<Opened>)>>,
 }
 
 /// How many bakes a node keeps read: a bake set's two around the time and the next one a
@@ -115,7 +115,7 @@ impl VlfChoice {
         &self,
         path: &std::path::Path,
         scene: impl FnOnce() -> Result<Arc<Scene>, String>,
-    ) -> Result<Opened, String> {
+    ) -> Result<Arc<Opened>, String> {
         let mut bakes = self.bakes.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(i) = bakes.iter().position(|(p, _)| p == path) {
             let kept = bakes.remove(i);
@@ -125,7 +125,7 @@ impl VlfChoice {
             if bakes.len() == KEPT_BAKES {
                 bakes.remove(0);
             }
-            bakes.push((path.to_owned(), opened));
+            bakes.push((path.to_owned(), Arc::new(opened)));
         }
         Ok(bakes.last().map(|(_, o)| o.clone()).expect("just kept"))
     }
@@ -183,7 +183,9 @@ impl VlfChoice {
         }
     }
 
-    /// [`Self::read_next_ahead`]'s work.
+    /// [`Self::read_next_ahead`]'s work. The bake is drawn through [`Split`] as a
+    /// relight would draw it, so its smoothed remainder is the very one a relight looks
+    /// for (by its values); the split itself is dropped.
     fn draw_next(&self, dir: &std::path::Path, time: &TimeOfDay) -> Result<(), String> {
         let start = self.scene.daylight.local_time(time.start)?;
         let Some((at, path)) = BakeSet::read(dir)?.next_after(start).cloned() else {
@@ -242,8 +244,8 @@ impl VlfChoice {
                 );
             }
             // The node's scene is lit for the bake's own time (its fingerprint checks).
-            self.bake(path, || Ok(self.scene.clone()))
-                .map_err(vlf_error)?
+            let bake = self.bake(path, || Ok(self.scene.clone()));
+            Arc::unwrap_or_clone(bake.map_err(vlf_error)?)
         };
         VlfBase::drawn(opened, scene, self.options.drawing, self.gpu.as_ref(), path)
     }

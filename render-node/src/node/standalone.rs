@@ -89,59 +89,56 @@ impl StandaloneWall {
                 prior: spec.vlf.prior,
             });
         }
-        let mut wall = Self::assemble(&builder, spec.cave, &spec.scene, spec.holodeck, spec.sync)?;
-        wall.described = format!(
+        let (display, holodeck) = fed(&builder, spec.cave, &spec.scene, spec.holodeck, spec.sync)?;
+        let described = format!(
             "wall {:?}: {eyes} eye(s) at {}, {} points, {samples} samples per eye and frame, GPU {}",
             spec.wall.name,
             spec.size,
-            wall.display.cache.capacity(),
-            wall.display.cache.gpu().adapter
+            display.cache.capacity(),
+            display.cache.gpu().adapter
         );
-        Ok(wall)
-    }
-
-    /// The wall's display from `builder`: fed by its own holodeck server when given one,
-    /// else by the path tracer inline (`sync`, deterministic) or on a thread.
-    fn assemble(
-        builder: &DisplayBuilder,
-        cave: &Cave,
-        scene: &Arc<Scene>,
-        holodeck: Option<OwnHolodeck>,
-        sync: bool,
-    ) -> Result<StandaloneWall, RenderNodeError> {
-        let Some(h) = holodeck else {
-            let feed = if sync { Feed::Inline } else { Feed::Thread };
-            return Ok(StandaloneWall {
-                display: builder.build(feed)?,
-                holodeck: None,
-                holodeck_described: None,
-                described: String::new(),
-            });
-        };
-        let hd = |e: holocave_tracer::cave_holodeck::CaveHolodeckError| {
-            RenderNodeError::Holodeck(e.to_string())
-        };
-        let opened =
-            CaveHolodeck::open_or_create(h.path, cave, h.scene_path, Some(scene), "node", &[])
-                .map_err(hd)?;
-        let described = opened.describe();
-        let running = opened
-            .serve(Serving {
-                threads: h.threads,
-                scene: Some(scene.clone()),
-                port: h.port,
-                stop: h.stop,
-                allowance: None,
-            })
-            .map_err(hd)?;
-        let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
+        let (holodeck, holodeck_described) = holodeck.unzip();
         Ok(StandaloneWall {
-            display: builder.build(Feed::Holodeck(source))?,
-            holodeck: Some(running),
-            holodeck_described: Some(described),
-            described: String::new(),
+            display,
+            holodeck,
+            holodeck_described,
+            described,
         })
     }
+}
+
+/// The wall's display from `builder`: fed by its own holodeck server when given one (with
+/// what the holodeck opened holds), else by the path tracer inline (`sync`, deterministic)
+/// or on a thread.
+fn fed(
+    builder: &DisplayBuilder,
+    cave: &Cave,
+    scene: &Arc<Scene>,
+    holodeck: Option<OwnHolodeck>,
+    sync: bool,
+) -> Result<(WallDisplay, Option<(Running, String)>), RenderNodeError> {
+    let Some(h) = holodeck else {
+        let feed = if sync { Feed::Inline } else { Feed::Thread };
+        return Ok((builder.build(feed)?, None));
+    };
+    let hd = |e: holocave_tracer::cave_holodeck::CaveHolodeckError| {
+        RenderNodeError::Holodeck(e.to_string())
+    };
+    let opened = CaveHolodeck::open_or_create(h.path, cave, h.scene_path, Some(scene), "node", &[])
+        .map_err(hd)?;
+    let described = opened.describe();
+    let running = opened
+        .serve(Serving {
+            threads: h.threads,
+            scene: Some(scene.clone()),
+            port: h.port,
+            stop: h.stop,
+            allowance: None,
+        })
+        .map_err(hd)?;
+    let source = HolodeckSource::new(running.display(0), HolodeckOptions::default(), 1);
+    let display = builder.build(Feed::Holodeck(source))?;
+    Ok((display, Some((running, described))))
 }
 
 /// When a standalone run stops, its clock, and which frames it presents.
